@@ -1,0 +1,2 @@
+//! Benchmark (FOUNDATION STUB: being built).
+fn main() {}

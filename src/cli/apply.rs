@@ -1,0 +1,8 @@
+//! `ssskit apply` (FOUNDATION STUB: being built).
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("'apply' is not built yet")
+}

@@ -1,0 +1,71 @@
+//! Every flag of every subcommand is defined in this folder, one file per
+//! subcommand; each file's `run` calls the library and prints or writes.
+
+mod apply;
+mod diff;
+mod fit;
+mod materials;
+mod plot;
+mod profile;
+mod profiles;
+mod progress;
+mod signal;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "ssskit",
+    version,
+    about = "Subsurface-scattering kernels from optical coefficients"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List material presets with derived quantities per channel.
+    Materials(materials::Args),
+    /// Monte Carlo simulation of the diffuse reflectance profile R_d(r).
+    Simulate(simulate::Args),
+    /// Analytic reflectance profile (dipole, photon beam diffusion, ...).
+    Profile(profile::Args),
+    /// Work on several profiles: compare analytic models with Monte Carlo.
+    Profiles(profiles::Args),
+    /// Fit a separable kernel to a profile.
+    Fit(fit::Args),
+    /// Apply a kernel to an image (CPU reference or wgpu).
+    Apply(apply::Args),
+    /// Write a test image (edge, shapes, dirac, checker).
+    Signal(signal::Args),
+    /// Image-space difference of two images.
+    Diff(diff::Args),
+    /// Plots of profiles and kernels.
+    Plot(plot::Args),
+}
+
+/// Runs the CLI; returns the process exit code (0 ok, 2 error).
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Materials(a) => materials::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Profile(a) => profile::run(a),
+        Command::Profiles(a) => profiles::run(a),
+        Command::Fit(a) => fit::run(a),
+        Command::Apply(a) => apply::run(a),
+        Command::Signal(a) => signal::run(a),
+        Command::Diff(a) => diff::run(a),
+        Command::Plot(a) => plot::run(a),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            2
+        }
+    }
+}

@@ -1,0 +1,8 @@
+//! `ssskit profile` (FOUNDATION STUB: being built).
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("'profile' is not built yet")
+}

@@ -1,0 +1,255 @@
+//! The material TOML format. Single layer:
+//!
+//! ```toml
+//! unit = "mm"            # or "cm"; required
+//! sigma_a = [0.032, 0.17, 0.48]
+//! sigma_s = [0.74, 0.88, 1.01]   # or sigma_s_reduced = [...] (sigma_s')
+//! g = [0.0, 0.0, 0.0]    # or one number; default 0
+//! eta = 1.3
+//! thickness = 0.2        # optional; absent = semi-infinite
+//! ```
+//!
+//! Layered: the same fields inside `[[layer]]` tables, with `eta_above` and
+//! `eta_below` (ambient indices, default 1) at the top level.
+
+use super::{Layer, Material};
+use crate::error::{Error, Result};
+use serde::Deserialize;
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum PerChannel {
+    One(f64),
+    Rgb([f64; 3]),
+}
+
+impl PerChannel {
+    fn rgb(&self) -> [f64; 3] {
+        match *self {
+            PerChannel::One(v) => [v; 3],
+            PerChannel::Rgb(a) => a,
+        }
+    }
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawLayer {
+    sigma_a: Option<PerChannel>,
+    sigma_s: Option<PerChannel>,
+    sigma_s_reduced: Option<PerChannel>,
+    g: Option<PerChannel>,
+    eta: Option<f64>,
+    thickness: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    name: Option<String>,
+    unit: Option<String>,
+    eta_above: Option<f64>,
+    eta_below: Option<f64>,
+    #[serde(flatten)]
+    single: RawLayer,
+    layer: Option<Vec<RawLayer>>,
+}
+
+/// Parses and validates a material file. `context` names the file in errors;
+/// `default_name` is used when the file has no `name`.
+pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Result<Material> {
+    let raw: RawMaterial = toml::from_str(text)
+        .map_err(|e| Error::format(context, format!("malformed material TOML: {e}")))?;
+    let scale = match raw.unit.as_deref() {
+        Some("mm") => 1.0,
+        Some("cm") => 0.1,
+        Some(u) => {
+            return Err(Error::invalid(
+                context,
+                "unit",
+                format!("\"{u}\""),
+                "expected \"mm\" or \"cm\"",
+            ))
+        }
+        None => {
+            return Err(Error::invalid(
+                context,
+                "unit",
+                "missing",
+                "state the unit of the coefficients: unit = \"mm\" or \"cm\"",
+            ))
+        }
+    };
+    let has_single = raw.single.sigma_a.is_some()
+        || raw.single.sigma_s.is_some()
+        || raw.single.sigma_s_reduced.is_some()
+        || raw.single.eta.is_some();
+    let raw_layers = match (raw.layer, has_single) {
+        (Some(_), true) => {
+            return Err(Error::invalid(
+                context,
+                "layer",
+                "both",
+                "give either top-level coefficients or [[layer]] tables, not both",
+            ))
+        }
+        (Some(ls), false) => ls,
+        (None, _) => vec![raw.single],
+    };
+    let n = raw_layers.len();
+    let mut layers = Vec::with_capacity(n);
+    for (i, rl) in raw_layers.into_iter().enumerate() {
+        let field = |f: &str| {
+            if n == 1 {
+                f.to_string()
+            } else {
+                format!("layer[{i}].{f}")
+            }
+        };
+        let sigma_a = rl
+            .sigma_a
+            .ok_or_else(|| Error::invalid(context, field("sigma_a"), "missing", "required"))?
+            .rgb();
+        let g = rl.g.map(|g| g.rgb()).unwrap_or([0.0; 3]);
+        let sigma_s = match (rl.sigma_s, rl.sigma_s_reduced) {
+            (Some(s), None) => s.rgb(),
+            // sigma_s = sigma_s' / (1 - g); |g| < 1 is checked below, guard here
+            // only against the division itself.
+            (None, Some(r)) => {
+                let r = r.rgb();
+                let mut s = [0.0; 3];
+                for c in 0..3 {
+                    if !(g[c].abs() < 1.0) {
+                        return Err(Error::invalid(
+                            context,
+                            format!("{}[{c}]", field("g")),
+                            g[c],
+                            "anisotropy must satisfy |g| < 1",
+                        ));
+                    }
+                    s[c] = r[c] / (1.0 - g[c]);
+                }
+                s
+            }
+            (Some(_), Some(_)) => {
+                return Err(Error::invalid(
+                    context,
+                    field("sigma_s"),
+                    "both",
+                    "give sigma_s or sigma_s_reduced, not both",
+                ))
+            }
+            (None, None) => {
+                return Err(Error::invalid(
+                    context,
+                    field("sigma_s"),
+                    "missing",
+                    "required (or sigma_s_reduced)",
+                ))
+            }
+        };
+        let eta = rl
+            .eta
+            .ok_or_else(|| Error::invalid(context, field("eta"), "missing", "required"))?;
+        layers.push(Layer {
+            sigma_a: sigma_a.map(|v| v * scale),
+            sigma_s: sigma_s.map(|v| v * scale),
+            g,
+            eta,
+            thickness: rl.thickness.map(|t| t / scale),
+        });
+    }
+    let m = Material {
+        name: raw.name.unwrap_or_else(|| default_name.to_string()),
+        eta_above: raw.eta_above.unwrap_or(1.0),
+        eta_below: raw.eta_below.unwrap_or(1.0),
+        layers,
+    };
+    m.validate(context)?;
+    Ok(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SIMPLE: &str = "unit = \"mm\"\nsigma_a = [0.032, 0.17, 0.48]\nsigma_s = [0.74, 0.88, 1.01]\ng = [0.0, 0.0, 0.0]\neta = 1.3\nthickness = 0.2\n";
+
+    #[test]
+    fn simple_form_parses() {
+        let m = parse_material_toml(SIMPLE, "t.toml", "t").unwrap();
+        assert_eq!(m.layers.len(), 1);
+        assert_eq!(m.layers[0].thickness, Some(0.2));
+        assert_eq!(m.name, "t");
+    }
+
+    #[test]
+    fn cm_converts_to_mm() {
+        let t = "unit = \"cm\"\nsigma_a = 0.32\nsigma_s = 7.4\neta = 1.3\nthickness = 2\n";
+        let m = parse_material_toml(t, "c.toml", "c").unwrap();
+        assert!((m.layers[0].sigma_a[0] - 0.032).abs() < 1e-15);
+        assert!((m.layers[0].sigma_s[2] - 0.74).abs() < 1e-15);
+        assert_eq!(m.layers[0].thickness, Some(20.0));
+    }
+
+    #[test]
+    fn reduced_scattering_with_g() {
+        let t = "unit = \"mm\"\nsigma_a = 0.1\nsigma_s_reduced = 1.0\ng = 0.9\neta = 1.4\n";
+        let m = parse_material_toml(t, "x", "x").unwrap();
+        assert!((m.layers[0].sigma_s[1] - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn layered_form() {
+        let t = "unit = \"mm\"\neta_above = 1.0\neta_below = 1.4\n[[layer]]\nsigma_a = 0.1\nsigma_s = 1\neta = 1.4\nthickness = 0.1\n[[layer]]\nsigma_a = 0.01\nsigma_s = 2\ng = 0.8\neta = 1.37\n";
+        let m = parse_material_toml(t, "l", "l").unwrap();
+        assert_eq!(m.layers.len(), 2);
+        assert!(m.layers[1].thickness.is_none());
+        assert!(!m.is_half_space());
+    }
+
+    fn err(t: &str) -> String {
+        parse_material_toml(t, "bad.toml", "b")
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn invalid_inputs_are_named() {
+        let base = |extra: &str, sa: &str, g: &str, eta: &str| {
+            format!("unit = \"mm\"\nsigma_a = {sa}\nsigma_s = 1.0\ng = {g}\neta = {eta}\n{extra}")
+        };
+        let e = err(&base("", "-0.1", "0", "1.3"));
+        assert!(
+            e.contains("bad.toml") && e.contains("sigma_a[r]") && e.contains("-0.1"),
+            "{e}"
+        );
+        let e = err(&base("", "nan", "0", "1.3"));
+        assert!(e.contains("sigma_a[r]") && e.contains("NaN"), "{e}");
+        let e = err(&base("", "inf", "0", "1.3"));
+        assert!(e.contains("sigma_a[r]") && e.contains("inf"), "{e}");
+        let e = err(&base("", "0.1", "1.0", "1.3"));
+        assert!(e.contains("g[r]") && e.contains("|g| < 1"), "{e}");
+        let e = err(&base("", "0.1", "-1.5", "1.3"));
+        assert!(e.contains("g[r]"), "{e}");
+        let e = err(&base("", "0.1", "0", "0"));
+        assert!(e.contains("eta") && e.contains("> 0"), "{e}");
+        let e = err(&base("thickness = 0\n", "0.1", "0", "1.3"));
+        assert!(e.contains("thickness"), "{e}");
+        let e = err(&base("thickness = -2\n", "0.1", "0", "1.3"));
+        assert!(e.contains("thickness") && e.contains("-2"), "{e}");
+        let e = err("unit = \"mm\"\nsigma_a = 0\nsigma_s = 0\neta = 1.3\n");
+        assert!(e.contains("zero extinction"), "{e}");
+        let e = err("unit = \"inch\"\nsigma_a = 0\nsigma_s = 1\neta = 1.3\n");
+        assert!(e.contains("unit") && e.contains("inch"), "{e}");
+        let e = err("sigma_a = 0\nsigma_s = 1\neta = 1.3\n");
+        assert!(e.contains("unit") && e.contains("missing"), "{e}");
+        let e = err("unit = \"mm\"\nsigma_a = 0\nsigma_z = 1\neta = 1.3\n");
+        assert!(e.contains("sigma_z"), "{e}");
+        let e = err("unit = \"mm\"\n[[layer]]\nsigma_a = 0.1\nsigma_s = 1\neta = 1.3\n[[layer]]\nsigma_a = 0.1\nsigma_s = 1\neta = 1.3\n");
+        assert!(
+            e.contains("layer[0].thickness") && e.contains("semi-infinite"),
+            "{e}"
+        );
+    }
+}

@@ -1,0 +1,281 @@
+//! Optical description of a material: coefficients per RGB channel, indices of
+//! refraction, and an optional stack of layers. Everything inside the library
+//! is in millimetres (coefficients in mm^-1); files state their unit.
+
+mod file;
+mod presets;
+
+pub use file::parse_material_toml;
+pub use presets::{preset, preset_names, PRESETS};
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// One colour channel. Each is simulated and fitted independently.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, PartialOrd, Ord)]
+#[serde(rename_all = "lowercase")]
+pub enum Channel {
+    R,
+    G,
+    B,
+}
+
+impl Channel {
+    pub const ALL: [Channel; 3] = [Channel::R, Channel::G, Channel::B];
+
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn name(self) -> &'static str {
+        ["r", "g", "b"][self.index()]
+    }
+
+    /// Parses "rgb", "r", "gb", ... into channels in R, G, B order.
+    pub fn parse_list(s: &str) -> Result<Vec<Channel>> {
+        let mut out = Vec::new();
+        for c in s.chars() {
+            let ch = match c.to_ascii_lowercase() {
+                'r' => Channel::R,
+                'g' => Channel::G,
+                'b' => Channel::B,
+                _ => {
+                    return Err(Error::invalid(
+                        "--channels",
+                        "channel",
+                        c,
+                        "expected letters among r, g, b",
+                    ))
+                }
+            };
+            if !out.contains(&ch) {
+                out.push(ch);
+            }
+        }
+        if out.is_empty() {
+            return Err(Error::invalid("--channels", "channels", "''", "empty"));
+        }
+        out.sort();
+        Ok(out)
+    }
+}
+
+/// One homogeneous layer. `thickness: None` means semi-infinite (only allowed
+/// for the last layer).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Layer {
+    /// Absorption coefficient per channel, mm^-1.
+    pub sigma_a: [f64; 3],
+    /// Scattering coefficient per channel, mm^-1 (not reduced).
+    pub sigma_s: [f64; 3],
+    /// Henyey-Greenstein anisotropy per channel.
+    pub g: [f64; 3],
+    /// Refractive index of the layer.
+    pub eta: f64,
+    /// Thickness in mm; `None` is semi-infinite.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thickness: Option<f64>,
+}
+
+/// A material: a stack of layers between two ambient media.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    pub name: String,
+    /// Refractive index of the medium light comes from (air = 1).
+    pub eta_above: f64,
+    /// Refractive index below the last layer (used only for finite stacks).
+    pub eta_below: f64,
+    pub layers: Vec<Layer>,
+}
+
+/// The scalar optical properties of one layer in one channel, with the
+/// derived quantities of REFERENCE.md section 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Medium {
+    pub sigma_a: f64,
+    pub sigma_s: f64,
+    pub g: f64,
+    /// Relative index n_medium / n_outside.
+    pub eta: f64,
+}
+
+impl Medium {
+    pub fn sigma_t(&self) -> f64 {
+        self.sigma_a + self.sigma_s
+    }
+    /// sigma_s' = (1 - g) sigma_s
+    pub fn sigma_s_reduced(&self) -> f64 {
+        (1.0 - self.g) * self.sigma_s
+    }
+    /// sigma_t' = sigma_a + sigma_s'
+    pub fn sigma_t_reduced(&self) -> f64 {
+        self.sigma_a + self.sigma_s_reduced()
+    }
+    /// Single-scattering albedo sigma_s / sigma_t.
+    pub fn albedo(&self) -> f64 {
+        self.sigma_s / self.sigma_t()
+    }
+    /// Reduced albedo alpha' = sigma_s' / sigma_t'.
+    pub fn reduced_albedo(&self) -> f64 {
+        self.sigma_s_reduced() / self.sigma_t_reduced()
+    }
+    /// Transport mean free path 1 / sigma_t' (mm).
+    pub fn mfp(&self) -> f64 {
+        1.0 / self.sigma_t_reduced()
+    }
+    /// Classical diffusion coefficient D = 1 / (3 sigma_t').
+    pub fn diffusion_coefficient(&self) -> f64 {
+        1.0 / (3.0 * self.sigma_t_reduced())
+    }
+    /// Effective transport coefficient sigma_tr = sqrt(3 sigma_a sigma_t').
+    pub fn sigma_tr(&self) -> f64 {
+        (3.0 * self.sigma_a * self.sigma_t_reduced()).sqrt()
+    }
+}
+
+impl Material {
+    /// Loads a preset by name, or a TOML file when `spec` is a path that
+    /// exists (or ends in .toml).
+    pub fn load(spec: &str) -> Result<Material> {
+        let path = Path::new(spec);
+        if path.exists() || spec.ends_with(".toml") {
+            let text = crate::io::read_text(path)?;
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "material".into());
+            return parse_material_toml(&text, &path.display().to_string(), &stem);
+        }
+        preset(spec).ok_or_else(|| {
+            Error::Unsupported(format!(
+                "unknown material preset or missing file '{spec}' (presets: {})",
+                preset_names().join(", ")
+            ))
+        })
+    }
+
+    /// The optical properties of layer `layer` in channel `ch`, with eta
+    /// relative to the ambient medium above the stack.
+    pub fn medium(&self, layer: usize, ch: Channel) -> Medium {
+        let l = &self.layers[layer];
+        let c = ch.index();
+        Medium {
+            sigma_a: l.sigma_a[c],
+            sigma_s: l.sigma_s[c],
+            g: l.g[c],
+            eta: l.eta / self.eta_above,
+        }
+    }
+
+    /// The top layer's medium: what half-space models (dipole, ...) use.
+    pub fn top(&self, ch: Channel) -> Medium {
+        self.medium(0, ch)
+    }
+
+    /// True for one semi-infinite layer: the case analytic models describe.
+    pub fn is_half_space(&self) -> bool {
+        self.layers.len() == 1 && self.layers[0].thickness.is_none()
+    }
+
+    /// Checks every parameter; `context` names the file or preset in errors.
+    pub fn validate(&self, context: &str) -> Result<()> {
+        finite_positive(context, "eta_above", self.eta_above)?;
+        finite_positive(context, "eta_below", self.eta_below)?;
+        if self.layers.is_empty() {
+            return Err(Error::invalid(
+                context,
+                "layers",
+                "[]",
+                "at least one layer is required",
+            ));
+        }
+        let n = self.layers.len();
+        for (i, l) in self.layers.iter().enumerate() {
+            let lname = |f: &str| {
+                if n == 1 {
+                    f.to_string()
+                } else {
+                    format!("layer[{i}].{f}")
+                }
+            };
+            for c in Channel::ALL {
+                let k = c.index();
+                let sa = l.sigma_a[k];
+                let ss = l.sigma_s[k];
+                let g = l.g[k];
+                non_negative(context, &format!("{}[{}]", lname("sigma_a"), c.name()), sa)?;
+                non_negative(context, &format!("{}[{}]", lname("sigma_s"), c.name()), ss)?;
+                if !g.is_finite() || g.abs() >= 1.0 {
+                    return Err(Error::invalid(
+                        context,
+                        format!("{}[{}]", lname("g"), c.name()),
+                        g,
+                        "anisotropy must satisfy |g| < 1",
+                    ));
+                }
+                if sa + ss <= 0.0 {
+                    return Err(Error::invalid(
+                        context,
+                        format!("{}[{}]", lname("sigma_t"), c.name()),
+                        sa + ss,
+                        "zero extinction: sigma_a + sigma_s must be > 0",
+                    ));
+                }
+            }
+            finite_positive(context, &lname("eta"), l.eta)?;
+            match l.thickness {
+                Some(t) => finite_positive(context, &lname("thickness"), t)?,
+                None if i + 1 < n => {
+                    return Err(Error::invalid(
+                        context,
+                        lname("thickness"),
+                        "none",
+                        "only the last layer may be semi-infinite",
+                    ))
+                }
+                None => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+fn finite_positive(context: &str, field: &str, v: f64) -> Result<()> {
+    if !v.is_finite() || v <= 0.0 {
+        return Err(Error::invalid(context, field, v, "must be finite and > 0"));
+    }
+    Ok(())
+}
+
+fn non_negative(context: &str, field: &str, v: f64) -> Result<()> {
+    if !v.is_finite() || v < 0.0 {
+        return Err(Error::invalid(context, field, v, "must be finite and >= 0"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derived_quantities_skin1_red() {
+        let m = preset("skin1").unwrap().top(Channel::R);
+        assert!((m.sigma_t_reduced() - 0.772).abs() < 1e-12);
+        assert!((m.reduced_albedo() - 0.74 / 0.772).abs() < 1e-12);
+        assert!((m.sigma_tr() - (3.0f64 * 0.032 * 0.772).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn channel_list_parsing() {
+        assert_eq!(
+            Channel::parse_list("bR").unwrap(),
+            vec![Channel::R, Channel::B]
+        );
+        assert!(Channel::parse_list("x").is_err());
+        assert!(Channel::parse_list("").is_err());
+    }
+}

@@ -1,0 +1,235 @@
+//! Radial diffuse reflectance profiles R_d(r): the data type every later stage
+//! reads, the radial grid, Fresnel terms, and the two ways to get a profile
+//! (Monte Carlo simulation in `mc`, closed-form models in `analytic`).
+
+pub mod analytic;
+pub mod fresnel;
+pub mod grid;
+pub mod mc;
+
+pub use grid::RadialGrid;
+
+use crate::error::{Error, Result};
+use crate::material::{Channel, Material};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const PROFILE_SCHEMA: &str = "ssskit.profile/1";
+
+/// Where a profile came from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Source {
+    /// "monte-carlo" or "analytic".
+    pub kind: String,
+    /// Photons traced per channel (Monte Carlo).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub photons: Option<Vec<u64>>,
+    /// RNG seed (Monte Carlo).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Model name (analytic), e.g. "dipole".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    /// Free-form parameters of the method (grid rule, Fresnel mode, ...).
+    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
+    pub params: serde_json::Value,
+}
+
+/// A radially symmetric diffuse reflectance profile, per channel, in mm^-2.
+/// Per-channel vectors are indexed like `channels`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Profile {
+    pub schema: String,
+    pub material: Material,
+    pub units: String,
+    pub source: Source,
+    pub channels: Vec<Channel>,
+    /// Bin edges in mm (n + 1 values, increasing, starting at 0).
+    pub r_edges: Vec<f64>,
+    /// Bin centres in mm (n values), the `r` of each `rd` value.
+    pub r: Vec<f64>,
+    /// Bin-averaged R_d, mm^-2: `rd[channel][bin]`.
+    pub rd: Vec<Vec<f64>>,
+    /// Standard error of each bin (zero for analytic profiles).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rd_stderr: Option<Vec<Vec<f64>>>,
+    /// Total diffuse reflectance over the whole plane (including r > r_max).
+    pub total_rd: Vec<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub total_rd_stderr: Option<Vec<f64>>,
+    /// Specular reflection at entry, reported apart from R_d.
+    #[serde(default)]
+    pub specular: Vec<f64>,
+    /// Total transmittance (finite stacks; 0 for a half-space).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmittance: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmittance_stderr: Option<Vec<f64>>,
+    /// Fraction absorbed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub absorbed: Option<Vec<f64>>,
+    /// Anything else the producer wants to keep (energy balance, truncation
+    /// residuals, warnings, ...).
+    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
+    pub extra: serde_json::Value,
+    /// Wall-clock seconds spent producing the profile.
+    pub elapsed_s: f64,
+}
+
+impl Profile {
+    /// Index of `ch` in this profile's channel list.
+    pub fn channel_index(&self, ch: Channel) -> Option<usize> {
+        self.channels.iter().position(|&c| c == ch)
+    }
+
+    /// The bin-averaged values of one channel.
+    pub fn channel(&self, ch: Channel) -> Result<&[f64]> {
+        self.channel_index(ch)
+            .map(|i| self.rd[i].as_slice())
+            .ok_or_else(|| Error::Unsupported(format!("profile has no channel '{}'", ch.name())))
+    }
+
+    /// R_d at radius `r` (mm) by linear interpolation between bin centres;
+    /// constant below the first centre, zero beyond the last edge.
+    pub fn eval(&self, ch_index: usize, r: f64) -> f64 {
+        let rd = &self.rd[ch_index];
+        let n = self.r.len();
+        if n == 0 || !(r >= 0.0) || r > self.r_edges[n] {
+            return 0.0;
+        }
+        if r <= self.r[0] {
+            return rd[0];
+        }
+        if r >= self.r[n - 1] {
+            // Fade linearly to zero at the outer edge to avoid a step.
+            let (r0, r1) = (self.r[n - 1], self.r_edges[n]);
+            return if r1 > r0 {
+                rd[n - 1] * (r1 - r) / (r1 - r0)
+            } else {
+                0.0
+            };
+        }
+        let i = self.r.partition_point(|&x| x <= r) - 1;
+        let t = (r - self.r[i]) / (self.r[i + 1] - self.r[i]);
+        rd[i] * (1.0 - t) + rd[i + 1] * t
+    }
+
+    /// 2 pi int R_d r dr over the tabulated range (bin averages times annulus
+    /// areas): the part of the total inside r_max.
+    pub fn tabulated_total(&self, ch_index: usize) -> f64 {
+        self.rd[ch_index]
+            .iter()
+            .zip(self.r_edges.windows(2))
+            .map(|(v, e)| v * std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0]))
+            .sum()
+    }
+
+    /// Checks structure and values; `context` names the file in errors.
+    pub fn validate(&self, context: &str) -> Result<()> {
+        let bad = |msg: String| Err(Error::format(context, msg));
+        if self.schema != PROFILE_SCHEMA {
+            return bad(format!(
+                "schema is '{}', expected '{PROFILE_SCHEMA}'",
+                self.schema
+            ));
+        }
+        if self.units != "mm" {
+            return bad(format!("units is '{}', expected 'mm'", self.units));
+        }
+        self.material.validate(context)?;
+        let n = self.r.len();
+        let nc = self.channels.len();
+        if nc == 0 {
+            return bad("no channels".into());
+        }
+        if n == 0 {
+            return bad("no radial bins".into());
+        }
+        if self.r_edges.len() != n + 1 {
+            return bad(format!(
+                "r_edges has {} values, expected {}",
+                self.r_edges.len(),
+                n + 1
+            ));
+        }
+        if self.r_edges[0] != 0.0
+            || self
+                .r_edges
+                .windows(2)
+                .any(|w| !(w[1] > w[0]) || !w[1].is_finite())
+        {
+            return bad("r_edges must start at 0 and increase strictly".into());
+        }
+        if self
+            .r
+            .iter()
+            .zip(self.r_edges.windows(2))
+            .any(|(c, e)| !(*c >= e[0] && *c <= e[1]))
+        {
+            return bad("bin centres r must lie inside their bins".into());
+        }
+        let per_channel = |name: &str, v: &Vec<f64>| -> Result<()> {
+            if v.len() != nc {
+                return Err(Error::format(
+                    context,
+                    format!(
+                        "{name} has {} values, expected one per channel ({nc})",
+                        v.len()
+                    ),
+                ));
+            }
+            if let Some(x) = v.iter().find(|x| !x.is_finite() || **x < 0.0) {
+                return Err(Error::format(
+                    context,
+                    format!("{name} holds {x}: must be finite and >= 0"),
+                ));
+            }
+            Ok(())
+        };
+        let table = |name: &str, t: &Vec<Vec<f64>>| -> Result<()> {
+            if t.len() != nc || t.iter().any(|row| row.len() != n) {
+                return Err(Error::format(
+                    context,
+                    format!("{name} must be {nc} channels x {n} bins"),
+                ));
+            }
+            for (c, row) in t.iter().enumerate() {
+                if let Some((i, x)) = row
+                    .iter()
+                    .enumerate()
+                    .find(|(_, x)| !x.is_finite() || **x < 0.0)
+                {
+                    return Err(Error::format(
+                        context,
+                        format!(
+                            "{name}[{}][{i}] = {x}: must be finite and >= 0",
+                            self.channels[c].name()
+                        ),
+                    ));
+                }
+            }
+            Ok(())
+        };
+        table("rd", &self.rd)?;
+        if let Some(e) = &self.rd_stderr {
+            table("rd_stderr", e)?;
+        }
+        per_channel("total_rd", &self.total_rd)?;
+        if let Some(e) = &self.total_rd_stderr {
+            per_channel("total_rd_stderr", e)?;
+        }
+        Ok(())
+    }
+
+    /// Reads and validates a profile file.
+    pub fn read(path: &Path) -> Result<Profile> {
+        let p: Profile = crate::io::read_json(path)?;
+        p.validate(&path.display().to_string())?;
+        Ok(p)
+    }
+
+    /// Writes the profile atomically as pretty JSON.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        crate::io::write_json_atomic(path, self)
+    }
+}

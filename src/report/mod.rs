@@ -1,0 +1,1 @@
+//! Error tables, plots and comparisons (issues 3 and 4).
