@@ -1,8 +1,249 @@
-//! `ssskit fit` (FOUNDATION STUB: being built).
+//! `ssskit fit`: a separable kernel from a reflectance profile.
+
+use anyhow::{bail, Context};
+use clap::ValueEnum;
+use ssskit::kernel::emit::{emit, Lang};
+use ssskit::kernel::guided::GuidedParams;
+use ssskit::kernel::jimenez::JimenezParams;
+use ssskit::kernel::manual::ManualParams;
+use ssskit::kernel::preintegrate::PreMethod;
+use ssskit::kernel::{fit_kernel_file, Kernel2DSpec, KernelFile, Model};
+use ssskit::profile::Profile;
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ModelArg {
+    /// Rank-N SVD (002 5.1): --rank, --renormalize.
+    Svd,
+    /// Pre-integration / Abel projection (002 5.2): --method.
+    Preintegrate,
+    /// Guided optimization (002 5.3): --k, --b.
+    Guided,
+    /// Two-Gaussian manual model (002 5.4): --w --near --far, --preset or --fit.
+    Manual,
+    /// d'Eon sum of 2D Gaussians: --count, or --preset deon-skin.
+    Gaussians,
+    /// Jimenez's skin model (002 eq. 4.8): --width --strength --falloff.
+    Jimenez,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum MethodArg {
+    Abel,
+    Grid,
+}
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Reflectance profile (ssskit.profile/1 JSON).
+    #[arg(long, value_name = "FILE.json", required_unless_present_any = ["kernel", "dipole_profile"])]
+    profile: Option<PathBuf>,
+    /// Kernel model.
+    #[arg(long, value_enum, required_unless_present_any = ["kernel", "dipole_profile"])]
+    model: Option<ModelArg>,
+    /// Output kernel file (ssskit.kernel/1 JSON).
+    #[arg(long, value_name = "KERNEL.json")]
+    out: Option<PathBuf>,
+    /// Read an existing kernel file instead of fitting (validate, --emit).
+    #[arg(long, value_name = "KERNEL.json", conflicts_with_all = ["profile", "model"])]
+    kernel: Option<PathBuf>,
+    /// Kernel grid cells per side (odd); default chosen from the profile.
+    #[arg(long)]
+    size: Option<usize>,
+    /// Half-width of the kernel in mm; default: radius holding 99.9% of R_d.
+    #[arg(long, value_name = "MM")]
+    extent: Option<f64>,
+    /// Taps per pass of the real-time table (odd).
+    #[arg(long, default_value_t = 17)]
+    taps: usize,
+    /// Print the tap table as a shader constant array.
+    #[arg(long, value_name = "hlsl|glsl|wgsl")]
+    emit: Option<String>,
+    #[command(flatten)]
+    opts: Box<ModelOpts>,
+    /// Stand-in until analytic/Monte Carlo profiles land: write the dipole
+    /// profile of a material (002 table 6.1 grid) to --out and exit.
+    #[arg(long, hide = true, value_name = "MATERIAL")]
+    dipole_profile: Option<String>,
+    /// Do not print the summary.
+    #[arg(long, short)]
+    quiet: bool,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'fit' is not built yet")
+/// Model parameters (boxed: they make the argument struct large).
+#[derive(clap::Args)]
+pub struct ModelOpts {
+    /// svd: number of separable terms.
+    #[arg(long, default_value_t = 1)]
+    rank: usize,
+    /// svd: scale to the ground truth's 1-norm (002 eq. 5.12).
+    #[arg(long)]
+    renormalize: bool,
+    /// preintegrate: Abel projection of the profile or row sums of the grid.
+    #[arg(long, value_enum, default_value = "abel")]
+    method: MethodArg,
+    /// guided: exponent of the radial weight (002 eq. 5.20).
+    #[arg(long, default_value_t = 1.0)]
+    k: f64,
+    /// guided: axis suppression (002 eq. 5.20, for x, y in [-1, 1]); 0 = off.
+    #[arg(long, default_value_t = 0.0)]
+    b: f64,
+    /// guided: L-BFGS iteration limit.
+    #[arg(long, default_value_t = 2000)]
+    max_iters: u64,
+    /// manual: weight of the near Gaussian.
+    #[arg(long)]
+    w: Option<f64>,
+    /// manual: sqrt(tau_n) per channel in mm, "R,G,B".
+    #[arg(long, value_name = "R,G,B")]
+    near: Option<String>,
+    /// manual: sqrt(tau_f) per channel in mm, "R,G,B".
+    #[arg(long, value_name = "R,G,B")]
+    far: Option<String>,
+    /// manual: table A.1 preset (apple, ketchup, marble, skin1, wholemilk);
+    /// gaussians: deon-skin.
+    #[arg(long)]
+    preset: Option<String>,
+    /// manual: find w, tau_n, tau_f by least squares in kernel space.
+    #[arg(long)]
+    fit: bool,
+    /// gaussians: number of 2D Gaussians.
+    #[arg(long, default_value_t = 4)]
+    count: usize,
+    /// jimenez: width scale (w = 1: d'Eon's skin profile in mm).
+    #[arg(long, default_value_t = 1.0)]
+    width: f64,
+    /// jimenez: strength t per channel, "R,G,B".
+    #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28")]
+    strength: String,
+    /// jimenez: falloff f per channel, "R,G,B".
+    #[arg(long, value_name = "R,G,B", default_value = "1.0,0.37,0.3")]
+    falloff: String,
+}
+
+fn triple(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{flag}: '{s}' is not three numbers R,G,B"))?;
+    match v.as_slice() {
+        [r, g, b] => Ok([*r, *g, *b]),
+        _ => bail!(
+            "{flag}: '{s}' has {} values, expected three (R,G,B)",
+            v.len()
+        ),
+    }
+}
+
+fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
+    Ok(match m {
+        ModelArg::Svd => Model::Svd {
+            rank: a.opts.rank,
+            renormalize: a.opts.renormalize,
+        },
+        ModelArg::Preintegrate => Model::Preintegrate {
+            method: match a.opts.method {
+                MethodArg::Abel => PreMethod::Abel,
+                MethodArg::Grid => PreMethod::Grid,
+            },
+        },
+        ModelArg::Guided => Model::Guided(GuidedParams {
+            k: a.opts.k,
+            b: a.opts.b,
+            max_iters: a.opts.max_iters,
+        }),
+        ModelArg::Manual => {
+            let explicit = a.opts.w.is_some() || a.opts.near.is_some() || a.opts.far.is_some();
+            match (&a.opts.preset, a.opts.fit, explicit) {
+                (Some(p), false, false) => Model::ManualPreset(p.clone()),
+                (None, true, false) => Model::ManualFit,
+                (None, false, true) => {
+                    let (Some(w), Some(n), Some(f)) = (a.opts.w, &a.opts.near, &a.opts.far) else {
+                        bail!("manual: give all of --w, --near and --far (or --preset / --fit)");
+                    };
+                    Model::Manual(ManualParams {
+                        w,
+                        sqrt_tau_near: triple("--near", n)?,
+                        sqrt_tau_far: triple("--far", f)?,
+                    })
+                }
+                _ => bail!(
+                    "manual: give exactly one of --preset NAME, --fit, or --w W --near R,G,B --far R,G,B"
+                ),
+            }
+        }
+        ModelArg::Gaussians => match a.opts.preset.as_deref() {
+            None => Model::Gaussians {
+                count: a.opts.count,
+            },
+            Some(p) if p.eq_ignore_ascii_case("deon-skin") => Model::DeonSkin,
+            Some(p) => bail!("gaussians: unknown --preset '{p}' (known: deon-skin)"),
+        },
+        ModelArg::Jimenez => Model::Jimenez(JimenezParams {
+            width: a.opts.width,
+            strength: triple("--strength", &a.opts.strength)?,
+            falloff: triple("--falloff", &a.opts.falloff)?,
+        }),
+    })
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let lang: Option<Lang> = a.emit.as_deref().map(str::parse).transpose()?;
+    if let Some(name) = &a.dipole_profile {
+        let Some(out) = &a.out else {
+            bail!("--dipole-profile needs --out FILE.json")
+        };
+        let p = ssskit::kernel::reference::dipole_preset(name)?;
+        p.write(out)?;
+        Profile::read(out)?;
+        return Ok(());
+    }
+    let kernel = if let Some(path) = &a.kernel {
+        KernelFile::read(path)?
+    } else {
+        let (Some(pp), Some(m)) = (&a.profile, a.model) else {
+            bail!("give --profile and --model (or --kernel)")
+        };
+        if a.out.is_none() && lang.is_none() {
+            bail!("nothing to do: give --out KERNEL.json and/or --emit LANG");
+        }
+        let profile = Profile::read(pp)?;
+        let spec = Kernel2DSpec {
+            size: a.size,
+            extent_mm: a.extent,
+        };
+        let m = model(&a, m)?;
+        let k = fit_kernel_file(&profile, &spec, &m, a.taps)?;
+        if let Some(out) = &a.out {
+            k.write(out)?;
+            // Read back what was written: the file must load as is.
+            KernelFile::read(out)?;
+        }
+        if !a.quiet {
+            summary(&k);
+        }
+        k
+    };
+    if let Some(lang) = lang {
+        print!("{}", emit(&kernel, lang));
+    } else if a.kernel.is_some() && !a.quiet {
+        summary(&kernel);
+    }
+    Ok(())
+}
+
+fn summary(k: &KernelFile) {
+    let m = &k.metrics;
+    let f = |v: [f64; 3]| format!("{:.3e} {:.3e} {:.3e}", v[0], v[1], v[2]);
+    eprintln!(
+        "{} ({}): {} passes, kernel_rms {}, norm1_error {}, asymmetry {}, {:.3} s",
+        k.model.name,
+        k.material.as_ref().map(|m| m.name.as_str()).unwrap_or("?"),
+        m.passes,
+        f(m.kernel_rms),
+        f(m.norm1_error),
+        f(m.asymmetry),
+        m.fit_seconds
+    );
 }

@@ -1,9 +1,17 @@
 //! The discretised 2D ground truth R_d(x, y) = R_d(sqrt(x^2 + y^2)) on an odd
 //! square grid centred on the origin (002 section 6.1, "simple rotation").
+//!
+//! Cells hold cell averages (times the cell area), not point samples: the
+//! radial profile is supersampled in each cell, more finely where the cell is
+//! wide compared with the profile's bins and near r = 0 where R_d peaks.
+//! Only one octant is computed; the other seven are mirrors, which makes the
+//! kernel exactly symmetric under x <-> -x, y <-> -y and x <-> y.
 
 use crate::error::{Error, Result};
 use crate::material::Channel;
+use crate::profile::analytic::gauss_legendre;
 use crate::profile::Profile;
+use rayon::prelude::*;
 
 /// How to discretise: both optional, chosen from the profile when absent.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -34,14 +42,27 @@ pub struct Kernel2D {
 /// about 384 MB of f64.
 pub const MAX_SIZE: usize = 4001;
 
+/// Fraction of R_d the default extent holds.
+pub const DEFAULT_HOLD: f64 = 0.999;
+
 impl Kernel2D {
     pub fn half(&self) -> usize {
         self.size / 2
     }
 
+    /// Half-width in mm to the outer cell edge.
+    pub fn extent_mm(&self) -> f64 {
+        0.5 * self.size as f64 * self.cell_mm
+    }
+
     /// Offset in mm of cell index `i` along one axis.
     pub fn offset(&self, i: usize) -> f64 {
         (i as f64 - self.half() as f64) * self.cell_mm
+    }
+
+    /// Cell centre offsets in mm along one axis.
+    pub fn offsets(&self) -> Vec<f64> {
+        (0..self.size).map(|i| self.offset(i)).collect()
     }
 
     pub fn at(&self, c: usize, ix: usize, iy: usize) -> f64 {
@@ -50,42 +71,34 @@ impl Kernel2D {
 
     /// Discretises `profile` (which must hold r, g and b).
     pub fn from_profile(profile: &Profile, spec: &Kernel2DSpec) -> Result<Kernel2D> {
-        let idx: Vec<usize> = Channel::ALL
-            .iter()
-            .map(|&c| profile.channel_index(c))
-            .collect::<Option<_>>()
-            .ok_or_else(|| {
-                Error::Unsupported("a kernel needs a profile with channels r, g and b".into())
-            })?;
-        for &c in &idx {
-            if profile.tabulated_total(c) <= 0.0 {
-                return Err(Error::Unsupported(format!(
-                    "profile channel '{}' is zero everywhere: no kernel can be normalised",
-                    profile.channels[c].name()
-                )));
-            }
-        }
+        let idx = rgb_indices(profile)?;
+        check_profile_values(profile, &idx)?;
         let extent = match spec.extent_mm {
             Some(e) if e.is_finite() && e > 0.0 => e,
             Some(e) => {
                 return Err(Error::invalid(
                     "kernel",
-                    "extent",
+                    "--extent",
                     e,
-                    "must be finite and > 0",
+                    "must be finite and > 0 (mm)",
                 ))
             }
             None => idx
                 .iter()
-                .map(|&c| radius_holding(profile, c, 0.999))
+                .map(|&c| radius_holding(profile, c, DEFAULT_HOLD))
                 .fold(0.0, f64::max),
         };
+        if !(extent > 0.0) {
+            return Err(Error::Unsupported(
+                "profile holds its reflectance at r = 0 only: give --extent".into(),
+            ));
+        }
         let size = match spec.size {
             Some(n) if n % 2 == 1 && n <= MAX_SIZE => n,
             Some(n) => {
                 return Err(Error::invalid(
                     "kernel",
-                    "size",
+                    "--size",
                     n,
                     format!("must be odd and at most {MAX_SIZE}"),
                 ))
@@ -93,46 +106,22 @@ impl Kernel2D {
             None => default_size(profile, extent),
         };
         let cell = 2.0 * extent / size as f64;
-        let half = size / 2;
         let mut data: [Vec<f64>; 3] = Default::default();
-        for (k, &c) in idx.iter().enumerate() {
-            let mut d = vec![0.0; size * size];
-            for iy in 0..size {
-                for ix in 0..size {
-                    let (dx, dy) = (ix.abs_diff(half), iy.abs_diff(half));
-                    // Supersample more finely near the peak, where R_d varies fastest.
-                    let ss = if dx.max(dy) <= 2 {
-                        16
-                    } else if dx.max(dy) <= 8 {
-                        6
-                    } else {
-                        3
-                    };
-                    let x0 = (ix as f64 - half as f64 - 0.5) * cell;
-                    let y0 = (iy as f64 - half as f64 - 0.5) * cell;
-                    let mut s = 0.0;
-                    for sy in 0..ss {
-                        for sx in 0..ss {
-                            let x = x0 + (sx as f64 + 0.5) * cell / ss as f64;
-                            let y = y0 + (sy as f64 + 0.5) * cell / ss as f64;
-                            s += profile.eval(c, (x * x + y * y).sqrt());
-                        }
-                    }
-                    d[iy * size + ix] = s / (ss * ss) as f64 * cell * cell;
-                }
-            }
-            data[k] = d;
-        }
         let mut captured = [0.0; 3];
         for (k, &c) in idx.iter().enumerate() {
-            let sum: f64 = data[k].iter().sum();
-            captured[k] = sum / profile.tabulated_total(c);
-            if !(sum > 0.0) {
-                return Err(Error::Unsupported(
-                    "kernel grid holds no reflectance".into(),
-                ));
+            let interp = RadialInterp::new(profile, c);
+            let mut d = cell_integrals(&interp, size, cell);
+            let sum: f64 = d.iter().sum();
+            let tab = profile.tabulated_total(c);
+            captured[k] = sum / tab;
+            if !(sum > 0.0) || !sum.is_finite() {
+                return Err(Error::Unsupported(format!(
+                    "kernel grid ({size} cells over +-{extent} mm) holds no reflectance of channel '{}'",
+                    profile.channels[c].name()
+                )));
             }
-            data[k].iter_mut().for_each(|v| *v /= sum);
+            d.iter_mut().for_each(|v| *v /= sum);
+            data[k] = d;
         }
         let total_rd = [
             profile.total_rd[idx[0]],
@@ -147,6 +136,286 @@ impl Kernel2D {
             captured,
         })
     }
+}
+
+/// Positions of r, g, b in the profile's channel list.
+pub fn rgb_indices(profile: &Profile) -> Result<[usize; 3]> {
+    let mut idx = [0; 3];
+    for (k, ch) in Channel::ALL.iter().enumerate() {
+        idx[k] = profile.channel_index(*ch).ok_or_else(|| {
+            Error::Unsupported("a kernel needs a profile with channels r, g and b".into())
+        })?;
+    }
+    Ok(idx)
+}
+
+/// Rejects what a profile file's own validation may let through when the
+/// profile was built in memory: NaN, negative or all-zero channels.
+fn check_profile_values(profile: &Profile, idx: &[usize; 3]) -> Result<()> {
+    let n = profile.r.len();
+    if n == 0 || profile.r_edges.len() != n + 1 {
+        return Err(Error::Unsupported(
+            "profile has no radial bins (or r_edges does not match r)".into(),
+        ));
+    }
+    for &c in idx {
+        let name = profile.channels[c].name();
+        if profile.rd.get(c).map(|v| v.len()) != Some(n) {
+            return Err(Error::Unsupported(format!(
+                "profile channel '{name}' does not have {n} bins"
+            )));
+        }
+        if let Some((i, x)) = profile.rd[c]
+            .iter()
+            .enumerate()
+            .find(|(_, x)| !x.is_finite() || **x < 0.0)
+        {
+            return Err(Error::invalid(
+                "profile",
+                format!("rd[{name}][{i}]"),
+                x,
+                "must be finite and >= 0",
+            ));
+        }
+        if !(profile.tabulated_total(c) > 0.0) {
+            return Err(Error::Unsupported(format!(
+                "profile channel '{name}' is zero everywhere: no kernel can be normalised"
+            )));
+        }
+        match profile.total_rd.get(c) {
+            Some(t) if t.is_finite() && *t >= 0.0 => {}
+            t => {
+                return Err(Error::invalid(
+                    "profile",
+                    format!("total_rd[{name}]"),
+                    format!("{t:?}"),
+                    "must be finite and >= 0",
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A continuous reconstruction of a binned radial profile: geometric
+/// (log-linear) between bin centres, fading linearly to zero over the last
+/// half bin, and, inside the first
+/// bin, a value at r = 0 chosen so that the area average over the first
+/// annulus equals the tabulated bin average (a constant there would bias the
+/// peak low; plain extrapolation would not conserve the bin's energy).
+#[derive(Clone, Debug)]
+pub struct RadialInterp {
+    /// Nodes: 0, bin centres, last edge.
+    r: Vec<f64>,
+    v: Vec<f64>,
+    /// Whether node 0 is the added r = 0 (the first bin's inner half).
+    origin: bool,
+    /// Per segment: d ln v / dr where the segment is geometric (both ends
+    /// positive, not the origin segment), NaN where it is linear.
+    log_slope: Vec<f64>,
+    /// (first node, spacing) when the bin centres are evenly spaced.
+    uniform: Option<(f64, f64)>,
+}
+
+impl RadialInterp {
+    pub fn new(p: &Profile, c: usize) -> RadialInterp {
+        let n = p.r.len();
+        let rd = &p.rd[c];
+        let mut r = Vec::with_capacity(n + 2);
+        let mut v = Vec::with_capacity(n + 2);
+        let origin = p.r[0] > 0.0;
+        if origin {
+            r.push(0.0);
+            v.push(rd[0]);
+        }
+        r.extend_from_slice(&p.r);
+        v.extend_from_slice(rd);
+        let last = p.r_edges[n];
+        if last > p.r[n - 1] {
+            r.push(last);
+            v.push(0.0);
+        }
+        let uniform = uniform_spacing(&p.r);
+        let mut f = RadialInterp {
+            r,
+            v,
+            origin,
+            log_slope: Vec::new(),
+            uniform: None,
+        };
+        f.set_slopes();
+        if origin {
+            f.v[0] = f.centre_value_preserving_first_bin(p.r[0], p.r_edges[1], rd[0]);
+        }
+        f.uniform = uniform;
+        f
+    }
+
+    // Geometric between positive bin centres: exact for the exponential
+    // falloff of R_d, where linear interpolation overestimates a convex
+    // profile bin after bin. Linear on the origin segment and where a value
+    // is zero.
+    fn set_slopes(&mut self) {
+        self.log_slope = self
+            .r
+            .windows(2)
+            .zip(self.v.windows(2))
+            .enumerate()
+            .map(|(i, (r, v))| {
+                if v[0] > 0.0 && v[1] > 0.0 && !(self.origin && i == 0) {
+                    (v[1] / v[0]).ln() / (r[1] - r[0])
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+    }
+
+    /// v0 such that the area average over the first annulus [0, e1] of the
+    /// reconstruction (linear from v0 at 0 to rd0 at the centre c0, then as
+    /// interpolated) equals the tabulated rd0; clamped to [0, 4 rd0] so a
+    /// noisy second bin cannot produce a spike.
+    fn centre_value_preserving_first_bin(&self, c0: f64, e1: f64, rd0: f64) -> f64 {
+        // int_0^c0 [v0 + (rd0 - v0) r/c0] r dr = v0 c0^2/6 + rd0 c0^2/3
+        let outer = gauss_legendre(|r| self.eval(r) * r, c0, e1);
+        let v0 = (rd0 * e1 * e1 / 2.0 - outer - rd0 * c0 * c0 / 3.0) / (c0 * c0 / 6.0);
+        if v0.is_finite() {
+            v0.clamp(0.0, 4.0 * rd0)
+        } else {
+            rd0
+        }
+    }
+
+    /// Largest radius with a non-zero value.
+    pub fn r_max(&self) -> f64 {
+        *self.r.last().unwrap()
+    }
+
+    /// Node radii (where the reconstruction has kinks).
+    pub fn nodes(&self) -> &[f64] {
+        &self.r
+    }
+
+    /// The segment [r_i, r_i+1] holding `r` (r inside the node range).
+    fn segment(&self, r: f64) -> usize {
+        let n = self.r.len();
+        if let Some((r0, step)) = self.uniform {
+            // Bin centres start at node `base`.
+            let base = usize::from(self.origin);
+            if r < r0 {
+                return 0;
+            }
+            let i = (base + ((r - r0) / step) as usize).min(n - 2);
+            // Guard rounding and the last (edge) node, off the even spacing.
+            if self.r[i] <= r && r <= self.r[i + 1] {
+                return i;
+            }
+        }
+        (self.r.partition_point(|&x| x <= r)).clamp(1, n - 1) - 1
+    }
+
+    /// Value on segment `i` (no range checks).
+    #[inline]
+    pub fn eval_segment(&self, i: usize, r: f64) -> f64 {
+        let k = self.log_slope[i];
+        if k.is_finite() {
+            self.v[i] * (k * (r - self.r[i])).exp()
+        } else {
+            let t = (r - self.r[i]) / (self.r[i + 1] - self.r[i]);
+            self.v[i] * (1.0 - t) + self.v[i + 1] * t
+        }
+    }
+
+    pub fn eval(&self, r: f64) -> f64 {
+        let n = self.r.len();
+        if !(r >= 0.0) || r > self.r[n - 1] {
+            return 0.0;
+        }
+        if n == 1 || r <= self.r[0] {
+            return self.v[0];
+        }
+        self.eval_segment(self.segment(r), r)
+    }
+}
+
+/// (first, spacing) if `r` is evenly spaced to 1e-9 relative.
+fn uniform_spacing(r: &[f64]) -> Option<(f64, f64)> {
+    if r.len() < 2 {
+        return None;
+    }
+    let step = (r[r.len() - 1] - r[0]) / (r.len() - 1) as f64;
+    let even = r
+        .iter()
+        .enumerate()
+        .all(|(i, x)| (x - (r[0] + i as f64 * step)).abs() <= 1e-9 * step);
+    (even && step > 0.0).then_some((r[0], step))
+}
+
+/// Supersampling factor for a cell whose nearest point to the origin is at
+/// radius `r_near`: enough samples per profile bin and per cell near the peak.
+fn supersampling(cell: f64, r_near: f64, ring: usize, bin_width: f64) -> usize {
+    let by_bins = (2.0 * cell / bin_width).ceil() as usize;
+    let by_peak = match ring {
+        0..=1 => 24,
+        2..=4 => 12,
+        5..=12 => 6,
+        _ => 3,
+    };
+    // Far from the peak a wide cell sees a slowly varying profile.
+    let by_bins = if r_near > 20.0 * bin_width {
+        by_bins.min(8)
+    } else {
+        by_bins
+    };
+    by_bins.max(by_peak).clamp(3, 64)
+}
+
+/// Integrals of the reconstruction over each cell (octant, then mirrored).
+fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
+    let half = size / 2;
+    // Narrowest bin: the resolution the supersampling must follow.
+    let bin_width = interp
+        .nodes()
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min)
+        .max(cell * 1e-3);
+    // Octant 0 <= dy <= dx <= half.
+    let octant: Vec<(usize, usize, f64)> = (0..=half)
+        .into_par_iter()
+        .flat_map_iter(|dx| {
+            (0..=dx).map(move |dy| {
+                let x0 = (dx as f64 - 0.5) * cell;
+                let y0 = (dy as f64 - 0.5) * cell;
+                let r_near = ((x0.max(0.0)).powi(2) + (y0.max(0.0)).powi(2)).sqrt();
+                if r_near > interp.r_max() {
+                    return (dx, dy, 0.0);
+                }
+                let ss = supersampling(cell, r_near, dx, bin_width);
+                let h = cell / ss as f64;
+                let mut s = 0.0;
+                for sy in 0..ss {
+                    let y = y0 + (sy as f64 + 0.5) * h;
+                    for sx in 0..ss {
+                        let x = x0 + (sx as f64 + 0.5) * h;
+                        s += interp.eval((x * x + y * y).sqrt());
+                    }
+                }
+                (dx, dy, s * h * h)
+            })
+        })
+        .collect();
+    let mut d = vec![0.0; size * size];
+    for (dx, dy, v) in octant {
+        for (a, b) in [(dx, dy), (dy, dx)] {
+            for sx in [half - a, half + a] {
+                for sy in [half - b, half + b] {
+                    d[sy * size + sx] = v;
+                }
+            }
+        }
+    }
+    d
 }
 
 /// Radius inside which `fraction` of the tabulated R_d of channel `c` lies.
@@ -165,16 +434,18 @@ pub fn radius_holding(p: &Profile, c: usize, fraction: f64) -> f64 {
         }
         acc += add;
     }
-    *p.r_edges.last().unwrap()
+    p.r_edges.last().copied().unwrap_or(0.0)
 }
 
 /// Odd size whose cell resolves the narrowest channel's core (the radius
 /// holding 25% of R_d spans at least two cells), between 31 and 401.
 fn default_size(p: &Profile, extent: f64) -> usize {
     let core = (0..p.channels.len())
+        .filter(|&c| p.tabulated_total(c) > 0.0)
         .map(|c| radius_holding(p, c, 0.25))
         .fold(f64::INFINITY, f64::min)
         .max(extent * 1e-4);
-    let n = (2.0 * extent / (core / 2.0)).ceil() as usize;
+    let n = (2.0 * extent / (core / 2.0)).ceil();
+    let n = if n.is_finite() { n as usize } else { 401 };
     (n.clamp(31, 401)) | 1
 }

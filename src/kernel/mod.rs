@@ -1,9 +1,21 @@
 //! Screen-space kernels: the discretised 2D ground truth (`Kernel2D`), the
-//! separable models fitted to it, and the kernel file format with real-time
-//! tap tables.
+//! separable models fitted to it (002 ch. 5 and the baselines of ch. 4), the
+//! kernel file format with real-time tap tables, metrics and shader export.
 
+pub mod emit;
 pub mod format;
+pub mod gaussians;
+pub mod guided;
+pub mod jimenez;
 pub mod kernel2d;
+pub mod manual;
+pub mod metrics;
+pub mod model;
+pub mod preintegrate;
+pub mod reference;
+pub mod svd;
+pub mod taps;
 
 pub use format::{KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
 pub use kernel2d::{Kernel2D, Kernel2DSpec};
+pub use model::{fit_kernel_file, fit_model, Factors, Model};

@@ -1,0 +1,387 @@
+//! Sums of radially symmetric 2D Gaussians (d'Eon and Luebke, GPU Gems 3;
+//! REFERENCE 5): each Gaussian is separable, so N Gaussians are N separable
+//! terms (2N one-dimensional passes). Fitted to the 2D kernel by variable
+//! projection: non-negative weights by least squares for given variances,
+//! log-variances by Nelder-Mead.
+
+use super::model::Factors;
+use super::Kernel2D;
+use crate::error::{Error, Result};
+use serde_json::json;
+
+/// d'Eon's six-Gaussian skin profile: variances (mm^2) and RGB weights
+/// (REFERENCE 5, GPU Gems 3 ch. 14).
+pub const DEON_SKIN_VARIANCES: [f64; 6] = [0.0064, 0.0484, 0.187, 0.567, 1.99, 7.41];
+pub const DEON_SKIN_WEIGHTS: [[f64; 3]; 6] = [
+    [0.233, 0.455, 0.649],
+    [0.100, 0.336, 0.344],
+    [0.118, 0.198, 0.0],
+    [0.113, 0.007, 0.007],
+    [0.358, 0.004, 0.0],
+    [0.078, 0.0, 0.0],
+];
+
+/// erf(x) to about 1e-15: positive-term series below 3, continued fraction
+/// for erfc above (no cancellation in either).
+pub fn erf(x: f64) -> f64 {
+    if x < 0.0 {
+        return -erf(-x);
+    }
+    if x < 3.0 {
+        // erf x = 2/sqrt(pi) e^{-x^2} sum_n 2^n x^{2n+1} / (2n+1)!!
+        let mut term = x;
+        let mut sum = x;
+        let x2 = x * x;
+        let mut n = 0.0;
+        while term > 1e-17 * sum {
+            n += 1.0;
+            term *= 2.0 * x2 / (2.0 * n + 1.0);
+            sum += term;
+        }
+        2.0 / std::f64::consts::PI.sqrt() * (-x2).exp() * sum
+    } else {
+        1.0 - erfc_cf(x)
+    }
+}
+
+/// erfc(x) for x >= 3 by the Lentz continued fraction.
+fn erfc_cf(x: f64) -> f64 {
+    // erfc x = e^{-x^2}/sqrt(pi) * 1/(x + 1/2/(x + 1/(x + 3/2/(x + ...))))
+    let tiny = 1e-300;
+    let mut f = x;
+    let mut c = x;
+    let mut d = 0.0;
+    for k in 1..200 {
+        let a = k as f64 / 2.0;
+        d = x + a * d;
+        d = if d.abs() < tiny { tiny } else { d };
+        c = x + a / c;
+        c = if c.abs() < tiny { tiny } else { c };
+        d = 1.0 / d;
+        let delta = c * d;
+        f *= delta;
+        if (delta - 1.0).abs() < 1e-16 {
+            break;
+        }
+    }
+    (-x * x).exp() / std::f64::consts::PI.sqrt() / f
+}
+
+/// Integral over [a, b] of the unit-mass 1D Gaussian of variance `v`.
+pub fn gaussian_mass(a: f64, b: f64, v: f64) -> f64 {
+    if v <= 0.0 {
+        return if a <= 0.0 && 0.0 < b { 1.0 } else { 0.0 };
+    }
+    let s = (2.0 * v).sqrt();
+    // Use the tail on the far side to keep precision for cells far out.
+    if a >= 0.0 {
+        0.5 * (erfc(a / s) - erfc(b / s))
+    } else if b <= 0.0 {
+        0.5 * (erfc(-b / s) - erfc(-a / s))
+    } else {
+        0.5 * (erf(b / s) - erf(a / s))
+    }
+}
+
+fn erfc(x: f64) -> f64 {
+    if x >= 3.0 {
+        erfc_cf(x)
+    } else {
+        1.0 - erf(x)
+    }
+}
+
+/// Cell integrals of a unit-mass 1D Gaussian of variance `v` on the kernel's
+/// grid (a Dirac, v = 0, lands in the centre cell).
+pub fn gaussian_cells(k: &Kernel2D, v: f64) -> Vec<f64> {
+    (0..k.size)
+        .map(|i| {
+            let x = k.offset(i);
+            gaussian_mass(x - 0.5 * k.cell_mm, x + 0.5 * k.cell_mm, v)
+        })
+        .collect()
+}
+
+/// A mixture of 2D Gaussians as separable terms: term i of channel c is
+/// sqrt(w_ic) g(x; v_ic), so that the 2D kernel is sum_i w_ic G(x, y; v_ic).
+pub fn mixture_factors(k: &Kernel2D, variances: &[[f64; 3]], weights: &[[f64; 3]]) -> Factors {
+    variances
+        .iter()
+        .zip(weights)
+        .map(|(v, w)| {
+            std::array::from_fn(|c| {
+                let s = w[c].max(0.0).sqrt();
+                gaussian_cells(k, v[c]).into_iter().map(|g| s * g).collect()
+            })
+        })
+        .collect()
+}
+
+/// The published skin profile (weights as printed; they sum to 1.000, 1.000,
+/// 1.000 per channel).
+pub fn deon_skin(k: &Kernel2D) -> (Factors, serde_json::Value) {
+    let vars: Vec<[f64; 3]> = DEON_SKIN_VARIANCES.iter().map(|&v| [v; 3]).collect();
+    let f = mixture_factors(k, &vars, &DEON_SKIN_WEIGHTS);
+    let params = json!({
+        "preset": "deon-skin",
+        "variances_mm2": DEON_SKIN_VARIANCES,
+        "weights": DEON_SKIN_WEIGHTS,
+    });
+    (f, params)
+}
+
+/// Least squares over non-negative w of || R - sum_i w_i g_i g_i^T ||_F^2
+/// given the Gaussians' cell vectors: the normal equations have Gram
+/// M_ij = (g_i . g_j)^2 and right side b_i = g_i^T R g_i (Lawson-Hanson).
+fn nnls_weights(r: &[f64], n: usize, g: &[Vec<f64>]) -> (Vec<f64>, f64) {
+    let m = g.len();
+    let mut gram = vec![0.0; m * m];
+    for i in 0..m {
+        for j in 0..m {
+            let d: f64 = g[i].iter().zip(&g[j]).map(|(a, b)| a * b).sum();
+            gram[i * m + j] = d * d;
+        }
+    }
+    let b: Vec<f64> = g.iter().map(|gi| quad_form(r, n, gi)).collect();
+    let w = nnls(&gram, &b, m);
+    // ||R - A||^2 = ||R||^2 - 2 w.b + w^T M w; ||R||^2 is constant.
+    let mut obj = 0.0;
+    for i in 0..m {
+        obj -= 2.0 * w[i] * b[i];
+        for j in 0..m {
+            obj += w[i] * gram[i * m + j] * w[j];
+        }
+    }
+    (w, obj)
+}
+
+/// g^T R g for a row-major n x n matrix.
+pub fn quad_form(r: &[f64], n: usize, g: &[f64]) -> f64 {
+    r.chunks(n)
+        .zip(g)
+        .map(|(row, gi)| gi * row.iter().zip(g).map(|(a, b)| a * b).sum::<f64>())
+        .sum()
+}
+
+/// Minimises 1/2 w^T M w - b^T w over w >= 0 (M symmetric positive
+/// semidefinite, small) by the Lawson-Hanson active set method.
+fn nnls(m: &[f64], b: &[f64], n: usize) -> Vec<f64> {
+    let mut w = vec![0.0; n];
+    let mut passive = vec![false; n];
+    for _ in 0..(3 * n + 10) {
+        let grad: Vec<f64> = (0..n)
+            .map(|i| b[i] - (0..n).map(|j| m[i * n + j] * w[j]).sum::<f64>())
+            .collect();
+        let cand = (0..n)
+            .filter(|&i| !passive[i] && grad[i] > 1e-14 * b[i].abs().max(1e-300))
+            .max_by(|&i, &j| grad[i].total_cmp(&grad[j]));
+        let Some(t) = cand else { break };
+        passive[t] = true;
+        loop {
+            let z = solve_passive(m, b, n, &passive);
+            if (0..n).all(|i| !passive[i] || z[i] > 0.0) {
+                w = z;
+                break;
+            }
+            let mut alpha = 1.0f64;
+            for i in 0..n {
+                if passive[i] && z[i] <= 0.0 {
+                    alpha = alpha.min(w[i] / (w[i] - z[i]));
+                }
+            }
+            for i in 0..n {
+                w[i] += alpha * (z[i] - w[i]);
+                if passive[i] && w[i] <= 1e-300 {
+                    passive[i] = false;
+                    w[i] = 0.0;
+                }
+            }
+            if !passive.iter().any(|&p| p) {
+                break;
+            }
+        }
+    }
+    w
+}
+
+/// Solves the normal equations restricted to the passive set.
+fn solve_passive(m: &[f64], b: &[f64], n: usize, passive: &[bool]) -> Vec<f64> {
+    let idx: Vec<usize> = (0..n).filter(|&i| passive[i]).collect();
+    let p = idx.len();
+    let mat = nalgebra::DMatrix::from_fn(p, p, |i, j| m[idx[i] * n + idx[j]]);
+    let rhs = nalgebra::DVector::from_fn(p, |i, _| b[idx[i]]);
+    let sol = mat
+        .clone()
+        .cholesky()
+        .map(|c| c.solve(&rhs))
+        .or_else(|| mat.pseudo_inverse(1e-300).ok().map(|pi| pi * &rhs))
+        .unwrap_or_else(|| nalgebra::DVector::zeros(p));
+    let mut z = vec![0.0; n];
+    for (k, &i) in idx.iter().enumerate() {
+        z[i] = sol[k];
+    }
+    z
+}
+
+/// Fits `count` 2D Gaussians per channel to the kernel (kernel-space least
+/// squares, the kernel_rms metric), weights >= 0.
+pub fn fit_gaussians(k: &Kernel2D, count: usize) -> Result<(Factors, serde_json::Value)> {
+    if count == 0 || count > 12 {
+        return Err(Error::invalid(
+            "gaussians",
+            "--count",
+            count,
+            "must be between 1 and 12",
+        ));
+    }
+    let n = k.size;
+    // Variances from a cell's width to the extent, in log space.
+    let vmin = (0.5 * k.cell_mm).powi(2);
+    let vmax = (0.7 * k.extent_mm()).powi(2);
+    let mut variances = Vec::new();
+    let mut weights = Vec::new();
+    let mut objs = Vec::new();
+    for c in 0..3 {
+        let r = &k.data[c];
+        let eval = |lv: &[f64]| -> (Vec<f64>, f64) {
+            let g: Vec<Vec<f64>> = lv.iter().map(|l| gaussian_cells(k, l.exp())).collect();
+            nnls_weights(r, n, &g)
+        };
+        let ladder: Vec<f64> = (0..count)
+            .map(|i| {
+                let t = if count == 1 {
+                    0.5
+                } else {
+                    i as f64 / (count - 1) as f64
+                };
+                (vmin.ln() * (1.0 - t) + vmax.ln() * t).max(vmin.ln())
+            })
+            .collect();
+        let bounds = (vmin.ln() - 4.0, vmax.ln() + 1.0);
+        let best = nelder_mead(|lv| eval(lv).1, &ladder, 0.7, bounds, 150 * count + 200);
+        let mut lv = best;
+        lv.sort_by(f64::total_cmp);
+        let (w, obj) = eval(&lv);
+        variances.push(lv.iter().map(|l| l.exp()).collect::<Vec<_>>());
+        weights.push(w);
+        objs.push(obj);
+    }
+    let v3: Vec<[f64; 3]> = (0..count)
+        .map(|i| std::array::from_fn(|c| variances[c][i]))
+        .collect();
+    let w3: Vec<[f64; 3]> = (0..count)
+        .map(|i| std::array::from_fn(|c| weights[c][i]))
+        .collect();
+    let f = mixture_factors(k, &v3, &w3);
+    Ok((
+        f,
+        json!({"count": count, "variances_mm2": v3, "weights": w3}),
+    ))
+}
+
+/// Plain Nelder-Mead (adaptive to dimension is not needed here: <= 12 dims),
+/// coordinates clamped into `bounds`.
+pub fn nelder_mead(
+    f: impl Fn(&[f64]) -> f64,
+    x0: &[f64],
+    step: f64,
+    bounds: (f64, f64),
+    max_evals: usize,
+) -> Vec<f64> {
+    let d = x0.len();
+    let clamp = |x: &mut Vec<f64>| x.iter_mut().for_each(|v| *v = v.clamp(bounds.0, bounds.1));
+    let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(d + 1);
+    simplex.push((x0.to_vec(), f(x0)));
+    for i in 0..d {
+        let mut x = x0.to_vec();
+        x[i] += step;
+        clamp(&mut x);
+        let fx = f(&x);
+        simplex.push((x, fx));
+    }
+    let mut evals = d + 1;
+    while evals < max_evals {
+        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let (fb, fw) = (simplex[0].1, simplex[d].1);
+        if (fw - fb).abs() <= 1e-13 * fb.abs().max(1e-300) {
+            break;
+        }
+        let centroid: Vec<f64> = (0..d)
+            .map(|j| simplex[..d].iter().map(|s| s.0[j]).sum::<f64>() / d as f64)
+            .collect();
+        let point = |t: f64| -> Vec<f64> {
+            let mut x: Vec<f64> = (0..d)
+                .map(|j| centroid[j] + t * (simplex[d].0[j] - centroid[j]))
+                .collect();
+            clamp(&mut x);
+            x
+        };
+        let xr = point(-1.0);
+        let fr = f(&xr);
+        evals += 1;
+        if fr < simplex[0].1 {
+            let xe = point(-2.0);
+            let fe = f(&xe);
+            evals += 1;
+            simplex[d] = if fe < fr { (xe, fe) } else { (xr, fr) };
+        } else if fr < simplex[d - 1].1 {
+            simplex[d] = (xr, fr);
+        } else {
+            let xc = if fr < simplex[d].1 {
+                point(-0.5)
+            } else {
+                point(0.5)
+            };
+            let fc = f(&xc);
+            evals += 1;
+            if fc < simplex[d].1.min(fr) {
+                simplex[d] = (xc, fc);
+            } else {
+                let best = simplex[0].0.clone();
+                for s in simplex.iter_mut().skip(1) {
+                    for (x, b) in s.0.iter_mut().zip(&best) {
+                        *x = b + 0.5 * (*x - b);
+                    }
+                    s.1 = f(&s.0);
+                    evals += 1;
+                }
+            }
+        }
+    }
+    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+    simplex.swap_remove(0).0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn erf_matches_known_values() {
+        // Abramowitz and Stegun table 7.1.
+        for (x, e) in [
+            (0.5, 0.520_499_877_813_046_5),
+            (1.0, 0.842_700_792_949_714_9),
+            (2.0, 0.995_322_265_018_952_7),
+            (3.5, 0.999_999_256_901_627_7),
+        ] {
+            assert!((erf(x) - e).abs() < 1e-14, "erf({x}) = {}", erf(x));
+        }
+        assert!((erfc(5.0) - 1.537_459_794_428_035e-12).abs() < 1e-24);
+    }
+
+    #[test]
+    fn deon_skin_weights_sum_to_one() {
+        for c in 0..3 {
+            let s: f64 = DEON_SKIN_WEIGHTS.iter().map(|w| w[c]).sum();
+            assert!((s - 1.0).abs() < 2e-3, "channel {c}: {s}");
+        }
+    }
+
+    #[test]
+    fn nnls_recovers_non_negative_solution() {
+        // M = I, b = (1, -1): w = (1, 0).
+        let w = nnls(&[1.0, 0.0, 0.0, 1.0], &[1.0, -1.0], 2);
+        assert_eq!(w, vec![1.0, 0.0]);
+    }
+}

@@ -1,0 +1,167 @@
+//! Manual approximation (002 5.4, Jimenez's artist model):
+//! a_m(x) = w G(x, tau_n) + (1 - w) G(x, tau_f)   (002 eq. 5.21)
+//! with 1D Gaussians, per-channel variances and one w. Widths are given as
+//! sqrt(tau) in mm like 002 table A.1. `fit` finds w, tau_n, tau_f by least
+//! squares in kernel space (the kernel_rms metric of all channels).
+
+use super::gaussians::{gaussian_cells, nelder_mead, quad_form};
+use super::model::Factors;
+use super::Kernel2D;
+use crate::error::{Error, Result};
+use serde_json::json;
+
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ManualParams {
+    pub w: f64,
+    /// sqrt(tau_n) per channel, mm.
+    pub sqrt_tau_near: [f64; 3],
+    /// sqrt(tau_f) per channel, mm.
+    pub sqrt_tau_far: [f64; 3],
+}
+
+/// 002 table A.1 (REFERENCE 5).
+pub const PRESETS: [(&str, ManualParams); 5] = [
+    (
+        "apple",
+        ManualParams {
+            w: 0.368,
+            sqrt_tau_near: [0.0495, 0.0455, 0.0372],
+            sqrt_tau_far: [1.1, 1.08, 0.926],
+        },
+    ),
+    (
+        "ketchup",
+        ManualParams {
+            w: 0.665,
+            sqrt_tau_near: [0.0907, 0.0331, 0.0331],
+            sqrt_tau_far: [1.5, 0.118, 0.0966],
+        },
+    ),
+    (
+        "marble",
+        ManualParams {
+            w: 0.234,
+            sqrt_tau_near: [0.0371, 0.0207, 0.015],
+            sqrt_tau_far: [0.663, 0.616, 0.558],
+        },
+    ),
+    (
+        "skin1",
+        ManualParams {
+            w: 0.533,
+            sqrt_tau_near: [0.429, 0.211, 0.03],
+            sqrt_tau_far: [1.15, 0.69, 0.471],
+        },
+    ),
+    (
+        "wholemilk",
+        ManualParams {
+            w: 0.407,
+            sqrt_tau_near: [0.0846, 0.0846, 0.0583],
+            sqrt_tau_far: [1.5, 1.39, 1.17],
+        },
+    ),
+];
+
+pub fn preset(name: &str) -> Result<ManualParams> {
+    PRESETS
+        .iter()
+        .find(|(n, _)| n.eq_ignore_ascii_case(name))
+        .map(|(_, p)| *p)
+        .ok_or_else(|| {
+            Error::invalid(
+                "manual",
+                "--preset",
+                name,
+                format!(
+                    "unknown; table A.1 has {}",
+                    PRESETS.iter().map(|p| p.0).collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })
+}
+
+impl ManualParams {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.w >= 0.0 && self.w <= 1.0) {
+            return Err(Error::invalid("manual", "--w", self.w, "must be in [0, 1]"));
+        }
+        for (flag, v) in [("--near", self.sqrt_tau_near), ("--far", self.sqrt_tau_far)] {
+            if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                return Err(Error::invalid(
+                    "manual",
+                    flag,
+                    x,
+                    "widths sqrt(tau) must be finite and >= 0 (mm)",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub fn to_json(&self) -> serde_json::Value {
+        json!({"w": self.w, "sqrt_tau_near": self.sqrt_tau_near, "sqrt_tau_far": self.sqrt_tau_far})
+    }
+}
+
+/// The factor of one channel: cell integrals of a_m.
+fn channel_factor(k: &Kernel2D, p: &ManualParams, c: usize) -> Vec<f64> {
+    let gn = gaussian_cells(k, p.sqrt_tau_near[c].powi(2));
+    let gf = gaussian_cells(k, p.sqrt_tau_far[c].powi(2));
+    gn.iter()
+        .zip(&gf)
+        .map(|(n, f)| p.w * n + (1.0 - p.w) * f)
+        .collect()
+}
+
+pub fn manual(k: &Kernel2D, p: &ManualParams) -> Result<Factors> {
+    p.validate()?;
+    Ok(vec![std::array::from_fn(|c| channel_factor(k, p, c))])
+}
+
+/// ||R - a a^T||_F^2 up to the constant ||R||_F^2.
+fn misfit(r: &[f64], n: usize, a: &[f64]) -> f64 {
+    let aa: f64 = a.iter().map(|v| v * v).sum();
+    aa * aa - 2.0 * quad_form(r, n, a)
+}
+
+/// Finds w, tau_n, tau_f minimising the summed kernel-space squared error of
+/// the three channels: Nelder-Mead over (logit w, log sqrt tau) from several
+/// starts spread between the kernel's cell size and extent.
+pub fn fit(k: &Kernel2D) -> Result<(ManualParams, serde_json::Value)> {
+    let n = k.size;
+    let lo = (0.25 * k.cell_mm).ln();
+    let hi = k.extent_mm().ln();
+    let decode = |x: &[f64]| ManualParams {
+        w: 1.0 / (1.0 + (-x[0]).exp()),
+        sqrt_tau_near: [x[1].exp(), x[2].exp(), x[3].exp()],
+        sqrt_tau_far: [x[4].exp(), x[5].exp(), x[6].exp()],
+    };
+    let cost = |x: &[f64]| -> f64 {
+        let p = decode(x);
+        (0..3)
+            .map(|c| misfit(&k.data[c], n, &channel_factor(k, &p, c)))
+            .sum()
+    };
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for (near_t, far_t, w) in [(0.15, 0.6, 0.0), (0.3, 0.75, 0.0), (0.05, 0.45, 1.0)] {
+        let ln = lo + near_t * (hi - lo);
+        let lf = lo + far_t * (hi - lo);
+        let x0 = vec![w, ln, ln, ln, lf, lf, lf];
+        let mut x = x0;
+        // Restarts shake the simplex out of early collapse.
+        for _ in 0..3 {
+            x = nelder_mead(cost, &x, 0.5, (lo.min(-12.0), hi + 1.0), 1500);
+        }
+        let f = cost(&x);
+        if best.as_ref().is_none_or(|b| f < b.1) {
+            best = Some((x, f));
+        }
+    }
+    let (x, f) = best.ok_or_else(|| Error::Unsupported("manual --fit found nothing".into()))?;
+    let mut p = decode(&x);
+    // Keep "near" the narrower Gaussian per channel (swap w is shared, so
+    // only report; the model is symmetric in the roles when w = 1/2).
+    p.w = p.w.clamp(0.0, 1.0);
+    Ok((p, json!({"fit_objective": f})))
+}
