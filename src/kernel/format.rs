@@ -116,6 +116,26 @@ impl KernelFile {
         for (i, p) in self.passes.iter().enumerate() {
             p.validate(&format!("passes[{i}]")).or_else(bad)?;
         }
+        if self.taps.count == 0 || self.taps.count.is_multiple_of(2) {
+            return bad(format!(
+                "taps.count is {}: must be odd (a centre tap and pairs around it)",
+                self.taps.count
+            ));
+        }
+        if self.model.name.trim().is_empty() {
+            return bad("model.name is empty".into());
+        }
+        let m = &self.metrics;
+        if let Some(x) = m
+            .kernel_rms
+            .iter()
+            .chain(&m.norm1_error)
+            .chain(&m.asymmetry)
+            .chain(std::iter::once(&m.fit_seconds))
+            .find(|x| !x.is_finite())
+        {
+            return bad(format!("metrics hold {x}: must be finite"));
+        }
         if self.taps.passes.len() != self.passes.len() {
             return bad(format!(
                 "taps has {} passes but the kernel has {}",
