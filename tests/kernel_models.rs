@@ -1,5 +1,7 @@
 //! 002's claims about the separable kernel models, each checked on dipole
 //! profiles of the five materials of 002 table 6.3 (REFERENCE 5, 6).
+// Channel loops index several parallel arrays.
+#![allow(clippy::needless_range_loop)]
 
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
