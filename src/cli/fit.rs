@@ -51,7 +51,7 @@ pub struct Args {
     #[arg(long)]
     size: Option<usize>,
     /// Half-width of the kernel in mm; default: radius holding 99.9% of R_d.
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     extent: Option<f64>,
     /// Taps per pass of the real-time table (odd).
     #[arg(long, default_value_t = 17)]
@@ -83,16 +83,16 @@ pub struct ModelOpts {
     #[arg(long, value_enum, default_value = "abel")]
     method: MethodArg,
     /// guided: exponent of the radial weight (002 eq. 5.20).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     k: f64,
     /// guided: axis suppression (002 eq. 5.20, for x, y in [-1, 1]); 0 = off.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     b: f64,
     /// guided: L-BFGS iteration limit.
     #[arg(long, default_value_t = 2000)]
     max_iters: u64,
     /// manual: weight of the near Gaussian.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     w: Option<f64>,
     /// manual: sqrt(tau_n) per channel in mm, "R,G,B".
     #[arg(long, value_name = "R,G,B")]
@@ -111,7 +111,7 @@ pub struct ModelOpts {
     #[arg(long, default_value_t = 4)]
     count: usize,
     /// jimenez: width scale (w = 1: d'Eon's skin profile in mm).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     width: f64,
     /// jimenez: strength t per channel, "R,G,B".
     #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28")]

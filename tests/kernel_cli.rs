@@ -1,0 +1,424 @@
+//! `ssskit fit` as a user runs it: every model writes a kernel that reads
+//! back, shader export, table A.1 presets in the JSON, and clear errors for
+//! bad flags and malformed kernel files.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn ssskit(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ssskit"))
+        .args(args)
+        .output()
+        .expect("run ssskit")
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = ssskit(args);
+    assert!(
+        o.status.success(),
+        "ssskit {args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn fails(args: &[&str], expect: &[&str]) {
+    let o = ssskit(args);
+    assert_eq!(o.status.code(), Some(2), "ssskit {args:?} should fail");
+    let err = String::from_utf8_lossy(&o.stderr);
+    for e in expect {
+        assert!(err.contains(e), "ssskit {args:?}: '{err}' lacks '{e}'");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+fn profile(dir: &Path, material: &str) -> PathBuf {
+    let p = dir.join(format!("{material}.json"));
+    ok(&[
+        "fit",
+        "--dipole-profile",
+        material,
+        "--out",
+        p.to_str().unwrap(),
+    ]);
+    p
+}
+
+fn read(p: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+#[test]
+fn every_model_writes_a_kernel_that_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let prof = profile(dir.path(), "skin1");
+    let models: [&[&str]; 9] = [
+        &["svd", "--rank", "3"],
+        &["svd", "--renormalize"],
+        &["preintegrate"],
+        &["guided", "--k", "1"],
+        &[
+            "manual",
+            "--w",
+            "0.5",
+            "--near",
+            "0.1,0.1,0.1",
+            "--far",
+            "1,0.8,0.5",
+        ],
+        &["manual", "--fit"],
+        &["gaussians", "--count", "3"],
+        &["gaussians", "--preset", "deon-skin"],
+        &["jimenez", "--strength", "0.5,0.4,0.3"],
+    ];
+    for m in models {
+        let out = dir.path().join("k.json");
+        let mut args = vec!["fit", "--profile", prof.to_str().unwrap(), "--size", "61"];
+        args.extend_from_slice(&["--out", out.to_str().unwrap(), "--taps", "11", "--model"]);
+        args.extend_from_slice(m);
+        ok(&args);
+        let k = read(&out);
+        assert_eq!(k["schema"], "ssskit.kernel/1");
+        assert_eq!(k["units"], "mm");
+        assert_eq!(k["model"]["name"], m[0]);
+        assert_eq!(k["taps"]["count"], 11);
+        let passes = k["passes"].as_array().unwrap().len();
+        assert_eq!(k["metrics"]["passes"], 2 * passes as u64, "{m:?}");
+        assert_eq!(k["passes"][0]["offsets_mm"].as_array().unwrap().len(), 61);
+        for key in ["kernel_rms", "norm1_error", "asymmetry"] {
+            assert_eq!(k["metrics"][key].as_array().unwrap().len(), 3);
+        }
+        // Read back through the binary and export.
+        for lang in ["hlsl", "glsl", "wgsl"] {
+            let text = ok(&["fit", "--kernel", out.to_str().unwrap(), "--emit", lang]);
+            assert_eq!(text.matches("sss_kernel_").count(), passes, "{lang}");
+            let ctor = ["float4(", "vec4(", "vec4<f32>("][["hlsl", "glsl", "wgsl"]
+                .iter()
+                .position(|l| *l == lang)
+                .unwrap()];
+            assert_eq!(text.matches(ctor).count(), 11 * passes, "{lang}\n{text}");
+        }
+    }
+}
+
+#[test]
+fn svd_reports_spectrum_and_energy() {
+    let dir = tempfile::tempdir().unwrap();
+    let prof = profile(dir.path(), "marble");
+    let out = dir.path().join("k.json");
+    ok(&[
+        "fit",
+        "--profile",
+        prof.to_str().unwrap(),
+        "--model",
+        "svd",
+        "--rank",
+        "2",
+        "--size",
+        "51",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let k = read(&out);
+    let extra = &k["metrics"]["extra"];
+    for c in 0..3 {
+        let s = extra["singular_values"][c].as_array().unwrap();
+        assert!(s.windows(2).all(|w| w[0].as_f64() >= w[1].as_f64()));
+        let e = extra["energy_captured"][c].as_f64().unwrap();
+        assert!(e > 0.9 && e <= 1.0, "{e}");
+        // The centre of each factor is positive (sign convention).
+        let centre = k["passes"][0]["weights"][25][c].as_f64().unwrap();
+        assert!(centre > 0.0);
+    }
+}
+
+#[test]
+fn manual_presets_reproduce_table_a1() {
+    let dir = tempfile::tempdir().unwrap();
+    let prof = profile(dir.path(), "apple");
+    let table = [
+        ("apple", 0.368, [0.0495, 0.0455, 0.0372], [1.1, 1.08, 0.926]),
+        (
+            "ketchup",
+            0.665,
+            [0.0907, 0.0331, 0.0331],
+            [1.5, 0.118, 0.0966],
+        ),
+        (
+            "marble",
+            0.234,
+            [0.0371, 0.0207, 0.015],
+            [0.663, 0.616, 0.558],
+        ),
+        ("skin1", 0.533, [0.429, 0.211, 0.03], [1.15, 0.69, 0.471]),
+        (
+            "wholemilk",
+            0.407,
+            [0.0846, 0.0846, 0.0583],
+            [1.5, 1.39, 1.17],
+        ),
+    ];
+    for (name, w, near, far) in table {
+        let out = dir.path().join(format!("{name}-manual.json"));
+        ok(&[
+            "fit",
+            "--profile",
+            prof.to_str().unwrap(),
+            "--model",
+            "manual",
+            "--preset",
+            name,
+            "--size",
+            "31",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let p = &read(&out)["model"]["params"];
+        assert_eq!(p["preset"], name);
+        assert_eq!(p["w"].as_f64(), Some(w));
+        for c in 0..3 {
+            assert_eq!(p["sqrt_tau_near"][c].as_f64(), Some(near[c]), "{name}");
+            assert_eq!(p["sqrt_tau_far"][c].as_f64(), Some(far[c]), "{name}");
+        }
+    }
+}
+
+#[test]
+fn bad_flags_give_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let prof = profile(dir.path(), "ketchup");
+    let p = prof.to_str().unwrap();
+    let out = dir.path().join("k.json");
+    let o = out.to_str().unwrap();
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "svd",
+            "--size",
+            "20",
+            "--out",
+            o,
+        ],
+        &["--size", "20", "odd"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "svd",
+            "--extent",
+            "-1",
+            "--out",
+            o,
+        ],
+        &["--extent"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "svd",
+            "--rank",
+            "0",
+            "--size",
+            "11",
+            "--out",
+            o,
+        ],
+        &["--rank"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "svd",
+            "--taps",
+            "4",
+            "--size",
+            "11",
+            "--out",
+            o,
+        ],
+        &["--taps", "odd"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "manual",
+            "--w",
+            "0.5",
+            "--near",
+            "1,2",
+            "--far",
+            "1,1,1",
+            "--out",
+            o,
+        ],
+        &["--near", "three"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "manual",
+            "--preset",
+            "cheese",
+            "--out",
+            o,
+        ],
+        &["cheese", "apple"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "guided",
+            "--k",
+            "-1",
+            "--size",
+            "11",
+            "--out",
+            o,
+        ],
+        &["--k"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "jimenez",
+            "--strength",
+            "2,0,0",
+            "--size",
+            "11",
+            "--out",
+            o,
+        ],
+        &["--strength"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            p,
+            "--model",
+            "svd",
+            "--emit",
+            "metal",
+            "--out",
+            o,
+        ],
+        &["--emit", "metal"],
+    );
+    fails(
+        &[
+            "fit",
+            "--profile",
+            "/no/such/file.json",
+            "--model",
+            "svd",
+            "--out",
+            o,
+        ],
+        &["/no/such/file.json"],
+    );
+    assert!(!out.exists(), "a failed fit left an output file");
+}
+
+#[test]
+fn malformed_kernel_files_are_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let prof = profile(dir.path(), "skin1");
+    let good = dir.path().join("good.json");
+    ok(&[
+        "fit",
+        "--profile",
+        prof.to_str().unwrap(),
+        "--model",
+        "preintegrate",
+        "--size",
+        "21",
+        "--out",
+        good.to_str().unwrap(),
+    ]);
+    let base = read(&good);
+    let cases: Vec<(&str, Box<dyn Fn(&mut Value)>, &str)> = vec![
+        (
+            "schema",
+            Box::new(|k| k["schema"] = "ssskit.kernel/0".into()),
+            "schema",
+        ),
+        ("units", Box::new(|k| k["units"] = "px".into()), "units"),
+        (
+            "no passes",
+            Box::new(|k| k["passes"] = Value::Array(vec![])),
+            "no passes",
+        ),
+        (
+            "length",
+            Box::new(|k| {
+                k["passes"][0]["weights"].as_array_mut().unwrap().pop();
+            }),
+            "weights",
+        ),
+        (
+            "order",
+            Box::new(|k| k["passes"][0]["offsets_mm"][3] = 100.0.into()),
+            "increase",
+        ),
+        (
+            "taps count",
+            Box::new(|k| k["taps"]["count"] = 16.into()),
+            "taps",
+        ),
+        (
+            "total_rd",
+            Box::new(|k| k["total_rd"][1] = (-0.5).into()),
+            "total_rd",
+        ),
+        (
+            "missing",
+            Box::new(|k| {
+                k.as_object_mut().unwrap().remove("metrics");
+            }),
+            "metrics",
+        ),
+    ];
+    for (what, edit, expect) in cases {
+        let mut k = base.clone();
+        edit(&mut k);
+        let p = dir
+            .path()
+            .join(format!("bad-{}.json", what.replace(' ', "-")));
+        std::fs::write(&p, serde_json::to_string(&k).unwrap()).unwrap();
+        fails(
+            &["fit", "--kernel", p.to_str().unwrap(), "--emit", "glsl"],
+            &[p.to_str().unwrap(), expect],
+        );
+    }
+    let p = dir.path().join("garbage.json");
+    std::fs::write(&p, "{ not json").unwrap();
+    fails(
+        &["fit", "--kernel", p.to_str().unwrap()],
+        &["malformed JSON"],
+    );
+}
