@@ -361,7 +361,8 @@ fn malformed_kernel_files_are_rejected() {
         good.to_str().unwrap(),
     ]);
     let base = read(&good);
-    let cases: Vec<(&str, Box<dyn Fn(&mut Value)>, &str)> = vec![
+    type Edit = Box<dyn Fn(&mut Value)>;
+    let cases: Vec<(&str, Edit, &str)> = vec![
         (
             "schema",
             Box::new(|k| k["schema"] = "ssskit.kernel/0".into()),
