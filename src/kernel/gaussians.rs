@@ -4,6 +4,7 @@
 //! projection: non-negative weights by least squares for given variances,
 //! log-variances by Nelder-Mead.
 
+use super::kernel2d::multiplicity;
 use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
@@ -102,6 +103,59 @@ pub fn gaussian_cells(k: &Kernel2D, v: f64) -> Vec<f64> {
         .collect()
 }
 
+/// The half h..n of `gaussian_cells` (cells at m = 0..=h from the centre),
+/// from one erfc per cell edge.
+pub fn gaussian_half_cells(k: &Kernel2D, v: f64) -> Vec<f64> {
+    let h = k.half();
+    if v <= 0.0 {
+        let mut g = vec![0.0; h + 1];
+        g[0] = 1.0;
+        return g;
+    }
+    let s = (2.0 * v).sqrt();
+    let tail: Vec<f64> = (1..=h + 1)
+        .map(|j| erfc((j as f64 - 0.5) * k.cell_mm / s))
+        .collect();
+    (0..=h)
+        .map(|m| {
+            if m == 0 {
+                1.0 - tail[0]
+            } else {
+                0.5 * (tail[m - 1] - tail[m])
+            }
+        })
+        .collect()
+}
+
+/// a^T R a for an even factor given by its half (cells m = 0..=h) and R by
+/// its quadrant (`Kernel2D::quadrant`).
+pub fn half_quad_form(q: &[f64], a: &[f64]) -> f64 {
+    let m = a.len();
+    q.chunks(m)
+        .zip(a)
+        .enumerate()
+        .map(|(iy, (row, ay))| {
+            multiplicity(iy)
+                * ay
+                * row
+                    .iter()
+                    .zip(a)
+                    .enumerate()
+                    .map(|(ix, (r, ax))| multiplicity(ix) * r * ax)
+                    .sum::<f64>()
+        })
+        .sum()
+}
+
+/// a . b for even factors given by their halves.
+pub fn half_dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .enumerate()
+        .map(|(i, (x, y))| multiplicity(i) * x * y)
+        .sum()
+}
+
 /// A mixture of 2D Gaussians as separable terms: term i of channel c is
 /// sqrt(w_ic) g(x; v_ic), so that the 2D kernel is sum_i w_ic G(x, y; v_ic).
 pub fn mixture_factors(k: &Kernel2D, variances: &[[f64; 3]], weights: &[[f64; 3]]) -> Factors {
@@ -133,16 +187,17 @@ pub fn deon_skin(k: &Kernel2D) -> (Factors, serde_json::Value) {
 /// Least squares over non-negative w of || R - sum_i w_i g_i g_i^T ||_F^2
 /// given the Gaussians' cell vectors: the normal equations have Gram
 /// M_ij = (g_i . g_j)^2 and right side b_i = g_i^T R g_i (Lawson-Hanson).
-fn nnls_weights(r: &[f64], n: usize, g: &[Vec<f64>]) -> (Vec<f64>, f64) {
+/// `q` is R's quadrant and `g` the Gaussians' half vectors.
+fn nnls_weights(q: &[f64], g: &[Vec<f64>]) -> (Vec<f64>, f64) {
     let m = g.len();
     let mut gram = vec![0.0; m * m];
     for i in 0..m {
         for j in 0..m {
-            let d: f64 = g[i].iter().zip(&g[j]).map(|(a, b)| a * b).sum();
+            let d = half_dot(&g[i], &g[j]);
             gram[i * m + j] = d * d;
         }
     }
-    let b: Vec<f64> = g.iter().map(|gi| quad_form(r, n, gi)).collect();
+    let b: Vec<f64> = g.iter().map(|gi| half_quad_form(q, gi)).collect();
     let w = nnls(&gram, &b, m);
     // ||R - A||^2 = ||R||^2 - 2 w.b + w^T M w; ||R||^2 is constant.
     let mut obj = 0.0;
@@ -153,14 +208,6 @@ fn nnls_weights(r: &[f64], n: usize, g: &[Vec<f64>]) -> (Vec<f64>, f64) {
         }
     }
     (w, obj)
-}
-
-/// g^T R g for a row-major n x n matrix.
-pub fn quad_form(r: &[f64], n: usize, g: &[f64]) -> f64 {
-    r.chunks(n)
-        .zip(g)
-        .map(|(row, gi)| gi * row.iter().zip(g).map(|(a, b)| a * b).sum::<f64>())
-        .sum()
 }
 
 /// Minimises 1/2 w^T M w - b^T w over w >= 0 (M symmetric positive
@@ -234,7 +281,6 @@ pub fn fit_gaussians(k: &Kernel2D, count: usize) -> Result<(Factors, serde_json:
             "must be between 1 and 12",
         ));
     }
-    let n = k.size;
     // Variances from a cell's width to the extent, in log space.
     let vmin = (0.5 * k.cell_mm).powi(2);
     let vmax = (0.7 * k.extent_mm()).powi(2);
@@ -242,10 +288,10 @@ pub fn fit_gaussians(k: &Kernel2D, count: usize) -> Result<(Factors, serde_json:
     let mut weights = Vec::new();
     let mut objs = Vec::new();
     for c in 0..3 {
-        let r = &k.data[c];
+        let q = k.quadrant(c);
         let eval = |lv: &[f64]| -> (Vec<f64>, f64) {
-            let g: Vec<Vec<f64>> = lv.iter().map(|l| gaussian_cells(k, l.exp())).collect();
-            nnls_weights(r, n, &g)
+            let g: Vec<Vec<f64>> = lv.iter().map(|l| gaussian_half_cells(k, l.exp())).collect();
+            nnls_weights(&q, &g)
         };
         let ladder: Vec<f64> = (0..count)
             .map(|i| {
@@ -368,6 +414,26 @@ mod tests {
             assert!((erf(x) - e).abs() < 1e-14, "erf({x}) = {}", erf(x));
         }
         assert!((erfc(5.0) - 1.537_459_794_428_035e-12).abs() < 1e-24);
+    }
+
+    #[test]
+    fn half_cells_match_full_cells() {
+        let k = Kernel2D {
+            size: 41,
+            cell_mm: 0.3,
+            data: Default::default(),
+            total_rd: [1.0; 3],
+            captured: [1.0; 3],
+        };
+        for v in [0.0, 1e-4, 0.05, 1.0, 30.0] {
+            let full = gaussian_cells(&k, v);
+            let half = gaussian_half_cells(&k, v);
+            for (m, h) in half.iter().enumerate() {
+                assert!((full[20 + m] - h).abs() <= 1e-15, "v {v} m {m}");
+            }
+            let total: f64 = full.iter().sum();
+            assert!(total <= 1.0 + 1e-15);
+        }
     }
 
     #[test]

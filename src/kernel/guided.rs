@@ -10,6 +10,7 @@
 //! goes through the rescaling. Solved with argmin's L-BFGS (More-Thuente line
 //! search), started from the better of pre-integration and rank-1 SVD.
 
+use super::kernel2d::multiplicity;
 use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
@@ -42,6 +43,8 @@ pub struct GuidedReport {
     pub objective_start: f64,
     pub iterations: u64,
     pub constraint_error: f64,
+    /// |dF/dq| / F_start at the solution (L-BFGS stopping measure).
+    pub gradient_norm: f64,
     pub start: &'static str,
     pub termination: String,
 }
@@ -78,86 +81,113 @@ pub fn gamma(k: &Kernel2D, kexp: f64, b: f64) -> Vec<f64> {
     g
 }
 
-/// The weighted objective and its gradient with respect to the half-factor
-/// q (q[m] is a at |offset| = m cells).
-struct Problem<'a> {
-    r: &'a [f64],
-    gamma: &'a [f64],
-    n: usize,
+/// The weighted objective on the quadrant x, y >= 0 (R, Gamma and an even
+/// factor are even in x and y: each quadrant cell stands for its mirrors,
+/// counted by `w`), and its gradient with respect to the half-factor q
+/// (q[m] is a at |offset| = m cells).
+struct Problem {
+    /// Quadrant of R, (h+1)^2.
+    r: Vec<f64>,
+    /// Gamma times the mirror multiplicities, (h+1)^2.
+    w: Vec<f64>,
+    /// h + 1.
+    m: usize,
     /// sqrt(||R||_1): the factor's required sum.
     c: f64,
     /// Objective scale (the starting value), so tolerances are relative.
     scale: f64,
 }
 
-impl Problem<'_> {
-    fn expand(&self, q: &[f64]) -> Vec<f64> {
-        let h = self.n / 2;
-        (0..self.n).map(|i| q[i.abs_diff(h)]).collect()
+impl Problem {
+    fn new(k: &Kernel2D, c: usize, gamma_full: &[f64]) -> Problem {
+        let h = k.half();
+        let n = k.size;
+        let m = h + 1;
+        let r = k.quadrant(c);
+        let mut w = vec![0.0; m * m];
+        for my in 0..m {
+            for mx in 0..m {
+                w[my * m + mx] =
+                    gamma_full[(h + my) * n + h + mx] * multiplicity(mx) * multiplicity(my);
+            }
+        }
+        let norm1: f64 = k.data[c].iter().map(|v| v.abs()).sum();
+        Problem {
+            r,
+            w,
+            m,
+            c: norm1.sqrt(),
+            scale: 1.0,
+        }
     }
 
-    /// a = c p / sum p.
+    /// Sum of the full factor for a half-factor.
+    fn full_sum(&self, q: &[f64]) -> f64 {
+        q.iter().enumerate().map(|(i, v)| multiplicity(i) * v).sum()
+    }
+
+    /// a = c q / sum(full p): the half of the constrained factor.
     fn factor(&self, q: &[f64]) -> (Vec<f64>, f64) {
-        let p = self.expand(q);
-        let s: f64 = p.iter().sum();
-        (p.iter().map(|v| self.c * v / s).collect(), s)
+        let s = self.full_sum(q);
+        (q.iter().map(|v| self.c * v / s).collect(), s)
     }
 
     fn objective(&self, a: &[f64]) -> f64 {
-        let n = self.n;
+        let m = self.m;
         let mut f = 0.0;
-        for iy in 0..n {
-            let row = iy * n;
-            for ix in 0..n {
-                let d = self.r[row + ix] - a[ix] * a[iy];
-                f += self.gamma[row + ix] * d * d;
+        for (iy, ay) in a.iter().enumerate() {
+            let row = iy * m;
+            for (ix, ax) in a.iter().enumerate() {
+                let d = self.r[row + ix] - ax * ay;
+                f += self.w[row + ix] * d * d;
             }
         }
         f
     }
 
     fn cost_grad(&self, q: &[f64]) -> (f64, Vec<f64>) {
-        let n = self.n;
-        let h = n / 2;
+        let m = self.m;
         let (a, s) = self.factor(q);
-        // dF/da_i = -4 sum_j Gamma_ij (R_ij - a_i a_j) a_j (Gamma, R symmetric).
-        let mut ga = vec![0.0; n];
+        // dF/da_k = -4 sum_j W_kj (R_kj - a_k a_j) a_j (W, R symmetric).
+        let mut ga = vec![0.0; m];
         let mut f = 0.0;
-        for iy in 0..n {
-            let row = iy * n;
+        for (iy, ay) in a.iter().enumerate() {
+            let row = iy * m;
             let mut acc = 0.0;
-            for ix in 0..n {
-                let d = self.r[row + ix] - a[ix] * a[iy];
-                let gd = self.gamma[row + ix] * d;
-                f += gd * d;
-                acc += gd * a[ix];
+            for (ix, ax) in a.iter().enumerate() {
+                let d = self.r[row + ix] - ax * ay;
+                let wd = self.w[row + ix] * d;
+                f += wd * d;
+                acc += wd * ax;
             }
             ga[iy] = -4.0 * acc;
         }
-        // Through a = c p / s: dF/dp_k = (c/s) (g_k - sum_i g_i a_i / c).
+        // Through a = c q / s, s = sum_k mult_k q_k:
+        // dF/dq_k = (c/s) (g_k - mult_k (g . a) / c).
         let ga_dot_a: f64 = ga.iter().zip(&a).map(|(g, a)| g * a).sum();
-        let mut gq = vec![0.0; h + 1];
-        for (i, g) in ga.iter().enumerate() {
-            gq[i.abs_diff(h)] += self.c / s * (g - ga_dot_a / self.c);
-        }
         let inv = 1.0 / self.scale;
-        (f * inv, gq.into_iter().map(|g| g * inv).collect())
+        let gq = ga
+            .iter()
+            .enumerate()
+            .map(|(k, g)| inv * self.c / s * (g - multiplicity(k) * ga_dot_a / self.c))
+            .collect();
+        (f * inv, gq)
     }
 }
 
-impl CostFunction for Problem<'_> {
+impl CostFunction for Problem {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, q: &Vec<f64>) -> std::result::Result<f64, argmin::core::Error> {
         let (a, s) = self.factor(q);
-        if !(s.abs() > 0.0) {
+        if !(s.abs() > 0.0) || !s.is_finite() {
             return Ok(f64::INFINITY);
         }
         Ok(self.objective(&a) / self.scale)
     }
 }
 
-impl Gradient for Problem<'_> {
+impl Gradient for Problem {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;
     fn gradient(&self, q: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin::core::Error> {
@@ -189,26 +219,19 @@ pub fn guided(
         ));
     }
     let n = k.size;
+    let h = k.half();
     let gam = gamma(k, params.k, params.b);
     let mut factor: [Vec<f64>; 3] = Default::default();
     let mut reports = Vec::new();
     for c in 0..3 {
-        let r = &k.data[c];
-        let norm1: f64 = r.iter().map(|v| v.abs()).sum();
-        let mut prob = Problem {
-            r,
-            gamma: &gam,
-            n,
-            c: norm1.sqrt(),
-            scale: 1.0,
-        };
+        let mut prob = Problem::new(k, c, &gam);
+        let norm1 = prob.c * prob.c;
         // Start from the candidate with the lowest objective once rescaled.
         let (start_name, q0, f0) = starts
             .iter()
             .filter_map(|(name, f)| {
-                let q: Vec<f64> = f[c][n / 2..].to_vec();
-                let s: f64 = prob.expand(&q).iter().sum();
-                if !(s > 0.0) {
+                let q: Vec<f64> = f[c][h..].to_vec();
+                if !(prob.full_sum(&q) > 0.0) {
                     return None;
                 }
                 let (a, _) = prob.factor(&q);
@@ -224,21 +247,27 @@ pub fn guided(
         };
         let (a, _) = prob.factor(&q);
         let fobj = prob.objective(&a);
-        let (a, fobj, iters) = if fobj <= f0 {
-            (a, fobj, iters)
+        let (a, fobj) = if fobj <= f0 {
+            (a, fobj)
         } else {
-            (prob.factor(&q0).0, f0, iters)
+            (prob.factor(&q0).0, f0)
         };
-        let sum: f64 = a.iter().sum();
+        let grad_norm = {
+            let g = prob.cost_grad(&a).1;
+            g.iter().map(|x| x * x).sum::<f64>().sqrt()
+        };
+        let full: Vec<f64> = (0..n).map(|i| a[i.abs_diff(h)]).collect();
+        let sum: f64 = full.iter().sum();
         reports.push(GuidedReport {
             objective: fobj,
             objective_start: f0,
             iterations: iters,
             constraint_error: ((sum * sum - norm1) / norm1).abs(),
+            gradient_norm: grad_norm,
             start: start_name,
             termination: term,
         });
-        factor[c] = a;
+        factor[c] = full;
     }
     let extra = json!({
         "objective": reports.iter().map(|r| r.objective).collect::<Vec<_>>(),
@@ -267,7 +296,7 @@ fn run_lbfgs(prob: &Problem, q0: Vec<f64>, max_iters: u64) -> Result<(Vec<f64>, 
     Ok((q, st.get_iter(), format!("{}", st.get_termination_status())))
 }
 
-impl CostFunction for &Problem<'_> {
+impl CostFunction for &Problem {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, q: &Vec<f64>) -> std::result::Result<f64, argmin::core::Error> {
@@ -275,7 +304,7 @@ impl CostFunction for &Problem<'_> {
     }
 }
 
-impl Gradient for &Problem<'_> {
+impl Gradient for &Problem {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;
     fn gradient(&self, q: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin::core::Error> {
@@ -304,13 +333,7 @@ mod tests {
             captured: [1.0; 3],
         };
         let gam = gamma(&k, 1.0, 3.0);
-        let prob = Problem {
-            r: &r,
-            gamma: &gam,
-            n,
-            c: 2.0,
-            scale: 1.0,
-        };
+        let prob = Problem::new(&k, 0, &gam);
         let q: Vec<f64> = (0..5).map(|m| 1.0 / (1.0 + m as f64)).collect();
         let (_, g) = prob.cost_grad(&q);
         for m in 0..5 {

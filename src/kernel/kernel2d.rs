@@ -69,6 +69,20 @@ impl Kernel2D {
         self.data[c][iy * self.size + ix]
     }
 
+    /// The quadrant x, y >= 0 of channel `c`, (half + 1)^2 row-major:
+    /// `q[my * (half + 1) + mx]` = R at (mx, my) cells from the centre. The
+    /// kernel is even in x and y, so the quadrant and `multiplicity` hold all
+    /// of it.
+    pub fn quadrant(&self, c: usize) -> Vec<f64> {
+        let h = self.half();
+        let mut q = Vec::with_capacity((h + 1) * (h + 1));
+        for my in 0..=h {
+            let row = (h + my) * self.size + h;
+            q.extend_from_slice(&self.data[c][row..row + h + 1]);
+        }
+        q
+    }
+
     /// Discretises `profile` (which must hold r, g and b).
     pub fn from_profile(profile: &Profile, spec: &Kernel2DSpec) -> Result<Kernel2D> {
         let idx = rgb_indices(profile)?;
@@ -135,6 +149,16 @@ impl Kernel2D {
             total_rd,
             captured,
         })
+    }
+}
+
+/// Cells at distance m from the centre along one axis: 1 for the centre, 2
+/// for the mirrored pair.
+pub fn multiplicity(m: usize) -> f64 {
+    if m == 0 {
+        1.0
+    } else {
+        2.0
     }
 }
 

@@ -4,7 +4,9 @@
 //! sqrt(tau) in mm like 002 table A.1. `fit` finds w, tau_n, tau_f by least
 //! squares in kernel space (the kernel_rms metric of all channels).
 
-use super::gaussians::{gaussian_cells, nelder_mead, quad_form};
+use super::gaussians::{
+    gaussian_cells, gaussian_half_cells, half_dot, half_quad_form, nelder_mead,
+};
 use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
@@ -119,17 +121,28 @@ pub fn manual(k: &Kernel2D, p: &ManualParams) -> Result<Factors> {
     Ok(vec![std::array::from_fn(|c| channel_factor(k, p, c))])
 }
 
-/// ||R - a a^T||_F^2 up to the constant ||R||_F^2.
-fn misfit(r: &[f64], n: usize, a: &[f64]) -> f64 {
-    let aa: f64 = a.iter().map(|v| v * v).sum();
-    aa * aa - 2.0 * quad_form(r, n, a)
+/// ||R - a a^T||_F^2 up to the constant ||R||_F^2, for an even factor
+/// given by its half `a` (cells m = 0..=h) and R by its quadrant `q`.
+fn misfit(q: &[f64], a: &[f64]) -> f64 {
+    let aa = half_dot(a, a);
+    aa * aa - 2.0 * half_quad_form(q, a)
+}
+
+/// Half of the factor (cells m = 0..=h) of one channel.
+fn channel_half(k: &Kernel2D, p: &ManualParams, c: usize) -> Vec<f64> {
+    let gn = gaussian_half_cells(k, p.sqrt_tau_near[c].powi(2));
+    let gf = gaussian_half_cells(k, p.sqrt_tau_far[c].powi(2));
+    gn.iter()
+        .zip(&gf)
+        .map(|(n, f)| p.w * n + (1.0 - p.w) * f)
+        .collect()
 }
 
 /// Finds w, tau_n, tau_f minimising the summed kernel-space squared error of
 /// the three channels: Nelder-Mead over (logit w, log sqrt tau) from several
 /// starts spread between the kernel's cell size and extent.
 pub fn fit(k: &Kernel2D) -> Result<(ManualParams, serde_json::Value)> {
-    let n = k.size;
+    let quadrants: Vec<Vec<f64>> = (0..3).map(|c| k.quadrant(c)).collect();
     let lo = (0.25 * k.cell_mm).ln();
     let hi = k.extent_mm().ln();
     let decode = |x: &[f64]| ManualParams {
@@ -140,7 +153,7 @@ pub fn fit(k: &Kernel2D) -> Result<(ManualParams, serde_json::Value)> {
     let cost = |x: &[f64]| -> f64 {
         let p = decode(x);
         (0..3)
-            .map(|c| misfit(&k.data[c], n, &channel_factor(k, &p, c)))
+            .map(|c| misfit(&quadrants[c], &channel_half(k, &p, c)))
             .sum()
     };
     let mut best: Option<(Vec<f64>, f64)> = None;

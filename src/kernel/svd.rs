@@ -2,6 +2,7 @@
 //! R = U S V^T, a_i = u_i sqrt(sigma_i), A_N = sum_{i<=N} a_i a_i^T, the best
 //! rank-N approximation in the Frobenius norm (Eckart-Young, 002 eq. 5.6).
 
+use super::kernel2d::multiplicity;
 use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
@@ -74,7 +75,58 @@ struct ChannelSvd {
     skipped: Vec<usize>,
 }
 
+/// Whether R(x, y) = R(-x, y) = R(x, -y) (to rounding): then R is zero on
+/// odd vectors and its SVD lives in the even block.
+fn is_even(r: &[f64], n: usize) -> bool {
+    let peak = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    (0..n).all(|iy| {
+        (0..n).all(|ix| {
+            let v = r[iy * n + ix];
+            (v - r[iy * n + (n - 1 - ix)]).abs() <= 1e-13 * peak
+                && (v - r[(n - 1 - iy) * n + ix]).abs() <= 1e-13 * peak
+        })
+    })
+}
+
 fn channel_svd(r: &[f64], n: usize, rank: usize) -> Result<ChannelSvd> {
+    if n > 1 && is_even(r, n) {
+        even_block_svd(r, n, rank)
+    } else {
+        full_svd(r, n, rank)
+    }
+}
+
+/// For an R even in x and in y, the odd vectors (d_{h+m} - d_{h-m})/sqrt 2
+/// span its null space and the even ones e_0 = d_h, e_m = (d_{h+m} +
+/// d_{h-m})/sqrt 2 an invariant block E = D Q D, Q the quadrant, D =
+/// diag(1, sqrt 2, ...): the same singular values with an (h+1)^2 matrix,
+/// about 8 times less work.
+fn even_block_svd(r: &[f64], n: usize, rank: usize) -> Result<ChannelSvd> {
+    let h = n / 2;
+    let d = |m: usize| multiplicity(m).sqrt();
+    let e = DMatrix::from_fn(h + 1, h + 1, |i, j| d(i) * d(j) * r[(h + i) * n + h + j]);
+    let svd = nalgebra::SVD::try_new(e, true, true, f64::EPSILON, 0)
+        .ok_or_else(|| Error::Unsupported("SVD did not converge".into()))?;
+    let (u, vt) = match (&svd.u, &svd.v_t) {
+        (Some(u), Some(vt)) => (u, vt),
+        _ => return Err(Error::Unsupported("SVD returned no vectors".into())),
+    };
+    let expand = |col: Vec<f64>| -> Vec<f64> {
+        (0..n)
+            .map(|i| {
+                let m = i.abs_diff(h);
+                col[m] / d(m)
+            })
+            .collect()
+    };
+    assemble(&svd.singular_values, rank, |i| {
+        let ui: Vec<f64> = u.column(i).iter().copied().collect();
+        let same: f64 = ui.iter().zip(vt.row(i).iter()).map(|(a, b)| a * b).sum();
+        (expand(ui), same)
+    })
+}
+
+fn full_svd(r: &[f64], n: usize, rank: usize) -> Result<ChannelSvd> {
     // Row-major data into nalgebra's column-major matrix: transposed, which
     // for a symmetric kernel is the same matrix.
     let m = DMatrix::from_column_slice(n, n, r).transpose();
@@ -84,22 +136,34 @@ fn channel_svd(r: &[f64], n: usize, rank: usize) -> Result<ChannelSvd> {
         (Some(u), Some(vt)) => (u, vt),
         _ => return Err(Error::Unsupported("SVD returned no vectors".into())),
     };
-    let s = &svd.singular_values;
+    assemble(&svd.singular_values, rank, |i| {
+        let ui: Vec<f64> = u.column(i).iter().copied().collect();
+        let same: f64 = ui.iter().zip(vt.row(i).iter()).map(|(a, b)| a * b).sum();
+        (ui, same)
+    })
+}
+
+/// Factors a_i = u_i sqrt(sigma_i) of the first `rank` components; `vec(i)`
+/// gives u_i on the full grid and u_i . v_i (its sign tells whether the
+/// component is +sigma u u^T or -sigma u u^T).
+fn assemble(
+    s: &nalgebra::DVector<f64>,
+    rank: usize,
+    vec: impl Fn(usize) -> (Vec<f64>, f64),
+) -> Result<ChannelSvd> {
     let total: f64 = s.iter().map(|x| x * x).sum();
     let mut factors = Vec::new();
     let mut skipped = Vec::new();
     let mut kept = 0.0;
     for i in 0..rank.min(s.len()) {
-        let ui = u.column(i);
-        let vi = vt.row(i);
-        let same: f64 = ui.iter().zip(vi.iter()).map(|(a, b)| a * b).sum();
+        let (ui, same) = vec(i);
         kept += s[i] * s[i];
         if same < 0.0 {
             skipped.push(i);
             continue;
         }
         // Sign convention: positive centre (u and -u are both singular vectors).
-        let centre = ui[n / 2];
+        let centre = ui[ui.len() / 2];
         let sign = if centre < 0.0 { -1.0 } else { 1.0 };
         let root = s[i].sqrt();
         factors.push(ui.iter().map(|x| sign * root * x).collect());
