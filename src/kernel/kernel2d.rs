@@ -338,6 +338,26 @@ impl RadialInterp {
         (self.r.partition_point(|&x| x <= r)).clamp(1, n - 1) - 1
     }
 
+    /// The segment holding `r`, or None where the reconstruction is
+    /// constant (below the first node) or zero (beyond the last).
+    pub fn segment_of(&self, r: f64) -> Option<usize> {
+        let n = self.r.len();
+        if n < 2 || !(r > self.r[0]) || r > self.r[n - 1] {
+            return None;
+        }
+        Some(self.segment(r))
+    }
+
+    /// `eval` with the segment already known (from `segment_of` at a point
+    /// of the same panel).
+    #[inline]
+    pub fn eval_in(&self, seg: Option<usize>, r: f64) -> f64 {
+        match seg {
+            Some(i) => self.eval_segment(i, r),
+            None => self.eval(r),
+        }
+    }
+
     /// Value on segment `i` (no range checks).
     #[inline]
     pub fn eval_segment(&self, i: usize, r: f64) -> f64 {

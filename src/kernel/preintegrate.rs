@@ -69,39 +69,92 @@ pub fn preintegrate(
     Ok((vec![factor], extra))
 }
 
-/// int over each cell in x of 2 int_0^Y R(sqrt(x^2 + y^2)) dy.
+/// int over each cell in x of 2 int_0^Y R(sqrt(x^2 + y^2)) dy, as
+/// differences of the strip integral `strip(X)` over [0, X] x [-Y, Y].
 pub fn abel_cells(k: &Kernel2D, f: &RadialInterp) -> Vec<f64> {
     let half = k.half();
     let ymax = k.extent_mm();
-    let nodes = f.nodes();
-    let one_side: Vec<f64> = (0..=half)
+    // strip at the cell edges (j + 1/2) cell, j = 0..=half.
+    let edges: Vec<f64> = (0..=half)
         .into_par_iter()
-        .map(|d| {
-            let x0 = (d as f64 - 0.5) * k.cell_mm;
-            let x1 = (d as f64 + 0.5) * k.cell_mm;
-            // Kinks in x at the node radii inside the cell; where a cell holds
-            // many nodes the projection has smoothed them: equal panels.
-            let inside: Vec<f64> = nodes
-                .iter()
-                .copied()
-                .filter(|&r| r > x0 && r < x1)
-                .collect();
-            let cuts: Vec<f64> = if inside.len() <= 3 {
-                std::iter::once(x0)
-                    .chain(inside)
-                    .chain(std::iter::once(x1))
-                    .collect()
+        .map(|j| strip(f, (j as f64 + 0.5) * k.cell_mm, ymax))
+        .collect();
+    let one_side: Vec<f64> = (0..=half)
+        .map(|m| {
+            if m == 0 {
+                2.0 * edges[0]
             } else {
-                (0..=4).map(|j| x0 + (x1 - x0) * j as f64 / 4.0).collect()
-            };
-            let mut s = 0.0;
-            for w in cuts.windows(2) {
-                s += gauss_legendre(|x| abel_at(f, x, ymax), w[0], w[1]);
+                edges[m] - edges[m - 1]
             }
-            s
         })
         .collect();
     (0..k.size).map(|i| one_side[i.abs_diff(half)]).collect()
+}
+
+/// int over [0, X] x [-Y, Y] of f(sqrt(x^2 + y^2)) in polar form:
+/// int_0^sqrt(X^2+Y^2) f(r) r 2 theta(r) dr, theta(r) = max(0,
+/// asin(min(1, Y/r)) - acos(min(1, X/r))) the angle of the circle of radius r
+/// inside the quarter rectangle. theta has square-root corners at r = X, Y
+/// and sqrt(X^2 + Y^2): panels end there and use r = a + (b - a) t^2 (or
+/// its mirror) to stay smooth; elsewhere panels end at the profile's nodes.
+pub fn strip(f: &RadialInterp, x: f64, y: f64) -> f64 {
+    let rmax = (x * x + y * y).sqrt();
+    let theta = |r: f64| -> f64 {
+        let hi = (y / r).min(1.0).asin();
+        let lo = (x / r).min(1.0).acos();
+        (hi - lo).max(0.0)
+    };
+    let mut cuts: Vec<(f64, bool)> = f
+        .nodes()
+        .iter()
+        .copied()
+        .filter(|&r| r > 0.0 && r < rmax)
+        .map(|r| (r, false))
+        .collect();
+    cuts.extend([
+        (0.0, false),
+        (x.min(rmax), true),
+        (y.min(rmax), true),
+        (rmax, true),
+    ]);
+    cuts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    cuts.dedup_by(|b, a| {
+        if (b.0 - a.0).abs() <= 1e-14 * rmax {
+            a.1 |= b.1;
+            true
+        } else {
+            false
+        }
+    });
+    let mut s = 0.0;
+    for w in cuts.windows(2) {
+        let ((a, sa), (b, sb)) = (w[0], w[1]);
+        if !(b > a) {
+            continue;
+        }
+        let mid = 0.5 * (a + b);
+        let seg = f.segment_of(mid);
+        let g = |r: f64| f.eval_in(seg, r) * r * 2.0 * theta(r);
+        s += match (sa, sb) {
+            (false, false) => gauss_legendre(g, a, b),
+            (true, false) => sqrt_left(&g, a, b),
+            (false, true) => sqrt_right(&g, a, b),
+            (true, true) => sqrt_left(&g, a, mid) + sqrt_right(&g, mid, b),
+        };
+    }
+    s
+}
+
+/// int_a^b g with a square-root corner at a: r = a + (b - a) t^2.
+fn sqrt_left(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
+    let h = b - a;
+    gauss_legendre(|t| g(a + h * t * t) * 2.0 * h * t, 0.0, 1.0)
+}
+
+/// int_a^b g with a square-root corner at b: r = b - (b - a) t^2.
+fn sqrt_right(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
+    let h = b - a;
+    gauss_legendre(|t| g(b - h * t * t) * 2.0 * h * t, 0.0, 1.0)
 }
 
 /// 2 int_0^Y f(sqrt(x^2 + y^2)) dy, one Gauss-Legendre panel per segment
