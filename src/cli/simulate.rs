@@ -60,14 +60,18 @@ struct Flags {
     /// Geometric bins: width dr at the centre growing out to rmax.
     #[arg(long)]
     log_bins: bool,
-    /// Boundary treatment: split (score (1-R) w, keep R w) or classic
-    /// (MCML's all-or-none random choice).
-    #[arg(long, default_value = "split", value_parser = ["split", "classic"])]
+    /// Boundary treatment: classic (MCML's all-or-none random choice; the
+    /// more efficient, see docs/mc.md) or split (score (1-R) w, keep R w).
+    #[arg(long, default_value = "classic", value_parser = ["classic", "split"])]
     boundary: String,
     /// Events per packet after which it is abandoned (energy reported as
     /// truncated).
     #[arg(long, default_value_t = mc::DEFAULT_MAX_EVENTS)]
     max_events: u64,
+    /// Work cap per channel for --target-error runs, in events
+    /// (interactions + boundary hits); ~1.5e9 is about half a minute on 2 cores.
+    #[arg(long, default_value_t = mc::DEFAULT_MAX_WORK)]
+    max_work: u64,
     /// Output profile JSON (default: <material>.json).
     #[arg(long, value_name = "FILE.json")]
     out: Option<PathBuf>,
@@ -134,6 +138,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         boundary,
         max_events: args.max_events,
         single_scatter: false,
+        max_work: args.max_work,
     };
     let out = args
         .out

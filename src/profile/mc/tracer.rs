@@ -119,6 +119,36 @@ fn sample_hg_cos(l: &LayerOptics, xi: f64) -> f64 {
     ((l.one_plus_g2 - t * t) * l.inv_2g).clamp(-1.0, 1.0)
 }
 
+/// (cos phi, sin phi) for phi uniform in [0, 2 pi), from a point uniform in
+/// the unit disc (von Neumann 1951): no trigonometric call on the hot path.
+#[inline(always)]
+fn sample_azimuth(rng: &mut Xoshiro256PlusPlus) -> (f64, f64) {
+    loop {
+        let a = 2.0 * uniform(rng) - 1.0;
+        let b = 2.0 * uniform(rng) - 1.0;
+        let r2 = a * a + b * b;
+        if r2 <= 1.0 && r2 > 1e-300 {
+            let inv = 1.0 / r2;
+            return ((a * a - b * b) * inv, 2.0 * a * b * inv);
+        }
+    }
+}
+
+/// A direction uniform on the unit sphere (Marsaglia 1972): one square root,
+/// no trigonometry.
+#[inline(always)]
+fn sample_sphere(rng: &mut Xoshiro256PlusPlus) -> (f64, f64, f64) {
+    loop {
+        let a = 2.0 * uniform(rng) - 1.0;
+        let b = 2.0 * uniform(rng) - 1.0;
+        let r2 = a * a + b * b;
+        if r2 < 1.0 {
+            let k = 2.0 * (1.0 - r2).sqrt();
+            return (a * k, b * k, 1.0 - 2.0 * r2);
+        }
+    }
+}
+
 /// A photon packet.
 struct Packet {
     x: f64,
@@ -135,18 +165,19 @@ struct Packet {
 impl Packet {
     /// Rotates the direction by polar cosine `cos_t` and azimuth `phi`
     /// (MCML Spin, eq. 3.24-3.26 of the MCML manual).
+    /// `(cp, sp)` is (cos phi, sin phi) of the azimuth.
     #[inline(always)]
-    fn spin(&mut self, cos_t: f64, phi: f64) {
+    fn spin(&mut self, cos_t: f64, (cp, sp): (f64, f64)) {
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let (sp, cp) = phi.sin_cos();
         if self.uz.abs() > 1.0 - 1e-12 {
             self.ux = sin_t * cp;
             self.uy = sin_t * sp;
             self.uz = cos_t * self.uz.signum();
         } else {
             let tmp = (1.0 - self.uz * self.uz).sqrt();
-            let ux = sin_t * (self.ux * self.uz * cp - self.uy * sp) / tmp + self.ux * cos_t;
-            let uy = sin_t * (self.uy * self.uz * cp + self.ux * sp) / tmp + self.uy * cos_t;
+            let k = sin_t / tmp;
+            let ux = k * (self.ux * self.uz * cp - self.uy * sp) + self.ux * cos_t;
+            let uy = k * (self.uy * self.uz * cp + self.ux * sp) + self.uy * cos_t;
             self.uz = -sin_t * cp * tmp + self.uz * cos_t;
             self.ux = ux;
             self.uy = uy;
@@ -224,14 +255,15 @@ fn trace_one(
         }
         let l = &stack.layers[p.layer];
         let s = tau * l.inv_sigma_t;
-        let (d_b, z_b) = if p.uz > 0.0 {
-            ((l.z_bottom - p.z) / p.uz, l.z_bottom)
-        } else if p.uz < 0.0 {
-            ((l.z_top - p.z) / p.uz, l.z_top)
+        let z_new = p.z + s * p.uz;
+        // The division for the distance to the boundary only when it is hit.
+        let crossing = if p.uz > 0.0 {
+            (z_new >= l.z_bottom).then_some(l.z_bottom)
         } else {
-            (f64::INFINITY, p.z)
+            (z_new <= l.z_top && p.uz < 0.0).then_some(l.z_top)
         };
-        if s >= d_b {
+        if let Some(z_b) = crossing {
+            let d_b = ((z_b - p.z) / p.uz).min(s);
             p.x += d_b * p.ux;
             p.y += d_b * p.uy;
             p.z = z_b;
@@ -305,15 +337,19 @@ fn trace_one(
         } else {
             p.x += s * p.ux;
             p.y += s * p.uy;
-            p.z += s * p.uz;
+            p.z = z_new;
             need_step = true;
             // Implicit absorption: deposit w sigma_a / sigma_t (REFERENCE 3 step 4).
             let kept = p.w * l.albedo;
             absorbed += p.w - kept;
             p.w = kept;
-            let cos_t = sample_hg_cos(l, uniform(rng));
-            let phi = 2.0 * std::f64::consts::PI * uniform(rng);
-            p.spin(cos_t, phi);
+            if l.inv_2g == 0.0 {
+                // Isotropic: the new direction does not depend on the old.
+                (p.ux, p.uy, p.uz) = sample_sphere(rng);
+            } else {
+                let cos_t = sample_hg_cos(l, uniform(rng));
+                p.spin(cos_t, sample_azimuth(rng));
+            }
             p.scatters = p.scatters.saturating_add(1);
         }
         events += 1;
@@ -377,6 +413,48 @@ mod tests {
     }
 
     #[test]
+    fn azimuth_is_uniform() {
+        use rand_core::SeedableRng;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+        let n = 200_000;
+        let (mut c, mut s, mut c2, mut q1) = (0.0, 0.0, 0.0, 0);
+        for _ in 0..n {
+            let (cp, sp) = sample_azimuth(&mut rng);
+            assert!((cp * cp + sp * sp - 1.0).abs() < 1e-12);
+            c += cp;
+            s += sp;
+            c2 += cp * cp;
+            q1 += (cp > 0.0 && sp > 0.0) as usize;
+        }
+        let nf = n as f64;
+        // Means 0, <cos^2> = 1/2, a quarter in each quadrant; 5 sigma bounds.
+        assert!((c / nf).abs() < 5.0 * (0.5 / nf).sqrt());
+        assert!((s / nf).abs() < 5.0 * (0.5 / nf).sqrt());
+        assert!((c2 / nf - 0.5).abs() < 5.0 * (0.125 / nf).sqrt());
+        assert!((q1 as f64 / nf - 0.25).abs() < 5.0 * (0.1875 / nf).sqrt());
+    }
+
+    #[test]
+    fn sphere_directions_are_isotropic() {
+        use rand_core::SeedableRng;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+        let n = 200_000;
+        let (mut mz, mut mz2, mut mx) = (0.0, 0.0, 0.0);
+        for _ in 0..n {
+            let (x, y, z) = sample_sphere(&mut rng);
+            assert!((x * x + y * y + z * z - 1.0).abs() < 1e-12);
+            mz += z;
+            mz2 += z * z;
+            mx += x;
+        }
+        let nf = n as f64;
+        // Uniform cos: mean 0, <z^2> = 1/3 (var of z^2 is 4/45); 5 sigma.
+        assert!((mz / nf).abs() < 5.0 * (1.0 / 3.0 / nf).sqrt());
+        assert!((mx / nf).abs() < 5.0 * (1.0 / 3.0 / nf).sqrt());
+        assert!((mz2 / nf - 1.0 / 3.0).abs() < 5.0 * (4.0 / 45.0 / nf).sqrt());
+    }
+
+    #[test]
     fn spin_keeps_unit_length() {
         let mut p = Packet {
             x: 0.0,
@@ -391,7 +469,7 @@ mod tests {
         };
         for k in 0..1000 {
             let c = ((k * 37) % 200) as f64 / 100.0 - 1.0;
-            p.spin(c, k as f64 * 0.7);
+            p.spin(c, (k as f64 * 0.7).sin_cos());
             let norm = p.ux * p.ux + p.uy * p.uy + p.uz * p.uz;
             assert!((norm - 1.0).abs() < 1e-12, "{norm}");
         }
