@@ -14,7 +14,7 @@ mod tally;
 mod tracer;
 
 pub use tally::Moments;
-pub use tracer::{BoundaryMode, ROULETTE_CHANCE, ROULETTE_THRESHOLD};
+pub use tracer::{BoundaryMode, DEFAULT_ROULETTE_THRESHOLD, ROULETTE_CHANCE, ROULETTE_THRESHOLD};
 
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
@@ -70,6 +70,9 @@ pub struct McOptions {
     /// has spent this many events (interactions + boundary hits). Keeps
     /// slow media (albedo near 1) bounded; reported when it stops a run.
     pub max_work: u64,
+    /// Weight below which Russian roulette plays (default 0.01; MCML: 1e-4).
+    /// Any value in (0, 1) is unbiased; higher values trade variance for speed.
+    pub roulette_threshold: f64,
 }
 
 impl Default for McOptions {
@@ -79,6 +82,7 @@ impl Default for McOptions {
             max_events: DEFAULT_MAX_EVENTS,
             single_scatter: false,
             max_work: DEFAULT_MAX_WORK,
+            roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
         }
     }
 }
@@ -127,6 +131,7 @@ pub fn simulate_with(
         mode: opts.boundary,
         max_events: opts.max_events,
         single_scatter: opts.single_scatter,
+        roulette_threshold: opts.roulette_threshold,
     };
     let cap = match cfg.budget {
         PhotonBudget::Fixed(n) => n,
@@ -188,6 +193,14 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     }
     if opts.max_work == 0 {
         return Err(Error::invalid("--max-work", "max work", 0, "must be >= 1"));
+    }
+    if !(opts.roulette_threshold > 0.0 && opts.roulette_threshold < 1.0) {
+        return Err(Error::invalid(
+            "--roulette",
+            "roulette threshold",
+            opts.roulette_threshold,
+            "must be in (0, 1); MCML uses 1e-4",
+        ));
     }
     if opts.max_events == 0 {
         return Err(Error::invalid(
@@ -436,7 +449,7 @@ fn build_profile(
                 "budget": budget,
                 "max_events": opts.max_events,
                 "max_work": opts.max_work,
-                "roulette": {"threshold": ROULETTE_THRESHOLD, "survival": ROULETTE_CHANCE},
+                "roulette": {"threshold": opts.roulette_threshold, "survival": ROULETTE_CHANCE},
                 "chunk": CHUNK,
                 "batch": BATCH,
                 "rng": "xoshiro256++ per (seed, channel, chunk), SplitMix64-hashed",
