@@ -114,12 +114,13 @@ pub fn simulate_with(
         Some(g) => (g.clone(), json!({"rule": "given"})),
         None => RadialGrid::for_material_rule(material, &cfg.channels, false),
     };
-    if grid.is_empty() {
+    let e = &grid.edges;
+    if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
         return Err(Error::invalid(
             "radial grid",
-            "bins",
-            0,
-            "need at least 1 bin",
+            "edges",
+            format!("{} values", e.len()),
+            "need at least 2 edges, starting at 0, finite and strictly increasing",
         ));
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -138,7 +139,7 @@ pub fn simulate_with(
         PhotonBudget::TargetError { max_photons, .. } => max_photons,
     };
     progress.start(
-        cap * cfg.channels.len() as u64,
+        cap.saturating_mul(cfg.channels.len() as u64),
         &format!("{} photons", material.name),
     );
     let mut runs = Vec::with_capacity(cfg.channels.len());
@@ -232,7 +233,7 @@ fn chunk_rng(seed: u64, ch: Channel, chunk: u64) -> Xoshiro256PlusPlus {
 struct ChannelRun {
     tally: ChunkTally,
     /// Relative standard error of total R_d and of the profile (see
-    /// `profile_rel_error`), and the radius holding 99% of R_d.
+    /// `convergence`), and the radius holding 99% of R_d.
     rel_total: f64,
     rel_profile: f64,
     r99: f64,
@@ -558,5 +559,16 @@ mod tests {
         };
         let e = simulate(&m, &cfg, &NoProgress).unwrap_err().to_string();
         assert!(e.contains("--target-error"), "{e}");
+        cfg.budget = PhotonBudget::Fixed(10);
+        for edges in [
+            vec![0.0],
+            vec![0.0, 0.1, 0.1],
+            vec![0.1, 0.2],
+            vec![0.0, f64::NAN],
+        ] {
+            cfg.grid = Some(RadialGrid { edges });
+            let e = simulate(&m, &cfg, &NoProgress).unwrap_err().to_string();
+            assert!(e.contains("radial grid"), "{e}");
+        }
     }
 }
