@@ -325,6 +325,25 @@ fn a_matched_stack_equals_one_layer() {
 }
 
 #[test]
+fn a_split_half_space_equals_the_half_space() {
+    // A 0.3 mm layer over a semi-infinite layer of the same optics and index
+    // (n = 1.5 under air) is the albedo-0.9 half-space: R_d = 0.21993.
+    let layer = "sigma_a = 0.1\nsigma_s = 0.9\neta = 1.5\n";
+    let m = material(&format!(
+        "unit = \"mm\"\n[[layer]]\n{layer}thickness = 0.3\n[[layer]]\n{layer}"
+    ));
+    let p = simulate(&m, &cfg(200_000, Channel::B, None), &NoProgress).unwrap();
+    within(
+        p.total_rd[0],
+        0.21993,
+        p.total_rd_stderr.as_ref().unwrap()[0],
+        "R_d",
+    );
+    assert_eq!(p.transmittance.as_ref().unwrap()[0], 0.0);
+    assert_balance(&p);
+}
+
+#[test]
 fn extremes_terminate_and_report() {
     let cases: [(&str, String); 8] = [
         (
