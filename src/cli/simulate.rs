@@ -43,6 +43,7 @@ struct Flags {
     /// Cap on photons per channel for --target-error.
     #[arg(long, default_value_t = DEFAULT_MAX_PHOTONS, allow_hyphen_values = true)]
     max_photons: u64,
+    /// RNG seed: the same seed gives bit-identical output.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Worker threads (results are identical for any count).
