@@ -144,7 +144,10 @@ fn channel_half(k: &Kernel2D, p: &ManualParams, c: usize) -> Vec<f64> {
 pub fn fit(k: &Kernel2D) -> Result<(ManualParams, serde_json::Value)> {
     let quadrants: Vec<Vec<f64>> = (0..3).map(|c| k.quadrant(c)).collect();
     let lo = (0.25 * k.cell_mm).ln();
-    let hi = k.extent_mm().ln();
+    // A Gaussian much wider than the kernel would act as a constant floor
+    // whose mass lies off the grid (and off any tap table): keep 3 sigma
+    // inside the extent.
+    let hi = (k.extent_mm() / 3.0).ln();
     let decode = |x: &[f64]| ManualParams {
         w: 1.0 / (1.0 + (-x[0]).exp()),
         sqrt_tau_near: [x[1].exp(), x[2].exp(), x[3].exp()],
@@ -164,7 +167,7 @@ pub fn fit(k: &Kernel2D) -> Result<(ManualParams, serde_json::Value)> {
         let mut x = x0;
         // Restarts shake the simplex out of early collapse.
         for _ in 0..3 {
-            x = nelder_mead(cost, &x, 0.5, (lo.min(-12.0), hi + 1.0), 1500);
+            x = nelder_mead(cost, &x, 0.5, (lo.min(-12.0), hi), 1500);
         }
         let f = cost(&x);
         if best.as_ref().is_none_or(|b| f < b.1) {
