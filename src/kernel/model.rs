@@ -122,9 +122,13 @@ pub fn fit_kernel_file(
     model: &Model,
     tap_count: usize,
 ) -> Result<KernelFile> {
+    let t0 = Instant::now();
     let k = Kernel2D::from_profile(profile, spec)?;
+    let build = t0.elapsed().as_secs_f64();
     let fitted = fit_model(&k, profile, model)?;
-    assemble(profile, &k, model, fitted, tap_count)
+    let mut file = assemble(profile, &k, model, fitted, tap_count)?;
+    file.metrics.extra["kernel_build_seconds"] = json!(build);
+    Ok(file)
 }
 
 pub fn assemble(
