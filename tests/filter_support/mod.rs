@@ -141,9 +141,15 @@ pub fn gaussian_kernel(rank: usize, n_taps: usize) -> KernelFile {
         let amp = (masses[i] / total).sqrt();
         let s = widths[i];
         let offsets: Vec<f64> = (-60..=60).map(|k| k as f64 * 0.05).collect();
-        let weights = offsets
+        // Normalised on the truncated grid so each term has mass amp^2.
+        let weights: Vec<[f64; 3]> = offsets
             .iter()
-            .map(|&x| [0, 1, 2].map(|c| amp * gauss(x, s[c]) * 0.05))
+            .map(|&x| [0, 1, 2].map(|c| gauss(x, s[c])))
+            .collect();
+        let sums = [0, 1, 2].map(|c| weights.iter().map(|w| w[c]).sum::<f64>());
+        let weights = weights
+            .iter()
+            .map(|w| [0, 1, 2].map(|c| amp * w[c] / sums[c]))
             .collect();
         passes.push(Pass {
             offsets_mm: offsets,
