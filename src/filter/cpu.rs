@@ -35,6 +35,12 @@ impl PixelKernel {
         let hi = pos.iter().fold(f64::NEG_INFINITY, |a, &p| a.max(p.floor())) as i64 + 1;
         let mut weights = vec![[0.0; 3]; (hi - lo + 1) as usize];
         for (p, w) in pos.iter().zip(&t.weights) {
+            // A tap within round-off of a whole pixel stays one entry.
+            let p = if (p - p.round()).abs() < 1e-9 {
+                p.round()
+            } else {
+                *p
+            };
             let i0 = p.floor();
             let f = p - i0;
             let k = (i0 as i64 - lo) as usize;
@@ -80,54 +86,152 @@ fn add_specular(mut out: Image, specular: Option<&Image>) -> Image {
 /// Rank-N separable convolution: sum over kernels of vertical(horizontal(I)),
 /// borders clamped.
 pub fn apply_separable(image: &Image, kernels: &[PixelKernel]) -> Image {
-    let (w, h) = (image.width, image.height);
-    let mut out = Image::new(w, h);
+    let mut out = Image::new(image.width, image.height);
+    apply_separable_into(image, kernels, &mut out);
     out.alpha = image.alpha.clone();
-    for k in kernels {
-        for c in 0..3 {
-            let tmp = convolve_rows(&image.rgb[c], w, h, k, c);
-            let v = convolve_columns(&tmp, w, h, k, c);
-            out.rgb[c].iter_mut().zip(&v).for_each(|(o, x)| *o += x);
-        }
-    }
     out
 }
 
-fn convolve_rows(src: &[f64], w: usize, h: usize, k: &PixelKernel, c: usize) -> Vec<f64> {
-    let mut out = vec![0.0; w * h];
-    let n = k.weights.len();
-    out.par_chunks_mut(w)
-        .zip(src.par_chunks(w))
-        .take(h)
-        .for_each_init(Vec::new, |pad, (o, row)| {
-            pad.clear();
-            pad.extend((0..w + n - 1).map(|i| row[clamp(i as i64 + k.first, w)]));
-            for (j, wt) in k.weights.iter().enumerate() {
-                let wt = wt[c];
-                if wt != 0.0 {
-                    o.iter_mut()
-                        .zip(&pad[j..j + w])
-                        .for_each(|(a, &x)| *a += wt * x);
+/// [`apply_separable`] into a caller's buffer (reused frame after frame, as
+/// a renderer would); `out` is resized and overwritten.
+pub fn apply_separable_into(image: &Image, kernels: &[PixelKernel], out: &mut Image) {
+    let (w, h) = (image.width, image.height);
+    out.width = w;
+    out.height = h;
+    for c in 0..3 {
+        out.rgb[c].clear();
+        out.rgb[c].resize(w * h, 0.0);
+        separable_plane(&image.rgb[c], &mut out.rgb[c], w, h, kernels, c);
+    }
+}
+
+/// Output rows per task: each task filters the rows it needs horizontally
+/// into a strip that stays in cache, then runs the vertical pass from it,
+/// so no full-size intermediate image is written.
+const STRIP: usize = 96;
+
+fn separable_plane(
+    src: &[f64],
+    out: &mut [f64],
+    w: usize,
+    h: usize,
+    kernels: &[PixelKernel],
+    c: usize,
+) {
+    out.par_chunks_mut(STRIP * w).enumerate().for_each_init(
+        || (Vec::new(), Vec::new(), Vec::new()),
+        |(strip, pad, wts), (block, o)| {
+            let y0 = block * STRIP;
+            let rows = o.len() / w;
+            for k in kernels {
+                wts.clear();
+                wts.extend(k.weights.iter().map(|v| v[c]));
+                let n = wts.len();
+                // Source rows y0 + first .. y0 + rows - 1 + first + n - 1.
+                let lo = y0 as i64 + k.first;
+                let count = rows + n - 1;
+                strip.resize(count * w, 0.0);
+                for (r, srow) in strip.chunks_mut(w).enumerate() {
+                    let sy = clamp(lo + r as i64, h);
+                    let row = &src[sy * w..sy * w + w];
+                    pad.clear();
+                    pad.extend((0..w + n - 1).map(|i| row[clamp(i as i64 + k.first, w)]));
+                    correlate_row(pad, wts, srow);
+                }
+                accumulate_columns(strip, w, wts, o);
+            }
+        },
+    );
+}
+
+/// Accumulators per block: eight f64 lanes fill two AVX2 registers.
+const LANES: usize = 8;
+
+/// out[x] = sum_j wts[j] pad[x + j], blocked so each output is stored once.
+fn correlate_row(pad: &[f64], wts: &[f64], out: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the features were detected just above.
+        return unsafe { correlate_row_avx2(pad, wts, out) };
+    }
+    correlate_row_generic(pad, wts, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn correlate_row_avx2(pad: &[f64], wts: &[f64], out: &mut [f64]) {
+    correlate_row_generic(pad, wts, out)
+}
+
+#[inline(always)]
+fn correlate_row_generic(pad: &[f64], wts: &[f64], out: &mut [f64]) {
+    let w = out.len();
+    let mut x = 0;
+    while x + LANES <= w {
+        let mut acc = [0.0; LANES];
+        for (j, &wt) in wts.iter().enumerate() {
+            let p = &pad[x + j..x + j + LANES];
+            for l in 0..LANES {
+                acc[l] += wt * p[l];
+            }
+        }
+        out[x..x + LANES].copy_from_slice(&acc);
+        x += LANES;
+    }
+    for (xx, o) in out.iter_mut().enumerate().skip(x) {
+        *o = wts
+            .iter()
+            .enumerate()
+            .map(|(j, &wt)| wt * pad[xx + j])
+            .sum();
+    }
+}
+
+/// out[r][x] += sum_j wts[j] strip[r + j][x] for the rows of `out`. Walks
+/// down one column block at a time so the window of n rows stays in L1.
+fn accumulate_columns(strip: &[f64], w: usize, wts: &[f64], out: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the features were detected just above.
+        return unsafe { accumulate_columns_avx2(strip, w, wts, out) };
+    }
+    accumulate_columns_generic(strip, w, wts, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn accumulate_columns_avx2(strip: &[f64], w: usize, wts: &[f64], out: &mut [f64]) {
+    accumulate_columns_generic(strip, w, wts, out)
+}
+
+#[inline(always)]
+fn accumulate_columns_generic(strip: &[f64], w: usize, wts: &[f64], out: &mut [f64]) {
+    let rows = out.len() / w;
+    let mut x = 0;
+    while x + LANES <= w {
+        for r in 0..rows {
+            let o = &mut out[r * w + x..r * w + x + LANES];
+            let mut acc = [0.0; LANES];
+            acc.copy_from_slice(o);
+            for (j, &wt) in wts.iter().enumerate() {
+                let p = &strip[(r + j) * w + x..(r + j) * w + x + LANES];
+                for l in 0..LANES {
+                    acc[l] += wt * p[l];
                 }
             }
-        });
-    out
-}
-
-fn convolve_columns(src: &[f64], w: usize, h: usize, k: &PixelKernel, c: usize) -> Vec<f64> {
-    let mut out = vec![0.0; w * h];
-    out.par_chunks_mut(w).enumerate().for_each(|(y, o)| {
-        for (j, wt) in k.weights.iter().enumerate() {
-            let wt = wt[c];
-            if wt != 0.0 {
-                let sy = clamp(y as i64 + k.first + j as i64, h);
-                o.iter_mut()
-                    .zip(&src[sy * w..sy * w + w])
-                    .for_each(|(a, &x)| *a += wt * x);
-            }
+            o.copy_from_slice(&acc);
         }
-    });
-    out
+        x += LANES;
+    }
+    for r in 0..rows {
+        for xx in x..w {
+            out[r * w + xx] += wts
+                .iter()
+                .enumerate()
+                .map(|(j, &wt)| wt * strip[(r + j) * w + xx])
+                .sum::<f64>();
+        }
+    }
 }
 
 fn clamp(i: i64, n: usize) -> usize {
