@@ -8,6 +8,7 @@
 //! - `per-pixel`: 002 algorithm 4.1 with a per-pixel step (strength image);
 //! - `depth-aware`: perspective scale from depth (002 eq. 4.11) plus the
 //!   follow-surface lerp (002 eq. 4.12): the cost of depth-awareness.
+//!
 //! `-- --dump DIR` also writes the image, the 17 weights and our separable
 //! result as raw little-endian f32 for the OpenCV side.
 
@@ -88,6 +89,12 @@ fn median_ms(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
     (t[reps / 2], cpu)
 }
 
+fn report(name: &str, ms: f64, cpu: f64, threads: usize) {
+    println!(
+        "{{\"case\": \"{name}\", \"ms_per_frame\": {ms:.2}, \"cpu_ms_per_frame\": {cpu:.1}, \"size\": \"{W}x{H}\", \"taps\": 17, \"rank\": 1, \"threads\": {threads}}}"
+    );
+}
+
 fn write_f32(path: &std::path::Path, v: impl Iterator<Item = f64>) {
     let bytes: Vec<u8> = v.flat_map(|x| (x as f32).to_le_bytes()).collect();
     std::fs::write(path, bytes).expect("writes the dump");
@@ -148,15 +155,18 @@ fn main() {
     };
     let threads = rayon::current_num_threads();
     // The plain separable case into a reused output buffer (no page faults
-    // for a fresh 48 MB image each frame), as a renderer would run it.
+    // for a fresh 48 MB image each frame), as a renderer would run it, in
+    // f64 (the reference) and f32 (OpenCV's precision).
     let kernel = [cpu::PixelKernel::from_taps(&taps(true), 10.0)];
     let mut reused = Image::new(W, H);
     let (ms, cpu) = median_ms(reps, || {
-        cpu::apply_separable_into(&img, &kernel, &mut reused)
+        cpu::apply_separable_into::<f64>(&img, &kernel, &mut reused)
     });
-    println!(
-        "{{\"case\": \"separable-reused\", \"ms_per_frame\": {ms:.2}, \"cpu_ms_per_frame\": {cpu:.1}, \"size\": \"{W}x{H}\", \"taps\": 17, \"rank\": 1, \"threads\": {threads}}}"
-    );
+    report("separable-reused", ms, cpu, threads);
+    let (ms, cpu) = median_ms(reps, || {
+        cpu::apply_separable_into::<f32>(&img, &kernel, &mut reused)
+    });
+    report("separable-f32-reused", ms, cpu, threads);
     let mut out = None;
     for (name, setup) in [
         ("separable", &sep),
@@ -165,9 +175,7 @@ fn main() {
         ("depth-aware", &depth_aware),
     ] {
         let (ms, cpu) = median_ms(reps, || out = Some(cpu::apply(&img, setup).unwrap()));
-        println!(
-            "{{\"case\": \"{name}\", \"ms_per_frame\": {ms:.2}, \"cpu_ms_per_frame\": {cpu:.1}, \"size\": \"{W}x{H}\", \"taps\": 17, \"rank\": 1, \"threads\": {threads}}}"
-        );
+        report(name, ms, cpu, threads);
         if name == "separable" {
             if let (Some(dir), Some(o)) = (&dump, &out) {
                 std::fs::create_dir_all(dir).expect("creates the dump folder");
