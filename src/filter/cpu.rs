@@ -339,16 +339,18 @@ struct PassCtx<'a> {
 impl PassCtx<'_> {
     fn run(&self, src: &[Vec<f64>; 3], axis: Axis) -> [Vec<f64>; 3] {
         let (w, h) = (self.w, self.h);
-        let mut inter = vec![[0.0f64; 3]; w * h];
-        inter.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, o) in row.iter_mut().enumerate() {
-                *o = self.pixel(src, axis, x, y);
-            }
-        });
-        let mut out: [Vec<f64>; 3] = Default::default();
-        for (c, plane) in out.iter_mut().enumerate() {
-            *plane = inter.iter().map(|v| v[c]).collect();
-        }
+        let mut out: [Vec<f64>; 3] = [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]];
+        let [r, g, b] = &mut out;
+        r.par_chunks_mut(w)
+            .zip(g.par_chunks_mut(w))
+            .zip(b.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(y, ((r, g), b))| {
+                for x in 0..w {
+                    let v = self.pixel(src, axis, x, y);
+                    (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
+                }
+            });
         out
     }
 

@@ -302,6 +302,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn perspective_step_is_the_projected_size_of_a_kernel_millimetre() {
+        // 002 eq. 4.11: at depth d a vertical field of view F covers
+        // 2 d tan(F/2) scene units over the image height H.
+        let (fov, w, h, d) = (50.0f64, 0.001, 1080, 0.4);
+        let s = Scale::Perspective {
+            fov_y_deg: fov,
+            sss_width: w,
+        };
+        let scene_per_pixel = 2.0 * d * (fov.to_radians() / 2.0).tan() / h as f64;
+        let expected = w / scene_per_pixel;
+        assert!((s.step_base(h) / d - expected).abs() < 1e-12 * expected);
+        // 002 eq. 4.12: t = C sss_width |dd| / tan(F/2).
+        let k = s.follow_factor(300.0);
+        assert!((k - 300.0 * w / (fov.to_radians() / 2.0).tan()).abs() < 1e-12);
+        assert_eq!(Scale::MmPerPixel(0.25).step_base(h), 4.0);
+    }
+
+    #[test]
     fn resampling_preserves_the_sum_and_the_mean() {
         let offsets: Vec<f64> = (-20..=20).map(|i| i as f64 * 0.13).collect();
         let weights: Vec<[f64; 3]> = offsets
