@@ -8,9 +8,14 @@ use filter_support::*;
 use ssskit::filter::{cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
 use std::sync::Once;
 
-fn open_gpu() -> gpu::Gpu {
+/// Sets the lavapipe variables once, before any test reads the environment.
+fn gpu_env() {
     static ENV: Once = Once::new();
     ENV.call_once(gpu::use_software_vulkan_if_unset);
+}
+
+fn open_gpu() -> gpu::Gpu {
+    gpu_env();
     match gpu::Gpu::new() {
         Ok(g) => g,
         Err(e) => panic!("GPU test needs an adapter (lavapipe in CI): {e}"),
@@ -182,8 +187,7 @@ fn far_background_does_not_bleed_into_the_foreground_on_the_gpu() {
 
 #[test]
 fn cli_gpu_backend_names_its_adapter() {
-    static ENV: Once = Once::new();
-    ENV.call_once(gpu::use_software_vulkan_if_unset);
+    gpu_env();
     let dir = tempfile::tempdir().unwrap();
     let k = dir.path().join("k.json");
     gaussian_kernel(1, 11).write(&k).unwrap();
