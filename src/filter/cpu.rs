@@ -362,19 +362,20 @@ impl PassCtx<'_> {
             Axis::Vertical => (y, h, w, x),
         };
         let step = self.steps[centre];
-        let centre_colour = [src[0][centre], src[1][centre], src[2][centre]];
+        let planes = [&src[0][..], &src[1][..], &src[2][..]];
+        let centre_colour = [planes[0][centre], planes[1][centre], planes[2][centre]];
         let mut acc = [0.0; 3];
         for (off, wt) in self.taps.offsets_mm.iter().zip(&self.taps.weights) {
             // 002 eq. 4.11: the offset scaled by the pixel's kernel size.
             let p = (coord as f64 + off * step).clamp(0.0, (n - 1) as f64);
-            let i0 = p.floor();
-            let f = p - i0;
-            let i0 = i0 as usize;
+            // p >= 0, so truncation is floor (and avoids a libm call).
+            let i0 = p as usize;
+            let f = p - i0 as f64;
             let i1 = (i0 + 1).min(n - 1);
             let (a, b) = (base + i0 * stride, base + i1 * stride);
             let mut o = [0.0; 3];
             for c in 0..3 {
-                o[c] = src[c][a] * (1.0 - f) + src[c][b] * f;
+                o[c] = planes[c][a] * (1.0 - f) + planes[c][b] * f;
             }
             if let (Some(k), Some(d)) = (self.follow, self.depth) {
                 let od = d[a] * (1.0 - f) + d[b] * f;
