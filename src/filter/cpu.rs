@@ -101,7 +101,12 @@ pub fn apply_separable_into<T: Sample>(image: &Image, kernels: &[PixelKernel], o
     out.width = w;
     out.height = h;
     for c in 0..3 {
-        out.rgb[c].clear();
+        if kernels.is_empty() || w == 0 || h == 0 {
+            out.rgb[c].clear();
+            out.rgb[c].resize(w * h, 0.0);
+            continue;
+        }
+        // Every sample is overwritten by the first kernel: no zero fill.
         out.rgb[c].resize(w * h, 0.0);
         separable_plane::<T>(&image.rgb[c], &mut out.rgb[c], w, h, kernels, c);
     }
@@ -159,7 +164,7 @@ fn separable_plane<T: Sample>(
         |(strip, pad, wts), (block, o)| {
             let y0 = block * STRIP;
             let rows = o.len() / w;
-            for k in kernels {
+            for (i, k) in kernels.iter().enumerate() {
                 wts.clear();
                 wts.extend(k.weights.iter().map(|v| T::from_f64(v[c])));
                 let n = wts.len();
@@ -172,7 +177,7 @@ fn separable_plane<T: Sample>(
                     fill_clamped(pad, row, k.first, w + n - 1);
                     correlate_row(pad, wts, srow);
                 }
-                accumulate_columns(strip, w, wts, o);
+                accumulate_columns(strip, w, wts, o, i > 0);
             }
         },
     );
@@ -248,25 +253,38 @@ fn correlate_row_generic<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
     }
 }
 
-/// out[r][x] += sum_j wts[j] strip[r + j][x] for the rows of `out`. Walks
-/// down one column block at a time so the window of n rows stays in L1.
-fn accumulate_columns<T: Sample>(strip: &[T], w: usize, wts: &[T], out: &mut [f64]) {
+/// out[r][x] (+)= sum_j wts[j] strip[r + j][x] for the rows of `out`
+/// (overwriting unless `add`). Walks down one column block at a time so the
+/// window of n rows stays in L1.
+fn accumulate_columns<T: Sample>(strip: &[T], w: usize, wts: &[T], out: &mut [f64], add: bool) {
     #[cfg(target_arch = "x86_64")]
     if has_avx2() {
         // SAFETY: has_avx2 checked the CPU features.
-        return unsafe { accumulate_columns_avx2(strip, w, wts, out) };
+        return unsafe { accumulate_columns_avx2(strip, w, wts, out, add) };
     }
-    accumulate_columns_generic(strip, w, wts, out)
+    accumulate_columns_generic(strip, w, wts, out, add)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn accumulate_columns_avx2<T: Sample>(strip: &[T], w: usize, wts: &[T], out: &mut [f64]) {
-    accumulate_columns_generic(strip, w, wts, out)
+unsafe fn accumulate_columns_avx2<T: Sample>(
+    strip: &[T],
+    w: usize,
+    wts: &[T],
+    out: &mut [f64],
+    add: bool,
+) {
+    accumulate_columns_generic(strip, w, wts, out, add)
 }
 
 #[inline(always)]
-fn accumulate_columns_generic<T: Sample>(strip: &[T], w: usize, wts: &[T], out: &mut [f64]) {
+fn accumulate_columns_generic<T: Sample>(
+    strip: &[T],
+    w: usize,
+    wts: &[T],
+    out: &mut [f64],
+    add: bool,
+) {
     let rows = out.len() / w;
     let mut x = 0;
     while x + LANES <= w {
@@ -279,20 +297,28 @@ fn accumulate_columns_generic<T: Sample>(strip: &[T], w: usize, wts: &[T], out: 
                 }
             }
             let o = &mut out[r * w + x..r * w + x + LANES];
-            for l in 0..LANES {
-                o[l] += acc[l].to_f64();
+            if add {
+                for l in 0..LANES {
+                    o[l] += acc[l].to_f64();
+                }
+            } else {
+                for l in 0..LANES {
+                    o[l] = acc[l].to_f64();
+                }
             }
         }
         x += LANES;
     }
     for r in 0..rows {
         for xx in x..w {
-            out[r * w + xx] += wts
+            let v = wts
                 .iter()
                 .enumerate()
                 .map(|(j, &wt)| wt * strip[(r + j) * w + xx])
                 .sum::<T>()
                 .to_f64();
+            let o = &mut out[r * w + xx];
+            *o = if add { *o + v } else { v };
         }
     }
 }
@@ -433,6 +459,9 @@ pub const FFT_ABOVE: usize = 21;
 pub fn convolve_2d(image: &Image, k: &Kernel2D) -> Image {
     let mut out = Image::new(image.width, image.height);
     out.alpha = image.alpha.clone();
+    if image.is_empty() {
+        return out;
+    }
     for c in 0..3 {
         out.rgb[c] = if k.size > FFT_ABOVE {
             convolve_2d_fft(&image.rgb[c], image.width, image.height, &k.data[c], k.size)

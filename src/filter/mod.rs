@@ -127,6 +127,9 @@ impl Setup {
     /// Checks sizes and values against the image.
     pub fn validate(&self, image: &Image) -> Result<()> {
         self.scale.validate()?;
+        if image.is_empty() {
+            return Err(Error::Unsupported("the input image has no pixels".into()));
+        }
         if self.passes.is_empty() {
             return Err(Error::Unsupported("the kernel has no passes".into()));
         }
