@@ -614,6 +614,29 @@ mod tests {
     }
 
     #[test]
+    fn reused_buffers_and_f32_give_the_fresh_f64_result() {
+        let img = noise_image(45, 20);
+        let t = Taps {
+            offsets_mm: vec![-0.9, -0.2, 0.0, 0.5, 1.1],
+            weights: vec![[0.1; 3], [0.2; 3], [0.4; 3], [0.2; 3], [0.1; 3]],
+        };
+        let k = [
+            PixelKernel::from_taps(&t, 3.0),
+            PixelKernel::from_taps(&t, 1.7),
+        ];
+        let fresh = apply_separable(&img, &k);
+        let mut reused = noise_image(45, 20);
+        apply_separable_into::<f64>(&img, &k, &mut reused);
+        assert_eq!(fresh.rgb, reused.rgb);
+        apply_separable_into::<f32>(&img, &k, &mut reused);
+        for c in 0..3 {
+            for (a, b) in fresh.rgb[c].iter().zip(&reused.rgb[c]) {
+                assert!((a - b).abs() < 1e-6, "{a} {b}");
+            }
+        }
+    }
+
+    #[test]
     fn fixed_kernels_equal_the_per_pixel_algorithm() {
         let img = noise_image(31, 23);
         let taps = Taps {
