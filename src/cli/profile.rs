@@ -57,10 +57,10 @@ pub struct Args {
     #[arg(long, value_enum)]
     model: ModelArg,
     /// Radial bin width in mm (default: min MFP / 20, 002 table 6.1).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     dr: Option<f64>,
     /// Largest radius in mm (default: 32 max MFP, 002 table 6.1).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     rmax: Option<f64>,
     /// Fresnel moments: polynomial fits or exact integration.
     #[arg(long, value_enum, default_value = "fit")]

@@ -33,7 +33,7 @@ struct CompareArgs {
     reference_photons: Option<u64>,
     /// Trace until the reference's relative standard error is below this
     /// (default 0.01 when --reference-photons is not given).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     target_error: Option<f64>,
     /// Photon cap per channel with --target-error.
     #[arg(long, default_value_t = 10_000_000)]
