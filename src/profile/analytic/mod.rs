@@ -15,6 +15,7 @@ use super::fresnel::{specular_normal, FresnelMode};
 use super::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material, Medium};
+use rayon::prelude::*;
 use serde_json::json;
 
 /// The analytic profile models.
@@ -267,41 +268,15 @@ pub fn profile(
     let mut totals = Vec::new();
     let mut per_channel = serde_json::Map::new();
     let mut extra = serde_json::Map::new();
-    for &ch in &options.channels {
-        let medium = material.top(ch);
-        let cm = ChannelModel::new(model, &medium, options.fresnel, t_entry)?;
-        let bins = bin_averages_resolved(|r| cm.rd(r), grid);
-        if let Some((i, v)) = bins
-            .iter()
-            .enumerate()
-            .find(|(_, v)| !v.is_finite() || **v < 0.0)
-        {
-            return Err(Error::Unsupported(format!(
-                "{} gave R_d = {v} in bin {i} of channel {}: numerically unstable here",
-                model.name(),
-                ch.name()
-            )));
-        }
-        let (total, method) = cm.total(&medium);
-        if !total.is_finite() || total < 0.0 {
-            return Err(Error::Unsupported(format!(
-                "{} gave total R_d = {total} in channel {}",
-                model.name(),
-                ch.name()
-            )));
-        }
-        let tabulated: f64 = bins.iter().zip(grid.areas()).map(|(v, a)| v * a).sum();
-        let mut params = cm.params();
-        params["total_method"] = json!(method);
+    // Channels are independent: computed in parallel, collected in order.
+    let per: Vec<(Vec<f64>, f64, serde_json::Value, serde_json::Value)> = options
+        .channels
+        .par_iter()
+        .map(|&ch| channel_profile(model, material.top(ch), ch, grid, options.fresnel, t_entry))
+        .collect::<Result<_>>()?;
+    for (&ch, (bins, total, params, info)) in options.channels.iter().zip(per) {
         per_channel.insert(ch.name().into(), params);
-        extra.insert(
-            ch.name().into(),
-            json!({
-                "tabulated_fraction": if total > 0.0 { tabulated / total } else { 1.0 },
-                "reduced_albedo": medium.reduced_albedo(),
-                "diffusion_regime": diffusion_regime(&medium),
-            }),
-        );
+        extra.insert(ch.name().into(), info);
         rd.push(bins);
         totals.push(total);
     }
@@ -337,6 +312,47 @@ pub fn profile(
         extra: serde_json::Value::Object(extra),
         elapsed_s: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Bins, total, parameters and diagnostics of one channel.
+fn channel_profile(
+    model: Model,
+    medium: Medium,
+    ch: Channel,
+    grid: &RadialGrid,
+    fresnel: FresnelMode,
+    t_entry: f64,
+) -> Result<(Vec<f64>, f64, serde_json::Value, serde_json::Value)> {
+    let cm = ChannelModel::new(model, &medium, fresnel, t_entry)?;
+    let bins = bin_averages_resolved(|r| cm.rd(r), grid);
+    if let Some((i, v)) = bins
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !v.is_finite() || **v < 0.0)
+    {
+        return Err(Error::Unsupported(format!(
+            "{} gave R_d = {v} in bin {i} of channel {}: numerically unstable here",
+            model.name(),
+            ch.name()
+        )));
+    }
+    let (total, method) = cm.total(&medium);
+    if !total.is_finite() || total < 0.0 {
+        return Err(Error::Unsupported(format!(
+            "{} gave total R_d = {total} in channel {}",
+            model.name(),
+            ch.name()
+        )));
+    }
+    let tabulated: f64 = bins.iter().zip(grid.areas()).map(|(v, a)| v * a).sum();
+    let mut params = cm.params();
+    params["total_method"] = json!(method);
+    let info = json!({
+        "tabulated_fraction": if total > 0.0 { tabulated / total } else { 1.0 },
+        "reduced_albedo": medium.reduced_albedo(),
+        "diffusion_regime": diffusion_regime(&medium),
+    });
+    Ok((bins, total, params, info))
 }
 
 /// Where diffusion theory can be trusted: it needs many scattering events
