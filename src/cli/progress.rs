@@ -4,10 +4,8 @@
 use indicatif::{ProgressBar, ProgressStyle};
 use ssskit::progress::Progress;
 
-#[allow(dead_code)] // FOUNDATION: used once `simulate` lands
 pub struct Bar(ProgressBar);
 
-#[allow(dead_code)]
 impl Bar {
     pub fn new() -> Bar {
         Bar(ProgressBar::hidden())

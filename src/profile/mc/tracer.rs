@@ -1,0 +1,477 @@
+//! The photon packet walk of MCML (Wang, Jacques & Zheng 1995; REFERENCE.md
+//! section 3), in f64, through a stack of layers between two ambient media.
+//! z points down into the material; the top surface is z = 0.
+
+use super::tally::{BinIndex, ChunkTally, PhotonScratch};
+use crate::material::{Channel, Material};
+use crate::profile::fresnel::{fresnel_dielectric, specular_normal};
+use rand_core::RngCore;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// Russian roulette threshold and survival chance (MCML: 1e-4, 1/10).
+pub const ROULETTE_THRESHOLD: f64 = 1e-4;
+pub const ROULETTE_CHANCE: f64 = 0.1;
+
+/// What happens where a packet meets the ambient medium.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoundaryMode {
+    /// Score the transmitted part (1 - R) w and continue with R w: same
+    /// expectation as MCML, less variance (REFERENCE 3, step 3).
+    Split,
+    /// MCML 1.2.2: reflect with probability R, else leave with all of w.
+    Classic,
+}
+
+impl BoundaryMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            BoundaryMode::Split => "split",
+            BoundaryMode::Classic => "classic",
+        }
+    }
+}
+
+/// Per-layer constants of one channel, precomputed once.
+#[derive(Clone, Debug)]
+pub(crate) struct LayerOptics {
+    z_top: f64,
+    /// +inf for a semi-infinite layer.
+    z_bottom: f64,
+    sigma_t: f64,
+    inv_sigma_t: f64,
+    /// sigma_s / sigma_t: the weight kept at each interaction.
+    albedo: f64,
+    g: f64,
+    one_minus_g2: f64,
+    one_plus_g2: f64,
+    inv_2g: f64,
+    /// Absolute refractive index.
+    n: f64,
+}
+
+/// The layer stack of one channel with its ambient media.
+#[derive(Clone, Debug)]
+pub(crate) struct Stack {
+    layers: Vec<LayerOptics>,
+    n_above: f64,
+    n_below: f64,
+    /// Fresnel reflectance of the beam at normal entry.
+    pub specular: f64,
+}
+
+impl Stack {
+    pub fn new(m: &Material, ch: Channel) -> Stack {
+        let c = ch.index();
+        let mut z = 0.0;
+        let layers = m
+            .layers
+            .iter()
+            .map(|l| {
+                let sigma_t = l.sigma_a[c] + l.sigma_s[c];
+                let g = l.g[c];
+                let z_top = z;
+                let z_bottom = l.thickness.map_or(f64::INFINITY, |t| z + t);
+                z = z_bottom;
+                LayerOptics {
+                    z_top,
+                    z_bottom,
+                    sigma_t,
+                    inv_sigma_t: 1.0 / sigma_t,
+                    albedo: l.sigma_s[c] / sigma_t,
+                    g,
+                    one_minus_g2: 1.0 - g * g,
+                    one_plus_g2: 1.0 + g * g,
+                    inv_2g: if g.abs() < HG_ISOTROPIC { 0.0 } else { 0.5 / g },
+                    n: l.eta,
+                }
+            })
+            .collect();
+        Stack {
+            layers,
+            n_above: m.eta_above,
+            n_below: m.eta_below,
+            specular: specular_normal(m.eta_above, m.layers[0].eta),
+        }
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.layers.last().is_some_and(|l| l.z_bottom.is_finite())
+    }
+}
+
+/// Below this |g| the HG inversion loses precision: sample isotropically.
+const HG_ISOTROPIC: f64 = 1e-6;
+
+/// Uniform in [0, 1) with 53 random bits.
+#[inline(always)]
+fn uniform(rng: &mut Xoshiro256PlusPlus) -> f64 {
+    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// cos(theta) from the Henyey-Greenstein phase function by inversion
+/// (REFERENCE 3 step 4; MCML SpinTheta).
+#[inline(always)]
+fn sample_hg_cos(l: &LayerOptics, xi: f64) -> f64 {
+    if l.inv_2g == 0.0 {
+        return 2.0 * xi - 1.0;
+    }
+    let t = l.one_minus_g2 / (1.0 - l.g + 2.0 * l.g * xi);
+    ((l.one_plus_g2 - t * t) * l.inv_2g).clamp(-1.0, 1.0)
+}
+
+/// (cos phi, sin phi) for phi uniform in [0, 2 pi), from a point uniform in
+/// the unit disc (von Neumann 1951): no trigonometric call on the hot path.
+#[inline(always)]
+fn sample_azimuth(rng: &mut Xoshiro256PlusPlus) -> (f64, f64) {
+    loop {
+        let a = 2.0 * uniform(rng) - 1.0;
+        let b = 2.0 * uniform(rng) - 1.0;
+        let r2 = a * a + b * b;
+        if r2 <= 1.0 && r2 > 1e-300 {
+            let inv = 1.0 / r2;
+            return ((a * a - b * b) * inv, 2.0 * a * b * inv);
+        }
+    }
+}
+
+/// A direction uniform on the unit sphere (Marsaglia 1972): one square root,
+/// no trigonometry.
+#[inline(always)]
+fn sample_sphere(rng: &mut Xoshiro256PlusPlus) -> (f64, f64, f64) {
+    loop {
+        let a = 2.0 * uniform(rng) - 1.0;
+        let b = 2.0 * uniform(rng) - 1.0;
+        let r2 = a * a + b * b;
+        if r2 < 1.0 {
+            let k = 2.0 * (1.0 - r2).sqrt();
+            return (a * k, b * k, 1.0 - 2.0 * r2);
+        }
+    }
+}
+
+/// A photon packet.
+struct Packet {
+    x: f64,
+    y: f64,
+    z: f64,
+    ux: f64,
+    uy: f64,
+    uz: f64,
+    w: f64,
+    layer: usize,
+    scatters: u32,
+}
+
+impl Packet {
+    /// Rotates the direction by polar cosine `cos_t` and azimuth `phi`
+    /// (MCML Spin, eq. 3.24-3.26 of the MCML manual).
+    /// `(cp, sp)` is (cos phi, sin phi) of the azimuth.
+    #[inline(always)]
+    fn spin(&mut self, cos_t: f64, (cp, sp): (f64, f64)) {
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        if self.uz.abs() > 1.0 - 1e-12 {
+            self.ux = sin_t * cp;
+            self.uy = sin_t * sp;
+            self.uz = cos_t * self.uz.signum();
+        } else {
+            let tmp = (1.0 - self.uz * self.uz).sqrt();
+            let k = sin_t / tmp;
+            let ux = k * (self.ux * self.uz * cp - self.uy * sp) + self.ux * cos_t;
+            let uy = k * (self.uy * self.uz * cp + self.ux * sp) + self.uy * cos_t;
+            self.uz = -sin_t * cp * tmp + self.uz * cos_t;
+            self.ux = ux;
+            self.uy = uy;
+        }
+    }
+}
+
+/// Per-run settings of the walk.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct WalkSettings {
+    pub mode: BoundaryMode,
+    /// Interactions plus boundary hits after which a packet is abandoned and
+    /// its weight booked as truncated (albedo 1 has unbounded walks).
+    pub max_events: u64,
+    pub single_scatter: bool,
+}
+
+/// Where a packet goes at a boundary.
+enum Neighbour {
+    Ambient { n: f64, top: bool },
+    Layer(usize),
+}
+
+/// Traces `photons` packets, scoring into `tally`.
+pub(crate) fn trace_photons(
+    stack: &Stack,
+    bins: &BinIndex,
+    set: &WalkSettings,
+    rng: &mut Xoshiro256PlusPlus,
+    photons: u64,
+    tally: &mut ChunkTally,
+    scratch: &mut PhotonScratch,
+) {
+    for _ in 0..photons {
+        trace_one(stack, bins, set, rng, tally, scratch);
+    }
+}
+
+#[inline(always)]
+fn trace_one(
+    stack: &Stack,
+    bins: &BinIndex,
+    set: &WalkSettings,
+    rng: &mut Xoshiro256PlusPlus,
+    tally: &mut ChunkTally,
+    scratch: &mut PhotonScratch,
+) {
+    tally.photons += 1;
+    tally.specular += stack.specular;
+    let mut p = Packet {
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+        ux: 0.0,
+        uy: 0.0,
+        uz: 1.0,
+        w: 1.0 - stack.specular,
+        layer: 0,
+        scatters: 0,
+    };
+    // Per-packet totals, added with their squares at the end (second moments).
+    let mut rd = 0.0;
+    let mut tr = 0.0;
+    let mut absorbed = 0.0;
+    // Remaining optical depth of the current free flight, carried across
+    // interfaces as MCML's `sleft`.
+    let mut tau = 0.0;
+    let mut need_step = true;
+    let mut events: u64 = 0;
+    while p.w > 0.0 {
+        if need_step {
+            // xi in (0, 1]: s = -ln(xi) / sigma_t (REFERENCE 3 step 2).
+            tau = -(1.0 - uniform(rng)).ln();
+            need_step = false;
+        }
+        let l = &stack.layers[p.layer];
+        let s = tau * l.inv_sigma_t;
+        let z_new = p.z + s * p.uz;
+        // The division for the distance to the boundary only when it is hit.
+        let crossing = if p.uz > 0.0 {
+            (z_new >= l.z_bottom).then_some(l.z_bottom)
+        } else {
+            (z_new <= l.z_top && p.uz < 0.0).then_some(l.z_top)
+        };
+        if let Some(z_b) = crossing {
+            let d_b = ((z_b - p.z) / p.uz).min(s);
+            p.x += d_b * p.ux;
+            p.y += d_b * p.uy;
+            p.z = z_b;
+            tau = (tau - d_b * l.sigma_t).max(0.0);
+            if tau == 0.0 {
+                need_step = true;
+            }
+            let to = if p.uz > 0.0 {
+                if p.layer + 1 < stack.layers.len() {
+                    Neighbour::Layer(p.layer + 1)
+                } else {
+                    Neighbour::Ambient {
+                        n: stack.n_below,
+                        top: false,
+                    }
+                }
+            } else if p.layer > 0 {
+                Neighbour::Layer(p.layer - 1)
+            } else {
+                Neighbour::Ambient {
+                    n: stack.n_above,
+                    top: true,
+                }
+            };
+            let n_i = l.n;
+            let cos_i = p.uz.abs();
+            match to {
+                Neighbour::Ambient { n, top } => {
+                    let r = fresnel_dielectric(cos_i, n / n_i);
+                    let escaping = match set.mode {
+                        BoundaryMode::Split => (1.0 - r) * p.w,
+                        BoundaryMode::Classic => {
+                            if r > 0.0 && uniform(rng) < r {
+                                0.0
+                            } else {
+                                p.w
+                            }
+                        }
+                    };
+                    if escaping > 0.0 {
+                        if top {
+                            rd += escaping;
+                            let radius = (p.x * p.x + p.y * p.y).sqrt();
+                            scratch.score_reflectance(bins, radius, escaping, p.scatters);
+                        } else {
+                            tr += escaping;
+                        }
+                        // Leaves R w (split) or 0 (classic; split with R = 0).
+                        p.w -= escaping;
+                    }
+                    p.uz = -p.uz;
+                }
+                Neighbour::Layer(j) => {
+                    let n_t = stack.layers[j].n;
+                    let eta = n_t / n_i;
+                    let r = fresnel_dielectric(cos_i, eta);
+                    if r > 0.0 && (r >= 1.0 || uniform(rng) < r) {
+                        p.uz = -p.uz;
+                    } else {
+                        // Snell: the tangential component scales by n_i / n_t.
+                        let k = n_i / n_t;
+                        let sin2_t = (1.0 - cos_i * cos_i) * k * k;
+                        let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+                        p.ux *= k;
+                        p.uy *= k;
+                        p.uz = cos_t * p.uz.signum();
+                        p.layer = j;
+                    }
+                }
+            }
+        } else {
+            p.x += s * p.ux;
+            p.y += s * p.uy;
+            p.z = z_new;
+            need_step = true;
+            // Implicit absorption: deposit w sigma_a / sigma_t (REFERENCE 3 step 4).
+            let kept = p.w * l.albedo;
+            absorbed += p.w - kept;
+            p.w = kept;
+            if l.inv_2g == 0.0 {
+                // Isotropic: the new direction does not depend on the old.
+                (p.ux, p.uy, p.uz) = sample_sphere(rng);
+            } else {
+                let cos_t = sample_hg_cos(l, uniform(rng));
+                p.spin(cos_t, sample_azimuth(rng));
+            }
+            p.scatters = p.scatters.saturating_add(1);
+        }
+        events += 1;
+        if p.w < ROULETTE_THRESHOLD && p.w > 0.0 {
+            // REFERENCE 3 step 5; gains and losses are booked so that the
+            // energy balance closes exactly.
+            if uniform(rng) < ROULETTE_CHANCE {
+                tally.roulette_gain += p.w * (1.0 / ROULETTE_CHANCE - 1.0);
+                p.w *= 1.0 / ROULETTE_CHANCE;
+            } else {
+                tally.roulette_loss += p.w;
+                p.w = 0.0;
+            }
+        }
+        if events >= set.max_events && p.w > 0.0 {
+            tally.truncated += p.w;
+            tally.truncated_photons += 1;
+            p.w = 0.0;
+        }
+    }
+    tally.events += events;
+    tally.rd.add(rd);
+    tally.transmittance.add(tr);
+    tally.absorbed.add(absorbed);
+    scratch.flush(tally, set.single_scatter);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layer(g: f64) -> LayerOptics {
+        LayerOptics {
+            z_top: 0.0,
+            z_bottom: f64::INFINITY,
+            sigma_t: 1.0,
+            inv_sigma_t: 1.0,
+            albedo: 0.5,
+            g,
+            one_minus_g2: 1.0 - g * g,
+            one_plus_g2: 1.0 + g * g,
+            inv_2g: if g.abs() < HG_ISOTROPIC { 0.0 } else { 0.5 / g },
+            n: 1.0,
+        }
+    }
+
+    #[test]
+    fn hg_sampling_has_mean_cosine_g() {
+        // <cos theta> of Henyey-Greenstein is g; midpoint rule over xi.
+        for g in [-0.99, -0.5, 0.0, 0.3, 0.9, 0.99] {
+            let l = layer(g);
+            let n = 200_000;
+            let mean: f64 = (0..n)
+                .map(|i| sample_hg_cos(&l, (i as f64 + 0.5) / n as f64))
+                .sum::<f64>()
+                / n as f64;
+            assert!((mean - g).abs() < 2e-3, "g = {g}: mean cos {mean}");
+            assert!(sample_hg_cos(&l, 0.0).abs() <= 1.0);
+            assert!(sample_hg_cos(&l, 1.0 - 1e-16).abs() <= 1.0);
+        }
+    }
+
+    #[test]
+    fn azimuth_is_uniform() {
+        use rand_core::SeedableRng;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+        let n = 200_000;
+        let (mut c, mut s, mut c2, mut q1) = (0.0, 0.0, 0.0, 0);
+        for _ in 0..n {
+            let (cp, sp) = sample_azimuth(&mut rng);
+            assert!((cp * cp + sp * sp - 1.0).abs() < 1e-12);
+            c += cp;
+            s += sp;
+            c2 += cp * cp;
+            q1 += (cp > 0.0 && sp > 0.0) as usize;
+        }
+        let nf = n as f64;
+        // Means 0, <cos^2> = 1/2, a quarter in each quadrant; 5 sigma bounds.
+        assert!((c / nf).abs() < 5.0 * (0.5 / nf).sqrt());
+        assert!((s / nf).abs() < 5.0 * (0.5 / nf).sqrt());
+        assert!((c2 / nf - 0.5).abs() < 5.0 * (0.125 / nf).sqrt());
+        assert!((q1 as f64 / nf - 0.25).abs() < 5.0 * (0.1875 / nf).sqrt());
+    }
+
+    #[test]
+    fn sphere_directions_are_isotropic() {
+        use rand_core::SeedableRng;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+        let n = 200_000;
+        let (mut mz, mut mz2, mut mx) = (0.0, 0.0, 0.0);
+        for _ in 0..n {
+            let (x, y, z) = sample_sphere(&mut rng);
+            assert!((x * x + y * y + z * z - 1.0).abs() < 1e-12);
+            mz += z;
+            mz2 += z * z;
+            mx += x;
+        }
+        let nf = n as f64;
+        // Uniform cos: mean 0, <z^2> = 1/3 (var of z^2 is 4/45); 5 sigma.
+        assert!((mz / nf).abs() < 5.0 * (1.0 / 3.0 / nf).sqrt());
+        assert!((mx / nf).abs() < 5.0 * (1.0 / 3.0 / nf).sqrt());
+        assert!((mz2 / nf - 1.0 / 3.0).abs() < 5.0 * (4.0 / 45.0 / nf).sqrt());
+    }
+
+    #[test]
+    fn spin_keeps_unit_length() {
+        let mut p = Packet {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            ux: 0.0,
+            uy: 0.0,
+            uz: 1.0,
+            w: 1.0,
+            layer: 0,
+            scatters: 0,
+        };
+        for k in 0..1000 {
+            let c = ((k * 37) % 200) as f64 / 100.0 - 1.0;
+            p.spin(c, (k as f64 * 0.7).sin_cos());
+            let norm = p.ux * p.ux + p.uy * p.uy + p.uz * p.uz;
+            assert!((norm - 1.0).abs() < 1e-12, "{norm}");
+        }
+    }
+}
