@@ -205,57 +205,62 @@ pub fn csv_table(rows: &[Row]) -> Table {
     t
 }
 
-/// One log-scale panel per channel: the reference with a +-2 sigma band and
-/// every model overlaid, out to the radius holding 99.9% of the reference.
+/// Log-scale panels per channel, one column each: the top row near the
+/// origin (the radius holding 90% of the reference), the bottom row out to
+/// 99.9%; the reference with a +-2 sigma band, every model overlaid.
 pub fn comparison_panels(reference: &Profile, models: &[Profile]) -> Vec<Panel> {
     let mut panels = Vec::new();
-    for (c, &ch) in reference.channels.iter().enumerate() {
-        let x_max = radius_holding(reference, c, 0.999);
-        let se = reference.rd_stderr.as_ref().map(|s| &s[c]);
-        let mut curves = vec![Curve {
-            label: "Monte Carlo (±2σ)".into(),
-            color: RGBColor(0, 0, 0),
-            points: reference
-                .r
-                .iter()
-                .cloned()
-                .zip(reference.rd[c].iter().cloned())
-                .collect(),
-            band: se.map(|se| {
-                reference
+    for (fraction, what) in [(0.9, "90%"), (0.999, "99.9%")] {
+        for (c, &ch) in reference.channels.iter().enumerate() {
+            let x_max = radius_holding(reference, c, fraction);
+            let se = reference.rd_stderr.as_ref().map(|s| &s[c]);
+            let mut curves = Vec::new();
+            for (k, m) in models.iter().enumerate() {
+                if let Some(i) = m.channel_index(ch) {
+                    curves.push(Curve {
+                        label: m.source.model.clone().unwrap_or_default(),
+                        color: PALETTE[(k + 1) % PALETTE.len()],
+                        points: m.r.iter().cloned().zip(m.rd[i].iter().cloned()).collect(),
+                        band: None,
+                        dashed: false,
+                    });
+                }
+            }
+            // Drawn last so the reference stays visible over the models.
+            curves.push(Curve {
+                label: "Monte Carlo (±2σ band)".into(),
+                color: RGBColor(0, 0, 0),
+                points: reference
                     .r
                     .iter()
-                    .zip(&reference.rd[c])
-                    .zip(se)
-                    .map(|((&r, &v), &s)| (r, v - 2.0 * s, v + 2.0 * s))
-                    .collect()
-            }),
-            dashed: false,
-        }];
-        for (k, m) in models.iter().enumerate() {
-            if let Some(i) = m.channel_index(ch) {
-                curves.push(Curve {
-                    label: m.source.model.clone().unwrap_or_default(),
-                    color: PALETTE[(k + 1) % PALETTE.len()],
-                    points: m.r.iter().cloned().zip(m.rd[i].iter().cloned()).collect(),
-                    band: None,
-                    dashed: true,
-                });
-            }
+                    .cloned()
+                    .zip(reference.rd[c].iter().cloned())
+                    .collect(),
+                band: se.map(|se| {
+                    reference
+                        .r
+                        .iter()
+                        .zip(&reference.rd[c])
+                        .zip(se)
+                        .map(|((&r, &v), &s)| (r, v - 2.0 * s, v + 2.0 * s))
+                        .collect()
+                }),
+                dashed: false,
+            });
+            panels.push(Panel {
+                title: format!(
+                    "{} {} (albedo' {:.3}), r holding {what}",
+                    reference.material.name,
+                    ch.name(),
+                    reference.material.top(ch).reduced_albedo()
+                ),
+                x_label: "r (mm)".into(),
+                y_label: "R_d (1/mm^2)".into(),
+                x_max,
+                log_y: true,
+                curves,
+            });
         }
-        panels.push(Panel {
-            title: format!(
-                "{} channel {} (albedo' {:.3})",
-                reference.material.name,
-                ch.name(),
-                reference.material.top(ch).reduced_albedo()
-            ),
-            x_label: "r (mm)".into(),
-            y_label: "R_d (1/mm^2)".into(),
-            x_max,
-            log_y: true,
-            curves,
-        });
     }
     panels
 }

@@ -165,6 +165,7 @@ where
 {
     let e = |e| plot_err(out, e);
     let keep = |x: f64, y: f64| x <= panel.x_max && y.is_finite() && y > floor;
+    // Bands first, then lines, so no band hides a line.
     for c in &panel.curves {
         if let Some(band) = &c.band {
             let mut poly: Vec<(f64, f64)> = band
@@ -187,13 +188,15 @@ where
                     .map_err(e)?;
             }
         }
+    }
+    for c in &panel.curves {
         let pts: Vec<(f64, f64)> = c
             .points
             .iter()
             .cloned()
             .filter(|&(x, y)| keep(x, y))
             .collect();
-        let style = c.color.stroke_width(2);
+        let style = c.color.stroke_width(if c.band.is_some() { 1 } else { 2 });
         let color = c.color;
         if c.dashed {
             chart
