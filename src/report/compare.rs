@@ -25,6 +25,10 @@ pub struct Row {
     /// The same norm of the reference's own standard errors: the smallest
     /// L2 error this reference can resolve.
     pub mc_noise_l2: f64,
+    /// The model's own L2 error with the reference's noise removed,
+    /// sqrt(max(L2^2 - noise^2, 0)) (noise and model error add in
+    /// quadrature in expectation).
+    pub rel_l2_model: f64,
     /// Radius holding 99% of the reference's tabulated R_d, mm.
     pub r99: f64,
     pub model_time_s: f64,
@@ -103,6 +107,7 @@ pub fn compare(model: &Profile, reference: &Profile, model_time_s: f64) -> Resul
             rel_total_error: relative(model.total_rd[mi], reference.total_rd[c]),
             rel_l2_error: l2,
             mc_noise_l2: noise,
+            rel_l2_model: (l2 * l2 - noise * noise).max(0.0).sqrt(),
             r99,
             model_time_s,
             mc_time_s: reference.elapsed_s,
@@ -114,6 +119,22 @@ pub fn compare(model: &Profile, reference: &Profile, model_time_s: f64) -> Resul
 fn pct(x: f64) -> String {
     if x.is_finite() {
         format!("{:+.1}%", 100.0 * x)
+    } else {
+        "inf".into()
+    }
+}
+
+fn num(x: f64) -> String {
+    if x == 0.0 || x >= 1e-3 {
+        format!("{x:.4}")
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
+fn pct_abs(x: f64) -> String {
+    if x.is_finite() {
+        format!("{:.1}%", 100.0 * x)
     } else {
         "inf".into()
     }
@@ -141,6 +162,7 @@ pub fn table(rows: &[Row]) -> Table {
         "total error",
         "L2 error r R_d (99%)",
         "MC noise L2",
+        "L2 noise removed",
         "model time",
         "MC time",
         "speed-up",
@@ -151,15 +173,12 @@ pub fn table(rows: &[Row]) -> Table {
             r.channel.name().into(),
             format!("{:.4}", r.reduced_albedo),
             r.model.clone(),
-            format!("{:.4}", r.total_model),
-            format!("{:.4} ± {:.4}", r.total_mc, r.total_mc_stderr),
+            num(r.total_model),
+            format!("{} ± {}", num(r.total_mc), num(r.total_mc_stderr)),
             pct(r.rel_total_error),
-            if r.rel_l2_error.is_finite() {
-                format!("{:.1}%", 100.0 * r.rel_l2_error)
-            } else {
-                "inf".into()
-            },
-            format!("{:.1}%", 100.0 * r.mc_noise_l2),
+            pct_abs(r.rel_l2_error),
+            pct_abs(r.mc_noise_l2),
+            pct_abs(r.rel_l2_model),
             time(r.model_time_s),
             time(r.mc_time_s),
             format!("{:.0}x", r.mc_time_s / r.model_time_s.max(1e-12)),
@@ -181,6 +200,7 @@ pub fn csv_table(rows: &[Row]) -> Table {
         "rel_total_error",
         "rel_l2_error",
         "mc_noise_l2",
+        "rel_l2_model",
         "r99_mm",
         "model_time_s",
         "mc_time_s",
@@ -197,6 +217,7 @@ pub fn csv_table(rows: &[Row]) -> Table {
             format!("{:e}", r.rel_total_error),
             format!("{:e}", r.rel_l2_error),
             format!("{:e}", r.mc_noise_l2),
+            format!("{:e}", r.rel_l2_model),
             format!("{:e}", r.r99),
             format!("{:e}", r.model_time_s),
             format!("{:e}", r.mc_time_s),
