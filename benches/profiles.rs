@@ -4,7 +4,7 @@
 //!
 //! `cargo bench --bench profiles` (criterion statistics, then the table);
 //! `SSSKIT_BENCH_MC_ERROR=0.01` sets the Monte Carlo target error (default
-//! 0.01), `SSSKIT_BENCH_MATERIALS=marble,skin1` the materials.
+//! 0.02), `SSSKIT_BENCH_MATERIALS=marble,skin1` the materials.
 
 use criterion::Criterion;
 use ssskit::material::{preset, Channel};
@@ -58,7 +58,7 @@ fn main() {
     let rel: f64 = std::env::var("SSSKIT_BENCH_MC_ERROR")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(0.01);
+        .unwrap_or(0.02);
     println!("\n| material | bins | model | time per profile (3 channels) | Monte Carlo to {:.1}% error | MC / model |", rel * 100.0);
     println!("| --- | --- | --- | --- | --- | --- |");
     for name in materials() {
@@ -67,7 +67,7 @@ fn main() {
         let cfg = McConfig {
             budget: PhotonBudget::TargetError {
                 rel,
-                max_photons: 100_000_000,
+                max_photons: 10_000_000,
             },
             seed: 1,
             threads: None,
@@ -75,13 +75,22 @@ fn main() {
             grid: Some(grid.clone()),
         };
         let t = Instant::now();
-        let mc = simulate(&mat, &cfg, &NoProgress).map(|_| t.elapsed().as_secs_f64());
+        let mc = simulate(&mat, &cfg, &NoProgress).map(|p| {
+            let photons = p.source.photons.unwrap_or_default();
+            (
+                t.elapsed().as_secs_f64(),
+                photons.into_iter().max().unwrap_or(0),
+            )
+        });
         for model in Model::ALL {
             let s = median_time(|| {
                 black_box(analytic::profile(&mat, model, &grid, &opts).unwrap());
             });
             let (mc_s, ratio) = match &mc {
-                Ok(m) => (format!("{m:.2} s"), format!("{:.0}x", m / s)),
+                Ok((m, n)) => (
+                    format!("{m:.2} s ({n} photons/ch)"),
+                    format!("{:.0}x", m / s),
+                ),
                 Err(e) => (format!("unavailable ({e})"), "-".into()),
             };
             println!(
