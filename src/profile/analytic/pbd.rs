@@ -44,7 +44,32 @@ impl BeamDiffusion {
 
     /// Multiple plus single scattering, per unit incident flux, mm^-2.
     pub fn rd(&self, r: f64) -> f64 {
-        self.t_entry * (self.multiple(r) + self.single(r))
+        let ms = self.multiple(r);
+        // Far out single scattering (decay sigma_t) is negligible next to
+        // diffusion (decay sigma_tr); skip its loop when a bound on it is
+        // below 1e-15 of the multiple-scattering value.
+        let ss = if ms > 0.0 && self.single_bound(r) < 1e-15 * ms {
+            0.0
+        } else {
+            self.single(r)
+        };
+        self.t_entry * (ms + ss)
+    }
+
+    /// Upper bound of `single(r)`: every sample has d >= r and d >= t_crit
+    /// + its depth, phase function <= its forward peak, transmission <= 1.
+    fn single_bound(&self, r: f64) -> f64 {
+        let m = &self.medium;
+        let st = m.sigma_t();
+        let rho = m.sigma_s / st;
+        let t_crit = if m.eta > 1.0 {
+            r * (m.eta * m.eta - 1.0).sqrt()
+        } else {
+            0.0
+        };
+        let g = m.g.abs();
+        let p_max = (1.0 + g) / (4.0 * PI * (1.0 - g).powi(2));
+        rho * (-st * (r + t_crit)).exp() / (r * r) * p_max
     }
 
     /// Multiple scattering: a line of dipoles with Grosjean's diffusion
