@@ -1,7 +1,9 @@
 //! Monte Carlo benchmark (plain main, not a timed test): photons per second
 //! per core and efficiency 1 / (var(total R_d) x time) for skin1 red and
-//! marble blue, split vs classic (MCML) boundaries, 1 and 2 threads, all
-//! measured in the same run so the ratios are meaningful.
+//! marble blue, 1 and 2 threads, for three settings measured in the same run:
+//! `mcml` (classic all-or-none boundaries, roulette at 1e-4: the MCML 1.2.2
+//! baseline), `split` (splitting at the ambient boundaries, roulette 1e-4) and
+//! `default` (classic, roulette at 0.01). Ratios are against `mcml`.
 //!
 //! `cargo bench --bench mc` (set SSSKIT_BENCH_SCALE=0.2 for a quick look).
 //! Per-core figures divide by the process CPU time (robust to other load);
@@ -10,7 +12,10 @@
 //! red and 3.3e4 photons/s on marble blue on one core of this machine class.
 
 use ssskit::material::{preset, Channel};
-use ssskit::profile::mc::{simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget};
+use ssskit::profile::mc::{
+    simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget, DEFAULT_ROULETTE_THRESHOLD,
+    ROULETTE_THRESHOLD,
+};
 use ssskit::progress::NoProgress;
 
 struct Case {
@@ -39,7 +44,32 @@ struct Row {
     efficiency: f64,
 }
 
-fn measure(case: &Case, mode: BoundaryMode, threads: usize, photons: u64) -> Row {
+#[derive(Clone, Copy, PartialEq)]
+struct Setting {
+    name: &'static str,
+    mode: BoundaryMode,
+    roulette: f64,
+}
+
+const SETTINGS: [Setting; 3] = [
+    Setting {
+        name: "mcml",
+        mode: BoundaryMode::Classic,
+        roulette: ROULETTE_THRESHOLD,
+    },
+    Setting {
+        name: "split",
+        mode: BoundaryMode::Split,
+        roulette: ROULETTE_THRESHOLD,
+    },
+    Setting {
+        name: "default",
+        mode: BoundaryMode::Classic,
+        roulette: DEFAULT_ROULETTE_THRESHOLD,
+    },
+];
+
+fn measure(case: &Case, set: Setting, threads: usize, photons: u64) -> Row {
     let m = preset(case.material).expect("preset exists");
     let cfg = McConfig {
         budget: PhotonBudget::Fixed(photons),
@@ -49,7 +79,8 @@ fn measure(case: &Case, mode: BoundaryMode, threads: usize, photons: u64) -> Row
         grid: None,
     };
     let opts = McOptions {
-        boundary: mode,
+        boundary: set.mode,
+        roulette_threshold: set.roulette,
         ..McOptions::default()
     };
     let c0 = cpu_seconds();
@@ -92,57 +123,59 @@ fn main() {
         },
     ];
     println!(
-        "{:<8} {:>2} {:<8} {:>3} {:>12} {:>12} {:>9} {:>11} {:>11}",
+        "{:<8} {:>2} {:<8} {:>3} {:>12} {:>12} {:>9} {:>11} {:>11} {:>8}",
         "material",
         "ch",
-        "boundary",
+        "setting",
         "thr",
         "wall ph/s",
         "ph/cpu-s",
         "vs MCML",
         "var/photon",
-        "eff/cpu-s"
+        "eff/cpu-s",
+        "eff/mcml"
     );
     for case in &cases {
         let n = ((case.photons as f64 * scale) as u64).max(ssskit::profile::mc::CHUNK);
         // Warm-up (page faults, thread start).
-        let _ = measure(case, BoundaryMode::Split, 1, n / 10);
-        let mut eff = Vec::new();
-        for mode in [BoundaryMode::Classic, BoundaryMode::Split] {
+        let _ = measure(case, SETTINGS[0], 1, n / 10);
+        let mut rows: Vec<(&str, usize, Row)> = Vec::new();
+        for set in SETTINGS {
             for threads in [1, 2] {
-                let r = measure(case, mode, threads, n);
+                let r = measure(case, set, threads, n);
+                let base = rows
+                    .iter()
+                    .find(|(s, t, _)| *s == "mcml" && *t == threads)
+                    .map_or(r.efficiency, |(_, _, b)| b.efficiency);
                 println!(
-                    "{:<8} {:>2} {:<8} {:>3} {:>12.4e} {:>12.4e} {:>8.2}x {:>11.4e} {:>11.4e}",
+                    "{:<8} {:>2} {:<8} {:>3} {:>12.4e} {:>12.4e} {:>8.2}x {:>11.4e} {:>11.4e} {:>8.2}",
                     case.material,
                     case.ch.name(),
-                    mode.name(),
+                    set.name,
                     threads,
                     r.photons_per_s,
                     r.per_core,
                     r.per_core / case.mcml_per_core,
                     r.var,
-                    r.efficiency
+                    r.efficiency,
+                    r.efficiency / base
                 );
-                eff.push((mode, threads, r));
+                rows.push((set.name, threads, r));
             }
         }
-        let get = |m: BoundaryMode, t: usize| {
-            eff.iter()
-                .find(|(a, b, _)| *a == m && *b == t)
+        let get = |name: &str, t: usize| {
+            rows.iter()
+                .find(|(a, b, _)| *a == name && *b == t)
                 .map(|(_, _, r)| r)
                 .expect("measured")
         };
-        let (c1, c2) = (get(BoundaryMode::Classic, 1), get(BoundaryMode::Classic, 2));
-        let (s1, s2) = (get(BoundaryMode::Split, 1), get(BoundaryMode::Split, 2));
         println!(
-            "  {} {}: 2-thread speed-up classic {:.2}, split {:.2}; efficiency split/classic {:.2} (1 thr), {:.2} (2 thr); split per-core speed vs MCML {:.2}x",
+            "  {} {}: 2-thread wall speed-up mcml {:.2}, split {:.2}, default {:.2} (needs an idle machine)",
             case.material,
             case.ch.name(),
-            c2.photons_per_s / c1.photons_per_s,
-            s2.photons_per_s / s1.photons_per_s,
-            s1.efficiency / c1.efficiency,
-            s2.efficiency / c2.efficiency,
-            s1.per_core / case.mcml_per_core
+            get("mcml", 2).photons_per_s / get("mcml", 1).photons_per_s,
+            get("split", 2).photons_per_s / get("split", 1).photons_per_s,
+            get("default", 2).photons_per_s / get("default", 1).photons_per_s,
         );
     }
 }

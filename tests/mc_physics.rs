@@ -6,7 +6,7 @@
 use ssskit::material::{parse_material_toml, preset, Channel, Material};
 use ssskit::profile::analytic::{bin_averages, dipole::dipole_rd, gauss_legendre};
 use ssskit::profile::mc::{
-    simulate, simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget,
+    simulate, simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget, ROULETTE_THRESHOLD,
 };
 use ssskit::profile::{Profile, RadialGrid};
 use ssskit::progress::NoProgress;
@@ -25,11 +25,22 @@ fn cfg(photons: u64, ch: Channel, grid: Option<RadialGrid>) -> McConfig {
     }
 }
 
-fn opts(mode: BoundaryMode) -> McOptions {
-    McOptions {
-        boundary: mode,
+/// The three settings the benchmark compares: default (classic, roulette
+/// 0.01), MCML (classic, roulette 1e-4) and splitting (roulette 1e-4).
+fn settings() -> [(&'static str, McOptions); 3] {
+    let mcml = McOptions {
+        roulette_threshold: ROULETTE_THRESHOLD,
         ..McOptions::default()
-    }
+    };
+    let split = McOptions {
+        boundary: BoundaryMode::Split,
+        ..mcml.clone()
+    };
+    [
+        ("default", McOptions::default()),
+        ("mcml", mcml),
+        ("split", split),
+    ]
 }
 
 /// specular + R_d + T + absorbed + roulette/truncation residual = 1.
@@ -56,20 +67,14 @@ fn within(x: f64, truth: f64, sigma: f64, what: &str) {
 }
 
 #[test]
-fn van_de_hulst_slab_both_boundary_modes() {
+fn van_de_hulst_slab_all_settings() {
     // n = 1, sigma_a = 1, sigma_s = 9 /mm, g = 0.75, d = 0.2 mm:
     // adding-doubling R_d = 0.09739, T = 0.66096 (REFERENCE 3, issue 2).
     let m = material(
         "unit = \"mm\"\nsigma_a = 1.0\nsigma_s = 9.0\ng = 0.75\neta = 1.0\nthickness = 0.2\n",
     );
-    for mode in [BoundaryMode::Classic, BoundaryMode::Split] {
-        let p = simulate_with(
-            &m,
-            &cfg(400_000, Channel::R, None),
-            &opts(mode),
-            &NoProgress,
-        )
-        .unwrap();
+    for (mode, o) in settings() {
+        let p = simulate_with(&m, &cfg(400_000, Channel::R, None), &o, &NoProgress).unwrap();
         let se = p.total_rd_stderr.as_ref().unwrap()[0];
         within(p.total_rd[0], 0.09739, se, &format!("{mode:?} R_d"));
         let t = p.transmittance.as_ref().unwrap()[0];
@@ -88,14 +93,8 @@ fn semi_infinite_isotropic_albedo_09() {
         let m = material(&format!(
             "unit = \"mm\"\nsigma_a = 0.1\nsigma_s = 0.9\neta = {eta}\n"
         ));
-        for mode in [BoundaryMode::Classic, BoundaryMode::Split] {
-            let p = simulate_with(
-                &m,
-                &cfg(200_000, Channel::G, None),
-                &opts(mode),
-                &NoProgress,
-            )
-            .unwrap();
+        for (mode, o) in settings() {
+            let p = simulate_with(&m, &cfg(200_000, Channel::G, None), &o, &NoProgress).unwrap();
             let se = p.total_rd_stderr.as_ref().unwrap()[0];
             within(p.total_rd[0], truth, se, &format!("eta {eta} {mode:?} R_d"));
             assert!(
@@ -293,9 +292,8 @@ fn layered_stack_closes_the_energy_balance() {
          [[layer]]\nsigma_a = 0.2\nsigma_s = 20.0\ng = 0.9\neta = 1.5\nthickness = 0.4\n\
          [[layer]]\nsigma_a = 0.05\nsigma_s = 2.0\ng = -0.5\neta = 1.33\nthickness = 1.0\n",
     );
-    for mode in [BoundaryMode::Classic, BoundaryMode::Split] {
-        let p =
-            simulate_with(&m, &cfg(50_000, Channel::R, None), &opts(mode), &NoProgress).unwrap();
+    for (_, o) in settings() {
+        let p = simulate_with(&m, &cfg(50_000, Channel::R, None), &o, &NoProgress).unwrap();
         assert_balance(&p);
         let t = p.transmittance.as_ref().unwrap()[0];
         assert!(t > 0.0 && p.total_rd[0] > 0.0);
@@ -324,6 +322,25 @@ fn a_matched_stack_equals_one_layer() {
         p.transmittance_stderr.as_ref().unwrap()[0],
         "T",
     );
+}
+
+#[test]
+fn a_split_half_space_equals_the_half_space() {
+    // A 0.3 mm layer over a semi-infinite layer of the same optics and index
+    // (n = 1.5 under air) is the albedo-0.9 half-space: R_d = 0.21993.
+    let layer = "sigma_a = 0.1\nsigma_s = 0.9\neta = 1.5\n";
+    let m = material(&format!(
+        "unit = \"mm\"\n[[layer]]\n{layer}thickness = 0.3\n[[layer]]\n{layer}"
+    ));
+    let p = simulate(&m, &cfg(200_000, Channel::B, None), &NoProgress).unwrap();
+    within(
+        p.total_rd[0],
+        0.21993,
+        p.total_rd_stderr.as_ref().unwrap()[0],
+        "R_d",
+    );
+    assert_eq!(p.transmittance.as_ref().unwrap()[0], 0.0);
+    assert_balance(&p);
 }
 
 #[test]

@@ -129,6 +129,11 @@ impl RadialGrid {
         channels: &[Channel],
         log_bins: bool,
     ) -> (RadialGrid, serde_json::Value) {
+        let channels = if channels.is_empty() {
+            &Channel::ALL[..]
+        } else {
+            channels
+        };
         let mut mfp_min = f64::INFINITY;
         let mut mfp_max: f64 = 0.0;
         let mut kappa_min = f64::INFINITY;
@@ -242,6 +247,35 @@ mod tests {
         assert_eq!(g.bin_of(1.0), None);
         assert!(RadialGrid::uniform(0.0, 1.0).is_err());
         assert!(RadialGrid::uniform(f64::NAN, 1.0).is_err());
+    }
+
+    #[test]
+    fn material_grid_rules() {
+        use crate::material::preset;
+        // skin1: dr = MFP_b / 20, r_max from the red channel's diffusion tail.
+        let m = preset("skin1").unwrap();
+        let (g, rule) = RadialGrid::for_material_rule(&m, &Channel::ALL, false);
+        assert!((g.edges[1] - m.top(Channel::B).mfp() / 20.0).abs() < 1e-12);
+        let tail = TAIL_FACTOR / m.top(Channel::R).sigma_tr();
+        assert!(g.r_max() >= tail && g.r_max() < tail + g.edges[1] * 1.0001);
+        assert_eq!(rule["tail_rule_met"], true);
+        // Wine barely scatters: the tail is bounded by sigma_t, not sigma_tr.
+        let w = preset("wine").unwrap();
+        let gw = RadialGrid::for_material(&w, &[Channel::R]);
+        let md = w.top(Channel::R);
+        assert!(md.sigma_t() < md.sigma_tr());
+        assert!(gw.r_max() >= TAIL_FACTOR / md.sigma_t());
+        // Albedo 1: capped, with a warning; an empty list means all channels.
+        let s = preset("spectralon").unwrap();
+        let (gs, rule) = RadialGrid::for_material_rule(&s, &[], false);
+        assert_eq!(rule["tail_rule_met"], false);
+        assert!(rule["warnings"].to_string().contains("power-law"));
+        assert!(gs.r_max() <= MAX_MFP_RADIUS * 1.0001 / 11.6 + gs.edges[1]);
+        // Log bins start at dr and end at r_max.
+        let (gl, _) = RadialGrid::for_material_rule(&m, &Channel::ALL, true);
+        assert!((gl.edges[1] - g.edges[1]).abs() < 1e-9);
+        assert!((gl.r_max() - g.r_max()).abs() < g.edges[1]);
+        assert!(gl.len() < g.len());
     }
 
     #[test]

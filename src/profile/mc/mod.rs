@@ -14,7 +14,7 @@ mod tally;
 mod tracer;
 
 pub use tally::Moments;
-pub use tracer::{BoundaryMode, ROULETTE_CHANCE, ROULETTE_THRESHOLD};
+pub use tracer::{BoundaryMode, DEFAULT_ROULETTE_THRESHOLD, ROULETTE_CHANCE, ROULETTE_THRESHOLD};
 
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
@@ -70,6 +70,9 @@ pub struct McOptions {
     /// has spent this many events (interactions + boundary hits). Keeps
     /// slow media (albedo near 1) bounded; reported when it stops a run.
     pub max_work: u64,
+    /// Weight below which Russian roulette plays (default 0.01; MCML: 1e-4).
+    /// Any value in (0, 1) is unbiased; higher values trade variance for speed.
+    pub roulette_threshold: f64,
 }
 
 impl Default for McOptions {
@@ -79,6 +82,7 @@ impl Default for McOptions {
             max_events: DEFAULT_MAX_EVENTS,
             single_scatter: false,
             max_work: DEFAULT_MAX_WORK,
+            roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
         }
     }
 }
@@ -110,12 +114,13 @@ pub fn simulate_with(
         Some(g) => (g.clone(), json!({"rule": "given"})),
         None => RadialGrid::for_material_rule(material, &cfg.channels, false),
     };
-    if grid.is_empty() {
+    let e = &grid.edges;
+    if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
         return Err(Error::invalid(
             "radial grid",
-            "bins",
-            0,
-            "need at least 1 bin",
+            "edges",
+            format!("{} values", e.len()),
+            "need at least 2 edges, starting at 0, finite and strictly increasing",
         ));
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -127,13 +132,14 @@ pub fn simulate_with(
         mode: opts.boundary,
         max_events: opts.max_events,
         single_scatter: opts.single_scatter,
+        roulette_threshold: opts.roulette_threshold,
     };
     let cap = match cfg.budget {
         PhotonBudget::Fixed(n) => n,
         PhotonBudget::TargetError { max_photons, .. } => max_photons,
     };
     progress.start(
-        cap * cfg.channels.len() as u64,
+        cap.saturating_mul(cfg.channels.len() as u64),
         &format!("{} photons", material.name),
     );
     let mut runs = Vec::with_capacity(cfg.channels.len());
@@ -189,6 +195,14 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     if opts.max_work == 0 {
         return Err(Error::invalid("--max-work", "max work", 0, "must be >= 1"));
     }
+    if !(opts.roulette_threshold > 0.0 && opts.roulette_threshold < 1.0) {
+        return Err(Error::invalid(
+            "--roulette",
+            "roulette threshold",
+            opts.roulette_threshold,
+            "must be in (0, 1); MCML uses 1e-4",
+        ));
+    }
     if opts.max_events == 0 {
         return Err(Error::invalid(
             "--max-events",
@@ -219,7 +233,7 @@ fn chunk_rng(seed: u64, ch: Channel, chunk: u64) -> Xoshiro256PlusPlus {
 struct ChannelRun {
     tally: ChunkTally,
     /// Relative standard error of total R_d and of the profile (see
-    /// `profile_rel_error`), and the radius holding 99% of R_d.
+    /// `convergence`), and the radius holding 99% of R_d.
     rel_total: f64,
     rel_profile: f64,
     r99: f64,
@@ -436,7 +450,7 @@ fn build_profile(
                 "budget": budget,
                 "max_events": opts.max_events,
                 "max_work": opts.max_work,
-                "roulette": {"threshold": ROULETTE_THRESHOLD, "survival": ROULETTE_CHANCE},
+                "roulette": {"threshold": opts.roulette_threshold, "survival": ROULETTE_CHANCE},
                 "chunk": CHUNK,
                 "batch": BATCH,
                 "rng": "xoshiro256++ per (seed, channel, chunk), SplitMix64-hashed",
@@ -545,5 +559,16 @@ mod tests {
         };
         let e = simulate(&m, &cfg, &NoProgress).unwrap_err().to_string();
         assert!(e.contains("--target-error"), "{e}");
+        cfg.budget = PhotonBudget::Fixed(10);
+        for edges in [
+            vec![0.0],
+            vec![0.0, 0.1, 0.1],
+            vec![0.1, 0.2],
+            vec![0.0, f64::NAN],
+        ] {
+            cfg.grid = Some(RadialGrid { edges });
+            let e = simulate(&m, &cfg, &NoProgress).unwrap_err().to_string();
+            assert!(e.contains("radial grid"), "{e}");
+        }
     }
 }

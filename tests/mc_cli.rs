@@ -1,0 +1,296 @@
+//! `ssskit simulate` as a user runs it: outputs that read back, MCML input
+//! files, and a clear message (exit code 2, no panic) for every bad input.
+
+use ssskit::profile::Profile;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn ssskit(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ssskit"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs a command that must fail with a message containing every `needle`.
+fn fails_with(dir: &Path, args: &[&str], needles: &[&str]) {
+    let o = ssskit(dir, args);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?} should fail: {e}");
+    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
+    for n in needles {
+        assert!(e.contains(n), "{args:?}: message lacks '{n}': {e}");
+    }
+}
+
+#[test]
+fn simulate_writes_json_and_csv_that_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = ssskit(
+        dir.path(),
+        &[
+            "simulate",
+            "--material",
+            "skin1",
+            "--photons",
+            "20000",
+            "--seed",
+            "3",
+            "--out",
+            "s.json",
+            "--csv",
+            "s.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = Profile::read(&dir.path().join("s.json")).unwrap();
+    assert_eq!(p.source.kind, "monte-carlo");
+    assert_eq!(p.source.photons, Some(vec![20000; 3]));
+    assert_eq!(p.source.seed, Some(3));
+    assert!(p.elapsed_s > 0.0);
+    assert_eq!(p.rd_stderr.as_ref().unwrap().len(), 3);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("s.json")).unwrap()).unwrap();
+    for key in ["total_rd_stderr", "specular", "transmittance", "absorbed"] {
+        assert!(json.get(key).is_some(), "missing {key}");
+    }
+    let csv = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "r_inner_mm,r_outer_mm,r_mm,rd_r,rd_r_stderr,rd_g,rd_g_stderr,rd_b,rd_b_stderr"
+    );
+    assert_eq!(lines.count(), p.r.len());
+    // Default output name, single channel, log bins, split boundaries.
+    let o = ssskit(
+        dir.path(),
+        &[
+            "simulate",
+            "--material",
+            "marble",
+            "--photons",
+            "8192",
+            "--channels",
+            "b",
+            "--log-bins",
+            "--boundary",
+            "split",
+            "--threads",
+            "1",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = Profile::read(&dir.path().join("marble.json")).unwrap();
+    assert_eq!(p.channels.len(), 1);
+    assert!(p.r_edges[2] - p.r_edges[1] > p.r_edges[1] - p.r_edges[0]);
+    assert_eq!(p.source.params["boundary"], "split");
+}
+
+#[test]
+fn mci_file_runs_and_bad_mci_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    // The van de Hulst slab in MCML units (cm): mua 10, mus 90 /cm, d 0.02 cm.
+    let mci = "1.0 # version\n2 # runs\nslab.mco A\n20000\n0.001 0.001\n10 100 1\n1\n1.0\n\
+               1.0 10 90 0.75 0.02\n1.0\n\nhalf.mco A\n1000\n0.01 0.01\n1 50 1\n1\n1.0\n\
+               1.4 1 100 0.9 1E8\n1.0\n";
+    std::fs::write(dir.path().join("t.mci"), mci).unwrap();
+    let o = ssskit(
+        dir.path(),
+        &["simulate", "--mci", "t.mci", "--out", "m.json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = Profile::read(&dir.path().join("m.json")).unwrap();
+    assert_eq!(p.source.photons, Some(vec![20000]));
+    assert_eq!(p.r.len(), 100);
+    assert!((p.r_edges[1] - 0.01).abs() < 1e-12);
+    let t = p.transmittance.as_ref().unwrap()[0];
+    let te = p.transmittance_stderr.as_ref().unwrap()[0];
+    assert!((t - 0.66096).abs() < 4.0 * te, "T {t} +- {te}");
+    let o = ssskit(
+        dir.path(),
+        &[
+            "simulate",
+            "--mci",
+            "t.mci",
+            "--mci-run",
+            "2",
+            "--out",
+            "h.json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = Profile::read(&dir.path().join("h.json")).unwrap();
+    assert!(p.material.is_half_space());
+    fails_with(
+        dir.path(),
+        &["simulate", "--mci", "t.mci", "--mci-run", "3"],
+        &["--mci-run 3", "2 run(s)"],
+    );
+    std::fs::write(
+        dir.path().join("bad.mci"),
+        mci.replace("1.0 10 90 0.75", "1.0 10 90 1.75"),
+    )
+    .unwrap();
+    fails_with(
+        dir.path(),
+        &["simulate", "--mci", "bad.mci"],
+        &["bad.mci run 1", "g", "1.75"],
+    );
+    std::fs::write(dir.path().join("short.mci"), "1.0\n1\nx.mco A\n100\n").unwrap();
+    fails_with(
+        dir.path(),
+        &["simulate", "--mci", "short.mci"],
+        &["short.mci", "unexpected end of file"],
+    );
+    fails_with(
+        dir.path(),
+        &["simulate", "--mci", "none.mci"],
+        &["none.mci"],
+    );
+}
+
+#[test]
+fn invalid_material_files_name_file_field_and_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = "unit = \"mm\"\nsigma_a = [0.032, 0.17, 0.48]\nsigma_s = [0.74, 0.88, 1.01]\ng = 0.0\neta = 1.3\n";
+    let cases: [(&str, String, &[&str]); 10] = [
+        (
+            "neg.toml",
+            base.replace("0.032", "-0.032"),
+            &["sigma_a[r]", "-0.032", ">= 0"],
+        ),
+        (
+            "nan.toml",
+            base.replace("0.17", "nan"),
+            &["sigma_a[g]", "NaN"],
+        ),
+        (
+            "inf.toml",
+            base.replace("1.01", "inf"),
+            &["sigma_s[b]", "inf"],
+        ),
+        (
+            "g.toml",
+            base.replace("g = 0.0", "g = 1.0"),
+            &["g[r]", "1", "|g| < 1"],
+        ),
+        (
+            "eta.toml",
+            base.replace("eta = 1.3", "eta = 0.0"),
+            &["eta", "0", "> 0"],
+        ),
+        (
+            "zero.toml",
+            "unit = \"mm\"\nsigma_a = 0.0\nsigma_s = [0.0, 1.0, 1.0]\neta = 1.3\n".into(),
+            &["sigma_t[r]", "zero extinction"],
+        ),
+        (
+            "thick.toml",
+            format!("{base}thickness = -1.0\n"),
+            &["thickness", "-1"],
+        ),
+        (
+            "unit.toml",
+            base.replace("\"mm\"", "\"inch\""),
+            &["unit", "inch"],
+        ),
+        (
+            "nounit.toml",
+            base.replace("unit = \"mm\"\n", ""),
+            &["unit", "missing"],
+        ),
+        (
+            "syntax.toml",
+            "unit = \"mm\"\nsigma_a = [1, 2\n".into(),
+            &["malformed material TOML"],
+        ),
+    ];
+    for (file, text, needles) in cases.iter() {
+        std::fs::write(dir.path().join(file), text).unwrap();
+        let mut n: Vec<&str> = needles.to_vec();
+        n.push(file);
+        fails_with(
+            dir.path(),
+            &["simulate", "--material", file, "--photons", "100"],
+            &n,
+        );
+    }
+    fails_with(
+        dir.path(),
+        &["simulate", "--material", "unobtainium"],
+        &["unobtainium", "skin1"],
+    );
+    fails_with(
+        dir.path(),
+        &["simulate", "--material", "missing.toml"],
+        &["missing.toml"],
+    );
+}
+
+#[test]
+fn invalid_flags_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = |extra: &[&'static str]| {
+        let mut v = vec!["simulate", "--material", "skin1"];
+        v.extend_from_slice(extra);
+        v
+    };
+    fails_with(d, &s(&["--photons", "0"]), &["--photons", "0"]);
+    fails_with(d, &s(&["--photons", "-5"]), &["--photons"]);
+    fails_with(
+        d,
+        &s(&["--target-error", "2"]),
+        &["--target-error", "2", "(0, 1)"],
+    );
+    fails_with(
+        d,
+        &s(&["--target-error", "-0.1"]),
+        &["--target-error", "-0.1"],
+    );
+    fails_with(
+        d,
+        &s(&["--target-error", "nan"]),
+        &["--target-error", "NaN"],
+    );
+    fails_with(
+        d,
+        &s(&["--photons", "10", "--target-error", "0.1"]),
+        &["cannot be used with"],
+    );
+    fails_with(d, &s(&["--channels", "rx"]), &["--channels", "x"]);
+    fails_with(
+        d,
+        &s(&["--threads", "0", "--photons", "10"]),
+        &["--threads", "0"],
+    );
+    fails_with(d, &s(&["--dr", "-1", "--photons", "10"]), &["--dr", "-1"]);
+    fails_with(d, &s(&["--rmax", "0", "--photons", "10"]), &["--rmax", "0"]);
+    fails_with(
+        d,
+        &s(&["--dr", "1", "--rmax", "0.5", "--photons", "10"]),
+        &["rmax", "0.5"],
+    );
+    fails_with(d, &s(&["--boundary", "maybe"]), &["--boundary", "maybe"]);
+    fails_with(
+        d,
+        &s(&["--max-events", "0", "--photons", "10"]),
+        &["--max-events"],
+    );
+    fails_with(
+        d,
+        &s(&["--photons", "10", "--out", "no/such/dir/x.json"]),
+        &["--out", "no/such/dir"],
+    );
+    fails_with(d, &["simulate"], &["--material"]);
+    fails_with(
+        d,
+        &["simulate", "--material", "skin1", "--mci", "x.mci"],
+        &["cannot be used with"],
+    );
+}
