@@ -197,3 +197,35 @@ fn compare_rejects_bad_flags() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("--target-error"), "{}", stderr(&o));
 }
+
+#[test]
+fn compare_writes_table_csv_and_plot_with_the_failures_visible() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = ssskit(&[
+        "profiles",
+        "compare",
+        "--materials",
+        "ketchup",
+        "--reference-photons",
+        "5000",
+        "--out-dir",
+        d,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(dir.path().join("compare.md")).unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("compare.csv")).unwrap();
+    // Header + 4 models x 3 channels.
+    assert_eq!(csv.lines().count(), 13);
+    assert_eq!(md.lines().count(), 14);
+    let png = image::open(dir.path().join("compare_ketchup.png")).unwrap();
+    assert!(png.width() > 1000);
+    // The directional dipole's failure on ketchup blue shows as a relative
+    // total error far above 100%.
+    let dd_b = csv
+        .lines()
+        .find(|l| l.starts_with("ketchup,b,") && l.contains(",directional-dipole,"))
+        .unwrap();
+    let rel: f64 = dd_b.split(',').nth(7).unwrap().parse().unwrap();
+    assert!(rel > 10.0, "{dd_b}");
+}

@@ -116,9 +116,15 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         let reference = simulate(mat, &cfg, &Bar::new())?;
         let mut models = Vec::new();
         for model in Model::ALL {
-            let (p, secs) = timed_profile(mat, model, &grid, &options)?;
-            rows.extend(compare::compare(&p, &reference, secs)?);
-            models.push(p);
+            // A model that cannot run here (e.g. the Fresnel fits outside
+            // their range) is reported and left out, not fatal for the table.
+            match timed_profile(mat, model, &grid, &options) {
+                Ok((p, secs)) => {
+                    rows.extend(compare::compare(&p, &reference, secs)?);
+                    models.push(p);
+                }
+                Err(e) => eprintln!("{}: {} left out: {e:#}", mat.name, model.name()),
+            }
         }
         let png = a.out_dir.join(format!("compare_{}.png", mat.name));
         let title = format!(
