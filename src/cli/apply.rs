@@ -1,8 +1,256 @@
-//! `ssskit apply` (FOUNDATION STUB: being built).
+//! `ssskit apply`: a kernel (or, as ground truth, the full 2D profile) applied
+//! to an image on the CPU or with wgpu.
+
+use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
+use ssskit::filter::{cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use ssskit::kernel::KernelFile;
+use ssskit::profile::Profile;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    /// wgpu; an error when no adapter is found.
+    Gpu,
+    /// The f64 reference.
+    Cpu,
+    /// wgpu when an adapter is found, else the CPU; says which it used.
+    Auto,
+}
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Kernel file (ssskit.kernel/1).
+    #[arg(
+        long,
+        required_unless_present = "reference",
+        conflicts_with = "reference"
+    )]
+    kernel: Option<PathBuf>,
+    /// Ground truth instead of a kernel: exact 2D convolution with this
+    /// profile's full 2D kernel at --mm-per-pixel (CPU only).
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Irradiance image in linear light (.exr) or sRGB (.png).
+    #[arg(long)]
+    input: PathBuf,
+    /// Output image (.exr or .png by extension).
+    #[arg(long)]
+    out: PathBuf,
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: Backend,
+    /// Depth image (.exr channel Z, Y or R, or --depth-channel; .png grey).
+    /// Without it, an EXR input's depth channel is used when one is needed.
+    #[arg(long)]
+    depth: Option<PathBuf>,
+    /// Name of the depth channel in the input EXR or in --depth (default Z).
+    #[arg(long)]
+    depth_channel: Option<String>,
+    /// Specular image added after the blur.
+    #[arg(long)]
+    specular: Option<PathBuf>,
+    /// Per-pixel SSS strength in [0, inf): multiplies the kernel size.
+    #[arg(long)]
+    strength: Option<PathBuf>,
+    /// Orthographic scale: surface millimetres per pixel.
+    #[arg(long, conflicts_with_all = ["fov_y", "sss_width"], required_unless_present_any = ["fov_y"])]
+    mm_per_pixel: Option<f64>,
+    /// Vertical field of view in degrees (perspective scale, 002 eq. 4.11).
+    #[arg(long, requires = "sss_width")]
+    fov_y: Option<f64>,
+    /// Scene units per kernel millimetre (0.001 for a scene in metres).
+    #[arg(long, requires = "fov_y")]
+    sss_width: Option<f64>,
+    /// Depth-aware lerp toward the centre colour with constant C (002 eq.
+    /// 4.12; Jimenez uses 300).
+    #[arg(long)]
+    follow_surface: Option<f64>,
+    /// Use the kernel's real-time tap table instead of its full-resolution factors.
+    #[arg(long)]
+    taps_only: bool,
+    /// Replace NaN/Inf samples (colour, specular by 0; depth by the largest
+    /// finite depth; strength by 0) instead of failing; the count is reported.
+    #[arg(long)]
+    sanitize: bool,
+    /// PNG output bit depth (default: the input PNG's, else 8).
+    #[arg(long, value_parser = ["8", "16"])]
+    png_bits: Option<String>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'apply' is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let need_depth = args.fov_y.is_some() || args.follow_surface.is_some();
+    let input_depth_channel = match (&args.depth, need_depth, is_exr(&args.input)) {
+        (None, true, true) => Some(args.depth_channel.clone().unwrap_or_else(|| "Z".into())),
+        _ => None,
+    };
+    let (mut image, extras) = read_image(&args.input, input_depth_channel.as_deref())?;
+    let what = args.input.display().to_string();
+    report_sanitized(&what, image.check_finite(&what, args.sanitize)?);
+
+    let scale = match (args.mm_per_pixel, args.fov_y, args.sss_width) {
+        (Some(m), _, _) => Scale::MmPerPixel(m),
+        (None, Some(f), Some(w)) => Scale::Perspective {
+            fov_y_deg: f,
+            sss_width: w,
+        },
+        _ => anyhow::bail!("give --mm-per-pixel, or --fov-y with --sss-width"),
+    };
+    scale.validate()?;
+
+    let png_depth = match args.png_bits.as_deref() {
+        Some("16") => PngDepth::Sixteen,
+        Some(_) => PngDepth::Eight,
+        None if !is_exr(&args.input) => png_depth_of(&args.input)?,
+        None => PngDepth::Eight,
+    };
+
+    let start = Instant::now();
+    if let Some(reference) = &args.reference {
+        let out = run_reference(&args, reference, &image, scale)?;
+        write_image(&args.out, &out, png_depth)?;
+        eprintln!(
+            "exact 2D reference on the CPU: {:.3} s -> {}",
+            start.elapsed().as_secs_f64(),
+            args.out.display()
+        );
+        return Ok(());
+    }
+
+    let Some(kernel_path) = &args.kernel else {
+        anyhow::bail!("give --kernel K.json or --reference PROFILE.json");
+    };
+    let kernel = KernelFile::read(kernel_path)?;
+    let mut depth = match &args.depth {
+        Some(p) => Some(read_plane(p, args.depth_channel.as_deref())?),
+        None => extras.depth,
+    };
+    if let Some(d) = depth.as_mut() {
+        let fill = d
+            .data
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(f64::NAN, |a: f64, &b| a.max(b));
+        let fill = if fill.is_finite() { fill } else { 1.0 };
+        report_sanitized("depth", d.check_finite("depth", args.sanitize, fill)?);
+    }
+    let strength = load_plane(args.strength.as_deref(), args.sanitize, "strength")?;
+    let specular = match &args.specular {
+        Some(p) => {
+            let (mut s, _) = read_image(p, None)?;
+            let what = p.display().to_string();
+            report_sanitized(&what, s.check_finite(&what, args.sanitize)?);
+            Some(s)
+        }
+        None => None,
+    };
+    let factors = if args.taps_only {
+        Factors::Taps
+    } else {
+        Factors::Full
+    };
+    let uniform = match scale {
+        Scale::MmPerPixel(m) if strength.is_none() => Some(m),
+        _ => None,
+    };
+    let setup = Setup {
+        passes: taps_for(&kernel, factors, uniform),
+        scale,
+        depth,
+        strength,
+        follow_surface: args.follow_surface,
+        specular,
+    };
+    setup.validate(&image)?;
+
+    let out = match args.backend {
+        Backend::Cpu => {
+            eprintln!("backend: cpu (f64 reference)");
+            cpu::apply(&image, &setup)?
+        }
+        Backend::Gpu => {
+            let g = gpu::Gpu::new()?;
+            eprintln!("backend: gpu, adapter {}", g.describe());
+            g.apply(&image, &setup)?
+        }
+        Backend::Auto => match gpu::Gpu::new() {
+            Ok(g) => {
+                eprintln!("backend: gpu (auto), adapter {}", g.describe());
+                g.apply(&image, &setup)?
+            }
+            Err(e) => {
+                eprintln!("backend: cpu (auto: {e})");
+                cpu::apply(&image, &setup)?
+            }
+        },
+    };
+    write_image(&args.out, &out, png_depth)?;
+    eprintln!(
+        "{} pass(es) of {} taps, {:.3} s -> {}",
+        setup.passes.len(),
+        setup
+            .passes
+            .iter()
+            .map(|t| t.offsets_mm.len())
+            .max()
+            .unwrap_or(0),
+        start.elapsed().as_secs_f64(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn run_reference(
+    args: &Args,
+    reference: &Path,
+    image: &Image,
+    scale: Scale,
+) -> anyhow::Result<Image> {
+    let Scale::MmPerPixel(m) = scale else {
+        anyhow::bail!("--reference needs --mm-per-pixel (the exact 2D kernel has one scale)");
+    };
+    if args.depth.is_some()
+        || args.strength.is_some()
+        || args.follow_surface.is_some()
+        || args.specular.is_some()
+        || args.taps_only
+    {
+        anyhow::bail!(
+            "--reference is the plain exact 2D convolution: it takes no --depth, --strength, \
+             --follow-surface, --specular or --taps-only"
+        );
+    }
+    if args.backend == Backend::Gpu {
+        anyhow::bail!("--reference runs on the CPU only (use --backend cpu or auto)");
+    }
+    let profile = Profile::read(reference)?;
+    let k = cpu::reference_kernel(&profile, m)?;
+    eprintln!(
+        "exact 2D kernel: {0}x{0} pixels of {m} mm ({1})",
+        k.size,
+        if k.size > cpu::FFT_ABOVE {
+            "FFT"
+        } else {
+            "direct"
+        }
+    );
+    Ok(cpu::convolve_2d(image, &k))
+}
+
+fn load_plane(path: Option<&Path>, sanitize: bool, what: &str) -> anyhow::Result<Option<Plane>> {
+    let Some(p) = path else { return Ok(None) };
+    let mut plane = read_plane(p, None)?;
+    report_sanitized(what, plane.check_finite(what, sanitize, 0.0)?);
+    Ok(Some(plane))
+}
+
+fn report_sanitized(what: &str, n: usize) {
+    if n > 0 {
+        eprintln!("{what}: replaced {n} NaN/Inf samples (--sanitize)");
+    }
+}
+
+fn is_exr(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }

@@ -1,8 +1,69 @@
-//! `ssskit diff` (FOUNDATION STUB: being built).
+//! `ssskit diff`: image-space error between a reference A and an image B.
+
+use ssskit::filter::diff::{abs_difference, compare, false_colour};
+use ssskit::filter::image::{read_image, write_image, PngDepth};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Reference image (relative errors are relative to its peak).
+    a: PathBuf,
+    /// Image compared with A.
+    b: PathBuf,
+    /// Print JSON: {"rms": [3], "max_abs": [3], "rms_rel": [3], "max_rel": [3]}.
+    #[arg(long)]
+    json: bool,
+    /// Difference image: .png in false colour (max over channels of |A - B|),
+    /// .exr with |A - B| per channel.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Difference mapped to the top of the colour ramp (default: the largest
+    /// in the image); give the same value to compare several images.
+    #[arg(long)]
+    scale: Option<f64>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'diff' is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let (a, _) = read_image(&args.a, None)?;
+    let (b, _) = read_image(&args.b, None)?;
+    for (img, p) in [(&a, &args.a), (&b, &args.b)] {
+        let (n, first) = img.non_finite();
+        if let Some((x, y, c)) = first {
+            anyhow::bail!(
+                "{}: {n} NaN/Inf samples, the first at pixel ({x}, {y}) channel {c}",
+                p.display()
+            );
+        }
+    }
+    if let Some(s) = args.scale {
+        if !(s > 0.0 && s.is_finite()) {
+            anyhow::bail!("--scale = {s}: must be finite and > 0");
+        }
+    }
+    let stats = compare(&a, &b)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&stats)?);
+    } else {
+        println!("{:<8} {:>12} {:>12} {:>12}", "", "R", "G", "B");
+        let row = |name: &str, v: [f64; 3]| {
+            println!("{name:<8} {:>12.4e} {:>12.4e} {:>12.4e}", v[0], v[1], v[2])
+        };
+        row("rms", stats.rms);
+        row("max_abs", stats.max_abs);
+        row("rms_rel", stats.rms_rel);
+        row("max_rel", stats.max_rel);
+    }
+    if let Some(out) = &args.out {
+        let is_exr = out
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+        let img = if is_exr {
+            abs_difference(&a, &b)
+        } else {
+            false_colour(&a, &b, args.scale)
+        };
+        write_image(out, &img, PngDepth::Eight)?;
+    }
+    Ok(())
 }

@@ -1,8 +1,68 @@
-//! `ssskit signal` (FOUNDATION STUB: being built).
+//! `ssskit signal`: test images for kernels in image space.
+
+use ssskit::filter::image::{write_image, PngDepth};
+use ssskit::filter::signals::{generate, Signal};
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Kind {
+    /// Vertical white-black edge (white left half).
+    Edge,
+    /// A circle and two tilted adjacent squares (002 figure 6.6).
+    Shapes,
+    /// One bright pixel at the centre.
+    Dirac,
+    /// A checker of --checker-mm cells.
+    Checker,
+}
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    #[arg(value_enum)]
+    kind: Kind,
+    /// Image size, e.g. 512x256.
+    #[arg(long, default_value = "256x256")]
+    size: String,
+    /// Surface millimetres per pixel (sets the checker cell in pixels).
+    #[arg(long, default_value_t = 0.1)]
+    mm_per_pixel: f64,
+    /// Checker cell width in mm.
+    #[arg(long, default_value_t = 1.0)]
+    checker_mm: f64,
+    /// Output image (.exr or .png).
+    #[arg(long)]
+    out: PathBuf,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'signal' is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let (w, h) = parse_size(&args.size)?;
+    if !(args.mm_per_pixel > 0.0 && args.mm_per_pixel.is_finite()) {
+        anyhow::bail!(
+            "--mm-per-pixel = {}: must be finite and > 0",
+            args.mm_per_pixel
+        );
+    }
+    if !(args.checker_mm > 0.0 && args.checker_mm.is_finite()) {
+        anyhow::bail!("--checker-mm = {}: must be finite and > 0", args.checker_mm);
+    }
+    let cell = (args.checker_mm / args.mm_per_pixel).round().max(1.0) as usize;
+    let signal = match args.kind {
+        Kind::Edge => Signal::Edge,
+        Kind::Shapes => Signal::Shapes,
+        Kind::Dirac => Signal::Dirac,
+        Kind::Checker => Signal::Checker,
+    };
+    let img = generate(signal, w, h, cell)?;
+    write_image(&args.out, &img, PngDepth::Sixteen)?;
+    eprintln!("{w}x{h} {:?} -> {}", args.kind, args.out.display());
+    Ok(())
+}
+
+fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
+    let bad = || anyhow::anyhow!("--size = '{s}': expected WIDTHxHEIGHT, e.g. 512x256");
+    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    Ok((
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    ))
 }

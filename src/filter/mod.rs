@@ -1,2 +1,360 @@
 //! Applying kernels to images: image I/O, the exact CPU reference and the
-//! wgpu post-process (issue 5).
+//! wgpu post-process (issue 5; 002 sections 4.2-4.4, REFERENCE 5 end).
+//!
+//! One algorithm, two implementations: `cpu::apply_screen_space` (f64) and
+//! `gpu::Gpu::apply` (f32, WGSL) run 002 algorithm 4.1 on the same
+//! [`Setup`]: per rank, a horizontal then a vertical 1D pass whose tap
+//! offsets are scaled per pixel (002 eq. 4.11), with the depth-aware lerp
+//! toward the centre colour (002 eq. 4.12); ranks are summed and the specular
+//! image is added after the blur. Samples between pixels are linearly
+//! interpolated along the pass axis; positions outside the image are clamped
+//! to the border pixel (clamp-to-edge).
+
+// Colour loops index several [_; 3] arrays by channel at once.
+#![allow(clippy::needless_range_loop)]
+
+pub mod cpu;
+pub mod diff;
+pub mod gpu;
+pub mod image;
+pub mod signals;
+
+use crate::error::{Error, Result};
+use crate::kernel::{KernelFile, Pass};
+pub use image::{Image, Plane};
+
+/// How kernel millimetres map to pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scale {
+    /// Orthographic: a constant pixel footprint on the surface.
+    MmPerPixel(f64),
+    /// Perspective (002 eq. 4.11): needs a depth image. `sss_width` is scene
+    /// units per kernel millimetre (0.001 for a scene in metres).
+    Perspective { fov_y_deg: f64, sss_width: f64 },
+}
+
+impl Scale {
+    pub fn validate(&self) -> Result<()> {
+        match *self {
+            Scale::MmPerPixel(m) if !(m > 0.0 && m.is_finite()) => Err(Error::invalid(
+                "apply",
+                "--mm-per-pixel",
+                m,
+                "must be finite and > 0",
+            )),
+            Scale::Perspective { fov_y_deg, .. } if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) => Err(
+                Error::invalid("apply", "--fov-y", fov_y_deg, "must be in (0, 180) degrees"),
+            ),
+            Scale::Perspective { sss_width, .. } if !(sss_width > 0.0 && sss_width.is_finite()) => {
+                Err(Error::invalid(
+                    "apply",
+                    "--sss-width",
+                    sss_width,
+                    "must be finite and > 0",
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn tan_half_fov(fov_y_deg: f64) -> f64 {
+        (0.5 * fov_y_deg.to_radians()).tan()
+    }
+
+    /// Pixels per kernel millimetre before the per-pixel factors: the step is
+    /// `step_base * strength` (orthographic) or `step_base * strength / depth`
+    /// (perspective). 002 eq. 4.11: k_sc = 1/(tan(fov_y/2) p_d) maps a scene
+    /// length to normalised device units (half the image height is 1), so a
+    /// kernel millimetre spans sss_width k_sc height/2 pixels.
+    pub fn step_base(&self, height: usize) -> f64 {
+        match *self {
+            Scale::MmPerPixel(m) => 1.0 / m,
+            Scale::Perspective {
+                fov_y_deg,
+                sss_width,
+            } => sss_width * height as f64 / (2.0 * Scale::tan_half_fov(fov_y_deg)),
+        }
+    }
+
+    /// Factor k of the depth-aware lerp t = clamp(k |d_centre - d_sample|, 0, 1).
+    /// 002 eq. 4.12: k = C sss_width / tan(fov_y/2); orthographic: k = C
+    /// (depth in the depth image's units).
+    pub fn follow_factor(&self, c: f64) -> f64 {
+        match *self {
+            Scale::MmPerPixel(_) => c,
+            Scale::Perspective {
+                fov_y_deg,
+                sss_width,
+            } => c * sss_width / Scale::tan_half_fov(fov_y_deg),
+        }
+    }
+}
+
+/// One 1D factor as taps: offsets in kernel mm, RGB weights.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Taps {
+    pub offsets_mm: Vec<f64>,
+    pub weights: Vec<[f64; 3]>,
+}
+
+impl From<&Pass> for Taps {
+    fn from(p: &Pass) -> Taps {
+        Taps {
+            offsets_mm: p.offsets_mm.clone(),
+            weights: p.weights.clone(),
+        }
+    }
+}
+
+/// Everything both backends need besides the image.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    /// One entry per separable term (rank).
+    pub passes: Vec<Taps>,
+    pub scale: Scale,
+    /// Depth per pixel: required for `Scale::Perspective` and for
+    /// `follow_surface`.
+    pub depth: Option<Plane>,
+    /// SSS strength per pixel, multiplies the step (002 section 4.4).
+    pub strength: Option<Plane>,
+    /// The constant C of 002 eq. 4.12 (Jimenez uses 300); None: no lerp.
+    pub follow_surface: Option<f64>,
+    /// Added after the blur.
+    pub specular: Option<Image>,
+}
+
+impl Setup {
+    /// Checks sizes and values against the image.
+    pub fn validate(&self, image: &Image) -> Result<()> {
+        self.scale.validate()?;
+        if image.is_empty() {
+            return Err(Error::Unsupported("the input image has no pixels".into()));
+        }
+        if self.passes.is_empty() {
+            return Err(Error::Unsupported("the kernel has no passes".into()));
+        }
+        if let Some(d) = &self.depth {
+            image::check_same_size("the depth image", d.width, d.height, image)?;
+            if let Some(i) = d.data.iter().position(|v| !v.is_finite()) {
+                return Err(Error::invalid(
+                    "depth",
+                    format!("pixel ({}, {})", i % d.width, i / d.width),
+                    d.data[i],
+                    "must be finite",
+                ));
+            }
+            if matches!(self.scale, Scale::Perspective { .. }) {
+                if let Some(i) = d.data.iter().position(|v| !(*v > 0.0)) {
+                    return Err(Error::invalid(
+                        "depth",
+                        format!("pixel ({}, {})", i % d.width, i / d.width),
+                        d.data[i],
+                        "must be > 0 for the perspective kernel scale (002 eq. 4.11)",
+                    ));
+                }
+            }
+        } else if matches!(self.scale, Scale::Perspective { .. }) {
+            return Err(Error::Unsupported(
+                "--fov-y/--sss-width scale the kernel by depth (002 eq. 4.11): give --depth \
+                 or an input EXR with a depth channel"
+                    .into(),
+            ));
+        } else if self.follow_surface.is_some() {
+            return Err(Error::Unsupported(
+                "--follow-surface needs a depth image (--depth or a depth channel)".into(),
+            ));
+        }
+        if let Some(c) = self.follow_surface {
+            if !(c >= 0.0 && c.is_finite()) {
+                return Err(Error::invalid(
+                    "apply",
+                    "--follow-surface",
+                    c,
+                    "must be finite and >= 0",
+                ));
+            }
+        }
+        if let Some(s) = &self.strength {
+            image::check_same_size("the strength image", s.width, s.height, image)?;
+            if let Some(i) = s.data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+                return Err(Error::invalid(
+                    "strength",
+                    format!("pixel ({}, {})", i % s.width, i / s.width),
+                    s.data[i],
+                    "must be finite and >= 0",
+                ));
+            }
+        }
+        if let Some(s) = &self.specular {
+            image::check_same_size("the specular image", s.width, s.height, image)?;
+        }
+        Ok(())
+    }
+
+    /// True when every pixel uses the same step and no lerp: the passes are
+    /// then plain convolutions with fixed integer kernels.
+    pub fn is_uniform(&self) -> bool {
+        matches!(self.scale, Scale::MmPerPixel(_))
+            && self.strength.is_none()
+            && self.follow_surface.is_none()
+    }
+
+    /// Step in pixels per kernel mm at every pixel.
+    pub fn steps(&self, width: usize, height: usize) -> Vec<f64> {
+        let base = self.scale.step_base(height);
+        (0..width * height)
+            .map(|i| {
+                let s = self.strength.as_ref().map_or(1.0, |p| p.data[i]);
+                match self.scale {
+                    Scale::MmPerPixel(_) => base * s,
+                    Scale::Perspective { .. } => {
+                        base * s / self.depth.as_ref().map_or(1.0, |d| d.data[i])
+                    }
+                }
+            })
+            .collect()
+    }
+}
+
+/// Which factors of a kernel file to apply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Factors {
+    /// The real-time N-tap table.
+    Taps,
+    /// The full-resolution factors.
+    Full,
+}
+
+/// The taps to run for `kernel`. Full-resolution factors under a uniform
+/// orthographic scale are resampled to whole pixels (each sample's weight is
+/// spread over its cell and integrated over each pixel, which preserves the
+/// sum); otherwise their samples are used as taps.
+pub fn taps_for(
+    kernel: &KernelFile,
+    factors: Factors,
+    uniform_mm_per_pixel: Option<f64>,
+) -> Vec<Taps> {
+    match factors {
+        Factors::Taps => kernel.taps.passes.iter().map(Taps::from).collect(),
+        Factors::Full => kernel
+            .passes
+            .iter()
+            .map(|p| match uniform_mm_per_pixel {
+                Some(m) => resample_to_pixels(&Taps::from(p), m),
+                None => Taps::from(p),
+            })
+            .collect(),
+    }
+}
+
+/// Box resampling of a sampled 1D factor to pixels of width `mm` centred on
+/// the origin: sample k owns the interval between the midpoints to its
+/// neighbours; its weight is shared among the pixels that interval overlaps.
+pub fn resample_to_pixels(t: &Taps, mm: f64) -> Taps {
+    let n = t.offsets_mm.len();
+    let edge = |k: usize| -> (f64, f64) {
+        let x = t.offsets_mm[k];
+        let lo = if k > 0 {
+            0.5 * (t.offsets_mm[k - 1] + x)
+        } else if n > 1 {
+            x - 0.5 * (t.offsets_mm[1] - x)
+        } else {
+            x - 0.5 * mm
+        };
+        let hi = if k + 1 < n {
+            0.5 * (x + t.offsets_mm[k + 1])
+        } else if n > 1 {
+            x + 0.5 * (x - t.offsets_mm[n - 2])
+        } else {
+            x + 0.5 * mm
+        };
+        (lo, hi)
+    };
+    let (lo_all, hi_all) = (edge(0).0, edge(n - 1).1);
+    let j_lo = (lo_all / mm - 0.5).floor() as i64;
+    let j_hi = (hi_all / mm + 0.5).ceil() as i64;
+    let mut weights = vec![[0.0; 3]; (j_hi - j_lo + 1) as usize];
+    for k in 0..n {
+        let (lo, hi) = edge(k);
+        let len = hi - lo;
+        if !(len > 0.0) {
+            continue;
+        }
+        let first = ((lo / mm) + 0.5).floor() as i64;
+        let last = ((hi / mm) + 0.5).floor() as i64;
+        for j in first..=last {
+            let (plo, phi) = ((j as f64 - 0.5) * mm, (j as f64 + 0.5) * mm);
+            let overlap = (hi.min(phi) - lo.max(plo)).max(0.0);
+            if overlap > 0.0 {
+                let f = overlap / len;
+                let w = &mut weights[(j - j_lo) as usize];
+                for c in 0..3 {
+                    w[c] += f * t.weights[k][c];
+                }
+            }
+        }
+    }
+    Taps {
+        offsets_mm: (j_lo..=j_hi).map(|j| j as f64 * mm).collect(),
+        weights,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perspective_step_is_the_projected_size_of_a_kernel_millimetre() {
+        // 002 eq. 4.11: at depth d a vertical field of view F covers
+        // 2 d tan(F/2) scene units over the image height H.
+        let (fov, w, h, d) = (50.0f64, 0.001, 1080, 0.4);
+        let s = Scale::Perspective {
+            fov_y_deg: fov,
+            sss_width: w,
+        };
+        let scene_per_pixel = 2.0 * d * (fov.to_radians() / 2.0).tan() / h as f64;
+        let expected = w / scene_per_pixel;
+        assert!((s.step_base(h) / d - expected).abs() < 1e-12 * expected);
+        // 002 eq. 4.12: t = C sss_width |dd| / tan(F/2).
+        let k = s.follow_factor(300.0);
+        assert!((k - 300.0 * w / (fov.to_radians() / 2.0).tan()).abs() < 1e-12);
+        assert_eq!(Scale::MmPerPixel(0.25).step_base(h), 4.0);
+    }
+
+    #[test]
+    fn resampling_preserves_the_sum_and_the_mean() {
+        let offsets: Vec<f64> = (-20..=20).map(|i| i as f64 * 0.13).collect();
+        let weights: Vec<[f64; 3]> = offsets
+            .iter()
+            .map(|x| {
+                let g = (-(x - 0.2) * (x - 0.2) / 0.5).exp();
+                [g, 2.0 * g, 0.5 * g]
+            })
+            .collect();
+        let t = Taps {
+            offsets_mm: offsets,
+            weights,
+        };
+        let r = resample_to_pixels(&t, 0.37);
+        for c in 0..3 {
+            let s0: f64 = t.weights.iter().map(|w| w[c]).sum();
+            let s1: f64 = r.weights.iter().map(|w| w[c]).sum();
+            assert!((s0 - s1).abs() < 1e-12 * s0);
+            let m0: f64 = t
+                .offsets_mm
+                .iter()
+                .zip(&t.weights)
+                .map(|(x, w)| x * w[c])
+                .sum();
+            let m1: f64 = r
+                .offsets_mm
+                .iter()
+                .zip(&r.weights)
+                .map(|(x, w)| x * w[c])
+                .sum();
+            // The first moment moves by less than a pixel's resolution.
+            assert!((m0 / s0 - m1 / s1).abs() < 0.01, "{} {}", m0 / s0, m1 / s1);
+        }
+    }
+}

@@ -1,1 +1,5 @@
 //! Error tables, plots and comparisons (issues 3 and 4).
+
+pub mod compare;
+pub mod plot;
+pub mod table;

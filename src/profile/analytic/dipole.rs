@@ -2,38 +2,108 @@
 //! 000 ch. 3, with the sign erratum of eq. 3.7/3.10 fixed).
 
 use crate::material::Medium;
+use crate::profile::fresnel::{fresnel_moment1_exact, FresnelMode};
 use std::f64::consts::PI;
 
-/// Diffuse Fresnel reflectance fit F_dr(eta) (Egan and Hilgeman).
+/// Diffuse Fresnel reflectance fit F_dr(eta) as printed in REFERENCE.md
+/// section 4, with last coefficient 0.0036. That is an erratum: the
+/// published coefficient (Egan and Hilgeman, Jensen et al. 2001) is 0.0636,
+/// see `diffuse_fresnel_jensen`. Kept unchanged because `dipole_rd`,
+/// `dipole_total` and `boundary_a` use it and other modules' tests are
+/// calibrated on them; the `Dipole` model (`ssskit profile --model dipole`)
+/// uses the corrected fit.
 pub fn diffuse_fresnel_fit(eta: f64) -> f64 {
     -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0036 * eta
 }
 
-/// Boundary mismatch A = (1 + F_dr) / (1 - F_dr).
+/// Jensen et al. 2001's F_dr fit with the published coefficient 0.0636,
+/// which matches the exact diffuse internal reflectance 2 C_1 (0.4446 at
+/// eta = 1.3, 0.5963 at 1.5; see `fresnel_moment1_exact`), while 0.0036 is
+/// off by 0.08 and changes A by 25%.
+pub fn diffuse_fresnel_jensen(eta: f64) -> f64 {
+    -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
+}
+
+/// F_dr for the chosen Fresnel mode: Jensen's fit, or 2 C_1 by quadrature.
+pub fn diffuse_fresnel(eta: f64, mode: FresnelMode) -> f64 {
+    match mode {
+        FresnelMode::Fit => diffuse_fresnel_jensen(eta),
+        FresnelMode::Exact => 2.0 * fresnel_moment1_exact(eta),
+    }
+}
+
+/// Boundary mismatch A = (1 + F_dr) / (1 - F_dr) (Jensen 2001 eq. 6) with
+/// REFERENCE's printed F_dr (see `diffuse_fresnel_fit`).
 pub fn boundary_a(eta: f64) -> f64 {
     let f = diffuse_fresnel_fit(eta);
     (1.0 + f) / (1.0 - f)
 }
 
-/// R_d(r) of the standard dipole, mm^-2.
+/// A = (1 + F_dr) / (1 - F_dr) with F_dr from the chosen Fresnel mode.
+pub fn boundary_a_with(eta: f64, mode: FresnelMode) -> f64 {
+    let f = diffuse_fresnel(eta, mode);
+    (1.0 + f) / (1.0 - f)
+}
+
+/// R_d(r) of the standard dipole, mm^-2, with `boundary_a` (REFERENCE's
+/// printed F_dr fit; `Dipole` uses the corrected one).
 pub fn dipole_rd(m: &Medium, r: f64) -> f64 {
+    dipole_rd_a(m, boundary_a(m.eta), r)
+}
+
+/// R_d(r) of the standard dipole for a given boundary term A, per unit flux
+/// entering the medium (REFERENCE 4; 000 eq. 3.8 with the sign of eq. 3.7
+/// fixed).
+pub fn dipole_rd_a(m: &Medium, a: f64, r: f64) -> f64 {
     let st = m.sigma_t_reduced();
     let alpha = m.reduced_albedo();
     let tr = m.sigma_tr();
     let z_r = 1.0 / st;
-    let z_v = z_r + 4.0 * boundary_a(m.eta) * m.diffusion_coefficient();
+    let z_v = z_r + 4.0 * a * m.diffusion_coefficient();
     let d_r = (r * r + z_r * z_r).sqrt();
     let d_v = (r * r + z_v * z_v).sqrt();
     let pole = |z: f64, d: f64| z * (1.0 + tr * d) * (-tr * d).exp() / (d * d * d);
     alpha / (4.0 * PI) * (pole(z_r, d_r) + pole(z_v, d_v))
 }
 
-/// Closed-form total diffuse reflectance of the dipole.
+/// Closed-form total diffuse reflectance of the dipole with `boundary_a`.
 pub fn dipole_total(m: &Medium) -> f64 {
+    dipole_total_a(m, boundary_a(m.eta))
+}
+
+/// Closed-form total of the dipole for a given A (Jensen 2001 eq. 8):
+/// (alpha'/2) (1 + e^{-(4/3) A sqrt(3(1-alpha'))}) e^{-sqrt(3(1-alpha'))}.
+pub fn dipole_total_a(m: &Medium, a: f64) -> f64 {
     let alpha = m.reduced_albedo();
-    let s = (3.0 * (1.0 - alpha)).sqrt();
-    let a = boundary_a(m.eta);
+    let s = (3.0 * (1.0 - alpha)).max(0.0).sqrt();
     0.5 * alpha * (1.0 + (-(4.0 / 3.0) * a * s).exp()) * (-s).exp()
+}
+
+/// The dipole of one channel, with the entry transmission 1 - R_sp applied
+/// so that it compares with Monte Carlo photons launched with that weight.
+#[derive(Clone, Debug)]
+pub struct Dipole {
+    pub medium: Medium,
+    pub a: f64,
+    pub t_entry: f64,
+}
+
+impl Dipole {
+    pub fn new(medium: &Medium, mode: FresnelMode, t_entry: f64) -> Dipole {
+        Dipole {
+            medium: *medium,
+            a: boundary_a_with(medium.eta, mode),
+            t_entry,
+        }
+    }
+
+    pub fn rd(&self, r: f64) -> f64 {
+        self.t_entry * dipole_rd_a(&self.medium, self.a, r)
+    }
+
+    pub fn total(&self) -> f64 {
+        self.t_entry * dipole_total_a(&self.medium, self.a)
+    }
 }
 
 #[cfg(test)]
@@ -55,6 +125,17 @@ mod tests {
                     "{name} {ch:?}: {num} vs {exact}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn jensen_fit_matches_exact_diffuse_reflectance() {
+        for eta in [1.2, 1.3, 1.4, 1.5] {
+            let fit = diffuse_fresnel_jensen(eta);
+            let exact = diffuse_fresnel(eta, FresnelMode::Exact);
+            assert!((fit - exact).abs() < 3e-3, "eta {eta}: {fit} vs {exact}");
+            // REFERENCE's printed coefficient is 0.06 eta off.
+            assert!((diffuse_fresnel_fit(eta) - exact).abs() > 0.05);
         }
     }
 }

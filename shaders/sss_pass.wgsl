@@ -1,0 +1,85 @@
+// One 1D pass of the separable screen-space SSS filter (002 algorithm 4.1).
+// The f64 twin is src/filter/cpu.rs (apply_screen_space); keep them in step.
+// Storage buffers and plain indexing (no samplers): rgba32float is not
+// filterable on every adapter (lavapipe), so the linear interpolation along
+// the pass axis is done here. Positions are clamped to the image (clamp-to-edge).
+
+struct Params {
+    width: u32,
+    height: u32,
+    ntaps: u32,
+    // 0: horizontal, 1: vertical.
+    axis: u32,
+    // 0: orthographic step, 1: perspective step divided by depth (002 eq. 4.11).
+    perspective: u32,
+    // 1: lerp toward the centre colour by depth difference (002 eq. 4.12).
+    follow: u32,
+    // 1: dst += result (vertical pass of a rank), 0: dst = result.
+    accumulate: u32,
+    _pad: u32,
+    // Pixels per kernel mm before strength and depth.
+    step_base: f32,
+    // k of t = clamp(k |d_centre - d_sample|, 0, 1).
+    follow_k: f32,
+    _pad2: vec2<f32>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> depth: array<f32>;
+@group(0) @binding(3) var<storage, read> strength: array<f32>;
+// xyz: RGB weight, w: offset in kernel mm.
+@group(0) @binding(4) var<storage, read> taps: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> dst: array<vec4<f32>>;
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if (x >= params.width || y >= params.height) {
+        return;
+    }
+    let w = params.width;
+    let centre = y * w + x;
+    var coord = x;
+    var n = params.width;
+    var stride = 1u;
+    var base = y * w;
+    if (params.axis == 1u) {
+        coord = y;
+        n = params.height;
+        stride = w;
+        base = x;
+    }
+    let d_centre = depth[centre];
+    // 002 eq. 4.11: kernel size per pixel = width * scale * strength.
+    var step = params.step_base * strength[centre];
+    if (params.perspective == 1u) {
+        step = step / d_centre;
+    }
+    let c_centre = src[centre].xyz;
+    var acc = vec3<f32>(0.0);
+    for (var i = 0u; i < params.ntaps; i = i + 1u) {
+        let tap = taps[i];
+        let p = clamp(f32(coord) + tap.w * step, 0.0, f32(n - 1u));
+        let fl = floor(p);
+        let f = p - fl;
+        let i0 = u32(fl);
+        let i1 = min(i0 + 1u, n - 1u);
+        let a = base + i0 * stride;
+        let b = base + i1 * stride;
+        var o = src[a].xyz * (1.0 - f) + src[b].xyz * f;
+        if (params.follow == 1u) {
+            let od = depth[a] * (1.0 - f) + depth[b] * f;
+            // 002 eq. 4.12
+            let t = clamp(params.follow_k * abs(d_centre - od), 0.0, 1.0);
+            o = o * (1.0 - t) + c_centre * t;
+        }
+        acc = acc + tap.xyz * o;
+    }
+    if (params.accumulate == 1u) {
+        dst[centre] = vec4<f32>(dst[centre].xyz + acc, 1.0);
+    } else {
+        dst[centre] = vec4<f32>(acc, 1.0);
+    }
+}

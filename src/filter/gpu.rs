@@ -1,0 +1,303 @@
+//! The wgpu post-process: shaders/sss_pass.wgsl run per rank as a horizontal
+//! then a vertical pass, the vertical pass accumulating into the output,
+//! which starts as the specular image (so specular is added after the blur).
+//! f32 throughout; checked against `cpu::apply_screen_space` (f64).
+
+use super::{Image, Setup};
+use crate::error::{Error, Result};
+use wgpu::util::DeviceExt;
+
+const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
+
+/// A device with the pass pipeline compiled.
+pub struct Gpu {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pipeline: wgpu::ComputePipeline,
+    info: wgpu::AdapterInfo,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    width: u32,
+    height: u32,
+    ntaps: u32,
+    axis: u32,
+    perspective: u32,
+    follow: u32,
+    accumulate: u32,
+    _pad: u32,
+    step_base: f32,
+    follow_k: f32,
+    _pad2: [f32; 2],
+}
+
+impl Gpu {
+    /// Opens the first adapter the environment allows (WGPU_BACKEND etc. are
+    /// honoured); an error, never a silent CPU fallback, when there is none.
+    pub fn new() -> Result<Gpu> {
+        pollster::block_on(Gpu::open())
+    }
+
+    async fn open() -> Result<Gpu> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| {
+                Error::Unsupported(format!(
+                    "no GPU adapter found ({e}); without a GPU, install Mesa's lavapipe \
+                     (scripts/setup) and `source scripts/env.sh`, or use --backend cpu"
+                ))
+            })?;
+        let info = adapter.get_info();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("ssskit"),
+                required_limits: adapter.limits(),
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| Error::Unsupported(format!("cannot open the GPU device: {e}")))?;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("sss_pass"),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("sss_pass"),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Ok(Gpu {
+            device,
+            queue,
+            pipeline,
+            info,
+        })
+    }
+
+    /// "name (backend, device type, driver)".
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, {} {})",
+            self.info.name,
+            self.info.backend,
+            self.info.device_type,
+            self.info.driver,
+            self.info.driver_info
+        )
+    }
+
+    /// Runs `setup` on `image`.
+    pub fn apply(&self, image: &Image, setup: &Setup) -> Result<Image> {
+        setup.validate(image)?;
+        let (w, h) = (image.width, image.height);
+        let n = w * h;
+        let limit = self.device.limits().max_storage_buffer_binding_size as usize;
+        if n * 16 > limit {
+            return Err(Error::Unsupported(format!(
+                "a {w}x{h} image needs {} bytes per buffer; this adapter binds at most {limit}",
+                n * 16
+            )));
+        }
+        let rgba = |img: &Image| -> Vec<[f32; 4]> {
+            (0..n)
+                .map(|i| {
+                    [
+                        img.rgb[0][i] as f32,
+                        img.rgb[1][i] as f32,
+                        img.rgb[2][i] as f32,
+                        1.0,
+                    ]
+                })
+                .collect()
+        };
+        let scalar = |p: Option<&super::Plane>| -> Vec<f32> {
+            p.map_or_else(
+                || vec![1.0; n],
+                |p| p.data.iter().map(|&v| v as f32).collect(),
+            )
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let src = self.buffer("image", bytemuck::cast_slice(&rgba(image)), storage);
+        let depth = self.buffer(
+            "depth",
+            bytemuck::cast_slice(&scalar(setup.depth.as_ref())),
+            storage,
+        );
+        let strength = self.buffer(
+            "strength",
+            bytemuck::cast_slice(&scalar(setup.strength.as_ref())),
+            storage,
+        );
+        let tmp = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("horizontal"),
+            size: (n * 16) as u64,
+            usage: storage,
+            mapped_at_creation: false,
+        });
+        let start = match &setup.specular {
+            Some(s) => rgba(s),
+            None => vec![[0.0; 4]; n],
+        };
+        let acc = self.buffer(
+            "output",
+            bytemuck::cast_slice(&start),
+            storage | wgpu::BufferUsages::COPY_SRC,
+        );
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: (n * 16) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+
+        let base = Params {
+            width: w as u32,
+            height: h as u32,
+            ntaps: 0,
+            axis: 0,
+            perspective: matches!(setup.scale, super::Scale::Perspective { .. }) as u32,
+            follow: setup.follow_surface.is_some() as u32,
+            accumulate: 0,
+            _pad: 0,
+            step_base: setup.scale.step_base(h) as f32,
+            follow_k: setup
+                .follow_surface
+                .map_or(0.0, |c| setup.scale.follow_factor(c)) as f32,
+            _pad2: [0.0; 2],
+        };
+        let layout = self.pipeline.get_bind_group_layout(0);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let mut keep = Vec::new();
+        for taps in &setup.passes {
+            let table: Vec<[f32; 4]> = taps
+                .offsets_mm
+                .iter()
+                .zip(&taps.weights)
+                .map(|(o, w)| [w[0] as f32, w[1] as f32, w[2] as f32, *o as f32])
+                .collect();
+            let tap_buf = self.buffer("taps", bytemuck::cast_slice(&table), storage);
+            for (axis, from, to) in [(0u32, &src, &tmp), (1u32, &tmp, &acc)] {
+                let p = Params {
+                    ntaps: table.len() as u32,
+                    axis,
+                    accumulate: axis,
+                    ..base
+                };
+                let ubuf = self.buffer(
+                    "params",
+                    bytemuck::bytes_of(&p),
+                    wgpu::BufferUsages::UNIFORM,
+                );
+                let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: None,
+                    layout: &layout,
+                    entries: &[
+                        entry(0, &ubuf),
+                        entry(1, from),
+                        entry(2, &depth),
+                        entry(3, &strength),
+                        entry(4, &tap_buf),
+                        entry(5, to),
+                    ],
+                });
+                {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: None,
+                        timestamp_writes: None,
+                    });
+                    pass.set_pipeline(&self.pipeline);
+                    pass.set_bind_group(0, &group, &[]);
+                    pass.dispatch_workgroups((w as u32).div_ceil(8), (h as u32).div_ceil(8), 1);
+                }
+                keep.push(ubuf);
+            }
+            keep.push(tap_buf);
+        }
+        encoder.copy_buffer_to_buffer(&acc, 0, &readback, 0, (n * 16) as u64);
+        self.queue.submit([encoder.finish()]);
+
+        let slice = readback.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Unsupported(format!("GPU wait failed: {e}")))?;
+        rx.recv()
+            .map_err(|e| Error::Unsupported(format!("GPU readback lost: {e}")))?
+            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
+        let data: &[[f32; 4]] = bytemuck::cast_slice(&view);
+        let mut out = Image::new(w, h);
+        out.alpha = image.alpha.clone();
+        for (i, px) in data.iter().enumerate() {
+            for c in 0..3 {
+                out.rgb[c][i] = px[c] as f64;
+            }
+        }
+        drop(view);
+        readback.unmap();
+        Ok(out)
+    }
+
+    fn buffer(&self, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytes,
+                usage,
+            })
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// Points wgpu at lavapipe when no Vulkan driver was chosen, as
+/// scripts/env.sh does; for tests, which `cargo test` may run without it.
+pub fn use_software_vulkan_if_unset() {
+    if std::env::var_os("VK_DRIVER_FILES").is_none()
+        && std::env::var_os("VK_ICD_FILENAMES").is_none()
+    {
+        if let Ok(dir) = std::fs::read_dir("/usr/share/vulkan/icd.d") {
+            let mut lvp: Vec<_> = dir
+                .filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|p| {
+                    p.file_name()
+                        .and_then(|n| n.to_str())
+                        .is_some_and(|n| n.starts_with("lvp_icd.") && n.ends_with(".json"))
+                })
+                .collect();
+            lvp.sort();
+            if let Some(p) = lvp.first() {
+                std::env::set_var("VK_DRIVER_FILES", p);
+            }
+        }
+    }
+    if std::env::var_os("WGPU_BACKEND").is_none() {
+        std::env::set_var("WGPU_BACKEND", "vulkan");
+    }
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}

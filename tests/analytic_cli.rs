@@ -1,0 +1,231 @@
+//! `ssskit profile`, `ssskit plot profile` and `ssskit profiles compare`
+//! through the real binary: outputs, recorded parameters, error messages.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn ssskit(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ssskit"))
+        .args(args)
+        .output()
+        .expect("run ssskit")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn read_json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+#[test]
+fn profile_writes_a_valid_analytic_profile_for_every_model() {
+    let dir = tempfile::tempdir().unwrap();
+    for model in ["dipole", "pbd", "burley", "directional-dipole"] {
+        let out = dir.path().join(format!("{model}.json"));
+        let o = ssskit(&[
+            "profile",
+            "--material",
+            "skin1",
+            "--model",
+            model,
+            "--dr",
+            "0.05",
+            "--rmax",
+            "10",
+            "--fresnel",
+            "exact",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{model}: {}", stderr(&o));
+        let p = ssskit::profile::Profile::read(&out).unwrap();
+        assert_eq!(p.source.kind, "analytic");
+        assert_eq!(p.source.model.as_deref(), Some(model));
+        assert_eq!(p.r.len(), 200);
+        assert!(p.rd_stderr.is_none());
+        let v = read_json(&out);
+        assert_eq!(v["source"]["params"]["fresnel"], "exact");
+        assert!(
+            v["source"]["params"]["entry_transmission"]
+                .as_f64()
+                .unwrap()
+                > 0.98
+        );
+        assert!(v["source"]["params"]["channels"]["b"].is_object());
+        // Whole-plane totals exceed the part tabulated inside 10 mm.
+        for c in 0..3 {
+            assert!(p.total_rd[c] >= p.tabulated_total(c) * (1.0 - 1e-9));
+        }
+    }
+}
+
+#[test]
+fn profile_rejects_bad_input_with_a_clear_message_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.json");
+    let o = ssskit(&[
+        "profile",
+        "--material",
+        "marble",
+        "--model",
+        "dipole",
+        "--dr",
+        "-1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--dr"), "{}", stderr(&o));
+    let o = ssskit(&[
+        "profile",
+        "--material",
+        "marble",
+        "--model",
+        "nosuch",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    // A finite slab: analytic models describe a half-space only.
+    let toml = dir.path().join("slab.toml");
+    std::fs::write(
+        &toml,
+        "name = \"slab\"\nunit = \"mm\"\nsigma_a = [0.1, 0.1, 0.1]\nsigma_s = [1.0, 1.0, 1.0]\ng = 0.0\neta = 1.3\nthickness = 1.0\n",
+    )
+    .unwrap();
+    let o = ssskit(&[
+        "profile",
+        "--material",
+        toml.to_str().unwrap(),
+        "--model",
+        "pbd",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("semi-infinite"), "{}", stderr(&o));
+    // eta = 3 is outside the Fresnel fits.
+    std::fs::write(
+        &toml,
+        "name = \"glassy\"\nunit = \"mm\"\nsigma_a = [0.1, 0.1, 0.1]\nsigma_s = [1.0, 1.0, 1.0]\ng = 0.0\neta = 3.0\n",
+    )
+    .unwrap();
+    let o = ssskit(&[
+        "profile",
+        "--material",
+        toml.to_str().unwrap(),
+        "--model",
+        "pbd",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--fresnel exact"), "{}", stderr(&o));
+    assert!(!out.exists());
+}
+
+#[test]
+fn plot_profile_writes_a_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.json");
+    let b = dir.path().join("b.json");
+    for (model, out) in [("dipole", &a), ("burley", &b)] {
+        let o = ssskit(&[
+            "profile",
+            "--material",
+            "wholemilk",
+            "--model",
+            model,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let png = dir.path().join("p.png");
+    let o = ssskit(&[
+        "plot",
+        "profile",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&png).unwrap();
+    assert!(img.width() >= 1000 && img.height() >= 1000);
+    // Not blank: some pixels are drawn in a curve colour.
+    let rgb = img.to_rgb8();
+    assert!(rgb.pixels().filter(|p| p.0 != [255, 255, 255]).count() > 10_000);
+    // A missing file is an error naming it.
+    let o = ssskit(&[
+        "plot",
+        "profile",
+        "/nonexistent.json",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("nonexistent.json"));
+}
+
+#[test]
+fn compare_rejects_bad_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = ssskit(&[
+        "profiles",
+        "compare",
+        "--materials",
+        "nosuch",
+        "--out-dir",
+        d,
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("nosuch"));
+    let o = ssskit(&[
+        "profiles",
+        "compare",
+        "--materials",
+        "marble",
+        "--target-error",
+        "0",
+        "--out-dir",
+        d,
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--target-error"), "{}", stderr(&o));
+}
+
+#[test]
+fn compare_writes_table_csv_and_plot_with_the_failures_visible() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = ssskit(&[
+        "profiles",
+        "compare",
+        "--materials",
+        "ketchup",
+        "--reference-photons",
+        "5000",
+        "--out-dir",
+        d,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(dir.path().join("compare.md")).unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("compare.csv")).unwrap();
+    // Header + 4 models x 3 channels.
+    assert_eq!(csv.lines().count(), 13);
+    assert_eq!(md.lines().count(), 14);
+    let png = image::open(dir.path().join("compare_ketchup.png")).unwrap();
+    assert!(png.width() > 1000);
+    // The directional dipole's failure on ketchup blue shows as a relative
+    // total error far above 100%.
+    let dd_b = csv
+        .lines()
+        .find(|l| l.starts_with("ketchup,b,") && l.contains(",directional-dipole,"))
+        .unwrap();
+    let rel: f64 = dd_b.split(',').nth(7).unwrap().parse().unwrap();
+    assert!(rel > 10.0, "{dd_b}");
+}

@@ -1,0 +1,243 @@
+//! The CPU reference: exact 2D convolution against the separable
+//! application, conservation, and depth-aware filtering.
+
+mod filter_support;
+use filter_support::*;
+use ssskit::filter::signals::{generate, Signal};
+use ssskit::filter::{cpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use ssskit::kernel::Kernel2D;
+
+fn plain(passes: Vec<ssskit::filter::Taps>, mm: f64) -> Setup {
+    Setup {
+        passes,
+        scale: Scale::MmPerPixel(mm),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+    }
+}
+
+fn reference_2d() -> (Kernel2D, f64) {
+    let profile = dipole_profile("skin1", 0.01, 8.0);
+    // About 20 pixels of radius: small enough to be quick, FFT-sized.
+    let radius = (0..3)
+        .map(|c| ssskit::kernel::kernel2d::radius_holding(&profile, c, 0.999))
+        .fold(0.0, f64::max);
+    let mm = radius / 20.0;
+    (cpu::reference_kernel(&profile, mm).unwrap(), mm)
+}
+
+/// Pre-integration is exact for additively separable irradiance (002 5.2):
+/// on the vertical edge the separable result equals the 2D convolution.
+/// Both sides use the same discretisation (the 2D kernel's pixel cells and
+/// their row sums), so the tolerance is round-off: 1e-9 of the peak. The 17-tap
+/// table samples the factor, which costs up to 3% of the peak on the edge.
+#[test]
+fn preintegration_equals_exact_2d_on_the_edge() {
+    let (k, mm) = reference_2d();
+    assert!(k.size > cpu::FFT_ABOVE, "the FFT path is exercised");
+    let kernel = preintegration_kernel(&k, 17);
+    let edge = generate(Signal::Edge, 96, 24, 1).unwrap();
+    let exact = cpu::convolve_2d(&edge, &k);
+    let full = cpu::apply(
+        &edge,
+        &plain(taps_for(&kernel, Factors::Full, Some(mm)), mm),
+    )
+    .unwrap();
+    let e = max_rel(&exact, &full);
+    eprintln!(
+        "edge, kernel {0}x{0}: separable vs exact 2D {e:.2e}",
+        k.size
+    );
+    assert!(
+        e < 1e-9,
+        "separable pre-integration vs exact 2D on the edge: {e:e}"
+    );
+    let taps = cpu::apply(&edge, &plain(taps_for(&kernel, Factors::Taps, None), mm)).unwrap();
+    let e_taps = max_rel(&exact, &taps);
+    eprintln!("edge: 17 taps vs exact 2D {e_taps:.2e}");
+    assert!(e_taps < 0.03, "17 taps vs exact on the edge: {e_taps:e}");
+    // Not exact for irradiance that is not additively separable: the test
+    // above compares things that can differ.
+    let shapes = generate(Signal::Shapes, 96, 64, 1).unwrap();
+    let exact = cpu::convolve_2d(&shapes, &k);
+    let sep = cpu::apply(
+        &shapes,
+        &plain(taps_for(&kernel, Factors::Full, Some(mm)), mm),
+    )
+    .unwrap();
+    assert!(max_rel(&exact, &sep) > 1e-3);
+}
+
+#[test]
+fn cli_reference_equals_the_library() {
+    let (k, mm) = reference_2d();
+    let dir = tempfile::tempdir().unwrap();
+    let prof = dir.path().join("p.json");
+    dipole_profile("skin1", 0.01, 8.0).write(&prof).unwrap();
+    let kern = dir.path().join("k.json");
+    preintegration_kernel(&k, 17).write(&kern).unwrap();
+    let input = dir.path().join("edge.exr");
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    let mm_s = format!("{mm}");
+    let o = run(&["signal", "edge", "--size", "64x16", "--out", p(&input)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "apply",
+        "--reference",
+        p(&prof),
+        "--input",
+        p(&input),
+        "--out",
+        p(&a),
+        "--mm-per-pixel",
+        &mm_s,
+        "--backend",
+        "cpu",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("FFT"), "{}", stderr(&o));
+    let o = run(&[
+        "apply",
+        "--kernel",
+        p(&kern),
+        "--input",
+        p(&input),
+        "--out",
+        p(&b),
+        "--mm-per-pixel",
+        &mm_s,
+        "--backend",
+        "cpu",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["diff", p(&a), p(&b), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for c in 0..3 {
+        // EXR stores f32.
+        assert!(v["max_rel"][c].as_f64().unwrap() < 1e-6, "{v}");
+    }
+}
+
+fn constant(w: usize, h: usize, v: f64) -> Image {
+    let mut img = Image::new(w, h);
+    for c in 0..3 {
+        img.rgb[c]
+            .iter_mut()
+            .for_each(|x| *x = v * (1.0 + c as f64));
+    }
+    img
+}
+
+fn step_depth(w: usize, h: usize) -> Plane {
+    Plane {
+        width: w,
+        height: h,
+        data: (0..w * h)
+            .map(|i| if i % w < w / 2 { 1.0 } else { 4.0 })
+            .collect(),
+    }
+}
+
+/// A normalised kernel conserves energy: a constant stays constant (with
+/// clamped borders, everywhere) and black stays black, whatever the scale,
+/// strength, depth or follow-surface.
+#[test]
+fn constant_stays_constant_and_black_stays_black() {
+    let (w, h) = (30, 22);
+    for rank in [1, 3] {
+        let k = gaussian_kernel(rank, 17);
+        for factors in [Factors::Taps, Factors::Full] {
+            let setups = [
+                plain(taps_for(&k, factors, Some(0.2)), 0.2),
+                Setup {
+                    passes: taps_for(&k, factors, None),
+                    scale: Scale::Perspective {
+                        fov_y_deg: 30.0,
+                        sss_width: 0.05,
+                    },
+                    depth: Some(step_depth(w, h)),
+                    strength: Some(Plane {
+                        width: w,
+                        height: h,
+                        data: (0..w * h).map(|i| (i % 7) as f64 / 3.0).collect(),
+                    }),
+                    follow_surface: Some(300.0),
+                    specular: None,
+                },
+            ];
+            for setup in &setups {
+                let c = constant(w, h, 0.7);
+                let out = cpu::apply(&c, setup).unwrap();
+                let e = max_rel(&c, &out);
+                assert!(
+                    e < 1e-12,
+                    "rank {rank} {factors:?}: constant moved by {e:e}"
+                );
+                let black = Image::new(w, h);
+                let out = cpu::apply(&black, setup).unwrap();
+                assert!(out.rgb.iter().all(|p| p.iter().all(|&v| v == 0.0)));
+            }
+        }
+    }
+}
+
+#[test]
+fn far_background_does_not_bleed_into_the_foreground() {
+    let (w, h) = (32, 24);
+    let mut image = Image::new(w, h);
+    for y in 0..h {
+        for x in w / 2..w {
+            for c in 0..3 {
+                image.rgb[c][y * w + x] = 1.0;
+            }
+        }
+    }
+    let k = gaussian_kernel(3, 25);
+    let mut setup = Setup {
+        passes: taps_for(&k, Factors::Taps, None),
+        scale: Scale::Perspective {
+            fov_y_deg: 40.0,
+            sss_width: 0.1,
+        },
+        depth: Some(step_depth(w, h)),
+        strength: None,
+        follow_surface: Some(300.0),
+        specular: None,
+    };
+    let fg_max = |img: &Image| {
+        (0..h)
+            .flat_map(|y| (0..w / 2).map(move |x| y * w + x))
+            .map(|i| img.rgb[1][i])
+            .fold(0.0f64, f64::max)
+    };
+    let followed = cpu::apply(&image, &setup).unwrap();
+    assert!(fg_max(&followed) < 1e-3, "{}", fg_max(&followed));
+    setup.follow_surface = None;
+    let bled = cpu::apply(&image, &setup).unwrap();
+    assert!(
+        fg_max(&bled) > 0.05,
+        "the test cannot fail: {}",
+        fg_max(&bled)
+    );
+}
+
+#[test]
+fn cpu_results_do_not_depend_on_the_thread_count() {
+    let img = noise_image(50, 40, 3, 0.0);
+    let k = gaussian_kernel(3, 17);
+    let setup = Setup {
+        follow_surface: Some(1.0),
+        depth: Some(step_depth(50, 40)),
+        ..plain(taps_for(&k, Factors::Taps, None), 0.2)
+    };
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let a = one.install(|| cpu::apply(&img, &setup).unwrap());
+    let b = cpu::apply(&img, &setup).unwrap();
+    assert_eq!(a, b);
+}

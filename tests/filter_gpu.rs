@@ -1,0 +1,218 @@
+//! The wgpu post-process against the f64 CPU twin of the same algorithm.
+//! Runs on lavapipe in CI; fails (never skips) when no adapter is found.
+//! Tolerance: 1e-4 of the CPU image's peak per channel (f32 arithmetic and
+//! f32 tap offsets against f64).
+
+mod filter_support;
+use filter_support::*;
+use ssskit::filter::{cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use std::sync::Once;
+
+/// Sets the lavapipe variables once, before any test reads the environment.
+fn gpu_env() {
+    static ENV: Once = Once::new();
+    ENV.call_once(gpu::use_software_vulkan_if_unset);
+}
+
+fn open_gpu() -> gpu::Gpu {
+    gpu_env();
+    match gpu::Gpu::new() {
+        Ok(g) => g,
+        Err(e) => panic!("GPU test needs an adapter (lavapipe in CI): {e}"),
+    }
+}
+
+fn scene(w: usize, h: usize) -> Image {
+    let mut img = noise_image(w, h, 7, 0.0);
+    let shapes =
+        ssskit::filter::signals::generate(ssskit::filter::signals::Signal::Shapes, w, h, 1)
+            .unwrap();
+    for c in 0..3 {
+        for (v, s) in img.rgb[c].iter_mut().zip(&shapes.rgb[c]) {
+            *v = 0.3 * *v + 2.0 * s;
+        }
+    }
+    img
+}
+
+/// A foreground disc (depth about 1, slightly tilted) over a far background
+/// (depth 3): discontinuities all round the disc.
+fn depth_with_discontinuities(w: usize, h: usize) -> Plane {
+    let mut data = vec![3.0; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (dx, dy) = (x as f64 - 0.45 * w as f64, y as f64 - 0.5 * h as f64);
+            if dx * dx + dy * dy < (0.3 * h as f64).powi(2) {
+                data[y * w + x] = 1.0 + 0.002 * x as f64;
+            }
+        }
+    }
+    Plane {
+        width: w,
+        height: h,
+        data,
+    }
+}
+
+fn check(g: &gpu::Gpu, image: &Image, setup: &Setup, what: &str) {
+    let c = cpu::apply_screen_space(image, setup);
+    let mut c = c;
+    if let Some(s) = &setup.specular {
+        for ch in 0..3 {
+            c.rgb[ch]
+                .iter_mut()
+                .zip(&s.rgb[ch])
+                .for_each(|(o, v)| *o += v);
+        }
+    }
+    let fast = cpu::apply(image, setup).unwrap();
+    let gp = g.apply(image, setup).unwrap();
+    let e = max_rel(&c, &gp);
+    eprintln!("{what}: GPU vs CPU max relative difference {e:.2e}");
+    assert!(e < 1e-4, "{what}: GPU vs CPU max relative difference {e:e}");
+    assert!(max_rel(&c, &fast) < 1e-12, "{what}: the CPU paths disagree");
+    // The blur did something: the output is not the input.
+    assert!(max_rel(image, &gp) > 1e-2, "{what}: nothing was filtered");
+}
+
+#[test]
+fn gpu_equals_cpu_for_flat_and_depth_aware_inputs() {
+    let g = open_gpu();
+    let (w, h) = (40, 32);
+    let image = scene(w, h);
+    let depth = depth_with_discontinuities(w, h);
+    for n in [11, 17, 25] {
+        for rank in [1, 3] {
+            let k = gaussian_kernel(rank, n);
+            let flat = Setup {
+                passes: taps_for(&k, Factors::Taps, None),
+                scale: Scale::MmPerPixel(0.25),
+                depth: None,
+                strength: None,
+                follow_surface: None,
+                specular: None,
+            };
+            check(&g, &image, &flat, &format!("flat, {n} taps, rank {rank}"));
+            let deep = Setup {
+                scale: Scale::Perspective {
+                    fov_y_deg: 40.0,
+                    sss_width: 0.1,
+                },
+                depth: Some(depth.clone()),
+                follow_surface: Some(300.0),
+                ..flat.clone()
+            };
+            check(
+                &g,
+                &image,
+                &deep,
+                &format!("depth + follow-surface, {n} taps, rank {rank}"),
+            );
+        }
+    }
+}
+
+#[test]
+fn gpu_equals_cpu_with_strength_specular_and_full_factors() {
+    let g = open_gpu();
+    let (w, h) = (36, 28);
+    let image = scene(w, h);
+    let k = gaussian_kernel(3, 17);
+    let strength = Plane {
+        width: w,
+        height: h,
+        data: (0..w * h)
+            .map(|i| (i % w) as f64 / w as f64 * 1.5)
+            .collect(),
+    };
+    let setup = Setup {
+        passes: taps_for(&k, Factors::Full, None),
+        scale: Scale::MmPerPixel(0.2),
+        depth: Some(depth_with_discontinuities(w, h)),
+        strength: Some(strength),
+        follow_surface: Some(2.0),
+        specular: Some(noise_image(w, h, 99, 0.0)),
+    };
+    check(&g, &image, &setup, "strength + specular + full factors");
+}
+
+#[test]
+fn far_background_does_not_bleed_into_the_foreground_on_the_gpu() {
+    let g = open_gpu();
+    let (w, h) = (32, 24);
+    // Black foreground (left half, depth 1) against a bright far background.
+    let mut image = Image::new(w, h);
+    let mut depth = vec![1.0; w * h];
+    for y in 0..h {
+        for x in w / 2..w {
+            for c in 0..3 {
+                image.rgb[c][y * w + x] = 1.0;
+            }
+            depth[y * w + x] = 5.0;
+        }
+    }
+    let k = gaussian_kernel(1, 17);
+    let mut setup = Setup {
+        passes: taps_for(&k, Factors::Taps, None),
+        scale: Scale::Perspective {
+            fov_y_deg: 40.0,
+            sss_width: 0.1,
+        },
+        depth: Some(Plane {
+            width: w,
+            height: h,
+            data: depth,
+        }),
+        strength: None,
+        follow_surface: Some(300.0),
+        specular: None,
+    };
+    let fg_max = |img: &Image| {
+        (0..h)
+            .flat_map(|y| (0..w / 2).map(move |x| y * w + x))
+            .map(|i| img.rgb[0][i])
+            .fold(0.0f64, f64::max)
+    };
+    let followed = g.apply(&image, &setup).unwrap();
+    // Bound of the lerp at the one interpolated position straddling the edge.
+    assert!(fg_max(&followed) < 1e-3, "{}", fg_max(&followed));
+    setup.follow_surface = None;
+    let bled = g.apply(&image, &setup).unwrap();
+    assert!(
+        fg_max(&bled) > 0.05,
+        "the test cannot fail: {}",
+        fg_max(&bled)
+    );
+}
+
+#[test]
+fn cli_gpu_backend_names_its_adapter() {
+    gpu_env();
+    let dir = tempfile::tempdir().unwrap();
+    let k = dir.path().join("k.json");
+    gaussian_kernel(1, 11).write(&k).unwrap();
+    let input = dir.path().join("in.exr");
+    let out = dir.path().join("out.exr");
+    let o = run(&["signal", "dirac", "--size", "21x17", "--out", p(&input)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "apply",
+        "--kernel",
+        p(&k),
+        "--input",
+        p(&input),
+        "--out",
+        p(&out),
+        "--backend",
+        "gpu",
+        "--mm-per-pixel",
+        "0.2",
+        "--taps-only",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("adapter"), "{}", stderr(&o));
+    let (img, _) = ssskit::filter::image::read_image(&out, None).unwrap();
+    // The impulse response holds the kernel's whole mass (1) away from borders.
+    let sum: f64 = img.rgb[0].iter().sum();
+    assert!((sum - 1.0).abs() < 1e-5, "{sum}");
+}

@@ -1,0 +1,317 @@
+//! Images in and out: lossless sRGB round trips and every bad-input case
+//! (clear error, exit code 2, no panic, no output left behind).
+
+mod filter_support;
+use filter_support::*;
+use ssskit::filter::image::{read_image, write_exr, write_image, PngDepth};
+use ssskit::filter::Plane;
+use ssskit::kernel::{Pass, TapTable};
+use std::path::{Path, PathBuf};
+
+/// A kernel that leaves the image as it is: one tap of weight 1 at 0.
+fn identity_kernel(dir: &Path) -> PathBuf {
+    let mut k = gaussian_kernel(1, 11);
+    let delta = Pass {
+        offsets_mm: vec![0.0],
+        weights: vec![[1.0; 3]],
+    };
+    k.passes = vec![delta.clone()];
+    k.taps = TapTable {
+        count: 1,
+        passes: vec![delta],
+    };
+    let path = dir.join("identity.json");
+    k.write(&path).unwrap();
+    path
+}
+
+fn apply_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
+    vec![
+        "apply",
+        "--kernel",
+        p(k),
+        "--input",
+        p(input),
+        "--out",
+        p(out),
+        "--backend",
+        "cpu",
+        "--mm-per-pixel",
+        "0.1",
+    ]
+}
+
+/// Runs and expects a clean failure whose message contains every `needle`.
+fn fails_with(args: &[&str], needles: &[&str], out: &Path) {
+    let o = run(args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "expected '{n}' in: {err}");
+    }
+    assert!(!out.exists(), "a failed run left {}", out.display());
+}
+
+#[test]
+fn srgb_round_trip_of_an_unfiltered_png_is_lossless() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = identity_kernel(dir.path());
+    let (w, h) = (23u32, 17u32);
+    let mut s = 1u64;
+    let mut next = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 33) as u32
+    };
+    // 8-bit RGB: every code appears.
+    let rgb8 = image::RgbImage::from_fn(w, h, |x, y| {
+        let i = (y * w + x) as u8;
+        image::Rgb([i, i.wrapping_mul(7), (next() & 255) as u8])
+    });
+    let in8 = dir.path().join("in8.png");
+    rgb8.save(&in8).unwrap();
+    // 16-bit RGBA with random samples.
+    let rgba16 = image::ImageBuffer::<image::Rgba<u16>, _>::from_fn(w, h, |_, _| {
+        image::Rgba([next() as u16, next() as u16, next() as u16, next() as u16])
+    });
+    let in16 = dir.path().join("in16.png");
+    rgba16.save(&in16).unwrap();
+    for (input, bits) in [(&in8, 8), (&in16, 16)] {
+        let out = dir.path().join(format!("out{bits}.png"));
+        let o = run(&apply_args(&k, input, &out));
+        assert!(o.status.success(), "{}", stderr(&o));
+        let a = image::open(input).unwrap();
+        let b = image::open(&out).unwrap();
+        assert_eq!(a.color(), b.color(), "{bits} bit");
+        assert_eq!(a.as_bytes(), b.as_bytes(), "{bits}-bit PNG changed");
+    }
+}
+
+#[test]
+fn exr_float_round_trip_keeps_values_and_alpha() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = identity_kernel(dir.path());
+    let mut img = noise_image(9, 7, 5, -0.5);
+    img.alpha = Some(vec![0.25; 63]);
+    let input = dir.path().join("in.exr");
+    write_exr(&input, &img, None).unwrap();
+    let out = dir.path().join("out.exr");
+    let o = run(&apply_args(&k, &input, &out));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (a, _) = read_image(&input, None).unwrap();
+    let (b, _) = read_image(&out, None).unwrap();
+    assert_eq!(a, b);
+}
+
+fn write_channels(path: &Path, w: usize, h: usize, names: &[&str], value: f32) {
+    use exr::prelude::*;
+    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = names
+        .iter()
+        .map(|n| AnyChannel::new(*n, FlatSamples::F32(vec![value; w * h])))
+        .collect();
+    exr::image::Image::from_channels((w, h), AnyChannels::sort(list))
+        .write()
+        .to_file(path)
+        .unwrap();
+}
+
+#[test]
+fn bad_inputs_fail_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let k = identity_kernel(d);
+    let out = d.join("out.exr");
+    let good = d.join("good.exr");
+    write_image(&good, &noise_image(12, 10, 1, 0.0), PngDepth::Eight).unwrap();
+
+    // Missing file.
+    let missing = d.join("nope.exr");
+    fails_with(&apply_args(&k, &missing, &out), &["nope.exr"], &out);
+    // Unreadable files.
+    let junk_exr = d.join("junk.exr");
+    std::fs::write(&junk_exr, b"not an exr").unwrap();
+    fails_with(
+        &apply_args(&k, &junk_exr, &out),
+        &["junk.exr", "unreadable OpenEXR"],
+        &out,
+    );
+    let junk_png = d.join("junk.png");
+    std::fs::write(&junk_png, b"not a png").unwrap();
+    fails_with(
+        &apply_args(&k, &junk_png, &out),
+        &["junk.png", "unreadable PNG"],
+        &out,
+    );
+    let tiff = d.join("in.tiff");
+    std::fs::write(&tiff, b"x").unwrap();
+    fails_with(&apply_args(&k, &tiff, &out), &["unknown image type"], &out);
+    let bad_out = d.join("out.jpg");
+    fails_with(
+        &apply_args(&k, &good, &bad_out),
+        &["unknown image type"],
+        &bad_out,
+    );
+
+    // Missing colour channel.
+    let rg = d.join("rg.exr");
+    write_channels(&rg, 12, 10, &["R", "G"], 0.5);
+    fails_with(
+        &apply_args(&k, &rg, &out),
+        &["missing channel B", "R, G"],
+        &out,
+    );
+    // Missing depth channel, named or default.
+    let mut a = apply_args(&k, &good, &out);
+    a.extend(["--follow-surface", "300", "--depth-channel", "depth"]);
+    fails_with(&a, &["missing depth channel depth"], &out);
+    let mut a = apply_args(&k, &good, &out);
+    a.extend(["--follow-surface", "300"]);
+    fails_with(&a, &["missing depth channel Z"], &out);
+    let no_z = d.join("noz.exr");
+    write_channels(&no_z, 12, 10, &["A"], 1.0);
+    let mut a = apply_args(&k, &good, &out);
+    a.extend(["--follow-surface", "300", "--depth", p(&no_z)]);
+    fails_with(&a, &["no channel Z or Y or R"], &out);
+    // Perspective scale without depth.
+    let png = d.join("good.png");
+    write_image(&png, &noise_image(12, 10, 1, 0.0), PngDepth::Eight).unwrap();
+    let a = vec![
+        "apply",
+        "--kernel",
+        p(&k),
+        "--input",
+        p(&png),
+        "--out",
+        p(&out),
+        "--backend",
+        "cpu",
+        "--fov-y",
+        "40",
+        "--sss-width",
+        "0.01",
+    ];
+    fails_with(&a, &["give --depth"], &out);
+
+    // Mismatched sizes.
+    let small = d.join("small.exr");
+    write_channels(&small, 10, 10, &["R", "G", "B", "Z"], 1.0);
+    for flag in ["--depth", "--strength", "--specular"] {
+        let mut a = apply_args(&k, &good, &out);
+        a.extend([flag, p(&small)]);
+        if flag == "--depth" {
+            a.extend(["--follow-surface", "1"]);
+        }
+        fails_with(&a, &["is 10x10 but the input image is 12x10"], &out);
+    }
+
+    // Non-positive depth under the perspective scale.
+    let zero_z = d.join("zero_z.exr");
+    write_exr(
+        &zero_z,
+        &noise_image(12, 10, 2, 0.0),
+        Some(&Plane {
+            width: 12,
+            height: 10,
+            data: vec![0.0; 120],
+        }),
+    )
+    .unwrap();
+    let a = vec![
+        "apply",
+        "--kernel",
+        p(&k),
+        "--input",
+        p(&zero_z),
+        "--out",
+        p(&out),
+        "--backend",
+        "cpu",
+        "--fov-y",
+        "40",
+        "--sss-width",
+        "0.01",
+    ];
+    fails_with(&a, &["depth", "must be > 0"], &out);
+
+    // NaN and Inf: rejected with count and first position, or sanitised.
+    let mut img = noise_image(12, 10, 3, 0.0);
+    img.rgb[1][2 * 12 + 3] = f64::NAN;
+    img.rgb[0][5 * 12 + 7] = f64::INFINITY;
+    let nan = d.join("nan.exr");
+    write_exr(&nan, &img, None).unwrap();
+    fails_with(
+        &apply_args(&k, &nan, &out),
+        &["2 NaN/Inf samples", "pixel (3, 2)", "--sanitize"],
+        &out,
+    );
+    let mut a = apply_args(&k, &nan, &out);
+    a.push("--sanitize");
+    let o = run(&a);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("replaced 2 NaN/Inf"), "{}", stderr(&o));
+    let (clean, _) = read_image(&out, None).unwrap();
+    assert_eq!(clean.non_finite().0, 0);
+    assert_eq!(clean.rgb[1][2 * 12 + 3], 0.0);
+    std::fs::remove_file(&out).unwrap();
+
+    // Bad scale values.
+    let mut a = apply_args(&k, &good, &out);
+    a.truncate(a.len() - 2);
+    a.push("--mm-per-pixel=-1");
+    fails_with(&a, &["--mm-per-pixel", "-1"], &out);
+
+    // diff: sizes must match.
+    let diff_out = d.join("diff.png");
+    fails_with(
+        &["diff", p(&good), p(&small), "--out", p(&diff_out)],
+        &["differ in size", "12x10", "10x10"],
+        &diff_out,
+    );
+}
+
+#[test]
+fn diff_reports_json_and_writes_a_false_colour_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let a = noise_image(16, 12, 1, 1.0);
+    let mut b = a.clone();
+    b.rgb[2][7] += 0.5;
+    let (pa, pb, out) = (d.join("a.exr"), d.join("b.exr"), d.join("d.png"));
+    write_exr(&pa, &a, None).unwrap();
+    write_exr(&pb, &b, None).unwrap();
+    let o = run(&["diff", p(&pa), p(&pb), "--json", "--out", p(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in ["rms", "max_abs", "rms_rel", "max_rel"] {
+        assert_eq!(v[key].as_array().unwrap().len(), 3, "{v}");
+    }
+    assert_eq!(v["max_abs"][0].as_f64().unwrap(), 0.0);
+    assert!((v["max_abs"][2].as_f64().unwrap() - 0.5).abs() < 1e-6);
+    let peak = a.peak()[2];
+    assert!((v["max_rel"][2].as_f64().unwrap() - 0.5 / peak).abs() < 1e-6);
+    let img = image::open(&out).unwrap().to_rgb8();
+    // The changed pixel is the hottest (white), the others black.
+    assert_eq!(img.get_pixel(7, 0).0, [255, 255, 255]);
+    assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+}
+
+#[test]
+fn signals_are_written_by_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    for kind in ["edge", "shapes", "dirac", "checker"] {
+        let out = dir.path().join(format!("{kind}.png"));
+        let o = run(&["signal", kind, "--size", "40x20", "--out", p(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (img, _) = read_image(&out, None).unwrap();
+        assert_eq!((img.width, img.height), (40, 20));
+        assert!(img.peak()[0] > 0.99);
+    }
+    let out = dir.path().join("x.png");
+    fails_with(
+        &["signal", "edge", "--size", "40by20", "--out", p(&out)],
+        &["--size"],
+        &out,
+    );
+}

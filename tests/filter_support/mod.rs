@@ -1,0 +1,210 @@
+//! Shared by the tests/filter_*.rs files: kernels built in the tests (until
+//! the fitting models land), profiles, images, and the binary.
+#![allow(dead_code)]
+
+use ssskit::filter::Image;
+use ssskit::kernel::{Kernel2D, KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
+use ssskit::material::{preset, Channel};
+use ssskit::profile::analytic::{bin_averages, dipole::dipole_rd};
+use ssskit::profile::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
+use std::path::Path;
+use std::process::{Command, Output};
+
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ssskit"))
+}
+
+pub fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("the binary runs")
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+pub fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// The dipole profile of a preset over a uniform radial grid.
+pub fn dipole_profile(material: &str, dr: f64, r_max: f64) -> Profile {
+    let m = preset(material).unwrap();
+    let grid = RadialGrid::uniform(dr, r_max).unwrap();
+    let rd: Vec<Vec<f64>> = Channel::ALL
+        .iter()
+        .map(|&c| {
+            let medium = m.top(c);
+            bin_averages(|r| dipole_rd(&medium, r), &grid)
+        })
+        .collect();
+    let total_rd = Channel::ALL
+        .iter()
+        .map(|&c| ssskit::profile::analytic::dipole::dipole_total(&m.top(c)))
+        .collect();
+    Profile {
+        schema: PROFILE_SCHEMA.into(),
+        material: m,
+        units: "mm".into(),
+        source: Source {
+            kind: "analytic".into(),
+            photons: None,
+            seed: None,
+            model: Some("dipole".into()),
+            params: serde_json::Value::Null,
+        },
+        channels: Channel::ALL.to_vec(),
+        r: grid.centres(),
+        r_edges: grid.edges.clone(),
+        rd,
+        rd_stderr: None,
+        total_rd,
+        total_rd_stderr: None,
+        specular: vec![0.0; 3],
+        transmittance: None,
+        transmittance_stderr: None,
+        absorbed: None,
+        extra: serde_json::Value::Null,
+        elapsed_s: 0.0,
+    }
+}
+
+/// Real-time tap positions (REFERENCE 5, Jimenez): quadratic, dense near 0.
+pub fn tap_offsets(n: usize) -> Vec<f64> {
+    let range = if n > 20 { 3.0 } else { 2.0 };
+    (0..n)
+        .map(|i| {
+            let o: f64 = -range + i as f64 * 2.0 * range / (n as f64 - 1.0);
+            range * o.signum() * o * o / (range * range)
+        })
+        .collect()
+}
+
+/// Taps of a density `a(x, c)` at `n` quadratic offsets spanning `width` mm,
+/// weights times the tap footprint, normalised per channel to `norm[c]`.
+pub fn taps_of(a: impl Fn(f64, usize) -> f64, n: usize, width: f64, norm: [f64; 3]) -> Pass {
+    let off: Vec<f64> = tap_offsets(n).iter().map(|o| o * width).collect();
+    let mut weights = vec![[0.0; 3]; n];
+    for c in 0..3 {
+        let mut s = 0.0;
+        for i in 0..n {
+            let l = if i > 0 { off[i] - off[i - 1] } else { 0.0 };
+            let r = if i + 1 < n { off[i + 1] - off[i] } else { 0.0 };
+            weights[i][c] = a(off[i], c) * (l + r) / 2.0;
+            s += weights[i][c];
+        }
+        for w in weights.iter_mut() {
+            w[c] *= norm[c] / s;
+        }
+    }
+    Pass {
+        offsets_mm: off,
+        weights,
+    }
+}
+
+fn kernel_file(name: &str, passes: Vec<Pass>, taps: Vec<Pass>, n: usize) -> KernelFile {
+    KernelFile {
+        schema: KERNEL_SCHEMA.into(),
+        material: None,
+        profile: serde_json::Value::Null,
+        model: ModelInfo {
+            name: name.into(),
+            params: serde_json::Value::Null,
+        },
+        units: "mm".into(),
+        total_rd: [0.5, 0.4, 0.3],
+        metrics: Metrics {
+            passes: passes.len(),
+            ..Default::default()
+        },
+        passes,
+        taps: TapTable {
+            count: n,
+            passes: taps,
+        },
+    }
+}
+
+fn gauss(x: f64, s: f64) -> f64 {
+    (-x * x / (2.0 * s * s)).exp() / (s * (2.0 * std::f64::consts::PI).sqrt())
+}
+
+/// Rank-`rank` sum of 1D Gaussians, per-channel widths, known 2D form:
+/// term i is sqrt(m_i) G(x; s_i) sqrt(m_i) G(y; s_i) with masses m_i summing to 1.
+pub fn gaussian_kernel(rank: usize, n_taps: usize) -> KernelFile {
+    let masses = [0.6, 0.3, 0.1];
+    let widths = [[0.25, 0.18, 0.1], [0.6, 0.45, 0.3], [1.2, 0.9, 0.5]];
+    let total: f64 = masses[..rank].iter().sum();
+    let mut passes = Vec::new();
+    let mut taps = Vec::new();
+    for i in 0..rank {
+        let amp = (masses[i] / total).sqrt();
+        let s = widths[i];
+        let offsets: Vec<f64> = (-60..=60).map(|k| k as f64 * 0.05).collect();
+        // Normalised on the truncated grid so each term has mass amp^2.
+        let weights: Vec<[f64; 3]> = offsets
+            .iter()
+            .map(|&x| [0, 1, 2].map(|c| gauss(x, s[c])))
+            .collect();
+        let sums = [0, 1, 2].map(|c| weights.iter().map(|w| w[c]).sum::<f64>());
+        let weights = weights
+            .iter()
+            .map(|w| [0, 1, 2].map(|c| amp * w[c] / sums[c]))
+            .collect();
+        passes.push(Pass {
+            offsets_mm: offsets,
+            weights,
+        });
+        taps.push(taps_of(
+            |x, c| gauss(x, s[c]),
+            n_taps,
+            1.0 + i as f64,
+            [amp; 3],
+        ));
+    }
+    kernel_file("test-gaussians", passes, taps, n_taps)
+}
+
+/// Pre-integration (002 section 5.2): a_p(x) = sum over y of the 2D cells,
+/// on the 2D kernel's own grid; taps from the same factor.
+pub fn preintegration_kernel(k: &Kernel2D, n_taps: usize) -> KernelFile {
+    let offsets: Vec<f64> = (0..k.size).map(|i| k.offset(i)).collect();
+    let weights: Vec<[f64; 3]> = (0..k.size)
+        .map(|ix| [0, 1, 2].map(|c| (0..k.size).map(|iy| k.at(c, ix, iy)).sum()))
+        .collect();
+    let pass = Pass {
+        offsets_mm: offsets.clone(),
+        weights: weights.clone(),
+    };
+    let density = |x: f64, c: usize| -> f64 {
+        // Linear interpolation of the cell masses.
+        let t = (x / k.cell_mm + k.half() as f64).clamp(0.0, (k.size - 1) as f64);
+        let i = (t.floor() as usize).min(k.size - 2);
+        let f = t - i as f64;
+        weights[i][c] * (1.0 - f) + weights[i + 1][c] * f
+    };
+    let width = offsets[k.size - 1] / 3.0;
+    let taps = taps_of(density, n_taps, width, [1.0; 3]);
+    kernel_file("test-preintegration", vec![pass], vec![taps], n_taps)
+}
+
+/// Deterministic pseudo-random image in [lo, lo + 1).
+pub fn noise_image(w: usize, h: usize, seed: u64, lo: f64) -> Image {
+    let mut img = Image::new(w, h);
+    let mut s = seed;
+    for c in 0..3 {
+        for v in img.rgb[c].iter_mut() {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v = lo + (s >> 11) as f64 / (1u64 << 53) as f64;
+        }
+    }
+    img
+}
+
+/// Largest |a - b| over the peak of `a`, per channel, worst channel.
+pub fn max_rel(a: &Image, b: &Image) -> f64 {
+    let s = ssskit::filter::diff::compare(a, b).unwrap();
+    s.max_rel.iter().fold(0.0f64, |m, &v| m.max(v))
+}
