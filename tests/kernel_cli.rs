@@ -36,9 +36,11 @@ fn fails(args: &[&str], expect: &[&str]) {
 fn profile(dir: &Path, material: &str) -> PathBuf {
     let p = dir.join(format!("{material}.json"));
     ok(&[
-        "fit",
-        "--dipole-profile",
+        "profile",
+        "--material",
         material,
+        "--model",
+        "dipole",
         "--out",
         p.to_str().unwrap(),
     ]);

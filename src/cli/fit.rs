@@ -36,10 +36,10 @@ pub enum MethodArg {
 #[derive(clap::Args)]
 pub struct Args {
     /// Reflectance profile (ssskit.profile/1 JSON).
-    #[arg(long, value_name = "FILE.json", required_unless_present_any = ["kernel", "dipole_profile"])]
+    #[arg(long, value_name = "FILE.json", required_unless_present = "kernel")]
     profile: Option<PathBuf>,
     /// Kernel model.
-    #[arg(long, value_enum, required_unless_present_any = ["kernel", "dipole_profile"])]
+    #[arg(long, value_enum, required_unless_present = "kernel")]
     model: Option<ModelArg>,
     /// Output kernel file (ssskit.kernel/1 JSON).
     #[arg(long, value_name = "KERNEL.json")]
@@ -61,10 +61,6 @@ pub struct Args {
     emit: Option<String>,
     #[command(flatten)]
     opts: Box<ModelOpts>,
-    /// Stand-in until analytic/Monte Carlo profiles land: write the dipole
-    /// profile of a material (002 table 6.1 grid) to --out and exit.
-    #[arg(long, hide = true, value_name = "MATERIAL")]
-    dipole_profile: Option<String>,
     /// Do not print the summary.
     #[arg(long, short)]
     quiet: bool,
@@ -190,15 +186,6 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let lang: Option<Lang> = a.emit.as_deref().map(str::parse).transpose()?;
-    if let Some(name) = &a.dipole_profile {
-        let Some(out) = &a.out else {
-            bail!("--dipole-profile needs --out FILE.json")
-        };
-        let p = ssskit::kernel::reference::dipole_preset(name)?;
-        p.write(out)?;
-        Profile::read(out)?;
-        return Ok(());
-    }
     let kernel = if let Some(path) = &a.kernel {
         KernelFile::read(path)?
     } else {
