@@ -425,3 +425,53 @@ fn malformed_kernel_files_are_rejected() {
         &["malformed JSON"],
     );
 }
+
+#[test]
+fn rank1_svd_is_lowest_on_a_monte_carlo_profile_too() {
+    // A noisy simulated profile with its single-scattering peak at r = 0.
+    let dir = tempfile::tempdir().unwrap();
+    let prof = dir.path().join("skin1-mc.json");
+    ok(&[
+        "simulate",
+        "--material",
+        "skin1",
+        "--photons",
+        "20000",
+        "--seed",
+        "7",
+        "--out",
+        prof.to_str().unwrap(),
+    ]);
+    let rms = |model: &[&str]| -> Vec<f64> {
+        let out = dir.path().join("k.json");
+        let mut args = vec!["fit", "--profile", prof.to_str().unwrap(), "--size", "61"];
+        args.extend_from_slice(&["--out", out.to_str().unwrap(), "--model"]);
+        args.extend_from_slice(model);
+        ok(&args);
+        read(&out)["metrics"]["kernel_rms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    let svd1 = rms(&["svd"]);
+    for m in [
+        &["svd", "--renormalize"][..],
+        &["preintegrate"],
+        &["guided", "--k", "0"],
+        &["guided", "--k", "1"],
+        &["manual", "--fit"],
+        &["jimenez"],
+    ] {
+        let e = rms(m);
+        for c in 0..3 {
+            assert!(
+                svd1[c] <= e[c] * (1.0 + 1e-9),
+                "{m:?} channel {c}: {} < svd1 {}",
+                e[c],
+                svd1[c]
+            );
+        }
+    }
+}
