@@ -5,35 +5,25 @@ use crate::material::Medium;
 use crate::profile::fresnel::{fresnel_moment1_exact, FresnelMode};
 use std::f64::consts::PI;
 
-/// Diffuse Fresnel reflectance fit F_dr(eta) as printed in REFERENCE.md
-/// section 4, with last coefficient 0.0036. That is an erratum: the
-/// published coefficient (Egan and Hilgeman, Jensen et al. 2001) is 0.0636,
-/// see `diffuse_fresnel_jensen`. Kept unchanged because `dipole_rd`,
-/// `dipole_total` and `boundary_a` use it and other modules' tests are
-/// calibrated on them; the `Dipole` model (`ssskit profile --model dipole`)
-/// uses the corrected fit.
+/// Diffuse Fresnel reflectance fit F_dr(eta) (Egan and Hilgeman; Jensen et
+/// al. 2001 eq. 5). REFERENCE.md section 4 prints the last coefficient as
+/// 0.0036: an erratum. The published 0.0636 matches the exact diffuse internal
+/// reflectance 2 C_1 (0.4446 at eta = 1.3, 0.5963 at 1.5; see
+/// `fresnel_moment1_exact`), while 0.0036 is off by 0.08 and changes A by 25%.
 pub fn diffuse_fresnel_fit(eta: f64) -> f64 {
-    -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0036 * eta
-}
-
-/// Jensen et al. 2001's F_dr fit with the published coefficient 0.0636,
-/// which matches the exact diffuse internal reflectance 2 C_1 (0.4446 at
-/// eta = 1.3, 0.5963 at 1.5; see `fresnel_moment1_exact`), while 0.0036 is
-/// off by 0.08 and changes A by 25%.
-pub fn diffuse_fresnel_jensen(eta: f64) -> f64 {
     -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
 }
 
 /// F_dr for the chosen Fresnel mode: Jensen's fit, or 2 C_1 by quadrature.
 pub fn diffuse_fresnel(eta: f64, mode: FresnelMode) -> f64 {
     match mode {
-        FresnelMode::Fit => diffuse_fresnel_jensen(eta),
+        FresnelMode::Fit => diffuse_fresnel_fit(eta),
         FresnelMode::Exact => 2.0 * fresnel_moment1_exact(eta),
     }
 }
 
 /// Boundary mismatch A = (1 + F_dr) / (1 - F_dr) (Jensen 2001 eq. 6) with
-/// REFERENCE's printed F_dr (see `diffuse_fresnel_fit`).
+/// the F_dr fit.
 pub fn boundary_a(eta: f64) -> f64 {
     let f = diffuse_fresnel_fit(eta);
     (1.0 + f) / (1.0 - f)
@@ -45,8 +35,8 @@ pub fn boundary_a_with(eta: f64, mode: FresnelMode) -> f64 {
     (1.0 + f) / (1.0 - f)
 }
 
-/// R_d(r) of the standard dipole, mm^-2, with `boundary_a` (REFERENCE's
-/// printed F_dr fit; `Dipole` uses the corrected one).
+/// R_d(r) of the standard dipole, mm^-2, with `boundary_a` (F_dr fit), per
+/// unit flux entering the medium.
 pub fn dipole_rd(m: &Medium, r: f64) -> f64 {
     dipole_rd_a(m, boundary_a(m.eta), r)
 }
@@ -131,11 +121,12 @@ mod tests {
     #[test]
     fn jensen_fit_matches_exact_diffuse_reflectance() {
         for eta in [1.2, 1.3, 1.4, 1.5] {
-            let fit = diffuse_fresnel_jensen(eta);
+            let fit = diffuse_fresnel_fit(eta);
             let exact = diffuse_fresnel(eta, FresnelMode::Exact);
             assert!((fit - exact).abs() < 3e-3, "eta {eta}: {fit} vs {exact}");
-            // REFERENCE's printed coefficient is 0.06 eta off.
-            assert!((diffuse_fresnel_fit(eta) - exact).abs() > 0.05);
+            // REFERENCE's printed coefficient (0.0036) is 0.06 eta off.
+            let printed = fit - 0.06 * eta;
+            assert!((printed - exact).abs() > 0.05);
         }
     }
 }
