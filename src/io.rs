@@ -32,7 +32,26 @@ pub fn write_atomic_with(
         w.flush().map_err(|e| Error::io(path, e))?;
     }
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
+    set_default_permissions(tmp.as_file(), path)?;
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    Ok(())
+}
+
+/// Temporary files are created private (0600); a finished output gets the
+/// permissions an ordinary file would: those of the file it replaces, else
+/// 0644.
+#[cfg(unix)]
+fn set_default_permissions(file: &std::fs::File, path: &Path) -> Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = std::fs::metadata(path)
+        .map(|m| m.permissions().mode() & 0o7777)
+        .unwrap_or(0o644);
+    file.set_permissions(std::fs::Permissions::from_mode(mode))
+        .map_err(|e| Error::io(path, e))
+}
+
+#[cfg(not(unix))]
+fn set_default_permissions(_file: &std::fs::File, _path: &Path) -> Result<()> {
     Ok(())
 }
 
@@ -67,6 +86,12 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "second");
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
         assert_eq!(names.len(), 1, "temporary file left behind");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o644, "outputs are not private temp files");
+        }
     }
 
     #[test]
