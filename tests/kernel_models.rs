@@ -524,8 +524,9 @@ fn albedo_one_material_gives_a_kernel() {
     // Spectralon: sigma_a = 0, R_d falls like r^-3 and holds all the light.
     let m = Material::load("spectralon").unwrap();
     let p = dipole_profile(&m, &thesis_grid(&m, 32.0).unwrap()).unwrap();
-    for t in &p.total_rd {
-        assert!((t - 1.0).abs() < 1e-12, "total {t}");
+    // Everything that enters comes back out: total = 1 - specular.
+    for (t, s) in p.total_rd.iter().zip(&p.specular) {
+        assert!((t - (1.0 - s)).abs() < 1e-12, "total {t}");
     }
     let k = kernel(&p, 101);
     for m in all_models() {

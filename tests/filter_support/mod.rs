@@ -4,9 +4,8 @@
 
 use ssskit::filter::Image;
 use ssskit::kernel::{Kernel2D, KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
-use ssskit::material::{preset, Channel};
-use ssskit::profile::analytic::{bin_averages, dipole::dipole_rd};
-use ssskit::profile::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
+use ssskit::material::preset;
+use ssskit::profile::{Profile, RadialGrid};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -30,42 +29,7 @@ pub fn p(path: &Path) -> &str {
 pub fn dipole_profile(material: &str, dr: f64, r_max: f64) -> Profile {
     let m = preset(material).unwrap();
     let grid = RadialGrid::uniform(dr, r_max).unwrap();
-    let rd: Vec<Vec<f64>> = Channel::ALL
-        .iter()
-        .map(|&c| {
-            let medium = m.top(c);
-            bin_averages(|r| dipole_rd(&medium, r), &grid)
-        })
-        .collect();
-    let total_rd = Channel::ALL
-        .iter()
-        .map(|&c| ssskit::profile::analytic::dipole::dipole_total(&m.top(c)))
-        .collect();
-    Profile {
-        schema: PROFILE_SCHEMA.into(),
-        material: m,
-        units: "mm".into(),
-        source: Source {
-            kind: "analytic".into(),
-            photons: None,
-            seed: None,
-            model: Some("dipole".into()),
-            params: serde_json::Value::Null,
-        },
-        channels: Channel::ALL.to_vec(),
-        r: grid.centres(),
-        r_edges: grid.edges.clone(),
-        rd,
-        rd_stderr: None,
-        total_rd,
-        total_rd_stderr: None,
-        specular: vec![0.0; 3],
-        transmittance: None,
-        transmittance_stderr: None,
-        absorbed: None,
-        extra: serde_json::Value::Null,
-        elapsed_s: 0.0,
-    }
+    ssskit::kernel::reference::dipole_profile(&m, &grid).unwrap()
 }
 
 /// Real-time tap positions (REFERENCE 5, Jimenez): quadratic, dense near 0.
