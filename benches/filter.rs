@@ -1,8 +1,11 @@
 //! Filter benchmark: a 1920x1080 image, 17 taps, rank 1, CPU paths.
 //!
 //! `cargo bench --bench filter` prints the median time per frame of
-//! - `separable`: the plain separable case (17 whole-pixel taps), the case
-//!   compared with OpenCV's sepFilter2D by scripts/bench-opencv;
+//! - `separable-f32`: the plain separable case (17 whole-pixel taps) as
+//!   `ssskit apply` runs it by default (`--precision f32`, a fresh output
+//!   image per frame), the case compared with OpenCV's sepFilter2D by
+//!   scripts/bench-opencv; `separable`: the same in f64 (`--precision f64`);
+//!   `separable-reused`, `separable-f32-reused`: into a reused output buffer;
 //! - `table`: the 17-tap real-time table (quadratic offsets) at a uniform
 //!   scale, folded into a fixed pixel kernel;
 //! - `per-pixel`: 002 algorithm 4.1 with a per-pixel step (strength image);
@@ -167,6 +170,10 @@ fn main() {
         cpu::apply_separable_into::<f32>(&img, &kernel, &mut reused)
     });
     report("separable-f32-reused", ms, cpu, threads);
+    let (ms, cpu) = median_ms(reps, || {
+        cpu::apply_with(&img, &sep, cpu::Precision::F32).unwrap();
+    });
+    report("separable-f32", ms, cpu, threads);
     let mut out = None;
     for (name, setup) in [
         ("separable", &sep),
