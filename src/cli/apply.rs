@@ -56,8 +56,9 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     backend: Backend,
     /// CPU working precision of the fixed-kernel path (uniform
-    /// --mm-per-pixel scale without --strength or --follow-surface); f32 is
-    /// within taps x 1e-7 of the peak of f64, below what an f32 EXR keeps.
+    /// --mm-per-pixel scale without --strength or --follow-surface); f32
+    /// differs from f64 by a few f32 round-offs (at most about taps x 1e-7
+    /// of the peak), the precision an EXR output stores anyway.
     /// The per-pixel path (--fov-y, --strength, --follow-surface) and
     /// --reference exist in f64 only and ignore it; the GPU is f32.
     #[arg(long, value_enum, default_value = "f32")]
