@@ -1,9 +1,12 @@
 //! Filter benchmark: a 1920x1080 image, 17 taps, rank 1, CPU paths.
 //!
 //! `cargo bench --bench filter` prints the median time per frame of
-//! - `separable`: the plain separable case (17 whole-pixel taps), the case
-//!   compared with OpenCV's sepFilter2D by scripts/bench-opencv;
-//! - `table`: the 17-tap real-time table (quadratic offsets) at a uniform
+//! - `separable-f32`: the plain separable case (17 whole-pixel taps) as
+//!   `ssskit apply` runs it by default (`--precision f32`, a fresh output
+//!   image per frame), the case compared with OpenCV's sepFilter2D by
+//!   scripts/bench-opencv; `separable`: the same in f64 (`--precision f64`);
+//!   `separable-reused`, `separable-f32-reused`: into a reused output buffer;
+//! - `table`: the 17-tap real-time table (f64) (quadratic offsets) at a uniform
 //!   scale, folded into a fixed pixel kernel;
 //! - `per-pixel`: 002 algorithm 4.1 with a per-pixel step (strength image);
 //! - `depth-aware`: perspective scale from depth (002 eq. 4.11) plus the
@@ -167,27 +170,31 @@ fn main() {
         cpu::apply_separable_into::<f32>(&img, &kernel, &mut reused)
     });
     report("separable-f32-reused", ms, cpu, threads);
-    let mut out = None;
-    for (name, setup) in [
-        ("separable", &sep),
-        ("table", &table),
-        ("per-pixel", &per_pixel),
-        ("depth-aware", &depth_aware),
+    // Each frame into a fresh output image, freed before the next frame, as
+    // one `ssskit apply` process does: the new 48 MB are faulted in per frame.
+    use cpu::Precision::{F32, F64};
+    for (name, setup, precision) in [
+        ("separable-f32", &sep, F32),
+        ("separable", &sep, F64),
+        ("table", &table, F64),
+        ("per-pixel", &per_pixel, F64),
+        ("depth-aware", &depth_aware, F64),
     ] {
-        let (ms, cpu) = median_ms(reps, || out = Some(cpu::apply(&img, setup).unwrap()));
+        let (ms, cpu) = median_ms(reps, || {
+            drop(cpu::apply_with(&img, setup, precision).unwrap());
+        });
         report(name, ms, cpu, threads);
-        if name == "separable" {
-            if let (Some(dir), Some(o)) = (&dump, &out) {
-                std::fs::create_dir_all(dir).expect("creates the dump folder");
-                let interleaved = |im: &Image| {
-                    let im = im.clone();
-                    (0..W * H).flat_map(move |i| [0, 1, 2].map(|c| im.rgb[c][i]))
-                };
-                write_f32(&dir.join("image.f32"), interleaved(&img));
-                write_f32(&dir.join("ours.f32"), interleaved(o));
-                let t = taps(true);
-                write_f32(&dir.join("weights.f32"), t.weights.iter().flat_map(|w| *w));
-            }
-        }
+    }
+    if let Some(dir) = &dump {
+        std::fs::create_dir_all(dir).expect("creates the dump folder");
+        let interleaved = |im: &Image| {
+            let im = im.clone();
+            (0..W * H).flat_map(move |i| [0, 1, 2].map(|c| im.rgb[c][i]))
+        };
+        write_f32(&dir.join("image.f32"), interleaved(&img));
+        let ours = cpu::apply(&img, &sep).expect("the separable case runs");
+        write_f32(&dir.join("ours.f32"), interleaved(&ours));
+        let t = taps(true);
+        write_f32(&dir.join("weights.f32"), t.weights.iter().flat_map(|w| *w));
     }
 }

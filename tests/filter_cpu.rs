@@ -241,3 +241,95 @@ fn cpu_results_do_not_depend_on_the_thread_count() {
     let b = cpu::apply(&img, &setup).unwrap();
     assert_eq!(a, b);
 }
+
+/// `--precision`: f64 reproduces the library's f64 result bit for bit (as
+/// the f32 EXR stores it), the default is f32, and f32 is within the
+/// round-off bound of f64. Bound per rank, from f32's unit round-off u: each
+/// 1D pass of n taps with fused multiply-adds is within (n + 1) u sum|w| of
+/// the exact sum (input and weights rounded once, n accumulations), so the
+/// two passes within 2 (n + 1) u sum|w_h| sum|w_v| max|input|; plus one
+/// rounding of each output to f32.
+#[test]
+fn cli_precision_f32_is_within_round_off_of_f64_which_is_the_library_result() {
+    use ssskit::filter::image::{read_image, write_exr};
+    let dir = tempfile::tempdir().unwrap();
+    let (kernel, mm) = (gaussian_kernel(3, 17), 0.1);
+    let kpath = dir.path().join("k.json");
+    kernel.write(&kpath).unwrap();
+    let input = dir.path().join("in.exr");
+    write_exr(&input, &noise_image(70, 45, 7, 0.0), None).unwrap();
+    let out = |name: &str, precision: Option<&str>| {
+        let path = dir.path().join(name);
+        let mut args = vec![
+            "apply",
+            "--kernel",
+            p(&kpath),
+            "--input",
+            p(&input),
+            "--out",
+            p(&path),
+            "--backend",
+            "cpu",
+            "--mm-per-pixel",
+            "0.1",
+        ];
+        if let Some(v) = precision {
+            args.extend(["--precision", v]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let expected = format!("fixed kernels, {}", precision.unwrap_or("f32"));
+        assert!(stderr(&o).contains(&expected), "{}", stderr(&o));
+        read_image(&path, None).unwrap().0
+    };
+    let (f64_cli, f32_cli, default) = (
+        out("f64.exr", Some("f64")),
+        out("f32.exr", Some("f32")),
+        out("default.exr", None),
+    );
+    assert_eq!(default.rgb, f32_cli.rgb, "the default is f32");
+
+    let (image, _) = read_image(&input, None).unwrap();
+    let setup = plain(taps_for(&kernel, Factors::Full, Some(mm)), mm);
+    let lib = cpu::apply(&image, &setup).unwrap();
+    for c in 0..3 {
+        for (a, b) in lib.rgb[c].iter().zip(&f64_cli.rgb[c]) {
+            assert_eq!((*a as f32).to_bits(), (*b as f32).to_bits(), "{a} {b}");
+        }
+    }
+
+    let u = f32::EPSILON as f64 / 2.0;
+    let peak_in = image
+        .rgb
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let peak_out = lib.rgb.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let bound: f64 = setup
+        .passes
+        .iter()
+        .map(|t| {
+            let k = cpu::PixelKernel::from_taps(t, 1.0 / mm);
+            let n = k.weights.len() as f64;
+            let s = (0..3)
+                .map(|c| k.weights.iter().map(|w| w[c].abs()).sum::<f64>())
+                .fold(0.0, f64::max);
+            2.0 * (n + 1.0) * u * s * s * peak_in
+        })
+        .sum::<f64>()
+        + 2.0 * u * peak_out;
+    let err = f32_cli
+        .rgb
+        .iter()
+        .flatten()
+        .zip(f64_cli.rgb.iter().flatten())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "f32 vs f64: {:.1e} of the peak, bound {:.1e}",
+        err / peak_out,
+        bound / peak_out
+    );
+    assert!(err > 0.0, "the f32 path ran");
+    assert!(err <= bound, "{err} > {bound}");
+}

@@ -12,10 +12,26 @@ use std::time::Instant;
 pub enum Backend {
     /// wgpu; an error when no adapter is found.
     Gpu,
-    /// The f64 reference.
+    /// The CPU (precision: see --precision).
     Cpu,
     /// wgpu when an adapter is found, else the CPU; says which it used.
     Auto,
+}
+
+/// Working precision of the CPU fixed-kernel path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Precision {
+    F32,
+    F64,
+}
+
+impl From<Precision> for cpu::Precision {
+    fn from(p: Precision) -> cpu::Precision {
+        match p {
+            Precision::F32 => cpu::Precision::F32,
+            Precision::F64 => cpu::Precision::F64,
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -28,7 +44,7 @@ pub struct Args {
     )]
     kernel: Option<PathBuf>,
     /// Ground truth instead of a kernel: exact 2D convolution with this
-    /// profile's full 2D kernel at --mm-per-pixel (CPU only).
+    /// profile's full 2D kernel at --mm-per-pixel (CPU only, f64).
     #[arg(long)]
     reference: Option<PathBuf>,
     /// Irradiance image in linear light (.exr) or sRGB (.png).
@@ -39,6 +55,14 @@ pub struct Args {
     out: PathBuf,
     #[arg(long, value_enum, default_value = "auto")]
     backend: Backend,
+    /// CPU working precision of the fixed-kernel path (uniform
+    /// --mm-per-pixel scale without --strength or --follow-surface); f32
+    /// differs from f64 by a few f32 round-offs (at most about taps x 1e-7
+    /// of the peak), the precision an EXR output stores anyway.
+    /// The per-pixel path (--fov-y, --strength, --follow-surface) and
+    /// --reference exist in f64 only and ignore it; the GPU is f32.
+    #[arg(long, value_enum, default_value = "f32")]
+    precision: Precision,
     /// Depth image (.exr channel Z, Y or R, or --depth-channel; .png grey).
     /// Without it, an EXR input's depth channel is used when one is needed.
     #[arg(long)]
@@ -162,10 +186,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     setup.validate(&image)?;
 
+    let precision = cpu::Precision::from(args.precision);
+    let cpu_path = if setup.is_uniform() {
+        format!("fixed kernels, {precision:?}").to_lowercase()
+    } else {
+        "per-pixel, f64".into()
+    };
     let out = match args.backend {
         Backend::Cpu => {
-            eprintln!("backend: cpu (f64 reference)");
-            cpu::apply(&image, &setup)?
+            eprintln!("backend: cpu ({cpu_path})");
+            cpu::apply_with(&image, &setup, precision)?
         }
         Backend::Gpu => {
             let g = gpu::Gpu::new()?;
@@ -178,8 +208,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 g.apply(&image, &setup)?
             }
             Err(e) => {
-                eprintln!("backend: cpu (auto: {e})");
-                cpu::apply(&image, &setup)?
+                eprintln!("backend: cpu ({cpu_path}; auto: {e})");
+                cpu::apply_with(&image, &setup, precision)?
             }
         },
     };

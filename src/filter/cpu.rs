@@ -1,7 +1,8 @@
-//! The CPU reference, f64 and deterministic (rayon over rows, no cross-thread
-//! sums): the exact 2D convolution with the full 2D kernel (direct, or FFT
-//! for large kernels), the separable/rank-N application with fixed integer
-//! kernels, and 002 algorithm 4.1 per pixel, the algorithm the GPU runs.
+//! The CPU paths, deterministic (rayon over rows, no cross-thread sums): the
+//! exact 2D convolution with the full 2D kernel (direct, or FFT for large
+//! kernels) and 002 algorithm 4.1 per pixel, the algorithm the GPU runs, in
+//! f64; the separable/rank-N application with fixed integer kernels in f64
+//! or f32 ([`Precision`]).
 
 use super::{Image, Setup, Taps};
 use crate::error::{Error, Result};
@@ -53,9 +54,36 @@ impl PixelKernel {
     }
 }
 
-/// Runs `setup` on `image`: the fixed-kernel fast path when the scale is
-/// uniform, else the per-pixel algorithm; specular added after.
+/// Working precision of the fixed-kernel (uniform-scale) path, the only
+/// path that has both: the per-pixel algorithm 4.1 (strength, perspective,
+/// follow-surface) and the exact 2D reference are f64 only. Output images
+/// are at most f32 (EXR), so f32 accumulation over a few dozen taps (about
+/// taps x 1e-7 of the peak) loses nothing the file keeps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    F32,
+    F64,
+}
+
+impl Precision {
+    /// [`apply_separable_into`] in this precision.
+    pub fn separable_into(self, image: &Image, kernels: &[PixelKernel], out: &mut Image) {
+        match self {
+            Precision::F32 => apply_separable_into::<f32>(image, kernels, out),
+            Precision::F64 => apply_separable_into::<f64>(image, kernels, out),
+        }
+    }
+}
+
+/// Runs `setup` on `image` in f64: [`apply_with`] at [`Precision::F64`].
 pub fn apply(image: &Image, setup: &Setup) -> Result<Image> {
+    apply_with(image, setup, Precision::F64)
+}
+
+/// Runs `setup` on `image`: the fixed-kernel fast path in `precision` when
+/// the scale is uniform, else the per-pixel algorithm (f64 whatever
+/// `precision` says); specular added after.
+pub fn apply_with(image: &Image, setup: &Setup, precision: Precision) -> Result<Image> {
     setup.validate(image)?;
     let out = if setup.is_uniform() {
         let step = setup.scale.step_base(image.height);
@@ -64,7 +92,7 @@ pub fn apply(image: &Image, setup: &Setup) -> Result<Image> {
             .iter()
             .map(|t| PixelKernel::from_taps(t, step))
             .collect();
-        apply_separable(image, &kernels)
+        apply_separable_in(image, &kernels, precision)
     } else {
         apply_screen_space(image, setup)
     };
@@ -86,10 +114,47 @@ fn add_specular(mut out: Image, specular: Option<&Image>) -> Image {
 /// Rank-N separable convolution: sum over kernels of vertical(horizontal(I)),
 /// borders clamped.
 pub fn apply_separable(image: &Image, kernels: &[PixelKernel]) -> Image {
+    apply_separable_in(image, kernels, Precision::F64)
+}
+
+/// [`apply_separable`] in `precision`, into a fresh image.
+pub fn apply_separable_in(image: &Image, kernels: &[PixelKernel], precision: Precision) -> Image {
     let mut out = Image::new(image.width, image.height);
-    apply_separable_into::<f64>(image, kernels, &mut out);
+    for plane in out.rgb.iter_mut() {
+        advise_huge_pages(plane);
+    }
+    precision.separable_into(image, kernels, &mut out);
     out.alpha = image.alpha.clone();
     out
+}
+
+/// Asks Linux for transparent huge pages on a fresh buffer before its first
+/// write, as NumPy does for large arrays: a new 1080p f64 image is 48 MB,
+/// and faulting it in 4 KiB pages cost more than the f32 convolution itself
+/// (measured in docs/filter.md). A hint: failure changes nothing. Only whole
+/// 2 MiB extents inside `v` are advised (a multiple of any page size).
+fn advise_huge_pages(v: &mut [f64]) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::ffi::{c_int, c_void};
+        extern "C" {
+            fn madvise(addr: *mut c_void, len: usize, advice: c_int) -> c_int;
+        }
+        const MADV_HUGEPAGE: c_int = 14;
+        const HUGE: usize = 2 << 20;
+        let start = v.as_mut_ptr() as usize;
+        let (lo, hi) = (
+            start.next_multiple_of(HUGE),
+            (start + std::mem::size_of_val(v)) / HUGE * HUGE,
+        );
+        if hi > lo {
+            // SAFETY: [lo, hi) lies inside `v`, which we borrow mutably;
+            // MADV_HUGEPAGE changes no contents, only how pages are backed.
+            unsafe { madvise(lo as *mut c_void, hi - lo, MADV_HUGEPAGE) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = v;
 }
 
 /// [`apply_separable`] into a caller's buffer (reused frame after frame, as
