@@ -216,3 +216,38 @@ fn cli_gpu_backend_names_its_adapter() {
     let sum: f64 = img.rgb[0].iter().sum();
     assert!((sum - 1.0).abs() < 1e-5, "{sum}");
 }
+
+#[test]
+fn auto_backend_does_not_pick_a_software_rasteriser() {
+    gpu_env();
+    let g = open_gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let k = dir.path().join("k.json");
+    gaussian_kernel(1, 11).write(&k).unwrap();
+    let input = dir.path().join("in.exr");
+    let out = dir.path().join("out.exr");
+    let o = run(&["signal", "dirac", "--size", "21x17", "--out", p(&input)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "apply",
+        "--kernel",
+        p(&k),
+        "--input",
+        p(&input),
+        "--out",
+        p(&out),
+        "--mm-per-pixel",
+        "0.2",
+        "--taps-only",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    if g.is_software() {
+        assert!(
+            e.contains("backend: cpu") && e.contains("software rasteriser"),
+            "{e}"
+        );
+    } else {
+        assert!(e.contains("backend: gpu (auto)"), "{e}");
+    }
+}

@@ -14,7 +14,7 @@ pub enum Backend {
     Gpu,
     /// The CPU (precision: see --precision).
     Cpu,
-    /// wgpu when an adapter is found, else the CPU; says which it used.
+    /// wgpu when a hardware adapter is found, else the CPU; says which it used.
     Auto,
 }
 
@@ -203,9 +203,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             g.apply(&image, &setup)?
         }
         Backend::Auto => match gpu::Gpu::new() {
-            Ok(g) => {
+            Ok(g) if !g.is_software() => {
                 eprintln!("backend: gpu (auto), adapter {}", g.describe());
                 g.apply(&image, &setup)?
+            }
+            Ok(g) => {
+                eprintln!(
+                    "backend: cpu ({cpu_path}; auto: the only adapter, {}, is a software \
+                     rasteriser, slower than the CPU path; --backend gpu forces it)",
+                    g.describe()
+                );
+                cpu::apply_with(&image, &setup, precision)?
             }
             Err(e) => {
                 eprintln!("backend: cpu ({cpu_path}; auto: {e})");

@@ -84,6 +84,12 @@ impl Gpu {
         })
     }
 
+    /// True for a software rasteriser (lavapipe/llvmpipe, WARP): correct, but
+    /// slower than the CPU path, so `--backend auto` does not pick it.
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// "name (backend, device type, driver)".
     pub fn describe(&self) -> String {
         format!(
