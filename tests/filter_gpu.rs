@@ -6,6 +6,7 @@
 mod filter_support;
 use filter_support::*;
 use ssskit::filter::{cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use std::path::{Path, PathBuf};
 use std::sync::Once;
 
 /// Sets the lavapipe variables once, before any test reads the environment.
@@ -185,17 +186,16 @@ fn far_background_does_not_bleed_into_the_foreground_on_the_gpu() {
     );
 }
 
-#[test]
-fn cli_gpu_backend_names_its_adapter() {
-    gpu_env();
-    let dir = tempfile::tempdir().unwrap();
-    let k = dir.path().join("k.json");
+/// Runs `ssskit apply` on a dirac with an 11-tap Gaussian kernel and the
+/// given backend flags; returns the process output and the output image path.
+fn apply_dirac(dir: &Path, backend: &[&str]) -> (std::process::Output, PathBuf) {
+    let k = dir.join("k.json");
     gaussian_kernel(1, 11).write(&k).unwrap();
-    let input = dir.path().join("in.exr");
-    let out = dir.path().join("out.exr");
+    let input = dir.join("in.exr");
+    let out = dir.join("out.exr");
     let o = run(&["signal", "dirac", "--size", "21x17", "--out", p(&input)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = run(&[
+    let mut args = vec![
         "apply",
         "--kernel",
         p(&k),
@@ -203,12 +203,19 @@ fn cli_gpu_backend_names_its_adapter() {
         p(&input),
         "--out",
         p(&out),
-        "--backend",
-        "gpu",
         "--mm-per-pixel",
         "0.2",
         "--taps-only",
-    ]);
+    ];
+    args.extend_from_slice(backend);
+    (run(&args), out)
+}
+
+#[test]
+fn cli_gpu_backend_names_its_adapter() {
+    gpu_env();
+    let dir = tempfile::tempdir().unwrap();
+    let (o, out) = apply_dirac(dir.path(), &["--backend", "gpu"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("adapter"), "{}", stderr(&o));
     let (img, _) = ssskit::filter::image::read_image(&out, None).unwrap();
@@ -222,24 +229,7 @@ fn auto_backend_does_not_pick_a_software_rasteriser() {
     gpu_env();
     let g = open_gpu();
     let dir = tempfile::tempdir().unwrap();
-    let k = dir.path().join("k.json");
-    gaussian_kernel(1, 11).write(&k).unwrap();
-    let input = dir.path().join("in.exr");
-    let out = dir.path().join("out.exr");
-    let o = run(&["signal", "dirac", "--size", "21x17", "--out", p(&input)]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = run(&[
-        "apply",
-        "--kernel",
-        p(&k),
-        "--input",
-        p(&input),
-        "--out",
-        p(&out),
-        "--mm-per-pixel",
-        "0.2",
-        "--taps-only",
-    ]);
+    let (o, _) = apply_dirac(dir.path(), &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let e = stderr(&o);
     if g.is_software() {
