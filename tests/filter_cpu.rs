@@ -131,16 +131,6 @@ fn constant(w: usize, h: usize, v: f64) -> Image {
     img
 }
 
-fn step_depth(w: usize, h: usize) -> Plane {
-    Plane {
-        width: w,
-        height: h,
-        data: (0..w * h)
-            .map(|i| if i % w < w / 2 { 1.0 } else { 4.0 })
-            .collect(),
-    }
-}
-
 /// A normalised kernel conserves energy: a constant stays constant (with
 /// clamped borders, everywhere) and black stays black, whatever the scale,
 /// strength, depth or follow-surface.
@@ -186,42 +176,7 @@ fn constant_stays_constant_and_black_stays_black() {
 
 #[test]
 fn far_background_does_not_bleed_into_the_foreground() {
-    let (w, h) = (32, 24);
-    let mut image = Image::new(w, h);
-    for y in 0..h {
-        for x in w / 2..w {
-            for c in 0..3 {
-                image.rgb[c][y * w + x] = 1.0;
-            }
-        }
-    }
-    let k = gaussian_kernel(3, 25);
-    let mut setup = Setup {
-        passes: taps_for(&k, Factors::Taps, None),
-        scale: Scale::Perspective {
-            fov_y_deg: 40.0,
-            sss_width: 0.1,
-        },
-        depth: Some(step_depth(w, h)),
-        strength: None,
-        follow_surface: Some(300.0),
-        specular: None,
-    };
-    let fg_max = |img: &Image| {
-        (0..h)
-            .flat_map(|y| (0..w / 2).map(move |x| y * w + x))
-            .map(|i| img.rgb[1][i])
-            .fold(0.0f64, f64::max)
-    };
-    let followed = cpu::apply(&image, &setup).unwrap();
-    assert!(fg_max(&followed) < 1e-3, "{}", fg_max(&followed));
-    setup.follow_surface = None;
-    let bled = cpu::apply(&image, &setup).unwrap();
-    assert!(
-        fg_max(&bled) > 0.05,
-        "the test cannot fail: {}",
-        fg_max(&bled)
-    );
+    assert_no_background_bleed(|img, setup| cpu::apply(img, setup).unwrap(), 3, 25);
 }
 
 #[test]

@@ -1,8 +1,8 @@
-//! Shared by the tests/filter_*.rs files: kernels built in the tests (until
-//! the fitting models land), profiles, images, and the binary.
+//! Shared by the tests/filter_*.rs files: kernels built in the tests,
+//! profiles, images, scenes, and the binary.
 #![allow(dead_code)]
 
-use ssskit::filter::Image;
+use ssskit::filter::{taps_for, Factors, Image, Plane, Scale, Setup};
 use ssskit::kernel::{Kernel2D, KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
 use ssskit::material::preset;
 use ssskit::profile::{Profile, RadialGrid};
@@ -171,4 +171,67 @@ pub fn noise_image(w: usize, h: usize, seed: u64, lo: f64) -> Image {
 pub fn max_rel(a: &Image, b: &Image) -> f64 {
     let s = ssskit::filter::diff::compare(a, b).unwrap();
     s.max_rel.iter().fold(0.0f64, |m, &v| m.max(v))
+}
+
+/// Depth 1 on the left half, 4 on the right: a silhouette edge.
+pub fn step_depth(w: usize, h: usize) -> Plane {
+    Plane {
+        width: w,
+        height: h,
+        data: (0..w * h)
+            .map(|i| if i % w < w / 2 { 1.0 } else { 4.0 })
+            .collect(),
+    }
+}
+
+/// A black foreground (left half, depth 1) against a bright far background
+/// (right half, depth 4), in perspective with follow-surface on (002 eq.
+/// 4.12, C = 300): with it the foreground must stay black, without it the
+/// background bleeds in. `apply` is the backend under test.
+pub fn assert_no_background_bleed(
+    apply: impl Fn(&Image, &Setup) -> Image,
+    rank: usize,
+    taps: usize,
+) {
+    let (w, h) = (32, 24);
+    let mut image = Image::new(w, h);
+    for y in 0..h {
+        for x in w / 2..w {
+            for c in 0..3 {
+                image.rgb[c][y * w + x] = 1.0;
+            }
+        }
+    }
+    let k = gaussian_kernel(rank, taps);
+    let mut setup = Setup {
+        passes: taps_for(&k, Factors::Taps, None),
+        scale: Scale::Perspective {
+            fov_y_deg: 40.0,
+            sss_width: 0.1,
+        },
+        depth: Some(step_depth(w, h)),
+        strength: None,
+        follow_surface: Some(300.0),
+        specular: None,
+    };
+    let foreground_max = |img: &Image| {
+        (0..h)
+            .flat_map(|y| (0..w / 2).map(move |x| y * w + x))
+            .flat_map(|i| img.rgb.iter().map(move |p| p[i]))
+            .fold(0.0f64, f64::max)
+    };
+    // Bound of the lerp at the one interpolated position straddling the edge.
+    let followed = apply(&image, &setup);
+    assert!(
+        foreground_max(&followed) < 1e-3,
+        "{}",
+        foreground_max(&followed)
+    );
+    setup.follow_surface = None;
+    let bled = apply(&image, &setup);
+    assert!(
+        foreground_max(&bled) > 0.05,
+        "the test cannot fail: {}",
+        foreground_max(&bled)
+    );
 }
