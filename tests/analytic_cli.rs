@@ -1,23 +1,8 @@
 //! `ssskit profile`, `ssskit plot profile` and `ssskit profiles compare`
 //! through the real binary: outputs, recorded parameters, error messages.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn ssskit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .args(args)
-        .output()
-        .expect("run ssskit")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn read_json(p: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
+mod common;
+use common::{read_json, run as ssskit, stderr};
 
 #[test]
 fn profile_writes_a_valid_analytic_profile_for_every_model() {
