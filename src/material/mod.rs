@@ -92,7 +92,7 @@ pub struct Material {
 }
 
 /// The scalar optical properties of one layer in one channel, with the
-/// derived quantities of REFERENCE.md section 1.
+/// derived quantities of Jensen et al. 2001.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Medium {
     pub sigma_a: f64,

@@ -225,7 +225,7 @@ fn decay_length(m: &Medium) -> f64 {
 }
 
 /// The default grid, shared with the Monte Carlo tally so that profiles
-/// compare bin by bin: `RadialGrid::for_material` (dr = min MFP / 20 as 002
+/// compare bin by bin: `RadialGrid::for_material` (dr = min MFP / 20 as Freude 2014
 /// table 6.1, r_max large enough for the tail).
 pub fn default_grid(material: &Material, channels: &[Channel]) -> Result<RadialGrid> {
     Ok(RadialGrid::for_material(material, channels))
