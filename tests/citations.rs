@@ -64,7 +64,7 @@ fn forbidden(line: &str) -> Option<&'static str> {
     for i in 0..chars.len() {
         let rest: String = chars[i..].iter().collect();
         // "REFERENCE" as a word, in capitals.
-        if rest.starts_with("REFERENCE") && before_ok(i) && !at(i + 9).is_some_and(|c| is_word(c)) {
+        if rest.starts_with("REFERENCE") && before_ok(i) && !at(i + 9).is_some_and(is_word) {
             return Some("the outside specification REFERENCE");
         }
         // A seed number used as a source: "002 eq.", "000 ch.", "001's".

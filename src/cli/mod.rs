@@ -3,6 +3,7 @@
 
 mod apply;
 mod diff;
+mod errors;
 mod fit;
 mod materials;
 mod plot;
@@ -64,7 +65,7 @@ pub fn main() -> i32 {
     match result {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", errors::message(&e));
             2
         }
     }

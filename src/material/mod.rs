@@ -42,7 +42,7 @@ impl Channel {
                 'b' => Channel::B,
                 _ => {
                     return Err(Error::invalid(
-                        "--channels",
+                        "channels",
                         "channel",
                         c,
                         "expected letters among r, g, b",
@@ -54,7 +54,7 @@ impl Channel {
             }
         }
         if out.is_empty() {
-            return Err(Error::invalid("--channels", "channels", "''", "empty"));
+            return Err(Error::invalid("channels", "channels", "''", "empty"));
         }
         out.sort();
         Ok(out)

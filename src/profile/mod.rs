@@ -5,11 +5,13 @@
 pub mod analytic;
 pub mod fresnel;
 pub mod grid;
+pub mod grid_spec;
 pub mod interp;
 pub mod mc;
 pub mod radius;
 
 pub use grid::RadialGrid;
+pub use grid_spec::GridSpec;
 pub use interp::RadialInterp;
 pub use radius::radius_holding;
 

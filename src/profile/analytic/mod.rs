@@ -57,7 +57,7 @@ impl Model {
             .find(|m| m.name() == s.to_ascii_lowercase())
             .ok_or_else(|| {
                 Error::invalid(
-                    "--model",
+                    "analytic profile",
                     "model",
                     s,
                     "expected one of dipole, pbd, burley, directional-dipole",
@@ -183,11 +183,12 @@ impl ChannelModel {
 fn check_fresnel(model: Model, eta: f64, mode: FresnelMode) -> Result<()> {
     let refuse = |eta: f64, detail: String| {
         Err(Error::invalid(
-            "--fresnel fit",
+            "Fresnel fits",
             "eta",
             eta,
             format!(
-                "the Fresnel fits give {detail} here (outside their range); use --fresnel exact"
+                "the Fresnel fits give {detail} here (outside their range); the exact \
+                 moments hold at every eta"
             ),
         ))
     };
@@ -256,7 +257,7 @@ pub fn profile(
         )));
     }
     if options.channels.is_empty() {
-        return Err(Error::invalid("--channels", "channels", "''", "empty"));
+        return Err(Error::invalid("channels", "channels", "''", "empty"));
     }
     let specular = specular_normal(material.eta_above, material.layers[0].eta);
     let t_entry = 1.0 - specular;
