@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 /// 0.0036: an erratum. The published 0.0636 matches the exact diffuse internal
 /// reflectance 2 C_1 (0.4446 at eta = 1.3, 0.5963 at 1.5; see
 /// `fresnel_moment1_exact`), while 0.0036 is off by 0.08 and changes A by 25%.
-pub fn diffuse_fresnel_fit(eta: f64) -> f64 {
+fn diffuse_fresnel_fit(eta: f64) -> f64 {
     -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
 }
 
