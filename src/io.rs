@@ -55,6 +55,28 @@ fn set_default_permissions(_file: &std::fs::File, _path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Refuses an output path whose extension is not one of `allowed` (lower
+/// case, without the dot): the format written is the one the name says, so
+/// that ssskit and other tools read back what they expect. `what` names the
+/// format in the error.
+pub fn check_extension(path: &Path, allowed: &[&str], what: &str) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if ext.as_deref().is_some_and(|e| allowed.contains(&e)) {
+        return Ok(());
+    }
+    let list: Vec<String> = allowed.iter().map(|e| format!(".{e}")).collect();
+    Err(Error::format(
+        path,
+        format!(
+            "this output is {what}: the file name must end in {}",
+            list.join(" or ")
+        ),
+    ))
+}
+
 /// Serialises `value` as pretty JSON and writes it atomically.
 pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     let text = serde_json::to_string_pretty(value)

@@ -195,13 +195,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if a.out.is_none() && lang.is_none() {
             bail!("nothing to do: give --out KERNEL.json and/or --emit LANG");
         }
+        if let Some(out) = &a.out {
+            ssskit::io::check_extension(out, &["json"], "a JSON kernel")?;
+        }
         let profile = Profile::read(pp)?;
         let spec = Kernel2DSpec {
             size: a.size,
             extent_mm: a.extent,
         };
         let m = model(&a, m)?;
-        let k = fit_kernel_file(&profile, &spec, &m, a.taps)?;
+        let k = fit_kernel_file(&profile, &spec, &m, a.taps)
+            .with_context(|| format!("fitting a kernel to {}", pp.display()))?;
         if let Some(out) = &a.out {
             k.write(out)?;
             // Read back what was written: the file must load as is.

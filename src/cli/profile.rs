@@ -74,6 +74,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    ssskit::io::check_extension(&args.out, &["json"], "a JSON profile")?;
     let material = Material::load(&args.material)?;
     let channels = Channel::parse_list(&args.channels)?;
     let grid = grid_from_flags(&material, &channels, args.dr, args.rmax)?;
@@ -103,6 +104,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Most bins a uniform grid may have (the library's cap).
+const MAX_BINS: usize = 10_000_000;
+
 /// The radial grid from --dr/--rmax, each defaulting to the 002 rule.
 pub fn grid_from_flags(
     material: &Material,
@@ -112,13 +116,27 @@ pub fn grid_from_flags(
 ) -> anyhow::Result<RadialGrid> {
     material.validate(&format!("material '{}'", material.name))?;
     let default = analytic::default_grid(material, channels)?;
+    let given_rmax = rmax.is_some();
     let dr = dr.unwrap_or(default.edges[1]);
     let rmax = rmax.unwrap_or(default.r_max());
     if !(dr.is_finite() && dr > 0.0) {
         anyhow::bail!("--dr: invalid value {dr}: must be finite and > 0");
     }
     if !(rmax.is_finite() && rmax >= dr) {
+        if !given_rmax {
+            anyhow::bail!(
+                "--dr {dr}: wider than the default radius {rmax:.4} mm (from the material): give \
+                 a smaller --dr or a larger --rmax"
+            );
+        }
         anyhow::bail!("--rmax: invalid value {rmax}: must be finite and >= --dr ({dr})");
+    }
+    let bins = (rmax / dr).ceil();
+    if bins > MAX_BINS as f64 {
+        anyhow::bail!(
+            "--dr {dr} and --rmax {rmax:.4}: {bins:.3e} bins, at most {MAX_BINS}: give a larger \
+             --dr or a smaller --rmax"
+        );
     }
     Ok(RadialGrid::uniform(dr, rmax)?)
 }

@@ -152,6 +152,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.json", material.name)));
     // Fail before the simulation, not after it, on an unwritable destination.
+    ssskit::io::check_extension(&out, &["json"], "a JSON profile")?;
+    if let Some(csv) = &args.csv {
+        ssskit::io::check_extension(csv, &["csv"], "CSV")?;
+    }
     for (flag, path) in [("--out", Some(&out)), ("--csv", args.csv.as_ref())] {
         if let Some(dir) = path.and_then(|p| p.parent()) {
             if !dir.as_os_str().is_empty() && !dir.is_dir() {

@@ -31,17 +31,24 @@ impl PixelKernel {
     /// algorithm exactly (clamping the position or the two indices gives the
     /// same samples).
     pub fn from_taps(t: &Taps, step: f64) -> PixelKernel {
-        let pos: Vec<f64> = t.offsets_mm.iter().map(|o| o * step).collect();
+        // A tap within round-off of a whole pixel stays one entry; the
+        // bounds come from the same snapped positions as the loop below.
+        let pos: Vec<f64> = t
+            .offsets_mm
+            .iter()
+            .map(|o| {
+                let p = o * step;
+                if (p - p.round()).abs() < 1e-9 {
+                    p.round()
+                } else {
+                    p
+                }
+            })
+            .collect();
         let lo = pos.iter().fold(f64::INFINITY, |a, &p| a.min(p.floor())) as i64;
         let hi = pos.iter().fold(f64::NEG_INFINITY, |a, &p| a.max(p.floor())) as i64 + 1;
         let mut weights = vec![[0.0; 3]; (hi - lo + 1) as usize];
-        for (p, w) in pos.iter().zip(&t.weights) {
-            // A tap within round-off of a whole pixel stays one entry.
-            let p = if (p - p.round()).abs() < 1e-9 {
-                p.round()
-            } else {
-                *p
-            };
+        for (&p, w) in pos.iter().zip(&t.weights) {
             let i0 = p.floor();
             let f = p - i0;
             let k = (i0 as i64 - lo) as usize;
