@@ -1,5 +1,6 @@
 //! `ssskit fit`: a separable kernel from a reflectance profile.
 
+use super::out::out;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::kernel::emit::{emit, Lang};
@@ -217,7 +218,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         k
     };
     if let Some(lang) = lang {
-        print!("{}", emit(&kernel, lang));
+        out!("{}", emit(&kernel, lang))?;
     } else if a.kernel.is_some() && !a.quiet {
         summary(&kernel);
     }

@@ -1,6 +1,7 @@
 //! `ssskit simulate`: Monte Carlo reflectance profile of a material (or of
 //! the first run, or a chosen run, of an MCML .mci file).
 
+use super::out::outln;
 use super::progress::Bar;
 use anyhow::Context;
 use ssskit::material::{Channel, Material};
@@ -175,7 +176,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(csv) = &args.csv {
         write_csv(&profile, csv)?;
     }
-    print_summary(&profile, &out);
+    print_summary(&profile, &out)?;
     Ok(())
 }
 
@@ -226,24 +227,30 @@ fn write_csv(p: &Profile, path: &Path) -> anyhow::Result<()> {
     .with_context(|| format!("writing {}", path.display()))
 }
 
-fn print_summary(p: &Profile, out: &Path) {
+fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
     let photons = p.source.photons.clone().unwrap_or_default();
-    println!(
+    outln!(
         "{}: {} bins to r = {:.3} mm, {:.2} s",
         p.material.name,
         p.r.len(),
         p.r_edges.last().copied().unwrap_or(0.0),
         p.elapsed_s
-    );
-    println!(
+    )?;
+    outln!(
         "{:>2} {:>10} {:>20} {:>10} {:>10} {:>9} {:>10}",
-        "ch", "photons", "total R_d +- stderr", "T", "absorbed", "specular", "balance-1"
-    );
+        "ch",
+        "photons",
+        "total R_d +- stderr",
+        "T",
+        "absorbed",
+        "specular",
+        "balance-1"
+    )?;
     for (i, c) in p.channels.iter().enumerate() {
         let bal = p.extra["energy_balance"][c.name()]["sum_minus_1"]
             .as_f64()
             .unwrap_or(f64::NAN);
-        println!(
+        outln!(
             "{:>2} {:>10} {:>11.6} +- {:<7.1e} {:>10.6} {:>10.6} {:>9.6} {:>10.1e}",
             c.name(),
             photons.get(i).copied().unwrap_or(0),
@@ -253,12 +260,12 @@ fn print_summary(p: &Profile, out: &Path) {
             p.absorbed.as_ref().map_or(0.0, |a| a[i]),
             p.specular[i],
             bal
-        );
+        )?;
     }
     if let Some(ws) = p.extra["warnings"].as_array() {
         for w in ws.iter().filter_map(|w| w.as_str()) {
             eprintln!("warning: {w}");
         }
     }
-    println!("wrote {}", out.display());
+    outln!("wrote {}", out.display())
 }
