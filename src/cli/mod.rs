@@ -51,6 +51,9 @@ enum Command {
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
 pub fn main() -> i32 {
     out::install_panic_hook();
+    if let Err(e) = ssskit::io::remove_temps_on_signals() {
+        eprintln!("warning: {e}: an interrupted write may leave a .ssskit-*.tmp file");
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         // Help, version and usage errors: clap prints them; a closed or

@@ -253,8 +253,15 @@ impl Profile {
     /// Writes the profile atomically as pretty JSON, after the checks a
     /// reader makes: ssskit never writes a profile it would refuse to read.
     pub fn write(&self, path: &Path) -> Result<()> {
+        let mut group = crate::io::AtomicGroup::new();
+        self.write_into(&mut group, path)?;
+        group.commit()
+    }
+
+    /// [`Profile::write`] as part of a group of outputs renamed together.
+    pub fn write_into(&self, group: &mut crate::io::AtomicGroup, path: &Path) -> Result<()> {
         crate::io::check_extension(path, &["json"], "a JSON profile")?;
         self.validate(&format!("refusing to write {}", path.display()))?;
-        crate::io::write_json_atomic(path, self)
+        group.add_json(path, self)
     }
 }
