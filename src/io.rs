@@ -282,7 +282,7 @@ fn set_default_permissions(_file: &std::fs::File, _path: &Path) -> Result<()> {
 /// Refuses an output path whose extension is not one of `allowed` (lower
 /// case, without the dot): the format written is the one the name says, so
 /// that ssskit and other tools read back what they expect. `what` names the
-/// format in the error.
+/// output in the error ("unknown image type").
 pub fn check_extension(path: &Path, allowed: &[&str], what: &str) -> Result<()> {
     let ext = path
         .extension()
@@ -295,7 +295,7 @@ pub fn check_extension(path: &Path, allowed: &[&str], what: &str) -> Result<()> 
     Err(Error::format(
         path,
         format!(
-            "this output is {what}: the file name must end in {}",
+            "unknown {what} type: the file name must end in {}",
             list.join(" or ")
         ),
     ))

@@ -108,7 +108,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, true, true) => Some(args.depth_channel.clone().unwrap_or_else(|| "Z".into())),
         _ => None,
     };
-    ssskit::io::check_extension(&args.out, &["exr", "png"], "an image")?;
+    ssskit::io::check_extension(&args.out, &["exr", "png"], "image")?;
     let (mut image, extras) = read_image(&args.input, input_depth_channel.as_deref())?;
     let what = args.input.display().to_string();
     report_sanitized(&what, image.check_finite(&what, args.sanitize)?);

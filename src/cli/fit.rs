@@ -197,7 +197,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             bail!("nothing to do: give --out KERNEL.json and/or --emit LANG");
         }
         if let Some(out) = &a.out {
-            ssskit::io::check_extension(out, &["json"], "a JSON kernel")?;
+            ssskit::io::check_extension(out, &["json"], "kernel")?;
         }
         let profile = Profile::read(pp)?;
         let spec = Kernel2DSpec {

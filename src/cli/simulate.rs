@@ -161,9 +161,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.json", material.name)));
     // Fail before the simulation, not after it, on an unwritable destination.
-    ssskit::io::check_extension(&out, &["json"], "a JSON profile")?;
+    ssskit::io::check_extension(&out, &["json"], "profile")?;
     if let Some(csv) = &args.csv {
-        ssskit::io::check_extension(csv, &["csv"], "CSV")?;
+        ssskit::io::check_extension(csv, &["csv"], "table")?;
     }
     for (flag, path) in [("--out", Some(&out)), ("--csv", args.csv.as_ref())] {
         if let Some(dir) = path.and_then(|p| p.parent()) {

@@ -218,7 +218,7 @@ impl KernelFile {
     /// Writes the file atomically, after the checks a reader makes: ssskit
     /// never writes a kernel it would refuse to read.
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::io::check_extension(path, &["json"], "a JSON kernel")?;
+        crate::io::check_extension(path, &["json"], "kernel")?;
         self.validate(&format!("refusing to write {}", path.display()))?;
         crate::io::write_json_atomic(path, self)
     }

@@ -260,7 +260,7 @@ impl Profile {
 
     /// [`Profile::write`] as part of a group of outputs renamed together.
     pub fn write_into(&self, group: &mut crate::io::AtomicGroup, path: &Path) -> Result<()> {
-        crate::io::check_extension(path, &["json"], "a JSON profile")?;
+        crate::io::check_extension(path, &["json"], "profile")?;
         self.validate(&format!("refusing to write {}", path.display()))?;
         group.add_json(path, self)
     }

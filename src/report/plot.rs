@@ -60,7 +60,7 @@ fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
 
 /// Draws `panels` on a grid with `cols` columns and writes a PNG.
 pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<()> {
-    crate::io::check_extension(out, &["png"], "a PNG plot")?;
+    crate::io::check_extension(out, &["png"], "plot")?;
     register_fonts();
     if panels.is_empty() {
         return Err(Error::Unsupported("nothing to plot".into()));

@@ -101,8 +101,8 @@ impl<'a> Lines<'a> {
             return Err(Error::format(
                 self.context,
                 format!(
-                    "line {line}: {what} is {n}, but only {left} lines follow ({why}): \
-                     the count or the file is wrong"
+                    "unexpected end of file: line {line}: {what} is {n}, but only {left} \
+                     lines follow ({why}): the count or the file is wrong"
                 ),
             ));
         }
