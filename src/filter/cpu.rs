@@ -261,7 +261,8 @@ fn fill_clamped<T: Sample>(pad: &mut Vec<T>, row: &[f64], first: i64, len: usize
     pad.clear();
     let left = (-first).clamp(0, len as i64) as usize;
     pad.extend(std::iter::repeat_n(T::from_f64(row[0]), left));
-    let start = (first + left as i64) as usize;
+    // A kernel shifted wholly past the row reads only its border pixels.
+    let start = (first + left as i64).clamp(0, row.len() as i64) as usize;
     let mid = (len - left).min(row.len().saturating_sub(start));
     pad.extend(row[start..start + mid].iter().map(|&v| T::from_f64(v)));
     let right = len - left - mid;
