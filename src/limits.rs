@@ -9,6 +9,8 @@
 //! - 1D kernels applied as fixed pixel kernels: at most
 //!   [`max_kernel_pixels`] wide for the image, and at most
 //!   [`MAX_FILTER_WORK`] multiply-adds per filtering;
+//! - the exact 2D reference convolution: at most [`MAX_FFT_CELLS`] cells in
+//!   its padded FFT grid;
 //! - files whose headers state counts (.mci runs, layers, bins): the counts
 //!   must fit in the file's length (see `profile::mc::mci`).
 
@@ -94,6 +96,10 @@ pub fn max_kernel_pixels(width: usize, height: usize) -> usize {
 /// Most multiply-adds one filtering may take (pixels x taps x channels x
 /// passes): about a minute of CPU time on two cores.
 pub const MAX_FILTER_WORK: f64 = 1e12;
+
+/// Most cells of the padded FFT grid of an exact 2D convolution: 2^26,
+/// three complex f64 buffers of it are 3 GiB.
+pub const MAX_FFT_CELLS: usize = 1 << 26;
 
 #[cfg(test)]
 mod tests {

@@ -225,3 +225,34 @@ fn a_kernel_shifted_past_the_image_reads_the_border() {
         }
     }
 }
+
+/// The caps live in `Setup::validate`, which both backends run first: a
+/// three-tap kernel 60 mm wide at 1e-6 mm per pixel (6e7 pixels) is refused
+/// by the CPU and by wgpu (lavapipe in CI) alike, before any allocation.
+#[test]
+fn both_backends_refuse_a_kernel_span_over_the_cap() {
+    let setup = Setup {
+        passes: vec![ssskit::filter::Taps {
+            offsets_mm: vec![-30.0, 0.0, 30.0],
+            weights: vec![[0.25; 3], [0.5; 3], [0.25; 3]],
+        }],
+        scale: Scale::MmPerPixel(1e-6),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+    };
+    let img = image(16, 12, &[1.0]);
+    let e = cpu::apply(&img, &setup).unwrap_err().to_string();
+    assert!(
+        e.contains("would span") && e.contains("use at least"),
+        "{e}"
+    );
+    ssskit::filter::gpu::use_software_vulkan_if_unset();
+    let g = ssskit::filter::gpu::Gpu::new().expect("GPU test needs an adapter (lavapipe in CI)");
+    let e = g.apply(&img, &setup).unwrap_err().to_string();
+    assert!(
+        e.contains("would span") && e.contains("use at least"),
+        "{e}"
+    );
+}

@@ -266,6 +266,7 @@ fn run_reference(
     }
     let profile = Profile::read(reference)?;
     let k = cpu::reference_kernel(&profile, m)?;
+    cpu::check_reference_fits(image.width, image.height, k.size)?;
     eprintln!(
         "exact 2D kernel: {0}x{0} pixels of {m} mm ({1})",
         k.size,

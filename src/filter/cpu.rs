@@ -527,6 +527,24 @@ pub fn reference_kernel(profile: &Profile, mm_per_pixel: f64) -> Result<Kernel2D
 /// Kernel sizes above this use the FFT.
 pub const FFT_ABOVE: usize = 21;
 
+/// Refuses an exact 2D convolution of a `width` x `height` image with a
+/// `size` x `size` kernel whose padded FFT grid exceeds
+/// [`crate::limits::MAX_FFT_CELLS`] (memory and minutes of work), before
+/// anything is allocated.
+pub fn check_reference_fits(width: usize, height: usize, size: usize) -> Result<()> {
+    let r = size / 2;
+    let cells = (width + 2 * r).saturating_mul(height + 2 * r);
+    if size > FFT_ABOVE && cells > crate::limits::MAX_FFT_CELLS {
+        return Err(Error::Unsupported(format!(
+            "the exact 2D reference of a {width}x{height} image with a {size}x{size} kernel \
+             needs an FFT grid of {cells} cells, above the cap of {} (3 GiB of buffers): use a \
+             coarser pixel scale or a smaller image",
+            crate::limits::MAX_FFT_CELLS
+        )));
+    }
+    Ok(())
+}
+
 /// Exact 2D convolution (clamped borders) with the kernel's cells taken as
 /// pixels: out(x, y) = sum K(i, j) I(x + i, y + j).
 pub fn convolve_2d(image: &Image, k: &Kernel2D) -> Image {
