@@ -198,6 +198,21 @@ impl Setup {
         let uniform = self
             .is_uniform()
             .then(|| self.scale.step_base(image.height));
+        if uniform.is_none() {
+            // Per-pixel steps (strength, 1/depth) must stay finite: an
+            // infinite step times a zero offset is NaN in every pixel.
+            let widest = self
+                .steps(image.width, image.height)
+                .into_iter()
+                .fold(0.0, f64::max);
+            if !widest.is_finite() {
+                return Err(Error::Unsupported(
+                    "the per-pixel kernel scale overflows (a huge strength, a tiny depth or a \
+                     tiny pixel footprint): check the strength and depth images and the scale"
+                        .into(),
+                ));
+            }
+        }
         let taps: Vec<f64> = self
             .passes
             .iter()
