@@ -74,6 +74,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    ssskit::io::check_extension(&args.out, &["json"], "profile")?;
     let material = Material::load(&args.material)?;
     let channels = Channel::parse_list(&args.channels)?;
     let grid = grid_from_flags(&material, &channels, args.dr, args.rmax)?;

@@ -18,6 +18,31 @@ pub struct RadialGrid {
     pub edges: Vec<f64>,
 }
 
+/// Narrowest bin and largest radius, mm: tallies divide by bin areas
+/// (r_max^2 - ...), which must neither underflow nor overflow.
+pub const MIN_BIN_MM: f64 = 1e-12;
+pub const MAX_RADIUS_MM: f64 = 1e15;
+
+fn check_range(dr: f64, r_max: f64) -> Result<()> {
+    if dr < MIN_BIN_MM {
+        return Err(Error::invalid(
+            "radial grid",
+            "dr",
+            dr,
+            format!("bins narrower than {MIN_BIN_MM:e} mm have areas too small to divide by"),
+        ));
+    }
+    if r_max > MAX_RADIUS_MM {
+        return Err(Error::invalid(
+            "radial grid",
+            "rmax",
+            r_max,
+            format!("radii above {MAX_RADIUS_MM:e} mm give bin areas too large to hold"),
+        ));
+    }
+    Ok(())
+}
+
 impl RadialGrid {
     /// `n = ceil(r_max / dr)` uniform bins of width `dr`.
     pub fn uniform(dr: f64, r_max: f64) -> Result<RadialGrid> {
@@ -37,13 +62,14 @@ impl RadialGrid {
                 "must be finite and >= dr",
             ));
         }
+        check_range(dr, r_max)?;
         let n = (r_max / dr - 1e-9).ceil().max(1.0) as usize;
         if n > 10_000_000 {
             return Err(Error::invalid(
                 "radial grid",
-                "rmax/dr",
-                n,
-                "more than 10^7 bins; use a larger dr or geometric bins",
+                "dr",
+                dr,
+                format!("gives {n} bins up to {r_max} mm, more than 10^7: use a wider bin or a smaller radius"),
             ));
         }
         Ok(RadialGrid {
@@ -70,6 +96,7 @@ impl RadialGrid {
                 "must be finite and > dr",
             ));
         }
+        check_range(dr_min, r_max)?;
         if n < 2 {
             return Err(Error::invalid(
                 "radial grid",

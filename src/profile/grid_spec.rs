@@ -3,7 +3,7 @@
 //! place for every command that tabulates a profile.
 
 use super::RadialGrid;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
 
 /// What to override of the material's automatic grid
@@ -26,6 +26,18 @@ impl GridSpec {
         let auto = RadialGrid::for_material(material, channels);
         let dr = self.dr.unwrap_or(auto.edges[1]);
         let r_max = self.r_max.unwrap_or(auto.r_max());
+        if self.r_max.is_none() && dr.is_finite() && dr > r_max {
+            // Blame the value the user gave, not a radius they never set.
+            return Err(Error::invalid(
+                "radial grid",
+                "dr",
+                dr,
+                format!(
+                    "wider than the default radius {r_max:.4} mm (from the material): give a \
+                     smaller dr or a larger rmax"
+                ),
+            ));
+        }
         if self.log_bins {
             // 25 bins per e-fold of r_max / dr, between 50 and 2000.
             let n = if dr > 0.0 && r_max > dr {
@@ -44,7 +56,6 @@ impl GridSpec {
 mod tests {
     use super::*;
     use crate::material::preset;
-    use crate::Error;
 
     #[test]
     fn defaults_come_from_the_material_and_bad_values_name_the_parameter() {
