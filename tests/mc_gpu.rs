@@ -322,3 +322,39 @@ fn unsupported_settings_are_refused() {
         .to_string();
     assert!(e.contains("dispatch"), "{e}");
 }
+
+#[test]
+fn cli_backend_choice_is_printed_and_recorded() {
+    ssskit::filter::gpu::use_software_vulkan_if_unset();
+    let dir = tempfile::tempdir().unwrap();
+    let sim = |backend: &str, extra: &[&str]| {
+        let out = dir.path().join(format!("{backend}.json"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_ssskit"))
+            .args(["simulate", "--material", "skin1", "--channels", "b"])
+            .args(["--photons", "2000", "--backend", backend, "--out"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        (o.status.success(), err, out)
+    };
+    let (ok, err, out) = sim("gpu", &[]);
+    assert!(ok, "{err}");
+    assert!(err.contains("backend: gpu, adapter"), "{err}");
+    let p = ssskit::profile::Profile::read(&out).unwrap();
+    assert_eq!(p.source.params["backend"], "gpu");
+    assert!(p.source.params["adapter"].as_str().unwrap().len() > 3);
+    // auto never picks a software rasteriser; on lavapipe it is the CPU.
+    let (ok, err, out) = sim("auto", &[]);
+    assert!(ok, "{err}");
+    let p = ssskit::profile::Profile::read(&out).unwrap();
+    if gpu().is_software() {
+        assert!(err.contains("backend: cpu (auto"), "{err}");
+        assert!(p.source.params.get("backend").is_none());
+    } else {
+        assert_eq!(p.source.params["backend"], "gpu");
+    }
+    let (ok, err, _) = sim("gpu", &["--boundary", "split"]);
+    assert!(!ok && err.contains("classic"), "{err}");
+}
