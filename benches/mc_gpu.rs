@@ -26,7 +26,10 @@ fn cfg(ch: Channel, photons: u64) -> McConfig {
 }
 
 fn total(p: &Profile) -> (f64, f64) {
-    (p.total_rd[0], p.total_rd_stderr.as_ref().map_or(0.0, |e| e[0]))
+    (
+        p.total_rd[0],
+        p.total_rd_stderr.as_ref().map_or(0.0, |e| e[0]),
+    )
 }
 
 fn main() {
