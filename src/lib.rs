@@ -9,6 +9,7 @@
 
 pub mod error;
 pub mod filter;
+pub mod gpu;
 pub mod io;
 pub mod kernel;
 pub mod limits;

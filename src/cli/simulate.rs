@@ -5,6 +5,7 @@ use super::out::outln;
 use super::progress::Bar;
 use anyhow::Context;
 use ssskit::material::{Channel, Material};
+use ssskit::profile::mc::gpu::McGpu;
 use ssskit::profile::mc::{self, mci, BoundaryMode, McConfig, McOptions, PhotonBudget};
 use ssskit::profile::{Profile, RadialGrid};
 use std::path::{Path, PathBuf};
@@ -13,6 +14,13 @@ use std::path::{Path, PathBuf};
 /// 10^7 photons per channel (skin1 takes a few seconds on 2 cores).
 const DEFAULT_TARGET_ERROR: f64 = 0.01;
 const DEFAULT_MAX_PHOTONS: u64 = 10_000_000;
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum McBackend {
+    Cpu,
+    Gpu,
+    Auto,
+}
 
 /// Boxed so that the subcommand enum stays small.
 #[derive(clap::Args)]
@@ -80,6 +88,12 @@ struct Flags {
     /// efficient, see docs/mc.md).
     #[arg(long, default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true)]
     roulette: f64,
+    /// Where photons are traced: cpu (f64); gpu (wgpu compute, f32, classic
+    /// boundaries; see docs/mc_gpu.md); auto (a hardware GPU adapter when
+    /// one is found and the run is supported there, else the CPU). The same
+    /// seed gives the same output per backend and adapter, not across them.
+    #[arg(long, value_enum, default_value = "cpu")]
+    backend: McBackend,
     /// Output profile JSON (default: <material>.json).
     #[arg(long, value_name = "FILE.json")]
     out: Option<PathBuf>,
@@ -173,7 +187,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let bar = Bar::new();
-    let mut profile = mc::simulate_with(&material, &cfg, &opts, &bar)?;
+    let mut profile = match open_gpu(args.backend, &opts)? {
+        Some(g) => g.simulate(&material, &cfg, &opts, g.default_dispatch(), &bar)?,
+        None => mc::simulate_with(&material, &cfg, &opts, &bar)?,
+    };
     if let Some(r) = &mci_run {
         profile.source.params["mci"] =
             serde_json::json!({"file": r.source, "run": args.mci_run, "mco_name": r.output_name});
@@ -189,6 +206,49 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     outputs.commit()?;
     print_summary(&profile, &out)?;
     Ok(())
+}
+
+/// The GPU tracer when the backend asks for it (printing the adapter), None
+/// for the CPU; `auto` falls back to the CPU, saying why.
+fn open_gpu(backend: McBackend, opts: &McOptions) -> anyhow::Result<Option<McGpu>> {
+    let open = || McGpu::new().context("--backend gpu");
+    match backend {
+        McBackend::Cpu => Ok(None),
+        McBackend::Gpu => {
+            let g = open()?;
+            let kind = if g.is_software() {
+                " (software rasteriser: correct but slower than the CPU)"
+            } else {
+                ""
+            };
+            eprintln!("backend: gpu, adapter {}{kind}", g.describe());
+            Ok(Some(g))
+        }
+        McBackend::Auto => {
+            if opts.boundary != BoundaryMode::Classic {
+                eprintln!("backend: cpu (auto: the GPU tracer has classic boundaries only)");
+                return Ok(None);
+            }
+            match open() {
+                Ok(g) if !g.is_software() => {
+                    eprintln!("backend: gpu (auto), adapter {}", g.describe());
+                    Ok(Some(g))
+                }
+                Ok(g) => {
+                    eprintln!(
+                        "backend: cpu (auto: the only adapter, {}, is a software rasteriser, \
+                         slower than the CPU; --backend gpu forces it)",
+                        g.describe()
+                    );
+                    Ok(None)
+                }
+                Err(e) => {
+                    eprintln!("backend: cpu (auto: {e:#})");
+                    Ok(None)
+                }
+            }
+        }
+    }
 }
 
 /// The grid from --dr/--rmax/--log-bins; a missing value comes from the

@@ -41,29 +41,11 @@ impl Gpu {
     }
 
     async fn open() -> Result<Gpu> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = instance
-            .request_adapter(&wgpu::RequestAdapterOptions {
-                power_preference: wgpu::PowerPreference::HighPerformance,
-                ..Default::default()
-            })
-            .await
-            .map_err(|e| {
-                Error::Unsupported(format!(
-                    "no GPU adapter found ({e}); without a GPU, install Mesa's lavapipe \
-                     (scripts/setup) and `source scripts/env.sh`, or use --backend cpu"
-                ))
-            })?;
-        let info = adapter.get_info();
-        let (device, queue) = adapter
-            .request_device(&wgpu::DeviceDescriptor {
-                label: Some("ssskit"),
-                required_limits: adapter.limits(),
-                ..Default::default()
-            })
-            .await
-            .map_err(|e| Error::Unsupported(format!("cannot open the GPU device: {e}")))?;
+        let crate::gpu::GpuContext {
+            device,
+            queue,
+            info,
+        } = crate::gpu::GpuContext::open_async().await?;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("sss_pass"),
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
@@ -87,19 +69,12 @@ impl Gpu {
     /// True for a software rasteriser (lavapipe/llvmpipe, WARP): correct, but
     /// slower than the CPU path, so `--backend auto` does not pick it.
     pub fn is_software(&self) -> bool {
-        self.info.device_type == wgpu::DeviceType::Cpu
+        crate::gpu::is_software(&self.info)
     }
 
     /// "name (backend, device type, driver)".
     pub fn describe(&self) -> String {
-        format!(
-            "{} ({:?}, {:?}, {} {})",
-            self.info.name,
-            self.info.backend,
-            self.info.device_type,
-            self.info.driver,
-            self.info.driver_info
-        )
+        crate::gpu::describe(&self.info)
     }
 
     /// Runs `setup` on `image`.

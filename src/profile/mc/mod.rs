@@ -9,6 +9,7 @@
 //! target-error run is checked only between batches, so the photon count
 //! does not depend on the thread count either.
 
+pub mod gpu;
 pub mod mci;
 mod tally;
 mod tracer;

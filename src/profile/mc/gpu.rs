@@ -1,0 +1,746 @@
+//! The MCML walk of `tracer.rs` as a wgpu compute shader
+//! (shaders/mc_trace.wgsl): same physics, f32 transport, the same profile
+//! schema, standard errors and energy balance as the CPU tracer.
+//!
+//! Reproducibility: packet i of channel c draws from Philox4x32-10 (Salmon,
+//! Moraes, Dror & Shaw 2011) keyed by the seed with counter (draw, c, i), and
+//! every tally is an exact integer sum of per-packet values rounded to the
+//! fixed point 2^-24 (sums 64-bit, sums of squares 96-bit, built from u32
+//! atomics with carries; the host adds batches in u128). Integer addition
+//! does not depend on order, so the output is bit-identical for any batch
+//! size, invocation count or scheduling on a given adapter.
+//!
+//! Precision: positions, directions and weights are f32 (relative rounding
+//! 6e-8 per operation; directions are renormalised after every scattering);
+//! free paths come from a 24-bit uniform on (0, 1), which cuts the exponential
+//! tail at 17.3 optical depths (probability 3e-8); per-packet values are
+//! tallied to 2^-24 = 6e-8 (round to nearest). docs/mc_gpu.md reports the
+//! measured difference from the f64 CPU tracer.
+
+use super::tally::{BinSums, ChunkTally, Moments};
+use super::tracer::Stack;
+use super::{
+    build_profile, convergence, validate_config, BoundaryMode, ChannelRun, McConfig, McOptions,
+    PhotonBudget, BATCH, CHUNK,
+};
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::material::{Channel, Material};
+use crate::profile::{Profile, RadialGrid};
+use crate::progress::Progress;
+use serde_json::json;
+use wgpu::util::DeviceExt;
+
+const PHILOX: &str = include_str!("../../../shaders/mc_philox.wgsl");
+const TRACE: &str = include_str!("../../../shaders/mc_trace.wgsl");
+const KAT: &str = include_str!("../../../shaders/mc_kat.wgsl");
+
+/// Fixed point of the tallies: per-packet values are integers in units of
+/// 2^-24.
+pub const TALLY_RESOLUTION: f64 = 1.0 / (1u64 << 24) as f64;
+/// Largest batch: keeps every 64-bit sum (packets x 2^32) and 96-bit sum of
+/// squares (packets x 2^64) of one batch from overflowing.
+pub const MAX_BATCH: u64 = 1 << 24;
+/// Photons between two checks of a target-error run: the CPU tracer's
+/// granularity, and independent of the batch size, so the stopping point is
+/// too.
+pub const CHECKPOINT: u64 = CHUNK * BATCH;
+
+// Word layout of the tally buffer (see mc_trace.wgsl).
+const T_RD: usize = 0;
+const T_TR: usize = 5;
+const T_ABS: usize = 10;
+const T_BEYOND: usize = 15;
+const T_LOSS: usize = 17;
+const T_GAIN: usize = 19;
+const T_TRUNC: usize = 21;
+const T_TRUNC_N: usize = 23;
+const T_EVENTS: usize = 25;
+const T_SATURATED: usize = 27;
+const INCOMPLETE: usize = 29;
+const TRACED: usize = 30;
+const BINS: usize = 32;
+/// Threads per workgroup in mc_trace.wgsl.
+const WORKGROUP: u32 = 64;
+/// Invocations of one dispatch: 65535 workgroups of 64 (wgpu's default limit
+/// per dimension).
+pub const MAX_INVOCATIONS: u32 = 65535 * WORKGROUP;
+
+/// How a run is cut into GPU submissions. The result does not depend on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpuDispatch {
+    /// Photons per submission (1..=MAX_BATCH).
+    pub batch: u64,
+    /// Invocations per submission.
+    pub invocations: u32,
+    /// Invocations take packets from a shared counter until the batch is
+    /// done (load balance on GPUs), or invocation t traces packets t,
+    /// t + invocations, ... (software rasterisers; see `for_adapter`).
+    pub dynamic: bool,
+}
+
+impl GpuDispatch {
+    /// Enough invocations to fill a large GPU (an H100/H200 holds about
+    /// 270k resident threads), each taking packets until the batch is done.
+    /// On a software rasteriser one invocation per packet, statically:
+    /// llvmpipe runs the lanes of a workgroup one after another and cuts an
+    /// invocation's loops after 65535 iterations in all, so with a shared
+    /// counter its first lanes would take every packet and hit that limit.
+    pub fn for_adapter(software: bool) -> GpuDispatch {
+        if software {
+            GpuDispatch {
+                batch: 1 << 16,
+                invocations: 1 << 16,
+                dynamic: false,
+            }
+        } else {
+            GpuDispatch {
+                batch: 1 << 22,
+                invocations: 1 << 18,
+                dynamic: true,
+            }
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    seed_lo: u32,
+    seed_hi: u32,
+    channel: u32,
+    n_layers: u32,
+    base_lo: u32,
+    base_hi: u32,
+    count: u32,
+    n_bins: u32,
+    max_events: u32,
+    uniform_bins: u32,
+    dynamic: u32,
+    stride: u32,
+    w0: f32,
+    n_above: f32,
+    n_below: f32,
+    roulette: f32,
+    r_max: f32,
+    inv_dr: f32,
+    _pad1: [f32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuLayer {
+    z_top: f32,
+    z_bottom: f32,
+    sigma_t: f32,
+    inv_sigma_t: f32,
+    albedo: f32,
+    g: f32,
+    n: f32,
+    _pad: f32,
+}
+
+/// z_bottom of a semi-infinite layer: beyond any reachable depth, finite so
+/// that no comparison meets an infinity.
+const SEMI_INFINITE: f32 = 3.0e38;
+
+/// The tracer compiled on an opened adapter.
+pub struct McGpu {
+    ctx: GpuContext,
+    trace: wgpu::ComputePipeline,
+    kat: wgpu::ComputePipeline,
+}
+
+impl McGpu {
+    /// Opens the adapter (see `GpuContext::open`) and compiles the shaders.
+    pub fn new() -> Result<McGpu> {
+        let ctx = GpuContext::open()?;
+        // A shader this adapter rejects is an error for the caller, not a
+        // panic in wgpu's default handler.
+        let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipeline = |label: &str, src: &str, entry: &str| {
+            let module = ctx
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(label),
+                    source: wgpu::ShaderSource::Wgsl(format!("{PHILOX}\n{src}").into()),
+                });
+            ctx.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        };
+        let trace = pipeline("mc_trace", TRACE, "trace");
+        let kat = pipeline("mc_kat", KAT, "kat");
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Unsupported(format!(
+                "the Monte Carlo shader does not compile on {}: {e}",
+                ctx.describe()
+            )));
+        }
+        Ok(McGpu { ctx, trace, kat })
+    }
+
+    pub fn is_software(&self) -> bool {
+        self.ctx.is_software()
+    }
+
+    pub fn describe(&self) -> String {
+        self.ctx.describe()
+    }
+
+    /// The dispatch shape suited to this adapter.
+    pub fn default_dispatch(&self) -> GpuDispatch {
+        GpuDispatch::for_adapter(self.is_software())
+    }
+
+    /// Philox4x32-10 of each (counter, key) on the device, to check the
+    /// shader's generator against `philox4x32_10`.
+    pub fn philox(&self, inputs: &[([u32; 4], [u32; 2])]) -> Result<Vec<[u32; 4]>> {
+        let words: Vec<u32> = inputs
+            .iter()
+            .flat_map(|(c, k)| c.iter().chain(k).copied())
+            .collect();
+        let input = self.buffer(
+            "kat in",
+            bytemuck::cast_slice(&words),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let size = (inputs.len() * 16) as u64;
+        let out = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kat out"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let group = self.group(&self.kat, &[&input, &out]);
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.kat);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(inputs.len() as u32, 1, 1);
+        }
+        let words = self.read_back(enc, &out, size)?;
+        Ok(words
+            .chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect())
+    }
+
+    /// `simulate_with` on this adapter. Supports fixed and target-error
+    /// budgets with classic boundaries; refuses what it does not implement.
+    pub fn simulate(
+        &self,
+        material: &Material,
+        cfg: &McConfig,
+        opts: &McOptions,
+        dispatch: GpuDispatch,
+        progress: &dyn Progress,
+    ) -> Result<Profile> {
+        let start = std::time::Instant::now();
+        material.validate(&format!("material '{}'", material.name))?;
+        validate_config(cfg, opts)?;
+        check_gpu_options(opts, dispatch)?;
+        let (grid, grid_rule) = match &cfg.grid {
+            Some(g) => (g.clone(), json!({"rule": "given"})),
+            None => RadialGrid::for_material_rule(material, &cfg.channels, false),
+        };
+        check_grid(&grid)?;
+        let cap = match cfg.budget {
+            PhotonBudget::Fixed(n) => n,
+            PhotonBudget::TargetError { max_photons, .. } => max_photons,
+        };
+        progress.start(
+            cap.saturating_mul(cfg.channels.len() as u64),
+            &format!("{} photons (GPU)", material.name),
+        );
+        let mut runs = Vec::with_capacity(cfg.channels.len());
+        for &ch in &cfg.channels {
+            let run = self.run_channel(material, ch, &grid, cfg, opts, dispatch, progress)?;
+            runs.push((run, Stack::new(material, ch)));
+        }
+        progress.finish();
+        let mut p = build_profile(
+            material,
+            cfg,
+            opts,
+            &grid,
+            grid_rule,
+            &runs,
+            start.elapsed().as_secs_f64(),
+        );
+        let params = &mut p.source.params;
+        if let Some(m) = params.as_object_mut() {
+            m.remove("chunk");
+            m.remove("batch");
+        }
+        params["backend"] = json!("gpu");
+        params["adapter"] = json!(self.describe());
+        params["software_adapter"] = json!(self.is_software());
+        params["rng"] = json!("philox4x32-10, key = seed, counter = (draw, channel, photon)");
+        params["transport"] = json!("f32");
+        params["tally"] = json!({
+            "fixed_point": TALLY_RESOLUTION,
+            "sums": "exact integer sums of per-photon values, independent of scheduling",
+        });
+        params["checkpoint"] = json!(CHECKPOINT);
+        Ok(p)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_channel(
+        &self,
+        material: &Material,
+        ch: Channel,
+        grid: &RadialGrid,
+        cfg: &McConfig,
+        opts: &McOptions,
+        dispatch: GpuDispatch,
+        progress: &dyn Progress,
+    ) -> Result<ChannelRun> {
+        let stack = Stack::new(material, ch);
+        let (cap, target) = match cfg.budget {
+            PhotonBudget::Fixed(n) => (n, None),
+            PhotonBudget::TargetError { rel, max_photons } => (max_photons, Some(rel)),
+        };
+        let n_bins = grid.len();
+        let layers = gpu_layers(material, ch);
+        let layer_buf = self.buffer(
+            "layers",
+            bytemuck::cast_slice(&layers),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let edges: Vec<f32> = grid.edges.iter().map(|&e| e as f32).collect();
+        let edge_buf = self.buffer(
+            "edges",
+            bytemuck::cast_slice(&edges),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let words = BINS + 5 * n_bins;
+        let acc = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tally"),
+            size: (words * 4) as u64,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let param_buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: std::mem::size_of::<Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = self.group(&self.trace, &[&param_buf, &layer_buf, &edge_buf, &acc]);
+        let uniform_dr = uniform_bin_width(grid);
+        let mut params = Params {
+            seed_lo: cfg.seed as u32,
+            seed_hi: (cfg.seed >> 32) as u32,
+            channel: ch.index() as u32,
+            n_layers: layers.len() as u32,
+            base_lo: 0,
+            base_hi: 0,
+            count: 0,
+            n_bins: n_bins as u32,
+            max_events: opts.max_events as u32,
+            uniform_bins: uniform_dr.is_some() as u32,
+            dynamic: 0,
+            stride: 0,
+            w0: (1.0 - stack.specular) as f32,
+            n_above: material.eta_above as f32,
+            n_below: material.eta_below as f32,
+            roulette: opts.roulette_threshold as f32,
+            r_max: grid.r_max() as f32,
+            inv_dr: uniform_dr.map_or(0.0, |dr| (1.0 / dr) as f32),
+            _pad1: [0.0; 2],
+        };
+        let mut sums = Sums::new(n_bins);
+        let mut status = (0.0, 0.0, 0.0);
+        let mut converged = false;
+        let mut work_capped = false;
+        let mut tally = ChunkTally::new(n_bins, false);
+        while sums.photons < cap {
+            let stop = match target {
+                Some(_) => cap.min((sums.photons / CHECKPOINT + 1) * CHECKPOINT),
+                None => cap,
+            };
+            while sums.photons < stop {
+                let count = dispatch.batch.min(stop - sums.photons);
+                params.base_lo = sums.photons as u32;
+                params.base_hi = (sums.photons >> 32) as u32;
+                params.count = count as u32;
+                let inv = (dispatch.invocations as u64).min(count) as u32;
+                params.dynamic = dispatch.dynamic as u32;
+                params.stride = inv.div_ceil(WORKGROUP) * WORKGROUP;
+                self.ctx
+                    .queue
+                    .write_buffer(&param_buf, 0, bytemuck::bytes_of(&params));
+                let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+                enc.clear_buffer(&acc, 0, None);
+                {
+                    let mut pass = enc.begin_compute_pass(&Default::default());
+                    pass.set_pipeline(&self.trace);
+                    pass.set_bind_group(0, &group, &[]);
+                    pass.dispatch_workgroups(inv.div_ceil(WORKGROUP), 1, 1);
+                }
+                let batch = self.read_back(enc, &acc, (words * 4) as u64)?;
+                if batch[TRACED] as u64 != count || batch[INCOMPLETE] != 0 {
+                    return Err(Error::Unsupported(format!(
+                        "channel {}: the adapter ({}) traced {} of {count} packets and cut {} \
+                         walks short: a driver limit on shader loops (llvmpipe allows 65535 \
+                         iterations per invocation); use fewer packets per invocation or the \
+                         CPU tracer",
+                        ch.name(),
+                        self.describe(),
+                        batch[TRACED],
+                        batch[INCOMPLETE]
+                    )));
+                }
+                sums.add(&batch, count);
+                progress.advance(count);
+            }
+            if sums.saturated {
+                return Err(Error::Unsupported(format!(
+                    "channel {}: a photon's reflectance, transmittance or absorbed weight \
+                     reached 256, beyond the GPU tally's fixed-point range (roulette \
+                     threshold {} lets weights grow); use the CPU tracer",
+                    ch.name(),
+                    opts.roulette_threshold
+                )));
+            }
+            tally = sums.tally(stack.specular);
+            status = convergence(&tally, grid);
+            if let Some(rel) = target {
+                converged = status.0 <= rel && status.1 <= rel;
+                if converged || tally.events >= opts.max_work {
+                    work_capped = !converged;
+                    progress.advance(cap - tally.photons);
+                    break;
+                }
+            }
+        }
+        Ok(ChannelRun {
+            tally,
+            rel_total: status.0,
+            rel_profile: status.1,
+            r99: status.2,
+            converged: target.is_none() || converged,
+            work_capped,
+        })
+    }
+
+    fn buffer(&self, label: &str, words: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: words,
+                usage,
+            })
+    }
+
+    fn group(&self, pipeline: &wgpu::ComputePipeline, bufs: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = bufs
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        self.ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            })
+    }
+
+    /// Submits `enc` with a copy of `src` appended and returns its words.
+    fn read_back(
+        &self,
+        mut enc: wgpu::CommandEncoder,
+        src: &wgpu::Buffer,
+        size: u64,
+    ) -> Result<Vec<u32>> {
+        let readback = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        enc.copy_buffer_to_buffer(src, 0, &readback, 0, size);
+        self.ctx.queue.submit([enc.finish()]);
+        let slice = readback.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Unsupported(format!("GPU wait failed: {e}")))?;
+        rx.recv()
+            .map_err(|e| Error::Unsupported(format!("GPU readback lost: {e}")))?
+            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
+        let words = bytemuck::cast_slice::<u8, u32>(&view).to_vec();
+        drop(view);
+        readback.unmap();
+        Ok(words)
+    }
+}
+
+/// What the GPU tracer does not implement, refused before any work.
+fn check_gpu_options(opts: &McOptions, dispatch: GpuDispatch) -> Result<()> {
+    if opts.boundary != BoundaryMode::Classic {
+        return Err(Error::Unsupported(format!(
+            "the GPU tracer implements the classic boundary only, not '{}' \
+             (one escape per packet keeps its per-bin second moment a single square)",
+            opts.boundary.name()
+        )));
+    }
+    if opts.single_scatter {
+        return Err(Error::Unsupported(
+            "the GPU tracer has no single-scattering tally; use the CPU tracer".into(),
+        ));
+    }
+    if opts.max_events > u32::MAX as u64 {
+        return Err(Error::invalid(
+            "--max-events",
+            "max events",
+            opts.max_events,
+            "the GPU tracer counts events per packet in 32 bits: at most 4294967295",
+        ));
+    }
+    if !(1..=MAX_BATCH).contains(&dispatch.batch)
+        || !(1..=MAX_INVOCATIONS).contains(&dispatch.invocations)
+    {
+        return Err(Error::Unsupported(format!(
+            "GPU dispatch of {} photons x {} invocations: need 1..={MAX_BATCH} photons and \
+             1..={MAX_INVOCATIONS} invocations",
+            dispatch.batch, dispatch.invocations
+        )));
+    }
+    Ok(())
+}
+
+fn check_grid(grid: &RadialGrid) -> Result<()> {
+    let e = &grid.edges;
+    if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
+        return Err(Error::invalid(
+            "radial grid",
+            "edges",
+            format!("{} values", e.len()),
+            "need at least 2 edges, starting at 0, finite and strictly increasing",
+        ));
+    }
+    // Distinct in f32 too, or bins would be empty by rounding alone.
+    if e.windows(2).any(|w| !((w[1] as f32) > (w[0] as f32))) {
+        return Err(Error::invalid(
+            "radial grid",
+            "edges",
+            format!("{} values", e.len()),
+            "the GPU tracer needs edges distinct in f32 (relative spacing above 1e-7)",
+        ));
+    }
+    Ok(())
+}
+
+/// The bin width when the grid is uniform (same test as the CPU's
+/// `BinIndex`), for the shader's direct bin index.
+fn uniform_bin_width(grid: &RadialGrid) -> Option<f64> {
+    let dr = grid.edges[1] - grid.edges[0];
+    grid.edges
+        .iter()
+        .enumerate()
+        .all(|(i, &e)| (e - i as f64 * dr).abs() <= 1e-9 * dr.max(e))
+        .then_some(grid.r_max() / grid.len() as f64)
+}
+
+/// The layer stack of one channel, as `tracer::Stack` builds it.
+fn gpu_layers(m: &Material, ch: Channel) -> Vec<GpuLayer> {
+    let c = ch.index();
+    let mut z = 0.0f64;
+    m.layers
+        .iter()
+        .map(|l| {
+            let sigma_t = l.sigma_a[c] + l.sigma_s[c];
+            let z_top = z;
+            z = l.thickness.map_or(f64::INFINITY, |t| z + t);
+            GpuLayer {
+                z_top: z_top as f32,
+                z_bottom: if z.is_finite() {
+                    z as f32
+                } else {
+                    SEMI_INFINITE
+                },
+                sigma_t: sigma_t as f32,
+                inv_sigma_t: (1.0 / sigma_t) as f32,
+                albedo: (l.sigma_s[c] / sigma_t) as f32,
+                g: l.g[c] as f32,
+                n: l.eta as f32,
+                _pad: 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Exact integer tallies of a channel, in units of `TALLY_RESOLUTION`
+/// (squares in its square).
+struct Sums {
+    photons: u64,
+    rd: [u128; 2],
+    tr: [u128; 2],
+    absorbed: [u128; 2],
+    beyond: u128,
+    loss: u128,
+    gain: u128,
+    truncated: u128,
+    truncated_photons: u128,
+    events: u128,
+    bins: Vec<[u128; 2]>,
+    saturated: bool,
+}
+
+impl Sums {
+    fn new(n_bins: usize) -> Sums {
+        Sums {
+            photons: 0,
+            rd: [0; 2],
+            tr: [0; 2],
+            absorbed: [0; 2],
+            beyond: 0,
+            loss: 0,
+            gain: 0,
+            truncated: 0,
+            truncated_photons: 0,
+            events: 0,
+            bins: vec![[0; 2]; n_bins],
+            saturated: false,
+        }
+    }
+
+    /// Adds one batch's words.
+    fn add(&mut self, w: &[u32], photons: u64) {
+        let wide =
+            |i: usize, n: usize| -> u128 { (0..n).map(|k| (w[i + k] as u128) << (32 * k)).sum() };
+        let moments = |m: &mut [u128; 2], i: usize| {
+            m[0] += wide(i, 2);
+            m[1] += wide(i + 2, 3);
+        };
+        self.photons += photons;
+        moments(&mut self.rd, T_RD);
+        moments(&mut self.tr, T_TR);
+        moments(&mut self.absorbed, T_ABS);
+        self.beyond += wide(T_BEYOND, 2);
+        self.loss += wide(T_LOSS, 2);
+        self.gain += wide(T_GAIN, 2);
+        self.truncated += wide(T_TRUNC, 2);
+        self.truncated_photons += wide(T_TRUNC_N, 2);
+        self.events += wide(T_EVENTS, 2);
+        self.saturated |= w[T_SATURATED] != 0;
+        for (i, b) in self.bins.iter_mut().enumerate() {
+            moments(b, BINS + 5 * i);
+        }
+    }
+
+    fn tally(&self, specular: f64) -> ChunkTally {
+        let v = |x: u128| x as f64 * TALLY_RESOLUTION;
+        let m = |x: &[u128; 2]| Moments {
+            sum: v(x[0]),
+            sum_sq: x[1] as f64 * TALLY_RESOLUTION * TALLY_RESOLUTION,
+        };
+        let bins = self.bins.iter().map(m);
+        let (sum, sum_sq) = bins.map(|b| (b.sum, b.sum_sq)).unzip();
+        ChunkTally {
+            photons: self.photons,
+            events: self.events as u64,
+            specular: specular * self.photons as f64,
+            rd: m(&self.rd),
+            transmittance: m(&self.tr),
+            absorbed: m(&self.absorbed),
+            rd_bins: BinSums { sum, sum_sq },
+            rd_beyond: v(self.beyond),
+            roulette_loss: v(self.loss),
+            roulette_gain: v(self.gain),
+            truncated: v(self.truncated),
+            truncated_photons: self.truncated_photons as u64,
+            ..ChunkTally::new(0, false)
+        }
+    }
+}
+
+/// Philox4x32-10 on the CPU (Salmon et al. 2011, Random123's
+/// `philox4x32_R` with R = 10): the reference for the shader's generator.
+pub fn philox4x32_10(ctr: [u32; 4], key: [u32; 2]) -> [u32; 4] {
+    let (mut c, mut k) = (ctr, key);
+    for _ in 0..10 {
+        let p0 = 0xD251_1F53u64 * c[0] as u64;
+        let p1 = 0xCD9E_8D57u64 * c[2] as u64;
+        c = [
+            (p1 >> 32) as u32 ^ c[1] ^ k[0],
+            p1 as u32,
+            (p0 >> 32) as u32 ^ c[3] ^ k[1],
+            p0 as u32,
+        ];
+        k = [
+            k[0].wrapping_add(0x9E37_79B9),
+            k[1].wrapping_add(0xBB67_AE85),
+        ];
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn philox_matches_random123_known_answers() {
+        // Random123 tests/kat_vectors, the three "philox4x32 10" lines.
+        let kat = [
+            (
+                [0u32; 4],
+                [0u32; 2],
+                [0x6627e8d5, 0xe169c58d, 0xbc57ac4c, 0x9b00dbd8],
+            ),
+            (
+                [u32::MAX; 4],
+                [u32::MAX; 2],
+                [0x408f276d, 0x41c83b0e, 0xa20bc7c6, 0x6d5451fd],
+            ),
+            (
+                [0x243f6a88, 0x85a308d3, 0x13198a2e, 0x03707344],
+                [0xa4093822, 0x299f31d0],
+                [0xd16cfe09, 0x94fdcceb, 0x5001e420, 0x24126ea1],
+            ),
+        ];
+        for (c, k, want) in kat {
+            assert_eq!(philox4x32_10(c, k), want);
+        }
+    }
+
+    #[test]
+    fn wide_sums_carry_across_words() {
+        let mut s = Sums::new(1);
+        let mut w = vec![0u32; BINS + 5];
+        w[T_RD] = u32::MAX;
+        w[T_RD + 1] = 2;
+        w[T_RD + 4] = 1;
+        s.add(&w, 3);
+        s.add(&w, 3);
+        assert_eq!(s.rd[0], 2 * ((2u128 << 32) + u32::MAX as u128));
+        assert_eq!(s.rd[1], 2u128 << 64);
+        assert_eq!(s.photons, 6);
+    }
+}

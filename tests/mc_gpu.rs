@@ -1,0 +1,360 @@
+//! The GPU Monte Carlo tracer (wgpu compute, f32) against the same truths
+//! as the CPU tracer in mc_physics.rs, against the CPU tracer itself bin by
+//! bin, and for bit-identical output whatever the dispatch shape. Runs on
+//! whatever adapter wgpu finds (lavapipe in CI); fails, never skips, when
+//! there is none.
+
+use ssskit::material::{parse_material_toml, preset, Channel, Material};
+use ssskit::profile::mc::gpu::{philox4x32_10, GpuDispatch, McGpu};
+use ssskit::profile::mc::{simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget};
+use ssskit::profile::{Profile, RadialGrid};
+use ssskit::progress::NoProgress;
+use std::sync::OnceLock;
+
+/// One device for the whole file: opening lavapipe and compiling the shader
+/// costs about a second.
+fn gpu() -> &'static McGpu {
+    static GPU: OnceLock<McGpu> = OnceLock::new();
+    GPU.get_or_init(|| {
+        ssskit::filter::gpu::use_software_vulkan_if_unset();
+        let g = McGpu::new().expect("a wgpu adapter (lavapipe: scripts/setup)");
+        eprintln!("adapter: {}", g.describe());
+        g
+    })
+}
+
+fn material(toml: &str) -> Material {
+    parse_material_toml(toml, "test.toml", "test").expect("valid test material")
+}
+
+fn cfg(photons: u64, ch: Channel, grid: Option<RadialGrid>) -> McConfig {
+    McConfig {
+        budget: PhotonBudget::Fixed(photons),
+        seed: 2024,
+        threads: None,
+        channels: vec![ch],
+        grid,
+    }
+}
+
+fn run(m: &Material, c: &McConfig) -> Profile {
+    let g = gpu();
+    g.simulate(
+        m,
+        c,
+        &McOptions::default(),
+        g.default_dispatch(),
+        &NoProgress,
+    )
+    .expect("GPU simulation")
+}
+
+fn within(x: f64, truth: f64, sigma: f64, what: &str) {
+    assert!(sigma > 0.0, "{what}: zero standard error");
+    assert!(
+        (x - truth).abs() <= 4.0 * sigma,
+        "{what}: {x} vs {truth}, {:.2} sigma (sigma {sigma:.2e})",
+        (x - truth) / sigma
+    );
+}
+
+/// The energy balance closes to f32 rounding: each packet's absorbed weight
+/// is an f32 running sum over its events (relative rounding ~1e-7 per event,
+/// unbiased), and its tallies are rounded to 2^-24. Measured |sum - 1| stays
+/// below 1e-7 on these tests; 2e-6 leaves room without hiding a lost term
+/// (the smallest terms, roulette gain and loss, are ~1e-3).
+fn assert_balance(p: &Profile) {
+    for c in &p.channels {
+        let d = p.extra["energy_balance"][c.name()]["sum_minus_1"]
+            .as_f64()
+            .expect("balance recorded");
+        eprintln!("{} {}: balance - 1 = {d:.2e}", p.material.name, c.name());
+        assert!(d.abs() < 2e-6, "{}: energy balance off by {d}", c.name());
+    }
+}
+
+#[test]
+fn philox_on_the_device_matches_the_reference() {
+    let mut inputs = vec![
+        ([0u32; 4], [0u32; 2]),
+        ([u32::MAX; 4], [u32::MAX; 2]),
+        (
+            [0x243f6a88, 0x85a308d3, 0x13198a2e, 0x03707344],
+            [0xa4093822, 0x299f31d0],
+        ),
+    ];
+    // Counters as the tracer forms them: (draw, channel, photon lo, hi).
+    for i in 0..61u32 {
+        let x = i.wrapping_mul(0x9E37_79B9);
+        inputs.push(([i, i % 3, x, x.rotate_left(7)], [x ^ 0xdead_beef, !x]));
+    }
+    let got = gpu().philox(&inputs).expect("kat dispatch");
+    for ((c, k), g) in inputs.iter().zip(&got) {
+        assert_eq!(*g, philox4x32_10(*c, *k), "ctr {c:x?} key {k:x?}");
+    }
+    assert_eq!(got[0], [0x6627e8d5, 0xe169c58d, 0xbc57ac4c, 0x9b00dbd8]);
+}
+
+#[test]
+fn van_de_hulst_slab() {
+    // n = 1, sigma_a = 1, sigma_s = 9 /mm, g = 0.75, d = 0.2 mm:
+    // adding-doubling R_d = 0.09739, T = 0.66096.
+    let m = material(
+        "unit = \"mm\"\nsigma_a = 1.0\nsigma_s = 9.0\ng = 0.75\neta = 1.0\nthickness = 0.2\n",
+    );
+    let p = run(&m, &cfg(200_000, Channel::R, None));
+    within(
+        p.total_rd[0],
+        0.09739,
+        p.total_rd_stderr.as_ref().unwrap()[0],
+        "R_d",
+    );
+    within(
+        p.transmittance.as_ref().unwrap()[0],
+        0.66096,
+        p.transmittance_stderr.as_ref().unwrap()[0],
+        "T",
+    );
+    assert_eq!(p.specular[0], 0.0);
+    assert_balance(&p);
+    assert_eq!(p.source.params["backend"], "gpu");
+}
+
+#[test]
+fn semi_infinite_isotropic_albedo_09() {
+    // Exact (Chandrasekhar H-function) totals: n = 1 -> 0.41495;
+    // n = 1.5 under air -> 0.21993 with specular 0.04.
+    for (eta, truth, spec) in [(1.0, 0.41495, 0.0), (1.5, 0.21993, 0.04)] {
+        let m = material(&format!(
+            "unit = \"mm\"\nsigma_a = 0.1\nsigma_s = 0.9\neta = {eta}\n"
+        ));
+        let p = run(&m, &cfg(100_000, Channel::G, None));
+        let se = p.total_rd_stderr.as_ref().unwrap()[0];
+        within(p.total_rd[0], truth, se, &format!("eta {eta} R_d"));
+        assert!((p.specular[0] - spec).abs() < 1e-12);
+        assert_eq!(p.transmittance.as_ref().unwrap()[0], 0.0);
+        assert_balance(&p);
+        // Tabulated plus beyond r_max is the total: the same integers.
+        let beyond = p.extra["rd_beyond_rmax"][0].as_f64().unwrap();
+        assert!((p.tabulated_total(0) + beyond - p.total_rd[0]).abs() < 1e-12);
+    }
+}
+
+/// chi^2 per bin of GPU against CPU over the bins where both scored, with
+/// both standard errors, and the totals within 4 combined sigma.
+fn assert_compatible(name: &str, m: &Material, ch: Channel, photons: u64) {
+    let c = cfg(photons, ch, None);
+    let cpu = simulate_with(m, &c, &McOptions::default(), &NoProgress).unwrap();
+    let gpu = run(m, &McConfig { seed: 99, ..c });
+    assert_eq!(cpu.r_edges, gpu.r_edges);
+    assert_balance(&gpu);
+    let (ec, eg) = (
+        &cpu.rd_stderr.as_ref().unwrap()[0],
+        &gpu.rd_stderr.as_ref().unwrap()[0],
+    );
+    let (mut chi2, mut n) = (0.0, 0);
+    for i in 0..cpu.r.len() {
+        if ec[i] > 0.0 && eg[i] > 0.0 {
+            chi2 += (cpu.rd[0][i] - gpu.rd[0][i]).powi(2) / (ec[i].powi(2) + eg[i].powi(2));
+            n += 1;
+        }
+    }
+    let per_bin = chi2 / n as f64;
+    eprintln!("{name}: chi^2 per bin {per_bin:.3} over {n} bins");
+    assert!(n >= 20, "{name}: only {n} bins scored");
+    assert!(per_bin < 2.0, "{name}: chi^2 per bin {per_bin}");
+    let sigma = (cpu.total_rd_stderr.as_ref().unwrap()[0].powi(2)
+        + gpu.total_rd_stderr.as_ref().unwrap()[0].powi(2))
+    .sqrt();
+    within(
+        gpu.total_rd[0],
+        cpu.total_rd[0],
+        sigma,
+        &format!("{name} R_d"),
+    );
+    if let (Some(tc), Some(tg)) = (&cpu.transmittance_stderr, &gpu.transmittance_stderr) {
+        let s = (tc[0].powi(2) + tg[0].powi(2)).sqrt();
+        let (a, b) = (
+            cpu.transmittance.as_ref().unwrap()[0],
+            gpu.transmittance.as_ref().unwrap()[0],
+        );
+        within(b, a, s, &format!("{name} T"));
+    }
+}
+
+#[test]
+fn skin1_profile_matches_the_cpu_tracer() {
+    assert_compatible("skin1 R", &preset("skin1").unwrap(), Channel::R, 40_000);
+}
+
+#[test]
+fn marble_profile_matches_the_cpu_tracer() {
+    assert_compatible("marble B", &preset("marble").unwrap(), Channel::B, 10_000);
+}
+
+#[test]
+fn layered_tissue_profile_matches_the_cpu_tracer() {
+    // Three layers with index steps (Fresnel and total internal reflection
+    // at every interface) and g up to 0.9.
+    let m = material(
+        "unit = \"mm\"\neta_above = 1.0\n\
+         [[layer]]\nsigma_a = 0.5\nsigma_s = 5.0\ng = 0.8\neta = 1.37\nthickness = 0.1\n\
+         [[layer]]\nsigma_a = 0.2\nsigma_s = 20.0\ng = 0.9\neta = 1.5\nthickness = 0.4\n\
+         [[layer]]\nsigma_a = 0.05\nsigma_s = 2.0\ng = -0.5\neta = 1.33\nthickness = 1.0\n",
+    );
+    assert_compatible("layered g 0.9", &m, Channel::R, 40_000);
+}
+
+#[test]
+fn output_does_not_depend_on_the_dispatch_shape() {
+    let m = preset("skin1").unwrap();
+    let g = gpu();
+    let shapes = [
+        // Batches that do and do not divide the budget, static with several
+        // packets per invocation, and dynamic (few invocations: on llvmpipe
+        // that stays under its loop limit only for short walks like skin1).
+        GpuDispatch {
+            batch: 7_000,
+            invocations: 1_024,
+            dynamic: false,
+        },
+        GpuDispatch {
+            batch: 1 << 16,
+            invocations: 1 << 16,
+            dynamic: false,
+        },
+        GpuDispatch {
+            batch: 500,
+            invocations: 64,
+            dynamic: true,
+        },
+    ];
+    for budget in [
+        PhotonBudget::Fixed(30_000),
+        PhotonBudget::TargetError {
+            rel: 0.2,
+            max_photons: 400_000,
+        },
+    ] {
+        let c = McConfig {
+            budget,
+            seed: 7,
+            threads: None,
+            channels: vec![Channel::R, Channel::B],
+            grid: None,
+        };
+        let out: Vec<String> = shapes
+            .iter()
+            .map(|&d| {
+                let mut p = g
+                    .simulate(&m, &c, &McOptions::default(), d, &NoProgress)
+                    .unwrap();
+                p.elapsed_s = 0.0;
+                serde_json::to_string(&p).unwrap()
+            })
+            .collect();
+        for o in &out[1..] {
+            // Not assert_eq: the JSON is megabytes.
+            assert!(*o == out[0], "dispatch shape changed the output");
+        }
+        // A different seed does change it.
+        let mut p = g
+            .simulate(
+                &m,
+                &McConfig { seed: 8, ..c },
+                &McOptions::default(),
+                shapes[0],
+                &NoProgress,
+            )
+            .unwrap();
+        p.elapsed_s = 0.0;
+        assert!(out[0] != serde_json::to_string(&p).unwrap());
+    }
+}
+
+#[test]
+fn unsupported_settings_are_refused() {
+    let m = preset("skin1").unwrap();
+    let g = gpu();
+    let c = cfg(1000, Channel::R, None);
+    for (o, needle) in [
+        (
+            McOptions {
+                boundary: BoundaryMode::Split,
+                ..McOptions::default()
+            },
+            "classic",
+        ),
+        (
+            McOptions {
+                single_scatter: true,
+                ..McOptions::default()
+            },
+            "single",
+        ),
+        (
+            McOptions {
+                max_events: 1 << 40,
+                ..McOptions::default()
+            },
+            "--max-events",
+        ),
+    ] {
+        let e = g
+            .simulate(&m, &c, &o, g.default_dispatch(), &NoProgress)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(needle), "{e}");
+    }
+    let e = g
+        .simulate(
+            &m,
+            &c,
+            &McOptions::default(),
+            GpuDispatch {
+                batch: 0,
+                invocations: 64,
+                dynamic: false,
+            },
+            &NoProgress,
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("dispatch"), "{e}");
+}
+
+#[test]
+fn cli_backend_choice_is_printed_and_recorded() {
+    ssskit::filter::gpu::use_software_vulkan_if_unset();
+    let dir = tempfile::tempdir().unwrap();
+    let sim = |backend: &str, extra: &[&str]| {
+        let out = dir.path().join(format!("{backend}.json"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_ssskit"))
+            .args(["simulate", "--material", "skin1", "--channels", "b"])
+            .args(["--photons", "2000", "--backend", backend, "--out"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        (o.status.success(), err, out)
+    };
+    let (ok, err, out) = sim("gpu", &[]);
+    assert!(ok, "{err}");
+    assert!(err.contains("backend: gpu, adapter"), "{err}");
+    let p = ssskit::profile::Profile::read(&out).unwrap();
+    assert_eq!(p.source.params["backend"], "gpu");
+    assert!(p.source.params["adapter"].as_str().unwrap().len() > 3);
+    // auto never picks a software rasteriser; on lavapipe it is the CPU.
+    let (ok, err, out) = sim("auto", &[]);
+    assert!(ok, "{err}");
+    let p = ssskit::profile::Profile::read(&out).unwrap();
+    if gpu().is_software() {
+        assert!(err.contains("backend: cpu (auto"), "{err}");
+        assert!(p.source.params.get("backend").is_none());
+    } else {
+        assert_eq!(p.source.params["backend"], "gpu");
+    }
+    let (ok, err, _) = sim("gpu", &["--boundary", "split"]);
+    assert!(!ok && err.contains("classic"), "{err}");
+}
