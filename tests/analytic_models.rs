@@ -146,7 +146,7 @@ fn fresnel_fit_outside_its_range_is_a_clear_error() {
     let mat = half_space(0.01, 1.0, 0.0, 3.0);
     let grid = small_grid(&mat);
     let e = analytic::profile(&mat, Model::Pbd, &grid, &Options::default()).unwrap_err();
-    assert!(e.to_string().contains("--fresnel exact"), "{e}");
+    assert!(e.to_string().contains("exact moments"), "{e}");
     let opts = Options {
         fresnel: FresnelMode::Exact,
         ..Options::default()
@@ -181,11 +181,19 @@ fn edge_cases_give_finite_non_negative_profiles() {
             for model in Model::ALL {
                 match analytic::profile(&mat, model, &grid, &opts) {
                     Ok(p) => assert_valid(&p, &format!("{what} {model:?} {mode:?}")),
-                    Err(e) => {
-                        // Only the fits may refuse (eta = 1 is inside their
-                        // range, so nothing here should).
-                        panic!("{what} {model:?} {mode:?}: {e}");
+                    // Below eta = 1 Jensen's F_dr fit is -1.2 (A < 0): the
+                    // dipole, and normalized diffusion built on its total,
+                    // refuse it. Nothing else here may refuse (eta = 1 is
+                    // inside every fit's range).
+                    Err(e)
+                        if what == "eta < 1"
+                            && mode == FresnelMode::Fit
+                            && matches!(model, Model::Dipole | Model::Burley) =>
+                    {
+                        assert!(e.to_string().contains("F_dr"), "{e}");
+                        continue;
                     }
+                    Err(e) => panic!("{what} {model:?} {mode:?}: {e}"),
                 }
                 let m = mat.top(Channel::R);
                 let cm = ChannelModel::new(model, &m, mode, 1.0).unwrap();
@@ -251,7 +259,7 @@ proptest! {
                 Err(e) => {
                     // Only the fits refuse, and they say what to do.
                     prop_assert!(!exact, "exact mode failed: {e}");
-                    prop_assert!(e.to_string().contains("--fresnel exact"), "{e}");
+                    prop_assert!(e.to_string().contains("exact moments"), "{e}");
                 }
             }
         }

@@ -3,6 +3,7 @@
 
 mod apply;
 mod diff;
+mod errors;
 mod fit;
 mod materials;
 mod out;
@@ -85,7 +86,7 @@ pub fn main() -> i32 {
         Err(e) => match out::quiet_exit(&e) {
             Some(code) => code,
             None => {
-                eprintln!("error: {e:#}");
+                eprintln!("error: {}", errors::message(&e));
                 2
             }
         },

@@ -5,7 +5,7 @@ use clap::ValueEnum;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::fresnel::FresnelMode;
-use ssskit::profile::RadialGrid;
+use ssskit::profile::{GridSpec, RadialGrid};
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -104,9 +104,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Most bins a uniform grid may have (the library's cap).
-const MAX_BINS: usize = 10_000_000;
-
 /// The radial grid from --dr/--rmax, each defaulting to the 002 rule.
 pub fn grid_from_flags(
     material: &Material,
@@ -115,28 +112,10 @@ pub fn grid_from_flags(
     rmax: Option<f64>,
 ) -> anyhow::Result<RadialGrid> {
     material.validate(&format!("material '{}'", material.name))?;
-    let default = analytic::default_grid(material, channels)?;
-    let given_rmax = rmax.is_some();
-    let dr = dr.unwrap_or(default.edges[1]);
-    let rmax = rmax.unwrap_or(default.r_max());
-    if !(dr.is_finite() && dr > 0.0) {
-        anyhow::bail!("--dr: invalid value {dr}: must be finite and > 0");
-    }
-    if !(rmax.is_finite() && rmax >= dr) {
-        if !given_rmax {
-            anyhow::bail!(
-                "--dr {dr}: wider than the default radius {rmax:.4} mm (from the material): give \
-                 a smaller --dr or a larger --rmax"
-            );
-        }
-        anyhow::bail!("--rmax: invalid value {rmax}: must be finite and >= --dr ({dr})");
-    }
-    let bins = (rmax / dr).ceil();
-    if bins > MAX_BINS as f64 {
-        anyhow::bail!(
-            "--dr {dr} and --rmax {rmax:.4}: {bins:.3e} bins, at most {MAX_BINS}: give a larger \
-             --dr or a smaller --rmax"
-        );
-    }
-    Ok(RadialGrid::uniform(dr, rmax)?)
+    let spec = GridSpec {
+        dr,
+        r_max: rmax,
+        log_bins: false,
+    };
+    Ok(spec.grid(material, channels)?)
 }

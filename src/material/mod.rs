@@ -42,7 +42,7 @@ impl Channel {
                 'b' => Channel::B,
                 _ => {
                     return Err(Error::invalid(
-                        "--channels",
+                        "channels",
                         "channel",
                         c,
                         "expected letters among r, g, b",
@@ -54,7 +54,7 @@ impl Channel {
             }
         }
         if out.is_empty() {
-            return Err(Error::invalid("--channels", "channels", "''", "empty"));
+            return Err(Error::invalid("channels", "channels", "''", "empty"));
         }
         out.sort();
         Ok(out)
@@ -92,7 +92,7 @@ pub struct Material {
 }
 
 /// The scalar optical properties of one layer in one channel, with the
-/// derived quantities of REFERENCE.md section 1.
+/// derived quantities of Jensen et al. 2001.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Medium {
     pub sigma_a: f64,

@@ -69,7 +69,7 @@ impl RadialGrid {
                 "radial grid",
                 "rmax/dr",
                 n,
-                "more than 10^7 bins: use a wider bin or a smaller radius",
+                "more than 10^7 bins; use a larger dr or geometric bins",
             ));
         }
         Ok(RadialGrid {
@@ -108,7 +108,7 @@ impl RadialGrid {
         // Edges e_i = dr_min (q^i - 1)/(q - 1): first width dr_min, e_n = r_max.
         let target = r_max / dr_min;
         let f = |q: f64| (q.powi(n as i32) - 1.0) / (q - 1.0) - target;
-        let (mut lo, mut hi) = (1.0 + 1e-12, 2.0f64);
+        let (lo, mut hi) = (1.0 + 1e-12, 2.0f64);
         while f(hi) < 0.0 {
             hi *= 2.0;
         }
@@ -116,15 +116,7 @@ impl RadialGrid {
             // Even uniform bins overshoot: fall back to uniform spacing.
             return RadialGrid::uniform(r_max / n as f64, r_max);
         }
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if f(mid) > 0.0 {
-                hi = mid
-            } else {
-                lo = mid
-            }
-        }
-        let q = 0.5 * (lo + hi);
+        let q = crate::numerics::bisect(f, lo, hi, 200);
         let mut edges: Vec<f64> = (0..=n)
             .map(|i| dr_min * (q.powi(i as i32) - 1.0) / (q - 1.0))
             .collect();

@@ -1,5 +1,5 @@
 //! Photon beam diffusion (Habel et al. 2013) as in pbrt-v3 bssrdf.cpp
-//! (BeamDiffusionMS / BeamDiffusionSS; REFERENCE.md section 4): the incident
+//! (BeamDiffusionMS / BeamDiffusionSS): the incident
 //! beam is a line of dipoles sampled along its exponential depth
 //! distribution, plus single scattering along the refracted beam.
 
@@ -10,10 +10,29 @@ use std::f64::consts::PI;
 /// Samples along the beam, as pbrt-v3.
 pub const BEAM_SAMPLES: usize = 100;
 
-/// Henyey-Greenstein phase function of the scattering cosine (REFERENCE 3).
+/// Henyey-Greenstein phase function of the scattering cosine (Henyey and Greenstein 1941).
 pub fn phase_hg(cos_theta: f64, g: f64) -> f64 {
     let denom = 1.0 + g * g - 2.0 * g * cos_theta;
     (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
+}
+
+/// Grosjean's diffusion coefficient D_g = (2 sigma_a + sigma_s') /
+/// (3 sigma_t'^2), which pbrt-v3's BeamDiffusionMS uses instead of the
+/// classical 1 / (3 sigma_t').
+pub fn grosjean_diffusion_coefficient(m: &Medium) -> f64 {
+    let spt = m.sigma_t_reduced();
+    (2.0 * m.sigma_a + m.sigma_s_reduced()) / (3.0 * spt * spt)
+}
+
+/// Depth along the refracted beam below which light scattered towards the
+/// exit point at distance `r` is totally internally reflected:
+/// t_crit = r sqrt(eta^2 - 1); none for eta <= 1.
+pub fn t_crit(eta: f64, r: f64) -> f64 {
+    if eta > 1.0 {
+        r * (eta * eta - 1.0).sqrt()
+    } else {
+        0.0
+    }
 }
 
 /// The photon beam diffusion profile of one channel.
@@ -62,18 +81,14 @@ impl BeamDiffusion {
         let m = &self.medium;
         let st = m.sigma_t();
         let rho = m.sigma_s / st;
-        let t_crit = if m.eta > 1.0 {
-            r * (m.eta * m.eta - 1.0).sqrt()
-        } else {
-            0.0
-        };
+        let t_crit = t_crit(m.eta, r);
         let g = m.g.abs();
         let p_max = (1.0 + g) / (4.0 * PI * (1.0 - g).powi(2));
         rho * (-st * (r + t_crit)).exp() / (r * r) * p_max
     }
 
     /// Multiple scattering: a line of dipoles with Grosjean's diffusion
-    /// coefficient (REFERENCE 4, pbrt-v3 BeamDiffusionMS).
+    /// coefficient (Grosjean 1956; pbrt-v3 BeamDiffusionMS).
     pub fn multiple(&self, r: f64) -> f64 {
         let m = &self.medium;
         let sps = m.sigma_s_reduced();
@@ -82,8 +97,7 @@ impl BeamDiffusion {
         if !(rhop > 0.0) {
             return 0.0;
         }
-        // Grosjean's D_g = (2 sigma_a + sigma_s') / (3 sigma_t'^2).
-        let d_g = (2.0 * m.sigma_a + sps) / (3.0 * spt * spt);
+        let d_g = grosjean_diffusion_coefficient(m);
         let tr = (m.sigma_a / d_g).sqrt();
         // Extrapolated boundary z_e and the exitance weights C_phi, C_E.
         let z_e = -2.0 * d_g * (1.0 + 3.0 * self.fm2) / (1.0 - 2.0 * self.fm1);
@@ -111,9 +125,8 @@ impl BeamDiffusion {
         (sum / n).max(0.0)
     }
 
-    /// Single scattering along the refracted beam (pbrt-v3 BeamDiffusionSS).
-    /// Depths shallower than t_crit = r sqrt(eta^2 - 1) are totally
-    /// internally reflected; for eta <= 1 there is no such depth.
+    /// Single scattering along the refracted beam (pbrt-v3 BeamDiffusionSS),
+    /// from depth `t_crit` down.
     pub fn single(&self, r: f64) -> f64 {
         let m = &self.medium;
         let st = m.sigma_t();
@@ -122,11 +135,7 @@ impl BeamDiffusion {
             return 0.0;
         }
         let eta = m.eta;
-        let t_crit = if eta > 1.0 {
-            r * (eta * eta - 1.0).sqrt()
-        } else {
-            0.0
-        };
+        let t_crit = t_crit(eta, r);
         let n = BEAM_SAMPLES as f64;
         let mut sum = 0.0;
         for q in &self.quantiles {
@@ -135,7 +144,7 @@ impl BeamDiffusion {
             let cos_o = t / d;
             // The beam goes down and the scattered light up to the exit
             // point, so the scattering cosine is -cos_o (pbrt's PhaseHG
-            // flips the sign by its direction convention; REFERENCE 4 writes
+            // flips the sign by its direction convention; Habel et al. 2013 write
             // p_HG(cos_o), which is wrong for g != 0).
             let transmit = 1.0 - fresnel_dielectric(cos_o, 1.0 / eta);
             sum += rho * (-st * (d + t_crit)).exp() / (d * d)
