@@ -67,9 +67,9 @@ impl RadialGrid {
         if n > 10_000_000 {
             return Err(Error::invalid(
                 "radial grid",
-                "rmax/dr",
-                n,
-                "more than 10^7 bins; use a larger dr or geometric bins",
+                "dr",
+                dr,
+                format!("gives {n} bins up to {r_max} mm, more than 10^7: use a wider bin or a smaller radius"),
             ));
         }
         Ok(RadialGrid {

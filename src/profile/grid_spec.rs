@@ -4,9 +4,6 @@
 
 use super::RadialGrid;
 use crate::error::{Error, Result};
-
-/// Most bins of a uniform grid (`RadialGrid::uniform` refuses more).
-const MAX_UNIFORM_BINS: f64 = 1e7;
 use crate::material::{Channel, Material};
 
 /// What to override of the material's automatic grid
@@ -29,29 +26,27 @@ impl GridSpec {
         let auto = RadialGrid::for_material(material, channels);
         let dr = self.dr.unwrap_or(auto.edges[1]);
         let r_max = self.r_max.unwrap_or(auto.r_max());
-        // Blame the value the caller gave, not the default it met.
-        if let (Some(_), None) = (self.dr, self.r_max) {
-            if dr.is_finite() && dr > 0.0 && !(r_max > dr) {
-                return Err(Error::invalid(
-                    "radial grid",
-                    "dr",
-                    dr,
-                    format!(
-                        "wider than the material's default radius {r_max:.4} mm: give a \
-                         smaller dr or a larger rmax"
-                    ),
-                ));
-            }
-        }
-        if !self.log_bins && dr > 0.0 && r_max / dr > MAX_UNIFORM_BINS {
-            let field = if self.dr.is_some() { "dr" } else { "rmax" };
+        if self.r_max.is_none() && dr.is_finite() && dr > r_max {
+            // Blame the value the user gave, not a radius they never set.
             return Err(Error::invalid(
                 "radial grid",
-                field,
-                if self.dr.is_some() { dr } else { r_max },
+                "dr",
+                dr,
                 format!(
-                    "{:.3e} bins of {dr:.4e} mm to {r_max:.4} mm, more than {MAX_UNIFORM_BINS:.0e}: \
-                     give a larger dr or a smaller rmax",
+                    "wider than the default radius {r_max:.4} mm (from the material): give a \
+                     smaller dr or a larger rmax"
+                ),
+            ));
+        }
+        if !self.log_bins && self.dr.is_none() && r_max / dr > 1e7 {
+            // Too many bins of the default width: the radius given is to blame.
+            return Err(Error::invalid(
+                "radial grid",
+                "rmax",
+                r_max,
+                format!(
+                    "gives {:.3e} bins of the default width {dr:.4e} mm, more than 10^7: give a \
+                     smaller rmax or a wider dr",
                     r_max / dr
                 ),
             ));
