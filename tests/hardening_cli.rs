@@ -102,6 +102,37 @@ fn dirac(dir: &Path) -> PathBuf {
     p
 }
 
+/// `p.json` in `dir`: skin1's dipole profile.
+fn dipole_profile(dir: &Path) {
+    ok_in(
+        dir,
+        &[
+            "profile",
+            "--material",
+            "skin1",
+            "--model",
+            "dipole",
+            "--out",
+            "p.json",
+        ],
+    );
+}
+
+/// `apply` of kernel `k` to the dirac `d.png` at `mm` per pixel into `o.exr`.
+fn apply_dirac<'a>(k: &'a str, mm: &'a str) -> Vec<&'a str> {
+    vec![
+        "apply",
+        "--kernel",
+        k,
+        "--input",
+        "d.png",
+        "--out",
+        "o.exr",
+        "--mm-per-pixel",
+        mm,
+    ]
+}
+
 fn temp_files(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir)
         .unwrap()
@@ -132,19 +163,7 @@ fn kernel_span_is_capped_by_the_image_on_both_backends() {
         for backend in ["cpu", "gpu"] {
             fails_in(
                 dir.path(),
-                &[
-                    "apply",
-                    "--kernel",
-                    &k,
-                    "--input",
-                    "d.png",
-                    "--out",
-                    "o.exr",
-                    "--mm-per-pixel",
-                    mm,
-                    "--backend",
-                    backend,
-                ],
+                &[&apply_dirac(&k, mm)[..], &["--backend", backend]].concat(),
                 &["mm per pixel", "128x96", "use at least"],
             );
         }
@@ -153,19 +172,7 @@ fn kernel_span_is_capped_by_the_image_on_both_backends() {
     // A kernel far below a pixel is the identity, not an index out of bounds.
     ok_in(
         dir.path(),
-        &[
-            "apply",
-            "--kernel",
-            &k,
-            "--input",
-            "d.png",
-            "--out",
-            "o.exr",
-            "--mm-per-pixel",
-            "1e30",
-            "--backend",
-            "cpu",
-        ],
+        &[&apply_dirac(&k, "1e30")[..], &["--backend", "cpu"]].concat(),
     );
     let (img, _) = ssskit::filter::image::read_image(&dir.path().join("o.exr"), None).unwrap();
     assert_eq!(img.non_finite().0, 0);
@@ -178,20 +185,7 @@ fn absurd_kernel_offsets_are_refused_on_read() {
     let k = edited(&kernel(), dir.path(), "far.json", |v| {
         v["passes"][0]["offsets_mm"][0] = (-1e12).into();
     });
-    for args in [
-        vec!["fit", "--kernel", &k],
-        vec![
-            "apply",
-            "--kernel",
-            &k,
-            "--input",
-            "d.png",
-            "--out",
-            "o.exr",
-            "--mm-per-pixel",
-            "0.1",
-        ],
-    ] {
+    for args in [vec!["fit", "--kernel", &k], apply_dirac(&k, "0.1")] {
         fails_in(
             dir.path(),
             &args,
@@ -289,6 +283,21 @@ fn simulate_refuses_a_work_cap_it_would_ignore() {
     );
 }
 
+/// Runs with standard output going to `stdout`: (exit code, stderr).
+fn run_to(dir: &Path, args: &[&str], stdout: Stdio) -> (Option<i32>, String) {
+    let child = command(args)
+        .current_dir(dir)
+        .stdout(stdout)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let o = wait_bounded(child, &format!("ssskit {args:?}"));
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
 // ---- 2. No panic on output ----------------------------------------------
 
 #[test]
@@ -304,15 +313,8 @@ fn closed_pipe_ends_quietly_with_141() {
         // fails with EPIPE, deterministically.
         let (reader, writer) = std::io::pipe().unwrap();
         drop(reader);
-        let child = command(&args)
-            .current_dir(dir.path())
-            .stdout(writer)
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let o = wait_bounded(child, "closed pipe");
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(141), "{args:?}: {err}");
+        let (code, err) = run_to(dir.path(), &args, writer.into());
+        assert_eq!(code, Some(141), "{args:?}: {err}");
         assert!(err.is_empty(), "{args:?} printed on a closed pipe: {err}");
     }
 }
@@ -326,15 +328,8 @@ fn full_disk_on_stdout_is_a_clear_error() {
             .write(true)
             .open("/dev/full")
             .unwrap();
-        let child = command(&args)
-            .current_dir(dir.path())
-            .stdout(full)
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let o = wait_bounded(child, "/dev/full");
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        let (code, err) = run_to(dir.path(), &args, full.into());
+        assert_eq!(code, Some(2), "{args:?}: {err}");
         assert!(err.contains("writing to standard output"), "{err}");
         assert!(!err.contains("panicked"), "{err}");
     }
@@ -365,21 +360,7 @@ fn kernels_with_overflowing_or_zero_weights_are_refused() {
         (&huge, "absolute sum"),
         (&zero, "every weight of channel r is 0"),
     ] {
-        fails_in(
-            dir.path(),
-            &[
-                "apply",
-                "--kernel",
-                k,
-                "--input",
-                "d.png",
-                "--out",
-                "o.exr",
-                "--mm-per-pixel",
-                "0.1",
-            ],
-            &[needle],
-        );
+        fails_in(dir.path(), &apply_dirac(k, "0.1"), &[needle]);
     }
     assert!(!dir.path().join("o.exr").exists());
 }
@@ -387,18 +368,7 @@ fn kernels_with_overflowing_or_zero_weights_are_refused() {
 #[test]
 fn output_format_comes_from_the_extension() {
     let dir = tempfile::tempdir().unwrap();
-    ok_in(
-        dir.path(),
-        &[
-            "profile",
-            "--material",
-            "skin1",
-            "--model",
-            "dipole",
-            "--out",
-            "p.json",
-        ],
-    );
+    dipole_profile(dir.path());
     for args in [
         vec!["plot", "profile", "p.json", "--out", "x.exr"],
         vec![
@@ -443,18 +413,7 @@ fn output_format_comes_from_the_extension() {
 #[test]
 fn profiles_beyond_any_reflectance_are_refused_on_read() {
     let dir = tempfile::tempdir().unwrap();
-    ok_in(
-        dir.path(),
-        &[
-            "profile",
-            "--material",
-            "skin1",
-            "--model",
-            "dipole",
-            "--out",
-            "p.json",
-        ],
-    );
+    dipole_profile(dir.path());
     let p = dir.path().join("p.json").to_string_lossy().into_owned();
     let big = edited(&p, dir.path(), "big.json", |v| v["rd"][0][3] = 1e308.into());
     // plot used to hang on this file; fit and plot must name it.
@@ -616,7 +575,11 @@ fn profile_grid_messages_name_the_flags_given() {
         "profile has no --log-bins: {err}"
     );
     let wide = [&base[..], &["--dr", "100"]].concat();
-    let err = fails_in(dir.path(), &wide, &["--dr: invalid value 100", "default radius"]);
+    let err = fails_in(
+        dir.path(),
+        &wide,
+        &["--dr: invalid value 100", "default radius"],
+    );
     assert!(
         !err.contains("--rmax: invalid"),
         "no --rmax was given: {err}"

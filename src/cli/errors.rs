@@ -28,6 +28,8 @@ const FLAGS: &[(&str, &str, &str)] = &[
     ("gaussians", "count", "--count"),
     ("guided", "k", "--k"),
     ("guided", "b", "--b"),
+    ("worker threads", "threads", "--threads"),
+    ("apply", "mm per pixel", "--mm-per-pixel"),
 ];
 
 /// Where the value is fine but a setting does not suit it: (context,

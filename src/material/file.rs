@@ -62,7 +62,10 @@ impl PerChannel {
     }
 }
 
-#[derive(Default)]
+/// One layer: the top-level fields of a single-layer file or a `[[layer]]`
+/// table.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
 struct RawLayer {
     sigma_a: Option<PerChannel>,
     sigma_s: Option<PerChannel>,
@@ -72,33 +75,8 @@ struct RawLayer {
     thickness: Option<f64>,
 }
 
-/// A `[[layer]]` table.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct LayerTable {
-    sigma_a: Option<PerChannel>,
-    sigma_s: Option<PerChannel>,
-    sigma_s_reduced: Option<PerChannel>,
-    g: Option<PerChannel>,
-    eta: Option<f64>,
-    thickness: Option<f64>,
-}
-
-impl From<LayerTable> for RawLayer {
-    fn from(t: LayerTable) -> RawLayer {
-        RawLayer {
-            sigma_a: t.sigma_a,
-            sigma_s: t.sigma_s,
-            sigma_s_reduced: t.sigma_s_reduced,
-            g: t.g,
-            eta: t.eta,
-            thickness: t.thickness,
-        }
-    }
-}
-
 /// The file. The single-layer fields are spelled out rather than flattened
-/// from `LayerTable`: serde's flatten buffers the values and loses their
+/// from `RawLayer`: serde's flatten buffers the values and loses their
 /// position, so errors would point at line 1, column 1.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -113,7 +91,7 @@ struct RawMaterial {
     g: Option<PerChannel>,
     eta: Option<f64>,
     thickness: Option<f64>,
-    layer: Option<Vec<LayerTable>>,
+    layer: Option<Vec<RawLayer>>,
 }
 
 /// A TOML error as one line naming the line and the field: "line 3, field
@@ -189,7 +167,7 @@ pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Res
                 "give either top-level coefficients or [[layer]] tables, not both",
             ))
         }
-        (Some(ls), false) => ls.into_iter().map(RawLayer::from).collect(),
+        (Some(ls), false) => ls,
         (None, _) => vec![single],
     };
     let n = raw_layers.len();

@@ -38,6 +38,19 @@ impl GridSpec {
                 ),
             ));
         }
+        if !self.log_bins && self.dr.is_none() && r_max / dr > 1e7 {
+            // Too many bins of the default width: the radius given is to blame.
+            return Err(Error::invalid(
+                "radial grid",
+                "rmax",
+                r_max,
+                format!(
+                    "gives {:.3e} bins of the default width {dr:.4e} mm, more than 10^7: give a \
+                     smaller rmax or a wider dr",
+                    r_max / dr
+                ),
+            ));
+        }
         if self.log_bins {
             // 25 bins per e-fold of r_max / dr, between 50 and 2000.
             let n = if dr > 0.0 && r_max > dr {

@@ -191,7 +191,7 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
         return Err(Error::invalid("--channels", "channels", "''", "empty"));
     }
     if let Some(n) = cfg.threads {
-        crate::limits::check_threads("--threads", n)?;
+        crate::limits::check_threads("worker threads", n)?;
     }
     if opts.max_work == 0 {
         return Err(Error::invalid("--max-work", "max work", 0, "must be >= 1"));
