@@ -616,7 +616,11 @@ fn profile_grid_messages_name_the_flags_given() {
         "profile has no --log-bins: {err}"
     );
     let wide = [&base[..], &["--dr", "100"]].concat();
-    let err = fails_in(dir.path(), &wide, &["--dr: invalid value 100", "default radius"]);
+    let err = fails_in(
+        dir.path(),
+        &wide,
+        &["--dr: invalid value 100", "default radius"],
+    );
     assert!(
         !err.contains("--rmax: invalid"),
         "no --rmax was given: {err}"
