@@ -136,8 +136,14 @@ fn model_args(kernel: &Value) -> Option<(Vec<String>, f64)> {
     Some((args, tol))
 }
 
+/// Timings, and an optimiser's round-off-level residuals (the constraint
+/// error at 1e-15, the gradient norm at its stopping threshold), which say
+/// how the run ended, not what it produced.
 fn is_timing(key: &str) -> bool {
-    key.ends_with("seconds") || key == "elapsed_s"
+    key.ends_with("seconds")
+        || key == "elapsed_s"
+        || key == "constraint_error"
+        || key == "gradient_norm"
 }
 
 /// An optimiser's own diagnostics (how it got there, not where it
