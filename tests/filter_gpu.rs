@@ -92,6 +92,7 @@ fn gpu_equals_cpu_for_flat_and_depth_aware_inputs() {
                 strength: None,
                 follow_surface: None,
                 specular: None,
+                jitter: false,
             };
             check(&g, &image, &flat, &format!("flat, {n} taps, rank {rank}"));
             let deep = Setup {
@@ -108,6 +109,52 @@ fn gpu_equals_cpu_for_flat_and_depth_aware_inputs() {
                 &image,
                 &deep,
                 &format!("depth + follow-surface, {n} taps, rank {rank}"),
+            );
+        }
+    }
+}
+
+/// Jitter draws the same bits on both sides (fixed-point interleaved
+/// gradient noise), so the GPU stays within the f32 tolerance of the CPU
+/// twin, at rank 1 and rank 3, flat and depth-aware.
+#[test]
+fn gpu_equals_cpu_with_jittered_taps() {
+    let g = open_gpu();
+    let (w, h) = (40, 32);
+    let image = scene(w, h);
+    let depth = depth_with_discontinuities(w, h);
+    for n in [9, 17] {
+        for rank in [1, 3] {
+            let k = gaussian_kernel(rank, n);
+            let flat = Setup {
+                passes: taps_for(&k, Factors::Taps, None),
+                scale: Scale::MmPerPixel(0.1),
+                depth: None,
+                strength: None,
+                follow_surface: None,
+                specular: None,
+                jitter: true,
+            };
+            check(
+                &g,
+                &image,
+                &flat,
+                &format!("jitter, flat, {n} taps, rank {rank}"),
+            );
+            let deep = Setup {
+                scale: Scale::Perspective {
+                    fov_y_deg: 40.0,
+                    sss_width: 0.1,
+                },
+                depth: Some(depth.clone()),
+                follow_surface: Some(300.0),
+                ..flat.clone()
+            };
+            check(
+                &g,
+                &image,
+                &deep,
+                &format!("jitter, depth-aware, {n} taps, rank {rank}"),
             );
         }
     }
@@ -133,6 +180,7 @@ fn gpu_equals_cpu_with_strength_specular_and_full_factors() {
         strength: Some(strength),
         follow_surface: Some(2.0),
         specular: Some(noise_image(w, h, 99, 0.0)),
+        jitter: false,
     };
     check(&g, &image, &setup, "strength + specular + full factors");
 }

@@ -92,6 +92,12 @@ pub struct Args {
     /// Use the kernel's real-time tap table instead of its full-resolution factors.
     #[arg(long)]
     taps_only: bool,
+    /// Jitter each tap per pixel inside the interval it stands for
+    /// (interleaved gradient noise, Jimenez 2014): trades the banding
+    /// stripes of few taps on a large kernel for fine noise; the same
+    /// result on the CPU and the GPU.
+    #[arg(long)]
+    jitter: bool,
     /// Replace NaN/Inf samples (colour, specular by 0; depth by the largest
     /// finite depth; strength by 0) instead of failing; the count is reported.
     #[arg(long)]
@@ -183,6 +189,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         strength,
         follow_surface: args.follow_surface,
         specular,
+        jitter: args.jitter,
     };
     setup.validate(&image)?;
 
