@@ -87,15 +87,18 @@ fn emitted_arrays_parse_and_validate_in_every_language() {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}: WGSL: {}", e.emit_to_string(&src)));
         validate(&module, name);
-        for p in 0..passes {
-            assert_eq!(
-                wgsl_array(&module, &format!("sss_kernel_{p}")).len(),
-                k.taps.count
-            );
-        }
-        // GLSL.
+        let arrays = |m: &naga::Module| -> Vec<Vec<[f32; 4]>> {
+            (0..passes)
+                .map(|p| wgsl_array(m, &format!("sss_kernel_{p}")))
+                .collect()
+        };
+        let from_wgsl = arrays(&module);
+        assert!(from_wgsl.iter().all(|a| a.len() == k.taps.count));
+        // GLSL: the same numbers.
         let glsl = glsl_shader(&emit(&k, Lang::Glsl), passes);
-        validate(&parse_glsl(&glsl, name), name);
+        let m = parse_glsl(&glsl, name);
+        validate(&m, name);
+        assert_eq!(arrays(&m), from_wgsl, "{name}: GLSL numbers differ");
         // HLSL through GLSL's identical array grammar; the initializer
         // list's length is checked against the declared size.
         let hlsl = emit(&k, Lang::Hlsl);
@@ -104,7 +107,9 @@ fn emitted_arrays_parse_and_validate_in_every_language() {
             .replace("static const float4", "const vec4")
             .replace("static const uint", "const uint")
             .replace("float4(", "vec4(");
-        validate(&parse_glsl(&glsl_shader(&mapped, passes), name), name);
+        let m = parse_glsl(&glsl_shader(&mapped, passes), name);
+        validate(&m, name);
+        assert_eq!(arrays(&m), from_wgsl, "{name}: HLSL numbers differ");
     }
 }
 
@@ -123,6 +128,28 @@ fn drop_a_tap(src: &str, prefix: &str) -> String {
         .join("\n")
 }
 
+/// Whether a GLSL source fails to parse, to validate, or gives
+/// `sss_kernel_0` a length other than `n`.
+fn glsl_refused(src: &str, n: usize) -> bool {
+    let mut front = naga::front::glsl::Frontend::default();
+    match front.parse(
+        &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
+        src,
+    ) {
+        Err(_) => true,
+        Ok(m) => {
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&m)
+            .is_err()
+                || std::panic::catch_unwind(|| wgsl_array(&m, "sss_kernel_0").len())
+                    .map_or(true, |len| len != n)
+        }
+    }
+}
+
 #[test]
 fn truncated_arrays_are_refused() {
     // The checks above can fail: an array one tap short of its declared
@@ -139,25 +166,19 @@ fn truncated_arrays_are_refused() {
         .is_err(),
     };
     assert!(refused, "WGSL accepted a short array:\n{cut}");
+    let n = k.taps.count;
     let glsl = glsl_shader(&drop_a_tap(&emit(&k, Lang::Glsl), "    vec4("), 1);
-    let mut front = naga::front::glsl::Frontend::default();
-    assert!(front
-        .parse(
-            &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
-            &glsl
-        )
-        .is_err());
+    assert!(glsl_refused(&glsl, n), "GLSL accepted a short array");
     let hlsl = drop_a_tap(&emit(&k, Lang::Hlsl), "    float4(")
         .replace("static const float4", "const vec4")
         .replace("static const uint", "const uint")
         .replace("float4(", "vec4(");
-    let mut front = naga::front::glsl::Frontend::default();
-    assert!(front
-        .parse(
-            &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
-            &glsl_shader(&hlsl, 1)
-        )
-        .is_err());
+    assert!(
+        glsl_refused(&glsl_shader(&hlsl, 1), n),
+        "HLSL check accepted a short array"
+    );
+    // And the full arrays pass the same check.
+    assert!(!glsl_refused(&glsl_shader(&emit(&k, Lang::Glsl), 1), n));
 }
 
 #[test]

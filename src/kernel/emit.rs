@@ -71,11 +71,8 @@ pub fn emit(k: &KernelFile, lang: Lang) -> String {
     );
     comment(
         &mut out,
-        &format!(
-            "Layout: one vec4 per tap, xyz = RGB weight, w = offset in {}; the centre tap \
-             first (Jimenez's separable SSS layout).",
-            usage.units
-        ),
+        "Layout: one vec4 per tap, xyz = RGB weight (dimensionless), w = offset in \
+         millimetres on the surface; the centre tap first (Jimenez's separable SSS layout).",
     );
     comment(&mut out, &format!("Pixels: {}.", usage.pixels_per_mm));
     comment(&mut out, &format!("Depth: {}.", usage.depth));
