@@ -258,10 +258,11 @@ fn run_reference(
         || args.follow_surface.is_some()
         || args.specular.is_some()
         || args.taps_only
+        || args.jitter
     {
         anyhow::bail!(
             "--reference is the plain exact 2D convolution: it takes no --depth, --strength, \
-             --follow-surface, --specular or --taps-only"
+             --follow-surface, --specular, --taps-only or --jitter"
         );
     }
     if args.backend == Backend::Gpu {

@@ -324,10 +324,10 @@ impl Target {
     /// Best non-negative amplitude for `shape` and its squared residual.
     pub fn scale_of(&self, shape: &[f64]) -> (f64, f64) {
         let (mut sg, mut gg, mut ss) = (0.0, 0.0, 0.0);
-        for i in 0..self.bins {
-            sg += self.weight[i] * shape[i] * self.value[i];
-            gg += self.weight[i] * shape[i] * shape[i];
-            ss += self.weight[i] * self.value[i] * self.value[i];
+        for ((w, g), v) in self.weight.iter().zip(shape).zip(&self.value) {
+            sg += w * g * v;
+            gg += w * g * g;
+            ss += w * v * v;
         }
         let a = if gg > 0.0 { (sg / gg).max(0.0) } else { 0.0 };
         (a, ss - 2.0 * a * sg + a * a * gg)
