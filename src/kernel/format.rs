@@ -72,13 +72,13 @@ pub struct Usage {
 }
 
 /// Pixels per kernel millimetre, 002 eq. 4.11 written out for engines.
-pub const PIXELS_PER_MM: &str = "pixels_per_mm = sss_width * viewport_height_px /      (2 * tan(fov_y / 2) * depth), where depth is the pixel's linear view depth in scene      units, fov_y the vertical field of view and sss_width the scene units per millimetre      (0.001 for a scene in metres, 0.1 in centimetres, 1 in millimetres); multiply each      tap offset (mm) by it to get a pixel offset along the pass axis (Freude 2014, eq. 4.11)";
+pub const PIXELS_PER_MM: &str = "pixels_per_mm = sss_width * viewport_height_px / (2 * tan(fov_y / 2) * depth), where depth is the pixel's linear view depth in scene units, fov_y the vertical field of view and sss_width the scene units per millimetre (0.001 for a scene in metres, 0.1 in centimetres, 1 in millimetres); multiply each tap offset (mm) by it to get a pixel offset along the pass axis (Freude 2014, eq. 4.11)";
 
-pub const DEPTH: &str = "linear view-space depth (distance along the view axis, scene      units), not the hardware depth buffer: linearise a perspective z-buffer first; the      depth-aware lerp t = clamp(C * sss_width * |d_centre - d_sample| / tan(fov_y / 2), 0, 1)      (Freude 2014, eq. 4.12; C = 300 in Jimenez's shader) uses the same depth";
+pub const DEPTH: &str = "linear view-space depth (distance along the view axis, scene units), not the hardware depth buffer: linearise a perspective z-buffer first; the depth-aware lerp t = clamp(C * sss_width * |d_centre - d_sample| / tan(fov_y / 2), 0, 1) (Freude 2014, eq. 4.12; C = 300 in Jimenez's shader) uses the same depth";
 
-pub const PASSES: &str = "for each pass p: H_p = horizontal 1D filter of the irradiance with      pass p's taps, V_p = vertical 1D filter of H_p with the same taps; the result is the sum      of V_p over passes. Passes are summed, never chained (pass p + 1 filters the irradiance,      not pass p's output). With more than one pass, terms after the first have negative taps:      store H_p in a signed float target (RGBA16F/RGBA32F), never R11G11B10F or UNORM, which      clamp negative values";
+pub const PASSES: &str = "for each pass p: H_p = horizontal 1D filter of the irradiance with pass p's taps, V_p = vertical 1D filter of H_p with the same taps; the result is the sum of V_p over passes. Passes are summed, never chained (pass p + 1 filters the irradiance, not pass p's output). With more than one pass, terms after the first have negative taps: store H_p in a signed float target (RGBA16F/RGBA32F), never R11G11B10F or UNORM, which clamp negative values";
 
-pub const TOTAL_RD: &str = "total diffuse reflectance per channel: the kernel is normalised      to a 2D sum of 1 per channel (exact models), so diffuse radiance = total_rd * (sum of      the filtered passes) applied to the irradiance (light arriving at the surface, without      albedo). Multiply after the blur (or before: the filter is linear). An engine that      multiplies by an albedo texture after the blur (post-scatter texturing) uses that      texture in place of total_rd, not both";
+pub const TOTAL_RD: &str = "total diffuse reflectance per channel: the kernel is normalised to a 2D sum of 1 per channel (exact models), so diffuse radiance = total_rd * (sum of the filtered passes) applied to the irradiance (light arriving at the surface, without albedo). Multiply after the blur (or before: the filter is linear). An engine that multiplies by an albedo texture after the blur (post-scatter texturing) uses that texture in place of total_rd, not both";
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct KernelFile {
@@ -216,8 +216,9 @@ impl KernelFile {
     pub fn usage(&self) -> Usage {
         let sums = self.pass_weight_sums();
         Usage {
-            units: "tap offsets in millimetres on the surface; weights dimensionless, per RGB                     channel"
-                .into(),
+            units:
+                "tap offsets in millimetres on the surface; weights dimensionless, per RGB channel"
+                    .into(),
             pixels_per_mm: PIXELS_PER_MM.into(),
             depth: DEPTH.into(),
             passes: PASSES.into(),
