@@ -192,7 +192,7 @@ fn header_explains_units_pixels_depth_passes_and_sums() {
         "summed, never chained",
         "signed float target",
         "total_rd",
-        "sss_kernel_2: weight sum per channel",
+        "Pass 2: tap weight sum per channel",
     ] {
         assert!(h.contains(needle), "header lacks '{needle}':\n{h}");
     }

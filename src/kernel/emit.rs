@@ -84,7 +84,7 @@ pub fn emit(k: &KernelFile, lang: Lang) -> String {
     for (p, s) in usage.pass_weight_sums.iter().enumerate() {
         comment(
             &mut out,
-            &format!("sss_kernel_{p}: weight sum per channel {}.", rgb(*s)),
+            &format!("Pass {p}: tap weight sum per channel {}.", rgb(*s)),
         );
     }
     comment(
