@@ -141,3 +141,77 @@ fn jitter_removes_the_banding_of_few_taps_on_a_large_kernel() {
         );
     }
 }
+
+/// `apply --jitter` runs the library's jittered path (the same image as
+/// `cpu::apply` with jitter, to the f32 of the EXR), a different image from
+/// the plain run; the exact reference refuses the flag. (A dirac's total is
+/// not kept under jitter: its few samples are the noise.)
+#[test]
+fn cli_jitter_changes_the_image_and_the_reference_refuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = dir.path().join("k.json");
+    gaussian_kernel(1, 9).write(&k).unwrap();
+    let input = dir.path().join("in.exr");
+    let o = run(&["signal", "dirac", "--size", "65x65", "--out", p(&input)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let apply = |out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            "apply",
+            "--kernel",
+            p(&k),
+            "--input",
+            p(&input),
+            "--out",
+            p(out),
+            "--mm-per-pixel",
+            "0.1",
+            "--taps-only",
+            "--backend",
+            "cpu",
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        ssskit::filter::image::read_image(out, None).unwrap().0
+    };
+    let plain = apply(&dir.path().join("plain.exr"), &[]);
+    let jittered = apply(&dir.path().join("jitter.exr"), &["--jitter"]);
+    assert!(
+        max_rel(&plain, &jittered) > 1e-2,
+        "--jitter changed nothing"
+    );
+    let (img, _) = ssskit::filter::image::read_image(&input, None).unwrap();
+    let kernel = ssskit::kernel::KernelFile::read(&k).unwrap();
+    let library = cpu::apply(
+        &img,
+        &Setup {
+            passes: taps_for(&kernel, Factors::Taps, None),
+            scale: Scale::MmPerPixel(0.1),
+            depth: None,
+            strength: None,
+            follow_surface: None,
+            specular: None,
+            jitter: true,
+        },
+    )
+    .unwrap();
+    assert!(
+        max_rel(&library, &jittered) < 1e-6,
+        "{}",
+        max_rel(&library, &jittered)
+    );
+    let o = run(&[
+        "apply",
+        "--reference",
+        "profiles/reference/skin1.json",
+        "--input",
+        p(&input),
+        "--out",
+        p(&dir.path().join("r.exr")),
+        "--mm-per-pixel",
+        "0.1",
+        "--jitter",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--jitter"), "{}", stderr(&o));
+}
