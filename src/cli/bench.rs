@@ -1,5 +1,6 @@
 //! `ssskit bench filter`: GPU time per frame of the wgpu post-process.
 
+use super::out::outln;
 use ssskit::filter::{gpu, timing};
 use ssskit::kernel::KernelFile;
 use std::path::PathBuf;
@@ -42,14 +43,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 fn run_filter(a: FilterArgs) -> anyhow::Result<()> {
     let kernel = KernelFile::read(&a.kernel)?;
     let g = gpu::Gpu::new()?;
-    println!("adapter: {}", g.describe());
+    outln!("adapter: {}", g.describe())?;
     let frames = if g.is_software() {
         a.frames.min(2)
     } else {
         a.frames
     };
     let t = timing::time_post_process(&g, &kernel, a.width, a.height, frames)?;
-    println!(
+    outln!(
         "frame: {}x{}, {} taps, rank {}, perspective (fov_y {} deg), depth-aware (C = {})",
         a.width,
         a.height,
@@ -57,27 +58,27 @@ fn run_filter(a: FilterArgs) -> anyhow::Result<()> {
         t.rank,
         timing::FOV_Y_DEG,
         timing::FOLLOW_SURFACE
-    );
+    )?;
     if t.software {
-        println!(
+        outln!(
             "{} is a software rasteriser: the timestamp path ran ({} frames), but its times \
              are CPU emulation, not a GPU timing; none is reported. Run this on a hardware \
              adapter (docs/filter.md).",
             g.describe(),
             t.frames_ms.len()
-        );
+        )?;
         return Ok(());
     }
     let mut v = t.frames_ms.clone();
     v.sort_by(f64::total_cmp);
     let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
-    println!(
+    outln!(
         "GPU time per frame over {} frames: median {:.3} ms, min {:.3} ms, p95 {:.3} ms, mean {:.3} ms",
         v.len(),
         q(0.5),
         v[0],
         q(0.95),
         v.iter().sum::<f64>() / v.len() as f64
-    );
+    )?;
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `ssskit engine`: the parameters of an engine's own diffusion model
 //! fitted to a profile, with the fit's error and a plot.
 
+use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
 use ssskit::profile::Profile;
 use ssskit::report::plot;
@@ -32,24 +33,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         units_per_mm: a.units_per_mm,
     };
     let fit = engine::fit(e, &profile, scene)?;
-    println!("engine: {} (profile {})", fit.engine, a.profile.display());
+    outln!("engine: {} (profile {})", fit.engine, a.profile.display())?;
     for (name, v) in &fit.params {
         let unit = fit.units.get(name).and_then(|u| u.as_str()).unwrap_or("");
-        println!("  {name} = {v}    [{unit}]");
+        outln!("  {name} = {v}    [{unit}]")?;
     }
     let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", 100.0 * x)).join(", ");
-    println!(
+    outln!(
         "error against the profile (r, g, b): total {}; shape (relative L2 of r R_d, r < r99) {}",
         pct(fit.error.total),
         pct(fit.error.shape)
-    );
+    )?;
     match burley::forward_error(&profile) {
-        Ok(f) => println!(
+        Ok(f) => outln!(
             "forward Burley from the optical coefficients: total {}; shape {}",
             pct(f.total),
             pct(f.shape)
-        ),
-        Err(err) => println!("forward Burley from the optical coefficients: not available ({err})"),
+        )?,
+        Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
     }
     if let Some(out) = &a.out {
         ssskit::io::write_json_atomic(out, &fit)?;
