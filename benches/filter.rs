@@ -122,6 +122,7 @@ fn main() {
         strength: None,
         follow_surface: None,
         specular: None,
+        jitter: false,
     };
     let sep = plain(taps(true), 0.1);
     let table = plain(taps(false), 0.1);

@@ -16,7 +16,8 @@ struct Params {
     follow: u32,
     // 1: dst += result (vertical pass of a rank), 0: dst = result.
     accumulate: u32,
-    _pad: u32,
+    // 1: each tap jittered inside its footprint (interleaved gradient noise).
+    jitter: u32,
     // Pixels per kernel mm before strength and depth.
     step_base: f32,
     // k of t = clamp(k |d_centre - d_sample|, 0, 1).
@@ -31,6 +32,31 @@ struct Params {
 // xyz: RGB weight, w: offset in kernel mm.
 @group(0) @binding(4) var<storage, read> taps: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> dst: array<vec4<f32>>;
+// Per tap: start and width (kernel mm) of the interval the tap stands for.
+@group(0) @binding(6) var<storage, read> footprint: array<vec2<f32>>;
+
+// Interleaved gradient noise (Jimenez 2014) in 32-bit fixed point, the same
+// bits as the f64 twin (src/filter/mod.rs, ign_fixed and jitter_unit):
+// fract(52.9829189 fract(0.06711056 x + 0.00583715 y)).
+fn mul_high(a: u32, b: u32) -> u32 {
+    let a0 = a & 0xffffu;
+    let a1 = a >> 16u;
+    let b0 = b & 0xffffu;
+    let b1 = b >> 16u;
+    let p00 = a0 * b0;
+    let p01 = a0 * b1;
+    let p10 = a1 * b0;
+    let p11 = a1 * b1;
+    let mid = (p00 >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
+    return p11 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u);
+}
+
+fn jitter_unit(x: u32, y: u32, tap: u32, axis: u32) -> f32 {
+    let inner = 288237660u * x + 25070368u * y;
+    let ign = 52u * inner + mul_high(4221604530u, inner);
+    let n = ign + (2u * tap + axis) * 2654435769u;
+    return f32(n >> 8u) / 16777216.0;
+}
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -61,7 +87,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var acc = vec3<f32>(0.0);
     for (var i = 0u; i < params.ntaps; i = i + 1u) {
         let tap = taps[i];
-        let p = clamp(f32(coord) + tap.w * step, 0.0, f32(n - 1u));
+        var off = tap.w;
+        if (params.jitter == 1u) {
+            let fp = footprint[i];
+            off = fp.x + jitter_unit(x, y, i, params.axis) * fp.y;
+        }
+        let p = clamp(f32(coord) + off * step, 0.0, f32(n - 1u));
         let fl = floor(p);
         let f = p - fl;
         let i0 = u32(fl);

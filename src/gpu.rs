@@ -39,6 +39,8 @@ impl GpuContext {
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("ssskit"),
                 required_limits: adapter.limits(),
+                // Timestamps for the filter's frame timing when the adapter has them.
+                required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
                 ..Default::default()
             })
             .await

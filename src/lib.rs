@@ -7,6 +7,7 @@
 // `!(x > 0.0)` is how this crate rejects NaN along with out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod engine;
 pub mod error;
 pub mod filter;
 pub mod gpu;

@@ -15,6 +15,7 @@ fn plain(passes: Vec<ssskit::filter::Taps>, mm: f64) -> Setup {
         strength: None,
         follow_surface: None,
         specular: None,
+        jitter: false,
     }
 }
 
@@ -156,6 +157,7 @@ fn constant_stays_constant_and_black_stays_black() {
                     }),
                     follow_surface: Some(300.0),
                     specular: None,
+                    jitter: false,
                 },
             ];
             for setup in &setups {

@@ -83,6 +83,7 @@ fn apply(k: &KernelFile, img: &Image, mm: f64) -> ssskit::Result<Image> {
         strength: None,
         follow_surface: None,
         specular: None,
+        jitter: false,
     };
     cpu::apply(img, &setup)
 }
@@ -245,6 +246,7 @@ fn both_backends_refuse_a_kernel_span_over_the_cap() {
         strength: None,
         follow_surface: None,
         specular: None,
+        jitter: false,
     };
     let img = image(16, 12, &[1.0]);
     let e = cpu::apply(&img, &setup).unwrap_err().to_string();

@@ -93,6 +93,12 @@ pub struct Args {
     /// Use the kernel's real-time tap table instead of its full-resolution factors.
     #[arg(long)]
     taps_only: bool,
+    /// Jitter each tap per pixel inside the interval it stands for
+    /// (interleaved gradient noise, Jimenez 2014): trades the banding
+    /// stripes of few taps on a large kernel for fine noise; the same
+    /// result on the CPU and the GPU.
+    #[arg(long)]
+    jitter: bool,
     /// Replace NaN/Inf samples (colour, specular by 0; depth by the largest
     /// finite depth; strength by 0) instead of failing; the count is reported.
     #[arg(long)]
@@ -187,6 +193,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         strength,
         follow_surface: args.follow_surface,
         specular,
+        jitter: args.jitter,
     };
     setup.validate(&image)?;
 
@@ -255,10 +262,11 @@ fn run_reference(
         || args.follow_surface.is_some()
         || args.specular.is_some()
         || args.taps_only
+        || args.jitter
     {
         anyhow::bail!(
             "--reference is the plain exact 2D convolution: it takes no --depth, --strength, \
-             --follow-surface, --specular or --taps-only"
+             --follow-surface, --specular, --taps-only or --jitter"
         );
     }
     if args.backend == Backend::Gpu {

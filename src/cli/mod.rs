@@ -2,7 +2,9 @@
 //! subcommand; each file's `run` calls the library and prints or writes.
 
 mod apply;
+mod bench;
 mod diff;
+mod engine;
 mod errors;
 mod fit;
 mod materials;
@@ -47,6 +49,11 @@ enum Command {
     Diff(diff::Args),
     /// Plots of profiles and kernels.
     Plot(plot::Args),
+    /// Engine parameters (Unreal, Unity HDRP, Blender, Godot, iryoku)
+    /// fitted to a profile.
+    Engine(engine::Args),
+    /// GPU timing of the post-process (timestamp queries).
+    Bench(bench::Args),
 }
 
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
@@ -80,6 +87,8 @@ pub fn main() -> i32 {
         Command::Signal(a) => signal::run(a),
         Command::Diff(a) => diff::run(a),
         Command::Plot(a) => plot::run(a),
+        Command::Engine(a) => engine::run(a),
+        Command::Bench(a) => bench::run(a),
     };
     match result.and_then(|()| out::flush()) {
         Ok(()) => 0,

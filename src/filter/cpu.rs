@@ -409,6 +409,7 @@ pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
     let mut out = Image::new(w, h);
     out.alpha = image.alpha.clone();
     for taps in &setup.passes {
+        let footprints = setup.jitter.then(|| taps.footprints());
         let ctx = PassCtx {
             w,
             h,
@@ -416,6 +417,7 @@ pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
             steps: &steps,
             depth,
             follow,
+            footprints: footprints.as_deref(),
         };
         let tmp = ctx.run(&image.rgb, Axis::Horizontal);
         let v = ctx.run(&tmp, Axis::Vertical);
@@ -433,6 +435,8 @@ struct PassCtx<'a> {
     steps: &'a [f64],
     depth: Option<&'a [f64]>,
     follow: Option<f64>,
+    /// Jittered taps: each tap's footprint (start, width) in kernel mm.
+    footprints: Option<&'a [(f64, f64)]>,
 }
 
 impl PassCtx<'_> {
@@ -464,7 +468,24 @@ impl PassCtx<'_> {
         let planes = [&src[0][..], &src[1][..], &src[2][..]];
         let centre_colour = [planes[0][centre], planes[1][centre], planes[2][centre]];
         let mut acc = [0.0; 3];
-        for (off, wt) in self.taps.offsets_mm.iter().zip(&self.taps.weights) {
+        let axis_id = match axis {
+            Axis::Horizontal => 0,
+            Axis::Vertical => 1,
+        };
+        for (i, (off, wt)) in self
+            .taps
+            .offsets_mm
+            .iter()
+            .zip(&self.taps.weights)
+            .enumerate()
+        {
+            let off = match self.footprints {
+                Some(f) => {
+                    let u = super::jitter_unit(x as u32, y as u32, i as u32, axis_id);
+                    f[i].0 + u * f[i].1
+                }
+                None => *off,
+            };
             // 002 eq. 4.11: the offset scaled by the pixel's kernel size.
             let p = (coord as f64 + off * step).clamp(0.0, (n - 1) as f64);
             // p >= 0, so truncation is floor (and avoids a libm call).
@@ -749,6 +770,7 @@ mod tests {
             strength: None,
             follow_surface: None,
             specular: None,
+            jitter: false,
         };
         let fast = apply(&img, &setup).unwrap();
         let slow = apply_screen_space(&img, &setup);

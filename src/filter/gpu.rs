@@ -27,7 +27,7 @@ struct Params {
     perspective: u32,
     follow: u32,
     accumulate: u32,
-    _pad: u32,
+    jitter: u32,
     step_base: f32,
     follow_k: f32,
     _pad2: [f32; 2],
@@ -79,6 +79,104 @@ impl Gpu {
 
     /// Runs `setup` on `image`.
     pub fn apply(&self, image: &Image, setup: &Setup) -> Result<Image> {
+        let frame = self.prepare(image, setup)?;
+        let (w, h) = (image.width, image.height);
+        let bytes = (w * h * 16) as u64;
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        self.encode(&mut encoder, &frame, None);
+        encoder.copy_buffer_to_buffer(&frame.acc, 0, &readback, 0, bytes);
+        self.queue.submit([encoder.finish()]);
+        let data: Vec<[f32; 4]> = self.read_back(&readback)?;
+        let mut out = Image::new(w, h);
+        out.alpha = image.alpha.clone();
+        for (i, px) in data.iter().enumerate() {
+            for c in 0..3 {
+                out.rgb[c][i] = px[c] as f64;
+            }
+        }
+        Ok(out)
+    }
+
+    /// Whether the device records GPU timestamps ([`Gpu::time_frames`]).
+    pub fn has_timestamps(&self) -> bool {
+        self.device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// GPU time of the post-process, in milliseconds, for each of `frames`
+    /// frames after one warm-up frame: timestamps written at the start and
+    /// the end of the compute pass that holds every dispatch of a frame, so
+    /// uploads and readback are outside. An error when the adapter has no
+    /// timestamp queries.
+    pub fn time_frames(&self, image: &Image, setup: &Setup, frames: u32) -> Result<Vec<f64>> {
+        if !self.has_timestamps() {
+            return Err(Error::Unsupported(format!(
+                "{} has no timestamp queries (wgpu Features::TIMESTAMP_QUERY)",
+                self.describe()
+            )));
+        }
+        if frames == 0 || frames > 1000 {
+            return Err(Error::invalid(
+                "bench",
+                "frames",
+                frames,
+                "must be between 1 and 1000",
+            ));
+        }
+        let frame = self.prepare(image, setup)?;
+        let count = 2 * (frames + 1);
+        let queries = self.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("frame timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count,
+        });
+        let bytes = count as u64 * wgpu::QUERY_SIZE as u64;
+        let resolved = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: bytes,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        for f in 0..=frames {
+            let mut encoder = self
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            self.encode(&mut encoder, &frame, Some((&queries, 2 * f)));
+            self.queue.submit([encoder.finish()]);
+        }
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        encoder.resolve_query_set(&queries, 0..count, &resolved, 0);
+        encoder.copy_buffer_to_buffer(&resolved, 0, &readback, 0, bytes);
+        self.queue.submit([encoder.finish()]);
+        let ticks: Vec<u64> = self.read_back(&readback)?;
+        let ns_per_tick = self.queue.get_timestamp_period() as f64;
+        Ok(ticks
+            .chunks_exact(2)
+            .skip(1)
+            .map(|t| t[1].wrapping_sub(t[0]) as f64 * ns_per_tick * 1e-6)
+            .collect())
+    }
+
+    /// Uploads the image and the tables and builds one bind group per 1D
+    /// pass: the whole frame, ready to encode any number of times.
+    fn prepare(&self, image: &Image, setup: &Setup) -> Result<Frame> {
         setup.validate(image)?;
         let (w, h) = (image.width, image.height);
         let n = w * h;
@@ -134,13 +232,6 @@ impl Gpu {
             bytemuck::cast_slice(&start),
             storage | wgpu::BufferUsages::COPY_SRC,
         );
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: (n * 16) as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-
         let base = Params {
             width: w as u32,
             height: h as u32,
@@ -149,7 +240,7 @@ impl Gpu {
             perspective: matches!(setup.scale, super::Scale::Perspective { .. }) as u32,
             follow: setup.follow_surface.is_some() as u32,
             accumulate: 0,
-            _pad: 0,
+            jitter: setup.jitter as u32,
             step_base: setup.scale.step_base(h) as f32,
             follow_k: setup
                 .follow_surface
@@ -157,10 +248,7 @@ impl Gpu {
             _pad2: [0.0; 2],
         };
         let layout = self.pipeline.get_bind_group_layout(0);
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        let mut keep = Vec::new();
+        let mut groups = Vec::new();
         for taps in &setup.passes {
             let table: Vec<[f32; 4]> = taps
                 .offsets_mm
@@ -168,7 +256,13 @@ impl Gpu {
                 .zip(&taps.weights)
                 .map(|(o, w)| [w[0] as f32, w[1] as f32, w[2] as f32, *o as f32])
                 .collect();
+            let spans: Vec<[f32; 2]> = taps
+                .footprints()
+                .iter()
+                .map(|&(lo, width)| [lo as f32, width as f32])
+                .collect();
             let tap_buf = self.buffer("taps", bytemuck::cast_slice(&table), storage);
+            let span_buf = self.buffer("footprints", bytemuck::cast_slice(&spans), storage);
             for (axis, from, to) in [(0u32, &src, &tmp), (1u32, &tmp, &acc)] {
                 let p = Params {
                     ntaps: table.len() as u32,
@@ -181,7 +275,7 @@ impl Gpu {
                     bytemuck::bytes_of(&p),
                     wgpu::BufferUsages::UNIFORM,
                 );
-                let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                groups.push(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: None,
                     layout: &layout,
                     entries: &[
@@ -191,25 +285,47 @@ impl Gpu {
                         entry(3, &strength),
                         entry(4, &tap_buf),
                         entry(5, to),
+                        entry(6, &span_buf),
                     ],
-                });
-                {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: None,
-                        timestamp_writes: None,
-                    });
-                    pass.set_pipeline(&self.pipeline);
-                    pass.set_bind_group(0, &group, &[]);
-                    pass.dispatch_workgroups((w as u32).div_ceil(8), (h as u32).div_ceil(8), 1);
-                }
-                keep.push(ubuf);
+                }));
             }
-            keep.push(tap_buf);
         }
-        encoder.copy_buffer_to_buffer(&acc, 0, &readback, 0, (n * 16) as u64);
-        self.queue.submit([encoder.finish()]);
+        Ok(Frame {
+            groups,
+            acc,
+            workgroups: ((w as u32).div_ceil(8), (h as u32).div_ceil(8)),
+        })
+    }
 
-        let slice = readback.slice(..);
+    /// Every 1D pass of a frame in one compute pass (wgpu orders the
+    /// dispatches' storage accesses), with optional timestamps at its start
+    /// and end (query indices `first` and `first + 1`).
+    fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &Frame,
+        timestamps: Option<(&wgpu::QuerySet, u32)>,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("sss frame"),
+            timestamp_writes: timestamps.map(|(query_set, first)| {
+                wgpu::ComputePassTimestampWrites {
+                    query_set,
+                    beginning_of_pass_write_index: Some(first),
+                    end_of_pass_write_index: Some(first + 1),
+                }
+            }),
+        });
+        pass.set_pipeline(&self.pipeline);
+        for group in &frame.groups {
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(frame.workgroups.0, frame.workgroups.1, 1);
+        }
+    }
+
+    /// Maps a MAP_READ buffer (after the submitted work) and copies it out.
+    fn read_back<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<Vec<T>> {
+        let slice = buffer.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
@@ -223,17 +339,10 @@ impl Gpu {
         let view = slice
             .get_mapped_range()
             .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
-        let data: &[[f32; 4]] = bytemuck::cast_slice(&view);
-        let mut out = Image::new(w, h);
-        out.alpha = image.alpha.clone();
-        for (i, px) in data.iter().enumerate() {
-            for c in 0..3 {
-                out.rgb[c][i] = px[c] as f64;
-            }
-        }
+        let data = bytemuck::cast_slice::<u8, T>(&view).to_vec();
         drop(view);
-        readback.unmap();
-        Ok(out)
+        buffer.unmap();
+        Ok(data)
     }
 
     fn buffer(&self, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -244,6 +353,15 @@ impl Gpu {
                 usage,
             })
     }
+}
+
+/// The bound resources of one image and setup.
+struct Frame {
+    /// Two per rank: horizontal, vertical.
+    groups: Vec<wgpu::BindGroup>,
+    /// The output (starts as the specular image).
+    acc: wgpu::Buffer,
+    workgroups: (u32, u32),
 }
 
 fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {

@@ -40,22 +40,82 @@ fn num(x: f64) -> String {
     }
 }
 
+/// Wraps `text` into `//` comment lines of about 90 columns.
+fn comment(out: &mut String, text: &str) {
+    let mut line = String::from("//");
+    for word in text.split_whitespace() {
+        if line.len() + word.len() > 90 && line.len() > 2 {
+            let _ = writeln!(out, "{line}");
+            line = String::from("//  ");
+        }
+        line.push(' ');
+        line.push_str(word);
+    }
+    let _ = writeln!(out, "{line}");
+}
+
 pub fn emit(k: &KernelFile, lang: Lang) -> String {
     let mut out = String::new();
     let n = k.taps.count;
-    let _ = writeln!(
-        out,
-        "// ssskit kernel: model {} ({}), {} taps per pass, {} pass(es).\n\
-         // xyz = RGB weight, w = offset in surface mm (multiply by pixels per mm).\n\
-         // Centre tap first. Colour factor total_rd = ({:.6}, {:.6}, {:.6}).",
-        k.model.name,
-        k.material.as_ref().map(|m| m.name.as_str()).unwrap_or("?"),
-        n,
-        k.taps.passes.len(),
-        k.total_rd[0],
-        k.total_rd[1],
-        k.total_rd[2]
+    let usage = k.usage();
+    let rgb = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
+    comment(
+        &mut out,
+        &format!(
+            "ssskit kernel: model {} ({}), {} taps per pass, {} pass(es).",
+            k.model.name,
+            k.material.as_ref().map(|m| m.name.as_str()).unwrap_or("?"),
+            n,
+            k.taps.passes.len(),
+        ),
     );
+    comment(
+        &mut out,
+        "Layout: one vec4 per tap, xyz = RGB weight (dimensionless), w = offset in \
+         millimetres on the surface; the centre tap first (Jimenez's separable SSS layout).",
+    );
+    comment(&mut out, &format!("Pixels: {}.", usage.pixels_per_mm));
+    comment(&mut out, &format!("Depth: {}.", usage.depth));
+    comment(&mut out, &format!("Passes: {}.", usage.passes));
+    comment(
+        &mut out,
+        &format!("total_rd = {}: {}.", rgb(k.total_rd), usage.total_rd),
+    );
+    for (p, s) in usage.pass_weight_sums.iter().enumerate() {
+        comment(
+            &mut out,
+            &format!("Pass {p}: tap weight sum per channel {}.", rgb(*s)),
+        );
+    }
+    comment(
+        &mut out,
+        &format!(
+            "2D weight sum (sum over passes of the squared pass sums): {}{}.",
+            rgb(usage.kernel_sum),
+            if usage.signed_targets {
+                "; some taps are negative: signed float targets"
+            } else {
+                ""
+            }
+        ),
+    );
+    let _ = match lang {
+        Lang::Hlsl => writeln!(
+            out,
+            "static const uint sss_taps = {n}u;\nstatic const uint sss_passes = {}u;",
+            k.taps.passes.len()
+        ),
+        Lang::Glsl => writeln!(
+            out,
+            "const uint sss_taps = {n}u;\nconst uint sss_passes = {}u;",
+            k.taps.passes.len()
+        ),
+        Lang::Wgsl => writeln!(
+            out,
+            "const sss_taps: u32 = {n}u;\nconst sss_passes: u32 = {}u;",
+            k.taps.passes.len()
+        ),
+    };
     for (p, pass) in k.taps.passes.iter().enumerate() {
         let centre = n / 2;
         let order = std::iter::once(centre).chain((0..n).filter(|&i| i != centre));

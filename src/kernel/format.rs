@@ -48,6 +48,38 @@ pub struct Metrics {
     pub extra: serde_json::Value,
 }
 
+/// How an engine runs the kernel, written into every kernel file for the
+/// people who integrate it; derived from the rest of the file (readers do
+/// not need it, and files without it stay valid).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Usage {
+    pub units: String,
+    /// Pixels per kernel millimetre from depth and field of view.
+    pub pixels_per_mm: String,
+    pub depth: String,
+    /// How the separable passes combine.
+    pub passes: String,
+    /// What `total_rd` is and where it multiplies.
+    pub total_rd: String,
+    /// Per tap-table pass, per channel: the sum of its tap weights.
+    pub pass_weight_sums: Vec<[f64; 3]>,
+    /// Per channel: the 2D sum of the tap kernel, sum over passes of the
+    /// squared pass sums (1 for an energy-conserving kernel).
+    pub kernel_sum: [f64; 3],
+    /// Whether some tap weight is negative, so that the intermediate
+    /// (horizontal) result must be stored in a signed float target.
+    pub signed_targets: bool,
+}
+
+/// Pixels per kernel millimetre, 002 eq. 4.11 written out for engines.
+pub const PIXELS_PER_MM: &str = "pixels_per_mm = sss_width * viewport_height_px / (2 * tan(fov_y / 2) * depth), where depth is the pixel's linear view depth in scene units, fov_y the vertical field of view and sss_width the scene units per millimetre (0.001 for a scene in metres, 0.1 in centimetres, 1 in millimetres); multiply each tap offset (mm) by it to get a pixel offset along the pass axis (Freude 2014, eq. 4.11)";
+
+pub const DEPTH: &str = "linear view-space depth (distance along the view axis, scene units), not the hardware depth buffer: linearise a perspective z-buffer first; the depth-aware lerp t = clamp(C * sss_width * |d_centre - d_sample| / tan(fov_y / 2), 0, 1) (Freude 2014, eq. 4.12; C = 300 in Jimenez's shader) uses the same depth";
+
+pub const PASSES: &str = "for each pass p: H_p = horizontal 1D filter of the irradiance with pass p's taps, V_p = vertical 1D filter of H_p with the same taps; the result is the sum of V_p over passes. Passes are summed, never chained (pass p + 1 filters the irradiance, not pass p's output). With more than one pass, terms after the first have negative taps: store H_p in a signed float target (RGBA16F/RGBA32F), never R11G11B10F or UNORM, which clamp negative values";
+
+pub const TOTAL_RD: &str = "total diffuse reflectance per channel: the kernel is normalised to a 2D sum of 1 per channel (exact models), so diffuse radiance = total_rd * (sum of the filtered passes) applied to the irradiance (light arriving at the surface, without albedo). Multiply after the blur (or before: the filter is linear). An engine that multiplies by an albedo texture after the blur (post-scatter texturing) uses that texture in place of total_rd, not both";
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct KernelFile {
     pub schema: String,
@@ -64,6 +96,9 @@ pub struct KernelFile {
     pub passes: Vec<Pass>,
     pub taps: TapTable,
     pub metrics: Metrics,
+    /// Integration notes; recomputed on every write.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub usage: Option<Usage>,
 }
 
 impl Pass {
@@ -220,6 +255,38 @@ impl KernelFile {
     pub fn write(&self, path: &Path) -> Result<()> {
         crate::io::check_extension(path, &["json"], "kernel")?;
         self.validate(&format!("refusing to write {}", path.display()))?;
-        crate::io::write_json_atomic(path, self)
+        let mut k = self.clone();
+        k.usage = Some(self.usage());
+        crate::io::write_json_atomic(path, &k)
+    }
+
+    /// Per tap-table pass, per channel: the sum of its weights.
+    pub fn pass_weight_sums(&self) -> Vec<[f64; 3]> {
+        self.taps
+            .passes
+            .iter()
+            .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).sum()))
+            .collect()
+    }
+
+    /// The integration notes of this kernel.
+    pub fn usage(&self) -> Usage {
+        let sums = self.pass_weight_sums();
+        Usage {
+            units:
+                "tap offsets in millimetres on the surface; weights dimensionless, per RGB channel"
+                    .into(),
+            pixels_per_mm: PIXELS_PER_MM.into(),
+            depth: DEPTH.into(),
+            passes: PASSES.into(),
+            total_rd: TOTAL_RD.into(),
+            kernel_sum: std::array::from_fn(|c| sums.iter().map(|s| s[c] * s[c]).sum()),
+            pass_weight_sums: sums,
+            signed_targets: self
+                .taps
+                .passes
+                .iter()
+                .any(|p| p.weights.iter().any(|w| w.iter().any(|v| *v < 0.0))),
+        }
     }
 }

@@ -16,6 +16,6 @@ pub mod reference;
 pub mod svd;
 pub mod taps;
 
-pub use format::{KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
+pub use format::{KernelFile, Metrics, ModelInfo, Pass, TapTable, Usage, KERNEL_SCHEMA};
 pub use kernel2d::{Kernel2D, Kernel2DSpec};
 pub use model::{fit_kernel_file, fit_model, Factors, Model};

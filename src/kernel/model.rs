@@ -187,6 +187,7 @@ pub fn assemble(
             fit_seconds: fitted.seconds,
             extra,
         },
+        usage: None,
     };
     file.validate("fitted kernel")?;
     Ok(file)

@@ -162,9 +162,11 @@ fn assemble(
             skipped.push(i);
             continue;
         }
-        // Sign convention: positive centre (u and -u are both singular vectors).
-        let centre = ui[ui.len() / 2];
-        let sign = if centre < 0.0 { -1.0 } else { 1.0 };
+        // Sign convention: each factor sums to a positive value (u and -u
+        // are both singular vectors and a_i a_i^T is the same), so that a
+        // term's taps are mostly positive where the kernel's mass is.
+        let sum: f64 = ui.iter().sum();
+        let sign = if sum < 0.0 { -1.0 } else { 1.0 };
         let root = s[i].sqrt();
         factors.push(ui.iter().map(|x| sign * root * x).collect());
     }

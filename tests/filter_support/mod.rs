@@ -72,6 +72,7 @@ fn kernel_file(name: &str, passes: Vec<Pass>, taps: Vec<Pass>, n: usize) -> Kern
             count: n,
             passes: taps,
         },
+        usage: None,
     }
 }
 
@@ -199,6 +200,7 @@ pub fn assert_no_background_bleed(
         strength: None,
         follow_surface: Some(300.0),
         specular: None,
+        jitter: false,
     };
     let foreground_max = |img: &Image| {
         (0..h)

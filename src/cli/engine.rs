@@ -1,0 +1,73 @@
+//! `ssskit engine`: the parameters of an engine's own diffusion model
+//! fitted to a profile, with the fit's error and a plot.
+
+use super::out::outln;
+use ssskit::engine::{self, burley, Engine, Scene};
+use ssskit::profile::Profile;
+use ssskit::report::plot;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Reflectance profile (ssskit.profile/1 JSON) with r, g, b channels.
+    #[arg(long, value_name = "FILE.json")]
+    profile: PathBuf,
+    /// unreal, unity-hdrp, blender, godot or iryoku.
+    #[arg(long)]
+    engine: String,
+    /// Write {"engine", "params", "units", "error"} as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    out: Option<PathBuf>,
+    /// Plot the input profile and the engine model's r R_d(r).
+    #[arg(long, value_name = "FILE.png")]
+    plot: Option<PathBuf>,
+    /// Scene units per millimetre (0.001: a scene in metres).
+    #[arg(long, default_value_t = 0.001)]
+    units_per_mm: f64,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let e: Engine = a.engine.parse()?;
+    let profile = Profile::read(&a.profile)?;
+    let scene = Scene {
+        units_per_mm: a.units_per_mm,
+    };
+    let fit = engine::fit(e, &profile, scene)?;
+    outln!("engine: {} (profile {})", fit.engine, a.profile.display())?;
+    for (name, v) in &fit.params {
+        let unit = fit.units.get(name).and_then(|u| u.as_str()).unwrap_or("");
+        outln!("  {name} = {v}    [{unit}]")?;
+    }
+    let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", 100.0 * x)).join(", ");
+    outln!(
+        "error against the profile (r, g, b): total {}; shape (relative L2 of r R_d, r < r99) {}",
+        pct(fit.error.total),
+        pct(fit.error.shape)
+    )?;
+    match burley::forward_error(&profile) {
+        Ok(f) => outln!(
+            "forward Burley from the optical coefficients: total {}; shape {}",
+            pct(f.total),
+            pct(f.shape)
+        )?,
+        Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
+    }
+    if let Some(out) = &a.out {
+        ssskit::io::write_json_atomic(out, &fit)?;
+        eprintln!("wrote {}", out.display());
+    }
+    if let Some(png) = &a.plot {
+        let panels = plot::profile_panels(&[
+            ("input".to_string(), profile.clone()),
+            (format!("{} fit", fit.engine), fit.profile.clone()),
+        ]);
+        plot::render(
+            &panels,
+            2,
+            &format!("{} fitted to {}", fit.engine, a.profile.display()),
+            png,
+        )?;
+        eprintln!("wrote {}", png.display());
+    }
+    Ok(())
+}
