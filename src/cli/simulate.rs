@@ -65,10 +65,15 @@ struct Flags {
     /// more efficient, see docs/mc.md) or split (score (1-R) w, keep R w).
     #[arg(long, default_value = "classic", value_parser = ["classic", "split"])]
     boundary: String,
-    /// Events per packet after which it is abandoned (energy reported as
-    /// truncated).
-    #[arg(long, default_value_t = mc::DEFAULT_MAX_EVENTS)]
-    max_events: u64,
+    /// Events per packet from which the event-count roulette plays (survival
+    /// 1/sqrt(2) at each doubling of the count, weight boosted on survival):
+    /// unbiased; ends the unbounded walks of albedo 1, see docs/mc.md.
+    #[arg(long, value_name = "N", default_value_t = mc::DEFAULT_EVENT_ROULETTE)]
+    event_roulette: u64,
+    /// Hard cap on events per packet (default: none); a packet stopped there
+    /// is abandoned and its energy reported as truncated (biased).
+    #[arg(long, value_name = "N")]
+    max_events: Option<u64>,
     /// Work cap per channel for --target-error runs, in events
     /// (interactions + boundary hits); ~1.5e9 is about half a minute on 2 cores.
     #[arg(long, default_value_t = mc::DEFAULT_MAX_WORK)]
@@ -142,7 +147,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let opts = McOptions {
         boundary,
-        max_events: args.max_events,
+        event_roulette: args.event_roulette,
+        max_events: args.max_events.unwrap_or(mc::DEFAULT_MAX_EVENTS),
         single_scatter: false,
         max_work: args.max_work,
         roulette_threshold: args.roulette,

@@ -14,7 +14,10 @@ mod tally;
 mod tracer;
 
 pub use tally::Moments;
-pub use tracer::{BoundaryMode, DEFAULT_ROULETTE_THRESHOLD, ROULETTE_CHANCE, ROULETTE_THRESHOLD};
+pub use tracer::{
+    BoundaryMode, DEFAULT_EVENT_ROULETTE, DEFAULT_ROULETTE_THRESHOLD, EVENT_ROULETTE_SURVIVAL,
+    ROULETTE_CHANCE, ROULETTE_THRESHOLD,
+};
 
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
@@ -60,8 +63,11 @@ pub struct McOptions {
     /// MCML's all-or-none choice at the ambient boundaries (default: the
     /// more efficient in every case measured, see docs/mc.md) or splitting.
     pub boundary: BoundaryMode,
-    /// Events (interactions + boundary hits) after which a packet is
-    /// abandoned; its weight is reported as truncated.
+    /// Events (interactions + boundary hits) from which a packet plays the
+    /// event-count roulette (unbiased; see `EVENT_ROULETTE_SURVIVAL`).
+    pub event_roulette: u64,
+    /// Hard cap on events per packet, default none (u64::MAX): a packet
+    /// stopped there is abandoned and its weight reported as truncated.
     pub max_events: u64,
     /// Also tally reflectance of packets scattered exactly once
     /// (`extra.single_scatter`).
@@ -79,6 +85,7 @@ impl Default for McOptions {
     fn default() -> Self {
         McOptions {
             boundary: BoundaryMode::Classic,
+            event_roulette: DEFAULT_EVENT_ROULETTE,
             max_events: DEFAULT_MAX_EVENTS,
             single_scatter: false,
             max_work: DEFAULT_MAX_WORK,
@@ -91,9 +98,10 @@ impl Default for McOptions {
 /// 2020s CPU (~2.5e7 events/s per core).
 pub const DEFAULT_MAX_WORK: u64 = 1_500_000_000;
 
-/// Default event cap: at albedo 1 the fraction of packets still walking after
-/// n events falls like n^-1/2, so 10^6 leaves ~1e-3 of the energy or less.
-pub const DEFAULT_MAX_EVENTS: u64 = 1_000_000;
+/// Default hard event cap: none. Albedo-1 walks are ended without bias by
+/// the event-count roulette instead (a cap at n leaves ~n^-1/2 of the
+/// energy unaccounted: 0.24% at 10^6 events for spectralon).
+pub const DEFAULT_MAX_EVENTS: u64 = u64::MAX;
 
 /// Simulates the diffuse reflectance profile of `material`.
 pub fn simulate(material: &Material, cfg: &McConfig, progress: &dyn Progress) -> Result<Profile> {
@@ -130,6 +138,7 @@ pub fn simulate_with(
     let bins = BinIndex::new(&grid);
     let set = WalkSettings {
         mode: opts.boundary,
+        event_roulette: opts.event_roulette,
         max_events: opts.max_events,
         single_scatter: opts.single_scatter,
         roulette_threshold: opts.roulette_threshold,
@@ -201,6 +210,14 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
             "roulette threshold",
             opts.roulette_threshold,
             "must be in (0, 1); MCML uses 1e-4",
+        ));
+    }
+    if opts.event_roulette == 0 {
+        return Err(Error::invalid(
+            "--event-roulette",
+            "event roulette start",
+            0,
+            "must be >= 1",
         ));
     }
     if opts.max_events == 0 {
@@ -448,6 +465,7 @@ fn build_profile(
             params: json!({
                 "boundary": opts.boundary.name(),
                 "budget": budget,
+                "event_roulette": {"start": opts.event_roulette, "survival_per_doubling": EVENT_ROULETTE_SURVIVAL},
                 "max_events": opts.max_events,
                 "max_work": opts.max_work,
                 "roulette": {"threshold": opts.roulette_threshold, "survival": ROULETTE_CHANCE},

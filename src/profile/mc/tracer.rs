@@ -17,6 +17,28 @@ pub const ROULETTE_CHANCE: f64 = 0.1;
 /// near the centre but lose in the far tail.
 pub const DEFAULT_ROULETTE_THRESHOLD: f64 = 0.01;
 
+/// Survival chance of the event-count roulette, played each time a packet's
+/// event count doubles past the start: 2^-1/2, so that after n events a
+/// packet survives with probability ~ (start/n)^1/2 and carries weight
+/// ~ (n/start)^1/2.
+///
+/// Why this exponent: at albedo 1 a packet in a half-space is still walking
+/// after n events with probability ~ n^-1/2 (the first-passage law of a
+/// recurrent walk), so it exits at n with probability ~ n^-3/2. A survival
+/// law Q(n) = (start/n)^a costs sum n^-1/2 Q(n) events per packet (finite for
+/// a > 1/2) and adds sum n^-3/2 / Q(n) to the second moment of its weight
+/// (finite for a < 1/2). At a = 1/2 both grow only like the logarithm of the
+/// longest walk met, i.e. ~ log(photons); any other a makes one of them grow
+/// like a power. Geometric roulette (constant survival per event) would give
+/// an infinite second moment. The game is unbiased for any schedule.
+pub const EVENT_ROULETTE_SURVIVAL: f64 = std::f64::consts::FRAC_1_SQRT_2;
+/// Default event count from which the event-count roulette plays.
+/// Measured on an albedo-1 half-space (n = 1.3): starting at 10^3 events
+/// costs 600 events per photon and a per-photon variance of R_d of 0.34;
+/// at 10^4, 1730 and 0.10: the same efficiency for the total, and 1/(var x
+/// time) of the profile near the source (short walks) is 2.9x higher at 10^3.
+pub const DEFAULT_EVENT_ROULETTE: u64 = 1_000;
+
 /// What happens where a packet meets the ambient medium.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BoundaryMode {
@@ -194,8 +216,12 @@ impl Packet {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WalkSettings {
     pub mode: BoundaryMode,
-    /// Interactions plus boundary hits after which a packet is abandoned and
-    /// its weight booked as truncated (albedo 1 has unbounded walks).
+    /// Interactions plus boundary hits from which the event-count roulette
+    /// plays (see `EVENT_ROULETTE_SURVIVAL`): unbiased, and it bounds the
+    /// unbounded walks of albedo 1.
+    pub event_roulette: u64,
+    /// Hard cap on events per packet (u64::MAX: none); the weight of a packet
+    /// stopped there is booked as truncated (biased, reported).
     pub max_events: u64,
     pub single_scatter: bool,
     /// Weight below which Russian roulette plays (MCML: ROULETTE_THRESHOLD).
@@ -254,6 +280,7 @@ fn trace_one(
     let mut tau = 0.0;
     let mut need_step = true;
     let mut events: u64 = 0;
+    let mut next_event_roulette = set.event_roulette;
     while p.w > 0.0 {
         if need_step {
             // xi in (0, 1]: s = -ln(xi) / sigma_t (REFERENCE 3 step 2).
@@ -366,6 +393,16 @@ fn trace_one(
             if uniform(rng) < ROULETTE_CHANCE {
                 tally.roulette_gain += p.w * (1.0 / ROULETTE_CHANCE - 1.0);
                 p.w *= 1.0 / ROULETTE_CHANCE;
+            } else {
+                tally.roulette_loss += p.w;
+                p.w = 0.0;
+            }
+        }
+        if events >= next_event_roulette && p.w > 0.0 {
+            next_event_roulette = next_event_roulette.saturating_mul(2);
+            if uniform(rng) < EVENT_ROULETTE_SURVIVAL {
+                tally.roulette_gain += p.w * (1.0 / EVENT_ROULETTE_SURVIVAL - 1.0);
+                p.w *= 1.0 / EVENT_ROULETTE_SURVIVAL;
             } else {
                 tally.roulette_loss += p.w;
                 p.w = 0.0;
