@@ -249,6 +249,10 @@ fn results_do_not_depend_on_thread_count() {
             rel: 0.05,
             max_photons: 400_000,
         },
+        PhotonBudget::KernelFactor {
+            rel: 0.03,
+            max_photons: 400_000,
+        },
     ] {
         assert_eq!(run(1, budget.clone()), run(2, budget.clone()), "{budget:?}");
     }

@@ -4,13 +4,11 @@
 use super::progress::Bar;
 use anyhow::Context;
 use ssskit::material::{Channel, Material};
-use ssskit::profile::mc::{self, mci, BoundaryMode, McConfig, McOptions, PhotonBudget};
+use ssskit::profile::mc::{self, mci, BoundaryMode, McConfig, McOptions, PhotonBudget, Shard};
 use ssskit::profile::{Profile, RadialGrid};
 use std::path::{Path, PathBuf};
 
-/// Default budget: 1% relative error of total R_d and of the profile, at most
-/// 10^7 photons per channel (skin1 takes a few seconds on 2 cores).
-const DEFAULT_TARGET_ERROR: f64 = 0.01;
+/// Cap on photons per channel of the target-error rules.
 const DEFAULT_MAX_PHOTONS: u64 = 10_000_000;
 
 /// Boxed so that the subcommand enum stays small.
@@ -32,15 +30,27 @@ struct Flags {
     /// Which run of the .mci file to simulate (1-based).
     #[arg(long, default_value_t = 1, requires = "mci")]
     mci_run: usize,
-    /// Photons per channel.
-    #[arg(long, conflicts_with = "target_error", allow_hyphen_values = true)]
+    /// Photons per channel (rule "fixed").
+    #[arg(long, conflicts_with_all = ["target_error", "kernel_error"], allow_hyphen_values = true)]
     photons: Option<u64>,
-    /// Trace until the relative standard error of total R_d and of the
-    /// profile inside the 99% radius is below E in every channel
-    /// (default 0.01 when neither --photons nor an .mci count is given).
+    /// Rule "kernel-factor" (the default, E = 0.005 when no other budget is
+    /// given): trace until the relative L2 standard error of the
+    /// pre-integrated 1D kernel factor on the default kernel grid and the
+    /// relative standard error of total R_d are below E in every channel.
+    /// Its default grid has geometric bins.
+    #[arg(
+        long,
+        value_name = "E",
+        conflicts_with = "target_error",
+        allow_hyphen_values = true
+    )]
+    kernel_error: Option<f64>,
+    /// Rule "total-and-profile": trace until the relative standard error of
+    /// total R_d and of the profile (R_d-weighted mean relative error of the
+    /// bins inside the 99% radius) are below E in every channel.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     target_error: Option<f64>,
-    /// Cap on photons per channel for --target-error.
+    /// Cap on photons per channel for --kernel-error and --target-error.
     #[arg(long, default_value_t = DEFAULT_MAX_PHOTONS, allow_hyphen_values = true)]
     max_photons: u64,
     /// RNG seed: the same seed gives bit-identical output.
@@ -83,7 +93,13 @@ struct Flags {
     /// efficient, see docs/mc.md).
     #[arg(long, default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true)]
     roulette: f64,
-    /// Output profile JSON (default: <material>.json).
+    /// Trace part K of N disjoint parts of the run (same seed, same
+    /// --photons for every part): writes a partial profile with exact sums
+    /// that `ssskit merge` combines into the single run, bit for bit.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    shard: Option<Shard>,
+    /// Output profile JSON (default: <material>.json, or
+    /// <material>.shard-K-of-N.json with --shard).
     #[arg(long, value_name = "FILE.json")]
     out: Option<PathBuf>,
     /// Also write the profile as CSV.
@@ -117,18 +133,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(_) if args.channels == "rgb" => vec![Channel::R],
         _ => Channel::parse_list(&args.channels)?,
     };
-    let budget = match (args.photons, args.target_error, &mci_run) {
-        (Some(n), _, _) => PhotonBudget::Fixed(n),
-        (None, Some(e), _) => PhotonBudget::TargetError {
+    let budget = match (args.photons, args.target_error, args.kernel_error, &mci_run) {
+        (Some(n), _, _, _) => PhotonBudget::Fixed(n),
+        (None, Some(e), _, _) => PhotonBudget::TargetError {
             rel: e,
             max_photons: args.max_photons,
         },
-        (None, None, Some(r)) => PhotonBudget::Fixed(r.photons),
-        (None, None, None) => PhotonBudget::TargetError {
-            rel: DEFAULT_TARGET_ERROR,
+        (None, None, Some(e), _) => PhotonBudget::KernelFactor {
+            rel: e,
+            max_photons: args.max_photons,
+        },
+        (None, None, None, Some(r)) => PhotonBudget::Fixed(r.photons),
+        (None, None, None, None) => PhotonBudget::KernelFactor {
+            rel: mc::DEFAULT_KERNEL_ERROR,
             max_photons: args.max_photons,
         },
     };
+    if args.shard.is_some() && !matches!(budget, PhotonBudget::Fixed(_)) {
+        anyhow::bail!(
+            "--shard needs --photons N (or an .mci photon count): every shard traces its part \
+             of one fixed total; the target-error rules decide when to stop from all photons \
+             and cannot be split"
+        );
+    }
     let grid = match (&mci_run, args.dr, args.rmax, args.log_bins) {
         (Some(r), None, None, false) => Some(r.grid.clone()),
         (_, None, None, false) => None,
@@ -152,11 +179,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         single_scatter: false,
         max_work: args.max_work,
         roulette_threshold: args.roulette,
+        shard: args.shard,
     };
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("{}.json", material.name)));
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from(match args.shard {
+            Some(s) => format!("{}.shard-{}-of-{}.json", material.name, s.k, s.n),
+            None => format!("{}.json", material.name),
+        })
+    });
     // Fail before the simulation, not after it, on an unwritable destination.
     for (flag, path) in [("--out", Some(&out)), ("--csv", args.csv.as_ref())] {
         if let Some(dir) = path.and_then(|p| p.parent()) {
@@ -179,6 +209,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     print_summary(&profile, &out);
     Ok(())
+}
+
+/// "K/N" with 1 <= K <= N.
+fn parse_shard(s: &str) -> Result<Shard, String> {
+    let bad = || format!("'{s}': expected K/N with 1 <= K <= N, e.g. 3/8");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n) = (
+        k.trim().parse::<u64>().map_err(|_| bad())?,
+        n.trim().parse::<u64>().map_err(|_| bad())?,
+    );
+    if k == 0 || k > n {
+        return Err(bad());
+    }
+    Ok(Shard { k, n })
 }
 
 /// The grid from --dr/--rmax/--log-bins; a missing value comes from the
@@ -207,7 +251,7 @@ fn explicit_grid(
 }
 
 /// CSV: one row per bin, r and R_d with standard error per channel.
-fn write_csv(p: &Profile, path: &Path) -> anyhow::Result<()> {
+pub(super) fn write_csv(p: &Profile, path: &Path) -> anyhow::Result<()> {
     use std::io::Write;
     ssskit::io::write_atomic_with(path, |w| {
         write!(w, "r_inner_mm,r_outer_mm,r_mm")?;
@@ -228,7 +272,7 @@ fn write_csv(p: &Profile, path: &Path) -> anyhow::Result<()> {
     .with_context(|| format!("writing {}", path.display()))
 }
 
-fn print_summary(p: &Profile, out: &Path) {
+pub(super) fn print_summary(p: &Profile, out: &Path) {
     let photons = p.source.photons.clone().unwrap_or_default();
     println!(
         "{}: {} bins to r = {:.3} mm, {:.2} s",

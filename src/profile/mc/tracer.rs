@@ -40,7 +40,8 @@ pub const EVENT_ROULETTE_SURVIVAL: f64 = std::f64::consts::FRAC_1_SQRT_2;
 pub const DEFAULT_EVENT_ROULETTE: u64 = 1_000;
 
 /// What happens where a packet meets the ambient medium.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum BoundaryMode {
     /// Score the transmitted part (1 - R) w and continue with R w: same
     /// expectation as MCML, less variance (REFERENCE 3, step 3).
@@ -119,10 +120,6 @@ impl Stack {
             n_below: m.eta_below,
             specular: specular_normal(m.eta_above, m.layers[0].eta),
         }
-    }
-
-    pub fn is_finite(&self) -> bool {
-        self.layers.last().is_some_and(|l| l.z_bottom.is_finite())
     }
 }
 
