@@ -9,7 +9,7 @@ use ssskit::profile::{Profile, RadialGrid};
 use std::path::{Path, PathBuf};
 
 /// Cap on photons per channel of the target-error rules.
-const DEFAULT_MAX_PHOTONS: u64 = 10_000_000;
+const DEFAULT_MAX_PHOTONS: u64 = 100_000_000;
 
 /// Boxed so that the subcommand enum stays small.
 #[derive(clap::Args)]
@@ -105,6 +105,10 @@ struct Flags {
     /// Also write the profile as CSV.
     #[arg(long, value_name = "FILE.csv")]
     csv: Option<PathBuf>,
+    /// Also write MCML's .mco format (InParm, RAT, Rd_r in cm units; one
+    /// channel, uniform grid; weight beyond the grid in the last bin as MCML).
+    #[arg(long, value_name = "FILE.mco")]
+    mco: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -188,7 +192,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         })
     });
     // Fail before the simulation, not after it, on an unwritable destination.
-    for (flag, path) in [("--out", Some(&out)), ("--csv", args.csv.as_ref())] {
+    if args.mco.is_some() && cfg.channels.len() != 1 {
+        anyhow::bail!(
+            "--mco: an .mco file holds one wavelength (MCML is monochrome); give --channels r, g or b"
+        );
+    }
+    for (flag, path) in [
+        ("--out", Some(&out)),
+        ("--csv", args.csv.as_ref()),
+        ("--mco", args.mco.as_ref()),
+    ] {
         if let Some(dir) = path.and_then(|p| p.parent()) {
             if !dir.as_os_str().is_empty() && !dir.is_dir() {
                 anyhow::bail!("{flag}: directory '{}' does not exist", dir.display());
@@ -206,6 +219,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", out.display()))?;
     if let Some(csv) = &args.csv {
         write_csv(&profile, csv)?;
+    }
+    if let Some(mco) = &args.mco {
+        mc::mco::write_mco(&profile, mco)
+            .with_context(|| format!("--mco: writing {}", mco.display()))?;
     }
     print_summary(&profile, &out);
     Ok(())

@@ -14,6 +14,7 @@
 mod consumer;
 mod exact;
 pub mod mci;
+pub mod mco;
 mod tally;
 mod tracer;
 
@@ -41,7 +42,7 @@ use tracer::{Stack, WalkSettings};
 /// Photons per chunk (one RNG stream each).
 pub const CHUNK: u64 = 8192;
 /// Chunks per channel in the first round of a target-error run.
-pub const FIRST_ROUND: u64 = 4;
+pub const FIRST_ROUND: u64 = 2;
 
 /// Default target of the kernel-factor rule: 0.5% relative L2 standard error.
 pub const DEFAULT_KERNEL_ERROR: f64 = 0.005;
