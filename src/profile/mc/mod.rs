@@ -526,7 +526,18 @@ impl Job<'_> {
                     continue;
                 }
                 if let Some(rel) = target {
-                    let err = rule_error(&self.cfg.budget, &status[c]);
+                    // No reflectance yet counts as exact only where nothing
+                    // can scatter back; a nearly clear medium must go on.
+                    let scatters = self
+                        .material
+                        .layers
+                        .iter()
+                        .any(|l| l.sigma_s[self.cfg.channels[c].index()] > 0.0);
+                    let err = if scatters && runs[c].tally.totals[1].to_f64() == 0.0 {
+                        f64::INFINITY
+                    } else {
+                        rule_error(&self.cfg.budget, &status[c])
+                    };
                     ratio[c] = err / rel;
                     if err <= rel {
                         runs[c].converged = true;
