@@ -19,7 +19,8 @@
 //! <w_i> (delta method for the ratio a_m / S). Under splitting the
 //! cross-bin terms of one packet are neglected.
 
-use crate::kernel::kernel2d::{default_size, radius_holding, DEFAULT_HOLD};
+use crate::kernel::kernel2d::{default_size, DEFAULT_HOLD};
+use crate::profile::radius_holding;
 use crate::profile::Profile;
 
 /// Cells per side and half-width (mm) of the default kernel grid.
