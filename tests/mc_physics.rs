@@ -218,13 +218,23 @@ fn single_scattering_of_strong_absorber_is_exact() {
     let rd: Vec<f64> = serde_json::from_value(s["rd"].clone()).unwrap();
     let se: Vec<f64> = serde_json::from_value(s["rd_stderr"].clone()).unwrap();
     let exact = bin_averages(|r| single_scatter_rd(sa, ss, r), &grid);
-    let mut chi2 = 0.0;
+    // Bins where the exact profile expects at least 10 scoring packets (each
+    // carries the weight albedo): below that the count is Poisson, not
+    // Gaussian, and a bin may rightly hold none (zero standard error).
+    let areas = grid.areas();
+    let n = 1_000_000.0;
+    let (mut chi2, mut bins) = (0.0, 0);
     for i in 0..grid.len() {
+        if exact[i] * areas[i] * n / albedo < 10.0 {
+            continue;
+        }
         within(rd[i], exact[i], se[i], &format!("single-scatter bin {i}"));
         chi2 += ((rd[i] - exact[i]) / se[i]).powi(2);
+        bins += 1;
     }
-    // 30 bins: chi^2 above 2x its mean would flag a systematic error.
-    assert!(chi2 < 2.0 * grid.len() as f64, "chi2 = {chi2}");
+    assert!(bins >= 20, "only {bins} bins resolved");
+    // chi^2 above 2x its mean would flag a systematic error.
+    assert!(chi2 < 2.0 * bins as f64, "chi2 = {chi2} over {bins} bins");
     // Multiple scattering is a small part here: the full profile exceeds
     // single scattering by at most a few albedo^2-sized percent.
     assert!(p.total_rd[0] > total && p.total_rd[0] < total * (1.0 + 3.0 * albedo));

@@ -1,40 +1,19 @@
 //! Shards of one Monte Carlo run merge into exactly the single run (the real
 //! binary), and merges of parts that are not one run are refused.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn ssskit(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+use common::{fails_with_in as fails_with, run_in, stderr};
+use std::path::Path;
 
 fn ok(dir: &Path, args: &[&str]) {
-    let o = ssskit(dir, args);
-    assert!(
-        o.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn fails_with(dir: &Path, args: &[&str], needles: &[&str]) {
-    let o = ssskit(dir, args);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{args:?} should fail: {e}");
-    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
-    for n in needles {
-        assert!(e.contains(n), "{args:?}: message lacks '{n}': {e}");
-    }
+    let o = run_in(dir, args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
 }
 
 /// The JSON of a profile without its wall time.
 fn json_without_time(path: &Path) -> serde_json::Value {
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let mut v = common::read_json(path);
     v["elapsed_s"] = serde_json::json!(0.0);
     v
 }

@@ -281,6 +281,20 @@ enum Neighbour {
     Layer(usize),
 }
 
+/// Russian roulette: the packet survives with probability `chance` and
+/// weight w / chance, else dies (unbiased); gains and losses are booked so
+/// that the energy balance closes exactly.
+#[inline(always)]
+fn roulette(w: &mut f64, chance: f64, rng: &mut Xoshiro256PlusPlus, tally: &mut ChunkTally) {
+    if uniform(rng) < chance {
+        tally.roulette_gain += *w * (1.0 / chance - 1.0);
+        *w *= 1.0 / chance;
+    } else {
+        tally.roulette_loss += *w;
+        *w = 0.0;
+    }
+}
+
 /// Traces `photons` packets, scoring into `tally`.
 pub(crate) fn trace_photons(
     stack: &Stack,
@@ -435,25 +449,12 @@ fn trace_one(
         }
         events += 1;
         if p.w < set.roulette_threshold && p.w > 0.0 {
-            // REFERENCE 3 step 5; gains and losses are booked so that the
-            // energy balance closes exactly.
-            if uniform(rng) < ROULETTE_CHANCE {
-                tally.roulette_gain += p.w * (1.0 / ROULETTE_CHANCE - 1.0);
-                p.w *= 1.0 / ROULETTE_CHANCE;
-            } else {
-                tally.roulette_loss += p.w;
-                p.w = 0.0;
-            }
+            // REFERENCE 3 step 5.
+            roulette(&mut p.w, ROULETTE_CHANCE, rng, tally);
         }
         if events >= next_event_roulette && p.w > 0.0 {
             next_event_roulette = next_event_roulette.saturating_mul(2);
-            if uniform(rng) < EVENT_ROULETTE_SURVIVAL {
-                tally.roulette_gain += p.w * (1.0 / EVENT_ROULETTE_SURVIVAL - 1.0);
-                p.w *= 1.0 / EVENT_ROULETTE_SURVIVAL;
-            } else {
-                tally.roulette_loss += p.w;
-                p.w = 0.0;
-            }
+            roulette(&mut p.w, EVENT_ROULETTE_SURVIVAL, rng, tally);
         }
         if events >= set.max_events && p.w > 0.0 {
             tally.truncated += p.w;
