@@ -173,7 +173,7 @@ mod tests {
             if edges[i + 1] <= 2.0 {
                 assert!((col - 1.0).abs() < 1e-12, "bin {i}: {col}");
             } else {
-                assert!(col < 1.0 && col >= 0.0, "bin {i}: {col}");
+                assert!((0.0..1.0).contains(&col), "bin {i}: {col}");
             }
         }
         // A quarter disc of radius 1 cut at x = 0.5.

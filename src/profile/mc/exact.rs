@@ -66,7 +66,7 @@ impl ExactSum {
 
     /// The nearest f64 of the high part plus the low part: a function of the
     /// exact value only, hence the same for every order of accumulation.
-    pub fn to_f64(&self) -> f64 {
+    pub fn to_f64(self) -> f64 {
         const TWO_M64: f64 = 1.0 / 18_446_744_073_709_551_616.0;
         self.hi as f64 * TWO_M64 + self.lo as f64 * TWO_M64 * TWO_M64
     }
@@ -138,8 +138,8 @@ impl ExactBins {
 
     fn to_f64(&self) -> BinSums {
         BinSums {
-            sum: self.sum.iter().map(ExactSum::to_f64).collect(),
-            sum_sq: self.sum_sq.iter().map(ExactSum::to_f64).collect(),
+            sum: self.sum.iter().map(|x| x.to_f64()).collect(),
+            sum_sq: self.sum_sq.iter().map(|x| x.to_f64()).collect(),
         }
     }
 }
@@ -223,7 +223,7 @@ impl ExactTally {
 
     /// The totals rounded to f64, as one chunk tally.
     pub fn to_f64(&self) -> ChunkTally {
-        let v: Vec<f64> = self.totals.iter().map(ExactSum::to_f64).collect();
+        let v: Vec<f64> = self.totals.iter().map(|x| x.to_f64()).collect();
         let m = |i: usize| Moments {
             sum: v[i],
             sum_sq: v[i + 1],
