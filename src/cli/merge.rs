@@ -25,13 +25,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let p = Profile::read(path)?;
         parts.push((path.display().to_string(), p));
     }
+    ssskit::io::check_extension(&args.out, &["json"], "profile")?;
+    if let Some(csv) = &args.csv {
+        ssskit::io::check_extension(csv, &["csv"], "table")?;
+    }
     let profile = mc::merge_shards(&parts)?;
+    let mut outputs = ssskit::io::AtomicGroup::new();
     profile
-        .write(&args.out)
+        .write_into(&mut outputs, &args.out)
         .with_context(|| format!("writing {}", args.out.display()))?;
     if let Some(csv) = &args.csv {
-        super::simulate::write_csv(&profile, csv)?;
+        super::simulate::write_csv(&profile, csv, &mut outputs)?;
     }
-    super::simulate::print_summary(&profile, &args.out);
-    Ok(())
+    outputs.commit()?;
+    super::simulate::print_summary(&profile, &args.out)
 }
