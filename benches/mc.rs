@@ -1,20 +1,28 @@
-//! Monte Carlo benchmark (plain main, not a timed test): photons per second
-//! per core and efficiency 1 / (var(total R_d) x time) for skin1 red and
-//! marble blue, 1 and 2 threads, for three settings measured in the same run:
-//! `mcml` (classic all-or-none boundaries, roulette at 1e-4: the MCML 1.2.2
-//! baseline), `split` (splitting at the ambient boundaries, roulette 1e-4) and
-//! `default` (classic, roulette at 0.01). Ratios are against `mcml`.
+//! Monte Carlo benchmark (plain main, not a timed test).
 //!
-//! `cargo bench --bench mc` (set SSSKIT_BENCH_SCALE=0.2 for a quick look).
-//! Per-core figures divide by the process CPU time (robust to other load);
-//! the 2-thread speed-up uses wall time and needs an otherwise idle machine.
-//! Reference: MCML 1.2.2 (C, classic) traces about 2.0e5 photons/s on skin1
-//! red and 3.3e4 photons/s on marble blue on one core of this machine class.
+//! 1. Photons per second per core and efficiency 1 / (var(total R_d) x time)
+//!    for skin1 red and marble blue, one thread, for three settings measured
+//!    in the same run: `mcml` (classic all-or-none boundaries, roulette at
+//!    1e-4: the MCML 1.2.2 game), `split` (splitting at the ambient
+//!    boundaries, roulette 1e-4) and `default` (classic, roulette 0.01).
+//!    Efficiency ratios are against `mcml`.
+//! 2. With `SSSKIT_BENCH_BASELINE=/path/to/older/ssskit`, the same cases
+//!    traced by that binary (e.g. a build of an earlier commit) in the same
+//!    run, as a child process: the speed-up of the tracer, per CPU-second.
+//! 3. The default `simulate` (kernel-factor rule, all threads) on every
+//!    preset: wall time, CPU time and photons per channel.
+//!
+//! `cargo bench --bench mc` (SSSKIT_BENCH_SCALE=0.2 for a quick look;
+//! SSSKIT_BENCH_PRESETS=0 skips part 3). Per-core figures divide by the
+//! process (or child) CPU time, so they survive a loaded machine; wall
+//! times do not. Reference: MCML 1.2.2 (C, classic) traces about 2.0e5
+//! photons/s on skin1 red and 3.3e4 photons/s on marble blue on one core of
+//! this machine class (measured once, not rebuilt here).
 
-use ssskit::material::{preset, Channel};
+use ssskit::material::{preset, preset_names, Channel};
 use ssskit::profile::mc::{
-    simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget, DEFAULT_ROULETTE_THRESHOLD,
-    ROULETTE_THRESHOLD,
+    simulate, simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget, DEFAULT_KERNEL_ERROR,
+    DEFAULT_ROULETTE_THRESHOLD, ROULETTE_THRESHOLD,
 };
 use ssskit::progress::NoProgress;
 
@@ -25,20 +33,23 @@ struct Case {
     mcml_per_core: f64,
 }
 
-/// CPU seconds (user + system) of this process from /proc/self/stat, so
-/// per-core figures survive a loaded machine; None off Linux.
-fn cpu_seconds() -> Option<f64> {
+/// (own, children) CPU seconds (user + system) from /proc/self/stat; None
+/// off Linux.
+fn cpu_seconds() -> Option<(f64, f64)> {
     let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name; utime and stime are the
-    // 14th and 15th fields overall, in clock ticks (100 per second on Linux).
+    // Fields after the parenthesised command name: utime, stime, cutime,
+    // cstime are the 14th to 17th overall, in clock ticks (100 per second).
     let rest = &stat[stat.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .skip(11)
+        .take(4)
+        .map(|s| s.parse().unwrap_or(0.0))
+        .collect();
+    (f.len() == 4).then(|| ((f[0] + f[1]) / 100.0, (f[2] + f[3]) / 100.0))
 }
 
 struct Row {
-    photons_per_s: f64,
     per_core: f64,
     var: f64,
     efficiency: f64,
@@ -69,12 +80,12 @@ const SETTINGS: [Setting; 3] = [
     },
 ];
 
-fn measure(case: &Case, set: Setting, threads: usize, photons: u64) -> Row {
+fn measure(case: &Case, set: Setting, photons: u64) -> Row {
     let m = preset(case.material).expect("preset exists");
     let cfg = McConfig {
         budget: PhotonBudget::Fixed(photons),
         seed: 7,
-        threads: Some(threads),
+        threads: Some(1),
         channels: vec![case.ch],
         grid: None,
     };
@@ -88,19 +99,51 @@ fn measure(case: &Case, set: Setting, threads: usize, photons: u64) -> Row {
     let p = simulate_with(&m, &cfg, &opts, &NoProgress).expect("simulation runs");
     let secs = t0.elapsed().as_secs_f64();
     let cpu = match (c0, cpu_seconds()) {
-        (Some(a), Some(b)) if b > a => b - a,
-        _ => secs * threads as f64,
+        (Some(a), Some(b)) if b.0 > a.0 => b.0 - a.0,
+        _ => secs,
     };
     let se = p.total_rd_stderr.as_ref().expect("stderr")[0];
     let var = se * se;
     Row {
-        photons_per_s: photons as f64 / secs,
         per_core: photons as f64 / cpu,
         // Per-photon variance of total R_d (independent of N).
         var: var * photons as f64,
-        // Per core: CPU time, so that it survives a loaded machine.
         efficiency: 1.0 / (var * cpu),
     }
+}
+
+/// Photons per CPU-second of an older ssskit binary on the same case, run
+/// as a child process with the same flags.
+fn baseline(bin: &str, case: &Case, set: Setting, photons: u64) -> Option<f64> {
+    let out = std::env::temp_dir().join(format!("ssskit-bench-{}.json", std::process::id()));
+    let c0 = cpu_seconds()?;
+    let status = std::process::Command::new(bin)
+        .args([
+            "simulate",
+            "--material",
+            case.material,
+            "--channels",
+            case.ch.name(),
+            "--photons",
+            &photons.to_string(),
+            "--threads",
+            "1",
+            "--seed",
+            "7",
+            "--boundary",
+            set.mode.name(),
+            "--roulette",
+            &set.roulette.to_string(),
+            "--out",
+        ])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .ok()?;
+    let _ = std::fs::remove_file(&out);
+    let c1 = cpu_seconds()?;
+    (status.success() && c1.1 > c0.1).then(|| photons as f64 / (c1.1 - c0.1))
 }
 
 fn main() {
@@ -108,6 +151,7 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1.0);
+    let base_bin = std::env::var("SSSKIT_BENCH_BASELINE").ok();
     let cases = [
         Case {
             material: "skin1",
@@ -123,14 +167,14 @@ fn main() {
         },
     ];
     println!(
-        "{:<8} {:>2} {:<8} {:>3} {:>12} {:>12} {:>9} {:>11} {:>11} {:>8}",
+        "{:<8} {:>2} {:<8} {:>12} {:>9} {:>12} {:>9} {:>11} {:>11} {:>8}",
         "material",
         "ch",
         "setting",
-        "thr",
-        "wall ph/s",
         "ph/cpu-s",
         "vs MCML",
+        "baseline",
+        "vs base",
         "var/photon",
         "eff/cpu-s",
         "eff/mcml"
@@ -138,44 +182,60 @@ fn main() {
     for case in &cases {
         let n = ((case.photons as f64 * scale) as u64).max(ssskit::profile::mc::CHUNK);
         // Warm-up (page faults, thread start).
-        let _ = measure(case, SETTINGS[0], 1, n / 10);
-        let mut rows: Vec<(&str, usize, Row)> = Vec::new();
+        let _ = measure(case, SETTINGS[0], n / 10);
+        let mut mcml_eff = None;
         for set in SETTINGS {
-            for threads in [1, 2] {
-                let r = measure(case, set, threads, n);
-                let base = rows
-                    .iter()
-                    .find(|(s, t, _)| *s == "mcml" && *t == threads)
-                    .map_or(r.efficiency, |(_, _, b)| b.efficiency);
-                println!(
-                    "{:<8} {:>2} {:<8} {:>3} {:>12.4e} {:>12.4e} {:>8.2}x {:>11.4e} {:>11.4e} {:>8.2}",
-                    case.material,
-                    case.ch.name(),
-                    set.name,
-                    threads,
-                    r.photons_per_s,
-                    r.per_core,
-                    r.per_core / case.mcml_per_core,
-                    r.var,
-                    r.efficiency,
-                    r.efficiency / base
-                );
-                rows.push((set.name, threads, r));
-            }
+            let r = measure(case, set, n);
+            let base = base_bin.as_deref().and_then(|b| baseline(b, case, set, n));
+            let e0 = *mcml_eff.get_or_insert(r.efficiency);
+            println!(
+                "{:<8} {:>2} {:<8} {:>12.4e} {:>8.2}x {:>12} {:>9} {:>11.4e} {:>11.4e} {:>8.2}",
+                case.material,
+                case.ch.name(),
+                set.name,
+                r.per_core,
+                r.per_core / case.mcml_per_core,
+                base.map_or("-".into(), |b| format!("{b:.4e}")),
+                base.map_or("-".into(), |b| format!("{:.2}x", r.per_core / b)),
+                r.var,
+                r.efficiency,
+                r.efficiency / e0
+            );
         }
-        let get = |name: &str, t: usize| {
-            rows.iter()
-                .find(|(a, b, _)| *a == name && *b == t)
-                .map(|(_, _, r)| r)
-                .expect("measured")
+    }
+    if std::env::var("SSSKIT_BENCH_PRESETS").as_deref() == Ok("0") {
+        return;
+    }
+    println!(
+        "\ndefault simulate (kernel-factor rule, target {DEFAULT_KERNEL_ERROR}, all threads): wall and CPU seconds, photons per channel"
+    );
+    for name in preset_names() {
+        let m = preset(name).expect("preset exists");
+        let cfg = McConfig {
+            budget: PhotonBudget::KernelFactor {
+                rel: DEFAULT_KERNEL_ERROR,
+                max_photons: 100_000_000,
+            },
+            seed: 1,
+            threads: None,
+            channels: Channel::ALL.to_vec(),
+            grid: None,
+        };
+        let c0 = cpu_seconds();
+        let t0 = std::time::Instant::now();
+        let p = simulate(&m, &cfg, &NoProgress).expect("simulation runs");
+        let wall = t0.elapsed().as_secs_f64();
+        let cpu = match (c0, cpu_seconds()) {
+            (Some(a), Some(b)) => b.0 - a.0,
+            _ => f64::NAN,
         };
         println!(
-            "  {} {}: 2-thread wall speed-up mcml {:.2}, split {:.2}, default {:.2} (needs an idle machine)",
-            case.material,
-            case.ch.name(),
-            get("mcml", 2).photons_per_s / get("mcml", 1).photons_per_s,
-            get("split", 2).photons_per_s / get("split", 1).photons_per_s,
-            get("default", 2).photons_per_s / get("default", 1).photons_per_s,
+            "{:<11} wall {:>6.2} s  cpu {:>6.2} s  photons {:?}  converged {}",
+            name,
+            wall,
+            cpu,
+            p.source.photons.unwrap_or_default(),
+            p.extra["converged"]
         );
     }
 }

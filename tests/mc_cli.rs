@@ -271,3 +271,97 @@ fn invalid_flags_are_reported() {
         &["cannot be used with"],
     );
 }
+
+#[test]
+fn mco_output_follows_mcml() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The van de Hulst slab in MCML units; a grid of 40 x 10 um that loses
+    // some reflectance beyond it, which MCML puts in the last bin.
+    let mci = "1.0\n1\nslab.mco A\n20000\n0.001 0.001\n10 40 1\n1\n1.0\n1.0 10 90 0.75 0.02\n1.0\n";
+    std::fs::write(d.join("t.mci"), mci).unwrap();
+    let o = ssskit(
+        d,
+        &[
+            "simulate", "--mci", "t.mci", "--out", "t.json", "--mco", "t.mco",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = Profile::read(&d.join("t.json")).unwrap();
+    let text = std::fs::read_to_string(d.join("t.mco")).unwrap();
+    assert!(text.starts_with("A1 "));
+    let value = |tag: &str| -> f64 {
+        let line = text.lines().find(|l| l.contains(tag)).unwrap();
+        line.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-5 * b.abs().max(1e-12);
+    assert!(close(value("#Diffuse reflectance"), p.total_rd[0]));
+    assert!(close(
+        value("#Transmittance"),
+        p.transmittance.as_ref().unwrap()[0]
+    ));
+    assert!(close(
+        value("#Absorbed fraction"),
+        p.absorbed.as_ref().unwrap()[0]
+    ));
+    assert_eq!(value("# No. of photons"), 20000.0);
+    // Rd_r in 1/cm^2 on MCML's annuli 2 pi (i + 1/2) dr^2 integrates to the
+    // whole R_d, the part beyond the grid included (4 significant digits).
+    let start = text.lines().position(|l| l.starts_with("Rd_r")).unwrap();
+    let rd_r: Vec<f64> = text
+        .lines()
+        .skip(start + 1)
+        .take_while(|l| !l.trim().is_empty())
+        .map(|l| l.trim().parse().unwrap())
+        .collect();
+    assert_eq!(rd_r.len(), 40);
+    let dr = 0.001;
+    let total: f64 = rd_r
+        .iter()
+        .enumerate()
+        .map(|(i, v)| v * 2.0 * std::f64::consts::PI * (i as f64 + 0.5) * dr * dr)
+        .sum();
+    let beyond = p.extra["rd_beyond_rmax"][0].as_f64().unwrap();
+    assert!(
+        beyond > 0.01 * p.total_rd[0],
+        "the grid should lose some R_d"
+    );
+    assert!(
+        (total - p.total_rd[0]).abs() < 1e-3 * p.total_rd[0],
+        "{total} vs {}",
+        p.total_rd[0]
+    );
+    // One wavelength, uniform bins only.
+    let bad = ssskit(
+        d,
+        &[
+            "simulate",
+            "--material",
+            "skin1",
+            "--photons",
+            "100",
+            "--mco",
+            "x.mco",
+        ],
+    );
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("--mco"));
+    let bad = ssskit(
+        d,
+        &[
+            "simulate",
+            "--material",
+            "skin1",
+            "--channels",
+            "r",
+            "--photons",
+            "100",
+            "--log-bins",
+            "--mco",
+            "x.mco",
+        ],
+    );
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("uniform"), "{}", stderr(&bad));
+    assert!(!d.join("x.mco").exists());
+}

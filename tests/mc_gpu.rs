@@ -294,10 +294,10 @@ fn unsupported_settings_are_refused() {
         ),
         (
             McOptions {
-                max_events: 1 << 40,
+                shard: Some(ssskit::profile::mc::Shard { k: 1, n: 2 }),
                 ..McOptions::default()
             },
-            "--max-events",
+            "shards",
         ),
     ] {
         let e = g

@@ -218,13 +218,23 @@ fn single_scattering_of_strong_absorber_is_exact() {
     let rd: Vec<f64> = serde_json::from_value(s["rd"].clone()).unwrap();
     let se: Vec<f64> = serde_json::from_value(s["rd_stderr"].clone()).unwrap();
     let exact = bin_averages(|r| single_scatter_rd(sa, ss, r), &grid);
-    let mut chi2 = 0.0;
+    // Bins where the exact profile expects at least 10 scoring packets (each
+    // carries the weight albedo): below that the count is Poisson, not
+    // Gaussian, and a bin may rightly hold none (zero standard error).
+    let areas = grid.areas();
+    let n = 1_000_000.0;
+    let (mut chi2, mut bins) = (0.0, 0);
     for i in 0..grid.len() {
+        if exact[i] * areas[i] * n / albedo < 10.0 {
+            continue;
+        }
         within(rd[i], exact[i], se[i], &format!("single-scatter bin {i}"));
         chi2 += ((rd[i] - exact[i]) / se[i]).powi(2);
+        bins += 1;
     }
-    // 30 bins: chi^2 above 2x its mean would flag a systematic error.
-    assert!(chi2 < 2.0 * grid.len() as f64, "chi2 = {chi2}");
+    assert!(bins >= 20, "only {bins} bins resolved");
+    // chi^2 above 2x its mean would flag a systematic error.
+    assert!(chi2 < 2.0 * bins as f64, "chi2 = {chi2} over {bins} bins");
     // Multiple scattering is a small part here: the full profile exceeds
     // single scattering by at most a few albedo^2-sized percent.
     assert!(p.total_rd[0] > total && p.total_rd[0] < total * (1.0 + 3.0 * albedo));
@@ -249,6 +259,10 @@ fn results_do_not_depend_on_thread_count() {
         PhotonBudget::Fixed(40_000),
         PhotonBudget::TargetError {
             rel: 0.05,
+            max_photons: 400_000,
+        },
+        PhotonBudget::KernelFactor {
+            rel: 0.03,
             max_photons: 400_000,
         },
     ] {
@@ -391,10 +405,7 @@ fn extremes_terminate_and_report() {
     ];
     for (name, toml) in &cases {
         let m = material(toml);
-        let o = McOptions {
-            max_events: 20_000,
-            ..McOptions::default()
-        };
+        let o = McOptions::default();
         let t0 = std::time::Instant::now();
         let p = simulate_with(&m, &cfg(8192, Channel::R, None), &o, &NoProgress).unwrap();
         assert!(t0.elapsed().as_secs_f64() < 60.0, "{name} too slow");
@@ -403,12 +414,22 @@ fn extremes_terminate_and_report() {
         let warnings = p.extra["warnings"].to_string();
         match *name {
             "albedo 1" => {
-                // Nothing is absorbed; whatever did not come back was truncated.
+                // Nothing is absorbed or truncated: the event-count roulette
+                // ends every walk without a cap.
                 assert_eq!(p.absorbed.as_ref().unwrap()[0], 0.0);
-                assert!(
-                    warnings.contains("truncated") && warnings.contains("power-law"),
-                    "{warnings}"
-                );
+                assert_eq!(p.extra["truncated_photons"][0], 0);
+                assert!(warnings.contains("power-law"), "{warnings}");
+                assert!(!warnings.contains("truncated"), "{warnings}");
+                // A hard cap, when asked for, is booked and reported.
+                let capped = McOptions {
+                    max_events: 2_000,
+                    ..McOptions::default()
+                };
+                let p =
+                    simulate_with(&m, &cfg(8192, Channel::R, None), &capped, &NoProgress).unwrap();
+                assert_balance(&p);
+                assert!(p.extra["truncated_photons"][0].as_u64().unwrap() > 0);
+                assert!(p.extra["warnings"].to_string().contains("truncated"));
             }
             "no scattering" => {
                 assert_eq!(p.total_rd[0], 0.0);
@@ -422,6 +443,31 @@ fn extremes_terminate_and_report() {
             "thick" => assert_eq!(p.transmittance.as_ref().unwrap()[0], 0.0),
             _ => {}
         }
+    }
+}
+
+#[test]
+fn albedo_one_returns_everything_without_bias() {
+    // A non-absorbing half-space returns every packet through the top (its
+    // depth is a recurrent walk), so R_d + specular = 1 exactly in
+    // expectation. The old hard cap of 10^6 events left 0.24% behind; the
+    // event-count roulette must be unbiased: 4 of its own standard errors.
+    for eta in [1.0, 1.3] {
+        let m = material(&format!(
+            "unit = \"mm\"\nsigma_a = 0.0\nsigma_s = 10.0\neta = {eta}\n"
+        ));
+        let p = simulate(&m, &cfg(24_576, Channel::R, None), &NoProgress).unwrap();
+        assert_balance(&p);
+        assert_eq!(p.extra["truncated_photons"][0], 0);
+        let se = p.total_rd_stderr.as_ref().unwrap()[0];
+        within(
+            p.total_rd[0] + p.specular[0],
+            1.0,
+            se,
+            &format!("eta {eta}: R_d + specular"),
+        );
+        // The roulette is what makes sigma non-zero, and it stays small.
+        assert!(se < 0.01, "eta {eta}: stderr {se}");
     }
 }
 

@@ -8,6 +8,7 @@ mod engine;
 mod errors;
 mod fit;
 mod materials;
+mod merge;
 mod out;
 mod plot;
 mod profile;
@@ -35,6 +36,8 @@ enum Command {
     Materials(materials::Args),
     /// Monte Carlo simulation of the diffuse reflectance profile R_d(r).
     Simulate(simulate::Args),
+    /// Combine the shards of one Monte Carlo run (simulate --shard K/N).
+    Merge(merge::Args),
     /// Analytic reflectance profile (dipole, photon beam diffusion, ...).
     Profile(profile::Args),
     /// Work on several profiles: compare analytic models with Monte Carlo.
@@ -80,6 +83,7 @@ pub fn main() -> i32 {
     let result = match cli.command {
         Command::Materials(a) => materials::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::Merge(a) => merge::run(a),
         Command::Profile(a) => profile::run(a),
         Command::Profiles(a) => profiles::run(a),
         Command::Fit(a) => fit::run(a),

@@ -6,14 +6,13 @@ use super::progress::Bar;
 use anyhow::Context;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::mc::gpu::McGpu;
-use ssskit::profile::mc::{self, mci, BoundaryMode, McConfig, McOptions, PhotonBudget};
+use ssskit::profile::mc::{self, mci, BoundaryMode, McConfig, McOptions, PhotonBudget, Shard};
 use ssskit::profile::{Profile, RadialGrid};
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Default budget: 1% relative error of total R_d and of the profile, at most
-/// 10^7 photons per channel (skin1 takes a few seconds on 2 cores).
-const DEFAULT_TARGET_ERROR: f64 = 0.01;
-const DEFAULT_MAX_PHOTONS: u64 = 10_000_000;
+/// Cap on photons per channel of the target-error rules.
+const DEFAULT_MAX_PHOTONS: u64 = 100_000_000;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum McBackend {
@@ -41,15 +40,27 @@ struct Flags {
     /// Which run of the .mci file to simulate (1-based).
     #[arg(long, default_value_t = 1, requires = "mci")]
     mci_run: usize,
-    /// Photons per channel.
-    #[arg(long, conflicts_with = "target_error", allow_hyphen_values = true)]
+    /// Photons per channel (rule "fixed").
+    #[arg(long, conflicts_with_all = ["target_error", "kernel_error"], allow_hyphen_values = true)]
     photons: Option<u64>,
-    /// Trace until the relative standard error of total R_d and of the
-    /// profile inside the 99% radius is below E in every channel
-    /// (default 0.01 when neither --photons nor an .mci count is given).
+    /// Rule "kernel-factor" (the default, E = 0.005 when no other budget is
+    /// given): trace until the relative L2 standard error of the
+    /// pre-integrated 1D kernel factor on the default kernel grid and the
+    /// relative standard error of total R_d are below E in every channel.
+    /// Its default grid has geometric bins.
+    #[arg(
+        long,
+        value_name = "E",
+        conflicts_with = "target_error",
+        allow_hyphen_values = true
+    )]
+    kernel_error: Option<f64>,
+    /// Rule "total-and-profile": trace until the relative standard error of
+    /// total R_d and of the profile (R_d-weighted mean relative error of the
+    /// bins inside the 99% radius) are below E in every channel.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     target_error: Option<f64>,
-    /// Cap on photons per channel for --target-error.
+    /// Cap on photons per channel for --kernel-error and --target-error.
     #[arg(long, default_value_t = DEFAULT_MAX_PHOTONS, allow_hyphen_values = true)]
     max_photons: u64,
     /// RNG seed: the same seed gives bit-identical output.
@@ -74,10 +85,15 @@ struct Flags {
     /// more efficient, see docs/mc.md) or split (score (1-R) w, keep R w).
     #[arg(long, default_value = "classic", value_parser = ["classic", "split"])]
     boundary: String,
-    /// Events per packet after which it is abandoned (energy reported as
-    /// truncated).
-    #[arg(long, default_value_t = mc::DEFAULT_MAX_EVENTS)]
-    max_events: u64,
+    /// Events per packet from which the event-count roulette plays (survival
+    /// 1/sqrt(2) at each doubling of the count, weight boosted on survival):
+    /// unbiased; ends the unbounded walks of albedo 1, see docs/mc.md.
+    #[arg(long, value_name = "N", default_value_t = mc::DEFAULT_EVENT_ROULETTE)]
+    event_roulette: u64,
+    /// Hard cap on events per packet (default: none); a packet stopped there
+    /// is abandoned and its energy reported as truncated (biased).
+    #[arg(long, value_name = "N")]
+    max_events: Option<u64>,
     /// Work cap per channel for --target-error runs, in events
     /// (interactions + boundary hits); ~1.5e9 is about half a minute on 2 cores
     /// [default: 1500000000]. A fixed --photons count is not capped: refused with it.
@@ -94,12 +110,22 @@ struct Flags {
     /// seed gives the same output per backend and adapter, not across them.
     #[arg(long, value_enum, default_value = "cpu")]
     backend: McBackend,
-    /// Output profile JSON (default: <material>.json).
+    /// Trace part K of N disjoint parts of the run (same seed, same
+    /// --photons for every part): writes a partial profile with exact sums
+    /// that `ssskit merge` combines into the single run, bit for bit.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    shard: Option<Shard>,
+    /// Output profile JSON (default: <material>.json, or
+    /// <material>.shard-K-of-N.json with --shard).
     #[arg(long, value_name = "FILE.json")]
     out: Option<PathBuf>,
     /// Also write the profile as CSV.
     #[arg(long, value_name = "FILE.csv")]
     csv: Option<PathBuf>,
+    /// Also write MCML's .mco format (InParm, RAT, Rd_r in cm units; one
+    /// channel, uniform grid; weight beyond the grid in the last bin as MCML).
+    #[arg(long, value_name = "FILE.mco")]
+    mco: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -128,18 +154,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(_) if args.channels == "rgb" => vec![Channel::R],
         _ => Channel::parse_list(&args.channels)?,
     };
-    let budget = match (args.photons, args.target_error, &mci_run) {
-        (Some(n), _, _) => PhotonBudget::Fixed(n),
-        (None, Some(e), _) => PhotonBudget::TargetError {
+    let budget = match (args.photons, args.target_error, args.kernel_error, &mci_run) {
+        (Some(n), _, _, _) => PhotonBudget::Fixed(n),
+        (None, Some(e), _, _) => PhotonBudget::TargetError {
             rel: e,
             max_photons: args.max_photons,
         },
-        (None, None, Some(r)) => PhotonBudget::Fixed(r.photons),
-        (None, None, None) => PhotonBudget::TargetError {
-            rel: DEFAULT_TARGET_ERROR,
+        (None, None, Some(e), _) => PhotonBudget::KernelFactor {
+            rel: e,
+            max_photons: args.max_photons,
+        },
+        (None, None, None, Some(r)) => PhotonBudget::Fixed(r.photons),
+        (None, None, None, None) => PhotonBudget::KernelFactor {
+            rel: mc::DEFAULT_KERNEL_ERROR,
             max_photons: args.max_photons,
         },
     };
+    if args.shard.is_some() && !matches!(budget, PhotonBudget::Fixed(_)) {
+        anyhow::bail!(
+            "--shard needs --photons N (or an .mci photon count): every shard traces its part \
+             of one fixed total; the target-error rules decide when to stop from all photons \
+             and cannot be split"
+        );
+    }
     if let (PhotonBudget::Fixed(n), Some(w)) = (&budget, args.max_work) {
         anyhow::bail!(
             "--max-work {w} caps runs with a target error, but this run traces a fixed {n} \
@@ -165,21 +202,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let opts = McOptions {
         boundary,
-        max_events: args.max_events,
+        event_roulette: args.event_roulette,
+        max_events: args.max_events.unwrap_or(mc::DEFAULT_MAX_EVENTS),
         single_scatter: false,
         max_work: args.max_work.unwrap_or(mc::DEFAULT_MAX_WORK),
         roulette_threshold: args.roulette,
+        shard: args.shard,
     };
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("{}.json", material.name)));
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from(match args.shard {
+            Some(s) => format!("{}.shard-{}-of-{}.json", material.name, s.k, s.n),
+            None => format!("{}.json", material.name),
+        })
+    });
     // Fail before the simulation, not after it, on an unwritable destination.
+    if args.mco.is_some() && cfg.channels.len() != 1 {
+        anyhow::bail!(
+            "--mco: an .mco file holds one wavelength (MCML is monochrome); give --channels r, g or b"
+        );
+    }
     ssskit::io::check_extension(&out, &["json"], "profile")?;
     if let Some(csv) = &args.csv {
         ssskit::io::check_extension(csv, &["csv"], "table")?;
     }
-    for (flag, path) in [("--out", Some(&out)), ("--csv", args.csv.as_ref())] {
+    if let Some(mco) = &args.mco {
+        ssskit::io::check_extension(mco, &["mco"], "MCML output")?;
+    }
+    for (flag, path) in [
+        ("--out", Some(&out)),
+        ("--csv", args.csv.as_ref()),
+        ("--mco", args.mco.as_ref()),
+    ] {
         if let Some(dir) = path.and_then(|p| p.parent()) {
             if !dir.as_os_str().is_empty() && !dir.is_dir() {
                 anyhow::bail!("{flag}: directory '{}' does not exist", dir.display());
@@ -202,6 +255,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", out.display()))?;
     if let Some(csv) = &args.csv {
         write_csv(&profile, csv, &mut outputs)?;
+    }
+    if let Some(mco) = &args.mco {
+        let name = mco
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let text = mc::mco::mco_text(&profile, &name).context("--mco")?;
+        outputs
+            .add_with(mco, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", mco.display()))?;
     }
     outputs.commit()?;
     print_summary(&profile, &out)?;
@@ -251,6 +314,20 @@ fn open_gpu(backend: McBackend, opts: &McOptions) -> anyhow::Result<Option<McGpu
     }
 }
 
+/// "K/N" with 1 <= K <= N.
+fn parse_shard(s: &str) -> Result<Shard, String> {
+    let bad = || format!("'{s}': expected K/N with 1 <= K <= N, e.g. 3/8");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n) = (
+        k.trim().parse::<u64>().map_err(|_| bad())?,
+        n.trim().parse::<u64>().map_err(|_| bad())?,
+    );
+    if k == 0 || k > n {
+        return Err(bad());
+    }
+    Ok(Shard { k, n })
+}
+
 /// The grid from --dr/--rmax/--log-bins; a missing value comes from the
 /// material rule.
 fn explicit_grid(
@@ -277,7 +354,7 @@ fn explicit_grid(
 }
 
 /// CSV: one row per bin, r and R_d with standard error per channel.
-fn write_csv(
+pub(super) fn write_csv(
     p: &Profile,
     path: &Path,
     outputs: &mut ssskit::io::AtomicGroup,
@@ -303,7 +380,7 @@ fn write_csv(
         .with_context(|| format!("writing {}", path.display()))
 }
 
-fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
+pub(super) fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
     let photons = p.source.photons.clone().unwrap_or_default();
     outln!(
         "{}: {} bins to r = {:.3} mm, {:.2} s",

@@ -294,7 +294,7 @@ fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
 
 /// Odd size whose cell resolves the narrowest channel's core (the radius
 /// holding 25% of R_d spans at least two cells), between 31 and 401.
-fn default_size(p: &Profile, extent: f64) -> usize {
+pub fn default_size(p: &Profile, extent: f64) -> usize {
     let core = (0..p.channels.len())
         .filter(|&c| p.tabulated_total(c) > 0.0)
         .map(|c| radius_holding(p, c, 0.25))

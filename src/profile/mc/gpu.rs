@@ -20,9 +20,10 @@
 use super::tally::{BinSums, ChunkTally, Moments};
 use super::tracer::Stack;
 use super::{
-    build_profile, convergence, validate_config, BoundaryMode, ChannelRun, McConfig, McOptions,
-    PhotonBudget, BATCH, CHUNK,
+    build_profile, rule_error, statuses, validate_config, BoundaryMode, ChannelRun, McConfig,
+    McOptions, PhotonBudget, Status, CHUNK,
 };
+use super::exact::ExactTally;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::material::{Channel, Material};
@@ -44,7 +45,7 @@ pub const MAX_BATCH: u64 = 1 << 24;
 /// Photons between two checks of a target-error run: the CPU tracer's
 /// granularity, and independent of the batch size, so the stopping point is
 /// too.
-pub const CHECKPOINT: u64 = CHUNK * BATCH;
+pub const CHECKPOINT: u64 = CHUNK * 16;
 
 // Word layout of the tally buffer (see mc_trace.wgsl).
 const T_RD: usize = 0;
@@ -252,10 +253,7 @@ impl McGpu {
             None => RadialGrid::for_material_rule(material, &cfg.channels, false),
         };
         check_grid(&grid)?;
-        let cap = match cfg.budget {
-            PhotonBudget::Fixed(n) => n,
-            PhotonBudget::TargetError { max_photons, .. } => max_photons,
-        };
+        let cap = cfg.budget.max_photons();
         progress.start(
             cap.saturating_mul(cfg.channels.len() as u64),
             &format!("{} photons (GPU)", material.name),
@@ -263,7 +261,7 @@ impl McGpu {
         let mut runs = Vec::with_capacity(cfg.channels.len());
         for &ch in &cfg.channels {
             let run = self.run_channel(material, ch, &grid, cfg, opts, dispatch, progress)?;
-            runs.push((run, Stack::new(material, ch)));
+            runs.push(run);
         }
         progress.finish();
         let mut p = build_profile(
@@ -307,7 +305,8 @@ impl McGpu {
         let stack = Stack::new(material, ch);
         let (cap, target) = match cfg.budget {
             PhotonBudget::Fixed(n) => (n, None),
-            PhotonBudget::TargetError { rel, max_photons } => (max_photons, Some(rel)),
+            PhotonBudget::TargetError { rel, max_photons }
+            | PhotonBudget::KernelFactor { rel, max_photons } => (max_photons, Some(rel)),
         };
         let n_bins = grid.len();
         let layers = gpu_layers(material, ch);
@@ -348,7 +347,7 @@ impl McGpu {
             base_hi: 0,
             count: 0,
             n_bins: n_bins as u32,
-            max_events: opts.max_events as u32,
+            max_events: gpu_max_events(opts),
             uniform_bins: uniform_dr.is_some() as u32,
             dynamic: 0,
             stride: 0,
@@ -361,7 +360,12 @@ impl McGpu {
             _pad1: [0.0; 2],
         };
         let mut sums = Sums::new(n_bins);
-        let mut status = (0.0, 0.0, 0.0);
+        let mut status = Status {
+            rel_total: f64::INFINITY,
+            rel_profile: f64::INFINITY,
+            r99: 0.0,
+            rel_factor: f64::INFINITY,
+        };
         let mut converged = false;
         let mut work_capped = false;
         let mut tally = ChunkTally::new(n_bins, false);
@@ -415,9 +419,12 @@ impl McGpu {
                 )));
             }
             tally = sums.tally(stack.specular);
-            status = convergence(&tally, grid);
+            let exact = exact_tally(&tally, n_bins);
+            status = statuses(material, &[ch], grid, &[exact])
+                .0
+                .swap_remove(0);
             if let Some(rel) = target {
-                converged = status.0 <= rel && status.1 <= rel;
+                converged = rule_error(&cfg.budget, &status) <= rel;
                 if converged || tally.events >= opts.max_work {
                     work_capped = !converged;
                     progress.advance(cap - tally.photons);
@@ -426,10 +433,8 @@ impl McGpu {
             }
         }
         Ok(ChannelRun {
-            tally,
-            rel_total: status.0,
-            rel_profile: status.1,
-            r99: status.2,
+            tally: exact_tally(&tally, n_bins),
+            status,
             converged: target.is_none() || converged,
             work_capped,
         })
@@ -501,6 +506,22 @@ impl McGpu {
 }
 
 /// What the GPU tracer does not implement, refused before any work.
+/// Events per packet on the GPU: a hard cap (weight left is reported as
+/// truncated), since the shader has no event-count roulette; 10^6 as the CPU
+/// tracer had before its roulette, or the user's smaller cap.
+pub const GPU_MAX_EVENTS: u64 = 1_000_000;
+
+fn gpu_max_events(opts: &McOptions) -> u32 {
+    opts.max_events.min(GPU_MAX_EVENTS) as u32
+}
+
+/// The GPU's per-channel sums as the exact tally `build_profile` reads.
+fn exact_tally(t: &ChunkTally, bins: usize) -> ExactTally {
+    let mut e = ExactTally::new(bins, false);
+    e.add_chunk(t);
+    e
+}
+
 fn check_gpu_options(opts: &McOptions, dispatch: GpuDispatch) -> Result<()> {
     if opts.boundary != BoundaryMode::Classic {
         return Err(Error::Unsupported(format!(
@@ -514,12 +535,11 @@ fn check_gpu_options(opts: &McOptions, dispatch: GpuDispatch) -> Result<()> {
             "the GPU tracer has no single-scattering tally; use the CPU tracer".into(),
         ));
     }
-    if opts.max_events > u32::MAX as u64 {
-        return Err(Error::invalid(
-            "--max-events",
-            "max events",
-            opts.max_events,
-            "the GPU tracer counts events per packet in 32 bits: at most 4294967295",
+    if opts.shard.is_some() {
+        return Err(Error::Unsupported(
+            "the GPU tracer does not trace shards (its sums are not the CPU's exact chunk \
+             sums); use the CPU tracer for shards and merge"
+                .into(),
         ));
     }
     if !(1..=MAX_BATCH).contains(&dispatch.batch)

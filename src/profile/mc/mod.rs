@@ -4,47 +4,106 @@
 //!
 //! Reproducibility: photons run in chunks of `CHUNK` packets; chunk k of
 //! channel c draws from its own Xoshiro256++ stream seeded from (seed, c, k)
-//! by SplitMix64 hashing, and chunk tallies are added in chunk order. Chunks
-//! are dispatched in batches of `BATCH` chunks, and the stopping rule of a
-//! target-error run is checked only between batches, so the photon count
-//! does not depend on the thread count either.
+//! by SplitMix64 hashing. Each chunk's f64 sums are added to exact
+//! fixed-point totals (`exact`), so the result does not depend on which
+//! thread traced which chunk, in which order, or on which machine (shards).
+//! A target-error run traces rounds of chunks whose length depends only on
+//! the totals so far, and checks its rule between rounds, so the photon
+//! count does not depend on the thread count either.
 
+mod consumer;
+mod exact;
 pub mod gpu;
 pub mod mci;
+pub mod mco;
 mod tally;
 mod tracer;
 
+pub use consumer::{kernel_geometry, KernelGeometry};
 pub use tally::Moments;
-pub use tracer::{BoundaryMode, DEFAULT_ROULETTE_THRESHOLD, ROULETTE_CHANCE, ROULETTE_THRESHOLD};
+pub use tracer::{
+    BoundaryMode, DEFAULT_EVENT_ROULETTE, DEFAULT_ROULETTE_THRESHOLD, EVENT_ROULETTE_SURVIVAL,
+    ROULETTE_CHANCE, ROULETTE_THRESHOLD,
+};
 
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
 use crate::profile::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
 use crate::progress::Progress;
+use consumer::Projection;
+use exact::ExactTally;
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 use tally::{BinIndex, ChunkTally, PhotonScratch};
 use tracer::{Stack, WalkSettings};
 
 /// Photons per chunk (one RNG stream each).
 pub const CHUNK: u64 = 8192;
-/// Chunks per batch (the granularity of the target-error check).
-pub const BATCH: u64 = 16;
+/// Chunks per channel in the first round of a target-error run.
+pub const FIRST_ROUND: u64 = 2;
+
+/// Default target of the kernel-factor rule: 0.5% relative L2 standard error.
+pub const DEFAULT_KERNEL_ERROR: f64 = 0.005;
 
 /// How many photons to trace.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum PhotonBudget {
     /// Exactly this many per channel.
     Fixed(u64),
-    /// Until the relative standard error of the total R_d and of the profile
-    /// inside the radius holding 99% of R_d is below `rel` in every channel,
-    /// or `max_photons` per channel are spent.
+    /// Rule "total-and-profile": until the relative standard error of the
+    /// total R_d and of the profile inside the radius holding 99% of R_d
+    /// (R_d-weighted mean of the bins' relative errors) is below `rel` in
+    /// every channel, or `max_photons` per channel are spent.
     TargetError { rel: f64, max_photons: u64 },
+    /// Rule "kernel-factor": until the relative L2 standard error of the
+    /// pre-integrated 1D kernel factor on the default kernel grid (see
+    /// `consumer`) and the relative standard error of the total R_d (the
+    /// kernel's colour) are below `rel` in every channel, or `max_photons`
+    /// per channel are spent.
+    KernelFactor { rel: f64, max_photons: u64 },
 }
 
-#[derive(Clone, Debug)]
+impl PhotonBudget {
+    /// Photons per channel at most.
+    pub fn max_photons(&self) -> u64 {
+        match *self {
+            PhotonBudget::Fixed(n) => n,
+            PhotonBudget::TargetError { max_photons, .. }
+            | PhotonBudget::KernelFactor { max_photons, .. } => max_photons,
+        }
+    }
+
+    /// The rule's name as recorded in `source.params.budget.rule`.
+    pub fn rule(&self) -> &'static str {
+        match self {
+            PhotonBudget::Fixed(_) => "fixed",
+            PhotonBudget::TargetError { .. } => "total-and-profile",
+            PhotonBudget::KernelFactor { .. } => "kernel-factor",
+        }
+    }
+}
+
+/// Part k (1-based) of n disjoint parts of a fixed-budget run: the chunks
+/// [(k - 1) C / n, k C / n) of every channel, C the run's chunk count.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    pub k: u64,
+    pub n: u64,
+}
+
+impl Shard {
+    /// The chunk range of this shard among `chunks`.
+    pub fn chunks(&self, chunks: u64) -> (u64, u64) {
+        let at = |k: u64| ((k as u128 * chunks as u128) / self.n as u128) as u64;
+        (at(self.k - 1), at(self.k))
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct McConfig {
     pub budget: PhotonBudget,
     pub seed: u64,
@@ -56,13 +115,16 @@ pub struct McConfig {
 }
 
 /// Settings beyond the contract of `McConfig`, with MCML-like defaults.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct McOptions {
     /// MCML's all-or-none choice at the ambient boundaries (default: the
     /// more efficient in every case measured, see docs/mc.md) or splitting.
     pub boundary: BoundaryMode,
-    /// Events (interactions + boundary hits) after which a packet is
-    /// abandoned; its weight is reported as truncated.
+    /// Events (interactions + boundary hits) from which a packet plays the
+    /// event-count roulette (unbiased; see `EVENT_ROULETTE_SURVIVAL`).
+    pub event_roulette: u64,
+    /// Hard cap on events per packet, default none (u64::MAX): a packet
+    /// stopped there is abandoned and its weight reported as truncated.
     pub max_events: u64,
     /// Also tally reflectance of packets scattered exactly once
     /// (`extra.single_scatter`).
@@ -74,16 +136,21 @@ pub struct McOptions {
     /// Weight below which Russian roulette plays (default 0.01; MCML: 1e-4).
     /// Any value in (0, 1) is unbiased; higher values trade variance for speed.
     pub roulette_threshold: f64,
+    /// Trace one part of the run only (fixed budgets); the profile then
+    /// carries the exact sums that `merge_shards` combines.
+    pub shard: Option<Shard>,
 }
 
 impl Default for McOptions {
     fn default() -> Self {
         McOptions {
             boundary: BoundaryMode::Classic,
+            event_roulette: DEFAULT_EVENT_ROULETTE,
             max_events: DEFAULT_MAX_EVENTS,
             single_scatter: false,
             max_work: DEFAULT_MAX_WORK,
             roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
+            shard: None,
         }
     }
 }
@@ -92,9 +159,10 @@ impl Default for McOptions {
 /// 2020s CPU (~2.5e7 events/s per core).
 pub const DEFAULT_MAX_WORK: u64 = 1_500_000_000;
 
-/// Default event cap: at albedo 1 the fraction of packets still walking after
-/// n events falls like n^-1/2, so 10^6 leaves ~1e-3 of the energy or less.
-pub const DEFAULT_MAX_EVENTS: u64 = 1_000_000;
+/// Default hard event cap: none. Albedo-1 walks are ended without bias by
+/// the event-count roulette instead (a cap at n leaves ~n^-1/2 of the
+/// energy unaccounted: 0.24% at 10^6 events for spectralon).
+pub const DEFAULT_MAX_EVENTS: u64 = u64::MAX;
 
 /// Simulates the diffuse reflectance profile of `material`.
 pub fn simulate(material: &Material, cfg: &McConfig, progress: &dyn Progress) -> Result<Profile> {
@@ -113,7 +181,13 @@ pub fn simulate_with(
     validate_config(cfg, opts)?;
     let (grid, grid_rule) = match &cfg.grid {
         Some(g) => (g.clone(), json!({"rule": "given"})),
-        None => RadialGrid::for_material_rule(material, &cfg.channels, false),
+        // The kernel rule's consumer needs the core resolved and the tail
+        // integrated, not every tail bin exact: geometric bins.
+        None => RadialGrid::for_material_rule(
+            material,
+            &cfg.channels,
+            matches!(cfg.budget, PhotonBudget::KernelFactor { .. }),
+        ),
     };
     let e = &grid.edges;
     if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
@@ -128,38 +202,93 @@ pub fn simulate_with(
         .num_threads(cfg.threads.unwrap_or(0))
         .build()
         .map_err(|e| Error::Unsupported(format!("cannot start worker threads: {e}")))?;
-    let bins = BinIndex::new(&grid);
-    let set = WalkSettings {
-        mode: opts.boundary,
-        max_events: opts.max_events,
-        single_scatter: opts.single_scatter,
-        roulette_threshold: opts.roulette_threshold,
+    let cap = cfg.budget.max_photons();
+    let n_chunks = cap.div_ceil(CHUNK);
+    let range = match opts.shard {
+        Some(s) => s.chunks(n_chunks),
+        None => (0, n_chunks),
     };
-    let cap = match cfg.budget {
-        PhotonBudget::Fixed(n) => n,
-        PhotonBudget::TargetError { max_photons, .. } => max_photons,
+    let stacks: Vec<Stack> = cfg
+        .channels
+        .iter()
+        .map(|&ch| Stack::new(material, ch))
+        .collect();
+    let job = Job {
+        material,
+        cfg,
+        opts,
+        grid: &grid,
+        bins: BinIndex::new(&grid),
+        set: WalkSettings {
+            mode: opts.boundary,
+            event_roulette: opts.event_roulette,
+            max_events: opts.max_events,
+            single_scatter: opts.single_scatter,
+            roulette_threshold: opts.roulette_threshold,
+        },
+        stacks,
+        cap,
+        range,
     };
+    let photons_in = |a: u64, b: u64| (b * CHUNK).min(cap).saturating_sub(a * CHUNK);
     progress.start(
-        cap.saturating_mul(cfg.channels.len() as u64),
+        photons_in(range.0, range.1).saturating_mul(cfg.channels.len() as u64),
         &format!("{} photons", material.name),
     );
-    let mut runs = Vec::with_capacity(cfg.channels.len());
-    for &ch in &cfg.channels {
-        let stack = Stack::new(material, ch);
-        let run = pool
-            .install(|| run_channel(&stack, &bins, &grid, &set, opts.max_work, cfg, ch, progress));
-        runs.push((run, stack));
-    }
+    let runs = pool.install(|| job.run(progress));
     progress.finish();
-    Ok(build_profile(
+    let mut p = build_profile(
         material,
         cfg,
         opts,
         &grid,
-        grid_rule,
+        grid_rule.clone(),
         &runs,
         start.elapsed().as_secs_f64(),
-    ))
+    );
+    if let Some(s) = opts.shard {
+        let record = ShardRecord {
+            k: s.k,
+            n: s.n,
+            chunks: range,
+            config: McConfig {
+                threads: None,
+                ..cfg.clone()
+            },
+            options: McOptions {
+                shard: None,
+                ..opts.clone()
+            },
+            grid_rule,
+            tallies: runs.into_iter().map(|r| r.tally).collect(),
+        };
+        p.source.params["shard"] = json!({"k": s.k, "n": s.n});
+        if let Some(w) = p.extra["warnings"].as_array_mut() {
+            w.push(json!(format!(
+                "partial profile: shard {} of {} ({} of {} photons per channel); merge all {} shards for the run",
+                s.k,
+                s.n,
+                photons_in(range.0, range.1),
+                cap,
+                s.n
+            )));
+        }
+        p.extra["shard"] = serde_json::to_value(&record)
+            .map_err(|e| Error::Unsupported(format!("cannot record the shard: {e}")))?;
+    }
+    Ok(p)
+}
+
+/// What a shard keeps so that `merge_shards` rebuilds the single run exactly.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct ShardRecord {
+    k: u64,
+    n: u64,
+    chunks: (u64, u64),
+    config: McConfig,
+    options: McOptions,
+    grid_rule: serde_json::Value,
+    tallies: Vec<ExactTally>,
 }
 
 fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
@@ -167,10 +296,15 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
         PhotonBudget::Fixed(n) if n == 0 => {
             return Err(Error::invalid("--photons", "photons", n, "must be >= 1"))
         }
-        PhotonBudget::TargetError { rel, max_photons } => {
+        PhotonBudget::TargetError { rel, max_photons }
+        | PhotonBudget::KernelFactor { rel, max_photons } => {
+            let flag = match cfg.budget {
+                PhotonBudget::TargetError { .. } => "--target-error",
+                _ => "--kernel-error",
+            };
             if !(rel.is_finite() && rel > 0.0 && rel < 1.0) {
                 return Err(Error::invalid(
-                    "--target-error",
+                    flag,
                     "relative error",
                     rel,
                     "must be in (0, 1), e.g. 0.01",
@@ -187,6 +321,26 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
         }
         _ => {}
     }
+    if let Some(s) = opts.shard {
+        if !matches!(cfg.budget, PhotonBudget::Fixed(_)) {
+            return Err(Error::invalid(
+                "--shard",
+                "shard",
+                format!("{}/{}", s.k, s.n),
+                "needs a fixed photon count shared by all shards (--photons N); \
+                 a target-error rule cannot be split",
+            ));
+        }
+        let chunks = cfg.budget.max_photons().div_ceil(CHUNK);
+        if s.n == 0 || s.k == 0 || s.k > s.n || s.n > chunks {
+            return Err(Error::invalid(
+                "--shard",
+                "shard",
+                format!("{}/{}", s.k, s.n),
+                format!("need 1 <= K <= N <= {chunks} (the run's chunks of {CHUNK} photons)"),
+            ));
+        }
+    }
     if cfg.channels.is_empty() {
         return Err(Error::invalid("--channels", "channels", "''", "empty"));
     }
@@ -202,6 +356,14 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
             "roulette threshold",
             opts.roulette_threshold,
             "must be in (0, 1); MCML uses 1e-4",
+        ));
+    }
+    if opts.event_roulette == 0 {
+        return Err(Error::invalid(
+            "--event-roulette",
+            "event roulette start",
+            0,
+            "must be >= 1",
         ));
     }
     if opts.max_events == 0 {
@@ -230,78 +392,271 @@ fn chunk_rng(seed: u64, ch: Channel, chunk: u64) -> Xoshiro256PlusPlus {
     Xoshiro256PlusPlus::seed_from_u64(key)
 }
 
+/// How a channel's run ended.
+#[derive(Clone, Copy, Debug, Default)]
+struct Status {
+    /// Relative standard error of total R_d.
+    rel_total: f64,
+    /// R_d-weighted mean relative error of the bins inside r99 (`convergence`).
+    rel_profile: f64,
+    /// Radius holding 99% of R_d.
+    r99: f64,
+    /// Relative L2 standard error of the kernel factor (`consumer`).
+    rel_factor: f64,
+}
+
 /// A finished channel: its tally and how the run ended.
 struct ChannelRun {
-    tally: ChunkTally,
-    /// Relative standard error of total R_d and of the profile (see
-    /// `convergence`), and the radius holding 99% of R_d.
-    rel_total: f64,
-    rel_profile: f64,
-    r99: f64,
+    tally: ExactTally,
+    status: Status,
     converged: bool,
     /// Stopped by `McOptions::max_work` before the target error.
     work_capped: bool,
 }
 
-#[allow(clippy::too_many_arguments)]
-fn run_channel(
-    stack: &Stack,
-    bins: &BinIndex,
-    grid: &RadialGrid,
-    set: &WalkSettings,
-    max_work: u64,
-    cfg: &McConfig,
-    ch: Channel,
-    progress: &dyn Progress,
-) -> ChannelRun {
-    let (cap, target) = match cfg.budget {
-        PhotonBudget::Fixed(n) => (n, None),
-        PhotonBudget::TargetError { rel, max_photons } => (max_photons, Some(rel)),
-    };
-    let n_chunks = cap.div_ceil(CHUNK);
-    let mut total = ChunkTally::new(bins.len(), set.single_scatter);
-    let mut next = 0u64;
-    let mut status = (0.0, 0.0, 0.0);
-    let mut converged = false;
-    let mut work_capped = false;
-    while next < n_chunks {
-        let end = (next + BATCH).min(n_chunks);
-        let parts: Vec<ChunkTally> = (next..end)
-            .into_par_iter()
-            .map(|k| {
-                let photons = CHUNK.min(cap - k * CHUNK);
-                let mut t = ChunkTally::new(bins.len(), set.single_scatter);
-                let mut scratch = PhotonScratch::new(bins.len(), set.single_scatter);
-                let mut rng = chunk_rng(cfg.seed, ch, k);
-                tracer::trace_photons(stack, bins, set, &mut rng, photons, &mut t, &mut scratch);
-                progress.advance(photons);
-                t
+/// One simulation's fixed inputs, shared by the workers.
+struct Job<'a> {
+    material: &'a Material,
+    cfg: &'a McConfig,
+    opts: &'a McOptions,
+    grid: &'a RadialGrid,
+    bins: BinIndex,
+    set: WalkSettings,
+    stacks: Vec<Stack>,
+    /// Photons per channel at most, and the chunks [a, b) this run may trace.
+    cap: u64,
+    range: (u64, u64),
+}
+
+/// A worker's scratch and its exact sums per channel (allocated on use).
+struct Worker {
+    sums: Vec<Option<ExactTally>>,
+    chunk: Option<ChunkTally>,
+    scratch: Option<PhotonScratch>,
+}
+
+impl Job<'_> {
+    fn photons(&self, k: u64) -> u64 {
+        CHUNK.min(self.cap - k * CHUNK)
+    }
+
+    fn trace(&self, w: &mut Worker, c: usize, k: u64) {
+        let (nb, single) = (self.bins.len(), self.set.single_scatter);
+        let t = w.chunk.get_or_insert_with(|| ChunkTally::new(nb, single));
+        t.reset();
+        let sc = w
+            .scratch
+            .get_or_insert_with(|| PhotonScratch::new(nb, single));
+        let mut rng = chunk_rng(self.cfg.seed, self.cfg.channels[c], k);
+        tracer::trace_photons(
+            &self.stacks[c],
+            &self.bins,
+            &self.set,
+            &mut rng,
+            self.photons(k),
+            t,
+            sc,
+        );
+        w.sums[c]
+            .get_or_insert_with(|| ExactTally::new(nb, single))
+            .add_chunk(t);
+    }
+
+    /// Traces rounds of chunks over all channels at once (any number of
+    /// threads share a round), checking the budget's rule between rounds.
+    fn run(&self, progress: &dyn Progress) -> Vec<ChannelRun> {
+        let nch = self.stacks.len();
+        let (nb, single) = (self.bins.len(), self.set.single_scatter);
+        let mut runs: Vec<ChannelRun> = (0..nch)
+            .map(|_| ChannelRun {
+                tally: ExactTally::new(nb, single),
+                status: Status::default(),
+                converged: false,
+                work_capped: false,
             })
             .collect();
-        for p in &parts {
-            total.merge(p);
-        }
-        next = end;
-        status = convergence(&total, grid);
-        if let Some(rel) = target {
-            if status.0 <= rel && status.1 <= rel {
-                converged = true;
+        let target = match self.cfg.budget {
+            PhotonBudget::Fixed(_) => None,
+            PhotonBudget::TargetError { rel, .. } | PhotonBudget::KernelFactor { rel, .. } => {
+                Some(rel)
             }
-            if converged || total.events >= max_work {
-                work_capped = !converged;
-                progress.advance(cap - total.photons);
+        };
+        let mut next = vec![self.range.0; nch];
+        let mut active = vec![true; nch];
+        let mut ratio = vec![f64::INFINITY; nch];
+        loop {
+            let mut units = Vec::new();
+            for c in (0..nch).filter(|&c| active[c]) {
+                let left = self.range.1 - next[c];
+                let len = match target {
+                    None => left,
+                    Some(_) => round_len(next[c] - self.range.0, ratio[c]).min(left),
+                };
+                units.extend((next[c]..next[c] + len).map(|k| (c, k)));
+                next[c] += len;
+            }
+            if units.is_empty() {
                 break;
             }
+            let parts = units
+                .par_iter()
+                .fold(
+                    || Worker {
+                        sums: vec![None; nch],
+                        chunk: None,
+                        scratch: None,
+                    },
+                    |mut w, &(c, k)| {
+                        self.trace(&mut w, c, k);
+                        progress.advance(self.photons(k));
+                        w
+                    },
+                )
+                .map(|w| w.sums)
+                .reduce(|| vec![None; nch], add_sums);
+            for (run, part) in runs.iter_mut().zip(parts) {
+                if let Some(p) = part {
+                    run.tally.add(&p);
+                }
+            }
+            let tallies: Vec<ExactTally> = runs.iter().map(|r| r.tally.clone()).collect();
+            let (status, _) = statuses(self.material, &self.cfg.channels, self.grid, &tallies);
+            for c in 0..nch {
+                runs[c].status = status[c];
+                if !active[c] {
+                    continue;
+                }
+                if let Some(rel) = target {
+                    // No reflectance yet counts as exact only where nothing
+                    // can scatter back; a nearly clear medium must go on.
+                    let scatters = self
+                        .material
+                        .layers
+                        .iter()
+                        .any(|l| l.sigma_s[self.cfg.channels[c].index()] > 0.0);
+                    let err = if scatters && runs[c].tally.totals[1].to_f64() == 0.0 {
+                        f64::INFINITY
+                    } else {
+                        rule_error(&self.cfg.budget, &status[c])
+                    };
+                    ratio[c] = err / rel;
+                    if err <= rel {
+                        runs[c].converged = true;
+                        active[c] = false;
+                    } else if runs[c].tally.events >= self.opts.max_work {
+                        runs[c].work_capped = true;
+                        active[c] = false;
+                    }
+                }
+                if next[c] >= self.range.1 {
+                    active[c] = false;
+                }
+            }
+        }
+        if target.is_none() {
+            runs.iter_mut().for_each(|r| r.converged = true);
+        }
+        runs
+    }
+}
+
+fn add_sums(mut a: Vec<Option<ExactTally>>, b: Vec<Option<ExactTally>>) -> Vec<Option<ExactTally>> {
+    for (x, y) in a.iter_mut().zip(b) {
+        match (x.as_mut(), y) {
+            (Some(x), Some(y)) => x.add(&y),
+            (None, y) => *x = y,
+            _ => {}
         }
     }
-    ChannelRun {
-        tally: total,
-        rel_total: status.0,
-        rel_profile: status.1,
-        r99: status.2,
-        converged: target.is_none() || converged,
-        work_capped,
+    a
+}
+
+/// Chunks in the next round of a target-error run: `FIRST_ROUND` to start,
+/// then what error ~ N^-1/2 predicts is missing (plus 10%), at least one
+/// chunk and at most as many as traced so far. A function of the totals
+/// only, so the photon count does not depend on the thread count.
+fn round_len(done: u64, ratio: f64) -> u64 {
+    if done == 0 {
+        return FIRST_ROUND;
     }
+    if !ratio.is_finite() {
+        return done;
+    }
+    let more = (done as f64 * (1.1 * ratio * ratio - 1.0)).ceil();
+    (more.max(1.0) as u64).min(done)
+}
+
+/// The error a target-error rule compares with its target.
+fn rule_error(budget: &PhotonBudget, s: &Status) -> f64 {
+    match budget {
+        PhotonBudget::Fixed(_) => 0.0,
+        PhotonBudget::TargetError { .. } => s.rel_total.max(s.rel_profile),
+        PhotonBudget::KernelFactor { .. } => s.rel_total.max(s.rel_factor),
+    }
+}
+
+/// R_d per bin (mm^-2) of a tally.
+fn densities(sum: &[f64], n: u64, areas: &[f64]) -> Vec<f64> {
+    let nf = n.max(1) as f64;
+    sum.iter().zip(areas).map(|(s, a)| s / (nf * a)).collect()
+}
+
+/// The status of every channel and the default kernel grid they imply
+/// (all channels together, as `Kernel2D::from_profile` sees them).
+fn statuses(
+    material: &Material,
+    channels: &[Channel],
+    grid: &RadialGrid,
+    tallies: &[ExactTally],
+) -> (Vec<Status>, Option<KernelGeometry>) {
+    let t: Vec<ChunkTally> = tallies.iter().map(ExactTally::to_f64).collect();
+    let areas = grid.areas();
+    let provisional = Profile {
+        schema: PROFILE_SCHEMA.into(),
+        material: material.clone(),
+        units: "mm".into(),
+        source: Source {
+            kind: "monte-carlo".into(),
+            photons: None,
+            seed: None,
+            model: None,
+            params: serde_json::Value::Null,
+        },
+        channels: channels.to_vec(),
+        r_edges: grid.edges.clone(),
+        r: grid.centres(),
+        rd: t
+            .iter()
+            .map(|t| densities(&t.rd_bins.sum, t.photons, &areas))
+            .collect(),
+        rd_stderr: None,
+        total_rd: t.iter().map(|t| t.rd.mean(t.photons)).collect(),
+        total_rd_stderr: None,
+        specular: vec![],
+        transmittance: None,
+        transmittance_stderr: None,
+        absorbed: None,
+        extra: serde_json::Value::Null,
+        elapsed_s: 0.0,
+    };
+    let geometry = kernel_geometry(&provisional);
+    let projection = geometry.map(|g| Projection::new(&grid.edges, &g));
+    let s = t
+        .iter()
+        .map(|t| {
+            let (rel_total, rel_profile, r99) = convergence(t, grid);
+            let rel_factor = projection.as_ref().map_or(0.0, |p| {
+                p.factor_rel_error(&t.rd_bins.sum, &t.rd_bins.sum_sq, t.photons)
+            });
+            Status {
+                rel_total,
+                rel_profile,
+                r99,
+                rel_factor,
+            }
+        })
+        .collect();
+    (s, geometry)
 }
 
 /// (relative stderr of total R_d, relative stderr of the profile, r99).
@@ -345,12 +700,16 @@ fn build_profile(
     opts: &McOptions,
     grid: &RadialGrid,
     grid_rule: serde_json::Value,
-    runs: &[(ChannelRun, Stack)],
+    runs: &[ChannelRun],
     elapsed_s: f64,
 ) -> Profile {
     let areas = grid.areas();
-    let per =
-        |f: &dyn Fn(&ChannelRun) -> f64| -> Vec<f64> { runs.iter().map(|(r, _)| f(r)).collect() };
+    let ts: Vec<ChunkTally> = runs.iter().map(|r| r.tally.to_f64()).collect();
+    let tallies: Vec<ExactTally> = runs.iter().map(|r| r.tally.clone()).collect();
+    let (_, geometry) = statuses(material, &cfg.channels, grid, &tallies);
+    let per = |f: &dyn Fn(&ChunkTally) -> f64| -> Vec<f64> { ts.iter().map(f).collect() };
+    let per_run =
+        |f: &dyn Fn(&Status) -> f64| -> Vec<f64> { runs.iter().map(|r| f(&r.status)).collect() };
     let density = |sums: &tally::BinSums, n: u64| -> (Vec<f64>, Vec<f64>) {
         if sums.sum.is_empty() {
             return (vec![], vec![]);
@@ -371,8 +730,7 @@ fn build_profile(
     let mut single = Vec::new();
     let mut warnings: Vec<String> = Vec::new();
     let mut balance = serde_json::Map::new();
-    for ((run, _), ch) in runs.iter().zip(&cfg.channels) {
-        let t = &run.tally;
+    for ((t, run), ch) in ts.iter().zip(runs).zip(&cfg.channels) {
         let n = t.photons;
         let (v, e) = density(&t.rd_bins, n);
         rd.push(v);
@@ -410,28 +768,50 @@ fn build_profile(
                 "rd_stderr": e,
             }));
         }
-        warnings.extend(channel_warnings(run, *ch, opts, cfg));
+        warnings.extend(channel_warnings(t, run, *ch, opts, cfg));
     }
     if let Some(w) = grid_rule.get("warnings").and_then(|w| w.as_array()) {
         warnings.extend(w.iter().filter_map(|s| s.as_str().map(String::from)));
     }
-    let photons: Vec<u64> = runs.iter().map(|(r, _)| r.tally.photons).collect();
-    let finite = runs.iter().any(|(_, s)| s.is_finite());
-    let budget = match cfg.budget {
-        PhotonBudget::Fixed(n) => json!({"fixed": n}),
-        PhotonBudget::TargetError { rel, max_photons } => {
-            json!({"target_error": rel, "max_photons": max_photons})
+    let photons: Vec<u64> = ts.iter().map(|t| t.photons).collect();
+    let finite = material
+        .layers
+        .last()
+        .is_some_and(|l| l.thickness.is_some());
+    let definition = match cfg.budget {
+        PhotonBudget::Fixed(_) => "",
+        PhotonBudget::TargetError { .. } => {
+            "relative stderr of total R_d and R_d-weighted mean relative stderr of the bins \
+             inside r99 (99% of R_d), each <= target_error, in every channel"
         }
+        PhotonBudget::KernelFactor { .. } => {
+            "relative L2 stderr of the pre-integrated 1D kernel factor (Freude 2014 eq. 5.17) \
+             on the default kernel grid, from per-bin second moments, and relative stderr of \
+             total R_d, each <= target_error, in every channel"
+        }
+    };
+    let budget = match cfg.budget {
+        PhotonBudget::Fixed(n) => json!({"rule": "fixed", "photons": n}),
+        PhotonBudget::TargetError { rel, max_photons }
+        | PhotonBudget::KernelFactor { rel, max_photons } => json!({
+            "rule": cfg.budget.rule(),
+            "target_error": rel,
+            "max_photons": max_photons,
+            "max_work": opts.max_work,
+            "definition": definition,
+        }),
     };
     let mut extra = json!({
         "energy_balance": balance,
-        "rd_beyond_rmax": per(&|r| r.tally.rd_beyond / r.tally.photons as f64),
-        "rel_error_total_rd": per(&|r| r.rel_total),
-        "rel_error_profile": per(&|r| r.rel_profile),
-        "r99_mm": per(&|r| r.r99),
-        "converged": runs.iter().map(|(r, _)| r.converged).collect::<Vec<_>>(),
-        "events_per_photon": per(&|r| r.tally.events as f64 / r.tally.photons as f64),
-        "truncated_photons": runs.iter().map(|(r, _)| r.tally.truncated_photons).collect::<Vec<_>>(),
+        "rd_beyond_rmax": per(&|t| t.rd_beyond / t.photons as f64),
+        "rel_error_total_rd": per_run(&|s| s.rel_total),
+        "rel_error_profile": per_run(&|s| s.rel_profile),
+        "rel_error_kernel_factor": per_run(&|s| s.rel_factor),
+        "kernel_grid": geometry.map(|g| json!({"extent_mm": g.extent_mm, "size": g.size})),
+        "r99_mm": per_run(&|s| s.r99),
+        "converged": runs.iter().map(|r| r.converged).collect::<Vec<_>>(),
+        "events_per_photon": per(&|t| t.events as f64 / t.photons as f64),
+        "truncated_photons": ts.iter().map(|t| t.truncated_photons).collect::<Vec<_>>(),
         "warnings": warnings,
     });
     if opts.single_scatter {
@@ -450,13 +830,12 @@ fn build_profile(
                 "boundary": opts.boundary.name(),
                 "budget": budget,
                 "max_events": opts.max_events,
-                "max_work": opts.max_work,
+                "event_roulette": {"start": opts.event_roulette, "survival_per_doubling": EVENT_ROULETTE_SURVIVAL},
                 "roulette": {"threshold": opts.roulette_threshold, "survival": ROULETTE_CHANCE},
                 "chunk": CHUNK,
-                "batch": BATCH,
                 "rng": "xoshiro256++ per (seed, channel, chunk), SplitMix64-hashed",
+                "sums": "exact fixed-point accumulation of chunk sums (order-free)",
                 "grid": grid_rule,
-                "profile_error": "R_d-weighted mean relative stderr of bins inside r99 (99% of R_d)",
             }),
         },
         channels: cfg.channels.clone(),
@@ -464,13 +843,12 @@ fn build_profile(
         r: grid.centres(),
         rd,
         rd_stderr: Some(rd_err),
-        total_rd: per(&|r| r.tally.rd.mean(r.tally.photons)),
-        total_rd_stderr: Some(per(&|r| r.tally.rd.stderr(r.tally.photons))),
-        specular: per(&|r| r.tally.specular / r.tally.photons as f64),
-        transmittance: Some(per(&|r| r.tally.transmittance.mean(r.tally.photons))),
-        transmittance_stderr: finite
-            .then(|| per(&|r| r.tally.transmittance.stderr(r.tally.photons))),
-        absorbed: Some(per(&|r| r.tally.absorbed.mean(r.tally.photons))),
+        total_rd: per(&|t| t.rd.mean(t.photons)),
+        total_rd_stderr: Some(per(&|t| t.rd.stderr(t.photons))),
+        specular: per(&|t| t.specular / t.photons as f64),
+        transmittance: Some(per(&|t| t.transmittance.mean(t.photons))),
+        transmittance_stderr: finite.then(|| per(&|t| t.transmittance.stderr(t.photons))),
+        absorbed: Some(per(&|t| t.absorbed.mean(t.photons))),
         extra,
         elapsed_s,
     }
@@ -478,12 +856,12 @@ fn build_profile(
 
 /// What a user must know about how a channel's run ended.
 fn channel_warnings(
+    t: &ChunkTally,
     run: &ChannelRun,
     ch: Channel,
     opts: &McOptions,
     cfg: &McConfig,
 ) -> Vec<String> {
-    let t = &run.tally;
     let n = t.photons as f64;
     let c = ch.name();
     let mut w = Vec::new();
@@ -511,20 +889,206 @@ fn channel_warnings(
         ));
     }
     if !run.converged {
-        if let PhotonBudget::TargetError { rel, max_photons } = cfg.budget {
-            let cap = if run.work_capped {
-                format!("the work cap of {} events (--max-work)", opts.max_work)
-            } else {
-                format!("the cap of {max_photons} photons")
-            };
-            w.push(format!(
-                "channel {c}: target error {rel} not reached within {cap}; \
-                 achieved total R_d {:.2e}, profile {:.2e} with {} photons",
-                run.rel_total, run.rel_profile, t.photons
+        let max_photons = cfg.budget.max_photons();
+        let cap = if run.work_capped {
+            format!("the work cap of {} events (--max-work)", opts.max_work)
+        } else {
+            format!("the cap of {max_photons} photons")
+        };
+        let s = &run.status;
+        let achieved = match cfg.budget {
+            PhotonBudget::KernelFactor { .. } => format!("kernel factor {:.2e}", s.rel_factor),
+            _ => format!("profile {:.2e}", s.rel_profile),
+        };
+        let rel = match cfg.budget {
+            PhotonBudget::TargetError { rel, .. } | PhotonBudget::KernelFactor { rel, .. } => rel,
+            PhotonBudget::Fixed(_) => 0.0,
+        };
+        w.push(format!(
+            "channel {c}: target error {rel} ({} rule) not reached within {cap}; \
+             achieved total R_d {:.2e}, {achieved} with {} photons",
+            cfg.budget.rule(),
+            s.rel_total,
+            t.photons
+        ));
+    }
+    w
+}
+
+/// Combines shards of one run (profiles written with `McOptions::shard`,
+/// named for errors) into the profile of the single run: bit-identical to it
+/// except `elapsed_s`, which is the sum of the shards'. Refuses parts of
+/// different runs, duplicates, and an incomplete set.
+pub fn merge_shards(parts: &[(String, Profile)]) -> Result<Profile> {
+    let Some((name0, p0)) = parts.first() else {
+        return Err(Error::Unsupported("no shards to merge".into()));
+    };
+    let mut recs = Vec::with_capacity(parts.len());
+    for (name, p) in parts {
+        let v = p.extra.get("shard").ok_or_else(|| {
+            Error::format(
+                name,
+                "not a shard: no extra.shard (a complete profile, or not from the Monte Carlo simulator)",
+            )
+        })?;
+        let r: ShardRecord = serde_json::from_value(v.clone())
+            .map_err(|e| Error::format(name, format!("malformed extra.shard: {e}")))?;
+        recs.push(r);
+    }
+    let r0 = &recs[0];
+    let params = |p: &Profile| {
+        let mut q = p.source.params.clone();
+        if let Some(o) = q.as_object_mut() {
+            o.remove("shard");
+        }
+        q
+    };
+    let params0 = params(p0);
+    let settings = |r: &ShardRecord| {
+        serde_json::to_value((&r.config.channels, &r.options, &r.grid_rule)).unwrap_or_default()
+    };
+    for ((name, p), r) in parts.iter().zip(&recs).skip(1) {
+        let differ = |what: String| {
+            Err(Error::Unsupported(format!(
+                "cannot merge {name} with {name0}: {what}"
+            )))
+        };
+        if p.material != p0.material {
+            return differ(format!(
+                "different materials ('{}' vs '{}', or the same name with other coefficients)",
+                p.material.name, p0.material.name
+            ));
+        }
+        if p.channels != p0.channels || r.config.channels != r0.config.channels {
+            return differ("different channels".into());
+        }
+        if p.source.seed != p0.source.seed || r.config.seed != r0.config.seed {
+            return differ(format!(
+                "different seeds ({} vs {})",
+                r.config.seed, r0.config.seed
+            ));
+        }
+        if p.r_edges != p0.r_edges {
+            return differ("different radial grids".into());
+        }
+        if r.config.budget != r0.config.budget {
+            return differ(format!(
+                "different photon totals ({} vs {} per channel)",
+                r.config.budget.max_photons(),
+                r0.config.budget.max_photons()
+            ));
+        }
+        if r.n != r0.n {
+            return differ(format!(
+                "split into different numbers of shards ({} vs {})",
+                r.n, r0.n
+            ));
+        }
+        if params(p) != params0 || settings(r) != settings(r0) {
+            let keys: Vec<String> = params0
+                .as_object()
+                .map(|o| {
+                    o.iter()
+                        .filter(|(k, v)| p.source.params.get(k.as_str()) != Some(v))
+                        .map(|(k, _)| k.clone())
+                        .collect()
+                })
+                .unwrap_or_default();
+            return differ(format!(
+                "different simulation settings (source.params: {})",
+                keys.join(", ")
             ));
         }
     }
-    w
+    let n = r0.n;
+    let cap = r0.config.budget.max_photons();
+    let chunks = cap.div_ceil(CHUNK);
+    let nb = p0.r_edges.len().saturating_sub(1);
+    let single = r0.options.single_scatter;
+    let mut seen: std::collections::BTreeMap<u64, &str> = Default::default();
+    let mut tallies: Vec<ExactTally> = (0..r0.config.channels.len())
+        .map(|_| ExactTally::new(nb, single))
+        .collect();
+    for ((name, _), r) in parts.iter().zip(&recs) {
+        if !matches!(r.config.budget, PhotonBudget::Fixed(_))
+            || r.k == 0
+            || r.k > n
+            || n > chunks
+            || (Shard { k: r.k, n }).chunks(chunks) != r.chunks
+        {
+            return Err(Error::format(
+                name,
+                format!(
+                    "extra.shard: part {}/{} with chunks {:?} does not fit a run of {cap} photons",
+                    r.k, n, r.chunks
+                ),
+            ));
+        }
+        if let Some(other) = seen.insert(r.k, name) {
+            return Err(Error::Unsupported(format!(
+                "shard {}/{n} given twice ({other} and {name}): shards must not overlap",
+                r.k
+            )));
+        }
+        let want = (r.chunks.1 * CHUNK).min(cap) - r.chunks.0 * CHUNK;
+        if r.tallies.len() != tallies.len()
+            || r.tallies
+                .iter()
+                .any(|t| !t.has_layout(nb, single) || t.photons != want)
+        {
+            return Err(Error::format(
+                name,
+                "extra.shard: tallies do not match the channels, grid or photons of the shard",
+            ));
+        }
+        for (a, t) in tallies.iter_mut().zip(&r.tallies) {
+            a.add(t);
+        }
+    }
+    if seen.len() as u64 != n {
+        let missing: Vec<String> = (1..=n)
+            .filter(|k| !seen.contains_key(k))
+            .take(10)
+            .map(|k| k.to_string())
+            .collect();
+        return Err(Error::Unsupported(format!(
+            "missing shard(s) {}{} of {n}: a merge needs all {n} parts of the run",
+            missing.join(", "),
+            if (n - seen.len() as u64) > 10 {
+                ", ..."
+            } else {
+                ""
+            }
+        )));
+    }
+    let grid = RadialGrid {
+        edges: p0.r_edges.clone(),
+    };
+    let (status, _) = statuses(&p0.material, &r0.config.channels, &grid, &tallies);
+    let runs: Vec<ChannelRun> = tallies
+        .into_iter()
+        .zip(status)
+        .map(|(tally, status)| ChannelRun {
+            tally,
+            status,
+            converged: true,
+            work_capped: false,
+        })
+        .collect();
+    let elapsed: f64 = parts.iter().map(|(_, p)| p.elapsed_s).sum();
+    let mut p = build_profile(
+        &p0.material,
+        &r0.config,
+        &r0.options,
+        &grid,
+        r0.grid_rule.clone(),
+        &runs,
+        elapsed,
+    );
+    // Anything the caller added to the parts' parameters (e.g. the .mci
+    // origin) is kept, as in the single run.
+    p.source.params = params0;
+    Ok(p)
 }
 
 #[cfg(test)]

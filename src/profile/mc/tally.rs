@@ -99,15 +99,6 @@ impl BinSums {
             sum_sq: vec![0.0; n],
         }
     }
-
-    fn merge(&mut self, o: &BinSums) {
-        for (a, b) in self.sum.iter_mut().zip(&o.sum) {
-            *a += b;
-        }
-        for (a, b) in self.sum_sq.iter_mut().zip(&o.sum_sq) {
-            *a += b;
-        }
-    }
 }
 
 /// Everything a chunk of photons scored.
@@ -142,22 +133,23 @@ impl ChunkTally {
         }
     }
 
-    /// Adds `o` to `self`; callers merge in chunk order (reproducibility).
-    pub fn merge(&mut self, o: &ChunkTally) {
-        self.photons += o.photons;
-        self.events += o.events;
-        self.specular += o.specular;
-        self.rd.merge(&o.rd);
-        self.transmittance.merge(&o.transmittance);
-        self.absorbed.merge(&o.absorbed);
-        self.rd_bins.merge(&o.rd_bins);
-        self.rd_beyond += o.rd_beyond;
-        self.single.merge(&o.single);
-        self.single_bins.merge(&o.single_bins);
-        self.roulette_loss += o.roulette_loss;
-        self.roulette_gain += o.roulette_gain;
-        self.truncated += o.truncated;
-        self.truncated_photons += o.truncated_photons;
+    /// Zeroes every score, keeping the bin layout (reused per chunk).
+    pub fn reset(&mut self) {
+        let rd_bins = std::mem::take(&mut self.rd_bins);
+        let single_bins = std::mem::take(&mut self.single_bins);
+        *self = ChunkTally {
+            rd_bins,
+            single_bins,
+            ..Default::default()
+        };
+        for v in [
+            &mut self.rd_bins.sum,
+            &mut self.rd_bins.sum_sq,
+            &mut self.single_bins.sum,
+            &mut self.single_bins.sum_sq,
+        ] {
+            v.fill(0.0);
+        }
     }
 
     /// Roulette losses minus gains plus truncated weight: the part of the

@@ -1,0 +1,181 @@
+//! MCML's ASCII output (.mco, MCML 1.2 manual, section 6): the input
+//! parameters, the totals (RAT) and Rd_r, so that a run diffs line by line
+//! with an MCML run of the same .mci file. Units are MCML's: cm, cm^-1 and
+//! cm^-2. Only the radial reflectance is tallied here: A_l, A_z, Rd_a, Tt_r,
+//! Tt_a and the 2D arrays are not written.
+//!
+//! Where it follows MCML rather than the profile JSON: weight that leaves
+//! beyond the grid is added to the last Rd_r bin (MCML's convention); the JSON
+//! keeps it apart (`rd_beyond_rmax`) so that kernels see no spike there.
+
+use crate::error::{Error, Result};
+use crate::profile::Profile;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// C's `%G` (precision 6): the shorter of fixed and exponent notation,
+/// trailing zeros removed.
+fn c_g(x: f64) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    if !x.is_finite() {
+        return format!("{x}").to_uppercase();
+    }
+    let exp = x.abs().log10().floor() as i32;
+    // Exponent after rounding to 6 significant digits.
+    let e = format!("{:.5e}", x);
+    let exp_r: i32 = e
+        .split('e')
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(exp);
+    let trim = |s: String| -> String {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    if (-4..6).contains(&exp_r) {
+        let decimals = (5 - exp_r).max(0) as usize;
+        trim(format!("{:.*}", decimals, x))
+    } else {
+        let (mant, _) = e.split_once('e').unwrap_or((&e, "0"));
+        format!(
+            "{}E{}{:02}",
+            trim(mant.to_string()),
+            if exp_r < 0 { '-' } else { '+' },
+            exp_r.abs()
+        )
+    }
+}
+
+/// C's `%12.4E`.
+fn c_e(x: f64) -> String {
+    let e = format!("{:.4e}", x);
+    let (mant, exp) = e.split_once('e').unwrap_or((&e, "0"));
+    let exp: i32 = exp.parse().unwrap_or(0);
+    format!(
+        "{:>12}",
+        format!("{mant}E{}{:02}", if exp < 0 { '-' } else { '+' }, exp.abs())
+    )
+}
+
+/// The .mco text of a one-channel profile on a uniform grid.
+pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
+    if p.channels.len() != 1 {
+        return Err(Error::Unsupported(format!(
+            "an .mco file holds one wavelength (MCML is monochrome); this run has {} channels: \
+             simulate one channel",
+            p.channels.len()
+        )));
+    }
+    let n = p.r.len();
+    let dr = p.r_edges[1] - p.r_edges[0];
+    if p.r_edges
+        .iter()
+        .enumerate()
+        .any(|(i, e)| (e - i as f64 * dr).abs() > 1e-9 * dr.max(*e))
+    {
+        return Err(Error::Unsupported(
+            "an .mco file needs a uniform radial grid (MCML's dr, nr); this run has geometric bins"
+                .into(),
+        ));
+    }
+    let photons = p
+        .source
+        .photons
+        .as_ref()
+        .and_then(|v| v.first())
+        .copied()
+        .unwrap_or(0);
+    let c = p.channels[0].index();
+    let m = &p.material;
+    let cm = |mm: f64| mm / 10.0;
+    let mut s = String::new();
+    let _ = writeln!(s, "A1 \t# Version number of the file format.\n");
+    let _ = writeln!(
+        s,
+        "####\n# Data categories include: \n# InParm, RAT, Rd_r \n####\n"
+    );
+    let _ = writeln!(
+        s,
+        "# Written by ssskit: only InParm, RAT and Rd_r; weight beyond the grid is in the last Rd_r bin.\n"
+    );
+    let _ = writeln!(s, "InParm \t\t\t# Input parameters. cm is used.");
+    let _ = writeln!(s, "{output_name} \tA\t\t# output file name, ASCII.");
+    let _ = writeln!(s, "{photons} \t\t\t# No. of photons");
+    let _ = writeln!(s, "{}\t{}\t\t# dz, dr [cm]", c_g(cm(dr)), c_g(cm(dr)));
+    let _ = writeln!(s, "{}\t{}\t{}\t# No. of dz, dr, da.\n", 1, n, 1);
+    let _ = writeln!(s, "{}\t\t\t\t\t# Number of layers", m.layers.len());
+    let _ = writeln!(s, "#n\tmua\tmus\tg\td\t# One line for each layer");
+    let _ = writeln!(s, "{}\t\t\t\t\t# n for medium above", c_g(m.eta_above));
+    for (i, l) in m.layers.iter().enumerate() {
+        // A semi-infinite layer is written the way MCML users do: 1E8 cm.
+        let d = l.thickness.map_or(1e8, cm);
+        let _ = writeln!(
+            s,
+            "{}\t{}\t{}\t{}\t{}\t# layer {}",
+            c_g(l.eta),
+            c_g(l.sigma_a[c] * 10.0),
+            c_g(l.sigma_s[c] * 10.0),
+            c_g(l.g[c]),
+            c_g(d),
+            i + 1
+        );
+    }
+    let _ = writeln!(s, "{}\t\t\t\t\t# n for medium below\n", c_g(m.eta_below));
+    let get = |v: &Option<Vec<f64>>| v.as_ref().and_then(|v| v.first()).copied().unwrap_or(0.0);
+    let _ = writeln!(s, "RAT #Reflectance, absorption, transmission. ");
+    let _ = writeln!(s, "{:<14} \t#Specular reflectance [-]", c_g(p.specular[0]));
+    let _ = writeln!(s, "{:<14} \t#Diffuse reflectance [-]", c_g(p.total_rd[0]));
+    let _ = writeln!(s, "{:<14} \t#Absorbed fraction [-]", c_g(get(&p.absorbed)));
+    let _ = writeln!(
+        s,
+        "{:<14} \t#Transmittance [-]\n",
+        c_g(get(&p.transmittance))
+    );
+    let _ = writeln!(s, "Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]");
+    let beyond = p.extra["rd_beyond_rmax"][0].as_f64().unwrap_or(0.0);
+    let last_area = std::f64::consts::PI * (p.r_edges[n].powi(2) - p.r_edges[n - 1].powi(2));
+    for (i, v) in p.rd[0].iter().enumerate() {
+        let mm2 = if i + 1 == n {
+            v + beyond / last_area
+        } else {
+            *v
+        };
+        let _ = writeln!(s, "{}", c_e(mm2 * 100.0));
+    }
+    s.push('\n');
+    Ok(s)
+}
+
+/// Writes `mco_text` atomically.
+pub fn write_mco(p: &Profile, path: &Path) -> Result<()> {
+    let name = path
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out.mco".into());
+    let text = mco_text(p, &name)?;
+    crate::io::write_atomic(path, text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn c_formats() {
+        assert_eq!(c_g(0.0270339123), "0.0270339");
+        assert_eq!(c_g(100.0), "100");
+        assert_eq!(c_g(1e8), "1E+08");
+        assert_eq!(c_g(0.002), "0.002");
+        assert_eq!(c_g(2e-5), "2E-05");
+        assert_eq!(c_g(1.37), "1.37");
+        assert_eq!(c_g(999999.7), "1E+06");
+        assert_eq!(c_e(14.355), "  1.4355E+01");
+        assert_eq!(c_e(0.0), "  0.0000E+00");
+        assert_eq!(c_e(1.2345e-7), "  1.2345E-07");
+    }
+}
