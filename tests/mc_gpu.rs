@@ -297,7 +297,7 @@ fn unsupported_settings_are_refused() {
                 shard: Some(ssskit::profile::mc::Shard { k: 1, n: 2 }),
                 ..McOptions::default()
             },
-            "shards",
+            "shard",
         ),
     ] {
         let e = g
