@@ -15,6 +15,7 @@
 //!   case filtered with the kernel's full-resolution factors and with its tap
 //!   table at each count in `taps` (all ranks, summed passes), and for each
 //!   result the per-channel [`ImageErrors`].
+//! - [`evaluate_keeping`]: the same, also returning one filtered image.
 //! - [`evaluate_profile`]`(profile, kernel, case, taps, options)`: both steps
 //!   at once, for a single kernel.
 //! - Lower level, for callers that want the images (contact sheets):
@@ -394,15 +395,6 @@ fn samples(passes: &[Taps]) -> usize {
     2 * passes.iter().map(|t| t.offsets_mm.len()).sum::<usize>()
 }
 
-fn timed(exact: &Exact, passes: Vec<Taps>, options: &Options) -> Result<ImageErrors> {
-    let n = samples(&passes);
-    let (img, secs) = filter(&exact.case, passes)?;
-    let mut e = errors(exact, &img, options)?;
-    e.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
-    e.samples_per_pixel = n;
-    Ok(e)
-}
-
 /// `kernel` on `exact`'s case with its full factors and its tap table at
 /// each count in `taps` (duplicates evaluated once).
 pub fn evaluate(
@@ -411,24 +403,48 @@ pub fn evaluate(
     taps: &[usize],
     options: &Options,
 ) -> Result<KernelImageErrors> {
+    Ok(evaluate_keeping(exact, kernel, taps, options, None)?.0)
+}
+
+/// [`evaluate`], also returning the filtered image of `keep` (when it is
+/// one of the evaluated factors) for contact sheets.
+pub fn evaluate_keeping(
+    exact: &Exact,
+    kernel: &KernelFile,
+    taps: &[usize],
+    options: &Options,
+    keep: Option<Which>,
+) -> Result<(KernelImageErrors, Option<Image>)> {
     let mm = exact.case.mm_per_pixel;
-    let full = timed(exact, tap_passes(kernel, Which::Full, mm)?, options)?;
+    let mut kept = None;
+    let mut run = |which: Which| -> Result<ImageErrors> {
+        let passes = tap_passes(kernel, which, mm)?;
+        let n = samples(&passes);
+        let (img, secs) = filter(&exact.case, passes)?;
+        let mut e = errors(exact, &img, options)?;
+        e.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
+        e.samples_per_pixel = n;
+        if keep == Some(which) {
+            kept = Some(img);
+        }
+        Ok(e)
+    };
+    let full = run(Which::Full)?;
     let mut by_count = BTreeMap::new();
     for &n in taps {
-        if let std::collections::btree_map::Entry::Vacant(slot) = by_count.entry(n) {
-            slot.insert(timed(
-                exact,
-                tap_passes(kernel, Which::Taps(n), mm)?,
-                options,
-            )?);
+        if !by_count.contains_key(&n) {
+            by_count.insert(n, run(Which::Taps(n))?);
         }
     }
-    Ok(KernelImageErrors {
-        signal: exact.case.name.clone(),
-        mm_per_pixel: mm,
-        full,
-        taps: by_count,
-    })
+    Ok((
+        KernelImageErrors {
+            signal: exact.case.name.clone(),
+            mm_per_pixel: mm,
+            full,
+            taps: by_count,
+        },
+        kept,
+    ))
 }
 
 /// [`Exact::new`] then [`evaluate`], for a single kernel.

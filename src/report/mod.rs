@@ -2,5 +2,8 @@
 
 pub mod compare;
 pub mod evaluate;
+pub mod kernel_compare;
+pub mod kernel_plots;
+pub mod kernel_report;
 pub mod plot;
 pub mod table;
