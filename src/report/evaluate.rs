@@ -432,8 +432,8 @@ pub fn evaluate_keeping(
     let full = run(Which::Full)?;
     let mut by_count = BTreeMap::new();
     for &n in taps {
-        if !by_count.contains_key(&n) {
-            by_count.insert(n, run(Which::Taps(n))?);
+        if let std::collections::btree_map::Entry::Vacant(slot) = by_count.entry(n) {
+            slot.insert(run(Which::Taps(n))?);
         }
     }
     Ok((

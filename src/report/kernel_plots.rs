@@ -4,6 +4,9 @@
 //! material and signal with each model's filtered image and its difference
 //! from the exact convolution.
 
+// Colour loops index several [_; 3] arrays by channel at once.
+#![allow(clippy::needless_range_loop)]
+
 use super::kernel_compare::{Comparison, Fitted};
 use super::kernel_report::RANK1;
 use super::plot::{self, Curve, Panel, PALETTE};
@@ -25,9 +28,12 @@ fn factors_of(k: &KernelFile) -> Factors {
         .collect()
 }
 
-/// (distance mm, density 1/mm^2) along the axis and the diagonal of a
-/// row-major n x n kernel with cells of `cell` mm.
-fn slices(a: &[f64], n: usize, cell: f64) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+/// Points (distance mm, density 1/mm^2).
+type Slice = Vec<(f64, f64)>;
+
+/// Slices along the axis and the diagonal of a row-major n x n kernel with
+/// cells of `cell` mm.
+fn slices(a: &[f64], n: usize, cell: f64) -> (Slice, Slice) {
     let h = n / 2;
     let area = cell * cell;
     let axis = (0..=h)
