@@ -232,8 +232,9 @@ fn table_6_3_kernel_rms_ordering() {
 /// manual kernels, tuned by eye for 002's scenes, are worse on ketchup and
 /// marble). "Pre-integration, guided and manual comparable" reproduces for
 /// pre-integration and guided (within 2.6x of each other) but manual is 1.5
-/// to 6.3 times pre-integration. Not compared on the edge with full
-/// factors, where pre-integration is exact (002 5.2).
+/// to 6.3 times pre-integration. On the edge with full factors
+/// pre-integration is exact up to the resampling of its grid to pixels
+/// (002 5.2) and at least 5 times better than guided and manual.
 #[test]
 fn table_6_4_image_space_ranking() {
     let rows = rows("kernels");
@@ -251,10 +252,8 @@ fn table_6_4_image_space_ranking() {
                 // worse still than its renormalised version.
                 assert!(e("svd1") > svd, "{signal} {factor} {m}");
                 if signal == "edge" && factor == "full" {
-                    assert!(
-                        pre < 0.1 * gui.min(man),
-                        "{m}: pre-integration {pre} not exact"
-                    );
+                    // Exact up to the resampling of the kernel grid to pixels.
+                    assert!(pre < 0.2 * gui.min(man), "{m}: pre-integration {pre}");
                     continue;
                 }
                 let r = pre.max(gui) / pre.min(gui);
