@@ -30,6 +30,15 @@ pub enum Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// f64's Display writes 1e300 with 300 digits: numbers longer than a
+/// screenful of digits are shown in scientific notation instead.
+fn short_number(s: String) -> String {
+    match s.parse::<f64>() {
+        Ok(v) if s.len() > 16 => format!("{v:e}"),
+        _ => s,
+    }
+}
+
 impl Error {
     pub fn invalid(
         context: impl Into<String>,
@@ -40,7 +49,7 @@ impl Error {
         Error::Invalid {
             context: context.into(),
             field: field.into(),
-            value: value.to_string(),
+            value: short_number(value.to_string()),
             reason: reason.into(),
         }
     }

@@ -11,6 +11,7 @@ pub mod error;
 pub mod filter;
 pub mod io;
 pub mod kernel;
+pub mod limits;
 pub mod material;
 pub mod numerics;
 pub mod profile;

@@ -125,6 +125,21 @@ pub fn gauss_legendre_sqrt_end(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
     gauss_legendre(|t| g(b - h * t * t) * 2.0 * h * t, 0.0, 1.0)
 }
 
+/// The root of `f` in [lo, hi] (f(lo) <= 0 < f(hi)) by `iterations`
+/// bisections: the midpoint of the last bracket.
+pub fn bisect(f: impl Fn(f64) -> f64, lo: f64, hi: f64, iterations: usize) -> f64 {
+    let (mut lo, mut hi) = (lo, hi);
+    for _ in 0..iterations {
+        let mid = 0.5 * (lo + hi);
+        if f(mid) > 0.0 {
+            hi = mid
+        } else {
+            lo = mid
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,6 +178,12 @@ mod tests {
         let a = gauss_legendre_sqrt_start(&|x: f64| x.sqrt(), 0.0, 1.0);
         let b = gauss_legendre_sqrt_end(&|x: f64| (1.0 - x).max(0.0).sqrt(), 0.0, 1.0);
         assert!((a - 2.0 / 3.0).abs() < 1e-14 && (b - 2.0 / 3.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn bisection_finds_the_root_to_the_last_bit() {
+        let r = bisect(|x| x * x - 2.0, 1.0, 2.0, 200);
+        assert!((r - 2f64.sqrt()).abs() <= f64::EPSILON * 2.0, "{r}");
     }
 
     #[test]

@@ -1,23 +1,8 @@
 //! `ssskit profile`, `ssskit plot profile` and `ssskit profiles compare`
 //! through the real binary: outputs, recorded parameters, error messages.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn ssskit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .args(args)
-        .output()
-        .expect("run ssskit")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn read_json(p: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
+mod common;
+use common::{read_json, run as ssskit, stderr};
 
 #[test]
 fn profile_writes_a_valid_analytic_profile_for_every_model() {
@@ -219,4 +204,68 @@ fn compare_writes_table_csv_and_plot_with_the_failures_visible() {
         .unwrap();
     let rel: f64 = dd_b.split(',').nth(7).unwrap().parse().unwrap();
     assert!(rel > 10.0, "{dd_b}");
+}
+
+#[test]
+fn bad_values_are_reported_in_one_format_naming_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let prof = dir.path().join("skin1.json");
+    let out = dir.path().join("out.json");
+    let (prof_s, out_s) = (prof.to_str().unwrap(), out.to_str().unwrap());
+    let o = ssskit(&[
+        "profile",
+        "--material",
+        "skin1",
+        "--model",
+        "dipole",
+        "--dr",
+        "0.05",
+        "--out",
+        prof_s,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let profile = |extra: &[&'static str]| {
+        let mut a = vec!["profile", "--material", "skin1", "--model", "dipole"];
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&["--out", out_s]);
+        a
+    };
+    let fit = |extra: &[&'static str]| {
+        let mut a = vec!["fit", "--profile", prof_s, "--out", out_s, "--model"];
+        a.extend_from_slice(extra);
+        a
+    };
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (profile(&["--dr", "-1"]), "--dr: invalid value -1: "),
+        (
+            profile(&["--dr", "0.1", "--rmax", "0.01"]),
+            "--rmax: invalid value 0.01: ",
+        ),
+        (
+            profile(&["--channels", "rx"]),
+            "--channels: invalid value x: ",
+        ),
+        (
+            fit(&["svd", "--extent", "-2"]),
+            "--extent: invalid value -2: ",
+        ),
+        (fit(&["svd", "--size", "20"]), "--size: invalid value 20: "),
+        (
+            fit(&["manual", "--w", "2", "--near", "1,1,1", "--far", "2,2,2"]),
+            "--w: invalid value 2: ",
+        ),
+        (fit(&["guided", "--k", "9"]), "--k: invalid value 9: "),
+        (
+            fit(&["gaussians", "--count", "0"]),
+            "--count: invalid value 0: ",
+        ),
+        (
+            fit(&["jimenez", "--width", "0"]),
+            "--width: invalid value 0: ",
+        ),
+    ];
+    for (args, expect) in cases {
+        common::fails_with(&args, &[expect]);
+        assert!(!out.exists(), "{args:?} wrote {out_s}");
+    }
 }

@@ -146,7 +146,7 @@ fn fresnel_fit_outside_its_range_is_a_clear_error() {
     let mat = half_space(0.01, 1.0, 0.0, 3.0);
     let grid = small_grid(&mat);
     let e = analytic::profile(&mat, Model::Pbd, &grid, &Options::default()).unwrap_err();
-    assert!(e.to_string().contains("--fresnel exact"), "{e}");
+    assert!(e.to_string().contains("exact moments"), "{e}");
     let opts = Options {
         fresnel: FresnelMode::Exact,
         ..Options::default()
@@ -259,7 +259,7 @@ proptest! {
                 Err(e) => {
                     // Only the fits refuse, and they say what to do.
                     prop_assert!(!exact, "exact mode failed: {e}");
-                    prop_assert!(e.to_string().contains("--fresnel exact"), "{e}");
+                    prop_assert!(e.to_string().contains("exact moments"), "{e}");
                 }
             }
         }

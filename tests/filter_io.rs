@@ -43,13 +43,7 @@ fn apply_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
 
 /// Runs and expects a clean failure whose message contains every `needle`.
 fn fails_with(args: &[&str], needles: &[&str], out: &Path) {
-    let o = run(args);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "expected '{n}' in: {err}");
-    }
+    assert_fails(&run(args), args, needles);
     assert!(!out.exists(), "a failed run left {}", out.display());
 }
 

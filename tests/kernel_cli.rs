@@ -2,36 +2,10 @@
 //! back, shader export, table A.1 presets in the JSON, and clear errors for
 //! bad flags and malformed kernel files.
 
+mod common;
+use common::{fails_with as fails, ok, read_json as read};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn ssskit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .args(args)
-        .output()
-        .expect("run ssskit")
-}
-
-fn ok(args: &[&str]) -> String {
-    let o = ssskit(args);
-    assert!(
-        o.status.success(),
-        "ssskit {args:?} failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn fails(args: &[&str], expect: &[&str]) {
-    let o = ssskit(args);
-    assert_eq!(o.status.code(), Some(2), "ssskit {args:?} should fail");
-    let err = String::from_utf8_lossy(&o.stderr);
-    for e in expect {
-        assert!(err.contains(e), "ssskit {args:?}: '{err}' lacks '{e}'");
-    }
-    assert!(!err.contains("panicked"), "{err}");
-}
 
 fn profile(dir: &Path, material: &str) -> PathBuf {
     let p = dir.join(format!("{material}.json"));
@@ -45,10 +19,6 @@ fn profile(dir: &Path, material: &str) -> PathBuf {
         p.to_str().unwrap(),
     ]);
     p
-}
-
-fn read(p: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
 }
 
 #[test]

@@ -1,13 +1,7 @@
 //! `ssskit materials` and material-file errors, through the real binary.
 
-use std::process::Command;
-
-fn ssskit(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+mod common;
+use common::run as ssskit;
 
 #[test]
 fn lists_every_preset_with_derived_quantities() {

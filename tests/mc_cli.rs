@@ -2,31 +2,8 @@
 //! files, and a clear message (exit code 2, no panic) for every bad input.
 
 use ssskit::profile::Profile;
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn ssskit(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Runs a command that must fail with a message containing every `needle`.
-fn fails_with(dir: &Path, args: &[&str], needles: &[&str]) {
-    let o = ssskit(dir, args);
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{args:?} should fail: {e}");
-    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
-    for n in needles {
-        assert!(e.contains(n), "{args:?}: message lacks '{n}': {e}");
-    }
-}
+mod common;
+use common::{fails_with_in as fails_with, run_in as ssskit, stderr};
 
 #[test]
 fn simulate_writes_json_and_csv_that_read_back() {

@@ -10,15 +10,16 @@
 //! fraction of the largest value in the enclosing array, so that tail
 //! weights many decades below the peak are judged on the array's scale):
 //! - 1e-9 for deterministic fits (SVD, pre-integration, the manual presets,
-//!   Jimenez, d'Eon's Gaussians): the same arithmetic on the same inputs;
-//!   1e-9 leaves room for a different libm or FMA contraction on another
-//!   machine (ulp-level differences amplified by at most ~1e6 through the
-//!   SVD and the tap integration), and nothing else.
+//!   Jimenez, d'Eon's Gaussians): the same arithmetic on the same inputs.
+//!   On the machine that blessed the files the refit is bit-identical (the
+//!   worst deviation printed with --nocapture is 0); 1e-9 leaves room for a
+//!   different libm or FMA contraction elsewhere (a few ulps, ~1e-16,
+//!   amplified by the conditioning of an SVD or a quadrature), and for
+//!   nothing a reader of the numbers could see.
 //! - 1e-6 for the optimisers (guided L-BFGS, manual --fit, the Gaussian
-//!   mixture fit): an ulp-level change in the objective can move the
-//!   iterate at which a stopping rule fires; 1e-6 is still far below any
-//!   change a reader of the metrics would notice (they are quoted to 3
-//!   digits) and far below what a real change of a fit produces.
+//!   mixture fit): an ulp-level change of the objective can move the
+//!   iterate at which a stopping rule fires; 1e-6 is still three orders
+//!   below the 3 digits the metrics are quoted to.
 //! - Timing fields (`fit_seconds`, `kernel_build_seconds`) are not compared.
 //!
 //! After an intended change of a fit, regenerate the kernels with

@@ -1,8 +1,9 @@
 //! `ssskit apply`: a kernel (or, as ground truth, the full 2D profile) applied
 //! to an image on the CPU or with wgpu.
 
+use anyhow::Context;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
-use ssskit::filter::{cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use ssskit::filter::{check_kernel_fits, cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
 use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
 use std::path::{Path, PathBuf};
@@ -107,6 +108,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, true, true) => Some(args.depth_channel.clone().unwrap_or_else(|| "Z".into())),
         _ => None,
     };
+    ssskit::io::check_extension(&args.out, &["exr", "png"], "image")?;
     let (mut image, extras) = read_image(&args.input, input_depth_channel.as_deref())?;
     let what = args.input.display().to_string();
     report_sanitized(&what, image.check_finite(&what, args.sanitize)?);
@@ -176,6 +178,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Scale::MmPerPixel(m) if strength.is_none() => Some(m),
         _ => None,
     };
+    check_kernel_fits(&kernel, factors, uniform, image.width, image.height)
+        .with_context(|| format!("applying {}", kernel_path.display()))?;
     let setup = Setup {
         passes: taps_for(&kernel, factors, uniform),
         scale,
@@ -262,6 +266,7 @@ fn run_reference(
     }
     let profile = Profile::read(reference)?;
     let k = cpu::reference_kernel(&profile, m)?;
+    cpu::check_reference_fits(image.width, image.height, k.size)?;
     eprintln!(
         "exact 2D kernel: {0}x{0} pixels of {m} mm ({1})",
         k.size,

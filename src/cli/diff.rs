@@ -1,5 +1,6 @@
 //! `ssskit diff`: image-space error between a reference A and an image B.
 
+use super::out::outln;
 use ssskit::filter::diff::{abs_difference, compare, false_colour};
 use ssskit::filter::image::{read_image, write_image, PngDepth};
 use std::path::PathBuf;
@@ -42,16 +43,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let stats = compare(&a, &b)?;
     if args.json {
-        println!("{}", serde_json::to_string(&stats)?);
+        outln!("{}", serde_json::to_string(&stats)?)?;
     } else {
-        println!("{:<8} {:>12} {:>12} {:>12}", "", "R", "G", "B");
+        outln!("{:<8} {:>12} {:>12} {:>12}", "", "R", "G", "B")?;
         let row = |name: &str, v: [f64; 3]| {
-            println!("{name:<8} {:>12.4e} {:>12.4e} {:>12.4e}", v[0], v[1], v[2])
+            outln!("{name:<8} {:>12.4e} {:>12.4e} {:>12.4e}", v[0], v[1], v[2])
         };
-        row("rms", stats.rms);
-        row("max_abs", stats.max_abs);
-        row("rms_rel", stats.rms_rel);
-        row("max_rel", stats.max_rel);
+        row("rms", stats.rms)?;
+        row("max_abs", stats.max_abs)?;
+        row("rms_rel", stats.rms_rel)?;
+        row("max_rel", stats.max_rel)?;
     }
     if let Some(out) = &args.out {
         let is_exr = out

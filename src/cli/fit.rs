@@ -1,5 +1,6 @@
 //! `ssskit fit`: a separable kernel from a reflectance profile.
 
+use super::out::out;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::kernel::emit::{emit, Lang};
@@ -195,13 +196,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if a.out.is_none() && lang.is_none() {
             bail!("nothing to do: give --out KERNEL.json and/or --emit LANG");
         }
+        if let Some(out) = &a.out {
+            ssskit::io::check_extension(out, &["json"], "kernel")?;
+        }
         let profile = Profile::read(pp)?;
         let spec = Kernel2DSpec {
             size: a.size,
             extent_mm: a.extent,
         };
         let m = model(&a, m)?;
-        let k = fit_kernel_file(&profile, &spec, &m, a.taps)?;
+        let k = fit_kernel_file(&profile, &spec, &m, a.taps)
+            .with_context(|| format!("fitting a kernel to {}", pp.display()))?;
         if let Some(out) = &a.out {
             k.write(out)?;
             // Read back what was written: the file must load as is.
@@ -213,7 +218,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         k
     };
     if let Some(lang) = lang {
-        print!("{}", emit(&kernel, lang));
+        out!("{}", emit(&kernel, lang))?;
     } else if a.kernel.is_some() && !a.quiet {
         summary(&kernel);
     }

@@ -1,5 +1,6 @@
 //! `ssskit materials`: the presets and their derived quantities.
 
+use super::out::outln;
 use ssskit::material::{preset, preset_names, Channel, Material};
 
 #[derive(clap::Args)]
@@ -22,10 +23,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     if args.json {
         let rows: Vec<_> = mats.iter().map(derived_json).collect();
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        outln!("{}", serde_json::to_string_pretty(&rows)?)?;
         return Ok(());
     }
-    println!(
+    outln!(
         "{:<12} {:>2} {:>9} {:>9} {:>6} {:>5} {:>8} {:>8} {:>9} {:>9}",
         "material",
         "ch",
@@ -37,7 +38,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "albedo'",
         "MFP mm",
         "1/s_tr mm"
-    );
+    )?;
     for m in &mats {
         for (i, _) in m.layers.iter().enumerate() {
             for ch in Channel::ALL {
@@ -47,7 +48,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 } else {
                     m.name.clone()
                 };
-                println!(
+                outln!(
                     "{:<12} {:>2} {:>9.4} {:>9.4} {:>6.3} {:>5.2} {:>8.5} {:>8.5} {:>9.4} {:>9.4}",
                     label,
                     ch.name(),
@@ -59,7 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     md.reduced_albedo(),
                     md.mfp(),
                     1.0 / md.sigma_tr()
-                );
+                )?;
             }
         }
     }

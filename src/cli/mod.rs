@@ -4,8 +4,10 @@
 mod apply;
 mod compare;
 mod diff;
+mod errors;
 mod fit;
 mod materials;
+mod out;
 mod plot;
 mod profile;
 mod profiles;
@@ -52,7 +54,25 @@ enum Command {
 
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
 pub fn main() -> i32 {
-    let cli = Cli::parse();
+    out::install_panic_hook();
+    if let Err(e) = ssskit::io::remove_temps_on_signals() {
+        eprintln!("warning: {e}: an interrupted write may leave a .ssskit-*.tmp file");
+    }
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // Help, version and usage errors: clap prints them; a closed or
+        // full standard output must not turn --help into a panic or a lie.
+        Err(e) => {
+            let printed = e.print().map_err(out::map_err).and_then(|()| out::flush());
+            return match printed {
+                Ok(()) => e.exit_code(),
+                Err(err) => out::quiet_exit(&err).unwrap_or_else(|| {
+                    eprintln!("error: {err:#}");
+                    2
+                }),
+            };
+        }
+    };
     let result = match cli.command {
         Command::Materials(a) => materials::run(a),
         Command::Simulate(a) => simulate::run(a),
@@ -65,11 +85,14 @@ pub fn main() -> i32 {
         Command::Plot(a) => plot::run(a),
         Command::Compare(a) => compare::run(a),
     };
-    match result {
+    match result.and_then(|()| out::flush()) {
         Ok(()) => 0,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            2
-        }
+        Err(e) => match out::quiet_exit(&e) {
+            Some(code) => code,
+            None => {
+                eprintln!("error: {}", errors::message(&e));
+                2
+            }
+        },
     }
 }

@@ -5,7 +5,7 @@ use clap::ValueEnum;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::fresnel::FresnelMode;
-use ssskit::profile::RadialGrid;
+use ssskit::profile::{GridSpec, RadialGrid};
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -74,6 +74,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    ssskit::io::check_extension(&args.out, &["json"], "profile")?;
     let material = Material::load(&args.material)?;
     let channels = Channel::parse_list(&args.channels)?;
     let grid = grid_from_flags(&material, &channels, args.dr, args.rmax)?;
@@ -111,14 +112,10 @@ pub fn grid_from_flags(
     rmax: Option<f64>,
 ) -> anyhow::Result<RadialGrid> {
     material.validate(&format!("material '{}'", material.name))?;
-    let default = analytic::default_grid(material, channels)?;
-    let dr = dr.unwrap_or(default.edges[1]);
-    let rmax = rmax.unwrap_or(default.r_max());
-    if !(dr.is_finite() && dr > 0.0) {
-        anyhow::bail!("--dr: invalid value {dr}: must be finite and > 0");
-    }
-    if !(rmax.is_finite() && rmax >= dr) {
-        anyhow::bail!("--rmax: invalid value {rmax}: must be finite and >= --dr ({dr})");
-    }
-    Ok(RadialGrid::uniform(dr, rmax)?)
+    let spec = GridSpec {
+        dr,
+        r_max: rmax,
+        log_bins: false,
+    };
+    Ok(spec.grid(material, channels)?)
 }

@@ -2,6 +2,7 @@
 //! reference on the same grid, per material and channel; markdown table,
 //! CSV and one PNG per material.
 
+use super::out::out;
 use super::profile::FresnelArg;
 use super::progress::Bar;
 use ssskit::material::{preset_names, Channel, Material};
@@ -150,7 +151,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     let csv = a.out_dir.join("compare.csv");
     compare::table(&rows).write_markdown(&md)?;
     compare::csv_table(&rows).write_csv(&csv)?;
-    print!("{}", compare::table(&rows).markdown());
+    out!("{}", compare::table(&rows).markdown())?;
     eprintln!("wrote {} and {}", md.display(), csv.display());
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `ssskit simulate`: Monte Carlo reflectance profile of a material (or of
 //! the first run, or a chosen run, of an MCML .mci file).
 
+use super::out::outln;
 use super::progress::Bar;
 use anyhow::Context;
 use ssskit::material::{Channel, Material};
@@ -70,9 +71,10 @@ struct Flags {
     #[arg(long, default_value_t = mc::DEFAULT_MAX_EVENTS)]
     max_events: u64,
     /// Work cap per channel for --target-error runs, in events
-    /// (interactions + boundary hits); ~1.5e9 is about half a minute on 2 cores.
-    #[arg(long, default_value_t = mc::DEFAULT_MAX_WORK)]
-    max_work: u64,
+    /// (interactions + boundary hits); ~1.5e9 is about half a minute on 2 cores
+    /// [default: 1500000000]. A fixed --photons count is not capped: refused with it.
+    #[arg(long)]
+    max_work: Option<u64>,
     /// Weight below which Russian roulette plays, survival 1/10 (unbiased for
     /// any value in (0, 1); MCML uses 1e-4, the default 0.01 is ~1.5x more
     /// efficient, see docs/mc.md).
@@ -124,6 +126,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             max_photons: args.max_photons,
         },
     };
+    if let (PhotonBudget::Fixed(n), Some(w)) = (&budget, args.max_work) {
+        anyhow::bail!(
+            "--max-work {w} caps runs with a target error, but this run traces a fixed {n} \
+             photons per channel (--photons or the .mci count): lower the photon count, or give \
+             --target-error with --max-work"
+        );
+    }
     let grid = match (&mci_run, args.dr, args.rmax, args.log_bins) {
         (Some(r), None, None, false) => Some(r.grid.clone()),
         (_, None, None, false) => None,
@@ -144,7 +153,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         boundary,
         max_events: args.max_events,
         single_scatter: false,
-        max_work: args.max_work,
+        max_work: args.max_work.unwrap_or(mc::DEFAULT_MAX_WORK),
         roulette_threshold: args.roulette,
     };
     let out = args
@@ -152,6 +161,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.json", material.name)));
     // Fail before the simulation, not after it, on an unwritable destination.
+    ssskit::io::check_extension(&out, &["json"], "profile")?;
+    if let Some(csv) = &args.csv {
+        ssskit::io::check_extension(csv, &["csv"], "table")?;
+    }
     for (flag, path) in [("--out", Some(&out)), ("--csv", args.csv.as_ref())] {
         if let Some(dir) = path.and_then(|p| p.parent()) {
             if !dir.as_os_str().is_empty() && !dir.is_dir() {
@@ -165,13 +178,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         profile.source.params["mci"] =
             serde_json::json!({"file": r.source, "run": args.mci_run, "mco_name": r.output_name});
     }
+    // JSON and CSV are renamed together: concurrent runs never mix them.
+    let mut outputs = ssskit::io::AtomicGroup::new();
     profile
-        .write(&out)
+        .write_into(&mut outputs, &out)
         .with_context(|| format!("writing {}", out.display()))?;
     if let Some(csv) = &args.csv {
-        write_csv(&profile, csv)?;
+        write_csv(&profile, csv, &mut outputs)?;
     }
-    print_summary(&profile, &out);
+    outputs.commit()?;
+    print_summary(&profile, &out)?;
     Ok(())
 }
 
@@ -201,45 +217,56 @@ fn explicit_grid(
 }
 
 /// CSV: one row per bin, r and R_d with standard error per channel.
-fn write_csv(p: &Profile, path: &Path) -> anyhow::Result<()> {
+fn write_csv(
+    p: &Profile,
+    path: &Path,
+    outputs: &mut ssskit::io::AtomicGroup,
+) -> anyhow::Result<()> {
     use std::io::Write;
-    ssskit::io::write_atomic_with(path, |w| {
-        write!(w, "r_inner_mm,r_outer_mm,r_mm")?;
-        for c in &p.channels {
-            write!(w, ",rd_{0},rd_{0}_stderr", c.name())?;
-        }
-        writeln!(w)?;
-        for i in 0..p.r.len() {
-            write!(w, "{},{},{}", p.r_edges[i], p.r_edges[i + 1], p.r[i])?;
-            for c in 0..p.channels.len() {
-                let e = p.rd_stderr.as_ref().map_or(0.0, |e| e[c][i]);
-                write!(w, ",{:e},{:e}", p.rd[c][i], e)?;
+    outputs
+        .add_with(path, |w| {
+            write!(w, "r_inner_mm,r_outer_mm,r_mm")?;
+            for c in &p.channels {
+                write!(w, ",rd_{0},rd_{0}_stderr", c.name())?;
             }
             writeln!(w)?;
-        }
-        Ok(())
-    })
-    .with_context(|| format!("writing {}", path.display()))
+            for i in 0..p.r.len() {
+                write!(w, "{},{},{}", p.r_edges[i], p.r_edges[i + 1], p.r[i])?;
+                for c in 0..p.channels.len() {
+                    let e = p.rd_stderr.as_ref().map_or(0.0, |e| e[c][i]);
+                    write!(w, ",{:e},{:e}", p.rd[c][i], e)?;
+                }
+                writeln!(w)?;
+            }
+            Ok(())
+        })
+        .with_context(|| format!("writing {}", path.display()))
 }
 
-fn print_summary(p: &Profile, out: &Path) {
+fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
     let photons = p.source.photons.clone().unwrap_or_default();
-    println!(
+    outln!(
         "{}: {} bins to r = {:.3} mm, {:.2} s",
         p.material.name,
         p.r.len(),
         p.r_edges.last().copied().unwrap_or(0.0),
         p.elapsed_s
-    );
-    println!(
+    )?;
+    outln!(
         "{:>2} {:>10} {:>20} {:>10} {:>10} {:>9} {:>10}",
-        "ch", "photons", "total R_d +- stderr", "T", "absorbed", "specular", "balance-1"
-    );
+        "ch",
+        "photons",
+        "total R_d +- stderr",
+        "T",
+        "absorbed",
+        "specular",
+        "balance-1"
+    )?;
     for (i, c) in p.channels.iter().enumerate() {
         let bal = p.extra["energy_balance"][c.name()]["sum_minus_1"]
             .as_f64()
             .unwrap_or(f64::NAN);
-        println!(
+        outln!(
             "{:>2} {:>10} {:>11.6} +- {:<7.1e} {:>10.6} {:>10.6} {:>9.6} {:>10.1e}",
             c.name(),
             photons.get(i).copied().unwrap_or(0),
@@ -249,12 +276,12 @@ fn print_summary(p: &Profile, out: &Path) {
             p.absorbed.as_ref().map_or(0.0, |a| a[i]),
             p.specular[i],
             bal
-        );
+        )?;
     }
     if let Some(ws) = p.extra["warnings"].as_array() {
         for w in ws.iter().filter_map(|w| w.as_str()) {
             eprintln!("warning: {w}");
         }
     }
-    println!("wrote {}", out.display());
+    outln!("wrote {}", out.display())
 }

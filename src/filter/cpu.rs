@@ -31,17 +31,24 @@ impl PixelKernel {
     /// algorithm exactly (clamping the position or the two indices gives the
     /// same samples).
     pub fn from_taps(t: &Taps, step: f64) -> PixelKernel {
-        let pos: Vec<f64> = t.offsets_mm.iter().map(|o| o * step).collect();
+        // A tap within round-off of a whole pixel stays one entry; the
+        // bounds come from the same snapped positions as the loop below.
+        let pos: Vec<f64> = t
+            .offsets_mm
+            .iter()
+            .map(|o| {
+                let p = o * step;
+                if (p - p.round()).abs() < 1e-9 {
+                    p.round()
+                } else {
+                    p
+                }
+            })
+            .collect();
         let lo = pos.iter().fold(f64::INFINITY, |a, &p| a.min(p.floor())) as i64;
         let hi = pos.iter().fold(f64::NEG_INFINITY, |a, &p| a.max(p.floor())) as i64 + 1;
         let mut weights = vec![[0.0; 3]; (hi - lo + 1) as usize];
-        for (p, w) in pos.iter().zip(&t.weights) {
-            // A tap within round-off of a whole pixel stays one entry.
-            let p = if (p - p.round()).abs() < 1e-9 {
-                p.round()
-            } else {
-                *p
-            };
+        for (&p, w) in pos.iter().zip(&t.weights) {
             let i0 = p.floor();
             let f = p - i0;
             let k = (i0 as i64 - lo) as usize;
@@ -254,7 +261,8 @@ fn fill_clamped<T: Sample>(pad: &mut Vec<T>, row: &[f64], first: i64, len: usize
     pad.clear();
     let left = (-first).clamp(0, len as i64) as usize;
     pad.extend(std::iter::repeat_n(T::from_f64(row[0]), left));
-    let start = (first + left as i64) as usize;
+    // A kernel shifted wholly past the row reads only its border pixels.
+    let start = (first + left as i64).clamp(0, row.len() as i64) as usize;
     let mid = (len - left).min(row.len().saturating_sub(start));
     pad.extend(row[start..start + mid].iter().map(|&v| T::from_f64(v)));
     let right = len - left - mid;
@@ -518,6 +526,24 @@ pub fn reference_kernel(profile: &Profile, mm_per_pixel: f64) -> Result<Kernel2D
 
 /// Kernel sizes above this use the FFT.
 pub const FFT_ABOVE: usize = 21;
+
+/// Refuses an exact 2D convolution of a `width` x `height` image with a
+/// `size` x `size` kernel whose padded FFT grid exceeds
+/// [`crate::limits::MAX_FFT_CELLS`] (memory and minutes of work), before
+/// anything is allocated.
+pub fn check_reference_fits(width: usize, height: usize, size: usize) -> Result<()> {
+    let r = size / 2;
+    let cells = (width + 2 * r).saturating_mul(height + 2 * r);
+    if size > FFT_ABOVE && cells > crate::limits::MAX_FFT_CELLS {
+        return Err(Error::Unsupported(format!(
+            "the exact 2D reference of a {width}x{height} image with a {size}x{size} kernel \
+             needs an FFT grid of {cells} cells, above the cap of {} (3 GiB of buffers): use a \
+             coarser pixel scale or a smaller image",
+            crate::limits::MAX_FFT_CELLS
+        )));
+    }
+    Ok(())
+}
 
 /// Exact 2D convolution (clamped borders) with the kernel's cells taken as
 /// pixels: out(x, y) = sum K(i, j) I(x + i, y + j).

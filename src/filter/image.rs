@@ -252,6 +252,13 @@ fn exr_channels(path: &Path) -> Result<Channels> {
     if let Err(e) = std::fs::metadata(path) {
         return Err(Error::io(path, e));
     }
+    // The header states the size: refuse it before the pixels are read.
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| Error::format(path, format!("unreadable OpenEXR file: {e}")))?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        crate::limits::check_image_size(&path.display().to_string(), size.x(), size.y())?;
+    }
     let image = read_all_flat_layers_from_file(path)
         .map_err(|e| Error::format(path, format!("unreadable OpenEXR file: {e}")))?;
     let layer = image
@@ -327,6 +334,16 @@ fn decode_png(path: &Path) -> Result<image::DynamicImage> {
     let reader = reader
         .with_guessed_format()
         .map_err(|e| Error::io(path, e))?;
+    let (w, h) = reader
+        .into_dimensions()
+        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
+    crate::limits::check_image_size(&path.display().to_string(), w as usize, h as usize)?;
+    let mut reader = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| Error::io(path, e))?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
+    reader.limits(limits);
     reader
         .decode()
         .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))
@@ -376,13 +393,41 @@ pub enum PngDepth {
 /// Writes an image: EXR (32-bit float) or PNG (sRGB-encoded, clamped to
 /// [0, 1]) by the file name's extension, atomically.
 pub fn write_image(path: &Path, image: &Image, png_depth: PngDepth) -> Result<()> {
-    match kind_of(path)? {
+    let kind = kind_of(path)?;
+    check_writable(path, image)?;
+    match kind {
         Kind::Exr => write_exr(path, image, None),
         Kind::Png => write_png(path, image, png_depth),
     }
 }
 
-/// Writes an EXR with RGB(A) and an optional depth channel `Z`.
+/// What ssskit would refuse to read back: a size over the caps, or samples
+/// that are NaN, infinite or beyond f32 (an EXR stores f32; a PNG would
+/// silently clip them).
+fn check_writable(path: &Path, image: &Image) -> Result<()> {
+    crate::limits::check_image_size(&path.display().to_string(), image.width, image.height)?;
+    let planes = image.rgb.iter().chain(image.alpha.as_ref());
+    for (c, plane) in planes.enumerate() {
+        if let Some(i) = plane.iter().position(|v| !(v.abs() <= f32::MAX as f64)) {
+            return Err(Error::format(
+                path,
+                format!(
+                    "refusing to write sample {} at pixel ({}, {}) channel {}: not a finite \
+                     f32; the kernel or the input holds values too large or not numbers",
+                    plane[i],
+                    i % image.width.max(1),
+                    i / image.width.max(1),
+                    ["R", "G", "B", "A"][c]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Writes an EXR with RGB(A) and an optional depth channel `Z`, samples as
+/// given (NaN included: tests build hostile inputs with it); outputs go
+/// through [`write_image`], which refuses what ssskit could not read back.
 pub fn write_exr(path: &Path, image: &Image, depth: Option<&Plane>) -> Result<()> {
     use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec, WritableImage};
     let f = |v: &[f64]| FlatSamples::F32(v.iter().map(|&x| x as f32).collect());

@@ -188,7 +188,43 @@ impl Setup {
         if let Some(s) = &self.specular {
             image::check_same_size("the specular image", s.width, s.height, image)?;
         }
-        Ok(())
+        self.check_work(image)
+    }
+
+    /// The caps of [`crate::limits`] on these passes over `image`: under a
+    /// uniform scale each pass becomes a pixel kernel as wide as its span,
+    /// otherwise every pixel reads every tap.
+    fn check_work(&self, image: &Image) -> Result<()> {
+        let uniform = self
+            .is_uniform()
+            .then(|| self.scale.step_base(image.height));
+        if uniform.is_none() {
+            // Per-pixel steps (strength, 1/depth) must stay finite: an
+            // infinite step times a zero offset is NaN in every pixel.
+            let widest = self
+                .steps(image.width, image.height)
+                .into_iter()
+                .fold(0.0, f64::max);
+            if !widest.is_finite() {
+                return Err(Error::Unsupported(
+                    "the per-pixel kernel scale overflows (a huge strength, a tiny depth or a \
+                     tiny pixel footprint): check the strength and depth images and the scale"
+                        .into(),
+                ));
+            }
+        }
+        let taps: Vec<f64> = self
+            .passes
+            .iter()
+            .map(|t| match uniform {
+                Some(step) => pixel_span(&t.offsets_mm, 1.0 / step),
+                None => t.offsets_mm.len() as f64,
+            })
+            .collect();
+        if let (Some(step), Some(widest)) = (uniform, taps.iter().copied().reduce(f64::max)) {
+            check_span(widest, 1.0 / step, image.width, image.height)?;
+        }
+        check_filter_work(&taps, image.width, image.height)
     }
 
     /// True when every pixel uses the same step and no lerp: the passes are
@@ -245,6 +281,87 @@ pub fn taps_for(
             })
             .collect(),
     }
+}
+
+/// Pixels a 1D factor sampled at `offsets_mm` covers at `mm` per pixel,
+/// with the half-sample margins that resampling adds at both ends (an upper
+/// bound of the pixel kernel's length).
+pub fn pixel_span(offsets_mm: &[f64], mm: f64) -> f64 {
+    let n = offsets_mm.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let margin = if n > 1 {
+        0.5 * (offsets_mm[1] - offsets_mm[0]) + 0.5 * (offsets_mm[n - 1] - offsets_mm[n - 2])
+    } else {
+        mm
+    };
+    (offsets_mm[n - 1] - offsets_mm[0] + margin) / mm + 3.0
+}
+
+fn check_span(span: f64, mm: f64, width: usize, height: usize) -> Result<()> {
+    let max = crate::limits::max_kernel_pixels(width, height);
+    if !(span <= max as f64) {
+        let extent = (span - 3.0) * mm;
+        return Err(Error::invalid(
+            "apply",
+            "mm per pixel",
+            mm,
+            format!(
+                "the kernel ({extent:.4e} mm wide) would span {span:.3e} pixels; at most {max} \
+                 for a {width}x{height} image (4 times its longer side, at least 4096): use at \
+                 least {:.4e} mm per pixel",
+                extent / (max as f64 - 3.0)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses a filtering of `taps[i]` taps per pass (horizontal and vertical,
+/// three channels) over a `width` x `height` image above
+/// [`crate::limits::MAX_FILTER_WORK`].
+fn check_filter_work(taps: &[f64], width: usize, height: usize) -> Result<()> {
+    let work = 6.0 * (width * height) as f64 * taps.iter().sum::<f64>();
+    if !(work <= crate::limits::MAX_FILTER_WORK) {
+        return Err(Error::Unsupported(format!(
+            "applying {} pass(es) of up to {:.0} taps to a {width}x{height} image would take \
+             {work:.2e} multiply-adds, above the cap of {:.0e} (about a minute on two cores): \
+             use a coarser pixel scale, fewer passes, the real-time tap table or a smaller image",
+            taps.len(),
+            taps.iter().copied().fold(0.0, f64::max),
+            crate::limits::MAX_FILTER_WORK
+        )));
+    }
+    Ok(())
+}
+
+/// Checks, before [`taps_for`] builds them, that the taps of `kernel` fit the
+/// caps for a `width` x `height` image: resampling to pixels allocates as many
+/// taps as the kernel spans at `uniform_mm_per_pixel`.
+pub fn check_kernel_fits(
+    kernel: &KernelFile,
+    factors: Factors,
+    uniform_mm_per_pixel: Option<f64>,
+    width: usize,
+    height: usize,
+) -> Result<()> {
+    let passes = match factors {
+        Factors::Taps => &kernel.taps.passes,
+        Factors::Full => &kernel.passes,
+    };
+    let taps: Vec<f64> = passes
+        .iter()
+        .map(|p| match uniform_mm_per_pixel {
+            Some(mm) => pixel_span(&p.offsets_mm, mm),
+            None => p.offsets_mm.len() as f64,
+        })
+        .collect();
+    if let (Some(mm), Some(widest)) = (uniform_mm_per_pixel, taps.iter().copied().reduce(f64::max))
+    {
+        check_span(widest, mm, width, height)?;
+    }
+    check_filter_work(&taps, width, height)
 }
 
 /// Box resampling of a sampled 1D factor to pixels of width `mm` centred on

@@ -4,7 +4,7 @@
 //! kernels), a checker.
 
 use super::Image;
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Signal {
@@ -20,14 +20,7 @@ const SS: usize = 4;
 /// Builds `signal` at `width` x `height`; the checker's cells are
 /// `checker_px` pixels wide.
 pub fn generate(signal: Signal, width: usize, height: usize, checker_px: usize) -> Result<Image> {
-    if width == 0 || height == 0 || width > 16384 || height > 16384 {
-        return Err(Error::invalid(
-            "signal",
-            "--size",
-            format!("{width}x{height}"),
-            "each side must be between 1 and 16384",
-        ));
-    }
+    crate::limits::check_image_size("signal", width, height)?;
     let mut img = Image::new(width, height);
     let value = |x: usize, y: usize| -> f64 {
         match signal {

@@ -84,6 +84,24 @@ impl Pass {
         if self.offsets_mm.windows(2).any(|w| !(w[1] > w[0])) {
             return Err(format!("{what}: offsets must increase strictly"));
         }
+        // Filters resample the factor to pixels: a span of more than
+        // MAX_STEPS of its finest spacing is no sampled kernel (an offset of
+        // -1e12 among steps of 0.1 mm).
+        let n = self.offsets_mm.len();
+        if n > 1 {
+            let span = self.offsets_mm[n - 1] - self.offsets_mm[0];
+            let finest = self
+                .offsets_mm
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .fold(f64::INFINITY, f64::min);
+            if !(span / finest <= MAX_STEPS) {
+                return Err(format!(
+                    "{what}: offsets span {span:.4e} mm with steps as fine as {finest:.4e} mm, \
+                     more than {MAX_STEPS:.0e} steps: not a sampled kernel"
+                ));
+            }
+        }
         if let Some(w) = self
             .weights
             .iter()
@@ -93,6 +111,39 @@ impl Pass {
         }
         Ok(())
     }
+}
+
+/// Most steps of its finest spacing a factor's offsets may span.
+pub const MAX_STEPS: f64 = 1e7;
+
+/// Largest 2D sum of absolute weights per channel: an exact kernel sums to
+/// 1 (the colour is in `total_rd`); this leaves room for any fitted model
+/// while keeping a filtered image far inside f32.
+pub const MAX_KERNEL_SUM: f64 = 1e6;
+
+/// The 2D kernel of separable `passes` sums, per channel, to
+/// sum_i (sum_k a_ik)^2; refuses a channel whose weights are all zero (a
+/// black image) or whose absolute sum is not finite or above
+/// [`MAX_KERNEL_SUM`].
+fn check_weights(what: &str, passes: &[Pass]) -> std::result::Result<(), String> {
+    for (c, name) in ["r", "g", "b"].iter().enumerate() {
+        let abs: f64 = passes
+            .iter()
+            .map(|p| p.weights.iter().map(|w| w[c].abs()).sum::<f64>().powi(2))
+            .sum();
+        if abs == 0.0 {
+            return Err(format!(
+                "{what}: every weight of channel {name} is 0: the kernel would turn the image black"
+            ));
+        }
+        if !(abs <= MAX_KERNEL_SUM) {
+            return Err(format!(
+                "{what}: the 2D kernel of channel {name} has an absolute sum of {abs:.3e}, above \
+                 {MAX_KERNEL_SUM:.0e} (an exact kernel sums to 1): the weights are not a kernel"
+            ));
+        }
+    }
+    Ok(())
 }
 
 impl KernelFile {
@@ -116,6 +167,7 @@ impl KernelFile {
         for (i, p) in self.passes.iter().enumerate() {
             p.validate(&format!("passes[{i}]")).or_else(bad)?;
         }
+        check_weights("passes", &self.passes).or_else(bad)?;
         if self.taps.count == 0 || self.taps.count.is_multiple_of(2) {
             return bad(format!(
                 "taps.count is {}: must be odd (a centre tap and pairs around it)",
@@ -153,6 +205,7 @@ impl KernelFile {
                 ));
             }
         }
+        check_weights("taps.passes", &self.taps.passes).or_else(bad)?;
         Ok(())
     }
 
@@ -162,7 +215,11 @@ impl KernelFile {
         Ok(k)
     }
 
+    /// Writes the file atomically, after the checks a reader makes: ssskit
+    /// never writes a kernel it would refuse to read.
     pub fn write(&self, path: &Path) -> Result<()> {
+        crate::io::check_extension(path, &["json"], "kernel")?;
+        self.validate(&format!("refusing to write {}", path.display()))?;
         crate::io::write_json_atomic(path, self)
     }
 }

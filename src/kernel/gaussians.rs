@@ -276,7 +276,7 @@ pub fn fit_gaussians(k: &Kernel2D, count: usize) -> Result<(Factors, serde_json:
     if count == 0 || count > 12 {
         return Err(Error::invalid(
             "gaussians",
-            "--count",
+            "count",
             count,
             "must be between 1 and 12",
         ));

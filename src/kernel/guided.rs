@@ -203,17 +203,12 @@ pub fn guided(
     starts: &[(&'static str, [Vec<f64>; 3])],
 ) -> Result<(Factors, serde_json::Value)> {
     if !(params.k.is_finite() && params.k >= 0.0 && params.k <= 8.0) {
-        return Err(Error::invalid(
-            "guided",
-            "--k",
-            params.k,
-            "must be in [0, 8]",
-        ));
+        return Err(Error::invalid("guided", "k", params.k, "must be in [0, 8]"));
     }
     if !(params.b.is_finite() && params.b >= 0.0) {
         return Err(Error::invalid(
             "guided",
-            "--b",
+            "b",
             params.b,
             "must be finite and >= 0",
         ));

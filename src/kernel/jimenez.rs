@@ -36,7 +36,7 @@ pub fn jimenez(k: &Kernel2D, p: &JimenezParams) -> Result<(Factors, serde_json::
     if !(p.width.is_finite() && p.width > 0.0) {
         return Err(Error::invalid(
             "jimenez",
-            "--width",
+            "width",
             p.width,
             "must be > 0 (mm scale)",
         ));
@@ -44,7 +44,7 @@ pub fn jimenez(k: &Kernel2D, p: &JimenezParams) -> Result<(Factors, serde_json::
     if let Some(t) = p.strength.iter().find(|t| !(**t >= 0.0 && **t <= 1.0)) {
         return Err(Error::invalid(
             "jimenez",
-            "--strength",
+            "strength",
             t,
             "each must be in [0, 1]",
         ));
@@ -52,7 +52,7 @@ pub fn jimenez(k: &Kernel2D, p: &JimenezParams) -> Result<(Factors, serde_json::
     if let Some(f) = p.falloff.iter().find(|f| !(f.is_finite() && **f >= 0.0)) {
         return Err(Error::invalid(
             "jimenez",
-            "--falloff",
+            "falloff",
             f,
             "each must be finite and >= 0",
         ));

@@ -93,7 +93,7 @@ impl Kernel2D {
             Some(e) => {
                 return Err(Error::invalid(
                     "kernel",
-                    "--extent",
+                    "extent_mm",
                     e,
                     "must be finite and > 0 (mm)",
                 ))
@@ -104,8 +104,11 @@ impl Kernel2D {
                 .fold(0.0, f64::max),
         };
         if !(extent > 0.0) {
-            return Err(Error::Unsupported(
-                "profile holds its reflectance at r = 0 only: give --extent".into(),
+            return Err(Error::invalid(
+                "kernel",
+                "extent_mm",
+                "none",
+                "the profile holds its reflectance at r = 0 only: give the extent",
             ));
         }
         let size = match spec.size {
@@ -113,7 +116,7 @@ impl Kernel2D {
             Some(n) => {
                 return Err(Error::invalid(
                     "kernel",
-                    "--size",
+                    "size",
                     n,
                     format!("must be odd and at most {MAX_SIZE}"),
                 ))

@@ -73,7 +73,7 @@ pub fn preset(name: &str) -> Result<ManualParams> {
         .ok_or_else(|| {
             Error::invalid(
                 "manual",
-                "--preset",
+                "preset",
                 name,
                 format!(
                     "unknown; table A.1 has {}",
@@ -86,13 +86,16 @@ pub fn preset(name: &str) -> Result<ManualParams> {
 impl ManualParams {
     pub fn validate(&self) -> Result<()> {
         if !(self.w >= 0.0 && self.w <= 1.0) {
-            return Err(Error::invalid("manual", "--w", self.w, "must be in [0, 1]"));
+            return Err(Error::invalid("manual", "w", self.w, "must be in [0, 1]"));
         }
-        for (flag, v) in [("--near", self.sqrt_tau_near), ("--far", self.sqrt_tau_far)] {
+        for (param, v) in [
+            ("sqrt_tau_near", self.sqrt_tau_near),
+            ("sqrt_tau_far", self.sqrt_tau_far),
+        ] {
             if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
                 return Err(Error::invalid(
                     "manual",
-                    flag,
+                    param,
                     x,
                     "widths sqrt(tau) must be finite and >= 0 (mm)",
                 ));

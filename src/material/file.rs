@@ -16,24 +16,53 @@ use super::{Layer, Material};
 use crate::error::{Error, Result};
 use serde::Deserialize;
 
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum PerChannel {
-    One(f64),
-    Rgb([f64; 3]),
+/// One value for all channels or three, `[r, g, b]`. Deserialised by hand:
+/// an untagged enum would report a 2-value list as "did not match any
+/// variant" at line 1, column 1.
+struct PerChannel([f64; 3]);
+
+impl<'de> Deserialize<'de> for PerChannel {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = PerChannel;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("one number or a list of three numbers [r, g, b]")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> std::result::Result<PerChannel, E> {
+                Ok(PerChannel([v; 3]))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> std::result::Result<PerChannel, E> {
+                Ok(PerChannel([v as f64; 3]))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> std::result::Result<PerChannel, E> {
+                Ok(PerChannel([v as f64; 3]))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> std::result::Result<PerChannel, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = seq.next_element::<f64>()? {
+                    v.push(x);
+                }
+                match v.as_slice() {
+                    &[r, g, b] => Ok(PerChannel([r, g, b])),
+                    _ => Err(serde::de::Error::invalid_length(v.len(), &self)),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 impl PerChannel {
     fn rgb(&self) -> [f64; 3] {
-        match *self {
-            PerChannel::One(v) => [v; 3],
-            PerChannel::Rgb(a) => a,
-        }
+        self.0
     }
 }
 
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[derive(Default)]
 struct RawLayer {
     sigma_a: Option<PerChannel>,
     sigma_s: Option<PerChannel>,
@@ -43,6 +72,34 @@ struct RawLayer {
     thickness: Option<f64>,
 }
 
+/// A `[[layer]]` table.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LayerTable {
+    sigma_a: Option<PerChannel>,
+    sigma_s: Option<PerChannel>,
+    sigma_s_reduced: Option<PerChannel>,
+    g: Option<PerChannel>,
+    eta: Option<f64>,
+    thickness: Option<f64>,
+}
+
+impl From<LayerTable> for RawLayer {
+    fn from(t: LayerTable) -> RawLayer {
+        RawLayer {
+            sigma_a: t.sigma_a,
+            sigma_s: t.sigma_s,
+            sigma_s_reduced: t.sigma_s_reduced,
+            g: t.g,
+            eta: t.eta,
+            thickness: t.thickness,
+        }
+    }
+}
+
+/// The file. The single-layer fields are spelled out rather than flattened
+/// from `LayerTable`: serde's flatten buffers the values and loses their
+/// position, so errors would point at line 1, column 1.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawMaterial {
@@ -50,16 +107,53 @@ struct RawMaterial {
     unit: Option<String>,
     eta_above: Option<f64>,
     eta_below: Option<f64>,
-    #[serde(flatten)]
-    single: RawLayer,
-    layer: Option<Vec<RawLayer>>,
+    sigma_a: Option<PerChannel>,
+    sigma_s: Option<PerChannel>,
+    sigma_s_reduced: Option<PerChannel>,
+    g: Option<PerChannel>,
+    eta: Option<f64>,
+    thickness: Option<f64>,
+    layer: Option<Vec<LayerTable>>,
+}
+
+/// A TOML error as one line naming the line and the field: "line 3, field
+/// sigma_a: invalid length 2, expected one number or ...".
+fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let msg = e.message().trim().replace('\n', " ");
+    let Some(span) = e.span() else {
+        return msg;
+    };
+    let start = span.start.min(text.len());
+    let line_no = text[..start].matches('\n').count() + 1;
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[line_start..].lines().next().unwrap_or("");
+    let key = line
+        .split_once('=')
+        .map(|(k, _)| k.trim())
+        .filter(|k| !k.is_empty() && !k.starts_with('['));
+    match key {
+        Some(k) => format!("line {line_no}, field {k}: {msg}"),
+        None => format!("line {line_no}: {msg}"),
+    }
 }
 
 /// Parses and validates a material file. `context` names the file in errors;
 /// `default_name` is used when the file has no `name`.
 pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Result<Material> {
-    let raw: RawMaterial = toml::from_str(text)
-        .map_err(|e| Error::format(context, format!("malformed material TOML: {e}")))?;
+    let raw: RawMaterial = toml::from_str(text).map_err(|e| {
+        Error::format(
+            context,
+            format!("malformed material TOML: {}", describe_toml_error(text, &e)),
+        )
+    })?;
+    let single = RawLayer {
+        sigma_a: raw.sigma_a,
+        sigma_s: raw.sigma_s,
+        sigma_s_reduced: raw.sigma_s_reduced,
+        g: raw.g,
+        eta: raw.eta,
+        thickness: raw.thickness,
+    };
     let scale = match raw.unit.as_deref() {
         Some("mm") => 1.0,
         Some("cm") => 0.1,
@@ -80,10 +174,12 @@ pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Res
             ))
         }
     };
-    let has_single = raw.single.sigma_a.is_some()
-        || raw.single.sigma_s.is_some()
-        || raw.single.sigma_s_reduced.is_some()
-        || raw.single.eta.is_some();
+    let has_single = single.sigma_a.is_some()
+        || single.sigma_s.is_some()
+        || single.sigma_s_reduced.is_some()
+        || single.eta.is_some()
+        || single.g.is_some()
+        || single.thickness.is_some();
     let raw_layers = match (raw.layer, has_single) {
         (Some(_), true) => {
             return Err(Error::invalid(
@@ -93,8 +189,8 @@ pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Res
                 "give either top-level coefficients or [[layer]] tables, not both",
             ))
         }
-        (Some(ls), false) => ls,
-        (None, _) => vec![raw.single],
+        (Some(ls), false) => ls.into_iter().map(RawLayer::from).collect(),
+        (None, _) => vec![single],
     };
     let n = raw_layers.len();
     let mut layers = Vec::with_capacity(n);

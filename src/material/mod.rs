@@ -42,7 +42,7 @@ impl Channel {
                 'b' => Channel::B,
                 _ => {
                     return Err(Error::invalid(
-                        "--channels",
+                        "channels",
                         "channel",
                         c,
                         "expected letters among r, g, b",
@@ -54,7 +54,7 @@ impl Channel {
             }
         }
         if out.is_empty() {
-            return Err(Error::invalid("--channels", "channels", "''", "empty"));
+            return Err(Error::invalid("channels", "channels", "''", "empty"));
         }
         out.sort();
         Ok(out)
@@ -92,7 +92,7 @@ pub struct Material {
 }
 
 /// The scalar optical properties of one layer in one channel, with the
-/// derived quantities of REFERENCE.md section 1.
+/// derived quantities of Jensen et al. 2001.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Medium {
     pub sigma_a: f64,
@@ -224,6 +224,33 @@ impl Material {
                         "zero extinction: sigma_a + sigma_s must be > 0",
                     ));
                 }
+                for (f, v) in [("sigma_a", sa), ("sigma_s", ss)] {
+                    if v > MAX_COEFFICIENT {
+                        return Err(Error::invalid(
+                            context,
+                            format!("{}[{}]", lname(f), c.name()),
+                            v,
+                            format!(
+                                "above {MAX_COEFFICIENT:.0e} per mm (a mean free path under a \
+                                 picometre): check the unit"
+                            ),
+                        ));
+                    }
+                }
+                let st = sa + (1.0 - g) * ss;
+                if !(st >= 1.0 / MAX_MFP) {
+                    return Err(Error::invalid(
+                        context,
+                        format!("{}[{}]", lname("sigma_t'"), c.name()),
+                        st,
+                        format!(
+                            "sigma_a + (1 - g) sigma_s is below {:.0e} per mm: a transport mean \
+                             free path over {MAX_MFP:.0e} mm, too long for any radial grid; \
+                             check the unit",
+                            1.0 / MAX_MFP
+                        ),
+                    ));
+                }
             }
             finite_positive(context, &lname("eta"), l.eta)?;
             match l.thickness {
@@ -242,6 +269,14 @@ impl Material {
         Ok(())
     }
 }
+
+/// Largest scattering or absorption coefficient, mm^-1 (a mean free path
+/// of a picometre): beyond it the radial grid (MFP / 20) and its bin areas
+/// underflow.
+pub const MAX_COEFFICIENT: f64 = 1e9;
+/// Longest transport mean free path 1 / sigma_t', mm: beyond it the grid's
+/// radius (thousands of MFP) and its bin areas overflow.
+pub const MAX_MFP: f64 = 1e9;
 
 fn finite_positive(context: &str, field: &str, v: f64) -> Result<()> {
     if !v.is_finite() || v <= 0.0 {

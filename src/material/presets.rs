@@ -85,7 +85,7 @@ mod tests {
 
     #[test]
     fn preset_values_match_reference_table() {
-        // REFERENCE.md section 2 (Jensen 2001, mm^-1).
+        // Jensen et al. 2001 (in mm^-1 as Livermore 2012, fig. 40).
         let m = preset("marble").unwrap();
         assert_eq!(m.layers[0].sigma_s, [2.19, 2.62, 3.00]);
         assert_eq!(m.layers[0].sigma_a, [0.0021, 0.0041, 0.0071]);

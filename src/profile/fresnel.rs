@@ -1,5 +1,5 @@
 //! Fresnel reflectance at a smooth dielectric boundary and its angular
-//! moments (pbrt-v3 FresnelMoment1/2; REFERENCE.md section 4).
+//! moments (pbrt-v3 FresnelMoment1/2; d'Eon and Irving 2011).
 
 /// Unpolarised Fresnel reflectance for light arriving with cosine `cos_i`
 /// (>= 0) from a medium of index n_i onto one of index n_t, `eta = n_t / n_i`.
@@ -27,7 +27,7 @@ pub fn specular_normal(n1: f64, n2: f64) -> f64 {
 }
 
 /// First Fresnel moment, polynomial fit (pbrt-v3 FresnelMoment1), for light
-/// inside a medium of relative index `eta` meeting its boundary. Equals 000's
+/// inside a medium of relative index `eta` meeting its boundary. Equals Dal Corso's
 /// 2 C_1 / 2 fit (d'Eon and Irving 2011).
 pub fn fresnel_moment1(eta: f64) -> f64 {
     let (e, e2) = (eta, eta * eta);
@@ -75,7 +75,7 @@ impl FresnelMode {
     }
 
     /// C_1 = int_0^1 R(mu) mu dmu for light inside a medium of relative index
-    /// `eta` (000 eq. 3.15; pbrt-v3 FresnelMoment1).
+    /// `eta` (Dal Corso 2014, eq. 3.15; pbrt-v3 FresnelMoment1).
     pub fn moment1(self, eta: f64) -> f64 {
         match self {
             FresnelMode::Fit => fresnel_moment1(eta),
@@ -91,17 +91,20 @@ impl FresnelMode {
         }
     }
 
-    /// C_phi = (1 - 2 C_1) / 4 (000 eq. 3.15).
+    /// C_phi = (1 - 2 C_1) / 4 (Dal Corso 2014, eq. 3.15).
     pub fn c_phi(self, eta: f64) -> f64 {
         0.25 * (1.0 - 2.0 * self.moment1(eta))
     }
 
-    /// C_E = (1 - 3 C_2) / 2 (000 eq. 3.15).
+    /// C_E = (1 - 3 C_2) / 2 (Dal Corso 2014, eq. 3.15).
     pub fn c_e(self, eta: f64) -> f64 {
         0.5 * (1.0 - 3.0 * self.moment2(eta))
     }
 
-    /// Boundary mismatch A = (1 - C_E) / (2 C_phi) (001 appendix).
+    /// Boundary mismatch A = (1 - C_E) / (2 C_phi) (Dal Corso et al. 2017,
+    /// appendix): the A of the directional dipole and of photon beam
+    /// diffusion's extrapolated boundary. The standard dipole uses Jensen's
+    /// (1 + F_dr) / (1 - F_dr) instead (`analytic::dipole::boundary_a`).
     pub fn boundary_a(self, eta: f64) -> f64 {
         (1.0 - self.c_e(eta)) / (2.0 * self.c_phi(eta))
     }
@@ -166,7 +169,7 @@ mod tests {
 
     #[test]
     fn moment_fits_give_reference_constants() {
-        // REFERENCE.md section 4: eta = 1.3 -> C_phi = 0.13868, C_E = 0.35128.
+        // The fits (d'Eon and Irving 2011) at eta = 1.3 -> C_phi = 0.13868, C_E = 0.35128.
         let c_phi = (1.0 - 2.0 * fresnel_moment1(1.3)) / 4.0;
         let c_e = (1.0 - 3.0 * fresnel_moment2(1.3)) / 2.0;
         // The published constants carry 5 digits and come from the same fits
@@ -191,7 +194,7 @@ mod tests {
 
     #[test]
     fn exact_moments_give_reference_constants() {
-        // REFERENCE.md section 4: eta = 1.3 -> C_phi = 0.13868, C_E = 0.35128,
+        // The fits (d'Eon and Irving 2011) at eta = 1.3 -> C_phi = 0.13868, C_E = 0.35128,
         // A = 2.3390, values of the polynomial fits. Quadrature differs from
         // the fits by their own error: 3e-4 on C_phi, 1.5e-3 on C_E, 1e-3 on A.
         let m = FresnelMode::Exact;

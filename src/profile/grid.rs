@@ -18,6 +18,31 @@ pub struct RadialGrid {
     pub edges: Vec<f64>,
 }
 
+/// Narrowest bin and largest radius, mm: tallies divide by bin areas
+/// (r_max^2 - ...), which must neither underflow nor overflow.
+pub const MIN_BIN_MM: f64 = 1e-12;
+pub const MAX_RADIUS_MM: f64 = 1e15;
+
+fn check_range(dr: f64, r_max: f64) -> Result<()> {
+    if dr < MIN_BIN_MM {
+        return Err(Error::invalid(
+            "radial grid",
+            "dr",
+            dr,
+            format!("bins narrower than {MIN_BIN_MM:e} mm have areas too small to divide by"),
+        ));
+    }
+    if r_max > MAX_RADIUS_MM {
+        return Err(Error::invalid(
+            "radial grid",
+            "rmax",
+            r_max,
+            format!("radii above {MAX_RADIUS_MM:e} mm give bin areas too large to hold"),
+        ));
+    }
+    Ok(())
+}
+
 impl RadialGrid {
     /// `n = ceil(r_max / dr)` uniform bins of width `dr`.
     pub fn uniform(dr: f64, r_max: f64) -> Result<RadialGrid> {
@@ -37,13 +62,14 @@ impl RadialGrid {
                 "must be finite and >= dr",
             ));
         }
+        check_range(dr, r_max)?;
         let n = (r_max / dr - 1e-9).ceil().max(1.0) as usize;
         if n > 10_000_000 {
             return Err(Error::invalid(
                 "radial grid",
-                "rmax/dr",
-                n,
-                "more than 10^7 bins; use a larger --dr or --log-bins",
+                "dr",
+                dr,
+                format!("gives {n} bins up to {r_max} mm, more than 10^7: use a wider bin or a smaller radius"),
             ));
         }
         Ok(RadialGrid {
@@ -70,6 +96,7 @@ impl RadialGrid {
                 "must be finite and > dr",
             ));
         }
+        check_range(dr_min, r_max)?;
         if n < 2 {
             return Err(Error::invalid(
                 "radial grid",
@@ -81,7 +108,7 @@ impl RadialGrid {
         // Edges e_i = dr_min (q^i - 1)/(q - 1): first width dr_min, e_n = r_max.
         let target = r_max / dr_min;
         let f = |q: f64| (q.powi(n as i32) - 1.0) / (q - 1.0) - target;
-        let (mut lo, mut hi) = (1.0 + 1e-12, 2.0f64);
+        let (lo, mut hi) = (1.0 + 1e-12, 2.0f64);
         while f(hi) < 0.0 {
             hi *= 2.0;
         }
@@ -89,15 +116,7 @@ impl RadialGrid {
             // Even uniform bins overshoot: fall back to uniform spacing.
             return RadialGrid::uniform(r_max / n as f64, r_max);
         }
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if f(mid) > 0.0 {
-                hi = mid
-            } else {
-                lo = mid
-            }
-        }
-        let q = 0.5 * (lo + hi);
+        let q = crate::numerics::bisect(f, lo, hi, 200);
         let mut edges: Vec<f64> = (0..=n)
             .map(|i| dr_min * (q.powi(i as i32) - 1.0) / (q - 1.0))
             .collect();

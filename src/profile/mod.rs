@@ -5,11 +5,13 @@
 pub mod analytic;
 pub mod fresnel;
 pub mod grid;
+pub mod grid_spec;
 pub mod interp;
 pub mod mc;
 pub mod radius;
 
 pub use grid::RadialGrid;
+pub use grid_spec::GridSpec;
 pub use interp::RadialInterp;
 pub use radius::radius_holding;
 
@@ -19,6 +21,10 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 pub const PROFILE_SCHEMA: &str = "ssskit.profile/1";
+
+/// Largest total reflectance per channel a profile may hold (physically at
+/// most 1; see `Profile::validate`).
+pub const MAX_TOTAL: f64 = 10.0;
 
 /// Where a profile came from.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -222,6 +228,24 @@ impl Profile {
         if let Some(e) = &self.total_rd_stderr {
             per_channel("total_rd_stderr", e)?;
         }
+        // Energy conservation: R_d integrates to at most 1 over the plane.
+        // MAX_TOTAL leaves room for unnormalised tables; far beyond it the
+        // numbers are not a reflectance and overflow what reads them.
+        for (c, ch) in self.channels.iter().enumerate() {
+            let tab = self.tabulated_total(c);
+            for (what, v) in [
+                ("2 pi int R_d r dr over r_edges", tab),
+                ("total_rd", self.total_rd[c]),
+            ] {
+                if !(v <= MAX_TOTAL) {
+                    return bad(format!(
+                        "channel {}: {what} = {v:.4e}, above {MAX_TOTAL} (reflectance is at most 1 \
+                         of the incident energy): not a reflectance profile",
+                        ch.name()
+                    ));
+                }
+            }
+        }
         Ok(())
     }
 
@@ -232,8 +256,18 @@ impl Profile {
         Ok(p)
     }
 
-    /// Writes the profile atomically as pretty JSON.
+    /// Writes the profile atomically as pretty JSON, after the checks a
+    /// reader makes: ssskit never writes a profile it would refuse to read.
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::io::write_json_atomic(path, self)
+        let mut group = crate::io::AtomicGroup::new();
+        self.write_into(&mut group, path)?;
+        group.commit()
+    }
+
+    /// [`Profile::write`] as part of a group of outputs renamed together.
+    pub fn write_into(&self, group: &mut crate::io::AtomicGroup, path: &Path) -> Result<()> {
+        crate::io::check_extension(path, &["json"], "profile")?;
+        self.validate(&format!("refusing to write {}", path.display()))?;
+        group.add_json(path, self)
     }
 }

@@ -61,6 +61,7 @@ fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
 
 /// Draws `panels` on a grid with `cols` columns and writes a PNG.
 pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<()> {
+    crate::io::check_extension(out, &["png"], "plot")?;
     register_fonts();
     if panels.is_empty() {
         return Err(Error::Unsupported("nothing to plot".into()));
@@ -113,6 +114,17 @@ fn draw_panel<DB: DrawingBackend>(
     if !(y_max > 0.0) {
         y_max = 1.0;
         y_min = 1e-6;
+    }
+    // Axis ranges are padded by a few percent and cut into ticks: values
+    // near f64::MAX would overflow them (an endless tick loop in plotters).
+    if !(y_max <= 1e300 && panel.x_max.is_finite()) {
+        return Err(plot_err(
+            out,
+            format!(
+                "panel '{}': values up to {y_max:.3e} over x up to {:.3e} cannot be drawn",
+                panel.title, panel.x_max
+            ),
+        ));
     }
     let x_range = 0.0..panel.x_max.max(1e-12);
     let mut chart_builder = ChartBuilder::on(area);

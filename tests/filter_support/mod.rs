@@ -6,24 +6,10 @@ use ssskit::filter::{taps_for, Factors, Image, Plane, Scale, Setup};
 use ssskit::kernel::{Kernel2D, KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
 use ssskit::material::preset;
 use ssskit::profile::{Profile, RadialGrid};
-use std::path::Path;
-use std::process::{Command, Output};
-
-pub fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-}
-
-pub fn run(args: &[&str]) -> Output {
-    bin().args(args).output().expect("the binary runs")
-}
-
-pub fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-pub fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+#[path = "../common/mod.rs"]
+mod common;
+#[allow(unused_imports)] // each test file uses some of them
+pub use common::{assert_fails, bin, p, run, stderr};
 
 /// The dipole profile of a preset over a uniform radial grid.
 pub fn dipole_profile(material: &str, dr: f64, r_max: f64) -> Profile {

@@ -1,5 +1,5 @@
-//! Normalized diffusion of Christensen and Burley 2015 (REFERENCE.md
-//! section 4): R(r) = A s (e^{-s r / l} + e^{-s r / (3 l)}) / (8 pi l r),
+//! Normalized diffusion of Christensen and Burley 2015:
+//! R(r) = A s (e^{-s r / l} + e^{-s r / (3 l)}) / (8 pi l r),
 //! which integrates to A over the plane for any s and l.
 //!
 //! Where the parameters come from (the paper fits s for given A and l):
@@ -7,7 +7,7 @@
 //!   dipole predicts in closed form (with the same Fresnel mode and the
 //!   entry transmission 1 - R_sp), so the total is the dipole's and costs
 //!   nothing; the shape comes from the searchlight fit.
-//! - l is the transport mean free path 1 / sigma_t' (REFERENCE 1), the
+//! - l is the transport mean free path 1 / sigma_t' (Jensen et al. 2001), the
 //!   similarity-theory stand-in for the paper's 1 / sigma_t at g = 0.
 //! - s = 1.85 - A + 7 |A - 0.8|^3 (searchlight configuration).
 

@@ -1,16 +1,16 @@
-//! The standard dipole of Jensen et al. 2001 (REFERENCE.md section 4; seed
-//! 000 ch. 3, with the sign erratum of eq. 3.7/3.10 fixed).
+//! The standard dipole of Jensen et al. 2001 (as in Dal Corso 2014,
+//! ch. 3, with the sign erratum of eq. 3.7/3.10 fixed).
 
 use crate::material::Medium;
 use crate::profile::fresnel::{fresnel_moment1_exact, FresnelMode};
 use std::f64::consts::PI;
 
 /// Diffuse Fresnel reflectance fit F_dr(eta) (Egan and Hilgeman; Jensen et
-/// al. 2001 eq. 5). REFERENCE.md section 4 prints the last coefficient as
+/// al. 2001 eq. 5). A transcription of it prints the last coefficient as
 /// 0.0036: an erratum. The published 0.0636 matches the exact diffuse internal
 /// reflectance 2 C_1 (0.4446 at eta = 1.3, 0.5963 at 1.5; see
 /// `fresnel_moment1_exact`), while 0.0036 is off by 0.08 and changes A by 25%.
-pub fn diffuse_fresnel_fit(eta: f64) -> f64 {
+fn diffuse_fresnel_fit(eta: f64) -> f64 {
     -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
 }
 
@@ -109,7 +109,7 @@ mod tests {
             let fit = diffuse_fresnel_fit(eta);
             let exact = diffuse_fresnel(eta, FresnelMode::Exact);
             assert!((fit - exact).abs() < 3e-3, "eta {eta}: {fit} vs {exact}");
-            // REFERENCE's printed coefficient (0.0036) is 0.06 eta off.
+            // The transcribed coefficient (0.0036) is 0.06 eta off.
             let printed = fit - 0.06 * eta;
             assert!((printed - exact).abs() > 0.05);
         }

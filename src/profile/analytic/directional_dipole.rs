@@ -1,9 +1,9 @@
-//! The directional dipole of Frisvad et al. 2014 (000 ch. 3.3, 001
+//! The directional dipole of Frisvad et al. 2014 (Dal Corso 2014, ch. 3.3; Dal Corso et al. 2017,
 //! appendix), reduced to a radial profile for normal incidence on a plane.
 //!
-//! Errata fixed (REFERENCE.md section 7): in 001 the last term of S'_d
+//! Errata fixed (docs/references.md): in Dal Corso et al. 2017 the last term of S'_d
 //! belongs inside C_E(eta)(...); d_v = |x_o - x_v|. Checked against the
-//! structure of 000 eq. 3.13 (where the bracket is right).
+//! structure of Dal Corso 2014, eq. 3.13 (where the bracket is right).
 //!
 //! At normal incidence the refracted ray is w_12 = -n, mu_0 = 1, the
 //! modified tangent plane is the surface itself (n_i* = n), so with
@@ -14,7 +14,7 @@
 //!   w.n = 1, d_v^2 = r^2 + z_v^2.
 //!
 //! Integrating the outgoing Fresnel transmission over the hemisphere gives
-//! 4 pi C_phi(1/eta), which cancels S_d's 1/(4 C_phi(1/eta)) (000 eq. 3.11):
+//! 4 pi C_phi(1/eta), which cancels S_d's 1/(4 C_phi(1/eta)) (Dal Corso 2014, eq. 3.11):
 //! R_d(r) = T_entry pi (S'_d(real) - S'_d(virtual)). The real source term
 //! then reduces to C_phi phi(r), as in the standard dipole.
 
@@ -26,7 +26,7 @@ use std::f64::consts::PI;
 pub struct DirectionalDipole {
     pub d: f64,
     pub sigma_tr: f64,
-    /// Extrapolation distance d_e = 2.131 D / sqrt(alpha') (000 eq. after 3.15).
+    /// Extrapolation distance d_e = 2.131 D / sqrt(alpha') (Dal Corso 2014, eq. after 3.15).
     pub d_e: f64,
     pub a: f64,
     pub c_phi: f64,
@@ -49,7 +49,7 @@ impl DirectionalDipole {
         }
     }
 
-    /// S'_d of 000 eq. 3.13 without the 1/(4 C_phi(1/eta)) factor, for the
+    /// S'_d of Dal Corso 2014, eq. 3.13 without the 1/(4 C_phi(1/eta)) factor, for the
     /// scalar products x.w, w.n, x.n and distance `dist`.
     fn s_prime(&self, x_w: f64, w_n: f64, x_n: f64, dist: f64) -> f64 {
         let (d, tr) = (self.d, self.sigma_tr);

@@ -57,7 +57,7 @@ impl Model {
             .find(|m| m.name() == s.to_ascii_lowercase())
             .ok_or_else(|| {
                 Error::invalid(
-                    "--model",
+                    "analytic profile",
                     "model",
                     s,
                     "expected one of dipole, pbd, burley, directional-dipole",
@@ -183,11 +183,12 @@ impl ChannelModel {
 fn check_fresnel(model: Model, eta: f64, mode: FresnelMode) -> Result<()> {
     let refuse = |eta: f64, detail: String| {
         Err(Error::invalid(
-            "--fresnel fit",
+            "Fresnel fits",
             "eta",
             eta,
             format!(
-                "the Fresnel fits give {detail} here (outside their range); use --fresnel exact"
+                "the Fresnel fits give {detail} here (outside their range); the exact \
+                 moments hold at every eta"
             ),
         ))
     };
@@ -225,7 +226,7 @@ fn decay_length(m: &Medium) -> f64 {
 }
 
 /// The default grid, shared with the Monte Carlo tally so that profiles
-/// compare bin by bin: `RadialGrid::for_material` (dr = min MFP / 20 as 002
+/// compare bin by bin: `RadialGrid::for_material` (dr = min MFP / 20 as Freude 2014
 /// table 6.1, r_max large enough for the tail).
 pub fn default_grid(material: &Material, channels: &[Channel]) -> Result<RadialGrid> {
     Ok(RadialGrid::for_material(material, channels))
@@ -256,7 +257,7 @@ pub fn profile(
         )));
     }
     if options.channels.is_empty() {
-        return Err(Error::invalid("--channels", "channels", "''", "empty"));
+        return Err(Error::invalid("channels", "channels", "''", "empty"));
     }
     let specular = specular_normal(material.eta_above, material.layers[0].eta);
     let t_entry = 1.0 - specular;

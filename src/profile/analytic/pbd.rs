@@ -1,5 +1,5 @@
 //! Photon beam diffusion (Habel et al. 2013) as in pbrt-v3 bssrdf.cpp
-//! (BeamDiffusionMS / BeamDiffusionSS; REFERENCE.md section 4): the incident
+//! (BeamDiffusionMS / BeamDiffusionSS): the incident
 //! beam is a line of dipoles sampled along its exponential depth
 //! distribution, plus single scattering along the refracted beam.
 
@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 /// Samples along the beam, as pbrt-v3.
 pub const BEAM_SAMPLES: usize = 100;
 
-/// Henyey-Greenstein phase function of the scattering cosine (REFERENCE 3).
+/// Henyey-Greenstein phase function of the scattering cosine (Henyey and Greenstein 1941).
 pub fn phase_hg(cos_theta: f64, g: f64) -> f64 {
     let denom = 1.0 + g * g - 2.0 * g * cos_theta;
     (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
@@ -88,7 +88,7 @@ impl BeamDiffusion {
     }
 
     /// Multiple scattering: a line of dipoles with Grosjean's diffusion
-    /// coefficient (REFERENCE 4, pbrt-v3 BeamDiffusionMS).
+    /// coefficient (Grosjean 1956; pbrt-v3 BeamDiffusionMS).
     pub fn multiple(&self, r: f64) -> f64 {
         let m = &self.medium;
         let sps = m.sigma_s_reduced();
@@ -144,7 +144,7 @@ impl BeamDiffusion {
             let cos_o = t / d;
             // The beam goes down and the scattered light up to the exit
             // point, so the scattering cosine is -cos_o (pbrt's PhaseHG
-            // flips the sign by its direction convention; REFERENCE 4 writes
+            // flips the sign by its direction convention; Habel et al. 2013 write
             // p_HG(cos_o), which is wrong for g != 0).
             let transmit = 1.0 - fresnel_dielectric(cos_o, 1.0 / eta);
             sum += rho * (-st * (d + t_crit)).exp() / (d * d)

@@ -25,6 +25,9 @@ use crate::material::{Layer, Material};
 use crate::profile::RadialGrid;
 use std::path::Path;
 
+/// Most radial bins a run may ask for (as for any radial grid).
+const MAX_BINS: usize = 10_000_000;
+
 /// Thickness (cm) from which the last layer counts as semi-infinite.
 pub const SEMI_INFINITE_CM: f64 = 1e6;
 
@@ -90,6 +93,22 @@ impl<'a> Lines<'a> {
         Ok((no, toks))
     }
 
+    /// Refuses a header count `n` that needs more than the lines left
+    /// (`per` lines per item) before anything is allocated for it.
+    fn check_count(&self, line: usize, n: usize, per: usize, what: &str, why: &str) -> Result<()> {
+        let left = self.lines.len() - self.pos;
+        if n.saturating_mul(per) > left {
+            return Err(Error::format(
+                self.context,
+                format!(
+                    "unexpected end of file: line {line}: {what} is {n}, but only {left} \
+                     lines follow ({why}): the count or the file is wrong"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn num<T: std::str::FromStr>(&self, line: usize, tok: &str, what: &str) -> Result<T> {
         tok.parse::<T>().map_err(|_| {
             Error::format(
@@ -113,6 +132,15 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
             format!("line {no}: number of runs is 0"),
         ));
     }
+    // Counts in the header size allocations: each must fit in what is left
+    // of the file (a run takes at least 8 lines, a layer one).
+    l.check_count(
+        no,
+        n_runs,
+        8,
+        "number of runs",
+        "each run takes at least 8 lines",
+    )?;
     let mut runs = Vec::with_capacity(n_runs);
     for k in 0..n_runs {
         let run_ctx = format!("{context} run {}", k + 1);
@@ -128,6 +156,12 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
         let dr_cm: f64 = l.num(no, t[1], "dr")?;
         let (no, t) = l.next(3, "nz nr na")?;
         let nr: usize = l.num(no, t[1], "nr")?;
+        if nr > MAX_BINS {
+            return Err(Error::format(
+                context,
+                format!("line {no}: nr = {nr}: more than {MAX_BINS} radial bins"),
+            ));
+        }
         let (no, t) = l.next(1, "number of layers")?;
         let n_layers: usize = l.num(no, t[0], "number of layers")?;
         if n_layers == 0 {
@@ -138,6 +172,7 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
                 "must be >= 1",
             ));
         }
+        l.check_count(no, n_layers, 1, "number of layers", "one line per layer")?;
         let (no, t) = l.next(1, "n of the medium above")?;
         let n_above: f64 = l.num(no, t[0], "n above")?;
         let mut layers = Vec::with_capacity(n_layers);

@@ -189,8 +189,8 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     if cfg.channels.is_empty() {
         return Err(Error::invalid("--channels", "channels", "''", "empty"));
     }
-    if cfg.threads == Some(0) {
-        return Err(Error::invalid("--threads", "threads", 0, "must be >= 1"));
+    if let Some(n) = cfg.threads {
+        crate::limits::check_threads("--threads", n)?;
     }
     if opts.max_work == 0 {
         return Err(Error::invalid("--max-work", "max work", 0, "must be >= 1"));

@@ -1,0 +1,104 @@
+//! The one place where the library's parameter names meet the flags that
+//! set them, and the one format of a bad-value message:
+//! `--flag: invalid value V: reason`.
+//!
+//! The library describes a bad parameter as `Error::Invalid { context,
+//! field, value, reason }` in its own terms (context "kernel", field
+//! "extent_mm"); it knows no flags. Errors whose parameter no flag sets (a
+//! field of a material file, say) keep the library's wording.
+
+use ssskit::Error;
+
+/// (library context, parameter, flag).
+const FLAGS: &[(&str, &str, &str)] = &[
+    ("radial grid", "dr", "--dr"),
+    ("radial grid", "rmax", "--rmax"),
+    ("kernel", "extent_mm", "--extent"),
+    ("kernel", "size", "--size"),
+    ("analytic profile", "model", "--model"),
+    ("channels", "channels", "--channels"),
+    ("channels", "channel", "--channels"),
+    ("manual", "preset", "--preset"),
+    ("manual", "w", "--w"),
+    ("manual", "sqrt_tau_near", "--near"),
+    ("manual", "sqrt_tau_far", "--far"),
+    ("jimenez", "width", "--width"),
+    ("jimenez", "strength", "--strength"),
+    ("jimenez", "falloff", "--falloff"),
+    ("gaussians", "count", "--count"),
+    ("guided", "k", "--k"),
+    ("guided", "b", "--b"),
+];
+
+/// Where the value is fine but a setting does not suit it: (context,
+/// parameter, what to do).
+const ADVICE: &[(&str, &str, &str)] = &[("Fresnel fits", "eta", "use --fresnel exact")];
+
+/// The flag that sets `field` of `context`, if one does.
+pub fn flag_of(context: &str, field: &str) -> Option<&'static str> {
+    FLAGS
+        .iter()
+        .find(|(c, f, _)| *c == context && *f == field)
+        .map(|(_, _, flag)| *flag)
+}
+
+fn describe(e: &Error) -> Option<String> {
+    let Error::Invalid {
+        context,
+        field,
+        value,
+        reason,
+    } = e
+    else {
+        return None;
+    };
+    if let Some(flag) = flag_of(context, field) {
+        return Some(format!("{flag}: invalid value {value}: {reason}"));
+    }
+    ADVICE
+        .iter()
+        .find(|(c, f, _)| c == context && f == field)
+        .map(|(_, _, advice)| format!("{e}; {advice}"))
+}
+
+/// The message printed for an error: its context chain, with a library
+/// parameter error told in terms of the flag that set it.
+pub fn message(e: &anyhow::Error) -> String {
+    e.chain()
+        .map(|cause| {
+            cause
+                .downcast_ref::<Error>()
+                .and_then(describe)
+                .unwrap_or_else(|| cause.to_string())
+        })
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameters_map_to_flags_in_one_format() {
+        let e = anyhow::Error::new(Error::invalid("kernel", "extent_mm", -1, "must be > 0"));
+        assert_eq!(message(&e), "--extent: invalid value -1: must be > 0");
+        let e = e.context("fitting skin1.json");
+        assert_eq!(
+            message(&e),
+            "fitting skin1.json: --extent: invalid value -1: must be > 0"
+        );
+        // No flag sets a material file's field: the library's own words.
+        let e = anyhow::Error::new(Error::invalid("m.toml", "g[r]", 1.5, "must be < 1"));
+        assert_eq!(message(&e), "m.toml: invalid g[r] = 1.5: must be < 1");
+        let e = anyhow::Error::new(Error::invalid("Fresnel fits", "eta", 3, "outside"));
+        assert!(message(&e).ends_with("; use --fresnel exact"));
+    }
+
+    #[test]
+    fn every_flag_in_the_table_is_a_flag() {
+        for (_, field, flag) in FLAGS {
+            assert!(flag.starts_with("--") && !field.starts_with('-'), "{flag}");
+        }
+    }
+}

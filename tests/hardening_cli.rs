@@ -1,0 +1,753 @@
+//! Hostile and extreme inputs on the real binary, one regression per class:
+//! bounded work and memory (every run under `prlimit --as` and a wall-clock
+//! limit), no panic on output, nothing unreadable written, messages that
+//! name the problem, no debris. Each run must end with a clear error or a
+//! result ssskit reads back.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Address-space cap of every run: 4 GB, far above what any of these
+/// inputs needs once capped, far below what an uncapped one asks for.
+const MEMORY_LIMIT: &str = "--as=4000000000";
+const TIME_LIMIT: Duration = Duration::from_secs(20);
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
+
+fn command(args: &[&str]) -> Command {
+    let bin = env!("CARGO_BIN_EXE_ssskit");
+    // prlimit is in util-linux (Debian, CI); without it the run is unbounded
+    // in memory but still bounded in time.
+    let mut c = if Path::new("/usr/bin/prlimit").exists() {
+        let mut c = Command::new("/usr/bin/prlimit");
+        c.args([MEMORY_LIMIT, "--", bin]);
+        c
+    } else {
+        Command::new(bin)
+    };
+    c.args(args).env("RUST_BACKTRACE", "1");
+    c
+}
+
+/// Waits for `child` at most `TIME_LIMIT`; a run past it is killed and fails
+/// the test.
+fn wait_bounded(mut child: Child, what: &str) -> Output {
+    let start = Instant::now();
+    loop {
+        match child.try_wait().expect("wait") {
+            Some(_) => return child.wait_with_output().expect("output"),
+            None if start.elapsed() > TIME_LIMIT => {
+                let _ = child.kill();
+                panic!("{what} ran past {TIME_LIMIT:?}: unbounded work");
+            }
+            None => std::thread::sleep(Duration::from_millis(10)),
+        }
+    }
+}
+
+fn run_in(dir: &Path, args: &[&str]) -> Output {
+    let child = command(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn ssskit");
+    let out = wait_bounded(child, &format!("ssskit {args:?}"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("panicked")
+            && !err.contains("RUST_BACKTRACE")
+            && !err.contains("memory allocation"),
+        "ssskit {args:?} crashed: {err}"
+    );
+    out
+}
+
+fn ok_in(dir: &Path, args: &[&str]) -> String {
+    let o = run_in(dir, args);
+    assert!(
+        o.status.success(),
+        "ssskit {args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Runs, expects exit 2 and every needle in stderr; returns stderr.
+fn fails_in(dir: &Path, args: &[&str], needles: &[&str]) -> String {
+    let o = run_in(dir, args);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "ssskit {args:?} should fail: {err}"
+    );
+    for n in needles {
+        assert!(err.contains(n), "ssskit {args:?}: '{err}' lacks '{n}'");
+    }
+    err
+}
+
+fn kernel() -> String {
+    format!("{REPO}/kernels/marble-svd1.json")
+}
+
+fn dirac(dir: &Path) -> PathBuf {
+    let p = dir.join("d.png");
+    ok_in(
+        dir,
+        &["signal", "dirac", "--size", "128x96", "--out", "d.png"],
+    );
+    p
+}
+
+fn temp_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".ssskit-"))
+        .collect()
+}
+
+/// The JSON of `path` with `edit` applied, written to `dir/name`.
+fn edited(path: &str, dir: &Path, name: &str, edit: impl Fn(&mut serde_json::Value)) -> String {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    edit(&mut v);
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_string(&v).unwrap()).unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+// ---- 1. Caps derived from the inputs, checked before allocating ----------
+
+#[test]
+fn kernel_span_is_capped_by_the_image_on_both_backends() {
+    let dir = tempfile::tempdir().unwrap();
+    dirac(dir.path());
+    let k = kernel();
+    for mm in ["1e-9", "1e-6", "1e-4"] {
+        for backend in ["cpu", "gpu"] {
+            fails_in(
+                dir.path(),
+                &[
+                    "apply",
+                    "--kernel",
+                    &k,
+                    "--input",
+                    "d.png",
+                    "--out",
+                    "o.exr",
+                    "--mm-per-pixel",
+                    mm,
+                    "--backend",
+                    backend,
+                ],
+                &["mm per pixel", "128x96", "use at least"],
+            );
+        }
+    }
+    assert!(!dir.path().join("o.exr").exists());
+    // A kernel far below a pixel is the identity, not an index out of bounds.
+    ok_in(
+        dir.path(),
+        &[
+            "apply",
+            "--kernel",
+            &k,
+            "--input",
+            "d.png",
+            "--out",
+            "o.exr",
+            "--mm-per-pixel",
+            "1e30",
+            "--backend",
+            "cpu",
+        ],
+    );
+    let (img, _) = ssskit::filter::image::read_image(&dir.path().join("o.exr"), None).unwrap();
+    assert_eq!(img.non_finite().0, 0);
+}
+
+#[test]
+fn absurd_kernel_offsets_are_refused_on_read() {
+    let dir = tempfile::tempdir().unwrap();
+    dirac(dir.path());
+    let k = edited(&kernel(), dir.path(), "far.json", |v| {
+        v["passes"][0]["offsets_mm"][0] = (-1e12).into();
+    });
+    for args in [
+        vec!["fit", "--kernel", &k],
+        vec![
+            "apply",
+            "--kernel",
+            &k,
+            "--input",
+            "d.png",
+            "--out",
+            "o.exr",
+            "--mm-per-pixel",
+            "0.1",
+        ],
+    ] {
+        fails_in(
+            dir.path(),
+            &args,
+            &["far.json", "passes[0]", "not a sampled kernel"],
+        );
+    }
+}
+
+#[test]
+fn mci_header_counts_must_fit_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |runs: &str, nr: &str, layers: &str| {
+        format!(
+            "1.0\n{runs}\nx.mco A\n100\n0.01 0.01\n1 {nr} 1\n{layers}\n1.0\n1.37 1 100 0.9 1E8\n1.0\n"
+        )
+    };
+    for (name, text, needle) in [
+        (
+            "runs.mci",
+            run("99999999999", "10", "1"),
+            "number of runs is 99999999999",
+        ),
+        (
+            "layers.mci",
+            run("1", "10", "99999999999"),
+            "number of layers is 99999999999",
+        ),
+        ("bins.mci", run("1", "99999999999", "1"), "nr = 99999999999"),
+    ] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+        fails_in(
+            dir.path(),
+            &["simulate", "--mci", name, "--out", "x.json"],
+            &[name, needle],
+        );
+    }
+}
+
+#[test]
+fn threads_are_capped_by_the_cores() {
+    let dir = tempfile::tempdir().unwrap();
+    fails_in(
+        dir.path(),
+        &[
+            "simulate",
+            "--material",
+            "skin1",
+            "--photons",
+            "1000",
+            "--threads",
+            "100000",
+            "--out",
+            "x.json",
+        ],
+        &["--threads", "100000", "per available core"],
+    );
+}
+
+#[test]
+fn signal_size_is_capped_at_what_ssskit_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    fails_in(
+        dir.path(),
+        &["signal", "edge", "--size", "16384x16384", "--out", "s.png"],
+        &["16384x16384", "use a smaller image"],
+    );
+    // A PNG whose header claims more pixels than the cap is refused before
+    // its pixels are decoded: a 1-row, 20000-pixel-wide image.
+    let wide = dir.path().join("wide.png");
+    image::RgbImage::new(20000, 1).save(&wide).unwrap();
+    fails_in(
+        dir.path(),
+        &["diff", "wide.png", "wide.png"],
+        &["wide.png", "20000x1"],
+    );
+}
+
+#[test]
+fn simulate_refuses_a_work_cap_it_would_ignore() {
+    let dir = tempfile::tempdir().unwrap();
+    fails_in(
+        dir.path(),
+        &[
+            "simulate",
+            "--material",
+            "skin1",
+            "--photons",
+            "100000000000",
+            "--max-work",
+            "10",
+            "--out",
+            "x.json",
+        ],
+        &["--max-work 10", "fixed"],
+    );
+}
+
+// ---- 2. No panic on output ----------------------------------------------
+
+#[test]
+fn closed_pipe_ends_quietly_with_141() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = kernel();
+    for args in [
+        vec!["materials"],
+        vec!["materials", "--json"],
+        vec!["fit", "--kernel", &k, "--emit", "hlsl"],
+    ] {
+        // The read end is closed before the child starts: its first write
+        // fails with EPIPE, deterministically.
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let child = command(&args)
+            .current_dir(dir.path())
+            .stdout(writer)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let o = wait_bounded(child, "closed pipe");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(141), "{args:?}: {err}");
+        assert!(err.is_empty(), "{args:?} printed on a closed pipe: {err}");
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn full_disk_on_stdout_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    for args in [vec!["materials"], vec!["--help"]] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let child = command(&args)
+            .current_dir(dir.path())
+            .stdout(full)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let o = wait_bounded(child, "/dev/full");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("writing to standard output"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+// ---- 3. Nothing unreadable written --------------------------------------
+
+#[test]
+fn kernels_with_overflowing_or_zero_weights_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    dirac(dir.path());
+    let huge = edited(&kernel(), dir.path(), "huge.json", |v| {
+        v["passes"][0]["weights"][5] = serde_json::json!([1e308, 1e308, 1e308]);
+    });
+    let zero = edited(&kernel(), dir.path(), "zero.json", |v| {
+        for key in ["passes", "taps"] {
+            let passes = if key == "taps" {
+                &mut v["taps"]["passes"]
+            } else {
+                &mut v["passes"]
+            };
+            for w in passes[0]["weights"].as_array_mut().unwrap() {
+                *w = serde_json::json!([0.0, 0.0, 0.0]);
+            }
+        }
+    });
+    for (k, needle) in [
+        (&huge, "absolute sum"),
+        (&zero, "every weight of channel r is 0"),
+    ] {
+        fails_in(
+            dir.path(),
+            &[
+                "apply",
+                "--kernel",
+                k,
+                "--input",
+                "d.png",
+                "--out",
+                "o.exr",
+                "--mm-per-pixel",
+                "0.1",
+            ],
+            &[needle],
+        );
+    }
+    assert!(!dir.path().join("o.exr").exists());
+}
+
+#[test]
+fn output_format_comes_from_the_extension() {
+    let dir = tempfile::tempdir().unwrap();
+    ok_in(
+        dir.path(),
+        &[
+            "profile",
+            "--material",
+            "skin1",
+            "--model",
+            "dipole",
+            "--out",
+            "p.json",
+        ],
+    );
+    for args in [
+        vec!["plot", "profile", "p.json", "--out", "x.exr"],
+        vec![
+            "profile",
+            "--material",
+            "skin1",
+            "--model",
+            "dipole",
+            "--out",
+            "x.exr",
+        ],
+        vec![
+            "fit",
+            "--profile",
+            "p.json",
+            "--model",
+            "svd",
+            "--out",
+            "x.exr",
+        ],
+        vec![
+            "simulate",
+            "--material",
+            "skin1",
+            "--photons",
+            "100",
+            "--out",
+            "x.exr",
+        ],
+        vec!["signal", "dirac", "--out", "x.jpg"],
+    ] {
+        fails_in(dir.path(), &args, &["x."]);
+    }
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with("x."))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
+#[test]
+fn profiles_beyond_any_reflectance_are_refused_on_read() {
+    let dir = tempfile::tempdir().unwrap();
+    ok_in(
+        dir.path(),
+        &[
+            "profile",
+            "--material",
+            "skin1",
+            "--model",
+            "dipole",
+            "--out",
+            "p.json",
+        ],
+    );
+    let p = dir.path().join("p.json").to_string_lossy().into_owned();
+    let big = edited(&p, dir.path(), "big.json", |v| v["rd"][0][3] = 1e308.into());
+    // plot used to hang on this file; fit and plot must name it.
+    fails_in(
+        dir.path(),
+        &["plot", "profile", &big, "--out", "b.png"],
+        &["big.json", "not a reflectance"],
+    );
+    fails_in(
+        dir.path(),
+        &[
+            "fit",
+            "--profile",
+            &big,
+            "--model",
+            "svd",
+            "--out",
+            "k.json",
+        ],
+        &["big.json", "not a reflectance"],
+    );
+    let zero = edited(&p, dir.path(), "zero.json", |v| {
+        for row in v["rd"].as_array_mut().unwrap() {
+            for x in row.as_array_mut().unwrap() {
+                *x = 0.0.into();
+            }
+        }
+    });
+    fails_in(
+        dir.path(),
+        &[
+            "fit",
+            "--profile",
+            &zero,
+            "--model",
+            "svd",
+            "--out",
+            "k.json",
+        ],
+        &["zero.json", "zero"],
+    );
+}
+
+#[test]
+fn extreme_materials_give_a_readable_profile_or_an_error_before_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, sa: &str, ss: &str| {
+        std::fs::write(
+            dir.path().join(name),
+            format!("unit = \"mm\"\nsigma_a = {sa}\nsigma_s = {ss}\neta = 1.3\n"),
+        )
+        .unwrap();
+    };
+    write("a_big.toml", "1e300", "1");
+    write("s_big.toml", "0.1", "1e300");
+    write("both_tiny.toml", "1e-300", "1e-300");
+    write("a_tiny.toml", "1e-300", "1");
+    for m in ["a_big.toml", "s_big.toml", "both_tiny.toml"] {
+        fails_in(
+            dir.path(),
+            &[
+                "simulate",
+                "--material",
+                m,
+                "--photons",
+                "1000",
+                "--out",
+                "x.json",
+            ],
+            &[m, "check the unit"],
+        );
+    }
+    // Representable but extreme: a finite profile that every reader takes.
+    ok_in(
+        dir.path(),
+        &[
+            "simulate",
+            "--material",
+            "a_tiny.toml",
+            "--photons",
+            "2000",
+            "--out",
+            "t.json",
+        ],
+    );
+    ok_in(dir.path(), &["plot", "profile", "t.json", "--out", "t.png"]);
+    fails_in(
+        dir.path(),
+        &[
+            "simulate",
+            "--material",
+            "skin1",
+            "--log-bins",
+            "--dr",
+            "1e-300",
+            "--photons",
+            "1000",
+            "--out",
+            "x.json",
+        ],
+        &["dr", "1e-300"],
+    );
+}
+
+// ---- 4. Messages that name the problem ----------------------------------
+
+#[test]
+fn material_file_errors_name_line_field_and_shape() {
+    let dir = tempfile::tempdir().unwrap();
+    for (value, needle) in [
+        ("[0.1, 0.2]", "invalid length 2"),
+        ("[0.1, 0.2, 0.3, 0.4]", "invalid length 4"),
+        ("\"0.1\"", "invalid type: string"),
+    ] {
+        std::fs::write(
+            dir.path().join("m.toml"),
+            format!("unit = \"mm\"\nsigma_a = {value}\nsigma_s = 1.0\neta = 1.3\n"),
+        )
+        .unwrap();
+        fails_in(
+            dir.path(),
+            &["materials", "m.toml"],
+            &[
+                "m.toml",
+                "line 2, field sigma_a",
+                needle,
+                "three numbers [r, g, b]",
+            ],
+        );
+    }
+    std::fs::write(
+        dir.path().join("t.toml"),
+        "unit = \"mm\"\nsigma_a = 0.1\nsigma_s = 1.0\neta = 1.3\nthickness = \"0.2\"\n",
+    )
+    .unwrap();
+    fails_in(
+        dir.path(),
+        &["materials", "t.toml"],
+        &["t.toml", "line 5, field thickness"],
+    );
+}
+
+#[test]
+fn profile_grid_messages_name_the_flags_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = [
+        "profile",
+        "--material",
+        "skin1",
+        "--model",
+        "dipole",
+        "--out",
+        "p.json",
+    ];
+    let fine = [&base[..], &["--dr", "1e-9"]].concat();
+    let err = fails_in(dir.path(), &fine, &["--dr", "bins"]);
+    assert!(
+        !err.contains("--log-bins"),
+        "profile has no --log-bins: {err}"
+    );
+    let wide = [&base[..], &["--dr", "100"]].concat();
+    let err = fails_in(dir.path(), &wide, &["--dr: invalid value 100", "default radius"]);
+    assert!(
+        !err.contains("--rmax: invalid"),
+        "no --rmax was given: {err}"
+    );
+}
+
+// ---- 5. Debris -----------------------------------------------------------
+
+#[cfg(unix)]
+#[test]
+fn a_signal_while_writing_leaves_no_temp_file() {
+    let dir = tempfile::tempdir().unwrap();
+    // An 8K EXR takes long enough to write that the temp file is seen.
+    for _attempt in 0..5 {
+        let mut child = command(&[
+            "signal",
+            "shapes",
+            "--size",
+            "7680x4320",
+            "--out",
+            "big.exr",
+        ])
+        .current_dir(dir.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+        let start = Instant::now();
+        while temp_files(dir.path()).is_empty() && start.elapsed() < TIME_LIMIT {
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        if temp_files(dir.path()).is_empty() {
+            let _ = child.wait();
+            let _ = std::fs::remove_file(dir.path().join("big.exr"));
+            continue;
+        }
+        // The temp is there: SIGTERM the process (prlimit execs it, so the
+        // pid is ssskit's).
+        Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        let status = child.wait().unwrap();
+        let left = temp_files(dir.path());
+        assert!(left.is_empty(), "SIGTERM left {left:?} (status {status:?})");
+        if !dir.path().join("big.exr").exists() {
+            assert_eq!(status.code(), Some(143), "{status:?}");
+        }
+        return;
+    }
+    panic!("never caught the write in progress");
+}
+
+#[test]
+fn stale_temp_files_of_dead_processes_are_swept() {
+    let dir = tempfile::tempdir().unwrap();
+    let two_hours_ago = std::time::SystemTime::now() - Duration::from_secs(7200);
+    let make = |name: &str, old: bool| {
+        let f = std::fs::File::create(dir.path().join(name)).unwrap();
+        if old {
+            f.set_modified(two_hours_ago).unwrap();
+        }
+    };
+    // pid 1 is alive; 4194304 is above Linux's pid_max (never a process).
+    make(".ssskit-4194304-dead01.tmp", true);
+    make(".ssskit-4194304-young1.tmp", false);
+    make(".ssskit-1-alive1.tmp", true);
+    make(".ssskit-notours.tmp", true);
+    ok_in(
+        dir.path(),
+        &["signal", "dirac", "--size", "8x8", "--out", "s.png"],
+    );
+    let mut left = temp_files(dir.path());
+    left.sort();
+    let expect = if cfg!(target_os = "linux") {
+        vec![
+            ".ssskit-1-alive1.tmp",
+            ".ssskit-4194304-young1.tmp",
+            ".ssskit-notours.tmp",
+        ]
+    } else {
+        vec![
+            ".ssskit-1-alive1.tmp",
+            ".ssskit-4194304-dead01.tmp",
+            ".ssskit-4194304-young1.tmp",
+            ".ssskit-notours.tmp",
+        ]
+    };
+    assert_eq!(left, expect);
+}
+
+#[test]
+fn concurrent_runs_leave_json_and_csv_of_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let children: Vec<Child> = (1..=4)
+        .map(|seed| {
+            command(&[
+                "simulate",
+                "--material",
+                "skin1",
+                "--channels",
+                "r",
+                "--photons",
+                &(2000 * seed).to_string(),
+                "--seed",
+                &seed.to_string(),
+                "--out",
+                "o.json",
+                "--csv",
+                "o.csv",
+                "--threads",
+                "1",
+            ])
+            .current_dir(dir.path())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+        })
+        .collect();
+    for c in children {
+        let o = wait_bounded(c, "concurrent simulate");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let p = ssskit::profile::Profile::read(&dir.path().join("o.json")).unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("o.csv")).unwrap();
+    let first: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    let rd: f64 = first[3].parse().unwrap();
+    assert_eq!(rd, p.rd[0][0], "JSON and CSV come from different runs");
+    assert!(temp_files(dir.path()).is_empty());
+}

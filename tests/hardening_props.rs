@@ -1,0 +1,258 @@
+//! Random valid-but-extreme materials, profiles, kernels and images thrown at
+//! the library: every stage returns an error or finite output, never panics,
+//! and whatever it writes reads back. Case counts are small (seconds).
+
+use proptest::prelude::*;
+use ssskit::filter::image::{read_image, write_image, PngDepth};
+use ssskit::filter::{check_kernel_fits, cpu, taps_for, Factors, Image, Scale, Setup};
+use ssskit::kernel::{fit_kernel_file, Kernel2DSpec, KernelFile, Model as KernelModel, Pass};
+use ssskit::material::{Layer, Material};
+use ssskit::profile::analytic::{self, Model, Options};
+use ssskit::profile::{Profile, RadialGrid};
+
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
+
+/// 10^e for e drawn uniformly: spans many decades with few cases.
+fn decades(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    (lo..hi).prop_map(|e: f64| 10f64.powf(e))
+}
+
+fn half_space(sa: [f64; 3], ss: [f64; 3], g: f64, eta: f64) -> Material {
+    Material {
+        name: "extreme".into(),
+        eta_above: 1.0,
+        eta_below: 1.0,
+        layers: vec![Layer {
+            sigma_a: sa,
+            sigma_s: ss,
+            g: [g; 3],
+            eta,
+            thickness: None,
+        }],
+    }
+}
+
+fn all_finite(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// Writes `p` and reads it back: the file must load as written.
+fn round_trip(p: &Profile) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.json");
+    match p.write(&path) {
+        Ok(()) => {
+            let back = Profile::read(&path).expect("ssskit must read back what it wrote");
+            assert_eq!(back.rd, p.rd);
+        }
+        Err(e) => assert!(!path.exists(), "failed write left {path:?}: {e}"),
+    }
+}
+
+/// A kernel from the repository with its passes replaced.
+fn kernel_with(passes: Vec<Pass>) -> KernelFile {
+    let mut k = KernelFile::read(&std::path::Path::new(REPO).join("kernels/marble-svd1.json"))
+        .expect("repository kernel");
+    k.taps.passes = passes.clone();
+    k.taps.count = passes[0].offsets_mm.len();
+    k.passes = passes;
+    k
+}
+
+fn image(w: usize, h: usize, values: &[f64]) -> Image {
+    let mut img = Image::new(w, h);
+    for c in 0..3 {
+        for (i, v) in img.rgb[c].iter_mut().enumerate() {
+            *v = values[(i * 3 + c) % values.len()];
+        }
+    }
+    img
+}
+
+/// Applies `k` the way `ssskit apply` does; returns the image or the error.
+fn apply(k: &KernelFile, img: &Image, mm: f64) -> ssskit::Result<Image> {
+    check_kernel_fits(k, Factors::Full, Some(mm), img.width, img.height)?;
+    let setup = Setup {
+        passes: taps_for(k, Factors::Full, Some(mm)),
+        scale: Scale::MmPerPixel(mm),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+    };
+    cpu::apply(img, &setup)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// Materials from a picometre to a kilometre of mean free path: the
+    /// library accepts and tabulates them finitely, or refuses them.
+    #[test]
+    fn extreme_materials_give_finite_profiles_or_errors(
+        sa in decades(-13.0, 10.0),
+        ss in decades(-13.0, 10.0),
+        g in -0.999f64..0.999,
+        eta in decades(-1.0, 1.0),
+        model in 0usize..3,
+    ) {
+        let m = half_space([sa, sa * 0.5, sa * 2.0], [ss; 3], g, eta);
+        if m.validate("m").is_err() {
+            return Ok(());
+        }
+        let auto = RadialGrid::for_material(&m, &[]);
+        prop_assert!(all_finite(&auto.edges));
+        // A few hundred bins over the default radius keeps every case fast.
+        let Ok(grid) = RadialGrid::uniform(auto.r_max() / 300.0, auto.r_max()) else {
+            return Ok(());
+        };
+        let model = [Model::Dipole, Model::Burley, Model::DirectionalDipole][model];
+        if let Ok(p) = analytic::profile(&m, model, &grid, &Options::default()) {
+            for row in &p.rd {
+                prop_assert!(all_finite(row));
+            }
+            prop_assert!(all_finite(&p.total_rd));
+            round_trip(&p);
+            let spec = Kernel2DSpec { size: Some(31), extent_mm: None };
+            let svd = KernelModel::Svd { rank: 1, renormalize: false };
+            if let Ok(k) = fit_kernel_file(&p, &spec, &svd, 9) {
+                prop_assert!(k.validate("fitted").is_ok());
+            }
+        }
+    }
+
+    /// Profiles with values from 1e-300 to 1e300: refused on validation, or
+    /// every reader downstream (kernel fit) gives an error or a valid kernel.
+    #[test]
+    fn extreme_profiles_are_refused_or_fit(
+        scale in decades(-300.0, 300.0),
+        spike in decades(-300.0, 300.0),
+        at in 0usize..50,
+    ) {
+        let mut p = analytic::profile(
+            &ssskit::material::preset("skin1").unwrap(),
+            Model::Dipole,
+            &RadialGrid::uniform(0.05, 2.5).unwrap(),
+            &Options::default(),
+        ).unwrap();
+        for row in p.rd.iter_mut() {
+            for v in row.iter_mut() {
+                *v *= scale;
+            }
+            row[at] = spike;
+        }
+        for t in p.total_rd.iter_mut() {
+            *t = (*t * scale).min(1.0);
+        }
+        if p.validate("p").is_err() {
+            return Ok(());
+        }
+        round_trip(&p);
+        let spec = Kernel2DSpec { size: Some(31), extent_mm: None };
+        let svd = KernelModel::Svd { rank: 1, renormalize: true };
+        if let Ok(k) = fit_kernel_file(&p, &spec, &svd, 9) {
+            prop_assert!(k.validate("fitted").is_ok());
+        }
+    }
+
+    /// Kernels with offsets and weights over hundreds of decades, applied at
+    /// any pixel scale: refused on read, refused by the caps, or finite.
+    #[test]
+    fn extreme_kernels_are_refused_or_give_finite_images(
+        step in decades(-12.0, 12.0),
+        shift in -1e6f64..1e6,
+        weight in decades(-300.0, 300.0),
+        n in 1usize..9,
+        mm in decades(-9.0, 30.0),
+    ) {
+        let offsets: Vec<f64> = (0..n).map(|i| shift + step * (i as f64 - (n / 2) as f64)).collect();
+        let weights: Vec<[f64; 3]> = (0..n).map(|i| [weight, weight * (i as f64), weight]).collect();
+        let k = kernel_with(vec![Pass { offsets_mm: offsets, weights }]);
+        if k.validate("k").is_err() {
+            return Ok(());
+        }
+        let img = image(16, 12, &[0.0, 1.0, 0.25, 4.0, 0.5]);
+        if let Ok(out) = apply(&k, &img, mm) {
+            for c in 0..3 {
+                prop_assert!(all_finite(&out.rgb[c]));
+            }
+        }
+    }
+
+    /// Images with samples from 1e-300 to 1e300 through a real kernel: the
+    /// result is finite, and is either written and read back or refused.
+    #[test]
+    fn extreme_images_are_filtered_finitely_and_written_readably(
+        big in decades(-300.0, 300.0),
+        small in decades(-300.0, 0.0),
+        w in 1usize..24,
+        h in 1usize..24,
+        png in any::<bool>(),
+    ) {
+        let k = KernelFile::read(&std::path::Path::new(REPO).join("kernels/skin1-svd1.json")).unwrap();
+        let img = image(w, h, &[big, small, 0.0, 1.0]);
+        let out = apply(&k, &img, 0.5).unwrap();
+        for c in 0..3 {
+            prop_assert!(all_finite(&out.rgb[c]));
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(if png { "o.png" } else { "o.exr" });
+        match write_image(&path, &out, PngDepth::Sixteen) {
+            Ok(()) => {
+                let (back, _) = read_image(&path, None).unwrap();
+                prop_assert_eq!(back.non_finite().0, 0);
+            }
+            Err(_) => prop_assert!(!path.exists()),
+        }
+    }
+}
+
+/// Found by the property above: a kernel shifted wholly past the image used
+/// to index out of its row; with clamp-to-edge it reads the border pixel.
+#[test]
+fn a_kernel_shifted_past_the_image_reads_the_border() {
+    let k = kernel_with(vec![Pass {
+        offsets_mm: vec![41366.0, 41367.0, 41368.0],
+        weights: vec![[0.25; 3], [0.5; 3], [0.25; 3]],
+    }]);
+    let img = image(16, 12, &[0.0, 1.0, 0.25, 4.0, 0.5]);
+    let out = apply(&k, &img, 1.0).unwrap();
+    // Both passes read the bottom-right pixel: weights sum to 1 per pass.
+    for c in 0..3 {
+        let corner = img.rgb[c][16 * 12 - 1];
+        for v in &out.rgb[c] {
+            assert!((v - corner).abs() < 1e-6, "{v} vs {corner}");
+        }
+    }
+}
+
+/// The caps live in `Setup::validate`, which both backends run first: a
+/// three-tap kernel 60 mm wide at 1e-6 mm per pixel (6e7 pixels) is refused
+/// by the CPU and by wgpu (lavapipe in CI) alike, before any allocation.
+#[test]
+fn both_backends_refuse_a_kernel_span_over_the_cap() {
+    let setup = Setup {
+        passes: vec![ssskit::filter::Taps {
+            offsets_mm: vec![-30.0, 0.0, 30.0],
+            weights: vec![[0.25; 3], [0.5; 3], [0.25; 3]],
+        }],
+        scale: Scale::MmPerPixel(1e-6),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+    };
+    let img = image(16, 12, &[1.0]);
+    let e = cpu::apply(&img, &setup).unwrap_err().to_string();
+    assert!(
+        e.contains("would span") && e.contains("use at least"),
+        "{e}"
+    );
+    ssskit::filter::gpu::use_software_vulkan_if_unset();
+    let g = ssskit::filter::gpu::Gpu::new().expect("GPU test needs an adapter (lavapipe in CI)");
+    let e = g.apply(&img, &setup).unwrap_err().to_string();
+    assert!(
+        e.contains("would span") && e.contains("use at least"),
+        "{e}"
+    );
+}
