@@ -187,7 +187,7 @@ fn image_sum(
 
 /// Table 6.3: the unnormalised rank-1 SVD has the lowest kernel RMS of the
 /// rank-1 models on every material and channel (reproduces); pre-integration
-/// is 2-3x (reproduces: 002 prints 2.06-2.38); guided k = 1 2-3x
+/// is 2-3x (reproduces: Freude 2014 prints 2.06-2.38); guided k = 1 2-3x
 /// (reproduces except ketchup green and blue, whose kernels span a few
 /// cells of a grid sized by the red channel: there the ratio is above 5).
 #[test]
@@ -225,16 +225,16 @@ fn table_6_3_kernel_rms_ordering() {
     }
 }
 
-/// Table 6.4: the renormalised rank-1 SVD (002's renderer normalises every
+/// Table 6.4: the renormalised rank-1 SVD (Freude's renderer normalises every
 /// kernel) has the largest image error of SVD, pre-integration, guided k = 1
 /// and manual (table A.1) "in most cases": here on 3 of the 5 materials for
 /// both signals, with 17-tap tables and with full factors (the table A.1
-/// manual kernels, tuned by eye for 002's scenes, are worse on ketchup and
+/// manual kernels, tuned by eye for Freude's scenes, are worse on ketchup and
 /// marble). "Pre-integration, guided and manual comparable" reproduces for
 /// pre-integration and guided (within 2.6x of each other) but manual is 1.5
 /// to 6.3 times pre-integration. On the edge with full factors
 /// pre-integration is exact up to the resampling of its grid to pixels
-/// (002 5.2) and at least 5 times better than guided and manual.
+/// (Freude 2014, sec. 5.2) and at least 5 times better than guided and manual.
 #[test]
 fn table_6_4_image_space_ranking() {
     let rows = rows("kernels");

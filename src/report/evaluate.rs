@@ -487,7 +487,7 @@ mod tests {
         fit_kernel_file(p, &spec, &model, 17).unwrap()
     }
 
-    /// Pre-integration is exact for additively separable irradiance (002
+    /// Pre-integration is exact for additively separable irradiance (Freude 2014
     /// section 5.2): on the edge, full factors reproduce the 2D convolution
     /// to round-off (f64) or to f32 storage; the tap table does not.
     #[test]

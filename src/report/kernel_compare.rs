@@ -522,7 +522,7 @@ mod tests {
         assert!(model_specs(&["nope".into()], &[1], "skin1").is_err());
     }
 
-    /// Renormalised Gaussians have the ground truth's 1-norm (002 eq.
+    /// Renormalised Gaussians have the ground truth's 1-norm (Freude 2014, eq.
     /// 5.12), the fitted ones lose energy; the run works without images.
     #[test]
     fn renormalised_gaussians_conserve_energy() {

@@ -429,7 +429,7 @@ pub fn factor_distance(
 
 /// A table of the claims.
 pub fn claims_table(claims: &[Claim]) -> Table {
-    let mut t = Table::new(&["002", "claim", "holds", "measured"]);
+    let mut t = Table::new(&["Freude 2014", "claim", "holds", "measured"]);
     for c in claims {
         t.push(vec![
             c.source.clone(),
