@@ -3,6 +3,7 @@
 
 mod apply;
 mod bench;
+mod compare;
 mod diff;
 mod engine;
 mod errors;
@@ -57,6 +58,8 @@ enum Command {
     Engine(engine::Args),
     /// GPU timing of the post-process (timestamp queries).
     Bench(bench::Args),
+    /// Kernel models across materials, in kernel and image space (report, CSV, JSON, plots).
+    Compare(compare::Args),
 }
 
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
@@ -93,6 +96,7 @@ pub fn main() -> i32 {
         Command::Plot(a) => plot::run(a),
         Command::Engine(a) => engine::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Compare(a) => compare::run(a),
     };
     match result.and_then(|()| out::flush()) {
         Ok(()) => 0,

@@ -1,0 +1,558 @@
+//! Kernel models compared across materials, in kernel space and image space
+//! (Freude 2014, tables 6.3, 6.4 and 6.5): for every material x model x
+//! channel, the kernel metrics of the fit (kernel RMS, 1-norm error,
+//! asymmetry, passes, fit time) and the image-space errors of
+//! [`super::evaluate`] on each test image, with the full factors and each
+//! tap table.
+//!
+//! Work is spread over (material, model) pairs with rayon; every number
+//! except the timings is a pure function of the inputs, so the rows are the
+//! same for any thread count.
+
+// Colour loops index several [_; 3] arrays by channel at once.
+#![allow(clippy::needless_range_loop)]
+
+use super::evaluate::{self, Exact, ImageCase, KernelImageErrors, Options, Which};
+use crate::error::{Error, Result};
+use crate::filter::Image;
+use crate::kernel::guided::GuidedParams;
+use crate::kernel::jimenez::JimenezParams;
+use crate::kernel::model::{assemble, fit_model};
+use crate::kernel::preintegrate::PreMethod;
+use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile, Model};
+use crate::profile::Profile;
+use crate::progress::Progress;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::collections::BTreeMap;
+
+/// The model families, spelled as the kernel fit spells them.
+pub const FAMILIES: [&str; 6] = [
+    "svd",
+    "preintegrate",
+    "guided",
+    "manual",
+    "gaussians",
+    "jimenez",
+];
+
+/// One model variant of the comparison.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelSpec {
+    /// Short unique label: "svd1", "svd1-renorm", "guided-k1", ...
+    pub label: String,
+    pub model: Model,
+    /// Also report the fit scaled to the ground truth's 1-norm per channel
+    /// (Freude 2014, eq. 5.12) under this label: the SSSS renderer
+    /// normalises every kernel. The SVD carries its own flag instead.
+    pub renormalized_label: Option<String>,
+}
+
+/// The variants of `families` for `material`: SVD at each rank raw and
+/// renormalised (Freude 2014, eq. 5.12), pre-integration (Abel), guided
+/// k = 1 (b = 0) and k = 1.55, b = 50 (Freude 2014, fig. 5.15), manual with
+/// the table A.1 preset (when the material has one) and fitted, `gaussians`
+/// with each count in `ranks`, as fitted and renormalised (plus d'Eon's six-Gaussian skin profile for
+/// skin1), Jimenez's skin model.
+pub fn model_specs(families: &[String], ranks: &[usize], material: &str) -> Result<Vec<ModelSpec>> {
+    let mut out = Vec::new();
+    let spec = |label: String, model: Model| ModelSpec {
+        label,
+        model,
+        renormalized_label: None,
+    };
+    for f in families {
+        match f.as_str() {
+            "svd" => {
+                for &r in ranks {
+                    for renormalize in [false, true] {
+                        let label = if renormalize {
+                            format!("svd{r}-renorm")
+                        } else {
+                            format!("svd{r}")
+                        };
+                        out.push(spec(
+                            label,
+                            Model::Svd {
+                                rank: r,
+                                renormalize,
+                            },
+                        ));
+                    }
+                }
+            }
+            "preintegrate" => out.push(spec(
+                "preintegrate".into(),
+                Model::Preintegrate {
+                    method: PreMethod::Abel,
+                },
+            )),
+            "guided" => {
+                out.push(spec(
+                    "guided-k1".into(),
+                    Model::Guided(GuidedParams::default()),
+                ));
+                out.push(spec(
+                    "guided-k1.55-b50".into(),
+                    Model::Guided(GuidedParams {
+                        k: 1.55,
+                        b: 50.0,
+                        ..GuidedParams::default()
+                    }),
+                ));
+            }
+            "manual" => {
+                if crate::kernel::manual::preset(material).is_ok() {
+                    out.push(spec(
+                        "manual".into(),
+                        Model::ManualPreset(material.to_string()),
+                    ));
+                }
+                out.push(spec("manual-fit".into(), Model::ManualFit));
+            }
+            "gaussians" => {
+                for &n in ranks {
+                    out.push(ModelSpec {
+                        renormalized_label: Some(format!("gaussians{n}-renorm")),
+                        ..spec(format!("gaussians{n}"), Model::Gaussians { count: n })
+                    });
+                }
+                if material.eq_ignore_ascii_case("skin1") {
+                    out.push(spec("deon-skin".into(), Model::DeonSkin));
+                }
+            }
+            "jimenez" => out.push(spec(
+                "jimenez".into(),
+                Model::Jimenez(JimenezParams::default()),
+            )),
+            other => {
+                return Err(Error::invalid(
+                    "compare",
+                    "model",
+                    other,
+                    format!("known models: {}, all", FAMILIES.join(", ")),
+                ))
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Parses "1-6", "1,3,5" or "2" into sorted distinct ranks in 1..=32.
+pub fn parse_ranks(s: &str) -> Result<Vec<usize>> {
+    let bad = |why: &str| Error::invalid("compare", "ranks", s, why.to_string());
+    let mut v = Vec::new();
+    for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (a, b) = match part.split_once('-') {
+            Some((a, b)) => (a.trim(), b.trim()),
+            None => (part, part),
+        };
+        let a: usize = a.parse().map_err(|_| bad("expected N, N-M or a list"))?;
+        let b: usize = b.parse().map_err(|_| bad("expected N, N-M or a list"))?;
+        if a == 0 || b < a || b > 32 {
+            return Err(bad("ranks must satisfy 1 <= N <= M <= 32"));
+        }
+        v.extend(a..=b);
+    }
+    if v.is_empty() {
+        return Err(bad("no rank given"));
+    }
+    v.sort_unstable();
+    v.dedup();
+    Ok(v)
+}
+
+/// A material's profile.
+#[derive(Clone, Debug)]
+pub struct MaterialInput {
+    pub name: String,
+    pub profile: Profile,
+}
+
+/// What to compare.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Model families (see [`FAMILIES`]).
+    pub families: Vec<String>,
+    /// SVD ranks and Gaussian counts.
+    pub ranks: Vec<usize>,
+    /// Images, each at its own scale.
+    pub cases: Vec<ImageCase>,
+    /// Tap counts of the real-time tables (odd).
+    pub taps: Vec<usize>,
+    pub options: Options,
+    /// Keep each model's filtered image of this factor (contact sheets).
+    pub keep: Option<Which>,
+    /// Half-width of the kernels in mm; None: the radius holding 99.9% of
+    /// each profile's R_d.
+    pub extent_mm: Option<f64>,
+}
+
+/// Errors of one channel of one filtered image.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChannelImageError {
+    pub rel_rms: f64,
+    pub flip: f64,
+    /// FLIP of the colour image (the same for the three channel rows).
+    pub flip_rgb: f64,
+    pub ms_per_megapixel: f64,
+}
+
+/// One signal's errors for one channel.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SignalErrors {
+    pub mm_per_pixel: f64,
+    pub full: ChannelImageError,
+    /// Keyed by tap count ("17").
+    pub taps: BTreeMap<String, ChannelImageError>,
+}
+
+/// One row: material x model x channel.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub material: String,
+    /// As the kernel fit spells it: svd, preintegrate, guided, manual,
+    /// gaussians, jimenez.
+    pub model: String,
+    /// The variant, unique per material.
+    pub label: String,
+    pub params: serde_json::Value,
+    /// "r", "g" or "b".
+    pub channel: String,
+    pub kernel_rms: f64,
+    pub norm1_error: f64,
+    pub asymmetry: f64,
+    pub passes: usize,
+    pub fit_seconds: f64,
+    /// Keyed by signal name.
+    pub image: BTreeMap<String, SignalErrors>,
+}
+
+/// One fitted model with its evaluations.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    pub material: String,
+    pub spec: ModelSpec,
+    pub kernel: KernelFile,
+    /// One per case, in the order of `Config::cases`.
+    pub images: Vec<KernelImageErrors>,
+    /// The kept filtered image per case (when `Config::keep` is set).
+    pub kept: Vec<Option<Image>>,
+}
+
+/// Everything a comparison produced.
+#[derive(Clone, Debug)]
+pub struct Comparison {
+    pub materials: Vec<String>,
+    /// The ground-truth kernel of each material (kernel grid).
+    pub truths: Vec<Kernel2D>,
+    /// Per material, per case.
+    pub exact: Vec<Vec<Exact>>,
+    /// Material-major, models in [`model_specs`] order.
+    pub fitted: Vec<Fitted>,
+    pub rows: Vec<Row>,
+}
+
+pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
+
+/// Runs the comparison: fits every model of `cfg` to every material's
+/// ground-truth kernel (default grid, or the given extent) with the first tap count as the
+/// stored table, and evaluates it on every case.
+pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> Result<Comparison> {
+    if inputs.is_empty() {
+        return Err(Error::Unsupported("no material to compare".into()));
+    }
+    if cfg.taps.is_empty() {
+        return Err(Error::Unsupported("give at least one tap count".into()));
+    }
+    let stored_taps = cfg.taps[0];
+    let specs: Vec<Vec<ModelSpec>> = inputs
+        .iter()
+        .map(|m| model_specs(&cfg.families, &cfg.ranks, &m.name))
+        .collect::<Result<_>>()?;
+    let truths: Vec<Kernel2D> = inputs
+        .par_iter()
+        .map(|m| {
+            Kernel2D::from_profile(
+                &m.profile,
+                &Kernel2DSpec {
+                    size: None,
+                    extent_mm: cfg.extent_mm,
+                },
+            )
+        })
+        .collect::<Result<_>>()?;
+    let exact: Vec<Vec<Exact>> = inputs
+        .par_iter()
+        .map(|m| {
+            cfg.cases
+                .par_iter()
+                .map(|c| Exact::new(&m.profile, c))
+                .collect::<Result<Vec<_>>>()
+        })
+        .collect::<Result<_>>()?;
+    let tasks: Vec<(usize, &ModelSpec)> = specs
+        .iter()
+        .enumerate()
+        .flat_map(|(i, s)| s.iter().map(move |spec| (i, spec)))
+        .collect();
+    progress.start(tasks.len() as u64, "material x model");
+    let fitted: Vec<Fitted> = tasks
+        .par_iter()
+        .map(|&(i, spec)| {
+            let m = &inputs[i];
+            let with = |e: Error| Error::Unsupported(format!("{} {}: {e}", m.name, spec.label));
+            let f = fit_model(&truths[i], &m.profile, &spec.model).map_err(with)?;
+            let mut variants = Vec::new();
+            if let Some(label) = &spec.renormalized_label {
+                let mut g = crate::kernel::model::Fitted {
+                    factors: f.factors.clone(),
+                    params: f.params.clone(),
+                    extra: f.extra.clone(),
+                    seconds: f.seconds,
+                };
+                renormalize(&mut g.factors, &truths[i]);
+                g.params["renormalize"] = json!(true);
+                let spec = ModelSpec {
+                    label: label.clone(),
+                    model: spec.model.clone(),
+                    renormalized_label: None,
+                };
+                variants.push((spec, g));
+            }
+            let mut f = f;
+            if spec.renormalized_label.is_some() {
+                f.params["renormalize"] = json!(false);
+            }
+            variants.insert(0, (spec.clone(), f));
+            let mut out = Vec::new();
+            for (spec, f) in variants {
+                let kernel =
+                    assemble(&m.profile, &truths[i], &spec.model, f, stored_taps).map_err(with)?;
+                let mut images = Vec::with_capacity(cfg.cases.len());
+                let mut kept = Vec::with_capacity(cfg.cases.len());
+                for ex in &exact[i] {
+                    let (e, k) =
+                        evaluate::evaluate_keeping(ex, &kernel, &cfg.taps, &cfg.options, cfg.keep)
+                            .map_err(with)?;
+                    images.push(e);
+                    kept.push(k);
+                }
+                out.push(Fitted {
+                    material: m.name.clone(),
+                    spec,
+                    kernel,
+                    images,
+                    kept,
+                });
+            }
+            progress.advance(1);
+            Ok(out)
+        })
+        .collect::<Result<Vec<Vec<Fitted>>>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+    progress.finish();
+    let rows = fitted.iter().flat_map(rows_of).collect();
+    Ok(Comparison {
+        materials: inputs.iter().map(|m| m.name.clone()).collect(),
+        truths,
+        exact,
+        fitted,
+        rows,
+    })
+}
+
+/// Scales each channel's factors so that the separable kernel has the
+/// ground truth's 1-norm (Freude 2014, eq. 5.12), for factors whose
+/// products are non-negative (sums of Gaussians).
+fn renormalize(f: &mut crate::kernel::Factors, truth: &Kernel2D) {
+    for c in 0..3 {
+        let have: f64 = f.iter().map(|t| t[c].iter().sum::<f64>().powi(2)).sum();
+        let target: f64 = truth.data[c].iter().map(|v| v.abs()).sum();
+        let s = (target / have).sqrt();
+        if s.is_finite() && s > 0.0 {
+            f.iter_mut()
+                .for_each(|t| t[c].iter_mut().for_each(|v| *v *= s));
+        }
+    }
+}
+
+fn channel_error(e: &evaluate::ImageErrors, c: usize) -> ChannelImageError {
+    ChannelImageError {
+        rel_rms: e.rel_rms[c],
+        flip: e.flip[c],
+        flip_rgb: e.flip_rgb,
+        ms_per_megapixel: e.ms_per_megapixel,
+    }
+}
+
+fn rows_of(f: &Fitted) -> Vec<Row> {
+    let k = &f.kernel;
+    let mut params = k.model.params.clone();
+    if !params.is_object() {
+        params = json!({ "method": params });
+    }
+    if let Model::DeonSkin = f.spec.model {
+        let n = params["variances_mm2"].as_array().map_or(0, |v| v.len());
+        params["count"] = json!(n);
+    }
+    (0..3)
+        .map(|c| Row {
+            material: f.material.clone(),
+            model: k.model.name.clone(),
+            label: f.spec.label.clone(),
+            params: params.clone(),
+            channel: CHANNELS[c].into(),
+            kernel_rms: k.metrics.kernel_rms[c],
+            norm1_error: k.metrics.norm1_error[c],
+            asymmetry: k.metrics.asymmetry[c],
+            passes: k.metrics.passes,
+            fit_seconds: k.metrics.fit_seconds,
+            image: f
+                .images
+                .iter()
+                .map(|e| {
+                    (
+                        e.signal.clone(),
+                        SignalErrors {
+                            mm_per_pixel: e.mm_per_pixel,
+                            full: channel_error(&e.full, c),
+                            taps: e
+                                .taps
+                                .iter()
+                                .map(|(n, t)| (n.to_string(), channel_error(t, c)))
+                                .collect(),
+                        },
+                    )
+                })
+                .collect(),
+        })
+        .collect()
+}
+
+/// Which image-space error a table shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Factor {
+    Full,
+    Taps(usize),
+}
+
+impl Factor {
+    pub fn describe(&self) -> String {
+        match self {
+            Factor::Full => "full-resolution factors".into(),
+            Factor::Taps(n) => format!("{n}-tap table"),
+        }
+    }
+}
+
+impl Row {
+    /// The image-space errors of `signal` with `factor`, if evaluated.
+    pub fn image_error(&self, signal: &str, factor: Factor) -> Option<&ChannelImageError> {
+        let s = self.image.get(signal)?;
+        match factor {
+            Factor::Full => Some(&s.full),
+            Factor::Taps(n) => s.taps.get(&n.to_string()),
+        }
+    }
+}
+
+/// Per (material, label): the three channel rows, in row order.
+pub fn grouped(rows: &[Row]) -> Vec<(&str, &str, [&Row; 3])> {
+    rows.chunks(3)
+        .filter(|c| c.len() == 3)
+        .map(|c| {
+            (
+                c[0].material.as_str(),
+                c[0].label.as_str(),
+                [&c[0], &c[1], &c[2]],
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::NoProgress;
+
+    #[test]
+    fn ranks_parse_and_refuse() {
+        assert_eq!(parse_ranks("1-3").unwrap(), vec![1, 2, 3]);
+        assert_eq!(parse_ranks("4, 1,2-3,2").unwrap(), vec![1, 2, 3, 4]);
+        for bad in ["", "0", "3-1", "a", "1-40", "1--2"] {
+            assert!(parse_ranks(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn specs_label_every_variant_once() {
+        let all: Vec<String> = FAMILIES.iter().map(|s| s.to_string()).collect();
+        let s = model_specs(&all, &[1, 2], "skin1").unwrap();
+        let labels: Vec<&str> = s.iter().map(|m| m.label.as_str()).collect();
+        for l in [
+            "svd1",
+            "svd1-renorm",
+            "svd2",
+            "svd2-renorm",
+            "preintegrate",
+            "guided-k1",
+            "guided-k1.55-b50",
+            "manual",
+            "manual-fit",
+            "gaussians1",
+            "gaussians2",
+            "deon-skin",
+            "jimenez",
+        ] {
+            assert_eq!(labels.iter().filter(|x| **x == l).count(), 1, "{l}");
+        }
+        assert_eq!(
+            s.iter()
+                .filter_map(|m| m.renormalized_label.as_deref())
+                .collect::<Vec<_>>(),
+            ["gaussians1-renorm", "gaussians2-renorm"]
+        );
+        // No table A.1 preset for spectralon: no "manual" variant.
+        let s = model_specs(&["manual".into()], &[1], "spectralon").unwrap();
+        assert_eq!(s.len(), 1);
+        assert!(model_specs(&["nope".into()], &[1], "skin1").is_err());
+    }
+
+    /// Renormalised Gaussians have the ground truth's 1-norm (Freude 2014, eq.
+    /// 5.12), the fitted ones lose energy; the run works without images.
+    #[test]
+    fn renormalised_gaussians_conserve_energy() {
+        let m = crate::material::preset("marble").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
+        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let cfg = Config {
+            families: vec!["gaussians".into()],
+            ranks: vec![2],
+            cases: vec![],
+            taps: vec![17],
+            options: Options::default(),
+            keep: None,
+            extent_mm: None,
+        };
+        let input = MaterialInput {
+            name: "marble".into(),
+            profile,
+        };
+        let cmp = run(&[input], &cfg, &NoProgress).unwrap();
+        let labels: Vec<&str> = cmp.fitted.iter().map(|f| f.spec.label.as_str()).collect();
+        assert_eq!(labels, ["gaussians2", "gaussians2-renorm"]);
+        for c in 0..3 {
+            let raw = cmp.fitted[0].kernel.metrics.norm1_error[c];
+            let renorm = cmp.fitted[1].kernel.metrics.norm1_error[c];
+            assert!(raw < -1e-3, "{raw}");
+            assert!(renorm.abs() < 1e-12, "{renorm}");
+        }
+        assert_eq!(cmp.rows.len(), 6);
+        assert_eq!(cmp.rows[3].params["renormalize"], json!(true));
+        assert!(cmp.rows.iter().all(|r| r.image.is_empty()));
+    }
+}
