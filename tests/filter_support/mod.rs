@@ -85,6 +85,7 @@ fn kernel_file(name: &str, passes: Vec<Pass>, taps: Vec<Pass>, n: usize) -> Kern
         taps: TapTable {
             count: n,
             passes: taps,
+            extent_mm: None,
         },
     }
 }
