@@ -2,6 +2,7 @@
 //! subcommand; each file's `run` calls the library and prints or writes.
 
 mod apply;
+mod compare;
 mod diff;
 mod fit;
 mod materials;
@@ -45,6 +46,8 @@ enum Command {
     Diff(diff::Args),
     /// Plots of profiles and kernels.
     Plot(plot::Args),
+    /// Kernel models across materials, in kernel and image space (report, CSV, JSON, plots).
+    Compare(compare::Args),
 }
 
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
@@ -60,6 +63,7 @@ pub fn main() -> i32 {
         Command::Signal(a) => signal::run(a),
         Command::Diff(a) => diff::run(a),
         Command::Plot(a) => plot::run(a),
+        Command::Compare(a) => compare::run(a),
     };
     match result {
         Ok(()) => 0,

@@ -1,0 +1,344 @@
+//! `ssskit compare`: kernel models across materials, in kernel space and in
+//! image space; report.md, compare.csv, compare.json and plots.
+
+use super::progress::Bar;
+use anyhow::{bail, Context};
+use clap::ValueEnum;
+use ssskit::filter::image::read_image;
+use ssskit::material::{preset_names, Channel, Material};
+use ssskit::profile::analytic::{self, Model as ProfileModel, Options as ProfileOptions};
+use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
+use ssskit::profile::Profile;
+use ssskit::report::evaluate::{parse_signal, ImageCase, Options, Which};
+use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput, Row};
+use ssskit::report::{kernel_plots, kernel_report};
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ProfileModelArg {
+    /// Monte Carlo (--photons per channel, fixed seed).
+    Mc,
+    Pbd,
+    Dipole,
+    Burley,
+    DirectionalDipole,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Comma-separated material names, or "all" (every profile in
+    /// --profiles, or every half-space preset with --profile-model).
+    #[arg(long, default_value = "all")]
+    materials: String,
+    /// Folder of profiles named <material>.json (e.g. profiles/reference).
+    #[arg(long, value_name = "DIR", conflicts_with = "profile_model")]
+    profiles: Option<PathBuf>,
+    /// Make the profiles instead of reading them.
+    #[arg(long, value_enum)]
+    profile_model: Option<ProfileModelArg>,
+    /// Photons per channel for --profile-model mc.
+    #[arg(long, default_value_t = 1_000_000)]
+    photons: u64,
+    /// Seed for --profile-model mc.
+    #[arg(long, default_value_t = 20260101)]
+    seed: u64,
+    /// Comma-separated models as `fit --model` spells them, or "all":
+    /// svd, preintegrate, guided, manual, gaussians, jimenez.
+    #[arg(long, default_value = "all")]
+    models: String,
+    /// Comma-separated test signals: edge, shapes, checker, dirac.
+    #[arg(long, default_value = "edge,shapes")]
+    signals: String,
+    /// Further images in linear light (.exr) or sRGB (.png), at --mm-per-pixel.
+    #[arg(long, num_args = 1..)]
+    images: Vec<PathBuf>,
+    /// Surface millimetres per pixel of the images.
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
+    mm_per_pixel: f64,
+    /// Side of the square test signals in pixels.
+    #[arg(long, default_value_t = 256)]
+    size: usize,
+    /// Tap counts of the real-time tables (odd), e.g. 11,17,25; the first
+    /// is the one stored in the kernels.
+    #[arg(long, default_value = "17")]
+    taps: String,
+    /// SVD ranks and Gaussian counts, e.g. 1-6 or 1,3.
+    #[arg(long, default_value = "1-3")]
+    ranks: String,
+    /// FLIP viewing condition.
+    #[arg(long, default_value_t = 67.0)]
+    pixels_per_degree: f64,
+    /// Skip the PNG plots and contact sheets.
+    #[arg(long)]
+    no_plots: bool,
+    /// Output folder (created).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn list(s: &str) -> Vec<String> {
+    s.split(',')
+        .map(|x| x.trim().to_string())
+        .filter(|x| !x.is_empty())
+        .collect()
+}
+
+fn parse_taps(s: &str) -> anyhow::Result<Vec<usize>> {
+    let mut v = Vec::new();
+    for t in list(s) {
+        let n: usize = t
+            .parse()
+            .map_err(|_| anyhow::anyhow!("--taps: '{t}' is not a number (e.g. 11,17,25)"))?;
+        if n == 0 || n.is_multiple_of(2) || n > 255 {
+            bail!("--taps: {n} must be odd, between 1 and 255");
+        }
+        if !v.contains(&n) {
+            v.push(n);
+        }
+    }
+    if v.is_empty() {
+        bail!("--taps: give at least one tap count");
+    }
+    Ok(v)
+}
+
+fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
+    if let Some(dir) = &a.profiles {
+        let names: Vec<String> = if a.materials.trim() == "all" {
+            let mut v: Vec<String> = std::fs::read_dir(dir)
+                .with_context(|| format!("--profiles {}", dir.display()))?
+                .filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "json"))
+                .filter_map(|p| p.file_stem()?.to_str().map(String::from))
+                .collect();
+            v.sort();
+            v
+        } else {
+            list(&a.materials)
+        };
+        if names.is_empty() {
+            bail!("--profiles {}: no <material>.json found", dir.display());
+        }
+        return names
+            .into_iter()
+            .map(|n| {
+                let path = dir.join(format!("{n}.json"));
+                let profile = Profile::read(&path)
+                    .with_context(|| format!("material '{n}' (from --profiles)"))?;
+                Ok(MaterialInput { name: n, profile })
+            })
+            .collect();
+    }
+    let Some(model) = a.profile_model else {
+        bail!("give --profiles DIR (e.g. profiles/reference) or --profile-model mc|pbd|dipole|burley|directional-dipole");
+    };
+    let names: Vec<String> = if a.materials.trim() == "all" {
+        preset_names()
+            .iter()
+            .filter(|n| Material::load(n).is_ok_and(|m| m.is_half_space()))
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        list(&a.materials)
+    };
+    if names.is_empty() {
+        bail!("--materials: no material named");
+    }
+    let channels = Channel::ALL.to_vec();
+    names
+        .into_iter()
+        .map(|n| {
+            let m = Material::load(&n)?;
+            let profile = match model {
+                ProfileModelArg::Mc => {
+                    if a.photons == 0 {
+                        bail!("--photons: invalid value 0: must be > 0");
+                    }
+                    let cfg = McConfig {
+                        budget: PhotonBudget::Fixed(a.photons),
+                        seed: a.seed,
+                        threads: None,
+                        channels: channels.clone(),
+                        grid: None,
+                    };
+                    simulate(&m, &cfg, &Bar::new())?
+                }
+                other => {
+                    let pm = match other {
+                        ProfileModelArg::Pbd => ProfileModel::Pbd,
+                        ProfileModelArg::Dipole => ProfileModel::Dipole,
+                        ProfileModelArg::Burley => ProfileModel::Burley,
+                        _ => ProfileModel::DirectionalDipole,
+                    };
+                    let grid = analytic::default_grid(&m, &channels)?;
+                    let opts = ProfileOptions {
+                        fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
+                        channels: channels.clone(),
+                    };
+                    analytic::profile(&m, pm, &grid, &opts)?
+                }
+            };
+            Ok(MaterialInput {
+                name: m.name.clone(),
+                profile,
+            })
+        })
+        .collect()
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let families = if a.models.trim() == "all" {
+        kernel_compare::FAMILIES
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        list(&a.models)
+    };
+    for f in &families {
+        if !kernel_compare::FAMILIES.contains(&f.as_str()) {
+            bail!(
+                "--models: unknown model '{f}' (known: {}, all)",
+                kernel_compare::FAMILIES.join(", ")
+            );
+        }
+    }
+    let ranks = parse_ranks(&a.ranks).context("--ranks")?;
+    let taps = parse_taps(&a.taps)?;
+    if !(a.mm_per_pixel.is_finite() && a.mm_per_pixel > 0.0) {
+        bail!(
+            "--mm-per-pixel: invalid value {}: must be finite and > 0",
+            a.mm_per_pixel
+        );
+    }
+    if a.size < 8 || a.size > 4096 {
+        bail!(
+            "--size: invalid value {}: must be between 8 and 4096",
+            a.size
+        );
+    }
+    if !(a.pixels_per_degree.is_finite() && a.pixels_per_degree > 0.0) {
+        bail!(
+            "--pixels-per-degree: invalid value {}: must be finite and > 0",
+            a.pixels_per_degree
+        );
+    }
+    let mut cases = Vec::new();
+    let mut signals = Vec::new();
+    for s in list(&a.signals) {
+        let sig = parse_signal(&s).context("--signals")?;
+        let case = ImageCase::signal(sig, a.size, a.mm_per_pixel)?;
+        signals.push(case.name.clone());
+        cases.push(case);
+    }
+    for p in &a.images {
+        let (mut image, _) = read_image(p, None)?;
+        let what = p.display().to_string();
+        image.check_finite(&what, false)?;
+        let name = p
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("image")
+            .to_string();
+        if signals.contains(&name) {
+            bail!("--images {what}: its name '{name}' is already used by another image");
+        }
+        signals.push(name.clone());
+        cases.push(ImageCase {
+            name,
+            image,
+            mm_per_pixel: a.mm_per_pixel,
+        });
+    }
+    if cases.is_empty() {
+        bail!("nothing to filter: give --signals and/or --images");
+    }
+    let inputs = load_profiles(&a)?;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("--out {}", a.out.display()))?;
+    let options = Options {
+        round_to_f32: true,
+        pixels_per_degree: a.pixels_per_degree,
+    };
+    let cfg = Config {
+        families,
+        ranks: ranks.clone(),
+        cases,
+        taps: taps.clone(),
+        options,
+        keep: (!a.no_plots).then_some(Which::Taps(taps[0])),
+    };
+    let t0 = std::time::Instant::now();
+    let cmp = kernel_compare::run(&inputs, &cfg, &Bar::new())?;
+    let factors: Vec<Factor> = std::iter::once(Factor::Full)
+        .chain(taps.iter().map(|&n| Factor::Taps(n)))
+        .collect();
+    let command: Vec<String> = std::env::args()
+        .skip(1)
+        .map(|s| if s.contains(' ') { format!("'{s}'") } else { s })
+        .filter(|s| !s.is_empty())
+        .collect();
+    let command = normalise_command(&command, &a.out);
+    let ctx = kernel_report::ReportContext {
+        command: &command,
+        signals: &signals,
+        factors: &factors,
+        ranks: &ranks,
+        options: &options,
+    };
+    let md = kernel_report::report(&cmp, &ctx);
+    ssskit::io::write_atomic(&a.out.join("report.md"), md.as_bytes())?;
+    kernel_report::csv(&cmp.rows).write_csv(&a.out.join("compare.csv"))?;
+    let json = a.out.join("compare.json");
+    ssskit::io::write_json_atomic(&json, &cmp.rows)?;
+    let back: Vec<Row> = ssskit::io::read_json(&json)?;
+    if back.len() != cmp.rows.len() {
+        bail!(
+            "{}: read back {} rows, wrote {}",
+            json.display(),
+            back.len(),
+            cmp.rows.len()
+        );
+    }
+    if !a.no_plots {
+        for m in &cmp.materials {
+            kernel_plots::kernel_slices(&cmp, m, &a.out.join(format!("slices_{m}.png")))?;
+            for (ci, s) in signals.iter().enumerate() {
+                kernel_plots::contact_sheet(
+                    &cmp,
+                    m,
+                    ci,
+                    &format!("{}-tap tables", taps[0]),
+                    &a.out.join(format!("sheet_{m}_{s}.png")),
+                )?;
+            }
+        }
+        if cmp.fitted.iter().any(|f| f.kernel.model.name == "svd") {
+            kernel_plots::spectra(&cmp, &a.out.join("spectra.png"))?;
+        }
+    }
+    let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
+    print!("{}", kernel_report::claims_table(&claims).markdown());
+    eprintln!(
+        "{} materials x {} kernels x {} images in {:.1} s -> {}/report.md, compare.csv, compare.json{}",
+        cmp.materials.len(),
+        cmp.fitted.len(),
+        signals.len(),
+        t0.elapsed().as_secs_f64(),
+        a.out.display(),
+        if a.no_plots { "" } else { ", PNG plots" }
+    );
+    Ok(())
+}
+
+/// The command line as the report prints it: the output folder replaced by
+/// "OUT" so that the report does not depend on where it was written.
+fn normalise_command(args: &[String], out: &Path) -> String {
+    let o = out.display().to_string();
+    let mut v = vec!["ssskit".to_string()];
+    v.extend(
+        args.iter()
+            .map(|s| if *s == o { "OUT".into() } else { s.clone() }),
+    );
+    v.join(" ")
+}

@@ -1,0 +1,277 @@
+//! Plots of a kernel comparison: kernel slices along the axis and the
+//! diagonal with the ground truth dotted (Freude 2014, fig. 6.2 and the
+//! appendix kernel plots), singular value spectra, and a contact sheet per
+//! material and signal with each model's filtered image and its difference
+//! from the exact convolution.
+
+use super::kernel_compare::{Comparison, Fitted};
+use super::kernel_report::RANK1;
+use super::plot::{self, Curve, Panel, PALETTE};
+use crate::error::{Error, Result};
+use crate::filter::diff::false_colour;
+use crate::filter::image::linear_to_srgb;
+use crate::filter::Image;
+use crate::kernel::metrics::reconstruct;
+use crate::kernel::{Factors, Kernel2D, KernelFile};
+use plotters::prelude::*;
+use std::path::Path;
+
+const CH: [&str; 3] = ["red", "green", "blue"];
+
+fn factors_of(k: &KernelFile) -> Factors {
+    k.passes
+        .iter()
+        .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).collect()))
+        .collect()
+}
+
+/// (distance mm, density 1/mm^2) along the axis and the diagonal of a
+/// row-major n x n kernel with cells of `cell` mm.
+fn slices(a: &[f64], n: usize, cell: f64) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    let h = n / 2;
+    let area = cell * cell;
+    let axis = (0..=h)
+        .map(|j| (j as f64 * cell, a[h * n + h + j] / area))
+        .collect();
+    let diag = (0..=h)
+        .map(|m| {
+            (
+                m as f64 * cell * std::f64::consts::SQRT_2,
+                a[(h + m) * n + h + m] / area,
+            )
+        })
+        .collect();
+    (axis, diag)
+}
+
+fn colour(i: usize) -> RGBColor {
+    const EXTRA: [RGBColor; 2] = [RGBColor(170, 0, 60), RGBColor(90, 60, 20)];
+    if i < PALETTE.len() - 1 {
+        PALETTE[i + 1]
+    } else {
+        EXTRA[(i - PALETTE.len() + 1) % EXTRA.len()]
+    }
+}
+
+/// Axis and diagonal slices of the rank-1 models of `material` (and the
+/// highest-rank renormalised SVD) against the ground truth, log scale.
+pub fn kernel_slices(cmp: &Comparison, material: &str, out: &Path) -> Result<()> {
+    let Some(mi) = cmp.materials.iter().position(|m| m == material) else {
+        return Err(Error::Unsupported(format!("no material {material}")));
+    };
+    let truth: &Kernel2D = &cmp.truths[mi];
+    let n = truth.size;
+    let models: Vec<&Fitted> = cmp
+        .fitted
+        .iter()
+        .filter(|f| f.material == material && RANK1.contains(&f.spec.label.as_str()))
+        .collect();
+    let x_max = truth.extent_mm() / 2.0;
+    let mut panels = Vec::new();
+    for (which, name) in [(0, "axis"), (1, "diagonal")] {
+        for c in 0..3 {
+            let (ta, td) = slices(&truth.data[c], n, truth.cell_mm);
+            let mut curves = vec![Curve {
+                label: "ground truth".into(),
+                color: BLACK,
+                points: if which == 0 { ta } else { td },
+                band: None,
+                dashed: true,
+            }];
+            for (i, f) in models.iter().enumerate() {
+                let a = reconstruct(&factors_of(&f.kernel), n, c);
+                let (sa, sd) = slices(&a, n, truth.cell_mm);
+                curves.push(Curve {
+                    label: f.spec.label.clone(),
+                    color: colour(i),
+                    points: if which == 0 { sa } else { sd },
+                    band: None,
+                    dashed: false,
+                });
+            }
+            panels.push(Panel {
+                title: format!("{material}, {}, {name}", CH[c]),
+                x_label: format!("distance from the centre along the {name} (mm)"),
+                y_label: "kernel density (1/mm², sum 1)".into(),
+                x_max,
+                log_y: true,
+                curves,
+            });
+        }
+    }
+    plot::render(
+        &panels,
+        3,
+        &format!("{material}: kernel slices, ground truth dashed"),
+        out,
+    )
+}
+
+/// Singular values sigma_i / sigma_1 of each material's ground truth per
+/// channel (from the SVD fits' stored spectra).
+pub fn spectra(cmp: &Comparison, out: &Path) -> Result<()> {
+    let mut panels = Vec::new();
+    for m in &cmp.materials {
+        let Some(f) = cmp
+            .fitted
+            .iter()
+            .find(|f| f.material == *m && f.kernel.model.name == "svd")
+        else {
+            continue;
+        };
+        let sv = &f.kernel.metrics.extra["singular_values"];
+        let mut curves = Vec::new();
+        let mut n_max = 1usize;
+        for c in 0..3 {
+            let v: Vec<f64> = sv[c]
+                .as_array()
+                .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+                .unwrap_or_default();
+            let Some(&s1) = v.first() else { continue };
+            n_max = n_max.max(v.len());
+            curves.push(Curve {
+                label: CH[c].into(),
+                color: [
+                    RGBColor(213, 94, 0),
+                    RGBColor(0, 158, 115),
+                    RGBColor(0, 114, 178),
+                ][c],
+                points: v
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| ((i + 1) as f64, s / s1))
+                    .collect(),
+                band: None,
+                dashed: false,
+            });
+        }
+        if curves.is_empty() {
+            continue;
+        }
+        panels.push(Panel {
+            title: format!("{m}: singular values of the 2D kernel"),
+            x_label: "index i".into(),
+            y_label: "σ_i / σ_1".into(),
+            x_max: n_max as f64,
+            log_y: true,
+            curves,
+        });
+    }
+    if panels.is_empty() {
+        return Err(Error::Unsupported(
+            "no SVD fit in the comparison: no spectrum to plot".into(),
+        ));
+    }
+    plot::render(&panels, 3, "Singular value spectra", out)
+}
+
+/// Tone mapping of the report (see [`super::evaluate`]): exposure, clamp,
+/// sRGB 8-bit, interleaved.
+fn to_rgb8(img: &Image, exposure: f64) -> Vec<u8> {
+    let mut v = Vec::with_capacity(3 * img.len());
+    for i in 0..img.len() {
+        for c in 0..3 {
+            let x = (img.rgb[c][i] * exposure).clamp(0.0, 1.0);
+            v.push((linear_to_srgb(if x.is_nan() { 0.0 } else { x }) * 255.0).round() as u8);
+        }
+    }
+    v
+}
+
+/// Fraction of the exact image's peak shown as white in difference tiles.
+pub const DIFF_SCALE: f64 = 0.05;
+
+/// A contact sheet for `material` and case `ci`: the input and the exact
+/// convolution, then per model its filtered image (`factor` names which
+/// factors) above its difference from the exact image (false colour, white
+/// = [`DIFF_SCALE`] of the exact peak).
+pub fn contact_sheet(
+    cmp: &Comparison,
+    material: &str,
+    ci: usize,
+    factor: &str,
+    out: &Path,
+) -> Result<()> {
+    plot::register_fonts();
+    let Some(mi) = cmp.materials.iter().position(|m| m == material) else {
+        return Err(Error::Unsupported(format!("no material {material}")));
+    };
+    let exact = &cmp.exact[mi][ci];
+    let models: Vec<(&str, &Image)> = cmp
+        .fitted
+        .iter()
+        .filter(|f| f.material == material)
+        .filter_map(|f| f.kept.get(ci)?.as_ref().map(|i| (f.spec.label.as_str(), i)))
+        .collect();
+    let (w, h) = (exact.image.width, exact.image.height);
+    let cols = 6usize;
+    let label_h = 22usize;
+    let cell_w = w + 8;
+    let cell_h = 2 * (h + label_h) + 8;
+    let n_tiles = models.len() + 1;
+    let rows = n_tiles.div_ceil(cols);
+    let head = 34usize;
+    let (sw, sh) = (cols * cell_w, head + rows * cell_h);
+    let mut buf = vec![255u8; sw * sh * 3];
+    let peak = exact.image.peak().iter().cloned().fold(0.0f64, f64::max);
+    let blit = |buf: &mut [u8], rgb: &[u8], x0: usize, y0: usize| {
+        for y in 0..h {
+            let dst = ((y0 + y) * sw + x0) * 3;
+            buf[dst..dst + 3 * w].copy_from_slice(&rgb[y * w * 3..(y + 1) * w * 3]);
+        }
+    };
+    let exposure = exact.exposure_rgb;
+    let mut labels: Vec<(String, usize, usize)> = Vec::new();
+    // First tile: the input above the exact convolution.
+    blit(
+        &mut buf,
+        &to_rgb8(&exact.case.image, exposure),
+        4,
+        head + label_h,
+    );
+    blit(
+        &mut buf,
+        &to_rgb8(&exact.image, exposure),
+        4,
+        head + 2 * label_h + h,
+    );
+    labels.push(("input".into(), 4, head));
+    labels.push(("exact 2D".into(), 4, head + label_h + h));
+    for (i, (label, img)) in models.iter().enumerate() {
+        let t = i + 1;
+        let (x0, y0) = ((t % cols) * cell_w + 4, head + (t / cols) * cell_h);
+        blit(&mut buf, &to_rgb8(img, exposure), x0, y0 + label_h);
+        let d = false_colour(&exact.image, img, Some(DIFF_SCALE * peak));
+        blit(&mut buf, &to_rgb8(&d, 1.0), x0, y0 + 2 * label_h + h);
+        labels.push((label.to_string(), x0, y0));
+        labels.push(("difference".into(), x0, y0 + label_h + h));
+    }
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
+        let e = |e| Error::format(out, format!("plotting failed: {e}"));
+        let font = ("sans-serif", 15).into_font().color(&BLACK);
+        root.draw_text(
+            &format!(
+                "{material}, {} at {} mm/px, {factor}: result (tone mapped) above |result - exact| \
+                 (white = {}% of the exact peak)",
+                exact.case.name,
+                exact.case.mm_per_pixel,
+                DIFF_SCALE * 100.0
+            ),
+            &font,
+            (6, 8),
+        )
+        .map_err(e)?;
+        for (text, x, y) in &labels {
+            root.draw_text(text, &font, (*x as i32, *y as i32 + 3))
+                .map_err(e)?;
+        }
+        root.present().map_err(e)?;
+    }
+    let img = image::RgbImage::from_raw(sw as u32, sh as u32, buf)
+        .ok_or_else(|| Error::format(out, "image buffer has the wrong size"))?;
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| Error::format(out, format!("PNG encoding failed: {e}")))?;
+    crate::io::write_atomic(out, &png)
+}
