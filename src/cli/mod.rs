@@ -1,17 +1,21 @@
 //! Every flag of every subcommand is defined in this folder, one file per
 //! subcommand; each file's `run` calls the library and prints or writes.
 
+mod advise;
 mod apply;
 mod compare;
 mod diff;
 mod fit;
+mod kernels;
 mod materials;
 mod plot;
 mod profile;
+mod profile_source;
 mod profiles;
 mod progress;
 mod signal;
 mod simulate;
+mod study;
 
 use clap::{Parser, Subcommand};
 
@@ -28,6 +32,12 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The main job: profile, every kernel model, shader arrays, report, what to ship.
+    Kernels(kernels::Args),
+    /// The cheapest kernel configuration meeting a target error at a pixel scale.
+    Advise(advise::Args),
+    /// Speed/accuracy study: photons, profile model, taps, rank, kernel model.
+    Study(study::Args),
     /// List material presets with derived quantities per channel.
     Materials(materials::Args),
     /// Monte Carlo simulation of the diffuse reflectance profile R_d(r).
@@ -54,6 +64,9 @@ enum Command {
 pub fn main() -> i32 {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Kernels(a) => kernels::run(a),
+        Command::Advise(a) => advise::run(a),
+        Command::Study(a) => study::run(a),
         Command::Materials(a) => materials::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Profile(a) => profile::run(a),

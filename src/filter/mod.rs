@@ -18,6 +18,7 @@ pub mod diff;
 pub mod gpu;
 pub mod image;
 pub mod signals;
+pub mod warnings;
 
 use crate::error::{Error, Result};
 use crate::kernel::{KernelFile, Pass};
