@@ -308,14 +308,10 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         o.comparison.materials.join(", "),
         settings.mm_per_pixel
     );
-    let worst = |sig: &str, f: &dyn Fn(&super::evaluate::ImageErrors) -> f64| {
-        a.predicted.get(sig).map_or(f64::NAN, f)
-    };
     let rel = |e: &super::evaluate::ImageErrors| e.rel_rms.iter().cloned().fold(0.0, f64::max);
     let _ = writeln!(
         s,
-        "ship: {} ({} sample(s) per pixel){}\n  error: edge {:.2}% / shapes {:.2}% relative RMS, \
-         FLIP {:.4} / {:.4} (target {:.1}%{})",
+        "ship: {} ({} samples per pixel){}",
         c.describe(),
         c.cost,
         if a.meets_target {
@@ -323,12 +319,20 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         } else {
             " - no candidate meets the target; the most accurate shown"
         },
-        100.0 * worst("edge", &rel),
-        100.0 * worst("shapes", &rel),
-        worst("edge", &|e| e.flip_rgb),
-        worst("shapes", &|e| e.flip_rgb),
+    );
+    for (sig, e) in &a.predicted {
+        let _ = writeln!(
+            s,
+            "  {sig:<11} {:.2}% relative RMS (largest channel), FLIP {:.4}",
+            100.0 * rel(e),
+            e.flip_rgb
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  target {:.1}% on every signal: {}",
         100.0 * a.target,
-        if a.meets_target { ", met" } else { ", NOT met" }
+        if a.meets_target { "met" } else { "NOT met" }
     );
     for w in &a.warnings {
         let _ = writeln!(s, "  warning: {w}");
