@@ -352,7 +352,7 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
             f.images
                 .get(i)
                 .and_then(|x| x.taps.get(&settings.taps))
-                .map_or(f64::NAN, |x| rel(x))
+                .map_or(f64::NAN, &rel)
         };
         let _ = writeln!(
             s,
