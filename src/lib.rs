@@ -12,6 +12,7 @@ pub mod filter;
 pub mod io;
 pub mod kernel;
 pub mod material;
+pub mod numerics;
 pub mod profile;
 pub mod progress;
 pub mod report;

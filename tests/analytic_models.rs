@@ -181,11 +181,19 @@ fn edge_cases_give_finite_non_negative_profiles() {
             for model in Model::ALL {
                 match analytic::profile(&mat, model, &grid, &opts) {
                     Ok(p) => assert_valid(&p, &format!("{what} {model:?} {mode:?}")),
-                    Err(e) => {
-                        // Only the fits may refuse (eta = 1 is inside their
-                        // range, so nothing here should).
-                        panic!("{what} {model:?} {mode:?}: {e}");
+                    // Below eta = 1 Jensen's F_dr fit is -1.2 (A < 0): the
+                    // dipole, and normalized diffusion built on its total,
+                    // refuse it. Nothing else here may refuse (eta = 1 is
+                    // inside every fit's range).
+                    Err(e)
+                        if what == "eta < 1"
+                            && mode == FresnelMode::Fit
+                            && matches!(model, Model::Dipole | Model::Burley) =>
+                    {
+                        assert!(e.to_string().contains("F_dr"), "{e}");
+                        continue;
                     }
+                    Err(e) => panic!("{what} {model:?} {mode:?}: {e}"),
                 }
                 let m = mat.top(Channel::R);
                 let cm = ChannelModel::new(model, &m, mode, 1.0).unwrap();

@@ -4,7 +4,8 @@
 //! an approximation (dipole).
 
 use ssskit::material::{parse_material_toml, preset, Channel, Material};
-use ssskit::profile::analytic::{bin_averages, dipole::dipole_rd, gauss_legendre};
+use ssskit::profile::analytic::{bin_averages, dipole::Dipole, gauss_legendre};
+use ssskit::profile::fresnel::FresnelMode;
 use ssskit::profile::mc::{
     simulate, simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget, ROULETTE_THRESHOLD,
 };
@@ -132,7 +133,8 @@ fn marble_profile_matches_dipole_in_diffusion_regime() {
     };
     // Photons enter with weight 1 - R_sp; the dipole is per entering flux.
     let t_entry = 1.0 - p.specular[0];
-    let dip = bin_averages(|r| t_entry * dipole_rd(&md, r), &grid);
+    let dipole = Dipole::new(&md, FresnelMode::Fit, t_entry);
+    let dip = bin_averages(|r| dipole.rd(r), &grid);
     let areas = grid.areas();
     let err = &p.rd_stderr.as_ref().unwrap()[0];
     for (a, b) in [(6.0, 12.0), (12.0, 24.0), (24.0, 48.0)] {
@@ -477,13 +479,14 @@ fn automatic_grid_holds_the_dipole_tail() {
                 continue;
             }
             let rmax = g.r_max();
-            let f = |r: f64| dipole_rd(&md, r) * 2.0 * std::f64::consts::PI * r;
+            let dipole = Dipole::new(&md, FresnelMode::Fit, 1.0);
+            let f = |r: f64| dipole.rd(r) * 2.0 * std::f64::consts::PI * r;
             let (mut tail, mut a) = (0.0, rmax);
             while a < rmax + 200.0 / md.sigma_tr() {
                 tail += gauss_legendre(f, a, a + 0.5 / md.sigma_tr());
                 a += 0.5 / md.sigma_tr();
             }
-            let total = ssskit::profile::analytic::dipole::dipole_total(&md);
+            let total = dipole.total();
             assert!(
                 tail < 1e-4 * total,
                 "{name} {c:?}: tail {tail:e} of {total}"

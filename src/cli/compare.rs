@@ -1,10 +1,12 @@
 //! `ssskit compare`: kernel models across materials, in kernel space and in
-//! image space; report.md, compare.csv, compare.json and plots.
+//! image space; report.md, compare.csv, compare.json, the fitted kernels
+//! and plots.
 
 use super::progress::Bar;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
+use ssskit::kernel::KernelFile;
 use ssskit::material::{preset_names, Channel, Material};
 use ssskit::profile::analytic::{self, Model as ProfileModel, Options as ProfileOptions};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
@@ -46,7 +48,8 @@ pub struct Args {
     /// svd, preintegrate, guided, manual, gaussians, jimenez.
     #[arg(long, default_value = "all")]
     models: String,
-    /// Comma-separated test signals: edge, shapes, checker, dirac.
+    /// Comma-separated test signals: edge, shapes, checker, dirac; "" for
+    /// kernel space only.
     #[arg(long, default_value = "edge,shapes")]
     signals: String,
     /// Further images in linear light (.exr) or sRGB (.png), at --mm-per-pixel.
@@ -65,6 +68,10 @@ pub struct Args {
     /// SVD ranks and Gaussian counts, e.g. 1-6 or 1,3.
     #[arg(long, default_value = "1-3")]
     ranks: String,
+    /// Half-width of the kernels in mm (default: the radius holding 99.9%
+    /// of each profile's R_d).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    extent: Option<f64>,
     /// FLIP viewing condition.
     #[arg(long, default_value_t = 67.0)]
     pixels_per_degree: f64,
@@ -251,8 +258,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             mm_per_pixel: a.mm_per_pixel,
         });
     }
-    if cases.is_empty() {
-        bail!("nothing to filter: give --signals and/or --images");
+    if let Some(e) = a.extent {
+        if !(e.is_finite() && e > 0.0) {
+            bail!("--extent: invalid value {e}: must be finite and > 0 (mm)");
+        }
     }
     let inputs = load_profiles(&a)?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("--out {}", a.out.display()))?;
@@ -267,6 +276,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         taps: taps.clone(),
         options,
         keep: (!a.no_plots).then_some(Which::Taps(taps[0])),
+        extent_mm: a.extent,
     };
     let t0 = std::time::Instant::now();
     let cmp = kernel_compare::run(&inputs, &cfg, &Bar::new())?;
@@ -300,6 +310,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             cmp.rows.len()
         );
     }
+    let kdir = a.out.join("kernels");
+    std::fs::create_dir_all(&kdir).with_context(|| format!("--out {}", kdir.display()))?;
+    for f in &cmp.fitted {
+        let path = kdir.join(format!("{}-{}.json", f.material, f.spec.label));
+        f.kernel.write(&path)?;
+        KernelFile::read(&path)?;
+    }
     if !a.no_plots {
         for m in &cmp.materials {
             kernel_plots::kernel_slices(&cmp, m, &a.out.join(format!("slices_{m}.png")))?;
@@ -320,7 +337,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
     print!("{}", kernel_report::claims_table(&claims).markdown());
     eprintln!(
-        "{} materials x {} kernels x {} images in {:.1} s -> {}/report.md, compare.csv, compare.json{}",
+        "{} materials x {} kernels x {} images in {:.1} s -> {}/report.md, compare.csv, compare.json, kernels/{}",
         cmp.materials.len(),
         cmp.fitted.len(),
         signals.len(),

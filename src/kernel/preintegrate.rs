@@ -12,7 +12,7 @@ use super::kernel2d::{rgb_indices, RadialInterp};
 use super::model::Factors;
 use super::Kernel2D;
 use crate::error::Result;
-use crate::profile::analytic::gauss_legendre;
+use crate::numerics::{gauss_legendre, gauss_legendre_sqrt_end, gauss_legendre_sqrt_start};
 use crate::profile::Profile;
 use rayon::prelude::*;
 use serde_json::json;
@@ -137,24 +137,14 @@ pub fn strip(f: &RadialInterp, x: f64, y: f64) -> f64 {
         let g = |r: f64| f.eval_in(seg, r) * r * 2.0 * theta(r);
         s += match (sa, sb) {
             (false, false) => gauss_legendre(g, a, b),
-            (true, false) => sqrt_left(&g, a, b),
-            (false, true) => sqrt_right(&g, a, b),
-            (true, true) => sqrt_left(&g, a, mid) + sqrt_right(&g, mid, b),
+            (true, false) => gauss_legendre_sqrt_start(&g, a, b),
+            (false, true) => gauss_legendre_sqrt_end(&g, a, b),
+            (true, true) => {
+                gauss_legendre_sqrt_start(&g, a, mid) + gauss_legendre_sqrt_end(&g, mid, b)
+            }
         };
     }
     s
-}
-
-/// int_a^b g with a square-root corner at a: r = a + (b - a) t^2.
-fn sqrt_left(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
-    let h = b - a;
-    gauss_legendre(|t| g(a + h * t * t) * 2.0 * h * t, 0.0, 1.0)
-}
-
-/// int_a^b g with a square-root corner at b: r = b - (b - a) t^2.
-fn sqrt_right(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
-    let h = b - a;
-    gauss_legendre(|t| g(b - h * t * t) * 2.0 * h * t, 0.0, 1.0)
 }
 
 /// 2 int_0^Y f(sqrt(x^2 + y^2)) dy, one Gauss-Legendre panel per segment

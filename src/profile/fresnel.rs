@@ -131,7 +131,7 @@ fn fresnel_moment_exact(eta: f64, n: i32) -> f64 {
     const PANELS: usize = 32;
     let h = 1.0 / PANELS as f64;
     let smooth: f64 = (0..PANELS)
-        .map(|k| crate::profile::analytic::gauss_legendre(g, k as f64 * h, (k + 1) as f64 * h))
+        .map(|k| crate::numerics::gauss_legendre(g, k as f64 * h, (k + 1) as f64 * h))
         .sum();
     tir + smooth
 }

@@ -5,9 +5,13 @@
 pub mod analytic;
 pub mod fresnel;
 pub mod grid;
+pub mod interp;
 pub mod mc;
+pub mod radius;
 
 pub use grid::RadialGrid;
+pub use interp::RadialInterp;
+pub use radius::radius_holding;
 
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};

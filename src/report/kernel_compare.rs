@@ -43,17 +43,25 @@ pub struct ModelSpec {
     /// Short unique label: "svd1", "svd1-renorm", "guided-k1", ...
     pub label: String,
     pub model: Model,
+    /// Also report the fit scaled to the ground truth's 1-norm per channel
+    /// (Freude 2014, eq. 5.12) under this label: the SSSS renderer
+    /// normalises every kernel. The SVD carries its own flag instead.
+    pub renormalized_label: Option<String>,
 }
 
 /// The variants of `families` for `material`: SVD at each rank raw and
 /// renormalised (Freude 2014, eq. 5.12), pre-integration (Abel), guided
 /// k = 1 (b = 0) and k = 1.55, b = 50 (Freude 2014, fig. 5.15), manual with
 /// the table A.1 preset (when the material has one) and fitted, `gaussians`
-/// with each count in `ranks` (plus d'Eon's six-Gaussian skin profile for
+/// with each count in `ranks`, as fitted and renormalised (plus d'Eon's six-Gaussian skin profile for
 /// skin1), Jimenez's skin model.
 pub fn model_specs(families: &[String], ranks: &[usize], material: &str) -> Result<Vec<ModelSpec>> {
     let mut out = Vec::new();
-    let mut push = |label: String, model: Model| out.push(ModelSpec { label, model });
+    let spec = |label: String, model: Model| ModelSpec {
+        label,
+        model,
+        renormalized_label: None,
+    };
     for f in families {
         match f.as_str() {
             "svd" => {
@@ -64,48 +72,60 @@ pub fn model_specs(families: &[String], ranks: &[usize], material: &str) -> Resu
                         } else {
                             format!("svd{r}")
                         };
-                        push(
+                        out.push(spec(
                             label,
                             Model::Svd {
                                 rank: r,
                                 renormalize,
                             },
-                        );
+                        ));
                     }
                 }
             }
-            "preintegrate" => push(
+            "preintegrate" => out.push(spec(
                 "preintegrate".into(),
                 Model::Preintegrate {
                     method: PreMethod::Abel,
                 },
-            ),
+            )),
             "guided" => {
-                push("guided-k1".into(), Model::Guided(GuidedParams::default()));
-                push(
+                out.push(spec(
+                    "guided-k1".into(),
+                    Model::Guided(GuidedParams::default()),
+                ));
+                out.push(spec(
                     "guided-k1.55-b50".into(),
                     Model::Guided(GuidedParams {
                         k: 1.55,
                         b: 50.0,
                         ..GuidedParams::default()
                     }),
-                );
+                ));
             }
             "manual" => {
                 if crate::kernel::manual::preset(material).is_ok() {
-                    push("manual".into(), Model::ManualPreset(material.to_string()));
+                    out.push(spec(
+                        "manual".into(),
+                        Model::ManualPreset(material.to_string()),
+                    ));
                 }
-                push("manual-fit".into(), Model::ManualFit);
+                out.push(spec("manual-fit".into(), Model::ManualFit));
             }
             "gaussians" => {
                 for &n in ranks {
-                    push(format!("gaussians{n}"), Model::Gaussians { count: n });
+                    out.push(ModelSpec {
+                        renormalized_label: Some(format!("gaussians{n}-renorm")),
+                        ..spec(format!("gaussians{n}"), Model::Gaussians { count: n })
+                    });
                 }
                 if material.eq_ignore_ascii_case("skin1") {
-                    push("deon-skin".into(), Model::DeonSkin);
+                    out.push(spec("deon-skin".into(), Model::DeonSkin));
                 }
             }
-            "jimenez" => push("jimenez".into(), Model::Jimenez(JimenezParams::default())),
+            "jimenez" => out.push(spec(
+                "jimenez".into(),
+                Model::Jimenez(JimenezParams::default()),
+            )),
             other => {
                 return Err(Error::invalid(
                     "compare",
@@ -164,6 +184,9 @@ pub struct Config {
     pub options: Options,
     /// Keep each model's filtered image of this factor (contact sheets).
     pub keep: Option<Which>,
+    /// Half-width of the kernels in mm; None: the radius holding 99.9% of
+    /// each profile's R_d.
+    pub extent_mm: Option<f64>,
 }
 
 /// Errors of one channel of one filtered image.
@@ -234,7 +257,7 @@ pub struct Comparison {
 pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
 
 /// Runs the comparison: fits every model of `cfg` to every material's
-/// ground-truth kernel (default grid) with the first tap count as the
+/// ground-truth kernel (default grid, or the given extent) with the first tap count as the
 /// stored table, and evaluates it on every case.
 pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> Result<Comparison> {
     if inputs.is_empty() {
@@ -250,7 +273,15 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         .collect::<Result<_>>()?;
     let truths: Vec<Kernel2D> = inputs
         .par_iter()
-        .map(|m| Kernel2D::from_profile(&m.profile, &Kernel2DSpec::default()))
+        .map(|m| {
+            Kernel2D::from_profile(
+                &m.profile,
+                &Kernel2DSpec {
+                    size: None,
+                    extent_mm: cfg.extent_mm,
+                },
+            )
+        })
         .collect::<Result<_>>()?;
     let exact: Vec<Vec<Exact>> = inputs
         .par_iter()
@@ -273,27 +304,56 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
             let m = &inputs[i];
             let with = |e: Error| Error::Unsupported(format!("{} {}: {e}", m.name, spec.label));
             let f = fit_model(&truths[i], &m.profile, &spec.model).map_err(with)?;
-            let kernel =
-                assemble(&m.profile, &truths[i], &spec.model, f, stored_taps).map_err(with)?;
-            let mut images = Vec::with_capacity(cfg.cases.len());
-            let mut kept = Vec::with_capacity(cfg.cases.len());
-            for ex in &exact[i] {
-                let (e, k) =
-                    evaluate::evaluate_keeping(ex, &kernel, &cfg.taps, &cfg.options, cfg.keep)
-                        .map_err(with)?;
-                images.push(e);
-                kept.push(k);
+            let mut variants = Vec::new();
+            if let Some(label) = &spec.renormalized_label {
+                let mut g = crate::kernel::model::Fitted {
+                    factors: f.factors.clone(),
+                    params: f.params.clone(),
+                    extra: f.extra.clone(),
+                    seconds: f.seconds,
+                };
+                renormalize(&mut g.factors, &truths[i]);
+                g.params["renormalize"] = json!(true);
+                let spec = ModelSpec {
+                    label: label.clone(),
+                    model: spec.model.clone(),
+                    renormalized_label: None,
+                };
+                variants.push((spec, g));
+            }
+            let mut f = f;
+            if spec.renormalized_label.is_some() {
+                f.params["renormalize"] = json!(false);
+            }
+            variants.insert(0, (spec.clone(), f));
+            let mut out = Vec::new();
+            for (spec, f) in variants {
+                let kernel =
+                    assemble(&m.profile, &truths[i], &spec.model, f, stored_taps).map_err(with)?;
+                let mut images = Vec::with_capacity(cfg.cases.len());
+                let mut kept = Vec::with_capacity(cfg.cases.len());
+                for ex in &exact[i] {
+                    let (e, k) =
+                        evaluate::evaluate_keeping(ex, &kernel, &cfg.taps, &cfg.options, cfg.keep)
+                            .map_err(with)?;
+                    images.push(e);
+                    kept.push(k);
+                }
+                out.push(Fitted {
+                    material: m.name.clone(),
+                    spec,
+                    kernel,
+                    images,
+                    kept,
+                });
             }
             progress.advance(1);
-            Ok(Fitted {
-                material: m.name.clone(),
-                spec: spec.clone(),
-                kernel,
-                images,
-                kept,
-            })
+            Ok(out)
         })
-        .collect::<Result<_>>()?;
+        .collect::<Result<Vec<Vec<Fitted>>>>()?
+        .into_iter()
+        .flatten()
+        .collect();
     progress.finish();
     let rows = fitted.iter().flat_map(rows_of).collect();
     Ok(Comparison {
@@ -303,6 +363,21 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         fitted,
         rows,
     })
+}
+
+/// Scales each channel's factors so that the separable kernel has the
+/// ground truth's 1-norm (Freude 2014, eq. 5.12), for factors whose
+/// products are non-negative (sums of Gaussians).
+fn renormalize(f: &mut crate::kernel::Factors, truth: &Kernel2D) {
+    for c in 0..3 {
+        let have: f64 = f.iter().map(|t| t[c].iter().sum::<f64>().powi(2)).sum();
+        let target: f64 = truth.data[c].iter().map(|v| v.abs()).sum();
+        let s = (target / have).sqrt();
+        if s.is_finite() && s > 0.0 {
+            f.iter_mut()
+                .for_each(|t| t[c].iter_mut().for_each(|v| *v *= s));
+        }
+    }
 }
 
 fn channel_error(e: &evaluate::ImageErrors, c: usize) -> ChannelImageError {
@@ -397,4 +472,87 @@ pub fn grouped(rows: &[Row]) -> Vec<(&str, &str, [&Row; 3])> {
             )
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::NoProgress;
+
+    #[test]
+    fn ranks_parse_and_refuse() {
+        assert_eq!(parse_ranks("1-3").unwrap(), vec![1, 2, 3]);
+        assert_eq!(parse_ranks("4, 1,2-3,2").unwrap(), vec![1, 2, 3, 4]);
+        for bad in ["", "0", "3-1", "a", "1-40", "1--2"] {
+            assert!(parse_ranks(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn specs_label_every_variant_once() {
+        let all: Vec<String> = FAMILIES.iter().map(|s| s.to_string()).collect();
+        let s = model_specs(&all, &[1, 2], "skin1").unwrap();
+        let labels: Vec<&str> = s.iter().map(|m| m.label.as_str()).collect();
+        for l in [
+            "svd1",
+            "svd1-renorm",
+            "svd2",
+            "svd2-renorm",
+            "preintegrate",
+            "guided-k1",
+            "guided-k1.55-b50",
+            "manual",
+            "manual-fit",
+            "gaussians1",
+            "gaussians2",
+            "deon-skin",
+            "jimenez",
+        ] {
+            assert_eq!(labels.iter().filter(|x| **x == l).count(), 1, "{l}");
+        }
+        assert_eq!(
+            s.iter()
+                .filter_map(|m| m.renormalized_label.as_deref())
+                .collect::<Vec<_>>(),
+            ["gaussians1-renorm", "gaussians2-renorm"]
+        );
+        // No table A.1 preset for spectralon: no "manual" variant.
+        let s = model_specs(&["manual".into()], &[1], "spectralon").unwrap();
+        assert_eq!(s.len(), 1);
+        assert!(model_specs(&["nope".into()], &[1], "skin1").is_err());
+    }
+
+    /// Renormalised Gaussians have the ground truth's 1-norm (002 eq.
+    /// 5.12), the fitted ones lose energy; the run works without images.
+    #[test]
+    fn renormalised_gaussians_conserve_energy() {
+        let m = crate::material::preset("marble").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
+        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let cfg = Config {
+            families: vec!["gaussians".into()],
+            ranks: vec![2],
+            cases: vec![],
+            taps: vec![17],
+            options: Options::default(),
+            keep: None,
+            extent_mm: None,
+        };
+        let input = MaterialInput {
+            name: "marble".into(),
+            profile,
+        };
+        let cmp = run(&[input], &cfg, &NoProgress).unwrap();
+        let labels: Vec<&str> = cmp.fitted.iter().map(|f| f.spec.label.as_str()).collect();
+        assert_eq!(labels, ["gaussians2", "gaussians2-renorm"]);
+        for c in 0..3 {
+            let raw = cmp.fitted[0].kernel.metrics.norm1_error[c];
+            let renorm = cmp.fitted[1].kernel.metrics.norm1_error[c];
+            assert!(raw < -1e-3, "{raw}");
+            assert!(renorm.abs() < 1e-12, "{renorm}");
+        }
+        assert_eq!(cmp.rows.len(), 6);
+        assert_eq!(cmp.rows[3].params["renormalize"], json!(true));
+        assert!(cmp.rows.iter().all(|r| r.image.is_empty()));
+    }
 }

@@ -3,6 +3,7 @@
 //! DejaVu Sans, registered once as "sans-serif" (no system fonts).
 
 use crate::error::{Error, Result};
+pub use crate::profile::radius_holding;
 use crate::profile::Profile;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -230,19 +231,6 @@ where
         .draw()
         .map_err(e)?;
     Ok(())
-}
-
-/// Radius holding `fraction` of the tabulated R_d of channel `c`.
-pub fn radius_holding(p: &Profile, c: usize, fraction: f64) -> f64 {
-    let total = p.tabulated_total(c);
-    let mut acc = 0.0;
-    for (v, e) in p.rd[c].iter().zip(p.r_edges.windows(2)) {
-        acc += v * std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0]);
-        if acc >= fraction * total {
-            return e[1];
-        }
-    }
-    *p.r_edges.last().unwrap_or(&1.0)
 }
 
 /// 002 figure 6.1 layout for one or more profiles: one row per channel,

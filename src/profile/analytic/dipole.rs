@@ -23,50 +23,11 @@ pub fn diffuse_fresnel(eta: f64, mode: FresnelMode) -> f64 {
 }
 
 /// Boundary mismatch A = (1 + F_dr) / (1 - F_dr) (Jensen 2001 eq. 6) with
-/// the F_dr fit.
-pub fn boundary_a(eta: f64) -> f64 {
-    let f = diffuse_fresnel_fit(eta);
-    (1.0 + f) / (1.0 - f)
-}
-
-/// A = (1 + F_dr) / (1 - F_dr) with F_dr from the chosen Fresnel mode.
-pub fn boundary_a_with(eta: f64, mode: FresnelMode) -> f64 {
+/// F_dr from the chosen Fresnel mode. This, not `FresnelMode::boundary_a`
+/// (built from C_phi and C_E), is the A of the standard dipole.
+pub fn boundary_a(eta: f64, mode: FresnelMode) -> f64 {
     let f = diffuse_fresnel(eta, mode);
     (1.0 + f) / (1.0 - f)
-}
-
-/// R_d(r) of the standard dipole, mm^-2, with `boundary_a` (F_dr fit), per
-/// unit flux entering the medium.
-pub fn dipole_rd(m: &Medium, r: f64) -> f64 {
-    dipole_rd_a(m, boundary_a(m.eta), r)
-}
-
-/// R_d(r) of the standard dipole for a given boundary term A, per unit flux
-/// entering the medium (REFERENCE 4; 000 eq. 3.8 with the sign of eq. 3.7
-/// fixed).
-pub fn dipole_rd_a(m: &Medium, a: f64, r: f64) -> f64 {
-    let st = m.sigma_t_reduced();
-    let alpha = m.reduced_albedo();
-    let tr = m.sigma_tr();
-    let z_r = 1.0 / st;
-    let z_v = z_r + 4.0 * a * m.diffusion_coefficient();
-    let d_r = (r * r + z_r * z_r).sqrt();
-    let d_v = (r * r + z_v * z_v).sqrt();
-    let pole = |z: f64, d: f64| z * (1.0 + tr * d) * (-tr * d).exp() / (d * d * d);
-    alpha / (4.0 * PI) * (pole(z_r, d_r) + pole(z_v, d_v))
-}
-
-/// Closed-form total diffuse reflectance of the dipole with `boundary_a`.
-pub fn dipole_total(m: &Medium) -> f64 {
-    dipole_total_a(m, boundary_a(m.eta))
-}
-
-/// Closed-form total of the dipole for a given A (Jensen 2001 eq. 8):
-/// (alpha'/2) (1 + e^{-(4/3) A sqrt(3(1-alpha'))}) e^{-sqrt(3(1-alpha'))}.
-pub fn dipole_total_a(m: &Medium, a: f64) -> f64 {
-    let alpha = m.reduced_albedo();
-    let s = (3.0 * (1.0 - alpha)).max(0.0).sqrt();
-    0.5 * alpha * (1.0 + (-(4.0 / 3.0) * a * s).exp()) * (-s).exp()
 }
 
 /// The dipole of one channel, with the entry transmission 1 - R_sp applied
@@ -82,17 +43,40 @@ impl Dipole {
     pub fn new(medium: &Medium, mode: FresnelMode, t_entry: f64) -> Dipole {
         Dipole {
             medium: *medium,
-            a: boundary_a_with(medium.eta, mode),
+            a: boundary_a(medium.eta, mode),
             t_entry,
         }
     }
 
-    pub fn rd(&self, r: f64) -> f64 {
-        self.t_entry * dipole_rd_a(&self.medium, self.a, r)
+    /// Depth of the real source, one transport mean free path 1/sigma_t'.
+    pub fn z_r(&self) -> f64 {
+        self.medium.mfp()
     }
 
+    /// Height of the virtual source above the surface: z_r + 4 A D.
+    pub fn z_v(&self) -> f64 {
+        self.z_r() + 4.0 * self.a * self.medium.diffusion_coefficient()
+    }
+
+    /// R_d(r), mm^-2, per unit incident flux (Jensen et al. 2001 eq. 4;
+    /// Dal Corso 2014 eq. 3.8 with the sign of eq. 3.7 fixed).
+    pub fn rd(&self, r: f64) -> f64 {
+        let m = &self.medium;
+        let alpha = m.reduced_albedo();
+        let tr = m.sigma_tr();
+        let (z_r, z_v) = (self.z_r(), self.z_v());
+        let d_r = (r * r + z_r * z_r).sqrt();
+        let d_v = (r * r + z_v * z_v).sqrt();
+        let pole = |z: f64, d: f64| z * (1.0 + tr * d) * (-tr * d).exp() / (d * d * d);
+        self.t_entry * (alpha / (4.0 * PI) * (pole(z_r, d_r) + pole(z_v, d_v)))
+    }
+
+    /// Closed-form total over the plane (Jensen 2001 eq. 8):
+    /// (alpha'/2) (1 + e^{-(4/3) A sqrt(3(1-alpha'))}) e^{-sqrt(3(1-alpha'))}.
     pub fn total(&self) -> f64 {
-        self.t_entry * dipole_total_a(&self.medium, self.a)
+        let alpha = self.medium.reduced_albedo();
+        let s = (3.0 * (1.0 - alpha)).max(0.0).sqrt();
+        self.t_entry * (0.5 * alpha * (1.0 + (-(4.0 / 3.0) * self.a * s).exp()) * (-s).exp())
     }
 }
 
@@ -108,8 +92,9 @@ mod tests {
             for ch in Channel::ALL {
                 let m = preset(name).unwrap().top(ch);
                 let scale = 1.0 / m.sigma_tr();
-                let num = radial_total(|r| dipole_rd(&m, r), scale);
-                let exact = dipole_total(&m);
+                let d = Dipole::new(&m, FresnelMode::Fit, 1.0);
+                let num = radial_total(|r| d.rd(r), scale);
+                let exact = d.total();
                 assert!(
                     (num - exact).abs() < 1e-6 * exact.max(1e-3),
                     "{name} {ch:?}: {num} vs {exact}"

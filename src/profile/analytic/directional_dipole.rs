@@ -62,6 +62,11 @@ impl DirectionalDipole {
         t0 * (self.c_phi * t1 - self.c_e * (t2 - t3))
     }
 
+    /// Height of the virtual source above the surface, 2 A d_e.
+    pub fn z_v(&self) -> f64 {
+        2.0 * self.a * self.d_e
+    }
+
     pub fn rd(&self, r: f64) -> f64 {
         let (d, d_e) = (self.d, self.d_e);
         // d_e |cos beta| = r / sqrt((r/d_e)^2 + 1): finite as alpha' -> 0,
@@ -70,7 +75,7 @@ impl DirectionalDipole {
         let de_cos_beta = r / ((r / d_e).powi(2) + 1.0).sqrt();
         let d_r = (r * r + d * (d + 2.0 * de_cos_beta)).sqrt();
         let real = self.s_prime(0.0, -1.0, 0.0, d_r);
-        let z_v = 2.0 * self.a * d_e;
+        let z_v = self.z_v();
         let virt = if z_v.is_finite() {
             self.s_prime(-z_v, 1.0, -z_v, (r * r + z_v * z_v).sqrt())
         } else {

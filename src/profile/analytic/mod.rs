@@ -15,6 +15,9 @@ use super::fresnel::{specular_normal, FresnelMode};
 use super::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material, Medium};
+pub use crate::numerics::{
+    bin_averages, bin_averages_resolved, gauss_legendre, plane_total, radial_total,
+};
 use rayon::prelude::*;
 use serde_json::json;
 
@@ -92,11 +95,7 @@ impl ChannelModel {
     /// Sets up `model` for `medium`; `t_entry` is 1 - R_sp. Fails where the
     /// Fresnel fits leave their range (C_phi <= 0 or A not finite).
     pub fn new(model: Model, medium: &Medium, fresnel: FresnelMode, t_entry: f64) -> Result<Self> {
-        check_fresnel(medium.eta, fresnel)?;
-        if model == Model::DirectionalDipole {
-            // The directional dipole's exit normalisation uses C_phi(1/eta).
-            check_fresnel(1.0 / medium.eta, fresnel)?;
-        }
+        check_fresnel(model, medium.eta, fresnel)?;
         Ok(match model {
             Model::Dipole => ChannelModel::Dipole(dipole::Dipole::new(medium, fresnel, t_entry)),
             Model::Pbd => {
@@ -139,8 +138,8 @@ impl ChannelModel {
         match self {
             ChannelModel::Dipole(m) => json!({
                 "A": m.a,
-                "z_r": m.medium.mfp(),
-                "z_v": m.medium.mfp() + 4.0 * m.a * m.medium.diffusion_coefficient(),
+                "z_r": m.z_r(),
+                "z_v": m.z_v(),
                 "D": m.medium.diffusion_coefficient(),
                 "sigma_tr": m.medium.sigma_tr(),
                 "reduced_albedo": m.medium.reduced_albedo(),
@@ -149,8 +148,7 @@ impl ChannelModel {
                 "fresnel_moment1": m.fm1,
                 "fresnel_moment2": m.fm2,
                 "beam_samples": pbd::BEAM_SAMPLES,
-                "D_g": (2.0 * m.medium.sigma_a + m.medium.sigma_s_reduced())
-                    / (3.0 * m.medium.sigma_t_reduced().powi(2)),
+                "D_g": pbd::grosjean_diffusion_coefficient(&m.medium),
                 "single_scattering_albedo": m.medium.albedo(),
                 "reduced_albedo": m.medium.reduced_albedo(),
                 "g": m.medium.g,
@@ -170,28 +168,50 @@ impl ChannelModel {
                 "C_phi": m.c_phi,
                 "C_E": m.c_e,
                 "sigma_tr": m.sigma_tr,
-                "z_v": 2.0 * m.a * m.d_e,
+                "z_v": m.z_v(),
             }),
         }
     }
 }
 
-/// Rejects a Fresnel mode whose constants are unphysical at `eta`.
-fn check_fresnel(eta: f64, mode: FresnelMode) -> Result<()> {
-    let (c_phi, a) = (mode.c_phi(eta), mode.boundary_a(eta));
-    let c_e = mode.c_e(eta);
-    if !(c_phi > 0.0 && c_e > 0.0 && a.is_finite() && a > 0.0) {
-        return Err(Error::invalid(
+/// Rejects a Fresnel mode whose constants, as `model` uses them, are
+/// unphysical at `eta`: the standard dipole (and normalized diffusion, whose
+/// albedo is the dipole's total) needs only A = (1 + F_dr) / (1 - F_dr);
+/// photon beam diffusion needs C_phi, C_E and the extrapolation distance's
+/// A = (1 - C_E) / (2 C_phi); the directional dipole needs those and, for
+/// its exit normalisation, C_phi(1/eta).
+fn check_fresnel(model: Model, eta: f64, mode: FresnelMode) -> Result<()> {
+    let refuse = |eta: f64, detail: String| {
+        Err(Error::invalid(
             "--fresnel fit",
             "eta",
             eta,
             format!(
-                "the Fresnel moment fits give C_phi = {c_phi:.4}, C_E = {c_e:.4} here \
-                 (outside their range); use --fresnel exact"
+                "the Fresnel fits give {detail} here (outside their range); use --fresnel exact"
             ),
-        ));
+        ))
+    };
+    let moments = |eta: f64| {
+        let (c_phi, c_e, a) = (mode.c_phi(eta), mode.c_e(eta), mode.boundary_a(eta));
+        if c_phi > 0.0 && c_e > 0.0 && a.is_finite() && a > 0.0 {
+            Ok(())
+        } else {
+            refuse(eta, format!("C_phi = {c_phi:.4}, C_E = {c_e:.4}"))
+        }
+    };
+    match model {
+        Model::Dipole | Model::Burley => {
+            let a = dipole::boundary_a(eta, mode);
+            if a.is_finite() && a > 0.0 {
+                Ok(())
+            } else {
+                let f_dr = dipole::diffuse_fresnel(eta, mode);
+                refuse(eta, format!("F_dr = {f_dr:.4}, A = {a:.4}"))
+            }
+        }
+        Model::Pbd => moments(eta),
+        Model::DirectionalDipole => moments(eta).and_then(|()| moments(1.0 / eta)),
     }
-    Ok(())
 }
 
 /// The shortest length of the medium: where the profile's structure starts.
@@ -202,28 +222,6 @@ fn length_scale(m: &Medium) -> f64 {
 /// The asymptotic decay length 1/sigma_tr (infinite when sigma_a = 0).
 fn decay_length(m: &Medium) -> f64 {
     1.0 / m.sigma_tr()
-}
-
-/// 2 pi int_0^inf f(r) r dr over the whole plane for a profile with
-/// structure from `scale` and asymptotic decay exp(-r / decay) (decay may be
-/// infinite, e.g. sigma_a = 0, where diffusion profiles fall like r^-3):
-/// 8-point Gauss-Legendre on geometric panels (ratio 1.15) from 1e-6 scale
-/// out to min(80 decay, 1e7 scale), plus the tail of an r^-3 fall-off,
-/// 2 pi R^2 f(R), which is exact for the power law and negligible after an
-/// exponential decay of 80 lengths.
-pub fn plane_total(f: impl Fn(f64) -> f64, scale: f64, decay: f64) -> f64 {
-    let g = |r: f64| f(r) * 2.0 * std::f64::consts::PI * r;
-    let end = (80.0 * decay).min(1e7 * scale).max(100.0 * scale);
-    let (mut a, mut b) = (0.0, scale * 1e-6);
-    let mut s = 0.0;
-    while a < end {
-        let b_clamped = b.min(end);
-        s += gauss_legendre(g, a, b_clamped);
-        a = b_clamped;
-        b = b_clamped * 1.15;
-    }
-    let tail = 2.0 * std::f64::consts::PI * end * end * f(end);
-    s + if tail.is_finite() { tail.max(0.0) } else { 0.0 }
 }
 
 /// The default grid, shared with the Monte Carlo tally so that profiles
@@ -366,91 +364,6 @@ pub fn diffusion_regime(m: &Medium) -> &'static str {
     }
 }
 
-/// Bin averages of a radial function over annuli: int f(r) 2 pi r dr / area,
-/// by 8-point Gauss-Legendre per bin. Averages stay finite where f has an
-/// integrable singularity at r = 0 because no node sits at r = 0.
-pub fn bin_averages(f: impl Fn(f64) -> f64, grid: &RadialGrid) -> Vec<f64> {
-    grid.edges
-        .windows(2)
-        .zip(grid.areas())
-        .map(|(e, area)| {
-            gauss_legendre(|r| f(r) * 2.0 * std::f64::consts::PI * r, e[0], e[1]) / area
-        })
-        .collect()
-}
-
-/// Bin averages like `bin_averages`, adapted to profiles whose structure
-/// scale is the radius itself: the first bin on geometric panels (ratio
-/// 1.5, from 1e-9 of its width) so that structure at r -> 0 much finer than
-/// the bin (single scattering at depth ~1/sigma_t, the 1/r of normalized
-/// diffusion) is resolved; bins starting beyond 8 widths from the origin by
-/// 2-point Gauss-Legendre (exact for cubics; for e^{-s r} r^-k with k <= 3
-/// the relative error is below (3/8)^4 / 4320 ~ 5e-6); the rest by 8 points.
-pub fn bin_averages_resolved(f: impl Fn(f64) -> f64, grid: &RadialGrid) -> Vec<f64> {
-    let g = |r: f64| f(r) * 2.0 * std::f64::consts::PI * r;
-    grid.edges
-        .windows(2)
-        .zip(grid.areas())
-        .map(|(e, area)| {
-            let (a, b) = (e[0], e[1]);
-            let integral = if a == 0.0 {
-                let (mut lo, mut hi) = (0.0, b * 1e-9);
-                let mut s = 0.0;
-                while lo < b {
-                    s += gauss_legendre(g, lo, hi);
-                    lo = hi;
-                    hi = (hi * 1.5).min(b);
-                }
-                s
-            } else if a >= 8.0 * (b - a) {
-                let (m, h) = (0.5 * (a + b), 0.5 * (b - a) / 3f64.sqrt());
-                (b - a) * 0.5 * (g(m - h) + g(m + h))
-            } else {
-                gauss_legendre(g, a, b)
-            };
-            integral / area
-        })
-        .collect()
-}
-
-/// 8-point Gauss-Legendre quadrature of `f` over [a, b].
-pub fn gauss_legendre(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
-    const X: [f64; 4] = [
-        0.183_434_642_495_649_8,
-        0.525_532_409_916_329,
-        0.796_666_477_413_626_7,
-        0.960_289_856_497_536_3,
-    ];
-    const W: [f64; 4] = [
-        0.362_683_783_378_362,
-        0.313_706_645_877_887_3,
-        0.222_381_034_453_374_5,
-        0.101_228_536_290_376_3,
-    ];
-    let (m, h) = (0.5 * (a + b), 0.5 * (b - a));
-    let mut s = 0.0;
-    for k in 0..4 {
-        s += W[k] * (f(m - h * X[k]) + f(m + h * X[k]));
-    }
-    s * h
-}
-
-/// 2 pi int_0^inf f(r) r dr for a profile decaying at least like
-/// exp(-r / scale): geometric panels from scale * 1e-6 out to 60 scales.
-pub fn radial_total(f: impl Fn(f64) -> f64, scale: f64) -> f64 {
-    let g = |r: f64| f(r) * 2.0 * std::f64::consts::PI * r;
-    let g = &g;
-    let mut a = 0.0;
-    let mut b = scale * 1e-6;
-    let mut s = 0.0;
-    while a < 60.0 * scale {
-        s += gauss_legendre(g, a, b);
-        a = b;
-        b = (b * 1.15).max(b + scale * 1e-6);
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -497,6 +410,55 @@ mod tests {
             hi = (hi * 1.1).min(b);
         }
         s
+    }
+
+    #[test]
+    fn fresnel_check_tests_the_constants_each_model_uses() {
+        // At eta = 3 the moment fits give C_phi < 0 (PBD and the directional
+        // dipole cannot use them), but the dipole's F_dr fit is 0.936 there:
+        // A = 30, a valid (if strongly mismatched) boundary.
+        let m = Medium {
+            sigma_a: 0.01,
+            sigma_s: 2.0,
+            g: 0.0,
+            eta: 3.0,
+        };
+        assert!(FresnelMode::Fit.c_phi(3.0) < 0.0);
+        for model in [Model::Dipole, Model::Burley] {
+            let cm = ChannelModel::new(model, &m, FresnelMode::Fit, 1.0).unwrap();
+            let (total, _) = cm.total(&m);
+            assert!(cm.rd(0.1) > 0.0 && total > 0.0 && total < 1.0, "{model:?}");
+        }
+        if let ChannelModel::Dipole(d) =
+            ChannelModel::new(Model::Dipole, &m, FresnelMode::Fit, 1.0).unwrap()
+        {
+            assert!((d.a - 30.0).abs() < 0.5, "A = {}", d.a);
+        }
+        for model in [Model::Pbd, Model::DirectionalDipole] {
+            assert!(
+                ChannelModel::new(model, &m, FresnelMode::Fit, 1.0).is_err(),
+                "{model:?}"
+            );
+            assert!(
+                ChannelModel::new(model, &m, FresnelMode::Exact, 1.0).is_ok(),
+                "{model:?}"
+            );
+        }
+        // Beyond eta ~ 3.9 the F_dr fit passes 1, and at eta = 0.5 it is
+        // -3.6: A < 0 either way, and the dipole is refused too.
+        for eta in [4.0, 0.5] {
+            let m = Medium { eta, ..m };
+            let a = dipole::boundary_a(eta, FresnelMode::Fit);
+            assert!(a < 0.0, "eta {eta}: A = {a}");
+            assert!(
+                ChannelModel::new(Model::Dipole, &m, FresnelMode::Fit, 1.0).is_err(),
+                "eta {eta}"
+            );
+            assert!(
+                ChannelModel::new(Model::Dipole, &m, FresnelMode::Exact, 1.0).is_ok(),
+                "eta {eta}"
+            );
+        }
     }
 
     #[test]

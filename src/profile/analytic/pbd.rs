@@ -16,6 +16,25 @@ pub fn phase_hg(cos_theta: f64, g: f64) -> f64 {
     (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
 }
 
+/// Grosjean's diffusion coefficient D_g = (2 sigma_a + sigma_s') /
+/// (3 sigma_t'^2), which pbrt-v3's BeamDiffusionMS uses instead of the
+/// classical 1 / (3 sigma_t').
+pub fn grosjean_diffusion_coefficient(m: &Medium) -> f64 {
+    let spt = m.sigma_t_reduced();
+    (2.0 * m.sigma_a + m.sigma_s_reduced()) / (3.0 * spt * spt)
+}
+
+/// Depth along the refracted beam below which light scattered towards the
+/// exit point at distance `r` is totally internally reflected:
+/// t_crit = r sqrt(eta^2 - 1); none for eta <= 1.
+pub fn t_crit(eta: f64, r: f64) -> f64 {
+    if eta > 1.0 {
+        r * (eta * eta - 1.0).sqrt()
+    } else {
+        0.0
+    }
+}
+
 /// The photon beam diffusion profile of one channel.
 #[derive(Clone, Debug)]
 pub struct BeamDiffusion {
@@ -62,11 +81,7 @@ impl BeamDiffusion {
         let m = &self.medium;
         let st = m.sigma_t();
         let rho = m.sigma_s / st;
-        let t_crit = if m.eta > 1.0 {
-            r * (m.eta * m.eta - 1.0).sqrt()
-        } else {
-            0.0
-        };
+        let t_crit = t_crit(m.eta, r);
         let g = m.g.abs();
         let p_max = (1.0 + g) / (4.0 * PI * (1.0 - g).powi(2));
         rho * (-st * (r + t_crit)).exp() / (r * r) * p_max
@@ -82,8 +97,7 @@ impl BeamDiffusion {
         if !(rhop > 0.0) {
             return 0.0;
         }
-        // Grosjean's D_g = (2 sigma_a + sigma_s') / (3 sigma_t'^2).
-        let d_g = (2.0 * m.sigma_a + sps) / (3.0 * spt * spt);
+        let d_g = grosjean_diffusion_coefficient(m);
         let tr = (m.sigma_a / d_g).sqrt();
         // Extrapolated boundary z_e and the exitance weights C_phi, C_E.
         let z_e = -2.0 * d_g * (1.0 + 3.0 * self.fm2) / (1.0 - 2.0 * self.fm1);
@@ -111,9 +125,8 @@ impl BeamDiffusion {
         (sum / n).max(0.0)
     }
 
-    /// Single scattering along the refracted beam (pbrt-v3 BeamDiffusionSS).
-    /// Depths shallower than t_crit = r sqrt(eta^2 - 1) are totally
-    /// internally reflected; for eta <= 1 there is no such depth.
+    /// Single scattering along the refracted beam (pbrt-v3 BeamDiffusionSS),
+    /// from depth `t_crit` down.
     pub fn single(&self, r: f64) -> f64 {
         let m = &self.medium;
         let st = m.sigma_t();
@@ -122,11 +135,7 @@ impl BeamDiffusion {
             return 0.0;
         }
         let eta = m.eta;
-        let t_crit = if eta > 1.0 {
-            r * (eta * eta - 1.0).sqrt()
-        } else {
-            0.0
-        };
+        let t_crit = t_crit(eta, r);
         let n = BEAM_SAMPLES as f64;
         let mut sum = 0.0;
         for q in &self.quantiles {

@@ -306,8 +306,8 @@ fn run_channel(
 /// (relative stderr of total R_d, relative stderr of the profile, r99).
 ///
 /// The profile error is the R_d-weighted mean relative error of the bins
-/// inside r99, the smallest bin edge within which the tally holds 99% of the
-/// total R_d (all bins when r_max holds less):
+/// up to r99, the radius within which the tally holds 99% of the total R_d
+/// (all bins when r_max holds less):
 /// sum_i w_i (s_i / W_i) / sum_i w_i with weights w_i = W_i, i.e.
 /// sum_i s_i / sum_i W_i, where W_i is the reflectance scored in bin i and
 /// s_i its standard error. A zero R_d (nothing comes back) counts as exact.
@@ -321,7 +321,6 @@ fn convergence(t: &ChunkTally, grid: &RadialGrid) -> (f64, f64, f64) {
     let goal = 0.99 * t.rd.sum;
     let mut acc = 0.0;
     let mut err = 0.0;
-    let mut r99 = grid.r_max();
     for i in 0..grid.len() {
         let m = Moments {
             sum: t.rd_bins.sum[i],
@@ -330,10 +329,11 @@ fn convergence(t: &ChunkTally, grid: &RadialGrid) -> (f64, f64, f64) {
         acc += t.rd_bins.sum[i];
         err += m.stderr(n) * n as f64;
         if acc >= goal {
-            r99 = grid.edges[i + 1];
             break;
         }
     }
+    let r99 =
+        crate::profile::radius::radius_reaching(&grid.edges, t.rd_bins.sum.iter().copied(), goal);
     let rel_profile = if acc > 0.0 { err / acc } else { 0.0 };
     (rel_total, rel_profile, r99)
 }
