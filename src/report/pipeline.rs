@@ -239,6 +239,7 @@ pub fn run(
         taps: vec![settings.taps],
         options,
         keep: settings.plots.then_some(Which::Taps(settings.taps)),
+        extent_mm: None,
     };
     let input = MaterialInput {
         name: name.clone(),

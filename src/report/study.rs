@@ -300,6 +300,7 @@ pub fn run(reference: &Profile, s: &Settings, progress: &dyn Progress) -> Result
         taps: vec![17],
         options,
         keep: None,
+        extent_mm: None,
     };
     let input = MaterialInput {
         name: material.name.clone(),
