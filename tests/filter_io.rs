@@ -19,6 +19,7 @@ fn identity_kernel(dir: &Path) -> PathBuf {
     k.taps = TapTable {
         count: 1,
         passes: vec![delta],
+        extent_mm: None,
     };
     let path = dir.join("identity.json");
     k.write(&path).unwrap();

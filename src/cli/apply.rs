@@ -3,6 +3,7 @@
 
 use anyhow::Context;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
+use ssskit::filter::warnings::scale_warnings;
 use ssskit::filter::{check_kernel_fits, cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
 use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
@@ -196,6 +197,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         jitter: args.jitter,
     };
     setup.validate(&image)?;
+    let largest_step = setup
+        .steps(image.width, image.height)
+        .into_iter()
+        .fold(0.0, f64::max);
+    let sampled = factors == Factors::Taps || uniform.is_none();
+    for w in scale_warnings(&setup.passes, largest_step, sampled) {
+        eprintln!("warning: {w}");
+    }
 
     let precision = cpu::Precision::from(args.precision);
     let cpu_path = if setup.is_uniform() {

@@ -8,7 +8,7 @@ use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
 use ssskit::kernel::manual::ManualParams;
 use ssskit::kernel::preintegrate::PreMethod;
-use ssskit::kernel::{fit_kernel_file, Kernel2DSpec, KernelFile, Model};
+use ssskit::kernel::{fit_kernel_file_with, Kernel2DSpec, KernelFile, Model};
 use ssskit::profile::Profile;
 use std::path::PathBuf;
 
@@ -57,6 +57,10 @@ pub struct Args {
     /// Taps per pass of the real-time table (odd).
     #[arg(long, default_value_t = 17)]
     taps: usize,
+    /// Half-width in mm the taps span; default: chosen for the tap count
+    /// (the radius holding 1 - 0.7 taps^-1.2 of the factor's mass).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    tap_extent: Option<f64>,
     /// Print the tap table as a shader constant array.
     #[arg(long, value_name = "hlsl|glsl|wgsl")]
     emit: Option<String>,
@@ -205,7 +209,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             extent_mm: a.extent,
         };
         let m = model(&a, m)?;
-        let k = fit_kernel_file(&profile, &spec, &m, a.taps)
+        let k = fit_kernel_file_with(&profile, &spec, &m, a.taps, a.tap_extent)
             .with_context(|| format!("fitting a kernel to {}", pp.display()))?;
         if let Some(out) = &a.out {
             k.write(out)?;

@@ -1,6 +1,7 @@
 //! Every flag of every subcommand is defined in this folder, one file per
 //! subcommand; each file's `run` calls the library and prints or writes.
 
+mod advise;
 mod apply;
 mod bench;
 mod compare;
@@ -8,15 +9,18 @@ mod diff;
 mod engine;
 mod errors;
 mod fit;
+mod kernels;
 mod materials;
 mod merge;
 mod out;
 mod plot;
 mod profile;
+mod profile_source;
 mod profiles;
 mod progress;
 mod signal;
 mod simulate;
+mod study;
 
 use clap::{Parser, Subcommand};
 
@@ -33,6 +37,12 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The main job: profile, every kernel model, shader arrays, report, what to ship.
+    Kernels(kernels::Args),
+    /// The cheapest kernel configuration meeting a target error at a pixel scale.
+    Advise(advise::Args),
+    /// Speed/accuracy study: photons, profile model, taps, rank, kernel model.
+    Study(study::Args),
     /// List material presets with derived quantities per channel.
     Materials(materials::Args),
     /// Monte Carlo simulation of the diffuse reflectance profile R_d(r).
@@ -84,6 +94,9 @@ pub fn main() -> i32 {
         }
     };
     let result = match cli.command {
+        Command::Kernels(a) => kernels::run(a),
+        Command::Advise(a) => advise::run(a),
+        Command::Study(a) => study::run(a),
         Command::Materials(a) => materials::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Merge(a) => merge::run(a),

@@ -19,6 +19,7 @@ pub mod gpu;
 pub mod image;
 pub mod signals;
 pub mod timing;
+pub mod warnings;
 
 use crate::error::{Error, Result};
 use crate::kernel::{KernelFile, Pass};

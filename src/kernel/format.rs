@@ -26,6 +26,10 @@ pub struct Pass {
 pub struct TapTable {
     pub count: usize,
     pub passes: Vec<Pass>,
+    /// Half-width in mm the taps span (the outermost offsets); absent in
+    /// files written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extent_mm: Option<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -18,4 +18,4 @@ pub mod taps;
 
 pub use format::{KernelFile, Metrics, ModelInfo, Pass, TapTable, Usage, KERNEL_SCHEMA};
 pub use kernel2d::{Kernel2D, Kernel2DSpec};
-pub use model::{fit_kernel_file, fit_model, Factors, Model};
+pub use model::{fit_kernel_file, fit_kernel_file_with, fit_model, Factors, Model};

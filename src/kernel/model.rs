@@ -122,11 +122,23 @@ pub fn fit_kernel_file(
     model: &Model,
     tap_count: usize,
 ) -> Result<KernelFile> {
+    fit_kernel_file_with(profile, spec, model, tap_count, None)
+}
+
+/// [`fit_kernel_file`] with the tap table over +-`tap_extent_mm` (None:
+/// chosen for the tap count, [`taps::auto_extent`]).
+pub fn fit_kernel_file_with(
+    profile: &Profile,
+    spec: &Kernel2DSpec,
+    model: &Model,
+    tap_count: usize,
+    tap_extent_mm: Option<f64>,
+) -> Result<KernelFile> {
     let t0 = Instant::now();
     let k = Kernel2D::from_profile(profile, spec)?;
     let build = t0.elapsed().as_secs_f64();
     let fitted = fit_model(&k, profile, model)?;
-    let mut file = assemble(profile, &k, model, fitted, tap_count)?;
+    let mut file = assemble_with(profile, &k, model, fitted, tap_count, tap_extent_mm)?;
     file.metrics.extra["kernel_build_seconds"] = json!(build);
     Ok(file)
 }
@@ -138,7 +150,19 @@ pub fn assemble(
     fitted: Fitted,
     tap_count: usize,
 ) -> Result<KernelFile> {
-    let taps = taps::tap_table(k, &fitted.factors, tap_count)?;
+    assemble_with(profile, k, model, fitted, tap_count, None)
+}
+
+/// [`assemble`] with an explicit tap extent (None: chosen for the count).
+pub fn assemble_with(
+    profile: &Profile,
+    k: &Kernel2D,
+    model: &Model,
+    fitted: Fitted,
+    tap_count: usize,
+    tap_extent_mm: Option<f64>,
+) -> Result<KernelFile> {
+    let taps = taps::tap_table_with(k, &fitted.factors, tap_count, tap_extent_mm)?;
     let m = metrics::measure(k, &fitted.factors);
     let offsets = k.offsets();
     let passes: Vec<Pass> = fitted

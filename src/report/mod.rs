@@ -1,9 +1,13 @@
 //! Error tables, plots and comparisons (issues 3 and 4).
 
+pub mod advise;
 pub mod compare;
 pub mod evaluate;
 pub mod kernel_compare;
 pub mod kernel_plots;
 pub mod kernel_report;
+pub mod pareto;
+pub mod pipeline;
 pub mod plot;
+pub mod study;
 pub mod table;

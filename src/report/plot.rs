@@ -55,7 +55,7 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(120, 120, 120),
 ];
 
-fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
+pub fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
     Error::format(out, format!("plotting failed: {e}"))
 }
 
@@ -87,6 +87,11 @@ pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<
         }
         root.present().map_err(|e| plot_err(out, e))?;
     }
+    write_png(buf, w, h, out)
+}
+
+/// Writes an RGB8 buffer of `w` x `h` pixels as a PNG, atomically.
+pub fn write_png(buf: Vec<u8>, w: u32, h: u32, out: &Path) -> Result<()> {
     let img = image::RgbImage::from_raw(w, h, buf)
         .ok_or_else(|| plot_err(out, "image buffer has the wrong size"))?;
     let mut png = Vec::new();

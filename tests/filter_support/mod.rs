@@ -71,6 +71,7 @@ fn kernel_file(name: &str, passes: Vec<Pass>, taps: Vec<Pass>, n: usize) -> Kern
         taps: TapTable {
             count: n,
             passes: taps,
+            extent_mm: None,
         },
         usage: None,
     }

@@ -1,0 +1,377 @@
+//! The main job in one call: from a material to the kernels to ship. A
+//! profile (Monte Carlo at a modest accuracy, or an analytic model), every
+//! kernel model fitted and compared in kernel and image space
+//! ([`super::kernel_compare`]), shader arrays for each, the report with its
+//! plots, and the configuration [`super::advise`] picks at the given scale.
+
+use super::advise::{self, Advice};
+use super::evaluate::{ImageCase, Options, Which};
+use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row, FAMILIES};
+use super::kernel_report::{self, ReportContext};
+use super::{kernel_plots, plot};
+use crate::error::{Error, Result};
+use crate::filter::signals::Signal;
+use crate::kernel::emit::{emit, Lang};
+use crate::kernel::KernelFile;
+use crate::material::{Channel, Material};
+use crate::profile::analytic::{self, Model as AnalyticModel};
+use crate::profile::mc::{self, McConfig, McOptions, PhotonBudget};
+use crate::profile::Profile;
+use crate::progress::Progress;
+use std::path::Path;
+use std::time::Instant;
+
+/// Where the profile comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ProfileSource {
+    /// Monte Carlo until the relative standard error of the total and of
+    /// the profile inside r99 is under `rel_error` in every channel, or
+    /// `max_photons` per channel, or [`MC_MAX_WORK`] events per channel.
+    MonteCarlo {
+        rel_error: f64,
+        max_photons: u64,
+        seed: u64,
+    },
+    /// A closed-form model on the default radial grid.
+    Analytic(AnalyticModel),
+}
+
+/// Default Monte Carlo accuracy of the pipeline: 2% relative standard error,
+/// enough for the kernels (the tap tables' own image error is larger).
+pub const MC_REL_ERROR: f64 = 0.02;
+/// Photon cap per channel of the pipeline's Monte Carlo.
+pub const MC_MAX_PHOTONS: u64 = 2_000_000;
+/// Event cap per channel (about 4 s of one core at 2.5e7 events/s): keeps
+/// slow media (albedo near 1) inside the pipeline's minute.
+pub const MC_MAX_WORK: u64 = 100_000_000;
+pub const MC_SEED: u64 = 20260101;
+
+impl ProfileSource {
+    pub fn monte_carlo() -> ProfileSource {
+        ProfileSource::MonteCarlo {
+            rel_error: MC_REL_ERROR,
+            max_photons: MC_MAX_PHOTONS,
+            seed: MC_SEED,
+        }
+    }
+
+    pub fn describe(&self) -> String {
+        match self {
+            ProfileSource::MonteCarlo {
+                rel_error,
+                max_photons,
+                seed,
+            } => format!(
+                "Monte Carlo to {:.1}% relative standard error (at most {max_photons} photons \
+                 per channel, seed {seed})",
+                100.0 * rel_error
+            ),
+            ProfileSource::Analytic(m) => format!("analytic {} (closed form)", m.name()),
+        }
+    }
+}
+
+/// The profile of `material` from `source`, and the seconds it took.
+pub fn make_profile(
+    material: &Material,
+    source: &ProfileSource,
+    progress: &dyn Progress,
+) -> Result<(Profile, f64)> {
+    let t0 = Instant::now();
+    let channels = Channel::ALL.to_vec();
+    let p = match *source {
+        ProfileSource::MonteCarlo {
+            rel_error,
+            max_photons,
+            seed,
+        } => {
+            let cfg = McConfig {
+                budget: PhotonBudget::TargetError {
+                    rel: rel_error,
+                    max_photons,
+                },
+                seed,
+                threads: None,
+                channels,
+                grid: None,
+            };
+            let opts = McOptions {
+                max_work: MC_MAX_WORK,
+                ..McOptions::default()
+            };
+            mc::simulate_with(material, &cfg, &opts, progress)?
+        }
+        ProfileSource::Analytic(m) => {
+            let grid = analytic::default_grid(material, &channels)?;
+            analytic::profile(
+                material,
+                m,
+                &grid,
+                &analytic::Options {
+                    channels,
+                    ..analytic::Options::default()
+                },
+            )?
+        }
+    };
+    Ok((p, t0.elapsed().as_secs_f64()))
+}
+
+/// Settings of the pipeline.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub mm_per_pixel: f64,
+    /// Taps of the stored tables.
+    pub taps: usize,
+    /// Target relative RMS of the recommendation.
+    pub target: f64,
+    /// Side of the test signals, pixels.
+    pub size: usize,
+    pub plots: bool,
+}
+
+/// What the pipeline produced.
+pub struct Outcome {
+    pub comparison: Comparison,
+    pub advice: Advice,
+    /// Files written, relative to the output folder.
+    pub files: Vec<String>,
+}
+
+/// The comparison's written form in `dir`: report.md, compare.csv,
+/// compare.json (read back), and with `plots` the kernel slices, one
+/// contact sheet per signal and the singular value spectra. Returns the
+/// file names written.
+pub fn write_comparison(
+    cmp: &Comparison,
+    ctx: &ReportContext,
+    dir: &Path,
+    plots: bool,
+    sheet_factor: &str,
+) -> Result<Vec<String>> {
+    let mut files = vec![
+        "report.md".to_string(),
+        "compare.csv".into(),
+        "compare.json".into(),
+    ];
+    let md = kernel_report::report(cmp, ctx);
+    crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
+    kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
+    let json = dir.join("compare.json");
+    crate::io::write_json_atomic(&json, &cmp.rows)?;
+    let back: Vec<Row> = crate::io::read_json(&json)?;
+    if back.len() != cmp.rows.len() {
+        return Err(Error::format(
+            &json,
+            format!("read back {} rows, wrote {}", back.len(), cmp.rows.len()),
+        ));
+    }
+    if plots {
+        for m in &cmp.materials {
+            let name = format!("slices_{m}.png");
+            kernel_plots::kernel_slices(cmp, m, &dir.join(&name))?;
+            files.push(name);
+            for (ci, s) in ctx.signals.iter().enumerate() {
+                let name = format!("sheet_{m}_{s}.png");
+                kernel_plots::contact_sheet(cmp, m, ci, sheet_factor, &dir.join(&name))?;
+                files.push(name);
+            }
+        }
+        if cmp.fitted.iter().any(|f| f.kernel.model.name == "svd") {
+            kernel_plots::spectra(cmp, &dir.join("spectra.png"))?;
+            files.push("spectra.png".into());
+        }
+    }
+    Ok(files)
+}
+
+/// Writes a kernel file (read back) and its three shader arrays next to it.
+fn write_kernel(
+    kernel: &KernelFile,
+    dir: &Path,
+    stem: &str,
+    files: &mut Vec<String>,
+) -> Result<()> {
+    let path = dir.join(format!("{stem}.json"));
+    kernel.write(&path)?;
+    KernelFile::read(&path)?;
+    files.push(format!("{stem}.json"));
+    for (lang, ext) in [
+        (Lang::Hlsl, "hlsl"),
+        (Lang::Glsl, "glsl"),
+        (Lang::Wgsl, "wgsl"),
+    ] {
+        let name = format!("{stem}.{ext}");
+        crate::io::write_atomic(&dir.join(&name), emit(kernel, lang).as_bytes())?;
+        files.push(name);
+    }
+    Ok(())
+}
+
+/// Runs the pipeline on `profile` into `dir` (created). `command` is the
+/// command line the report prints.
+pub fn run(
+    profile: &Profile,
+    settings: &Settings,
+    dir: &Path,
+    command: &str,
+    progress: &dyn Progress,
+) -> Result<Outcome> {
+    std::fs::create_dir_all(dir.join("kernels"))
+        .map_err(|e| Error::format(dir, format!("cannot create the output folder: {e}")))?;
+    let mut files = Vec::new();
+    profile.write(&dir.join("profile.json"))?;
+    Profile::read(&dir.join("profile.json"))?;
+    files.push("profile.json".to_string());
+    let name = profile.material.name.clone();
+    let signals = [Signal::Edge, Signal::Shapes];
+    let cases: Vec<ImageCase> = signals
+        .iter()
+        .map(|&s| ImageCase::signal(s, settings.size, settings.mm_per_pixel))
+        .collect::<Result<_>>()?;
+    let signal_names: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+    let options = Options::default();
+    let ranks = vec![1, 2, 3];
+    let cfg = Config {
+        families: FAMILIES.iter().map(|s| s.to_string()).collect(),
+        ranks: ranks.clone(),
+        cases,
+        taps: vec![settings.taps],
+        options,
+        keep: settings.plots.then_some(Which::Taps(settings.taps)),
+        extent_mm: None,
+    };
+    let input = MaterialInput {
+        name: name.clone(),
+        profile: profile.clone(),
+    };
+    let cmp = kernel_compare::run(std::slice::from_ref(&input), &cfg, progress)?;
+    for f in &cmp.fitted {
+        write_kernel(
+            &f.kernel,
+            &dir.join("kernels"),
+            &format!("{name}-{}", f.spec.label),
+            &mut files,
+        )?;
+    }
+    for f in files.iter_mut().filter(|f| !f.starts_with("profile")) {
+        *f = format!("kernels/{f}");
+    }
+    let factors = [Factor::Full, Factor::Taps(settings.taps)];
+    let ctx = ReportContext {
+        command,
+        signals: &signal_names,
+        factors: &factors,
+        ranks: &ranks,
+        options: &options,
+    };
+    files.extend(write_comparison(
+        &cmp,
+        &ctx,
+        dir,
+        settings.plots,
+        &format!("{}-tap tables", settings.taps),
+    )?);
+    if settings.plots {
+        let panels = plot::profile_panels(&[(name.clone(), profile.clone())]);
+        plot::render(
+            &panels,
+            2,
+            &format!("R_d(r) of {name}"),
+            &dir.join("profile.png"),
+        )?;
+        files.push("profile.png".into());
+    }
+    let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
+    acfg.size = settings.size;
+    let advice = advise::advise(profile, &acfg, &crate::progress::NoProgress)?;
+    write_kernel(&advice.kernel, dir, "recommended", &mut files)?;
+    crate::io::write_json_atomic(&dir.join("advice.json"), &advice.to_json())?;
+    let _: serde_json::Value = crate::io::read_json(&dir.join("advice.json"))?;
+    files.push("advice.json".into());
+    Ok(Outcome {
+        comparison: cmp,
+        advice,
+        files,
+    })
+}
+
+/// The one-screen summary: what to ship at this scale and how wrong it is,
+/// the other models' errors with the same tap count, where the files are.
+pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> String {
+    use std::fmt::Write as _;
+    let a = &o.advice;
+    let c = a.chosen();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{} at {} mm per pixel (profile: {source})",
+        o.comparison.materials.join(", "),
+        settings.mm_per_pixel
+    );
+    let rel = |e: &super::evaluate::ImageErrors| e.rel_rms.iter().cloned().fold(0.0, f64::max);
+    let _ = writeln!(
+        s,
+        "ship: {} ({} samples per pixel){}",
+        c.describe(),
+        c.cost,
+        if a.meets_target {
+            ""
+        } else {
+            " - no candidate meets the target; the most accurate shown"
+        },
+    );
+    for (sig, e) in &a.predicted {
+        let _ = writeln!(
+            s,
+            "  {sig:<11} {:.2}% relative RMS (largest channel), FLIP {:.4}",
+            100.0 * rel(e),
+            e.flip_rgb
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  target {:.1}% on every signal: {}",
+        100.0 * a.target,
+        if a.meets_target { "met" } else { "NOT met" }
+    );
+    for w in &a.warnings {
+        let _ = writeln!(s, "  warning: {w}");
+    }
+    let _ = writeln!(
+        s,
+        "\nevery model with {} taps (largest relative RMS over channels, edge / shapes):",
+        settings.taps
+    );
+    let _ = writeln!(
+        s,
+        "  {:<18} {:>6} {:>9} {:>9} {:>8}",
+        "model", "passes", "edge", "shapes", "fit s"
+    );
+    for f in &o.comparison.fitted {
+        let e = |i: usize| {
+            f.images
+                .get(i)
+                .and_then(|x| x.taps.get(&settings.taps))
+                .map_or(f64::NAN, &rel)
+        };
+        let _ = writeln!(
+            s,
+            "  {:<18} {:>6} {:>8.2}% {:>8.2}% {:>8.3}",
+            f.spec.label,
+            f.kernel.metrics.passes,
+            100.0 * e(0),
+            100.0 * e(1),
+            f.kernel.metrics.fit_seconds
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nfiles in {}: recommended.json (+ .hlsl .glsl .wgsl), advice.json, report.md, \
+         compare.csv/json, kernels/ ({} models, each with shader arrays), profile.json{}",
+        dir.display(),
+        o.comparison.fitted.len(),
+        if settings.plots { ", PNG plots" } else { "" }
+    );
+    s
+}
