@@ -1,6 +1,7 @@
 //! `ssskit advise`: the cheapest kernel configuration that meets a target
 //! image-space error at a pixel scale.
 
+use super::out::{out, outln};
 use super::profile_source::{ProfileArgs, ProfileModelArg};
 use anyhow::bail;
 use ssskit::report::advise::{self, ViewScale, DEFAULT_TARGET};
@@ -101,9 +102,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let text = advise::explain(&advice);
     if a.json {
         eprint!("{text}");
-        println!("{}", serde_json::to_string_pretty(&advice.to_json())?);
+        outln!("{}", serde_json::to_string_pretty(&advice.to_json())?)?;
     } else {
-        print!("{text}");
+        out!("{text}")?;
     }
     for w in &advice.warnings {
         eprintln!("warning: {w}");

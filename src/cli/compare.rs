@@ -2,6 +2,7 @@
 //! image space; report.md, compare.csv, compare.json, the fitted kernels
 //! and plots.
 
+use super::out::out;
 use super::progress::Bar;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
@@ -335,7 +336,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
-    print!("{}", kernel_report::claims_table(&claims).markdown());
+    out!("{}", kernel_report::claims_table(&claims).markdown())?;
     eprintln!(
         "{} materials x {} kernels x {} images in {:.1} s -> {}/report.md, compare.csv, compare.json, kernels/{}",
         cmp.materials.len(),

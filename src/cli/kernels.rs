@@ -1,6 +1,7 @@
 //! `ssskit kernels`: the main job in one command. Profile, every kernel
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
+use super::out::out;
 use super::profile_source::{command_line, ProfileArgs, ProfileModelArg};
 use anyhow::bail;
 use ssskit::report::advise::DEFAULT_TARGET;
@@ -68,10 +69,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         &command_line(&a.out),
         &super::progress::Bar::new(),
     )?;
-    print!(
+    out!(
         "{}",
         pipeline::summary(&outcome, &settings, &source, &a.out)
-    );
+    )?;
     eprintln!(
         "{} files in {:.1} s",
         outcome.files.len(),

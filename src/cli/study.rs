@@ -1,5 +1,6 @@
 //! `ssskit study`: the speed/accuracy trade of every knob for one material.
 
+use super::out::out;
 use super::profile_source::{command_line, ProfileArgs, ProfileModelArg};
 use anyhow::bail;
 use ssskit::report::study::{self, Settings};
@@ -59,7 +60,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let s = study::run(&reference, &settings, &super::progress::Bar::new())?;
     let files = study::write(&s, &a.out, &command_line(&a.out), !a.no_plots)?;
-    print!("{}", study::table(&s).markdown());
+    out!("{}", study::table(&s).markdown())?;
     eprintln!(
         "{} entries in {:.1} s -> {}/{}",
         s.entries.len(),
