@@ -8,9 +8,9 @@
 //!   `separable-reused`, `separable-f32-reused`: into a reused output buffer;
 //! - `table`: the 17-tap real-time table (f64) (quadratic offsets) at a uniform
 //!   scale, folded into a fixed pixel kernel;
-//! - `per-pixel`: 002 algorithm 4.1 with a per-pixel step (strength image);
-//! - `depth-aware`: perspective scale from depth (002 eq. 4.11) plus the
-//!   follow-surface lerp (002 eq. 4.12): the cost of depth-awareness.
+//! - `per-pixel`: Freude 2014, algorithm 4.1 with a per-pixel step (strength image);
+//! - `depth-aware`: perspective scale from depth (Freude 2014, eq. 4.11) plus the
+//!   follow-surface lerp (Freude 2014, eq. 4.12): the cost of depth-awareness.
 //!
 //! `-- --dump DIR` also writes the image, the 17 weights and our separable
 //! result as raw little-endian f32 for the OpenCV side.

@@ -1,4 +1,4 @@
-// One 1D pass of the separable screen-space SSS filter (002 algorithm 4.1).
+// One 1D pass of the separable screen-space SSS filter (Freude 2014, algorithm 4.1).
 // The f64 twin is src/filter/cpu.rs (apply_screen_space); keep them in step.
 // Storage buffers and plain indexing (no samplers): rgba32float is not
 // filterable on every adapter (lavapipe), so the linear interpolation along
@@ -10,9 +10,9 @@ struct Params {
     ntaps: u32,
     // 0: horizontal, 1: vertical.
     axis: u32,
-    // 0: orthographic step, 1: perspective step divided by depth (002 eq. 4.11).
+    // 0: orthographic step, 1: perspective step divided by depth (Freude 2014, eq. 4.11).
     perspective: u32,
-    // 1: lerp toward the centre colour by depth difference (002 eq. 4.12).
+    // 1: lerp toward the centre colour by depth difference (Freude 2014, eq. 4.12).
     follow: u32,
     // 1: dst += result (vertical pass of a rank), 0: dst = result.
     accumulate: u32,
@@ -78,7 +78,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         base = x;
     }
     let d_centre = depth[centre];
-    // 002 eq. 4.11: kernel size per pixel = width * scale * strength.
+    // Freude 2014, eq. 4.11: kernel size per pixel = width * scale * strength.
     var step = params.step_base * strength[centre];
     if (params.perspective == 1u) {
         step = step / d_centre;
@@ -102,7 +102,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         var o = src[a].xyz * (1.0 - f) + src[b].xyz * f;
         if (params.follow == 1u) {
             let od = depth[a] * (1.0 - f) + depth[b] * f;
-            // 002 eq. 4.12
+            // Freude 2014, eq. 4.12
             let t = clamp(params.follow_k * abs(d_centre - od), 0.0, 1.0);
             o = o * (1.0 - t) + c_centre * t;
         }

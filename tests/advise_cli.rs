@@ -126,11 +126,19 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
         // 8-pixel one advise chose on gave 6.7% (periodic detail finer than
         // the one chosen on is not covered; advise prints each signal's
         // error).
-        for (name, extra) in [("shapes", vec!["--size", "96x96"])] {
+        {
+            let name = "shapes";
             let input = d.join(format!("{name}{mm}.exr"));
-            let mut args = vec!["signal", name, "--mm-per-pixel", mm, "--out", s(&input)];
-            args.extend(extra);
-            ok(&args);
+            ok(&[
+                "signal",
+                name,
+                "--mm-per-pixel",
+                mm,
+                "--out",
+                s(&input),
+                "--size",
+                "96x96",
+            ]);
             let exact = d.join(format!("exact-{name}{mm}.exr"));
             ok(&[
                 "apply",

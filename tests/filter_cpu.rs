@@ -29,7 +29,7 @@ fn reference_2d() -> (Kernel2D, f64) {
     (cpu::reference_kernel(&profile, mm).unwrap(), mm)
 }
 
-/// Pre-integration is exact for additively separable irradiance (002 5.2):
+/// Pre-integration is exact for additively separable irradiance (Freude 2014, sec. 5.2):
 /// on the vertical edge the separable result equals the 2D convolution.
 /// Both sides use the same discretisation (the 2D kernel's pixel cells and
 /// their row sums), so the tolerance is round-off: 1e-9 of the peak. The 17-tap

@@ -1,5 +1,5 @@
-//! 002's claims about the separable kernel models, each checked on dipole
-//! profiles of the five materials of 002 table 6.3 (REFERENCE 5, 6).
+//! Freude's claims about the separable kernel models, each checked on dipole
+//! profiles of the five materials of Freude 2014, table 6.3 (Freude 2014, ch. 5 and 6).
 // Channel loops index several parallel arrays.
 #![allow(clippy::needless_range_loop)]
 

@@ -17,7 +17,7 @@ fn lists_every_preset_with_derived_quantities() {
             "{name}"
         );
     }
-    // skin1 red: albedo' = 0.74 / 0.772, MFP = 1/0.772 mm (REFERENCE section 1).
+    // skin1 red: albedo' = 0.74 / 0.772, MFP = 1/0.772 mm (Jensen et al. 2001).
     let row = text
         .lines()
         .find(|l| l.starts_with("skin1 ") && l.contains(" r "))

@@ -1,5 +1,5 @@
-//! Monte Carlo simulator against independent truths (REFERENCE.md section 3;
-//! issue 2, deliverable 4). Tolerances are 4 standard errors as reported by
+//! Monte Carlo simulator against independent truths (Wang et al. 1995;
+//! van de Hulst 1980). Tolerances are 4 standard errors as reported by
 //! the simulator itself, plus the stated error of the reference where it is
 //! an approximation (dipole).
 
@@ -70,7 +70,7 @@ fn within(x: f64, truth: f64, sigma: f64, what: &str) {
 #[test]
 fn van_de_hulst_slab_all_settings() {
     // n = 1, sigma_a = 1, sigma_s = 9 /mm, g = 0.75, d = 0.2 mm:
-    // adding-doubling R_d = 0.09739, T = 0.66096 (REFERENCE 3, issue 2).
+    // adding-doubling R_d = 0.09739, T = 0.66096 (van de Hulst 1980).
     let m = material(
         "unit = \"mm\"\nsigma_a = 1.0\nsigma_s = 9.0\ng = 0.75\neta = 1.0\nthickness = 0.2\n",
     );

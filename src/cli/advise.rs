@@ -16,7 +16,7 @@ pub struct Args {
     #[arg(long, conflicts_with_all = ["fov", "depth", "height"], required_unless_present = "fov", allow_negative_numbers = true)]
     mm_per_pixel: Option<f64>,
     /// Vertical field of view in degrees (perspective scale, with --depth
-    /// and --height; the filter's formula, 002 eq. 4.11).
+    /// and --height; the filter's formula, Freude 2014, eq. 4.11).
     #[arg(long, requires_all = ["depth", "height"], allow_negative_numbers = true)]
     fov: Option<f64>,
     /// Linear view depth of the surface, scene units.

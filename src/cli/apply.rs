@@ -81,13 +81,13 @@ pub struct Args {
     /// Orthographic scale: surface millimetres per pixel.
     #[arg(long, conflicts_with_all = ["fov_y", "sss_width"], required_unless_present_any = ["fov_y"])]
     mm_per_pixel: Option<f64>,
-    /// Vertical field of view in degrees (perspective scale, 002 eq. 4.11).
+    /// Vertical field of view in degrees (perspective scale, Freude 2014, eq. 4.11).
     #[arg(long, requires = "sss_width")]
     fov_y: Option<f64>,
     /// Scene units per kernel millimetre (0.001 for a scene in metres).
     #[arg(long, requires = "fov_y")]
     sss_width: Option<f64>,
-    /// Depth-aware lerp toward the centre colour with constant C (002 eq.
+    /// Depth-aware lerp toward the centre colour with constant C (Freude 2014, eq.
     /// 4.12; Jimenez uses 300).
     #[arg(long)]
     follow_surface: Option<f64>,

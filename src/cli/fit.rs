@@ -14,17 +14,17 @@ use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum ModelArg {
-    /// Rank-N SVD (002 5.1): --rank, --renormalize.
+    /// Rank-N SVD (Freude 2014, sec. 5.1): --rank, --renormalize.
     Svd,
-    /// Pre-integration / Abel projection (002 5.2): --method.
+    /// Pre-integration / Abel projection (Freude 2014, sec. 5.2): --method.
     Preintegrate,
-    /// Guided optimization (002 5.3): --k, --b.
+    /// Guided optimization (Freude 2014, sec. 5.3): --k, --b.
     Guided,
-    /// Two-Gaussian manual model (002 5.4): --w --near --far, --preset or --fit.
+    /// Two-Gaussian manual model (Freude 2014, sec. 5.4): --w --near --far, --preset or --fit.
     Manual,
     /// d'Eon sum of 2D Gaussians: --count, or --preset deon-skin.
     Gaussians,
-    /// Jimenez's skin model (002 eq. 4.8): --width --strength --falloff.
+    /// Jimenez's skin model (Freude 2014, eq. 4.8): --width --strength --falloff.
     Jimenez,
 }
 
@@ -77,16 +77,16 @@ pub struct ModelOpts {
     /// svd: number of separable terms.
     #[arg(long, default_value_t = 1)]
     rank: usize,
-    /// svd: scale to the ground truth's 1-norm (002 eq. 5.12).
+    /// svd: scale to the ground truth's 1-norm (Freude 2014, eq. 5.12).
     #[arg(long)]
     renormalize: bool,
     /// preintegrate: Abel projection of the profile or row sums of the grid.
     #[arg(long, value_enum, default_value = "abel")]
     method: MethodArg,
-    /// guided: exponent of the radial weight (002 eq. 5.20).
+    /// guided: exponent of the radial weight (Freude 2014, eq. 5.20).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     k: f64,
-    /// guided: axis suppression (002 eq. 5.20, for x, y in [-1, 1]); 0 = off.
+    /// guided: axis suppression (Freude 2014, eq. 5.20, for x, y in [-1, 1]); 0 = off.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     b: f64,
     /// guided: L-BFGS iteration limit.

@@ -13,7 +13,7 @@ pub struct Args {
 #[derive(clap::Subcommand)]
 enum What {
     /// R_d(r) of one or more profile files: linear near the origin and log
-    /// over the full range side by side (002 figure 6.1), one row per channel.
+    /// over the full range side by side (Freude 2014, figure 6.1), one row per channel.
     Profile {
         /// Profile files (JSON) to overlay.
         #[arg(required = true)]

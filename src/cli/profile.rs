@@ -56,10 +56,10 @@ pub struct Args {
     /// Profile model.
     #[arg(long, value_enum)]
     model: ModelArg,
-    /// Radial bin width in mm (default: min MFP / 20, 002 table 6.1).
+    /// Radial bin width in mm (default: min MFP / 20, Freude 2014, table 6.1).
     #[arg(long, allow_negative_numbers = true)]
     dr: Option<f64>,
-    /// Largest radius in mm (default: 32 max MFP, 002 table 6.1).
+    /// Largest radius in mm (default: 32 max MFP, Freude 2014, table 6.1).
     #[arg(long, allow_negative_numbers = true)]
     rmax: Option<f64>,
     /// Fresnel moments: polynomial fits or exact integration.

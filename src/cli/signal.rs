@@ -8,7 +8,7 @@ use std::path::PathBuf;
 enum Kind {
     /// Vertical white-black edge (white left half).
     Edge,
-    /// A circle and two tilted adjacent squares (002 figure 6.6).
+    /// A circle and two tilted adjacent squares (Freude 2014, figure 6.6).
     Shapes,
     /// One bright pixel at the centre.
     Dirac,

@@ -1,6 +1,6 @@
 //! The CPU paths, deterministic (rayon over rows, no cross-thread sums): the
 //! exact 2D convolution with the full 2D kernel (direct, or FFT for large
-//! kernels) and 002 algorithm 4.1 per pixel, the algorithm the GPU runs, in
+//! kernels) and Freude 2014, algorithm 4.1 per pixel, the algorithm the GPU runs, in
 //! f64; the separable/rank-N application with fixed integer kernels in f64
 //! or f32 ([`Precision`]).
 
@@ -400,7 +400,7 @@ fn clamp(i: i64, n: usize) -> usize {
     i.clamp(0, n as i64 - 1) as usize
 }
 
-/// 002 algorithm 4.1 per pixel in f64: the twin of shaders/sss_pass.wgsl.
+/// Freude 2014, algorithm 4.1 per pixel in f64: the twin of shaders/sss_pass.wgsl.
 pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
     let (w, h) = (image.width, image.height);
     let steps = setup.steps(w, h);
@@ -486,7 +486,7 @@ impl PassCtx<'_> {
                 }
                 None => *off,
             };
-            // 002 eq. 4.11: the offset scaled by the pixel's kernel size.
+            // Freude 2014, eq. 4.11: the offset scaled by the pixel's kernel size.
             let p = (coord as f64 + off * step).clamp(0.0, (n - 1) as f64);
             // p >= 0, so truncation is floor (and avoids a libm call).
             let i0 = p as usize;
@@ -499,7 +499,7 @@ impl PassCtx<'_> {
             }
             if let (Some(k), Some(d)) = (self.follow, self.depth) {
                 let od = d[a] * (1.0 - f) + d[b] * f;
-                // 002 eq. 4.12: lerp toward the centre colour by depth difference.
+                // Freude 2014, eq. 4.12: lerp toward the centre colour by depth difference.
                 let t = (k * (d[centre] - od).abs()).clamp(0.0, 1.0);
                 for c in 0..3 {
                     o[c] = o[c] * (1.0 - t) + centre_colour[c] * t;

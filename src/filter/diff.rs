@@ -1,6 +1,6 @@
-//! Error in image space (REFERENCE 6): per-channel RMS and maximum absolute
+//! Error in image space (Freude 2014, ch. 6): per-channel RMS and maximum absolute
 //! difference, also relative to the peak of the reference image, and a false
-//! colour difference image (like 002 figures 5.11 and 6.17).
+//! colour difference image (like Freude 2014, figures 5.11 and 6.17).
 
 use super::image::srgb_to_linear;
 use super::Image;

@@ -1,6 +1,6 @@
 //! Images in linear light: OpenEXR (half or float, optional depth channel) and
 //! PNG (8 or 16 bit, sRGB-encoded: decoded to linear on read, encoded back on
-//! write). Filtering must happen in linear light (REFERENCE 5, end).
+//! write). Filtering must happen in linear light (Jimenez et al. 2015).
 
 use crate::error::{Error, Result};
 use std::path::Path;

@@ -1,11 +1,11 @@
 //! Applying kernels to images: image I/O, the exact CPU reference and the
-//! wgpu post-process (issue 5; 002 sections 4.2-4.4, REFERENCE 5 end).
+//! wgpu post-process (Freude 2014, sections 4.2-4.4, Jimenez et al. 2015).
 //!
 //! One algorithm, two implementations: `cpu::apply_screen_space` (f64) and
-//! `gpu::Gpu::apply` (f32, WGSL) run 002 algorithm 4.1 on the same
+//! `gpu::Gpu::apply` (f32, WGSL) run Freude 2014, algorithm 4.1 on the same
 //! [`Setup`]: per rank, a horizontal then a vertical 1D pass whose tap
-//! offsets are scaled per pixel (002 eq. 4.11), with the depth-aware lerp
-//! toward the centre colour (002 eq. 4.12); ranks are summed and the specular
+//! offsets are scaled per pixel (Freude 2014, eq. 4.11), with the depth-aware lerp
+//! toward the centre colour (Freude 2014, eq. 4.12); ranks are summed and the specular
 //! image is added after the blur. Samples between pixels are linearly
 //! interpolated along the pass axis; positions outside the image are clamped
 //! to the border pixel (clamp-to-edge).
@@ -30,7 +30,7 @@ pub use image::{Image, Plane};
 pub enum Scale {
     /// Orthographic: a constant pixel footprint on the surface.
     MmPerPixel(f64),
-    /// Perspective (002 eq. 4.11): needs a depth image. `sss_width` is scene
+    /// Perspective (Freude 2014, eq. 4.11): needs a depth image. `sss_width` is scene
     /// units per kernel millimetre (0.001 for a scene in metres).
     Perspective { fov_y_deg: f64, sss_width: f64 },
 }
@@ -65,7 +65,7 @@ impl Scale {
 
     /// Pixels per kernel millimetre before the per-pixel factors: the step is
     /// `step_base * strength` (orthographic) or `step_base * strength / depth`
-    /// (perspective). 002 eq. 4.11: k_sc = 1/(tan(fov_y/2) p_d) maps a scene
+    /// (perspective). Freude 2014, eq. 4.11: k_sc = 1/(tan(fov_y/2) p_d) maps a scene
     /// length to normalised device units (half the image height is 1), so a
     /// kernel millimetre spans sss_width k_sc height/2 pixels.
     pub fn step_base(&self, height: usize) -> f64 {
@@ -79,7 +79,7 @@ impl Scale {
     }
 
     /// Factor k of the depth-aware lerp t = clamp(k |d_centre - d_sample|, 0, 1).
-    /// 002 eq. 4.12: k = C sss_width / tan(fov_y/2); orthographic: k = C
+    /// Freude 2014, eq. 4.12: k = C sss_width / tan(fov_y/2); orthographic: k = C
     /// (depth in the depth image's units).
     pub fn follow_factor(&self, c: f64) -> f64 {
         match *self {
@@ -175,9 +175,9 @@ pub struct Setup {
     /// Depth per pixel: required for `Scale::Perspective` and for
     /// `follow_surface`.
     pub depth: Option<Plane>,
-    /// SSS strength per pixel, multiplies the step (002 section 4.4).
+    /// SSS strength per pixel, multiplies the step (Freude 2014, section 4.4).
     pub strength: Option<Plane>,
-    /// The constant C of 002 eq. 4.12 (Jimenez uses 300); None: no lerp.
+    /// The constant C of Freude 2014, eq. 4.12 (Jimenez uses 300); None: no lerp.
     pub follow_surface: Option<f64>,
     /// Added after the blur.
     pub specular: Option<Image>,
@@ -211,13 +211,13 @@ impl Setup {
                         "depth",
                         format!("pixel ({}, {})", i % d.width, i / d.width),
                         d.data[i],
-                        "must be > 0 for the perspective kernel scale (002 eq. 4.11)",
+                        "must be > 0 for the perspective kernel scale (Freude 2014, eq. 4.11)",
                     ));
                 }
             }
         } else if matches!(self.scale, Scale::Perspective { .. }) {
             return Err(Error::Unsupported(
-                "--fov-y/--sss-width scale the kernel by depth (002 eq. 4.11): give --depth \
+                "--fov-y/--sss-width scale the kernel by depth (Freude 2014, eq. 4.11): give --depth \
                  or an input EXR with a depth channel"
                     .into(),
             ));
@@ -486,7 +486,7 @@ mod tests {
 
     #[test]
     fn perspective_step_is_the_projected_size_of_a_kernel_millimetre() {
-        // 002 eq. 4.11: at depth d a vertical field of view F covers
+        // Freude 2014, eq. 4.11: at depth d a vertical field of view F covers
         // 2 d tan(F/2) scene units over the image height H.
         let (fov, w, h, d) = (50.0f64, 0.001, 1080, 0.4);
         let s = Scale::Perspective {
@@ -496,7 +496,7 @@ mod tests {
         let scene_per_pixel = 2.0 * d * (fov.to_radians() / 2.0).tan() / h as f64;
         let expected = w / scene_per_pixel;
         assert!((s.step_base(h) / d - expected).abs() < 1e-12 * expected);
-        // 002 eq. 4.12: t = C sss_width |dd| / tan(F/2).
+        // Freude 2014, eq. 4.12: t = C sss_width |dd| / tan(F/2).
         let k = s.follow_factor(300.0);
         assert!((k - 300.0 * w / (fov.to_radians() / 2.0).tan()).abs() < 1e-12);
         assert_eq!(Scale::MmPerPixel(0.25).step_base(h), 4.0);

@@ -1,5 +1,5 @@
-//! Test signals for kernels in image space (002 section 6.2): the vertical
-//! white-black edge, the circle with two tilted adjacent squares (002 figure
+//! Test signals for kernels in image space (Freude 2014, section 6.2): the vertical
+//! white-black edge, the circle with two tilted adjacent squares (Freude 2014, figure
 //! 6.6), a single bright pixel (shows the cross-shaped asymmetry of rank-1
 //! kernels), a checker.
 

@@ -1,6 +1,6 @@
 //! GPU time of the post-process per frame, as an engine runs it: a
 //! 1080p irradiance image, one kernel's tap table, perspective scale from a
-//! depth image and the depth-aware lerp (002 eqs. 4.11 and 4.12). Measured
+//! depth image and the depth-aware lerp (Freude 2014, eqs. 4.11 and 4.12). Measured
 //! with GPU timestamps around the frame's compute pass (no upload or
 //! readback); a software rasteriser's numbers are not GPU timings and are
 //! not reported.

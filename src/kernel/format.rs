@@ -39,7 +39,7 @@ pub struct ModelInfo {
     pub params: serde_json::Value,
 }
 
-/// Quality measures of a kernel against its ground truth (issue 4, item 3).
+/// Quality measures of a kernel against its ground truth.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     pub kernel_rms: [f64; 3],
@@ -75,7 +75,7 @@ pub struct Usage {
     pub signed_targets: bool,
 }
 
-/// Pixels per kernel millimetre, 002 eq. 4.11 written out for engines.
+/// Pixels per kernel millimetre, Freude 2014, eq. 4.11 written out for engines.
 pub const PIXELS_PER_MM: &str = "pixels_per_mm = sss_width * viewport_height_px / (2 * tan(fov_y / 2) * depth), where depth is the pixel's linear view depth in scene units, fov_y the vertical field of view and sss_width the scene units per millimetre (0.001 for a scene in metres, 0.1 in centimetres, 1 in millimetres); multiply each tap offset (mm) by it to get a pixel offset along the pass axis (Freude 2014, eq. 4.11)";
 
 pub const DEPTH: &str = "linear view-space depth (distance along the view axis, scene units), not the hardware depth buffer: linearise a perspective z-buffer first; the depth-aware lerp t = clamp(C * sss_width * |d_centre - d_sample| / tan(fov_y / 2), 0, 1) (Freude 2014, eq. 4.12; C = 300 in Jimenez's shader) uses the same depth";

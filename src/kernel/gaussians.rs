@@ -1,5 +1,5 @@
-//! Sums of radially symmetric 2D Gaussians (d'Eon and Luebke, GPU Gems 3;
-//! REFERENCE 5): each Gaussian is separable, so N Gaussians are N separable
+//! Sums of radially symmetric 2D Gaussians (d'Eon and Luebke 2007):
+//! each Gaussian is separable, so N Gaussians are N separable
 //! terms (2N one-dimensional passes). Fitted to the 2D kernel by variable
 //! projection: non-negative weights by least squares for given variances,
 //! log-variances by Nelder-Mead.
@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use serde_json::json;
 
 /// d'Eon's six-Gaussian skin profile: variances (mm^2) and RGB weights
-/// (REFERENCE 5, GPU Gems 3 ch. 14).
+/// (d'Eon and Luebke 2007).
 pub const DEON_SKIN_VARIANCES: [f64; 6] = [0.0064, 0.0484, 0.187, 0.567, 1.99, 7.41];
 pub const DEON_SKIN_WEIGHTS: [[f64; 3]; 6] = [
     [0.233, 0.455, 0.649],

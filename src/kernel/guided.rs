@@ -1,11 +1,11 @@
-//! Guided optimization (002 5.3):
+//! Guided optimization (Freude 2014, sec. 5.3):
 //!   argmin_a  sum_xy Gamma(x, y; k) (R(x, y) - a(x) a(y))^2
-//!   subject to ||a||_1^2 = ||R||_1                          (002 eq. 5.19)
+//!   subject to ||a||_1^2 = ||R||_1                          (Freude 2014, eq. 5.19)
 //!   Gamma = (x^2 + y^2)^{k/2} (1 - e^{-b x^2}) (1 - e^{-b y^2})  (eq. 5.20)
-//! with x, y scaled to [-1, 1] over the kernel (002: b = 50 refers to that
+//! with x, y scaled to [-1, 1] over the kernel (Freude 2014: b = 50 refers to that
 //! interval); b = 0 drops the exponential factors.
 //!
-//! Unlike 002's soft penalty the constraint is exact by parametrisation:
+//! Unlike Freude's soft penalty the constraint is exact by parametrisation:
 //! a = sqrt(||R||_1) p / sum(p) for free, even-symmetric p, and the gradient
 //! goes through the rescaling. Solved with argmin's L-BFGS (More-Thuente line
 //! search), started from the better of pre-integration and rank-1 SVD.
@@ -49,7 +49,7 @@ pub struct GuidedReport {
     pub termination: String,
 }
 
-/// Gamma on the kernel grid (002 eq. 5.20), row-major.
+/// Gamma on the kernel grid (Freude 2014, eq. 5.20), row-major.
 pub fn gamma(k: &Kernel2D, kexp: f64, b: f64) -> Vec<f64> {
     let n = k.size;
     let half = k.half().max(1) as f64;

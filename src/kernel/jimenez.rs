@@ -1,11 +1,11 @@
-//! Jimenez's separable skin model (002 eq. 4.8; iryoku/separable-sss):
+//! Jimenez's separable skin model (Freude 2014, eq. 4.8; iryoku/separable-sss):
 //! a_s(x) = t p(x / (w (0.001 + f))) / ||p|| + (1 - t) delta(x), per channel,
 //! p the red channel of d'Eon's skin Gaussians without the narrowest one
 //! (the reference code drops 0.233 G(0.0064), whose role the strength term
 //! takes), each Gaussian with the 2D normalisation 1/(2 pi v) as in the code.
 //!
 //! The width w scales the kernel (the shader multiplies tap offsets by it):
-//! 002 prints p(w r / (0.001 + f)), which would narrow the kernel as w grows;
+//! Freude 2014 prints p(w r / (0.001 + f)), which would narrow the kernel as w grows;
 //! here w = 1 gives the profile in millimetres and larger w widens it.
 
 use super::gaussians::{gaussian_cells, DEON_SKIN_VARIANCES, DEON_SKIN_WEIGHTS};

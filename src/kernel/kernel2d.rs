@@ -1,5 +1,5 @@
 //! The discretised 2D ground truth R_d(x, y) = R_d(sqrt(x^2 + y^2)) on an odd
-//! square grid centred on the origin (002 section 6.1, "simple rotation").
+//! square grid centred on the origin (Freude 2014, section 6.1, "simple rotation").
 //!
 //! Cells hold cell averages (times the cell area), not point samples: the
 //! radial profile is supersampled in each cell, more finely where the cell is

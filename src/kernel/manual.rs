@@ -1,7 +1,7 @@
-//! Manual approximation (002 5.4, Jimenez's artist model):
-//! a_m(x) = w G(x, tau_n) + (1 - w) G(x, tau_f)   (002 eq. 5.21)
+//! Manual approximation (Freude 2014, sec. 5.4, Jimenez's artist model):
+//! a_m(x) = w G(x, tau_n) + (1 - w) G(x, tau_f)   (Freude 2014, eq. 5.21)
 //! with 1D Gaussians, per-channel variances and one w. Widths are given as
-//! sqrt(tau) in mm like 002 table A.1. `fit` finds w, tau_n, tau_f by least
+//! sqrt(tau) in mm like Freude 2014, table A.1. `fit` finds w, tau_n, tau_f by least
 //! squares in kernel space (the kernel_rms metric of all channels).
 
 use super::gaussians::{
@@ -21,7 +21,7 @@ pub struct ManualParams {
     pub sqrt_tau_far: [f64; 3],
 }
 
-/// 002 table A.1 (REFERENCE 5).
+/// Freude 2014, table A.1.
 pub const PRESETS: [(&str, ManualParams); 5] = [
     (
         "apple",

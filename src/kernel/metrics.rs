@@ -1,5 +1,5 @@
 //! Kernel-space quality of a separable model against its ground truth
-//! (002 table 6.3, REFERENCE 6): every metric compares the model's kernel
+//! (Freude 2014, table 6.3): every metric compares the model's kernel
 //! A = sum_i a_i a_i^T exactly as produced (no renormalisation) with the
 //! ground truth R normalised to sum 1 per channel.
 

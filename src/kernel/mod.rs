@@ -1,5 +1,5 @@
 //! Screen-space kernels: the discretised 2D ground truth (`Kernel2D`), the
-//! separable models fitted to it (002 ch. 5 and the baselines of ch. 4), the
+//! separable models fitted to it (Freude 2014, ch. 5 and the baselines of ch. 4), the
 //! kernel file format with real-time tap tables, metrics and shader export.
 
 pub mod emit;

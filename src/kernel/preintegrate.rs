@@ -1,9 +1,9 @@
-//! Pre-integration (002 5.2): a_p(x) = int R_d(x, y) dy, A_p = a_p(x) a_p(y) /
-//! ||R_d||_1 (002 eq. 5.17), exact for additively separable irradiance
-//! (edges; 002 eq. 5.14-5.16) and energy-conserving by construction.
+//! Pre-integration (Freude 2014, sec. 5.2): a_p(x) = int R_d(x, y) dy, A_p = a_p(x) a_p(y) /
+//! ||R_d||_1 (Freude 2014, eq. 5.17), exact for additively separable irradiance
+//! (edges; Freude 2014, eq. 5.14-5.16) and energy-conserving by construction.
 //!
 //! For a radial profile a_p is the Abel projection
-//! a_p(x) = 2 int_0^Y R_d(sqrt(x^2 + y^2)) dy (REFERENCE 5), here cut at the
+//! a_p(x) = 2 int_0^Y R_d(sqrt(x^2 + y^2)) dy (Freude 2014, sec. 5.2), here cut at the
 //! kernel's extent Y so that it describes the same square as the 2D kernel,
 //! and integrated over each cell in x. Quadrature: Gauss-Legendre panels
 //! split at the profile's nodes (where the reconstruction has kinks).

@@ -1,5 +1,5 @@
 //! Quick reference profiles from the standard dipole on the radial grid of
-//! 002 table 6.1, for tests and benchmarks that need a realistic profile
+//! Freude 2014, table 6.1, for tests and benchmarks that need a realistic profile
 //! without a simulation.
 
 use crate::error::Result;
@@ -7,7 +7,7 @@ use crate::material::{Channel, Material};
 use crate::profile::analytic;
 use crate::profile::{Profile, RadialGrid};
 
-/// 002 table 6.1: dr = min(MFP_rgb)/20, r_max = 32 max(MFP_rgb) (here at
+/// Freude 2014, table 6.1: dr = min(MFP_rgb)/20, r_max = 32 max(MFP_rgb) (here at
 /// least `min_mfps` max MFPs, for materials whose falloff is longer).
 pub fn thesis_grid(m: &Material, min_mfps: f64) -> Result<RadialGrid> {
     let mfps: Vec<f64> = Channel::ALL.iter().map(|&c| m.top(c).mfp()).collect();

@@ -1,6 +1,6 @@
-//! Rank-N separable approximation by singular value decomposition (002 5.1):
+//! Rank-N separable approximation by singular value decomposition (Freude 2014, sec. 5.1):
 //! R = U S V^T, a_i = u_i sqrt(sigma_i), A_N = sum_{i<=N} a_i a_i^T, the best
-//! rank-N approximation in the Frobenius norm (Eckart-Young, 002 eq. 5.6).
+//! rank-N approximation in the Frobenius norm (Eckart-Young, Freude 2014, eq. 5.6).
 
 use super::kernel2d::multiplicity;
 use super::model::Factors;
@@ -13,7 +13,7 @@ use serde_json::json;
 const SPECTRUM_SHOWN: usize = 32;
 
 /// SVD factors of every channel. `renormalize` scales the kernel to the
-/// ground truth's 1-norm afterwards (002 eq. 5.12).
+/// ground truth's 1-norm afterwards (Freude 2014, eq. 5.12).
 pub fn svd(k: &Kernel2D, rank: usize, renormalize: bool) -> Result<(Factors, serde_json::Value)> {
     if rank == 0 || rank > k.size {
         return Err(Error::invalid(
@@ -45,7 +45,7 @@ pub fn svd(k: &Kernel2D, rank: usize, renormalize: bool) -> Result<(Factors, ser
         .collect();
     let norm1_before = super::metrics::norm1(&factors);
     if renormalize {
-        // 002 eq. 5.12: A~ = A ||R||_1 / ||A||_1; a factor scales by the root.
+        // Freude 2014, eq. 5.12: A~ = A ||R||_1 / ||A||_1; a factor scales by the root.
         for c in 0..3 {
             let target: f64 = k.data[c].iter().map(|v| v.abs()).sum();
             let s = (target / norm1_before[c]).sqrt();

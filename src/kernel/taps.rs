@@ -1,4 +1,4 @@
-//! Real-time tap tables (Jimenez, iryoku/separable-sss; REFERENCE 5).
+//! Real-time tap tables (Jimenez et al. 2015; iryoku/separable-sss).
 //!
 //! Offsets: o_i = -RANGE + i 2 RANGE / (N - 1), offset_i = RANGE sign(o_i)
 //! o_i^2 / RANGE^2 (dense near 0), RANGE = 3 if N > 20 else 2. Unit scale:

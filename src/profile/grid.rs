@@ -124,9 +124,9 @@ impl RadialGrid {
         Ok(RadialGrid { edges })
     }
 
-    /// A tally grid sized from the material (002 table 6.1 as the starting
+    /// A tally grid sized from the material (Freude 2014, table 6.1 as the starting
     /// point): dr = min MFP / 20 over `channels` and layers, r_max the
-    /// largest of 32 max MFP (002) and the tail rule below, over channels.
+    /// largest of 32 max MFP (Freude 2014) and the tail rule below, over channels.
     pub fn for_material(m: &Material, channels: &[Channel]) -> RadialGrid {
         Self::for_material_rule(m, channels, false).0
     }
@@ -205,9 +205,9 @@ impl RadialGrid {
         });
         let rule = serde_json::json!({
             "rule": if log_bins {
-                "log bins from dr = min MFP/20 (002 table 6.1); r_max = max(32 max MFP, ln(1e5)/min(sigma_tr, sigma_t)) capped at 2000 MFP"
+                "log bins from dr = min MFP/20 (Freude 2014, table 6.1); r_max = max(32 max MFP, ln(1e5)/min(sigma_tr, sigma_t)) capped at 2000 MFP"
             } else {
-                "dr = min MFP/20 (002 table 6.1); r_max = max(32 max MFP, ln(1e5)/min(sigma_tr, sigma_t)) capped at 2000 MFP"
+                "dr = min MFP/20 (Freude 2014, table 6.1); r_max = max(32 max MFP, ln(1e5)/min(sigma_tr, sigma_t)) capped at 2000 MFP"
             },
             "dr_mm": dr,
             "r_max_mm": grid.r_max(),

@@ -1,4 +1,4 @@
-//! Error tables, plots and comparisons (issues 3 and 4).
+//! Error tables, plots and comparisons.
 
 pub mod advise;
 pub mod compare;

@@ -245,7 +245,7 @@ where
     Ok(())
 }
 
-/// 002 figure 6.1 layout for one or more profiles: one row per channel,
+/// Freude 2014, figure 6.1 layout for one or more profiles: one row per channel,
 /// linear R_d near the origin on the left, log R_d over the whole range on
 /// the right; one colour per file.
 pub fn profile_panels(profiles: &[(String, Profile)]) -> Vec<Panel> {

@@ -18,7 +18,7 @@ pub fn dipole_profile(material: &str, dr: f64, r_max: f64) -> Profile {
     ssskit::kernel::reference::dipole_profile(&m, &grid).unwrap()
 }
 
-/// Real-time tap positions (REFERENCE 5, Jimenez): quadratic, dense near 0.
+/// Real-time tap positions (Jimenez et al. 2015): quadratic, dense near 0.
 pub fn tap_offsets(n: usize) -> Vec<f64> {
     let range = if n > 20 { 3.0 } else { 2.0 };
     (0..n)
@@ -117,7 +117,7 @@ pub fn gaussian_kernel(rank: usize, n_taps: usize) -> KernelFile {
     kernel_file("test-gaussians", passes, taps, n_taps)
 }
 
-/// Pre-integration (002 section 5.2): a_p(x) = sum over y of the 2D cells,
+/// Pre-integration (Freude 2014, section 5.2): a_p(x) = sum over y of the 2D cells,
 /// on the 2D kernel's own grid; taps from the same factor.
 pub fn preintegration_kernel(k: &Kernel2D, n_taps: usize) -> KernelFile {
     let offsets: Vec<f64> = (0..k.size).map(|i| k.offset(i)).collect();
@@ -173,7 +173,7 @@ pub fn step_depth(w: usize, h: usize) -> Plane {
 }
 
 /// A black foreground (left half, depth 1) against a bright far background
-/// (right half, depth 4), in perspective with follow-surface on (002 eq.
+/// (right half, depth 4), in perspective with follow-surface on (Freude 2014, eq.
 /// 4.12, C = 300): with it the foreground must stay black, without it the
 /// background bleeds in. `apply` is the backend under test.
 pub fn assert_no_background_bleed(

@@ -17,13 +17,13 @@
 //! tallied to 2^-24 = 6e-8 (round to nearest). docs/mc_gpu.md reports the
 //! measured difference from the f64 CPU tracer.
 
+use super::exact::ExactTally;
 use super::tally::{BinSums, ChunkTally, Moments};
 use super::tracer::Stack;
 use super::{
     build_profile, rule_error, statuses, validate_config, BoundaryMode, ChannelRun, McConfig,
     McOptions, PhotonBudget, Status, CHUNK,
 };
-use super::exact::ExactTally;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::material::{Channel, Material};
@@ -420,9 +420,7 @@ impl McGpu {
             }
             tally = sums.tally(stack.specular);
             let exact = exact_tally(&tally, n_bins);
-            status = statuses(material, &[ch], grid, &[exact])
-                .0
-                .swap_remove(0);
+            status = statuses(material, &[ch], grid, &[exact]).0.swap_remove(0);
             if let Some(rel) = target {
                 converged = rule_error(&cfg.budget, &status) <= rel;
                 if converged || tally.events >= opts.max_work {

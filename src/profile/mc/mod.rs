@@ -1,4 +1,4 @@
-//! Monte Carlo photon transport (the MCML scheme; REFERENCE.md section 3):
+//! Monte Carlo photon transport (the MCML scheme; Wang et al. 1995):
 //! diffuse reflectance profile, totals with standard errors, and an exact
 //! energy balance, reproducible whatever the thread count.
 //!
@@ -720,7 +720,7 @@ fn build_profile(
                     sum: sums.sum[i],
                     sum_sq: sums.sum_sq[i],
                 };
-                // REFERENCE 3 step 6: R_d(r_i) = W_i / (N area_i).
+                // Wang et al. 1995: R_d(r_i) = W_i / (N area_i).
                 (m.mean(n) / areas[i], m.stderr(n) / areas[i])
             })
             .unzip()

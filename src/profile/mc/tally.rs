@@ -1,6 +1,6 @@
 //! Scores of a chunk of photons: sums and sums of squares of per-photon
 //! contributions, so every bin and total carries a standard error from the
-//! per-photon second moment (REFERENCE 3 step 6), and the exact bookkeeping
+//! per-photon second moment (Wang et al. 1995), and the exact bookkeeping
 //! that closes the energy balance.
 
 use crate::profile::RadialGrid;

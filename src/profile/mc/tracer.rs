@@ -1,5 +1,5 @@
-//! The photon packet walk of MCML (Wang, Jacques & Zheng 1995; REFERENCE.md
-//! section 3), in f64, through a stack of layers between two ambient media.
+//! The photon packet walk of MCML (Wang, Jacques & Zheng 1995),
+//! in f64, through a stack of layers between two ambient media.
 //! z points down into the material; the top surface is z = 0.
 
 use super::tally::{BinIndex, ChunkTally, PhotonScratch};
@@ -44,7 +44,7 @@ pub const DEFAULT_EVENT_ROULETTE: u64 = 1_000;
 #[serde(rename_all = "lowercase")]
 pub enum BoundaryMode {
     /// Score the transmitted part (1 - R) w and continue with R w: same
-    /// expectation as MCML, less variance (REFERENCE 3, step 3).
+    /// expectation as MCML, less variance (Wang et al. 1995).
     Split,
     /// MCML 1.2.2: reflect with probability R, else leave with all of w.
     Classic,
@@ -142,7 +142,7 @@ fn uniform_pair(rng: &mut Xoshiro256PlusPlus) -> (f64, f64) {
 }
 
 /// An optical depth -ln(xi), xi uniform in (0, 1] with 53 random bits
-/// (REFERENCE 3 step 2), inlined and branch-free: xi = 2^e m with m in
+/// (Wang et al. 1995), inlined and branch-free: xi = 2^e m with m in
 /// [sqrt(1/2), sqrt(2)), ln m = 2 atanh(s), s = (m - 1)/(m + 1), |s| < 0.172,
 /// summed to s^21 (truncation < 1e-18 relative: as exact as the library log).
 #[inline(always)]
@@ -183,7 +183,7 @@ fn neg_ln(x: f64) -> f64 {
 }
 
 /// cos(theta) from the Henyey-Greenstein phase function by inversion
-/// (REFERENCE 3 step 4; MCML SpinTheta).
+/// (Wang et al. 1995; MCML SpinTheta).
 #[inline(always)]
 fn sample_hg_cos(l: &LayerOptics, xi: f64) -> f64 {
     if l.inv_2g == 0.0 {
@@ -344,7 +344,7 @@ fn trace_one(
     let mut next_event_roulette = set.event_roulette;
     while p.w > 0.0 {
         if need_step {
-            // s = -ln(xi) / sigma_t (REFERENCE 3 step 2).
+            // s = -ln(xi) / sigma_t (Wang et al. 1995).
             tau = optical_depth(rng);
             need_step = false;
         }
@@ -434,7 +434,7 @@ fn trace_one(
             p.y += s * p.uy;
             p.z = z_new;
             need_step = true;
-            // Implicit absorption: deposit w sigma_a / sigma_t (REFERENCE 3 step 4).
+            // Implicit absorption: deposit w sigma_a / sigma_t (Wang et al. 1995).
             let kept = p.w * l.albedo;
             absorbed += p.w - kept;
             p.w = kept;
@@ -449,7 +449,7 @@ fn trace_one(
         }
         events += 1;
         if p.w < set.roulette_threshold && p.w > 0.0 {
-            // REFERENCE 3 step 5.
+            // Wang et al. 1995.
             roulette(&mut p.w, ROULETTE_CHANCE, rng, tally);
         }
         if events >= next_event_roulette && p.w > 0.0 {
