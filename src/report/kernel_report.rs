@@ -474,15 +474,23 @@ pub fn block(name: &str, body: &str) -> String {
 
 /// The blocks of a markdown text: (name, body between the markers).
 pub fn blocks(text: &str) -> Vec<(String, String)> {
+    blocks_of(text, "compare")
+}
+
+/// (name, body) of every `<!-- BEGIN KIND:NAME -->` ... `<!-- END KIND:NAME -->`
+/// block in `text` (kinds: `compare` for report tables, `record` for
+/// recorded measurements, see [`crate::report::record`]).
+pub fn blocks_of(text: &str, kind: &str) -> Vec<(String, String)> {
+    let begin = format!("<!-- BEGIN {kind}:");
     let mut out = Vec::new();
     let mut rest = text;
-    while let Some(i) = rest.find("<!-- BEGIN compare:") {
-        let after = &rest[i + "<!-- BEGIN compare:".len()..];
+    while let Some(i) = rest.find(&begin) {
+        let after = &rest[i + begin.len()..];
         let Some(j) = after.find(" -->") else { break };
         let name = after[..j].to_string();
         let body_start = &after[j + " -->".len()..];
         let body_start = body_start.strip_prefix('\n').unwrap_or(body_start);
-        let end = format!("<!-- END compare:{name} -->");
+        let end = format!("<!-- END {kind}:{name} -->");
         let Some(k) = body_start.find(&end) else {
             break;
         };

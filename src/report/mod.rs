@@ -9,5 +9,6 @@ pub mod kernel_report;
 pub mod pareto;
 pub mod pipeline;
 pub mod plot;
+pub mod record;
 pub mod study;
 pub mod table;
