@@ -305,9 +305,13 @@ pub(crate) fn trace_photons(
     tally: &mut ChunkTally,
     scratch: &mut PhotonScratch,
 ) {
+    // A local copy of the generator state stays in registers across the walk
+    // (through `&mut` it was stored to memory after every draw).
+    let mut local = rng.clone();
     for _ in 0..photons {
-        trace_one(stack, bins, set, rng, tally, scratch);
+        trace_one(stack, bins, set, &mut local, tally, scratch);
     }
+    *rng = local;
 }
 
 #[inline(always)]
