@@ -21,8 +21,8 @@ use super::exact::ExactTally;
 use super::tally::{BinSums, ChunkTally, Moments};
 use super::tracer::Stack;
 use super::{
-    build_profile, rule_error, statuses, validate_config, BoundaryMode, ChannelRun, McConfig,
-    McOptions, PhotonBudget, Status, CHUNK,
+    build_profile, floor_ratio, rule_error, statuses, validate_config, BoundaryMode, ChannelRun,
+    McConfig, McOptions, PhotonBudget, Status, CHUNK,
 };
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
@@ -365,8 +365,11 @@ impl McGpu {
             rel_profile: f64::INFINITY,
             r99: 0.0,
             rel_factor: f64::INFINITY,
+            rd: 0.0,
+            rd_stderr: f64::INFINITY,
         };
         let mut converged = false;
+        let mut by_floor = false;
         let mut work_capped = false;
         let mut tally = ChunkTally::new(n_bins, false);
         while sums.photons < cap {
@@ -422,7 +425,10 @@ impl McGpu {
             let exact = exact_tally(&tally, n_bins);
             status = statuses(material, &[ch], grid, &[exact]).0.swap_remove(0);
             if let Some(rel) = target {
-                converged = rule_error(&cfg.budget, &status) <= rel;
+                let relative = rule_error(&cfg.budget, &status) <= rel;
+                by_floor = !relative
+                    && floor_ratio(&cfg.budget, opts.abs_floor, &status, tally.photons) <= 1.0;
+                converged = relative || by_floor;
                 if converged || tally.events >= opts.max_work {
                     work_capped = !converged;
                     progress.advance(cap - tally.photons);
@@ -435,6 +441,7 @@ impl McGpu {
             status,
             converged: target.is_none() || converged,
             work_capped,
+            by_floor,
         })
     }
 
