@@ -59,8 +59,9 @@ struct Flags {
     /// Absolute floor of the kernel-factor rule, a fraction of the incident
     /// light: a channel also stops once the standard error of its total R_d
     /// and R_d x the kernel factor's relative error are below A, after at
-    /// least 3/A photons (media that barely scatter back, e.g. wine, beer);
-    /// never before the relative target where R_d >= A/E. 0 = off.
+    /// least 3/A photons (media that barely scatter back, e.g. wine, beer;
+    /// 2e-6 is 150x below the smallest 8-bit sRGB value); never before the
+    /// relative target where R_d >= A/E. 0 = off.
     #[arg(long, value_name = "A", default_value_t = mc::DEFAULT_ABS_FLOOR, allow_hyphen_values = true)]
     abs_floor: f64,
     /// Rule "total-and-profile": trace until the relative standard error of

@@ -165,20 +165,20 @@ impl Default for McOptions {
 /// standard error of its total R_d and R_d times the relative L2 error of
 /// its kernel factor, is below this, after at least `3 / floor` photons.
 ///
-/// Why 1e-5: the smallest non-zero 8-bit sRGB value is 1/(255 x 12.92) =
-/// 3.0e-4 in linear light, the step of 10-bit sRGB near black 7.6e-5, and
-/// a half float resolves 4.9e-4 of a value near 1: an error of 1e-5 of the
-/// light reaching a surface is 30x below what an 8-bit display can show and
-/// below every step a renderer stores for a lit surface. It never stops a
-/// channel the relative rule has not stopped when R_d >= floor / target
-/// (2e-3 at the defaults): for such channels the relative rule is the
-/// stricter one. It exists for media that barely scatter back (wine, beer:
-/// R_d 1e-6 to 1e-4), whose relative error would need 1e8+ photons to fall
-/// below 0.5% while their kernels are invisible. The photon minimum is the
-/// rule of three: with no return in 3/floor photons, a return probability
-/// above the floor is excluded at 95%, so a channel cannot stop on an
-/// error estimated from too few returns.
-pub const DEFAULT_ABS_FLOOR: f64 = 1e-5;
+/// Why 2e-6: the smallest non-zero 8-bit sRGB value is 1/(255 x 12.92) =
+/// 3.0e-4 in linear light, the step near black of 10-bit sRGB 7.6e-5 and of
+/// 12-bit 1.9e-5, and a half float resolves 2^-11 of a value (2e-6 at 4e-3):
+/// an error of 2e-6 of the light reaching a surface is 150x below what an
+/// 8-bit display shows and 9x below a 12-bit step. Where R_d >= floor /
+/// target (4e-4 at the defaults) the floor implies the relative rule, so it
+/// never stops such a channel earlier (nor changes its rounds); every preset
+/// channel but wine's and beer's has R_d above 1e-3. It exists for media
+/// that barely scatter back (wine, beer: R_d 1e-6 to 1e-4), whose relative
+/// error would need 1e8+ photons to reach 0.5% while their kernels are
+/// invisible. The photon minimum is the rule of three: with no return in
+/// 3/floor photons a return probability above the floor is excluded at 95%,
+/// so a channel cannot stop on an error estimated from too few returns.
+pub const DEFAULT_ABS_FLOOR: f64 = 2e-6;
 
 /// Default work cap: about half a minute per channel on two cores of a
 /// 2020s CPU (~2.5e7 events/s per core).
