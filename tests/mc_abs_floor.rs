@@ -164,3 +164,56 @@ fn bad_floors_are_refused() {
         assert!(e.contains("absolute floor"), "{bad}: {e}");
     }
 }
+
+#[test]
+fn the_cli_names_the_floor() {
+    let bin = env!("CARGO_BIN_EXE_ssskit");
+    let help = std::process::Command::new(bin)
+        .args(["simulate", "--help"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        text.contains("--abs-floor") && text.contains("kernel-factor"),
+        "{text}"
+    );
+    let dir = std::env::temp_dir().join(format!("ssskit-abs-floor-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("beer.json");
+    let bad = std::process::Command::new(bin)
+        .args([
+            "simulate",
+            "--material",
+            "beer",
+            "--abs-floor",
+            "-1",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("--abs-floor") && !err.contains("panicked"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let ok = std::process::Command::new(bin)
+        .args(["simulate", "--material", "beer", "--channels", "r", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let p = Profile::read(&out).unwrap();
+    assert_eq!(p.extra["stopped_by"][0], "absolute-floor");
+    assert_eq!(
+        p.source.params["budget"]["absolute_floor"]["floor"],
+        DEFAULT_ABS_FLOOR
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
