@@ -287,10 +287,7 @@ fn speed(scale: f64, reps: usize) -> Record {
         // Per-photon variance of total R_d (independent of N).
         let var = |r: &Run| r.se * r.se * nf;
         let eff = |v: f64, cpu: f64| 1.0 / (v / nf * cpu);
-        let mcml_best = theirs
-            .iter()
-            .copied()
-            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let mcml_best = theirs.iter().copied().min_by(|a, b| a.0.total_cmp(&b.0));
         let ns_event = |cpu: f64| 1e9 * cpu / (nf * game.events_per_photon);
         let colour = match case.ch {
             Channel::R => "red",
@@ -418,7 +415,11 @@ fn presets() -> Record {
         };
         table.push(vec![
             name.to_string(),
-            photons.iter().map(|&n| short(n)).collect::<Vec<_>>().join(", "),
+            photons
+                .iter()
+                .map(|&n| short(n))
+                .collect::<Vec<_>>()
+                .join(", "),
             format!("{wall:.2}"),
             format!("{cpu:.2}"),
             stopped.join(", "),
