@@ -437,11 +437,15 @@ fn trace_one(
             p.x += s * p.ux;
             p.y += s * p.uy;
             p.z = z_new;
-            need_step = true;
             // Implicit absorption: deposit w sigma_a / sigma_t (Wang et al. 1995).
             let kept = p.w * l.albedo;
             absorbed += p.w - kept;
             p.w = kept;
+            // The next free flight's optical depth before the new direction:
+            // the log's latency then overlaps the direction sampling, and a
+            // mispredicted rejection there no longer discards it.
+            tau = optical_depth(rng);
+            need_step = false;
             if l.inv_2g == 0.0 {
                 // Isotropic: the new direction does not depend on the old.
                 (p.ux, p.uy, p.uz) = sample_sphere(rng);
