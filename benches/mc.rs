@@ -153,7 +153,27 @@ fn run_mcml(bin: &Path, dir: &Path, m: &Material, case: &Case, photons: u64) -> 
     let mci = dir.join("bench.mci");
     let mco = dir.join("bench.mco");
     let _ = std::fs::remove_file(&mco);
-    let text = mci_text(m, case.ch, &grid_of(m, case.ch), photons, "bench.mco");
+    let grid = grid_of(m, case.ch);
+    let text = mci_text(m, case.ch, &grid, photons, "bench.mco");
+    // ssskit's own .mci reader must see the same case (optics to rounding,
+    // photons, bins): the input MCML gets is the one ssskit traces.
+    let run = &ssskit::profile::mc::mci::parse_mci(&text, "bench .mci").expect("valid .mci")[0];
+    let (a, b) = (&run.material.layers, &m.layers);
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * y.abs().max(1e-300);
+    let c = case.ch.index();
+    assert!(
+        run.photons == photons
+            && run.grid.len() == grid.len()
+            && a.len() == b.len()
+            && a.iter().zip(b).all(|(x, y)| {
+                close(x.sigma_a[0], y.sigma_a[c])
+                    && close(x.sigma_s[0], y.sigma_s[c])
+                    && x.g[0] == y.g[c]
+                    && x.eta == y.eta
+                    && x.thickness.is_none() == y.thickness.is_none()
+            }),
+        "the .mci written for MCML differs from the case: {text}"
+    );
     std::fs::write(&mci, text).ok()?;
     let c0 = cpu_seconds()?;
     let status = Command::new(bin)
