@@ -385,7 +385,7 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     }
     if !(opts.abs_floor >= 0.0 && opts.abs_floor < 1.0) {
         return Err(Error::invalid(
-            "--abs-floor",
+            "Monte Carlo options",
             "absolute floor",
             opts.abs_floor,
             "must be in [0, 1): a fraction of the incident light, 0 = off",
