@@ -7,15 +7,20 @@
 //! factors resampled to whole pixels count one tap per pixel they cover.
 //! Error is the largest relative RMS (as `ssskit diff` reports it, per
 //! channel, divided by the exact image's peak) over the three channels and
-//! the signals chosen on (edge, shapes and a checker of [`CHECKER_PX`]-pixel
+//! the signals chosen on (edge, shapes and checkers of [`CHECKER_PX`]-pixel
 //! cells), against the exact 2D convolution with the profile
-//! ([`super::evaluate`]). The checker is there because edge and shapes alone
-//! under-state the error on sharp detail: measured on skin1 at 0.2 mm per
-//! pixel, 5 guided taps chosen at 7.1% on edge and shapes gave 10.4% on a
-//! checker of 1 mm cells. Its cells are fixed in pixels (detail at the
-//! screen's resolution), not in mm: at 2 mm per pixel a 1 mm checker would
-//! alternate every pixel, a pattern the renderer's own sampling already
-//! averages away. FLIP is reported for the chosen configuration.
+//! ([`super::evaluate`]). The checkers are there because edge and shapes
+//! alone under-state the error on sharp detail: measured on skin1 at 0.2 mm
+//! per pixel, 5 guided taps chosen at 7.1% on edge and shapes gave 10.4% on
+//! a checker of 1 mm cells. One checker is not enough either: a tap table
+//! whose gaps are a multiple of the checker's period reads only one colour
+//! (aliasing), so a choice made on 8-pixel cells alone measured 14% on
+//! 5-pixel cells where it met 6.7% on its own checker (skin1, 0.02 mm per
+//! pixel). Cells of 2, 4 and 8 pixels span the periodic detail the screen
+//! can hold, from the finest (a 2-pixel cell, period 4 pixels; 1-pixel
+//! cells are what the renderer's own sampling averages away) to the coarse.
+//! The cells are fixed in pixels (detail at the screen's resolution), not
+//! in mm. //! averages away. FLIP is reported for the chosen configuration.
 //!
 //! Candidates: the kernel models of the comparison (SVD at ranks 1-3 raw and
 //! renormalised, pre-integration, guided, manual, sums of 2-3 Gaussians)
@@ -40,8 +45,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::collections::BTreeMap;
 
-/// Cell width of the checker signal advise chooses on, pixels.
-pub const CHECKER_PX: usize = 8;
+/// Cell widths of the checker signals advise chooses on, pixels.
+pub const CHECKER_PX: [usize; 5] = [2, 3, 4, 6, 8];
 
 /// Tap counts considered.
 pub const TAP_COUNTS: [usize; 11] = [1, 3, 5, 7, 9, 11, 13, 17, 21, 25, 33];
@@ -409,18 +414,20 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
     }
     let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
     let specs = candidate_models(&cfg.families, &profile.material.name)?;
-    let cases: Vec<ImageCase> = cfg
-        .signals
-        .iter()
-        .map(|&s| match s {
-            Signal::Checker => Ok(ImageCase {
-                name: format!("checker{CHECKER_PX}px"),
-                image: crate::filter::signals::generate(s, cfg.size, cfg.size, CHECKER_PX)?,
+    let mut cases: Vec<ImageCase> = Vec::new();
+    for &s in &cfg.signals {
+        if s != Signal::Checker {
+            cases.push(ImageCase::signal(s, cfg.size, cfg.mm_per_pixel)?);
+            continue;
+        }
+        for px in CHECKER_PX {
+            cases.push(ImageCase {
+                name: format!("checker{px}px"),
+                image: crate::filter::signals::generate(s, cfg.size, cfg.size, px)?,
                 mm_per_pixel: cfg.mm_per_pixel,
-            }),
-            _ => ImageCase::signal(s, cfg.size, cfg.mm_per_pixel),
-        })
-        .collect::<Result<_>>()?;
+            });
+        }
+    }
     let exact: Vec<Exact> = cases
         .par_iter()
         .map(|c| Exact::new(profile, c))
