@@ -76,6 +76,9 @@ fn recorded_tables_match_their_records() {
         }
     }
     eprintln!("{checked} recorded blocks checked");
+    // profiles/{speed,presets}, filter-cpu/{opencv,threads},
+    // kernels/{fit,commands} at least.
+    assert!(checked >= 6, "only {checked} recorded blocks found");
     assert!(
         stale.is_empty(),
         "tables differ from their records (run scripts/regen-docs):\n{}",
