@@ -481,9 +481,7 @@ fn main() {
         "ssskit_wall_cpu_ms": raw,
         "opencv": cv,
     });
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/records/filter-cpu.json");
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let path = ssskit::report::record::docs_path("filter-cpu");
     record.write(&path).unwrap();
     eprintln!("wrote {}", path.display());
 }

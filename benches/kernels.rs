@@ -204,8 +204,7 @@ fn main() {
         "fit_seconds_201_401_801": fit_raw,
         "command_wall_seconds": raw,
     });
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/records/kernels.json");
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let path = ssskit::report::record::docs_path("kernels");
     record.write(&path).unwrap();
     eprintln!("wrote {}", path.display());
 }

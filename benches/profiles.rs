@@ -13,6 +13,7 @@ use ssskit::material::{preset, preset_names, Channel};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::progress::NoProgress;
+use ssskit::report::compare::time;
 use ssskit::report::record::{machine_line, Record};
 use ssskit::report::table::Table;
 use std::hint::black_box;
@@ -31,16 +32,6 @@ fn median_time(mut f: impl FnMut()) -> f64 {
     }
     times.sort_by(|a, b| a.total_cmp(b));
     times[times.len() / 2]
-}
-
-fn time(s: f64) -> String {
-    if s < 1e-3 {
-        format!("{:.0} µs", s * 1e6)
-    } else if s < 1.0 {
-        format!("{:.1} ms", s * 1e3)
-    } else {
-        format!("{s:.1} s")
-    }
 }
 
 /// Two significant digits: "66 000×", "720×", "19×".
@@ -185,8 +176,7 @@ fn main() {
         "monte_carlo": mc_data,
         "mc_target_rel_error": rel,
     });
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/records/profiles.json");
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let path = ssskit::report::record::docs_path("profiles");
     record.write(&path).unwrap();
     eprintln!("wrote {}", path.display());
 }

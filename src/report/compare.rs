@@ -140,7 +140,8 @@ fn pct_abs(x: f64) -> String {
     }
 }
 
-fn time(s: f64) -> String {
+/// Seconds as "372 µs", "1.5 ms", "2.07 s".
+pub fn time(s: f64) -> String {
     if s < 1e-3 {
         format!("{:.0} µs", s * 1e6)
     } else if s < 1.0 {
