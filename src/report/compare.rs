@@ -389,10 +389,43 @@ pub fn summary_table(rows: &[Row]) -> Table {
     t
 }
 
+/// Relative indices of the Fresnel table: both sides of 1 and the range
+/// where the fits break down (eta = 3).
+pub const FRESNEL_ETAS: [f64; 7] = [0.7, 1.0, 1.1, 1.3, 1.5, 2.5, 3.0];
+
+/// The constants the models take from the Fresnel moments, by the
+/// polynomial fits and by exact integration: C_phi, C_E (Dal Corso 2014,
+/// eq. 3.15) and A = (1 - C_E) / (2 C_phi).
+pub fn fresnel_table(etas: &[f64]) -> Table {
+    use crate::profile::fresnel::FresnelMode::{Exact, Fit};
+    let mut t = Table::new(&[
+        "eta",
+        "C_phi fit",
+        "C_phi exact",
+        "C_E fit",
+        "C_E exact",
+        "A fit",
+        "A exact",
+    ]);
+    for &eta in etas {
+        t.push(vec![
+            format!("{eta:.1}"),
+            format!("{:.5}", Fit.c_phi(eta)),
+            format!("{:.5}", Exact.c_phi(eta)),
+            format!("{:.5}", Fit.c_e(eta)),
+            format!("{:.5}", Exact.c_e(eta)),
+            format!("{:.4}", Fit.boundary_a(eta)),
+            format!("{:.4}", Exact.boundary_a(eta)),
+        ]);
+    }
+    t
+}
+
 /// The written report of `profiles compare`: the per-channel accuracy
 /// table, the summary by reduced albedo, and its one-line-per-class digest,
 /// each between `<!-- BEGIN compare:BLOCK -->` and `<!-- END compare:BLOCK -->`
-/// (blocks `all`, `classes`, `summary`) so that docs can include them and a
+/// (blocks `all`, `classes`, `summary`, and `fresnel`: the Fresnel
+/// constants of the models by fit and exact) so that docs can include them and a
 /// test can check them (docs/compare-runs.txt).
 pub fn report(rows: &[Row]) -> String {
     let block = |name: &str, t: Table| {
@@ -407,10 +440,11 @@ pub fn report(rows: &[Row]) -> String {
          reference's R_d, with the reference's noise removed in quadrature; \
          medians leave out channels whose reference total is 0. Times are in \
          compare.csv.\n\n## By reduced albedo\n\n{}\n{}\n## Every material \
-         and channel\n\n{}",
+         and channel\n\n{}\n## Fresnel constants of the models, fit and exact\n\n{}",
         block("summary", summary_table(rows)),
         block("classes", class_table(rows)),
         block("all", accuracy_table(rows)),
+        block("fresnel", fresnel_table(&FRESNEL_ETAS)),
     )
 }
 
@@ -559,7 +593,7 @@ mod tests {
         assert_eq!(short(2.04), "204%");
         assert_eq!(short(0.0045), "0.45%");
         let r = report(&rows);
-        for b in ["summary", "classes", "all"] {
+        for b in ["summary", "classes", "all", "fresnel"] {
             assert!(r.contains(&format!("<!-- END compare:{b} -->")), "{r}");
         }
         assert!(!accuracy_table(&rows)
