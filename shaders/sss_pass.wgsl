@@ -1,5 +1,5 @@
 // One 1D pass of the separable screen-space SSS filter (Freude 2014, algorithm 4.1).
-// The f64 twin is src/filter/cpu.rs (apply_screen_space); keep them in step.
+// The f64 twin is src/filter/screen_space.rs (apply_screen_space); keep them in step.
 // Storage buffers and plain indexing (no samplers): rgba32float is not
 // filterable on every adapter (lavapipe), so the linear interpolation along
 // the pass axis is done here. Positions are clamped to the image (clamp-to-edge).

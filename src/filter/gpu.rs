@@ -1,7 +1,7 @@
 //! The wgpu post-process: shaders/sss_pass.wgsl run per rank as a horizontal
 //! then a vertical pass, the vertical pass accumulating into the output,
 //! which starts as the specular image (so specular is added after the blur).
-//! f32 throughout; checked against `cpu::apply_screen_space` (f64).
+//! f32 throughout; checked against `screen_space::apply_screen_space` (f64).
 
 use super::{Image, Setup};
 use crate::error::{Error, Result};

@@ -1,7 +1,7 @@
 //! Applying kernels to images: image I/O, the exact CPU reference and the
 //! wgpu post-process (Freude 2014, sections 4.2-4.4, Jimenez et al. 2015).
 //!
-//! One algorithm, two implementations: `cpu::apply_screen_space` (f64) and
+//! One algorithm, two implementations: `screen_space::apply_screen_space` (f64) and
 //! `gpu::Gpu::apply` (f32, WGSL) run Freude 2014, algorithm 4.1 on the same
 //! [`Setup`]: per rank, a horizontal then a vertical 1D pass whose tap
 //! offsets are scaled per pixel (Freude 2014, eq. 4.11), with the depth-aware lerp
@@ -9,14 +9,22 @@
 //! image is added after the blur. Samples between pixels are linearly
 //! interpolated along the pass axis; positions outside the image are clamped
 //! to the border pixel (clamp-to-edge).
+//!
+//! The CPU side, one file per job: [`screen_space`] (algorithm 4.1 per
+//! pixel), [`separable`] (fixed pixel kernels under a uniform scale, the
+//! same result faster), [`exact`] (the full 2D convolution, the ground
+//! truth), and [`cpu`], which picks between the first two.
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
 pub mod cpu;
 pub mod diff;
+pub mod exact;
 pub mod gpu;
 pub mod image;
+pub mod screen_space;
+pub mod separable;
 pub mod signals;
 pub mod timing;
 pub mod warnings;
@@ -24,6 +32,12 @@ pub mod warnings;
 use crate::error::{Error, Result};
 use crate::kernel::{KernelFile, Pass};
 pub use image::{Image, Plane};
+
+/// Clamp-to-edge on whole pixels: index `i` of a row or column of `n`
+/// pixels moved to the nearest border pixel.
+fn clamp_index(i: i64, n: usize) -> usize {
+    i.clamp(0, n as i64 - 1) as usize
+}
 
 /// How kernel millimetres map to pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
