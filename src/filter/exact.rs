@@ -15,25 +15,23 @@ use rustfft::num_complex::Complex;
 /// The ground-truth 2D kernel of `profile` with cells the size of one pixel
 /// (`mm_per_pixel`), covering the radius that holds 99.9% of R_d.
 pub fn reference_kernel(profile: &Profile, mm_per_pixel: f64) -> Result<Kernel2D> {
-    if !(mm_per_pixel > 0.0 && mm_per_pixel.is_finite()) {
-        return Err(Error::invalid(
-            "apply",
-            "--mm-per-pixel",
-            mm_per_pixel,
-            "must be finite and > 0",
-        ));
-    }
+    super::check_mm_per_pixel(mm_per_pixel)?;
     let radius = (0..profile.channels.len())
         .map(|c| crate::kernel::kernel2d::radius_holding(profile, c, 0.999))
         .fold(0.0, f64::max);
     let half = (radius / mm_per_pixel).ceil().max(1.0) as usize;
     let size = 2 * half + 1;
     if size > crate::kernel::kernel2d::MAX_SIZE {
-        return Err(Error::Unsupported(format!(
-            "the reference kernel would be {size} pixels wide at {mm_per_pixel} mm per pixel \
-             (at most {}): use a coarser --mm-per-pixel",
-            crate::kernel::kernel2d::MAX_SIZE
-        )));
+        return Err(Error::invalid(
+            super::SCALE,
+            "mm_per_pixel",
+            mm_per_pixel,
+            format!(
+                "the exact reference kernel would be {size} pixels wide, at most {}: use a \
+                 coarser scale",
+                crate::kernel::kernel2d::MAX_SIZE
+            ),
+        ));
     }
     Kernel2D::from_profile(
         profile,
