@@ -37,24 +37,13 @@ struct Params {
 
 // Interleaved gradient noise (Jimenez 2014) in 32-bit fixed point, the same
 // bits as the f64 twin (src/filter/mod.rs, ign_fixed and jitter_unit):
-// fract(52.9829189 fract(0.06711056 x + 0.00583715 y)).
-fn mul_high(a: u32, b: u32) -> u32 {
-    let a0 = a & 0xffffu;
-    let a1 = a >> 16u;
-    let b0 = b & 0xffffu;
-    let b1 = b >> 16u;
-    let p00 = a0 * b0;
-    let p01 = a0 * b1;
-    let p10 = a1 * b0;
-    let p11 = a1 * b1;
-    let mid = (p00 >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
-    return p11 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u);
-}
-
+// fract(52.9829189 fract(0.06711056 x + 0.00583715 y)). The host prepends
+// mul_wide (wide_mul.wgsl) and the constants IGN_X, IGN_Y, IGN_FRACTION and
+// GOLDEN_U32 from src/filter/mod.rs.
 fn jitter_unit(x: u32, y: u32, tap: u32, axis: u32) -> f32 {
-    let inner = 288237660u * x + 25070368u * y;
-    let ign = 52u * inner + mul_high(4221604530u, inner);
-    let n = ign + (2u * tap + axis) * 2654435769u;
+    let inner = IGN_X * x + IGN_Y * y;
+    let ign = 52u * inner + mul_wide(IGN_FRACTION, inner).y;
+    let n = ign + (2u * tap + axis) * GOLDEN_U32;
     return f32(n >> 8u) / 16777216.0;
 }
 
