@@ -3,27 +3,8 @@
 // Storage buffers and plain indexing (no samplers): rgba32float is not
 // filterable on every adapter (lavapipe), so the linear interpolation along
 // the pass axis is done here. Positions are clamped to the image (clamp-to-edge).
-
-struct Params {
-    width: u32,
-    height: u32,
-    ntaps: u32,
-    // 0: horizontal, 1: vertical.
-    axis: u32,
-    // 0: orthographic step, 1: perspective step divided by depth (Freude 2014, eq. 4.11).
-    perspective: u32,
-    // 1: lerp toward the centre colour by depth difference (Freude 2014, eq. 4.12).
-    follow: u32,
-    // 1: dst += result (vertical pass of a rank), 0: dst = result.
-    accumulate: u32,
-    // 1: each tap jittered inside its footprint (interleaved gradient noise).
-    jitter: u32,
-    // Pixels per kernel mm before strength and depth.
-    step_base: f32,
-    // k of t = clamp(k |d_centre - d_sample|, 0, 1).
-    follow_k: f32,
-    _pad2: vec2<f32>,
-}
+// The host prepends the struct Params (src/filter/gpu.rs, where its fields
+// are described).
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;

@@ -21,6 +21,38 @@ pub fn wgsl_u32_consts(consts: &[(&str, u32)]) -> String {
         .collect()
 }
 
+/// Declares a plain-data struct that a shader reads (a uniform block, the
+/// elements of a storage array) once for both sides: the `#[repr(C)]` Rust
+/// struct and `NAME::WGSL`, its WGSL declaration, which the host prepends to
+/// the shader. Fields are `u32` or `f32`, spelled alike in both languages,
+/// so the layouts agree field by field (pad with scalars to the WGSL size,
+/// a multiple of 16 bytes for a uniform block).
+macro_rules! wgsl_struct {
+    (
+        $(#[$meta:meta])*
+        struct $name:ident {
+            $($(#[$field_meta:meta])* $field:ident: $ty:ident,)*
+        }
+    ) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+        struct $name {
+            $($(#[$field_meta])* $field: $ty,)*
+        }
+
+        impl $name {
+            /// The WGSL declaration of this struct.
+            const WGSL: &'static str = concat!(
+                "struct ", stringify!($name), " {\n",
+                $("    ", stringify!($field), ": ", stringify!($ty), ",\n",)*
+                "}\n"
+            );
+        }
+    };
+}
+pub(crate) use wgsl_struct;
+
 /// An opened adapter: its device, queue and description.
 pub struct GpuContext {
     pub device: wgpu::Device,
@@ -226,5 +258,32 @@ pub fn use_software_vulkan_if_unset() {
     }
     if std::env::var_os("NODEVICE_SELECT").is_none() {
         std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    wgsl_struct! {
+        /// A block with both field types and a doc comment on a field.
+        struct Block {
+            count: u32,
+            /// Described on the Rust side only.
+            scale: f32,
+        }
+    }
+
+    #[test]
+    fn shared_declarations_are_valid_wgsl_of_the_same_layout() {
+        assert_eq!(
+            Block::WGSL,
+            "struct Block {\n    count: u32,\n    scale: f32,\n}\n"
+        );
+        assert_eq!(std::mem::size_of::<Block>(), 8);
+        assert_eq!(
+            wgsl_u32_consts(&[("A", 0), ("B", u32::MAX)]),
+            "const A: u32 = 0u;\nconst B: u32 = 4294967295u;\n"
+        );
     }
 }

@@ -7,7 +7,7 @@ use super::{Image, Setup};
 use crate::error::{Error, Result};
 /// Re-exported from [`crate::gpu`], where every GPU path finds it.
 pub use crate::gpu::use_software_vulkan_if_unset;
-use crate::gpu::{wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
 
@@ -17,20 +17,32 @@ pub struct Gpu {
     pipeline: wgpu::ComputePipeline,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
-    width: u32,
-    height: u32,
-    ntaps: u32,
-    axis: u32,
-    perspective: u32,
-    follow: u32,
-    accumulate: u32,
-    jitter: u32,
-    step_base: f32,
-    follow_k: f32,
-    _pad2: [f32; 2],
+wgsl_struct! {
+    /// The uniform block of one 1D pass.
+    struct Params {
+        width: u32,
+        height: u32,
+        ntaps: u32,
+        /// 0: horizontal, 1: vertical.
+        axis: u32,
+        /// 0: orthographic step, 1: perspective step divided by depth
+        /// (Freude 2014, eq. 4.11).
+        perspective: u32,
+        /// 1: lerp toward the centre colour by depth difference (Freude
+        /// 2014, eq. 4.12).
+        follow: u32,
+        /// 1: dst += result (vertical pass of a rank), 0: dst = result.
+        accumulate: u32,
+        /// 1: each tap jittered inside its footprint (interleaved gradient
+        /// noise).
+        jitter: u32,
+        /// Pixels per kernel mm before strength and depth.
+        step_base: f32,
+        /// k of t = clamp(k |d_centre - d_sample|, 0, 1).
+        follow_k: f32,
+        _pad0: f32,
+        _pad1: f32,
+    }
 }
 
 impl Gpu {
@@ -43,8 +55,11 @@ impl Gpu {
             ("IGN_FRACTION", super::IGN_FRACTION),
             ("GOLDEN_U32", super::GOLDEN_U32),
         ]);
-        let pipeline =
-            ctx.compute_pipeline("sss_pass", &[&consts, WGSL_WIDE_MUL, SHADER], "main")?;
+        let pipeline = ctx.compute_pipeline(
+            "sss_pass",
+            &[&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER],
+            "main",
+        )?;
         Ok(Gpu { ctx, pipeline })
     }
 
@@ -209,7 +224,8 @@ impl Gpu {
             follow_k: setup
                 .follow_surface
                 .map_or(0.0, |c| setup.scale.follow_factor(c)) as f32,
-            _pad2: [0.0; 2],
+            _pad0: 0.0,
+            _pad1: 0.0,
         };
         let mut groups = Vec::new();
         for taps in &setup.passes {

@@ -25,7 +25,7 @@ use super::{
     McOptions, PhotonBudget, Status, CHUNK,
 };
 use crate::error::{Error, Result};
-use crate::gpu::{wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
 use crate::material::{Channel, Material};
 use crate::profile::{Profile, RadialGrid};
 use crate::progress::Progress;
@@ -46,19 +46,30 @@ pub const MAX_BATCH: u64 = 1 << 24;
 /// too.
 pub const CHECKPOINT: u64 = CHUNK * 16;
 
-// Word layout of the tally buffer (see mc_trace.wgsl).
+// Word layout of the tally buffer, given to mc_trace.wgsl by `shader_consts`:
+// 64-bit sums take 2 words, 96-bit sums of squares 3, least significant
+// first.
+/// Reflectance: sum at 0..2, squares at 2..5 (likewise T_TR, T_ABS).
 const T_RD: usize = 0;
 const T_TR: usize = 5;
 const T_ABS: usize = 10;
+/// Sums only (likewise T_LOSS to T_EVENTS).
 const T_BEYOND: usize = 15;
 const T_LOSS: usize = 17;
 const T_GAIN: usize = 19;
 const T_TRUNC: usize = 21;
+/// Packet count.
 const T_TRUNC_N: usize = 23;
 const T_EVENTS: usize = 25;
+/// One word: a value beyond the fixed-point range was met.
 const T_SATURATED: usize = 27;
+/// The next packet to trace (the shared work counter).
+const WORK: usize = 28;
+/// Packets whose walk stopped with weight left (a driver's loop limit), and
+/// packets traced: both checked by the host.
 const INCOMPLETE: usize = 29;
 const TRACED: usize = 30;
+/// Per bin from here: sum (2 words), sum of squares (3 words).
 const BINS: usize = 32;
 /// Threads per workgroup in mc_trace.wgsl.
 const WORKGROUP: u32 = 64;
@@ -103,41 +114,47 @@ impl GpuDispatch {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
-    seed_lo: u32,
-    seed_hi: u32,
-    channel: u32,
-    n_layers: u32,
-    base_lo: u32,
-    base_hi: u32,
-    count: u32,
-    n_bins: u32,
-    max_events: u32,
-    uniform_bins: u32,
-    dynamic: u32,
-    stride: u32,
-    w0: f32,
-    n_above: f32,
-    n_below: f32,
-    roulette: f32,
-    r_max: f32,
-    inv_dr: f32,
-    _pad1: [f32; 2],
+wgsl_struct! {
+    /// The uniform block of one dispatch.
+    struct Params {
+        seed_lo: u32,
+        seed_hi: u32,
+        channel: u32,
+        n_layers: u32,
+        base_lo: u32,
+        base_hi: u32,
+        count: u32,
+        n_bins: u32,
+        max_events: u32,
+        uniform_bins: u32,
+        /// 1: invocations take packets from a shared counter; 0: invocation
+        /// t traces packets t, t + stride, ...
+        dynamic: u32,
+        stride: u32,
+        w0: f32,
+        n_above: f32,
+        n_below: f32,
+        roulette: f32,
+        r_max: f32,
+        inv_dr: f32,
+        _pad0: f32,
+        _pad1: f32,
+    }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct GpuLayer {
-    z_top: f32,
-    z_bottom: f32,
-    sigma_t: f32,
-    inv_sigma_t: f32,
-    albedo: f32,
-    g: f32,
-    n: f32,
-    _pad: f32,
+wgsl_struct! {
+    /// One layer of the stack for one channel.
+    struct Layer {
+        z_top: f32,
+        /// `SEMI_INFINITE` for a semi-infinite layer.
+        z_bottom: f32,
+        sigma_t: f32,
+        inv_sigma_t: f32,
+        albedo: f32,
+        g: f32,
+        n: f32,
+        _pad: f32,
+    }
 }
 
 /// z_bottom of a semi-infinite layer: beyond any reachable depth, finite so
@@ -155,14 +172,13 @@ impl McGpu {
     /// Opens the adapter (see `GpuContext::open`) and compiles the shaders.
     pub fn new() -> Result<McGpu> {
         let ctx = GpuContext::open()?;
-        let consts = wgsl_u32_consts(&[
-            ("PHILOX_M0", PHILOX_M[0]),
-            ("PHILOX_M1", PHILOX_M[1]),
-            ("PHILOX_W0", PHILOX_W[0]),
-            ("PHILOX_W1", PHILOX_W[1]),
-        ]);
+        let consts = shader_consts();
         let philox = [consts.as_str(), WGSL_WIDE_MUL, PHILOX];
-        let trace = ctx.compute_pipeline("mc_trace", &[&philox[..], &[TRACE]].concat(), "trace")?;
+        let trace = ctx.compute_pipeline(
+            "mc_trace",
+            &[&philox[..], &[Params::WGSL, Layer::WGSL, TRACE]].concat(),
+            "trace",
+        )?;
         let kat = ctx.compute_pipeline("mc_kat", &[&philox[..], &[KAT]].concat(), "kat")?;
         Ok(McGpu { ctx, trace, kat })
     }
@@ -339,7 +355,8 @@ impl McGpu {
             roulette: opts.roulette_threshold as f32,
             r_max: grid.r_max() as f32,
             inv_dr: uniform_dr.map_or(0.0, |dr| (1.0 / dr) as f32),
-            _pad1: [0.0; 2],
+            _pad0: 0.0,
+            _pad1: 0.0,
         };
         let mut sums = Sums::new(n_bins);
         let mut status = Status {
@@ -421,6 +438,33 @@ impl McGpu {
     }
 }
 
+/// The constants the shaders share with this file: Philox's, the tally
+/// layout, the workgroup size.
+fn shader_consts() -> String {
+    let word = |name, i: usize| (name, i as u32);
+    wgsl_u32_consts(&[
+        ("PHILOX_M0", PHILOX_M[0]),
+        ("PHILOX_M1", PHILOX_M[1]),
+        ("PHILOX_W0", PHILOX_W[0]),
+        ("PHILOX_W1", PHILOX_W[1]),
+        word("T_RD", T_RD),
+        word("T_TR", T_TR),
+        word("T_ABS", T_ABS),
+        word("T_BEYOND", T_BEYOND),
+        word("T_LOSS", T_LOSS),
+        word("T_GAIN", T_GAIN),
+        word("T_TRUNC", T_TRUNC),
+        word("T_TRUNC_N", T_TRUNC_N),
+        word("T_EVENTS", T_EVENTS),
+        word("T_SATURATED", T_SATURATED),
+        word("WORK", WORK),
+        word("INCOMPLETE", INCOMPLETE),
+        word("TRACED", TRACED),
+        word("BINS", BINS),
+        ("WORKGROUP", WORKGROUP),
+    ])
+}
+
 /// What the GPU tracer does not implement, refused before any work.
 /// Events per packet on the GPU: a hard cap (weight left is reported as
 /// truncated), since the shader has no event-count roulette; 10^6 as the CPU
@@ -498,7 +542,7 @@ fn uniform_bin_width(grid: &RadialGrid) -> Option<f64> {
 }
 
 /// The layer stack of one channel, as `tracer::Stack` builds it.
-fn gpu_layers(m: &Material, ch: Channel) -> Vec<GpuLayer> {
+fn gpu_layers(m: &Material, ch: Channel) -> Vec<Layer> {
     let c = ch.index();
     let mut z = 0.0f64;
     m.layers
@@ -507,7 +551,7 @@ fn gpu_layers(m: &Material, ch: Channel) -> Vec<GpuLayer> {
             let sigma_t = l.sigma_a[c] + l.sigma_s[c];
             let z_top = z;
             z = l.thickness.map_or(f64::INFINITY, |t| z + t);
-            GpuLayer {
+            Layer {
                 z_top: z_top as f32,
                 z_bottom: if z.is_finite() {
                     z as f32
