@@ -112,14 +112,13 @@ impl GpuContext {
         describe(&self.info)
     }
 
-    /// A compute pipeline from WGSL `sources` joined in order (shared
-    /// definitions first), its bind group layout derived from the shader.
-    /// A shader this adapter rejects is an error for the caller, not a
-    /// panic in wgpu's default handler.
+    /// A compute pipeline from WGSL `source`, its bind group layout derived
+    /// from the shader. A shader this adapter rejects is an error for the
+    /// caller, not a panic in wgpu's default handler.
     pub fn compute_pipeline(
         &self,
         label: &str,
-        sources: &[&str],
+        source: &str,
         entry: &str,
     ) -> Result<wgpu::ComputePipeline> {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -127,7 +126,7 @@ impl GpuContext {
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(sources.join("\n").into()),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
             });
         let pipeline = self
             .device
@@ -262,8 +261,22 @@ pub fn use_software_vulkan_if_unset() {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// Parses and validates `source` with naga, the shader compiler of
+    /// wgpu: a shader assembled from several parts is checked without an
+    /// adapter.
+    pub(crate) fn assert_valid_wgsl(source: &str, what: &str) {
+        let module = naga::front::wgsl::parse_str(source)
+            .unwrap_or_else(|e| panic!("{what}: {}", e.emit_to_string(source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{what}: naga validation failed: {e:?}"));
+    }
 
     wgsl_struct! {
         /// A block with both field types and a doc comment on a field.
@@ -281,6 +294,7 @@ mod tests {
             "struct Block {\n    count: u32,\n    scale: f32,\n}\n"
         );
         assert_eq!(std::mem::size_of::<Block>(), 8);
+        assert_valid_wgsl(Block::WGSL, "Block");
         assert_eq!(
             wgsl_u32_consts(&[("A", 0), ("B", u32::MAX)]),
             "const A: u32 = 0u;\nconst B: u32 = 4294967295u;\n"

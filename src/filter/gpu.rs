@@ -49,17 +49,7 @@ impl Gpu {
     /// Opens the adapter (see `GpuContext::open`) and compiles the pass.
     pub fn new() -> Result<Gpu> {
         let ctx = GpuContext::open()?;
-        let consts = wgsl_u32_consts(&[
-            ("IGN_X", super::IGN_X),
-            ("IGN_Y", super::IGN_Y),
-            ("IGN_FRACTION", super::IGN_FRACTION),
-            ("GOLDEN_U32", super::GOLDEN_U32),
-        ]);
-        let pipeline = ctx.compute_pipeline(
-            "sss_pass",
-            &[&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER],
-            "main",
-        )?;
+        let pipeline = ctx.compute_pipeline("sss_pass", &shader_source(), "main")?;
         Ok(Gpu { ctx, pipeline })
     }
 
@@ -304,6 +294,19 @@ impl Gpu {
     }
 }
 
+/// The WGSL of the pass: sss_pass.wgsl after the definitions it shares with
+/// this file and the CPU twin (the noise constants, the wide product, the
+/// uniform block).
+fn shader_source() -> String {
+    let consts = wgsl_u32_consts(&[
+        ("IGN_X", super::IGN_X),
+        ("IGN_Y", super::IGN_Y),
+        ("IGN_FRACTION", super::IGN_FRACTION),
+        ("GOLDEN_U32", super::GOLDEN_U32),
+    ]);
+    [&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER].join("\n")
+}
+
 /// The bound resources of one image and setup.
 struct Frame {
     /// Two per rank: horizontal, vertical.
@@ -311,4 +314,12 @@ struct Frame {
     /// The output (starts as the specular image).
     acc: wgpu::Buffer,
     workgroups: (u32, u32),
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_assembled_shader_is_valid_wgsl() {
+        crate::gpu::tests::assert_valid_wgsl(&super::shader_source(), "sss_pass");
+    }
 }

@@ -172,14 +172,8 @@ impl McGpu {
     /// Opens the adapter (see `GpuContext::open`) and compiles the shaders.
     pub fn new() -> Result<McGpu> {
         let ctx = GpuContext::open()?;
-        let consts = shader_consts();
-        let philox = [consts.as_str(), WGSL_WIDE_MUL, PHILOX];
-        let trace = ctx.compute_pipeline(
-            "mc_trace",
-            &[&philox[..], &[Params::WGSL, Layer::WGSL, TRACE]].concat(),
-            "trace",
-        )?;
-        let kat = ctx.compute_pipeline("mc_kat", &[&philox[..], &[KAT]].concat(), "kat")?;
+        let trace = ctx.compute_pipeline("mc_trace", &shader_source(TRACE), "trace")?;
+        let kat = ctx.compute_pipeline("mc_kat", &shader_source(KAT), "kat")?;
         Ok(McGpu { ctx, trace, kat })
     }
 
@@ -436,6 +430,21 @@ impl McGpu {
             work_capped,
         })
     }
+}
+
+/// The WGSL of `body` (mc_trace.wgsl or mc_kat.wgsl) after what it shares
+/// with this file: the constants, the structs, the wide product and the
+/// generator (mc_philox.wgsl).
+fn shader_source(body: &str) -> String {
+    [
+        &shader_consts(),
+        Params::WGSL,
+        Layer::WGSL,
+        WGSL_WIDE_MUL,
+        PHILOX,
+        body,
+    ]
+    .join("\n")
 }
 
 /// The constants the shaders share with this file: Philox's, the tally
@@ -709,6 +718,12 @@ mod tests {
         for (c, k, want) in kat {
             assert_eq!(philox4x32_10(c, k), want);
         }
+    }
+
+    #[test]
+    fn the_assembled_shaders_are_valid_wgsl() {
+        crate::gpu::tests::assert_valid_wgsl(&shader_source(TRACE), "mc_trace");
+        crate::gpu::tests::assert_valid_wgsl(&shader_source(KAT), "mc_kat");
     }
 
     #[test]
