@@ -80,7 +80,7 @@ impl GpuContext {
             .map_err(|e| {
                 Error::Unsupported(format!(
                     "no GPU adapter found ({e}); without a GPU, install Mesa's lavapipe \
-                     (scripts/setup) and `source scripts/env.sh`, or use --backend cpu"
+                     (scripts/setup) and `source scripts/env.sh`, or use the CPU backend"
                 ))
             })?;
         let info = adapter.get_info();
