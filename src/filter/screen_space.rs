@@ -9,13 +9,16 @@
 use super::{Image, Setup, Taps};
 use rayon::prelude::*;
 
+/// The direction of a 1D pass; the jitter of a tap differs between the two.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Axis {
+enum Axis {
     Horizontal,
     Vertical,
 }
 
-/// Freude 2014, algorithm 4.1 per pixel in f64: the twin of shaders/sss_pass.wgsl.
+/// The blurred diffuse image: the sum over ranks of the vertical pass of the
+/// horizontal pass. `setup` is taken as valid and the specular image is
+/// not added (see `cpu::apply`, which does both).
 pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
     let (w, h) = (image.width, image.height);
     let steps = setup.steps(w, h);
