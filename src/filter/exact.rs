@@ -1,6 +1,7 @@
 //! The exact 2D reference: the image convolved with the full 2D kernel of
 //! the profile, M_e = E * R_d (Freude 2014, eq. 5.2), the ground truth the
-//! separable approximations are measured against (Freude 2014, section 6.2).
+//! separable approximations are measured against in image space (Freude
+//! 2014, section 5.1, figure 5.6; table 6.4).
 //! Direct summation for small kernels, an FFT (rustfft) above
 //! [`FFT_ABOVE`]; borders clamped in both. Rayon over rows and columns, no
 //! cross-thread sums (deterministic).

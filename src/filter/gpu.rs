@@ -5,8 +5,6 @@
 
 use super::{Image, Setup};
 use crate::error::{Error, Result};
-/// Re-exported from [`crate::gpu`], where every GPU path finds it.
-pub use crate::gpu::use_software_vulkan_if_unset;
 use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
