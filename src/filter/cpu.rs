@@ -6,17 +6,13 @@
 //! specular image is added after the blur. The exact 2D reference lives in
 //! [`exact`](super::exact).
 //!
-//! The entry points of the three CPU paths are re-exported here, so that
-//! `filter::cpu::…` names every CPU filter.
+//! The entry points of the three CPU paths are re-exported here: callers
+//! name every CPU filter as `filter::cpu::…`.
 
-pub use super::exact::{
-    check_reference_fits, convolve_2d, convolve_2d_direct, convolve_2d_fft, reference_kernel,
-    FFT_ABOVE,
-};
+pub use super::exact::{check_reference_fits, convolve_2d, reference_kernel, FFT_ABOVE};
 pub use super::screen_space::apply_screen_space;
-pub use super::separable::{
-    apply_separable, apply_separable_in, apply_separable_into, PixelKernel, Precision, Sample,
-};
+use super::separable::apply_separable_in;
+pub use super::separable::{apply_separable, apply_separable_into, PixelKernel, Precision};
 use super::{Image, Setup};
 use crate::error::Result;
 
