@@ -29,7 +29,11 @@ const FLAGS: &[(&str, &str, &str)] = &[
     ("guided", "k", "--k"),
     ("guided", "b", "--b"),
     ("worker threads", "threads", "--threads"),
-    ("apply", "mm per pixel", "--mm-per-pixel"),
+    ("kernel scale", "mm_per_pixel", "--mm-per-pixel"),
+    ("kernel scale", "fov_y_deg", "--fov-y"),
+    ("kernel scale", "sss_width", "--sss-width"),
+    ("filter setup", "follow_surface", "--follow-surface"),
+    ("filter setup", "depth", "--depth"),
 ];
 
 /// Where the value is fine but a setting does not suit it: (context,

@@ -214,15 +214,7 @@ pub fn simulate_with(
             matches!(cfg.budget, PhotonBudget::KernelFactor { .. }),
         ),
     };
-    let e = &grid.edges;
-    if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
-        return Err(Error::invalid(
-            "radial grid",
-            "edges",
-            format!("{} values", e.len()),
-            "need at least 2 edges, starting at 0, finite and strictly increasing",
-        ));
-    }
+    grid.check_edges()?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(cfg.threads.unwrap_or(0))
         .build()
