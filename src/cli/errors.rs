@@ -7,6 +7,7 @@
 //! "extent_mm"); it knows no flags. Errors whose parameter no flag sets (a
 //! field of a material file, say) keep the library's wording.
 
+use ssskit::profile::mc;
 use ssskit::Error;
 
 /// (library context, parameter, flag).
@@ -30,6 +31,20 @@ const FLAGS: &[(&str, &str, &str)] = &[
     ("guided", "b", "--b"),
     ("worker threads", "threads", "--threads"),
     ("apply", "mm per pixel", "--mm-per-pixel"),
+    ("svd", "rank", "--rank"),
+    ("taps", "count", "--taps"),
+    ("taps", "extent_mm", "--tap-extent"),
+    ("shader", "language", "--emit"),
+    (mc::CONTEXT, "photons", "--photons"),
+    (mc::CONTEXT, "target_error", "--target-error"),
+    (mc::CONTEXT, "kernel_error", "--kernel-error"),
+    (mc::CONTEXT, "max_photons", "--max-photons"),
+    (mc::CONTEXT, "shard", "--shard"),
+    (mc::CONTEXT, "channels", "--channels"),
+    (mc::CONTEXT, "max_work", "--max-work"),
+    (mc::CONTEXT, "roulette_threshold", "--roulette"),
+    (mc::CONTEXT, "event_roulette", "--event-roulette"),
+    (mc::CONTEXT, "max_events", "--max-events"),
 ];
 
 /// Where the value is fine but a setting does not suit it: (context,

@@ -34,6 +34,49 @@ pub enum MethodArg {
     Grid,
 }
 
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum LangArg {
+    Hlsl,
+    Glsl,
+    Wgsl,
+}
+
+impl From<LangArg> for Lang {
+    fn from(l: LangArg) -> Lang {
+        match l {
+            LangArg::Hlsl => Lang::Hlsl,
+            LangArg::Glsl => Lang::Glsl,
+            LangArg::Wgsl => Lang::Wgsl,
+        }
+    }
+}
+
+/// Named parameter sets: the manual model's (Freude 2014, table A.1) and
+/// the Gaussians model's (d'Eon et al. 2007).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PresetArg {
+    /// manual (Freude 2014, table A.1).
+    Apple,
+    /// manual (Freude 2014, table A.1).
+    Ketchup,
+    /// manual (Freude 2014, table A.1).
+    Marble,
+    /// manual (Freude 2014, table A.1).
+    Skin1,
+    /// manual (Freude 2014, table A.1).
+    Wholemilk,
+    /// gaussians: d'Eon et al. 2007's six-Gaussian skin.
+    DeonSkin,
+}
+
+impl PresetArg {
+    fn name(self) -> String {
+        self.to_possible_value()
+            .map(|v| v.get_name().to_string())
+            .unwrap_or_default()
+    }
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Reflectance profile (ssskit.profile/1 JSON).
@@ -62,8 +105,8 @@ pub struct Args {
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     tap_extent: Option<f64>,
     /// Print the tap table as a shader constant array.
-    #[arg(long, value_name = "hlsl|glsl|wgsl")]
-    emit: Option<String>,
+    #[arg(long, value_enum, value_name = "LANG", ignore_case = true)]
+    emit: Option<LangArg>,
     #[command(flatten)]
     opts: Box<ModelOpts>,
     /// Do not print the summary.
@@ -101,10 +144,9 @@ pub struct ModelOpts {
     /// manual: sqrt(tau_f) per channel in mm, "R,G,B".
     #[arg(long, value_name = "R,G,B")]
     far: Option<String>,
-    /// manual: table A.1 preset (apple, ketchup, marble, skin1, wholemilk);
-    /// gaussians: deon-skin.
-    #[arg(long)]
-    preset: Option<String>,
+    /// manual or gaussians: a published parameter set.
+    #[arg(long, value_enum, ignore_case = true)]
+    preset: Option<PresetArg>,
     /// manual: find w, tau_n, tau_f by least squares in kernel space.
     #[arg(long)]
     fit: bool,
@@ -156,8 +198,11 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
         }),
         ModelArg::Manual => {
             let explicit = a.opts.w.is_some() || a.opts.near.is_some() || a.opts.far.is_some();
-            match (&a.opts.preset, a.opts.fit, explicit) {
-                (Some(p), false, false) => Model::ManualPreset(p.clone()),
+            match (a.opts.preset, a.opts.fit, explicit) {
+                (Some(PresetArg::DeonSkin), _, _) => {
+                    bail!("manual: --preset deon-skin is a preset of --model gaussians")
+                }
+                (Some(p), false, false) => Model::ManualPreset(p.name()),
                 (None, true, false) => Model::ManualFit,
                 (None, false, true) => {
                     let (Some(w), Some(n), Some(f)) = (a.opts.w, &a.opts.near, &a.opts.far) else {
@@ -174,12 +219,15 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
                 ),
             }
         }
-        ModelArg::Gaussians => match a.opts.preset.as_deref() {
+        ModelArg::Gaussians => match a.opts.preset {
             None => Model::Gaussians {
                 count: a.opts.count,
             },
-            Some(p) if p.eq_ignore_ascii_case("deon-skin") => Model::DeonSkin,
-            Some(p) => bail!("gaussians: unknown --preset '{p}' (known: deon-skin)"),
+            Some(PresetArg::DeonSkin) => Model::DeonSkin,
+            Some(p) => bail!(
+                "gaussians: --preset {} is a preset of --model manual (gaussians has deon-skin)",
+                p.name()
+            ),
         },
         ModelArg::Jimenez => Model::Jimenez(JimenezParams {
             width: a.opts.width,
@@ -190,7 +238,7 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let lang: Option<Lang> = a.emit.as_deref().map(str::parse).transpose()?;
+    let lang = a.emit.map(Lang::from);
     let kernel = if let Some(path) = &a.kernel {
         KernelFile::read(path)?
     } else {

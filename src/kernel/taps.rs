@@ -133,7 +133,7 @@ pub fn tap_table_with(
     if count == 0 || count.is_multiple_of(2) || count > 255 {
         return Err(Error::invalid(
             "taps",
-            "--taps",
+            "count",
             count,
             "must be odd, between 1 and 255",
         ));
@@ -143,7 +143,7 @@ pub fn tap_table_with(
         Some(x) => {
             return Err(Error::invalid(
                 "taps",
-                "--tap-extent",
+                "extent_mm",
                 x,
                 "must be finite and > 0 (mm)",
             ))

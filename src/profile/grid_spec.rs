@@ -23,6 +23,16 @@ impl GridSpec {
     /// values fail with the parameter named ("radial grid", "dr" or
     /// "rmax").
     pub fn grid(&self, material: &Material, channels: &[Channel]) -> Result<RadialGrid> {
+        for (field, value) in [("dr", self.dr), ("rmax", self.r_max)] {
+            if let Some(v) = value.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(Error::invalid(
+                    "radial grid",
+                    field,
+                    v,
+                    "must be finite and > 0 (mm)",
+                ));
+            }
+        }
         let auto = RadialGrid::for_material(material, channels);
         let dr = self.dr.unwrap_or(auto.edges[1]);
         let r_max = self.r_max.unwrap_or(auto.r_max());
