@@ -51,6 +51,29 @@ const FLAGS: &[(&str, &str, &str)] = &[
 /// parameter, what to do).
 const ADVICE: &[(&str, &str, &str)] = &[("Fresnel fits", "eta", "use --fresnel exact")];
 
+/// A bad flag value in the one format: `--flag: invalid value V: reason`.
+pub fn invalid(flag: &str, value: impl std::fmt::Display, reason: &str) -> anyhow::Error {
+    anyhow::anyhow!("{flag}: invalid value {value}: {reason}")
+}
+
+/// `v` if finite and > 0.
+pub fn positive(flag: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(invalid(flag, v, "must be finite and > 0"))
+    }
+}
+
+/// `v` if `lo <= v <= hi`.
+pub fn between(flag: &str, v: usize, lo: usize, hi: usize) -> anyhow::Result<usize> {
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(invalid(flag, v, &format!("must be between {lo} and {hi}")))
+    }
+}
+
 /// The flag that sets `field` of `context`, if one does.
 pub fn flag_of(context: &str, field: &str) -> Option<&'static str> {
     FLAGS
@@ -70,7 +93,7 @@ fn describe(e: &Error) -> Option<String> {
         return None;
     };
     if let Some(flag) = flag_of(context, field) {
-        return Some(format!("{flag}: invalid value {value}: {reason}"));
+        return Some(invalid(flag, value, reason).to_string());
     }
     ADVICE
         .iter()

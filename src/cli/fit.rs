@@ -291,3 +291,16 @@ fn summary(k: &KernelFile) {
         m.fit_seconds
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_manual_preset_flag_value_names_a_library_preset() {
+        for p in PresetArg::value_variants() {
+            let known = ssskit::kernel::manual::preset(&p.name()).is_ok();
+            assert_eq!(known, *p != PresetArg::DeonSkin, "{p:?}");
+        }
+    }
+}

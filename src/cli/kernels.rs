@@ -1,9 +1,9 @@
 //! `ssskit kernels`: the main job in one command. Profile, every kernel
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
+use super::errors::{between, positive};
 use super::out::out;
 use super::profile_source::{command_line, ProfileArgs, ProfileModelArg};
-use anyhow::bail;
 use ssskit::report::advise::DEFAULT_TARGET;
 use ssskit::report::pipeline::{self, Settings};
 use std::path::PathBuf;
@@ -34,24 +34,9 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    if !(a.mm_per_pixel > 0.0 && a.mm_per_pixel.is_finite()) {
-        bail!(
-            "--mm-per-pixel: invalid value {}: must be finite and > 0",
-            a.mm_per_pixel
-        );
-    }
-    if a.taps == 0 || a.taps.is_multiple_of(2) || a.taps > 255 {
-        bail!(
-            "--taps: invalid value {}: must be odd, between 1 and 255",
-            a.taps
-        );
-    }
-    if !(8..=1024).contains(&a.size) {
-        bail!(
-            "--size: invalid value {}: must be between 8 and 1024",
-            a.size
-        );
-    }
+    positive("--mm-per-pixel", a.mm_per_pixel)?;
+    ssskit::kernel::taps::check_count(a.taps)?;
+    between("--size", a.size, 8, 1024)?;
     let t0 = std::time::Instant::now();
     let (profile, source) = a.profile.load(ProfileModelArg::Mc)?;
     eprintln!("{}: profile {source}", profile.material.name);

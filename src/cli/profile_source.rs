@@ -1,6 +1,7 @@
 //! Flags shared by the commands that make their own profile (advise,
 //! kernels, study): where the profile comes from.
 
+use super::errors::invalid;
 use clap::ValueEnum;
 use ssskit::profile::analytic::Model as AnalyticModel;
 use ssskit::profile::Profile;
@@ -44,13 +45,10 @@ impl ProfileArgs {
         Ok(match self.profile_model.unwrap_or(default) {
             ProfileModelArg::Mc => {
                 if !(self.mc_error > 0.0 && self.mc_error < 1.0) {
-                    anyhow::bail!(
-                        "--mc-error: invalid value {}: must be in (0, 1)",
-                        self.mc_error
-                    );
+                    return Err(invalid("--mc-error", self.mc_error, "must be in (0, 1)"));
                 }
                 if self.mc_photons == 0 {
-                    anyhow::bail!("--mc-photons: invalid value 0: must be > 0");
+                    return Err(invalid("--mc-photons", 0, "must be > 0"));
                 }
                 ProfileSource::MonteCarlo {
                     rel_error: self.mc_error,

@@ -1,5 +1,6 @@
 //! `ssskit signal`: test images for kernels in image space.
 
+use super::errors::{invalid, positive};
 use ssskit::filter::image::{write_image, PngDepth};
 use ssskit::filter::signals::{generate, Signal};
 use std::path::PathBuf;
@@ -36,16 +37,9 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let (w, h) = parse_size(&args.size)?;
-    if !(args.mm_per_pixel > 0.0 && args.mm_per_pixel.is_finite()) {
-        anyhow::bail!(
-            "--mm-per-pixel = {}: must be finite and > 0",
-            args.mm_per_pixel
-        );
-    }
-    if !(args.checker_mm > 0.0 && args.checker_mm.is_finite()) {
-        anyhow::bail!("--checker-mm = {}: must be finite and > 0", args.checker_mm);
-    }
-    let cell = (args.checker_mm / args.mm_per_pixel).round().max(1.0) as usize;
+    let mm_per_pixel = positive("--mm-per-pixel", args.mm_per_pixel)?;
+    let checker_mm = positive("--checker-mm", args.checker_mm)?;
+    let cell = (checker_mm / mm_per_pixel).round().max(1.0) as usize;
     let signal = match args.kind {
         Kind::Edge => Signal::Edge,
         Kind::Shapes => Signal::Shapes,
@@ -59,7 +53,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
-    let bad = || anyhow::anyhow!("--size = '{s}': expected WIDTHxHEIGHT, e.g. 512x256");
+    let bad = || {
+        invalid(
+            "--size",
+            format!("'{s}'"),
+            "expected WIDTHxHEIGHT, e.g. 512x256",
+        )
+    };
     let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     Ok((
         a.trim().parse().map_err(|_| bad())?,

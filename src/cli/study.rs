@@ -1,5 +1,6 @@
 //! `ssskit study`: the speed/accuracy trade of every knob for one material.
 
+use super::errors::{between, positive};
 use super::out::out;
 use super::profile_source::{command_line, ProfileArgs, ProfileModelArg};
 use anyhow::bail;
@@ -34,18 +35,8 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    if !(a.mm_per_pixel > 0.0 && a.mm_per_pixel.is_finite()) {
-        bail!(
-            "--mm-per-pixel: invalid value {}: must be finite and > 0",
-            a.mm_per_pixel
-        );
-    }
-    if !(8..=1024).contains(&a.size) {
-        bail!(
-            "--size: invalid value {}: must be between 8 and 1024",
-            a.size
-        );
-    }
+    positive("--mm-per-pixel", a.mm_per_pixel)?;
+    between("--size", a.size, 8, 1024)?;
     if a.photons.is_empty() || a.photons.iter().any(|&n| n == 0 || n > 100_000_000) {
         bail!("--photons: each count must be between 1 and 1e8");
     }
