@@ -1,7 +1,8 @@
 //! Flags shared by the commands that make their own profile (advise,
-//! kernels, study): where the profile comes from.
+//! kernels, study): where the profile comes from, and the test images
+//! kernels and study measure on and where their report goes.
 
-use super::errors::invalid;
+use super::errors::{between, invalid, positive};
 use clap::ValueEnum;
 use ssskit::profile::analytic::Model as AnalyticModel;
 use ssskit::profile::Profile;
@@ -38,6 +39,32 @@ pub struct ProfileArgs {
     /// Monte Carlo seed.
     #[arg(long, default_value_t = MC_SEED)]
     pub seed: u64,
+}
+
+/// What kernels and study measure on and where their report goes.
+#[derive(clap::Args)]
+pub struct ReportArgs {
+    /// Surface millimetres per pixel of the test images: the scale the
+    /// image-space errors (and a recommendation) are for.
+    #[arg(long, default_value_t = 0.1)]
+    pub mm_per_pixel: f64,
+    /// Side of the square test signals, pixels.
+    #[arg(long, default_value_t = 128)]
+    pub size: usize,
+    /// Skip the PNG plots.
+    #[arg(long)]
+    pub no_plots: bool,
+    /// Output folder (created).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+impl ReportArgs {
+    pub fn check(&self) -> anyhow::Result<()> {
+        positive("--mm-per-pixel", self.mm_per_pixel)?;
+        between("--size", self.size, 8, 1024)?;
+        Ok(())
+    }
 }
 
 impl ProfileArgs {
