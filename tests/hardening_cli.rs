@@ -568,6 +568,68 @@ fn profile_grid_messages_name_the_flags_given() {
     );
 }
 
+#[test]
+fn enumerated_flags_refuse_other_values_listing_theirs() {
+    let dir = tempfile::tempdir().unwrap();
+    dipole_profile(dir.path());
+    dirac(dir.path());
+    let k = kernel();
+    let fit = |extra: &[&'static str]| {
+        let mut v = vec!["fit", "--profile", "p.json", "--out", "k.json"];
+        v.extend_from_slice(extra);
+        v
+    };
+    for (args, values) in [
+        (
+            vec!["simulate", "--material", "skin1", "--boundary", "both"],
+            "classic, split",
+        ),
+        (
+            [&apply_dirac(&k, "0.1")[..], &["--png-bits", "12"]].concat(),
+            "8, 16",
+        ),
+        (
+            fit(&["--model", "svd", "--emit", "metal"]),
+            "hlsl, glsl, wgsl",
+        ),
+        (fit(&["--model", "manual", "--preset", "milk"]), "skin1"),
+        (
+            vec!["engine", "--profile", "p.json", "--engine", "cryengine"],
+            "unity-hdrp",
+        ),
+        (
+            vec![
+                "advise",
+                "--profile",
+                "p.json",
+                "--mm-per-pixel",
+                "0.1",
+                "--models",
+                "svd,foo",
+            ],
+            "svd, preintegrate, guided, manual, gaussians",
+        ),
+    ] {
+        fails_in(
+            dir.path(),
+            &args,
+            &["invalid value", "possible values", values],
+        );
+    }
+    // A preset of the other model is named as such.
+    fails_in(
+        dir.path(),
+        &fit(&["--model", "manual", "--preset", "deon-skin"]),
+        &["deon-skin", "gaussians"],
+    );
+    fails_in(
+        dir.path(),
+        &fit(&["--model", "gaussians", "--preset", "skin1"]),
+        &["skin1", "manual"],
+    );
+    assert!(!dir.path().join("k.json").exists());
+}
+
 // ---- 5. Debris -----------------------------------------------------------
 
 #[cfg(unix)]

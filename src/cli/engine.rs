@@ -97,3 +97,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::ValueEnum;
+
+    #[test]
+    fn the_engine_flag_values_are_the_library_engines() {
+        let flags = EngineArg::value_variants();
+        assert_eq!(flags.len(), Engine::ALL.len());
+        for (&a, e) in flags.iter().zip(Engine::ALL) {
+            assert_eq!(Engine::from(a), e);
+            assert_eq!(a.to_possible_value().unwrap().get_name(), e.name());
+        }
+    }
+}
