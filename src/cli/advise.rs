@@ -18,15 +18,6 @@ enum Family {
     Gaussians,
 }
 
-impl Family {
-    fn name(self) -> String {
-        use clap::ValueEnum;
-        self.to_possible_value()
-            .map(|v| v.get_name().to_string())
-            .unwrap_or_default()
-    }
-}
-
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
@@ -101,7 +92,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut cfg = advise::Config::new(mm, a.target_error);
     cfg.size = a.size;
     if !a.models.is_empty() {
-        cfg.families = a.models.iter().map(|m| m.name()).collect();
+        cfg.families = a.models.iter().map(super::flag_value).collect();
     }
     let advice = advise::advise(&profile, &cfg, &super::progress::Bar::new())?;
     if let Some(out) = &a.out {
@@ -132,7 +123,10 @@ mod tests {
 
     #[test]
     fn the_families_flag_values_are_the_library_families() {
-        let names: Vec<String> = Family::value_variants().iter().map(|f| f.name()).collect();
+        let names: Vec<String> = Family::value_variants()
+            .iter()
+            .map(crate::cli::flag_value)
+            .collect();
         assert_eq!(names, advise::FAMILIES);
     }
 }

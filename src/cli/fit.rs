@@ -69,14 +69,6 @@ pub enum PresetArg {
     DeonSkin,
 }
 
-impl PresetArg {
-    fn name(self) -> String {
-        self.to_possible_value()
-            .map(|v| v.get_name().to_string())
-            .unwrap_or_default()
-    }
-}
-
 #[derive(clap::Args)]
 pub struct Args {
     /// Reflectance profile (ssskit.profile/1 JSON).
@@ -202,7 +194,7 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
                 (Some(PresetArg::DeonSkin), _, _) => {
                     bail!("manual: --preset deon-skin is a preset of --model gaussians")
                 }
-                (Some(p), false, false) => Model::ManualPreset(p.name()),
+                (Some(p), false, false) => Model::ManualPreset(super::flag_value(&p)),
                 (None, true, false) => Model::ManualFit,
                 (None, false, true) => {
                     let (Some(w), Some(n), Some(f)) = (a.opts.w, &a.opts.near, &a.opts.far) else {
@@ -226,7 +218,7 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
             Some(PresetArg::DeonSkin) => Model::DeonSkin,
             Some(p) => bail!(
                 "gaussians: --preset {} is a preset of --model manual (gaussians has deon-skin)",
-                p.name()
+                super::flag_value(&p)
             ),
         },
         ModelArg::Jimenez => Model::Jimenez(JimenezParams {
@@ -299,7 +291,7 @@ mod tests {
     #[test]
     fn every_manual_preset_flag_value_names_a_library_preset() {
         for p in PresetArg::value_variants() {
-            let known = ssskit::kernel::manual::preset(&p.name()).is_ok();
+            let known = ssskit::kernel::manual::preset(&crate::cli::flag_value(p)).is_ok();
             assert_eq!(known, *p != PresetArg::DeonSkin, "{p:?}");
         }
     }

@@ -72,6 +72,13 @@ enum Command {
     Compare(compare::Args),
 }
 
+/// How a value of an enumerated flag is spelled on the command line.
+fn flag_value<T: clap::ValueEnum>(v: &T) -> String {
+    v.to_possible_value()
+        .map(|p| p.get_name().to_string())
+        .unwrap_or_default()
+}
+
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
 pub fn main() -> i32 {
     out::install_panic_hook();
