@@ -136,6 +136,21 @@ mod tests {
     }
 
     #[test]
+    fn flag_checks_speak_the_same_format() {
+        assert_eq!(positive("--scale", 2.0).unwrap(), 2.0);
+        for v in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = positive("--scale", v).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!("--scale: invalid value {v}: must be finite and > 0")
+            );
+        }
+        assert_eq!(between("--size", 8, 8, 16).unwrap(), 8);
+        let e = between("--size", 17, 8, 16).unwrap_err().to_string();
+        assert_eq!(e, "--size: invalid value 17: must be between 8 and 16");
+    }
+
+    #[test]
     fn every_flag_in_the_table_is_a_flag() {
         for (_, field, flag) in FLAGS {
             assert!(flag.starts_with("--") && !field.starts_with('-'), "{flag}");
