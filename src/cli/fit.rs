@@ -131,11 +131,11 @@ pub struct ModelOpts {
     #[arg(long, allow_negative_numbers = true)]
     w: Option<f64>,
     /// manual: sqrt(tau_n) per channel in mm, "R,G,B".
-    #[arg(long, value_name = "R,G,B")]
-    near: Option<String>,
+    #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+    near: Option<[f64; 3]>,
     /// manual: sqrt(tau_f) per channel in mm, "R,G,B".
-    #[arg(long, value_name = "R,G,B")]
-    far: Option<String>,
+    #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+    far: Option<[f64; 3]>,
     /// manual or gaussians: a published parameter set.
     #[arg(long, value_enum, ignore_case = true)]
     preset: Option<PresetArg>,
@@ -149,25 +149,23 @@ pub struct ModelOpts {
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     width: f64,
     /// jimenez: strength t per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28")]
-    strength: String,
+    #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28", value_parser = rgb)]
+    strength: [f64; 3],
     /// jimenez: falloff f per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "1.0,0.37,0.3")]
-    falloff: String,
+    #[arg(long, value_name = "R,G,B", default_value = "1.0,0.37,0.3", value_parser = rgb)]
+    falloff: [f64; 3],
 }
 
-fn triple(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+/// "R,G,B": three numbers, one per channel.
+fn rgb(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = s
         .split(',')
         .map(|t| t.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .with_context(|| format!("{flag}: '{s}' is not three numbers R,G,B"))?;
+        .map_err(|e| format!("not three numbers R,G,B ({e})"))?;
     match v.as_slice() {
         [r, g, b] => Ok([*r, *g, *b]),
-        _ => bail!(
-            "{flag}: '{s}' has {} values, expected three (R,G,B)",
-            v.len()
-        ),
+        _ => Err(format!("{} values, expected three (R,G,B)", v.len())),
     }
 }
 
@@ -197,13 +195,13 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
                 (Some(p), false, false) => Model::ManualPreset(super::flag_value(&p)),
                 (None, true, false) => Model::ManualFit,
                 (None, false, true) => {
-                    let (Some(w), Some(n), Some(f)) = (a.opts.w, &a.opts.near, &a.opts.far) else {
+                    let (Some(w), Some(n), Some(f)) = (a.opts.w, a.opts.near, a.opts.far) else {
                         bail!("manual: give all of --w, --near and --far (or --preset / --fit)");
                     };
                     Model::Manual(ManualParams {
                         w,
-                        sqrt_tau_near: triple("--near", n)?,
-                        sqrt_tau_far: triple("--far", f)?,
+                        sqrt_tau_near: n,
+                        sqrt_tau_far: f,
                     })
                 }
                 _ => bail!(
@@ -223,8 +221,8 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
         },
         ModelArg::Jimenez => Model::Jimenez(JimenezParams {
             width: a.opts.width,
-            strength: triple("--strength", &a.opts.strength)?,
-            falloff: triple("--falloff", &a.opts.falloff)?,
+            strength: a.opts.strength,
+            falloff: a.opts.falloff,
         }),
     })
 }
