@@ -27,6 +27,19 @@ pub enum ProfileModelArg {
     DirectionalDipole,
 }
 
+/// The kernel models as `fit --model` spells them (`kernel_compare::FAMILIES`),
+/// or all of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ModelsArg {
+    All,
+    Svd,
+    Preintegrate,
+    Guided,
+    Manual,
+    Gaussians,
+    Jimenez,
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Comma-separated material names, or "all" (every profile in
@@ -45,10 +58,9 @@ pub struct Args {
     /// Seed for --profile-model mc.
     #[arg(long, default_value_t = 20260101)]
     seed: u64,
-    /// Comma-separated models as `fit --model` spells them, or "all":
-    /// svd, preintegrate, guided, manual, gaussians, jimenez.
-    #[arg(long, default_value = "all")]
-    models: String,
+    /// Comma-separated kernel models, or all.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "all")]
+    models: Vec<ModelsArg>,
     /// Comma-separated test signals: edge, shapes, checker, dirac; "" for
     /// kernel space only.
     #[arg(long, default_value = "edge,shapes")]
@@ -196,22 +208,14 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let families = if a.models.trim() == "all" {
+    let families: Vec<String> = if a.models.contains(&ModelsArg::All) {
         kernel_compare::FAMILIES
             .iter()
             .map(|s| s.to_string())
             .collect()
     } else {
-        list(&a.models)
+        a.models.iter().map(super::flag_value).collect()
     };
-    for f in &families {
-        if !kernel_compare::FAMILIES.contains(&f.as_str()) {
-            bail!(
-                "--models: unknown model '{f}' (known: {}, all)",
-                kernel_compare::FAMILIES.join(", ")
-            );
-        }
-    }
     let ranks = parse_ranks(&a.ranks).context("--ranks")?;
     let taps = parse_taps(&a.taps)?;
     if !(a.mm_per_pixel.is_finite() && a.mm_per_pixel > 0.0) {
@@ -359,4 +363,19 @@ fn normalise_command(args: &[String], out: &Path) -> String {
             .map(|s| if *s == o { "OUT".into() } else { s.clone() }),
     );
     v.join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_models_flag_values_are_the_library_families() {
+        let names: Vec<String> = ModelsArg::value_variants()
+            .iter()
+            .filter(|m| **m != ModelsArg::All)
+            .map(crate::cli::flag_value)
+            .collect();
+        assert_eq!(names, kernel_compare::FAMILIES);
+    }
 }
