@@ -170,8 +170,15 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
         .into_iter()
         .map(|n| {
             let m = Material::load(&n)?;
-            let profile = match model {
-                ProfileModelArg::Mc => {
+            let analytic_model = match model {
+                ProfileModelArg::Mc => None,
+                ProfileModelArg::Pbd => Some(ProfileModel::Pbd),
+                ProfileModelArg::Dipole => Some(ProfileModel::Dipole),
+                ProfileModelArg::Burley => Some(ProfileModel::Burley),
+                ProfileModelArg::DirectionalDipole => Some(ProfileModel::DirectionalDipole),
+            };
+            let profile = match analytic_model {
+                None => {
                     if a.photons == 0 {
                         bail!("--photons: invalid value 0: must be > 0");
                     }
@@ -184,13 +191,7 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
                     };
                     simulate(&m, &cfg, &Bar::new())?
                 }
-                other => {
-                    let pm = match other {
-                        ProfileModelArg::Pbd => ProfileModel::Pbd,
-                        ProfileModelArg::Dipole => ProfileModel::Dipole,
-                        ProfileModelArg::Burley => ProfileModel::Burley,
-                        _ => ProfileModel::DirectionalDipole,
-                    };
+                Some(pm) => {
                     let grid = analytic::default_grid(&m, &channels)?;
                     let opts = ProfileOptions {
                         fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
