@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 /// The model families advise can try (`advise::FAMILIES`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum Family {
+pub(super) enum Family {
     Svd,
     Preintegrate,
     Guided,
@@ -114,19 +114,4 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         eprintln!("kernel ({}) -> {}", c.describe(), out.display());
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::ValueEnum;
-
-    #[test]
-    fn the_families_flag_values_are_the_library_families() {
-        let names: Vec<String> = Family::value_variants()
-            .iter()
-            .map(crate::cli::flag_value)
-            .collect();
-        assert_eq!(names, advise::FAMILIES);
-    }
 }

@@ -2,6 +2,7 @@
 //! image space; report.md, compare.csv, compare.json, the fitted kernels
 //! and plots.
 
+use super::fit::ModelArg;
 use super::out::out;
 use super::progress::Bar;
 use anyhow::{bail, Context};
@@ -27,17 +28,18 @@ pub enum ProfileModelArg {
     DirectionalDipole,
 }
 
-/// The kernel models as `fit --model` spells them (`kernel_compare::FAMILIES`),
-/// or all of them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum ModelsArg {
-    All,
-    Svd,
-    Preintegrate,
-    Guided,
-    Manual,
-    Gaussians,
-    Jimenez,
+/// `--models`: a kernel model as `fit --model` spells it
+/// (`kernel_compare::FAMILIES`), or "all" (None).
+fn model_or_all() -> impl clap::builder::TypedValueParser<Value = Option<ModelArg>> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let all = PossibleValue::new("all");
+    let models = ModelArg::value_variants()
+        .iter()
+        .filter_map(ValueEnum::to_possible_value)
+        // Their help names `fit`'s flags.
+        .map(|v| v.help(None::<&'static str>));
+    PossibleValuesParser::new(std::iter::once(all).chain(models))
+        .map(|s| ModelArg::from_str(&s, false).ok())
 }
 
 #[derive(clap::Args)]
@@ -59,8 +61,8 @@ pub struct Args {
     #[arg(long, default_value_t = 20260101)]
     seed: u64,
     /// Comma-separated kernel models, or all.
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "all")]
-    models: Vec<ModelsArg>,
+    #[arg(long, value_parser = model_or_all(), value_delimiter = ',', default_value = "all")]
+    models: Vec<Option<ModelArg>>,
     /// Comma-separated test signals: edge, shapes, checker, dirac; "" for
     /// kernel space only.
     #[arg(long, default_value = "edge,shapes")]
@@ -209,13 +211,12 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let families: Vec<String> = if a.models.contains(&ModelsArg::All) {
-        kernel_compare::FAMILIES
+    let families: Vec<String> = match a.models.iter().copied().collect::<Option<Vec<_>>>() {
+        Some(models) => models.iter().map(super::flag_value).collect(),
+        None => kernel_compare::FAMILIES
             .iter()
             .map(|s| s.to_string())
-            .collect()
-    } else {
-        a.models.iter().map(super::flag_value).collect()
+            .collect(),
     };
     let ranks = parse_ranks(&a.ranks).context("--ranks")?;
     let taps = parse_taps(&a.taps)?;
@@ -364,19 +365,4 @@ fn normalise_command(args: &[String], out: &Path) -> String {
             .map(|s| if *s == o { "OUT".into() } else { s.clone() }),
     );
     v.join(" ")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_models_flag_values_are_the_library_families() {
-        let names: Vec<String> = ModelsArg::value_variants()
-            .iter()
-            .filter(|m| **m != ModelsArg::All)
-            .map(crate::cli::flag_value)
-            .collect();
-        assert_eq!(names, kernel_compare::FAMILIES);
-    }
 }

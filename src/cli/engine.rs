@@ -8,7 +8,7 @@ use ssskit::report::plot;
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum EngineArg {
+pub(super) enum EngineArg {
     /// Unreal Engine's Subsurface Profile (Burley).
     Unreal,
     /// Unity HDRP's Diffusion Profile (Burley normalized diffusion).
@@ -96,20 +96,4 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         eprintln!("wrote {}", png.display());
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::ValueEnum;
-
-    #[test]
-    fn the_engine_flag_values_are_the_library_engines() {
-        let flags = EngineArg::value_variants();
-        assert_eq!(flags.len(), Engine::ALL.len());
-        for (&a, e) in flags.iter().zip(Engine::ALL) {
-            assert_eq!(Engine::from(a), e);
-            assert_eq!(a.to_possible_value().unwrap().get_name(), e.name());
-        }
-    }
 }

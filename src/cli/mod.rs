@@ -129,3 +129,26 @@ pub fn main() -> i32 {
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ssskit::engine::Engine;
+    use ssskit::report::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
+
+    fn names<T: clap::ValueEnum>() -> Vec<String> {
+        T::value_variants().iter().map(flag_value).collect()
+    }
+
+    /// Enumerated flags whose values the library also spells: the same names.
+    #[test]
+    fn flag_values_are_the_library_names() {
+        assert_eq!(names::<advise::Family>(), ADVISE);
+        assert_eq!(names::<fit::ModelArg>(), COMPARE);
+        let engines: Vec<&str> = Engine::ALL.iter().map(|e| e.name()).collect();
+        assert_eq!(names::<engine::EngineArg>(), engines);
+        for &e in <engine::EngineArg as clap::ValueEnum>::value_variants() {
+            assert_eq!(Engine::from(e).name(), flag_value(&e));
+        }
+    }
+}
