@@ -12,8 +12,13 @@
 //! - `depth-aware`: perspective scale from depth (Freude 2014, eq. 4.11) plus the
 //!   follow-surface lerp (Freude 2014, eq. 4.12): the cost of depth-awareness.
 //!
-//! `-- --dump DIR` also writes the image, the 17 weights and our separable
-//! result as raw little-endian f32 for the OpenCV side.
+//! In the same run, at 1 thread and at every core, it times OpenCV's
+//! `cv2.sepFilter2D` (float32, `BORDER_REPLICATE` = our clamp-to-edge) on
+//! the same image and kernel through `python3` (needs `pip install
+//! opencv-python-headless numpy`), checks both computed the same image, and
+//! writes the record `docs/records/filter-cpu.json` (tables `opencv` for
+//! README.md and `threads` for docs/filter.md). `SSSKIT_BENCH_REPS=N` sets
+//! the frames per case (default 9; other values do not write the record).
 
 use ssskit::filter::{cpu, Image, Plane, Scale, Setup, Taps};
 use std::time::Instant;
@@ -92,6 +97,76 @@ fn median_ms(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
     (t[reps / 2], cpu)
 }
 
+/// The OpenCV side, run by python3 on the dumped image and kernel: per
+/// thread count, (median wall ms, mean CPU ms) per frame of sepFilter2D on
+/// three planes split beforehand (our layout), with one kernel on the
+/// interleaved image (OpenCV's fastest form), and per channel including the
+/// split and merge copies; and the largest difference from our result
+/// relative to the peak.
+const OPENCV: &str = r#"
+import json, sys, time
+import numpy as np, cv2
+d, W, H = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+threads = [int(t) for t in sys.argv[4].split(",")]
+reps = int(sys.argv[5])
+img = np.fromfile(f"{d}/image.f32", dtype="<f4").reshape(H, W, 3)
+ours = np.fromfile(f"{d}/ours.f32", dtype="<f4").reshape(H, W, 3)
+w = np.fromfile(f"{d}/weights.f32", dtype="<f4").reshape(17, 3)
+k = [w[:, c].copy() for c in range(3)]
+planes = [np.ascontiguousarray(img[:, :, c]) for c in range(3)]
+R = cv2.BORDER_REPLICATE
+def rgb():
+    return np.dstack([cv2.sepFilter2D(np.ascontiguousarray(img[:, :, c]), cv2.CV_32F, k[c], k[c], borderType=R) for c in range(3)])
+def planar():
+    return [cv2.sepFilter2D(planes[c], cv2.CV_32F, k[c], k[c], borderType=R) for c in range(3)]
+def one():
+    return cv2.sepFilter2D(img, cv2.CV_32F, k[0], k[0], borderType=R)
+def median_ms(f):
+    f()
+    t = []
+    c0 = time.process_time()
+    for _ in range(reps):
+        s = time.perf_counter(); f(); t.append((time.perf_counter() - s) * 1e3)
+    return [sorted(t)[reps // 2], (time.process_time() - c0) * 1e3 / reps]
+out = {"version": cv2.__version__, "threads": {}}
+ref = rgb()
+out["max_diff_rel"] = float(np.abs(ref - ours).max() / np.abs(ref).max())
+for n in threads:
+    cv2.setNumThreads(n)
+    out["threads"][str(n)] = {"planar": median_ms(planar), "one": median_ms(one), "rgb": median_ms(rgb)}
+print(json.dumps(out))
+"#;
+
+/// Runs [`OPENCV`]; None (with the reason on stderr) when python3 or cv2 is
+/// missing.
+fn opencv(dir: &std::path::Path, threads: &[usize], reps: usize) -> Option<serde_json::Value> {
+    let list: Vec<String> = threads.iter().map(|t| t.to_string()).collect();
+    let o = std::process::Command::new("python3")
+        .args(["-c", OPENCV])
+        .arg(dir)
+        .args([
+            W.to_string(),
+            H.to_string(),
+            list.join(","),
+            reps.to_string(),
+        ])
+        .output();
+    match o {
+        Ok(o) if o.status.success() => serde_json::from_slice(&o.stdout).ok(),
+        Ok(o) => {
+            eprintln!(
+                "OpenCV side failed (pip install opencv-python-headless numpy): {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            None
+        }
+        Err(e) => {
+            eprintln!("python3: {e}");
+            None
+        }
+    }
+}
+
 fn report(name: &str, ms: f64, cpu: f64, threads: usize) {
     println!(
         "{{\"case\": \"{name}\", \"ms_per_frame\": {ms:.2}, \"cpu_ms_per_frame\": {cpu:.1}, \"size\": \"{W}x{H}\", \"taps\": 17, \"rank\": 1, \"threads\": {threads}}}"
@@ -103,18 +178,8 @@ fn write_f32(path: &std::path::Path, v: impl Iterator<Item = f64>) {
     std::fs::write(path, bytes).expect("writes the dump");
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let dump = args
-        .iter()
-        .position(|a| a == "--dump")
-        .and_then(|i| args.get(i + 1))
-        .map(std::path::PathBuf::from);
-    let reps: usize = std::env::var("SSSKIT_BENCH_REPS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(9);
-    let img = image();
+/// Our cases at the current rayon pool size: name -> (wall ms, CPU ms).
+fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
     let plain = |t: Taps, mm: f64| Setup {
         passes: vec![t],
         scale: Scale::MmPerPixel(mm),
@@ -157,20 +222,24 @@ fn main() {
         follow_surface: Some(300.0),
         ..table.clone()
     };
-    let threads = rayon::current_num_threads();
+    let mut out = Vec::new();
     // The plain separable case into a reused output buffer (no page faults
     // for a fresh 48 MB image each frame), as a renderer would run it, in
     // f64 (the reference) and f32 (OpenCV's precision).
     let kernel = [cpu::PixelKernel::from_taps(&taps(true), 10.0)];
     let mut reused = Image::new(W, H);
-    let (ms, cpu) = median_ms(reps, || {
-        cpu::apply_separable_into::<f64>(&img, &kernel, &mut reused)
-    });
-    report("separable-reused", ms, cpu, threads);
-    let (ms, cpu) = median_ms(reps, || {
-        cpu::apply_separable_into::<f32>(&img, &kernel, &mut reused)
-    });
-    report("separable-f32-reused", ms, cpu, threads);
+    out.push((
+        "separable-reused",
+        median_ms(reps, || {
+            cpu::apply_separable_into::<f64>(img, &kernel, &mut reused)
+        }),
+    ));
+    out.push((
+        "separable-f32-reused",
+        median_ms(reps, || {
+            cpu::apply_separable_into::<f32>(img, &kernel, &mut reused)
+        }),
+    ));
     // Each frame into a fresh output image, freed before the next frame, as
     // one `ssskit apply` process does: the new 48 MB are faulted in per frame.
     use cpu::Precision::{F32, F64};
@@ -181,21 +250,238 @@ fn main() {
         ("per-pixel", &per_pixel, F64),
         ("depth-aware", &depth_aware, F64),
     ] {
-        let (ms, cpu) = median_ms(reps, || {
-            drop(cpu::apply_with(&img, setup, precision).unwrap());
-        });
-        report(name, ms, cpu, threads);
+        out.push((
+            name,
+            median_ms(reps, || {
+                drop(cpu::apply_with(img, setup, precision).unwrap());
+            }),
+        ));
     }
-    if let Some(dir) = &dump {
-        std::fs::create_dir_all(dir).expect("creates the dump folder");
-        let interleaved = |im: &Image| {
-            let im = im.clone();
-            (0..W * H).flat_map(move |i| [0, 1, 2].map(|c| im.rgb[c][i]))
+    out
+}
+
+fn main() {
+    let machine = ssskit::report::record::machine_line();
+    let reps: usize = std::env::var("SSSKIT_BENCH_REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(9);
+    let img = image();
+    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut threads = vec![1];
+    if all > 1 {
+        threads.push(all);
+    }
+    // The OpenCV side reads the image, the weights and our result from
+    // here.
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let interleaved = |im: &Image| {
+        let im = im.clone();
+        (0..W * H).flat_map(move |i| [0, 1, 2].map(|c| im.rgb[c][i]))
+    };
+    write_f32(&dir.path().join("image.f32"), interleaved(&img));
+    let sep = Setup {
+        passes: vec![taps(true)],
+        scale: Scale::MmPerPixel(0.1),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+        jitter: false,
+    };
+    let result = cpu::apply(&img, &sep).expect("the separable case runs");
+    write_f32(&dir.path().join("ours.f32"), interleaved(&result));
+    let t = taps(true);
+    write_f32(
+        &dir.path().join("weights.f32"),
+        t.weights.iter().flat_map(|w| *w),
+    );
+    // Per thread count ours, then OpenCV right after, so that both see
+    // about the same load.
+    let mut mine = std::collections::BTreeMap::new();
+    let mut cv = serde_json::json!({"threads": {}});
+    for &n in &threads {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .expect("a thread pool");
+        let cases = pool.install(|| ours(&img, reps));
+        for (name, (ms, cpu)) in &cases {
+            report(name, *ms, *cpu, n);
+        }
+        mine.insert(n, cases);
+        let Some(c) = opencv(dir.path(), &[n], reps) else {
+            eprintln!("no OpenCV baseline: record not written");
+            std::process::exit(1);
         };
-        write_f32(&dir.join("image.f32"), interleaved(&img));
-        let ours = cpu::apply(&img, &sep).expect("the separable case runs");
-        write_f32(&dir.join("ours.f32"), interleaved(&ours));
-        let t = taps(true);
-        write_f32(&dir.join("weights.f32"), t.weights.iter().flat_map(|w| *w));
+        cv["threads"][n.to_string()] = c["threads"][n.to_string()].clone();
+        cv["version"] = c["version"].clone();
+        cv["max_diff_rel"] = c["max_diff_rel"].clone();
     }
+    let diff = cv["max_diff_rel"].as_f64().unwrap_or(f64::NAN);
+    assert!(diff < 1e-5, "OpenCV and ssskit differ: {diff} of the peak");
+    let cvt = |n: usize, case: &str| -> (f64, f64) {
+        let v = &cv["threads"][n.to_string()][case];
+        (
+            v[0].as_f64().unwrap_or(f64::NAN),
+            v[1].as_f64().unwrap_or(f64::NAN),
+        )
+    };
+    let me = |n: usize, case: &str| -> (f64, f64) {
+        mine[&n]
+            .iter()
+            .find(|(c, _)| *c == case)
+            .map(|(_, t)| *t)
+            .unwrap()
+    };
+    let ms = |x: f64| {
+        if x >= 100.0 {
+            format!("{x:.0}")
+        } else {
+            format!("{x:.1}")
+        }
+    };
+    let version = cv["version"].as_str().unwrap_or("?").to_string();
+    // README: the renderer's case and the CLI default against OpenCV on
+    // planes, at every core.
+    let n = *threads.last().unwrap();
+    let mut readme = ssskit::report::table::Table::new(&[
+        &format!("path ({n} threads, wall ms per frame)"),
+        "ssskit",
+        &format!("OpenCV {version} sepFilter2D on 3 planes"),
+        "ratio, wall / CPU time",
+    ]);
+    let (cv_ms, cv_cpu) = cvt(n, "planar");
+    for (label, case) in [
+        (
+            "separable f32 into a reused buffer (a renderer's frame)",
+            "separable-f32-reused",
+        ),
+        ("CLI default: f32 into a fresh f64 image", "separable-f32"),
+    ] {
+        let (m, m_cpu) = me(n, case);
+        readme.push(vec![
+            label.into(),
+            ms(m),
+            ms(cv_ms),
+            format!("{:.2}x / {:.2}x", m / cv_ms, m_cpu / cv_cpu),
+        ]);
+    }
+    readme.push(vec![
+        "per-pixel algorithm 4.1 / with depth-awareness (f64 reference)".into(),
+        format!(
+            "{} / {}",
+            ms(me(n, "per-pixel").0),
+            ms(me(n, "depth-aware").0)
+        ),
+        String::new(),
+        String::new(),
+    ]);
+    // docs/filter.md: every path, wall / CPU ms at each thread count.
+    let mut header = vec!["path".to_string()];
+    header.extend(threads.iter().map(|t| {
+        format!(
+            "{t} thread{}, wall / CPU ms",
+            if *t == 1 { "" } else { "s" }
+        )
+    }));
+    let hdr: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut all_paths = ssskit::report::table::Table::new(&hdr);
+    let pair = |(w, c): (f64, f64)| format!("{} / {}", ms(w), ms(c));
+    let rows: [(&str, bool, &str); 10] = [
+        (
+            "OpenCV sepFilter2D, 3 planes split beforehand (our layout)",
+            true,
+            "planar",
+        ),
+        (
+            "OpenCV sepFilter2D, one kernel for all 3 interleaved channels",
+            true,
+            "one",
+        ),
+        (
+            "OpenCV per channel incl. channel split/merge copies",
+            true,
+            "rgb",
+        ),
+        (
+            "**ssskit separable f32, fresh output (CLI default)**",
+            false,
+            "separable-f32",
+        ),
+        (
+            "ssskit separable f64, fresh output (`--precision f64`)",
+            false,
+            "separable",
+        ),
+        (
+            "ssskit separable f32, reused output buffer",
+            false,
+            "separable-f32-reused",
+        ),
+        (
+            "ssskit separable f64, reused output buffer",
+            false,
+            "separable-reused",
+        ),
+        (
+            "ssskit 17-tap quadratic table at 0.1 mm/px (f64, fixed kernel, 41 px wide)",
+            false,
+            "table",
+        ),
+        (
+            "ssskit per-pixel algorithm 4.1 (strength image, f64)",
+            false,
+            "per-pixel",
+        ),
+        (
+            "ssskit depth-aware: perspective from depth + follow-surface (f64)",
+            false,
+            "depth-aware",
+        ),
+    ];
+    for (label, is_cv, case) in rows {
+        let mut row = vec![label.to_string()];
+        for &t in &threads {
+            row.push(pair(if is_cv { cvt(t, case) } else { me(t, case) }));
+        }
+        all_paths.push(row);
+    }
+    println!("{}", readme.markdown());
+    println!("{}", all_paths.markdown());
+    println!("same result: max |ours - OpenCV| / peak = {diff:.1e}");
+    if reps != 9 {
+        eprintln!("SSSKIT_BENCH_REPS={reps}: record not written");
+        return;
+    }
+    let mut record = ssskit::report::record::Record::new(
+        "cargo bench --bench filter",
+        &format!("{machine}; OpenCV {version}"),
+    );
+    record.tables.insert("opencv".into(), (&readme).into());
+    record.tables.insert("threads".into(), (&all_paths).into());
+    let raw: serde_json::Map<String, serde_json::Value> = mine
+        .iter()
+        .map(|(t, cases)| {
+            (
+                t.to_string(),
+                cases
+                    .iter()
+                    .map(|(c, (w, p))| (c.to_string(), serde_json::json!([w, p])))
+                    .collect::<serde_json::Map<_, _>>()
+                    .into(),
+            )
+        })
+        .collect();
+    record.data = serde_json::json!({
+        "size": format!("{W}x{H}"),
+        "taps": 17,
+        "rank": 1,
+        "frames_per_case": reps,
+        "ssskit_wall_cpu_ms": raw,
+        "opencv": cv,
+    });
+    let path = ssskit::report::record::docs_path("filter-cpu");
+    record.write(&path).unwrap();
+    eprintln!("wrote {}", path.display());
 }

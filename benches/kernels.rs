@@ -1,17 +1,22 @@
 //! Fit time per kernel model for 201, 401 and 801 cells per side (skin1,
 //! dipole profile), with ratios against the rank-1 SVD measured in the same
-//! run. Criterion measures the 201-wide fits; the size sweep is timed by
-//! median of repeats (the large fits take seconds) and printed as a table.
+//! run (median of 3), and the wall time of the one-command pipeline and of
+//! the full comparison run as a user runs them:
+//! `ssskit kernels --material skin1` (Monte Carlo profile, defaults) and
+//! `--profile-model pbd`, and `ssskit compare --profiles profiles/reference
+//! --materials all --models all`. Writes the record
+//! `docs/records/kernels.json` (tables `fit` and `commands`).
 //!
-//!   cargo bench --bench kernels            # everything
-//!   cargo bench --bench kernels -- sweep   # only the size sweep table
+//!   cargo bench --bench kernels            # everything, a few minutes
+//!   cargo bench --bench kernels -- sweep   # only the fit table (no record)
 
-use criterion::Criterion;
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
 use ssskit::kernel::preintegrate::PreMethod;
 use ssskit::kernel::reference::dipole_preset;
 use ssskit::kernel::{fit_model, Kernel2D, Kernel2DSpec, Model};
+use ssskit::report::record::{machine_line, Record};
+use ssskit::report::table::Table;
 use std::time::Instant;
 
 fn models() -> Vec<(&'static str, Model)> {
@@ -76,55 +81,130 @@ fn median_seconds(reps: usize, mut f: impl FnMut()) -> f64 {
     t[reps / 2]
 }
 
-fn sweep(p: &ssskit::profile::Profile) {
-    println!("\nfit seconds (median of 3; ratio to svd1 of the same size)");
-    println!("{:<14} {:>20} {:>20} {:>20}", "model", "201", "401", "801");
+/// Fit seconds per model and size, ratios to svd1 of the same size.
+fn sweep(p: &ssskit::profile::Profile) -> (Table, serde_json::Value) {
     let sizes = [201usize, 401, 801];
+    let mut t = Table::new(&["model", "201", "401", "801"]);
     let kernels: Vec<Kernel2D> = sizes.iter().map(|&n| kernel(p, n)).collect();
     let build: Vec<f64> = sizes
         .iter()
         .map(|&n| median_seconds(3, || drop(kernel(p, n))))
         .collect();
     let mut base = [0.0; 3];
+    let mut raw = serde_json::Map::new();
+    let secs = |t: f64| {
+        if t < 0.01 {
+            format!("{t:.4} s")
+        } else if t < 1.0 {
+            format!("{t:.3} s")
+        } else {
+            format!("{t:.2} s")
+        }
+    };
     for (name, m) in models() {
-        let mut cells = Vec::new();
+        let mut cells = vec![name.to_string()];
+        let mut v = Vec::new();
         for (i, k) in kernels.iter().enumerate() {
             let t = median_seconds(3, || drop(fit_model(k, p, &m).expect("fit")));
             if name == "svd1" {
                 base[i] = t;
             }
-            cells.push(format!("{:.4} ({:>6.2}x)", t, t / base[i]));
+            v.push(t);
+            cells.push(format!("{} ({:.2}x)", secs(t), t / base[i]));
         }
-        println!(
-            "{name:<14} {:>20} {:>20} {:>20}",
-            cells[0], cells[1], cells[2]
-        );
+        eprintln!("{}", cells.join(" | "));
+        raw.insert(name.into(), v.into());
+        t.push(cells);
     }
-    println!(
-        "{:<14} {:>20} {:>20} {:>20}",
-        "kernel2d",
-        format!("{:.4} ({:>6.2}x)", build[0], build[0] / base[0]),
-        format!("{:.4} ({:>6.2}x)", build[1], build[1] / base[1]),
-        format!("{:.4} ({:>6.2}x)", build[2], build[2] / base[2]),
+    let mut row = vec!["2D kernel build".to_string()];
+    for i in 0..3 {
+        row.push(format!("{} ({:.2}x)", secs(build[i]), build[i] / base[i]));
+    }
+    raw.insert("kernel2d".into(), build.into());
+    t.push(row);
+    (t, raw.into())
+}
+
+/// Wall seconds of one run of the binary with `args` (output to a fresh
+/// temporary folder named by OUT).
+fn wall(args: &[&str]) -> f64 {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let out = dir.path().join("out");
+    let argv: Vec<String> = args
+        .iter()
+        .map(|a| {
+            if *a == "OUT" {
+                out.display().to_string()
+            } else {
+                a.to_string()
+            }
+        })
+        .collect();
+    let t0 = Instant::now();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_ssskit"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(&argv)
+        .output()
+        .expect("runs ssskit");
+    let t = t0.elapsed().as_secs_f64();
+    assert!(
+        o.status.success(),
+        "ssskit {argv:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
     );
+    t
 }
 
 fn main() {
+    let machine = machine_line();
     let p = dipole_preset("skin1").expect("profile");
     let only_sweep = std::env::args().any(|a| a == "sweep");
-    if !only_sweep {
-        let mut c = Criterion::default()
-            .sample_size(10)
-            .warm_up_time(std::time::Duration::from_millis(300))
-            .measurement_time(std::time::Duration::from_secs(2))
-            .configure_from_args();
-        let k = kernel(&p, 201);
-        let mut g = c.benchmark_group("fit-201");
-        for (name, m) in models() {
-            g.bench_function(name, |b| b.iter(|| fit_model(&k, &p, &m).expect("fit")));
-        }
-        g.finish();
-        c.final_summary();
+    let (fit, fit_raw) = sweep(&p);
+    println!("{}", fit.markdown());
+    if only_sweep {
+        return;
     }
-    sweep(&p);
+    let runs: [&[&str]; 3] = [
+        &["kernels", "--material", "skin1", "--out", "OUT"],
+        &[
+            "kernels",
+            "--material",
+            "skin1",
+            "--profile-model",
+            "pbd",
+            "--out",
+            "OUT",
+        ],
+        &[
+            "compare",
+            "--profiles",
+            "profiles/reference",
+            "--materials",
+            "all",
+            "--models",
+            "all",
+            "--out",
+            "OUT",
+        ],
+    ];
+    let mut commands = Table::new(&["command", "wall s"]);
+    let mut raw = serde_json::Map::new();
+    for args in runs {
+        let t = wall(args);
+        let line = format!("ssskit {}", args.join(" "));
+        eprintln!("{line}: {t:.1} s");
+        raw.insert(line.clone(), t.into());
+        commands.push(vec![format!("`{line}`"), format!("{t:.1}")]);
+    }
+    println!("{}", commands.markdown());
+    let mut record = Record::new("cargo bench --bench kernels", &machine);
+    record.tables.insert("fit".into(), (&fit).into());
+    record.tables.insert("commands".into(), (&commands).into());
+    record.data = serde_json::json!({
+        "fit_seconds_201_401_801": fit_raw,
+        "command_wall_seconds": raw,
+    });
+    let path = ssskit::report::record::docs_path("kernels");
+    record.write(&path).unwrap();
+    eprintln!("wrote {}", path.display());
 }

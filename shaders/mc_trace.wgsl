@@ -8,75 +8,22 @@
 // values in fixed point (2^-24), so the totals do not depend on which
 // invocation traced which packet nor in what order they were added.
 
-struct Params {
-    seed_lo: u32,
-    seed_hi: u32,
-    channel: u32,
-    n_layers: u32,
-    base_lo: u32,
-    base_hi: u32,
-    count: u32,
-    n_bins: u32,
-    max_events: u32,
-    uniform_bins: u32,
-    // 1: invocations take packets from a shared counter; 0: invocation t
-    // traces packets t, t + stride, ...
-    dynamic: u32,
-    stride: u32,
-    w0: f32,
-    n_above: f32,
-    n_below: f32,
-    roulette: f32,
-    r_max: f32,
-    inv_dr: f32,
-    _pad2: f32,
-    _pad3: f32,
-}
-
-struct Layer {
-    z_top: f32,
-    // 3e38 for a semi-infinite layer.
-    z_bottom: f32,
-    sigma_t: f32,
-    inv_sigma_t: f32,
-    albedo: f32,
-    g: f32,
-    n: f32,
-    _pad: f32,
-}
+// The host prepends the structs Params and Layer and the constants of the
+// tally layout (T_RD .. BINS, WORKGROUP), defined with their descriptions in
+// src/profile/mc/gpu.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> layers: array<Layer>;
 @group(0) @binding(2) var<storage, read> edges: array<f32>;
-// Tally words (see src/profile/mc/gpu.rs for the layout), then the next
-// packet to trace (work counter), then per bin: sum (2 words), sum of
-// squares (3 words).
+// Tally words (see src/profile/mc/gpu.rs for the layout).
 @group(0) @binding(3) var<storage, read_write> acc: array<atomic<u32>>;
-
-// Word offsets of the totals: 64-bit sums take 2 words, 96-bit sums of
-// squares 3, least significant first.
-const T_RD: u32 = 0u;          // sum 0..2, squares 2..5
-const T_TR: u32 = 5u;
-const T_ABS: u32 = 10u;
-const T_BEYOND: u32 = 15u;     // sums only
-const T_LOSS: u32 = 17u;
-const T_GAIN: u32 = 19u;
-const T_TRUNC: u32 = 21u;
-const T_TRUNC_N: u32 = 23u;    // packet count
-const T_EVENTS: u32 = 25u;
-const T_SATURATED: u32 = 27u;  // one word: values beyond the fixed-point range
-const WORK: u32 = 28u;
-// Packets whose walk stopped with weight left (a driver's loop limit), and
-// packets traced: both checked by the host.
-const INCOMPLETE: u32 = 29u;
-const TRACED: u32 = 30u;
-const BINS: u32 = 32u;
 
 const FIX: f32 = 16777216.0;   // 2^24
 const ROULETTE_CHANCE: f32 = 0.1;
 const PI2: f32 = 6.283185307179586;
 
-// mul_wide and philox4x32_10 come from mc_philox.wgsl, prepended by the host.
+// mul_wide (wide_mul.wgsl) and philox4x32_10 (mc_philox.wgsl) are prepended
+// by the host.
 
 var<private> rng_buf: vec4<u32>;
 var<private> rng_used: u32;
@@ -418,7 +365,7 @@ fn trace_one(lo: u32, hi: u32) {
     a_events = add64(a_events, events);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn trace(@builtin(global_invocation_id) gid: vec3<u32>) {
     // Dynamic: an invocation whose packet ended early takes the next one
     // (load balance on GPUs). Static: on llvmpipe, where the lanes of one

@@ -1,29 +1,10 @@
 // One 1D pass of the separable screen-space SSS filter (Freude 2014, algorithm 4.1).
-// The f64 twin is src/filter/cpu.rs (apply_screen_space); keep them in step.
+// The f64 twin is src/filter/screen_space.rs (apply_screen_space); keep them in step.
 // Storage buffers and plain indexing (no samplers): rgba32float is not
 // filterable on every adapter (lavapipe), so the linear interpolation along
 // the pass axis is done here. Positions are clamped to the image (clamp-to-edge).
-
-struct Params {
-    width: u32,
-    height: u32,
-    ntaps: u32,
-    // 0: horizontal, 1: vertical.
-    axis: u32,
-    // 0: orthographic step, 1: perspective step divided by depth (Freude 2014, eq. 4.11).
-    perspective: u32,
-    // 1: lerp toward the centre colour by depth difference (Freude 2014, eq. 4.12).
-    follow: u32,
-    // 1: dst += result (vertical pass of a rank), 0: dst = result.
-    accumulate: u32,
-    // 1: each tap jittered inside its footprint (interleaved gradient noise).
-    jitter: u32,
-    // Pixels per kernel mm before strength and depth.
-    step_base: f32,
-    // k of t = clamp(k |d_centre - d_sample|, 0, 1).
-    follow_k: f32,
-    _pad2: vec2<f32>,
-}
+// The host prepends the struct Params (src/filter/gpu.rs, where its fields
+// are described).
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
@@ -37,24 +18,13 @@ struct Params {
 
 // Interleaved gradient noise (Jimenez 2014) in 32-bit fixed point, the same
 // bits as the f64 twin (src/filter/mod.rs, ign_fixed and jitter_unit):
-// fract(52.9829189 fract(0.06711056 x + 0.00583715 y)).
-fn mul_high(a: u32, b: u32) -> u32 {
-    let a0 = a & 0xffffu;
-    let a1 = a >> 16u;
-    let b0 = b & 0xffffu;
-    let b1 = b >> 16u;
-    let p00 = a0 * b0;
-    let p01 = a0 * b1;
-    let p10 = a1 * b0;
-    let p11 = a1 * b1;
-    let mid = (p00 >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
-    return p11 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u);
-}
-
+// fract(52.9829189 fract(0.06711056 x + 0.00583715 y)). The host prepends
+// mul_wide (wide_mul.wgsl) and the constants IGN_X, IGN_Y, IGN_FRACTION and
+// GOLDEN_U32 from src/filter/mod.rs.
 fn jitter_unit(x: u32, y: u32, tap: u32, axis: u32) -> f32 {
-    let inner = 288237660u * x + 25070368u * y;
-    let ign = 52u * inner + mul_high(4221604530u, inner);
-    let n = ign + (2u * tap + axis) * 2654435769u;
+    let inner = IGN_X * x + IGN_Y * y;
+    let ign = 52u * inner + mul_wide(IGN_FRACTION, inner).y;
+    let n = ign + (2u * tap + axis) * GOLDEN_U32;
     return f32(n >> 8u) / 16777216.0;
 }
 

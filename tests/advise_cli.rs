@@ -98,25 +98,27 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
             assert!((e - a["extent_mm"].as_f64().unwrap()).abs() < 1e-12 * e);
         }
 
-        // Held out: the shapes drawn at another size (other radii and gaps
-        // in mm), through the real filter. Not a finer checker: at 0.02 mm
-        // per pixel a checker of 5-pixel cells measured 14% where the
-        // 8-pixel one advise chose on gave 6.7% (periodic detail finer than
-        // the one chosen on is not covered; advise prints each signal's
-        // error).
-        {
-            let name = "shapes";
+        // Held out, through the real filter on 96x96 images (advise chose
+        // on 64x64 ones): the shapes drawn at another size (other radii and
+        // gaps in mm), and checkers of 5- and 7-pixel cells, periodic detail
+        // between the 2-8 pixel cells advise chose on (a choice made on one
+        // checker measured 14% on 5-pixel cells where it met 6.7% on its
+        // own: tap gaps alias with the period).
+        let mut held_out_signals: Vec<(String, Vec<String>)> =
+            vec![("shapes".into(), vec!["shapes".into()])];
+        for px in [5, 7] {
+            let cell_mm = px as f64 * mm.parse::<f64>().unwrap();
+            held_out_signals.push((
+                format!("checker{px}px"),
+                vec!["checker".into(), "--checker-mm".into(), cell_mm.to_string()],
+            ));
+        }
+        for (name, signal_args) in &held_out_signals {
             let input = d.join(format!("{name}{mm}.exr"));
-            ok(&[
-                "signal",
-                name,
-                "--mm-per-pixel",
-                mm,
-                "--out",
-                s(&input),
-                "--size",
-                "96x96",
-            ]);
+            let mut args: Vec<&str> = vec!["signal"];
+            args.extend(signal_args.iter().map(String::as_str));
+            args.extend(["--mm-per-pixel", mm, "--out", s(&input), "--size", "96x96"]);
+            ok(&args);
             let exact = d.join(format!("exact-{name}{mm}.exr"));
             ok(&[
                 "apply",

@@ -10,7 +10,7 @@ use std::path::Path;
 
 #[test]
 fn bench_refuses_to_time_a_software_rasteriser() {
-    gpu::use_software_vulkan_if_unset();
+    ssskit::gpu::use_software_vulkan_if_unset();
     let o = bin()
         .args([
             "bench",
@@ -35,7 +35,7 @@ fn bench_refuses_to_time_a_software_rasteriser() {
 /// The timestamps themselves: one positive, finite time per frame.
 #[test]
 fn timestamps_give_one_time_per_frame() {
-    gpu::use_software_vulkan_if_unset();
+    ssskit::gpu::use_software_vulkan_if_unset();
     let g = gpu::Gpu::new().expect("GPU test needs an adapter (lavapipe in CI)");
     assert!(
         g.has_timestamps(),

@@ -1,9 +1,9 @@
 //! Generated documentation and the thesis's claims, from one set of runs.
 //!
-//! Runs every `ssskit compare` of docs/compare-runs.txt once (the runs that
-//! scripts/regen-docs makes) and
+//! Runs every command of docs/compare-runs.txt once (the runs that
+//! scripts/regen-docs makes: `ssskit compare`, `ssskit profiles compare`) and
 //! - fails when a block `<!-- BEGIN compare:RUN/BLOCK -->` in README.md or
-//!   docs/*.md differs from block BLOCK of RUN's report.md (rerun
+//!   docs/*.md differs from block BLOCK of the markdown RUN wrote (rerun
 //!   scripts/regen-docs after changing a kernel, a profile or the code);
 //! - checks the claims of Freude 2014 (tables 6.3, 6.4, 6.5, fig. 5.15) on
 //!   the runs' compare.json rows, computed here independently of the
@@ -64,9 +64,25 @@ fn runs() -> &'static Runs {
         {
             let (name, args) = line.split_once(':').unwrap();
             let o = dir.path().join(name);
-            let mut argv = vec!["compare".to_string()];
-            argv.extend(split_args(args));
-            argv.extend(["--out".to_string(), o.display().to_string()]);
+            let words = split_args(args);
+            let argv: Vec<String> = if words.first().is_some_and(|w| w.starts_with("--")) {
+                let mut v = vec!["compare".to_string()];
+                v.extend(words);
+                v.extend(["--out".to_string(), o.display().to_string()]);
+                v
+            } else {
+                // Another subcommand: OUT stands for the run's folder.
+                words
+                    .into_iter()
+                    .map(|w| {
+                        if w == "OUT" {
+                            o.display().to_string()
+                        } else {
+                            w
+                        }
+                    })
+                    .collect()
+            };
             let r = std::process::Command::new(env!("CARGO_BIN_EXE_ssskit"))
                 .current_dir(ROOT)
                 .args(&argv)
@@ -81,6 +97,21 @@ fn runs() -> &'static Runs {
         }
         Runs { _dir: dir, out }
     })
+}
+
+/// Every markdown file a run wrote (report.md of `compare`, compare.md of
+/// `profiles compare`), concatenated.
+fn run_markdown(dir: &Path) -> String {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .collect();
+    files.sort();
+    files
+        .iter()
+        .map(|f| std::fs::read_to_string(f).unwrap())
+        .collect()
 }
 
 /// (name, body) of every block in `text`.
@@ -111,8 +142,7 @@ fn committed_tables_are_what_the_runs_produce() {
                 .out
                 .get(run)
                 .unwrap_or_else(|| panic!("{}: block {name}: no run '{run}'", f.display()));
-            let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
-            let fresh = blocks(&report)
+            let fresh = blocks(&run_markdown(dir))
                 .into_iter()
                 .find(|(n, _)| n == block)
                 .unwrap_or_else(|| panic!("{}: run {run} has no block {block}", f.display()))
@@ -126,7 +156,7 @@ fn committed_tables_are_what_the_runs_produce() {
             }
         }
     }
-    assert!(checked >= 5, "only {checked} generated blocks found");
+    assert!(checked >= 9, "only {checked} generated blocks found");
     assert!(
         stale.is_empty(),
         "stale tables (run scripts/regen-docs):\n{}",

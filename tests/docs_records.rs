@@ -30,9 +30,7 @@ fn fresh_block(name: &str, file: &Path) -> String {
     let (record, table) = name
         .split_once('/')
         .unwrap_or_else(|| panic!("{}: block record:{name} has no /TABLE", file.display()));
-    let path = Path::new(ROOT)
-        .join("docs/records")
-        .join(format!("{record}.json"));
+    let path = ssskit::report::record::docs_path(record);
     let r = Record::read(&path)
         .unwrap_or_else(|e| panic!("{}: block record:{name}: {e}", file.display()));
     r.block(table).unwrap_or_else(|| {
@@ -76,6 +74,9 @@ fn recorded_tables_match_their_records() {
         }
     }
     eprintln!("{checked} recorded blocks checked");
+    // profiles/{speed,presets}, filter-cpu/{opencv,threads},
+    // kernels/{fit,commands} at least.
+    assert!(checked >= 6, "only {checked} recorded blocks found");
     assert!(
         stale.is_empty(),
         "tables differ from their records (run scripts/regen-docs):\n{}",

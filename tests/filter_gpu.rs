@@ -12,7 +12,7 @@ use std::sync::Once;
 /// Sets the lavapipe variables once, before any test reads the environment.
 fn gpu_env() {
     static ENV: Once = Once::new();
-    ENV.call_once(gpu::use_software_vulkan_if_unset);
+    ENV.call_once(ssskit::gpu::use_software_vulkan_if_unset);
 }
 
 fn open_gpu() -> gpu::Gpu {

@@ -187,7 +187,19 @@ fn bad_inputs_fail_clearly() {
         "--sss-width",
         "0.01",
     ];
-    fails_with(&a, &["give --depth"], &out);
+    fails_with(
+        &a,
+        &["--depth: invalid value none", "perspective", "depth image"],
+        &out,
+    );
+    // Following the surface without depth.
+    let mut a = a[..a.len() - 4].to_vec();
+    a.extend(["--mm-per-pixel", "0.1", "--follow-surface", "300"]);
+    fails_with(
+        &a,
+        &["--depth: invalid value none", "following the surface"],
+        &out,
+    );
 
     // Mismatched sizes.
     let small = d.join("small.exr");
@@ -255,7 +267,18 @@ fn bad_inputs_fail_clearly() {
     let mut a = apply_args(&k, &good, &out);
     a.truncate(a.len() - 2);
     a.push("--mm-per-pixel=-1");
-    fails_with(&a, &["--mm-per-pixel", "-1"], &out);
+    fails_with(&a, &["--mm-per-pixel: invalid value -1: must be"], &out);
+    let mut a = apply_args(&k, &zero_z, &out);
+    a.truncate(a.len() - 2);
+    a.extend(["--fov-y", "180", "--sss-width", "0.01"]);
+    fails_with(
+        &a,
+        &["--fov-y: invalid value 180: must be in (0, 180)"],
+        &out,
+    );
+    let mut a = apply_args(&k, &zero_z, &out);
+    a.push("--follow-surface=-1");
+    fails_with(&a, &["--follow-surface: invalid value -1: must be"], &out);
 
     // diff: sizes must match.
     let diff_out = d.join("diff.png");

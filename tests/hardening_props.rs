@@ -254,7 +254,7 @@ fn both_backends_refuse_a_kernel_span_over_the_cap() {
         e.contains("would span") && e.contains("use at least"),
         "{e}"
     );
-    ssskit::filter::gpu::use_software_vulkan_if_unset();
+    ssskit::gpu::use_software_vulkan_if_unset();
     let g = ssskit::filter::gpu::Gpu::new().expect("GPU test needs an adapter (lavapipe in CI)");
     let e = g.apply(&img, &setup).unwrap_err().to_string();
     assert!(

@@ -234,7 +234,7 @@ fn svd_factors_sum_to_positive_values() {
 /// result of the kernel file within the GPU tolerance (1e-4 of the peak).
 #[test]
 fn emitted_wgsl_array_through_the_wgpu_pass_reproduces_the_cpu() {
-    gpu::use_software_vulkan_if_unset();
+    ssskit::gpu::use_software_vulkan_if_unset();
     let g = gpu::Gpu::new().expect("GPU test needs an adapter (lavapipe in CI)");
     let k = kernel("skin1-svd3");
     let module = naga::front::wgsl::parse_str(&emit(&k, Lang::Wgsl)).unwrap();

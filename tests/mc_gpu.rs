@@ -19,7 +19,7 @@ use common::mc::{self, cfg, material, within};
 fn gpu() -> &'static McGpu {
     static GPU: OnceLock<McGpu> = OnceLock::new();
     GPU.get_or_init(|| {
-        ssskit::filter::gpu::use_software_vulkan_if_unset();
+        ssskit::gpu::use_software_vulkan_if_unset();
         let g = McGpu::new().expect("a wgpu adapter (lavapipe: scripts/setup)");
         eprintln!("adapter: {}", g.describe());
         g
@@ -291,7 +291,7 @@ fn unsupported_settings_are_refused() {
 
 #[test]
 fn cli_backend_choice_is_printed_and_recorded() {
-    ssskit::filter::gpu::use_software_vulkan_if_unset();
+    ssskit::gpu::use_software_vulkan_if_unset();
     let dir = tempfile::tempdir().unwrap();
     let sim = |backend: &str, extra: &[&str]| {
         let out = dir.path().join(format!("{backend}.json"));

@@ -9,7 +9,9 @@
 use ssskit::kernel::kernel2d::{Kernel2D, Kernel2DSpec};
 use ssskit::kernel::preintegrate::{preintegrate, PreMethod};
 use ssskit::material::{preset, Channel};
-use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
+use ssskit::profile::mc::{
+    simulate, McConfig, PhotonBudget, DEFAULT_ABS_FLOOR, DEFAULT_KERNEL_ERROR,
+};
 use ssskit::profile::Profile;
 use ssskit::progress::NoProgress;
 
@@ -17,6 +19,21 @@ fn factors(p: &Profile, spec: &Kernel2DSpec) -> [Vec<f64>; 3] {
     let k = Kernel2D::from_profile(p, spec).expect("kernel");
     let (f, _) = preintegrate(&k, p, PreMethod::Abel).expect("pre-integration");
     f.into_iter().next().expect("one factor")
+}
+
+/// A run on the same grid as `a`, `times` its largest channel's photons,
+/// with another seed.
+fn longer(a: &Profile, cfg: McConfig, times: u64, seed: u64) -> McConfig {
+    McConfig {
+        budget: PhotonBudget::Fixed(
+            times * a.source.photons.as_ref().unwrap().iter().max().unwrap(),
+        ),
+        seed,
+        grid: Some(ssskit::profile::RadialGrid {
+            edges: a.r_edges.clone(),
+        }),
+        ..cfg
+    }
 }
 
 fn rel_l2(a: &[f64], b: &[f64]) -> f64 {
@@ -49,17 +66,7 @@ fn kernel_factor_rule_holds_against_a_20x_longer_run() {
         let photons = a.source.photons.clone().unwrap();
         let sigma: Vec<f64> =
             serde_json::from_value(a.extra["rel_error_kernel_factor"].clone()).unwrap();
-        // The same grid as the default run, 20x its largest channel's photons,
-        // another seed.
-        let long = McConfig {
-            budget: PhotonBudget::Fixed(20 * photons.iter().max().unwrap()),
-            seed: 4,
-            grid: Some(ssskit::profile::RadialGrid {
-                edges: a.r_edges.clone(),
-            }),
-            ..cfg
-        };
-        let b = simulate(&m, &long, &NoProgress).unwrap();
+        let b = simulate(&m, &longer(&a, cfg, 20, 4), &NoProgress).unwrap();
         let sigma_b: Vec<f64> =
             serde_json::from_value(b.extra["rel_error_kernel_factor"].clone()).unwrap();
         let g = &a.extra["kernel_grid"];
@@ -86,5 +93,52 @@ fn kernel_factor_rule_holds_against_a_20x_longer_run() {
             );
             assert!(d <= 4.0 * s, "{name} {c}: difference {d} vs sigma {s}");
         }
+    }
+}
+
+/// The default rule's absolute floor (tests/mc_abs_floor.rs has the rest):
+/// beer stops there, and the noise each channel then brings to its kernel,
+/// R_d times the relative L2 difference of its 1D factor from that of a 4x
+/// longer run, is within 4 of the reported combined sigma, itself about the
+/// floor.
+#[test]
+fn absolute_floor_kernel_noise_holds_for_beer() {
+    let m = preset("beer").unwrap();
+    let cfg = McConfig {
+        budget: PhotonBudget::KernelFactor {
+            rel: DEFAULT_KERNEL_ERROR,
+            max_photons: 100_000_000,
+        },
+        seed: 5,
+        threads: None,
+        channels: Channel::ALL.to_vec(),
+        grid: None,
+    };
+    let a = simulate(&m, &cfg, &NoProgress).unwrap();
+    let photons = a.source.photons.clone().unwrap();
+    let b = simulate(&m, &longer(&a, cfg, 4, 6), &NoProgress).unwrap();
+    let g = &a.extra["kernel_grid"];
+    let spec = Kernel2DSpec {
+        size: Some(g["size"].as_u64().unwrap() as usize),
+        extent_mm: Some(g["extent_mm"].as_f64().unwrap()),
+    };
+    let (fa, fb) = (factors(&a, &spec), factors(&b, &spec));
+    let sigma = |p: &Profile, c: usize| {
+        p.total_rd[c] * p.extra["rel_error_kernel_factor"][c].as_f64().unwrap()
+    };
+    for c in 0..3 {
+        assert_eq!(a.extra["stopped_by"][c], "absolute-floor", "{c}");
+        let noise = b.total_rd[c] * rel_l2(&fa[c], &fb[c]);
+        let s = (sigma(&a, c).powi(2) + sigma(&b, c).powi(2)).sqrt();
+        eprintln!(
+            "beer {}: {} photons, kernel noise {noise:.2e}, sigma {s:.2e}, floor {DEFAULT_ABS_FLOOR:e}",
+            Channel::ALL[c].name(),
+            photons[c]
+        );
+        assert!(sigma(&a, c) <= DEFAULT_ABS_FLOOR);
+        assert!(
+            noise <= 4.0 * s,
+            "beer {c}: kernel noise {noise:.2e} vs sigma {s:.2e}"
+        );
     }
 }

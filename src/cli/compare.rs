@@ -8,14 +8,13 @@ use super::progress::Bar;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
-use ssskit::kernel::KernelFile;
 use ssskit::material::{preset_names, Channel, Material};
 use ssskit::profile::analytic::{self, Model as ProfileModel, Options as ProfileOptions};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::profile::Profile;
 use ssskit::report::evaluate::{parse_signal, ImageCase, Options, Which};
-use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput, Row};
-use ssskit::report::{kernel_plots, kernel_report};
+use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
+use ssskit::report::{kernel_report, pipeline};
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -303,44 +302,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ranks: &ranks,
         options: &options,
     };
-    let md = kernel_report::report(&cmp, &ctx);
-    ssskit::io::write_atomic(&a.out.join("report.md"), md.as_bytes())?;
-    kernel_report::csv(&cmp.rows).write_csv(&a.out.join("compare.csv"))?;
-    let json = a.out.join("compare.json");
-    ssskit::io::write_json_atomic(&json, &cmp.rows)?;
-    let back: Vec<Row> = ssskit::io::read_json(&json)?;
-    if back.len() != cmp.rows.len() {
-        bail!(
-            "{}: read back {} rows, wrote {}",
-            json.display(),
-            back.len(),
-            cmp.rows.len()
-        );
-    }
-    let kdir = a.out.join("kernels");
-    std::fs::create_dir_all(&kdir).with_context(|| format!("--out {}", kdir.display()))?;
-    for f in &cmp.fitted {
-        let path = kdir.join(format!("{}-{}.json", f.material, f.spec.label));
-        f.kernel.write(&path)?;
-        KernelFile::read(&path)?;
-    }
-    if !a.no_plots {
-        for m in &cmp.materials {
-            kernel_plots::kernel_slices(&cmp, m, &a.out.join(format!("slices_{m}.png")))?;
-            for (ci, s) in signals.iter().enumerate() {
-                kernel_plots::contact_sheet(
-                    &cmp,
-                    m,
-                    ci,
-                    &format!("{}-tap tables", taps[0]),
-                    &a.out.join(format!("sheet_{m}_{s}.png")),
-                )?;
-            }
-        }
-        if cmp.fitted.iter().any(|f| f.kernel.model.name == "svd") {
-            kernel_plots::spectra(&cmp, &a.out.join("spectra.png"))?;
-        }
-    }
+    pipeline::write_comparison(
+        &cmp,
+        &ctx,
+        &a.out,
+        !a.no_plots,
+        &format!("{}-tap tables", taps[0]),
+    )?;
+    pipeline::write_fitted_kernels(&cmp, &a.out.join("kernels"), false)?;
     let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
     out!("{}", kernel_report::claims_table(&claims).markdown())?;
     eprintln!(

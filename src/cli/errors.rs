@@ -30,7 +30,6 @@ const FLAGS: &[(&str, &str, &str)] = &[
     ("guided", "k", "--k"),
     ("guided", "b", "--b"),
     ("worker threads", "threads", "--threads"),
-    ("apply", "mm per pixel", "--mm-per-pixel"),
     ("svd", "rank", "--rank"),
     ("taps", "count", "--taps"),
     ("taps", "extent_mm", "--tap-extent"),
@@ -45,6 +44,11 @@ const FLAGS: &[(&str, &str, &str)] = &[
     (mc::CONTEXT, "roulette_threshold", "--roulette"),
     (mc::CONTEXT, "event_roulette", "--event-roulette"),
     (mc::CONTEXT, "max_events", "--max-events"),
+    ("kernel scale", "mm_per_pixel", "--mm-per-pixel"),
+    ("kernel scale", "fov_y_deg", "--fov-y"),
+    ("kernel scale", "sss_width", "--sss-width"),
+    ("filter setup", "follow_surface", "--follow-surface"),
+    ("filter setup", "depth", "--depth"),
 ];
 
 /// Where the value is fine but a setting does not suit it: (context,

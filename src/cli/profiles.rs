@@ -149,7 +149,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     }
     let md = a.out_dir.join("compare.md");
     let csv = a.out_dir.join("compare.csv");
-    compare::table(&rows).write_markdown(&md)?;
+    ssskit::io::write_atomic(&md, compare::report(&rows).as_bytes())?;
     compare::csv_table(&rows).write_csv(&csv)?;
     out!("{}", compare::table(&rows).markdown())?;
     eprintln!("wrote {} and {}", md.display(), csv.display());

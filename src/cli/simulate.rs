@@ -66,7 +66,8 @@ struct Flags {
     /// given): trace until the relative L2 standard error of the
     /// pre-integrated 1D kernel factor on the default kernel grid and the
     /// relative standard error of total R_d are below E in every channel.
-    /// Its default grid has geometric bins.
+    /// Its default grid has geometric bins. A channel also stops at the
+    /// absolute floor (--abs-floor).
     #[arg(
         long,
         value_name = "E",
@@ -74,6 +75,14 @@ struct Flags {
         allow_hyphen_values = true
     )]
     kernel_error: Option<f64>,
+    /// Absolute floor of the kernel-factor rule, a fraction of the incident
+    /// light: a channel also stops once the standard error of its total R_d
+    /// and R_d x the kernel factor's relative error are below A, after at
+    /// least 3/A photons (media that barely scatter back, e.g. wine, beer;
+    /// 2e-6 is 150x below the smallest 8-bit sRGB value); never before the
+    /// relative target where R_d >= A/E. 0 = off.
+    #[arg(long, value_name = "A", default_value_t = mc::DEFAULT_ABS_FLOOR, allow_hyphen_values = true)]
+    abs_floor: f64,
     /// Rule "total-and-profile": trace until the relative standard error of
     /// total R_d and of the profile (R_d-weighted mean relative error of the
     /// bins inside the 99% radius) are below E in every channel.
@@ -230,7 +239,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         max_work: args.max_work.unwrap_or(mc::DEFAULT_MAX_WORK),
         roulette_threshold: args.roulette,
         shard: args.shard,
+        abs_floor: args.abs_floor,
     };
+    if !(args.abs_floor >= 0.0 && args.abs_floor < 1.0) {
+        anyhow::bail!(
+            "--abs-floor {}: must be in [0, 1), a fraction of the incident light (0 = off)",
+            args.abs_floor
+        );
+    }
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(match args.shard {
             Some(s) => format!("{}.shard-{}-of-{}.json", material.name, s.k, s.n),

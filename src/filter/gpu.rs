@@ -1,100 +1,76 @@
 //! The wgpu post-process: shaders/sss_pass.wgsl run per rank as a horizontal
 //! then a vertical pass, the vertical pass accumulating into the output,
 //! which starts as the specular image (so specular is added after the blur).
-//! f32 throughout; checked against `cpu::apply_screen_space` (f64).
+//! f32 throughout; checked against `screen_space::apply_screen_space` (f64).
 
 use super::{Image, Setup};
 use crate::error::{Error, Result};
-use wgpu::util::DeviceExt;
+use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
 
 /// A device with the pass pipeline compiled.
 pub struct Gpu {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    ctx: GpuContext,
     pipeline: wgpu::ComputePipeline,
-    info: wgpu::AdapterInfo,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
-    width: u32,
-    height: u32,
-    ntaps: u32,
-    axis: u32,
-    perspective: u32,
-    follow: u32,
-    accumulate: u32,
-    jitter: u32,
-    step_base: f32,
-    follow_k: f32,
-    _pad2: [f32; 2],
+wgsl_struct! {
+    /// The uniform block of one 1D pass.
+    struct Params {
+        width: u32,
+        height: u32,
+        ntaps: u32,
+        /// 0: horizontal, 1: vertical.
+        axis: u32,
+        /// 0: orthographic step, 1: perspective step divided by depth
+        /// (Freude 2014, eq. 4.11).
+        perspective: u32,
+        /// 1: lerp toward the centre colour by depth difference (Freude
+        /// 2014, eq. 4.12).
+        follow: u32,
+        /// 1: dst += result (vertical pass of a rank), 0: dst = result.
+        accumulate: u32,
+        /// 1: each tap jittered inside its footprint (interleaved gradient
+        /// noise).
+        jitter: u32,
+        /// Pixels per kernel mm before strength and depth.
+        step_base: f32,
+        /// k of t = clamp(k |d_centre - d_sample|, 0, 1).
+        follow_k: f32,
+        _pad0: f32,
+        _pad1: f32,
+    }
 }
 
 impl Gpu {
-    /// Opens the first adapter the environment allows (WGPU_BACKEND etc. are
-    /// honoured); an error, never a silent CPU fallback, when there is none.
+    /// Opens the adapter (see `GpuContext::open`) and compiles the pass.
     pub fn new() -> Result<Gpu> {
-        pollster::block_on(Gpu::open())
-    }
-
-    async fn open() -> Result<Gpu> {
-        let crate::gpu::GpuContext {
-            device,
-            queue,
-            info,
-        } = crate::gpu::GpuContext::open_async().await?;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("sss_pass"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("sss_pass"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        Ok(Gpu {
-            device,
-            queue,
-            pipeline,
-            info,
-        })
+        let ctx = GpuContext::open()?;
+        let pipeline = ctx.compute_pipeline("sss_pass", &shader_source(), "main")?;
+        Ok(Gpu { ctx, pipeline })
     }
 
     /// True for a software rasteriser (lavapipe/llvmpipe, WARP): correct, but
-    /// slower than the CPU path, so `--backend auto` does not pick it.
+    /// slower than the CPU path, so an automatic backend choice skips it.
     pub fn is_software(&self) -> bool {
-        crate::gpu::is_software(&self.info)
+        self.ctx.is_software()
     }
 
     /// "name (backend, device type, driver)".
     pub fn describe(&self) -> String {
-        crate::gpu::describe(&self.info)
+        self.ctx.describe()
     }
 
     /// Runs `setup` on `image`.
     pub fn apply(&self, image: &Image, setup: &Setup) -> Result<Image> {
         let frame = self.prepare(image, setup)?;
         let (w, h) = (image.width, image.height);
-        let bytes = (w * h * 16) as u64;
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let mut encoder = self.encoder();
         self.encode(&mut encoder, &frame, None);
-        encoder.copy_buffer_to_buffer(&frame.acc, 0, &readback, 0, bytes);
-        self.queue.submit([encoder.finish()]);
-        let data: Vec<[f32; 4]> = self.read_back(&readback)?;
+        let data: Vec<[f32; 4]> = self
+            .ctx
+            .read_back(encoder, &frame.acc, (w * h * 16) as u64)?;
         let mut out = Image::new(w, h);
         out.alpha = image.alpha.clone();
         for (i, px) in data.iter().enumerate() {
@@ -107,7 +83,8 @@ impl Gpu {
 
     /// Whether the device records GPU timestamps ([`Gpu::time_frames`]).
     pub fn has_timestamps(&self) -> bool {
-        self.device
+        self.ctx
+            .device
             .features()
             .contains(wgpu::Features::TIMESTAMP_QUERY)
     }
@@ -134,39 +111,27 @@ impl Gpu {
         }
         let frame = self.prepare(image, setup)?;
         let count = 2 * (frames + 1);
-        let queries = self.device.create_query_set(&wgpu::QuerySetDescriptor {
+        let queries = self.ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
             label: Some("frame timestamps"),
             ty: wgpu::QueryType::Timestamp,
             count,
         });
         let bytes = count as u64 * wgpu::QUERY_SIZE as u64;
-        let resolved = self.device.create_buffer(&wgpu::BufferDescriptor {
+        let resolved = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("timestamps"),
             size: bytes,
             usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamps readback"),
-            size: bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         for f in 0..=frames {
-            let mut encoder = self
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            let mut encoder = self.encoder();
             self.encode(&mut encoder, &frame, Some((&queries, 2 * f)));
-            self.queue.submit([encoder.finish()]);
+            self.ctx.queue.submit([encoder.finish()]);
         }
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let mut encoder = self.encoder();
         encoder.resolve_query_set(&queries, 0..count, &resolved, 0);
-        encoder.copy_buffer_to_buffer(&resolved, 0, &readback, 0, bytes);
-        self.queue.submit([encoder.finish()]);
-        let ticks: Vec<u64> = self.read_back(&readback)?;
-        let ns_per_tick = self.queue.get_timestamp_period() as f64;
+        let ticks: Vec<u64> = self.ctx.read_back(encoder, &resolved, bytes)?;
+        let ns_per_tick = self.ctx.queue.get_timestamp_period() as f64;
         Ok(ticks
             .chunks_exact(2)
             .skip(1)
@@ -180,7 +145,7 @@ impl Gpu {
         setup.validate(image)?;
         let (w, h) = (image.width, image.height);
         let n = w * h;
-        let limit = self.device.limits().max_storage_buffer_binding_size as usize;
+        let limit = self.ctx.device.limits().max_storage_buffer_binding_size as usize;
         if n * 16 > limit {
             return Err(Error::Unsupported(format!(
                 "a {w}x{h} image needs {} bytes per buffer; this adapter binds at most {limit}",
@@ -206,18 +171,20 @@ impl Gpu {
             )
         };
         let storage = wgpu::BufferUsages::STORAGE;
-        let src = self.buffer("image", bytemuck::cast_slice(&rgba(image)), storage);
-        let depth = self.buffer(
+        let src = self
+            .ctx
+            .buffer("image", bytemuck::cast_slice(&rgba(image)), storage);
+        let depth = self.ctx.buffer(
             "depth",
             bytemuck::cast_slice(&scalar(setup.depth.as_ref())),
             storage,
         );
-        let strength = self.buffer(
+        let strength = self.ctx.buffer(
             "strength",
             bytemuck::cast_slice(&scalar(setup.strength.as_ref())),
             storage,
         );
-        let tmp = self.device.create_buffer(&wgpu::BufferDescriptor {
+        let tmp = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("horizontal"),
             size: (n * 16) as u64,
             usage: storage,
@@ -227,7 +194,7 @@ impl Gpu {
             Some(s) => rgba(s),
             None => vec![[0.0; 4]; n],
         };
-        let acc = self.buffer(
+        let acc = self.ctx.buffer(
             "output",
             bytemuck::cast_slice(&start),
             storage | wgpu::BufferUsages::COPY_SRC,
@@ -245,9 +212,9 @@ impl Gpu {
             follow_k: setup
                 .follow_surface
                 .map_or(0.0, |c| setup.scale.follow_factor(c)) as f32,
-            _pad2: [0.0; 2],
+            _pad0: 0.0,
+            _pad1: 0.0,
         };
-        let layout = self.pipeline.get_bind_group_layout(0);
         let mut groups = Vec::new();
         for taps in &setup.passes {
             let table: Vec<[f32; 4]> = taps
@@ -261,8 +228,12 @@ impl Gpu {
                 .iter()
                 .map(|&(lo, width)| [lo as f32, width as f32])
                 .collect();
-            let tap_buf = self.buffer("taps", bytemuck::cast_slice(&table), storage);
-            let span_buf = self.buffer("footprints", bytemuck::cast_slice(&spans), storage);
+            let tap_buf = self
+                .ctx
+                .buffer("taps", bytemuck::cast_slice(&table), storage);
+            let span_buf = self
+                .ctx
+                .buffer("footprints", bytemuck::cast_slice(&spans), storage);
             for (axis, from, to) in [(0u32, &src, &tmp), (1u32, &tmp, &acc)] {
                 let p = Params {
                     ntaps: table.len() as u32,
@@ -270,24 +241,15 @@ impl Gpu {
                     accumulate: axis,
                     ..base
                 };
-                let ubuf = self.buffer(
+                let ubuf = self.ctx.buffer(
                     "params",
                     bytemuck::bytes_of(&p),
                     wgpu::BufferUsages::UNIFORM,
                 );
-                groups.push(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: None,
-                    layout: &layout,
-                    entries: &[
-                        entry(0, &ubuf),
-                        entry(1, from),
-                        entry(2, &depth),
-                        entry(3, &strength),
-                        entry(4, &tap_buf),
-                        entry(5, to),
-                        entry(6, &span_buf),
-                    ],
-                }));
+                groups.push(self.ctx.bind_group(
+                    &self.pipeline,
+                    &[&ubuf, from, &depth, &strength, &tap_buf, to, &span_buf],
+                ));
             }
         }
         Ok(Frame {
@@ -323,36 +285,24 @@ impl Gpu {
         }
     }
 
-    /// Maps a MAP_READ buffer (after the submitted work) and copies it out.
-    fn read_back<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<Vec<T>> {
-        let slice = buffer.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Unsupported(format!("GPU wait failed: {e}")))?;
-        rx.recv()
-            .map_err(|e| Error::Unsupported(format!("GPU readback lost: {e}")))?
-            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
-        let data = bytemuck::cast_slice::<u8, T>(&view).to_vec();
-        drop(view);
-        buffer.unmap();
-        Ok(data)
+    fn encoder(&self) -> wgpu::CommandEncoder {
+        self.ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
     }
+}
 
-    fn buffer(&self, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
-        self.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytes,
-                usage,
-            })
-    }
+/// The WGSL of the pass: sss_pass.wgsl after the definitions it shares with
+/// this file and the CPU twin (the noise constants, the wide product, the
+/// uniform block).
+fn shader_source() -> String {
+    let consts = wgsl_u32_consts(&[
+        ("IGN_X", super::IGN_X),
+        ("IGN_Y", super::IGN_Y),
+        ("IGN_FRACTION", super::IGN_FRACTION),
+        ("GOLDEN_U32", super::GOLDEN_U32),
+    ]);
+    [&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER].join("\n")
 }
 
 /// The bound resources of one image and setup.
@@ -364,39 +314,10 @@ struct Frame {
     workgroups: (u32, u32),
 }
 
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
-}
-
-/// Points wgpu at lavapipe when no Vulkan driver was chosen, as
-/// scripts/env.sh does; for tests, which `cargo test` may run without it.
-pub fn use_software_vulkan_if_unset() {
-    if std::env::var_os("VK_DRIVER_FILES").is_none()
-        && std::env::var_os("VK_ICD_FILENAMES").is_none()
-    {
-        if let Ok(dir) = std::fs::read_dir("/usr/share/vulkan/icd.d") {
-            let mut lvp: Vec<_> = dir
-                .filter_map(|e| e.ok())
-                .map(|e| e.path())
-                .filter(|p| {
-                    p.file_name()
-                        .and_then(|n| n.to_str())
-                        .is_some_and(|n| n.starts_with("lvp_icd.") && n.ends_with(".json"))
-                })
-                .collect();
-            lvp.sort();
-            if let Some(p) = lvp.first() {
-                std::env::set_var("VK_DRIVER_FILES", p);
-            }
-        }
-    }
-    if std::env::var_os("WGPU_BACKEND").is_none() {
-        std::env::set_var("WGPU_BACKEND", "vulkan");
-    }
-    if std::env::var_os("NODEVICE_SELECT").is_none() {
-        std::env::set_var("NODEVICE_SELECT", "1");
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_assembled_shader_is_valid_wgsl() {
+        crate::gpu::tests::assert_valid_wgsl(&super::shader_source(), "sss_pass");
     }
 }

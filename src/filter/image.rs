@@ -356,26 +356,19 @@ fn read_png(path: &Path) -> Result<Image> {
     let sixteen = img.color().bytes_per_pixel() / img.color().channel_count() > 1;
     let mut out = Image::new(w, h);
     let mut alpha = vec![0.0; w * h];
-    if sixteen {
-        let lut: Vec<f64> = (0..=65535u32)
-            .map(|v| srgb_to_linear(v as f64 / 65535.0))
-            .collect();
-        for (i, p) in img.to_rgba16().pixels().enumerate() {
-            for c in 0..3 {
-                out.rgb[c][i] = lut[p.0[c] as usize];
-            }
-            alpha[i] = p.0[3] as f64 / 65535.0;
-        }
+    let (max, rgba): (u16, Vec<[u16; 4]>) = if sixteen {
+        (u16::MAX, img.to_rgba16().pixels().map(|p| p.0).collect())
     } else {
-        let lut: Vec<f64> = (0..=255u32)
-            .map(|v| srgb_to_linear(v as f64 / 255.0))
-            .collect();
-        for (i, p) in img.to_rgba8().pixels().enumerate() {
-            for c in 0..3 {
-                out.rgb[c][i] = lut[p.0[c] as usize];
-            }
-            alpha[i] = p.0[3] as f64 / 255.0;
+        let pixels = img.to_rgba8();
+        (255, pixels.pixels().map(|p| p.0.map(u16::from)).collect())
+    };
+    let full = max as f64;
+    let lut: Vec<f64> = (0..=max).map(|v| srgb_to_linear(v as f64 / full)).collect();
+    for (i, p) in rgba.iter().enumerate() {
+        for c in 0..3 {
+            out.rgb[c][i] = lut[p[c] as usize];
         }
+        alpha[i] = p[3] as f64 / full;
     }
     if has_alpha {
         out.alpha = Some(alpha);

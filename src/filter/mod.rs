@@ -1,7 +1,7 @@
 //! Applying kernels to images: image I/O, the exact CPU reference and the
 //! wgpu post-process (Freude 2014, sections 4.2-4.4, Jimenez et al. 2015).
 //!
-//! One algorithm, two implementations: `cpu::apply_screen_space` (f64) and
+//! One algorithm, two implementations: `screen_space::apply_screen_space` (f64) and
 //! `gpu::Gpu::apply` (f32, WGSL) run Freude 2014, algorithm 4.1 on the same
 //! [`Setup`]: per rank, a horizontal then a vertical 1D pass whose tap
 //! offsets are scaled per pixel (Freude 2014, eq. 4.11), with the depth-aware lerp
@@ -9,14 +9,22 @@
 //! image is added after the blur. Samples between pixels are linearly
 //! interpolated along the pass axis; positions outside the image are clamped
 //! to the border pixel (clamp-to-edge).
+//!
+//! The CPU side, one file per job: [`screen_space`] (algorithm 4.1 per
+//! pixel), [`separable`] (fixed pixel kernels under a uniform scale, the
+//! same result faster), [`exact`] (the full 2D convolution, the ground
+//! truth), and [`cpu`], which picks between the first two.
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
 pub mod cpu;
 pub mod diff;
+pub mod exact;
 pub mod gpu;
 pub mod image;
+pub mod screen_space;
+pub mod separable;
 pub mod signals;
 pub mod timing;
 pub mod warnings;
@@ -24,6 +32,28 @@ pub mod warnings;
 use crate::error::{Error, Result};
 use crate::kernel::{KernelFile, Pass};
 pub use image::{Image, Plane};
+
+/// Clamp-to-edge on whole pixels: index `i` of a row or column of `n`
+/// pixels moved to the nearest border pixel.
+fn clamp_index(i: i64, n: usize) -> usize {
+    i.clamp(0, n as i64 - 1) as usize
+}
+
+/// The context of a bad [`Scale`] parameter in errors.
+const SCALE: &str = "kernel scale";
+
+/// An orthographic pixel footprint must be a finite positive length.
+fn check_mm_per_pixel(mm: f64) -> Result<()> {
+    if mm > 0.0 && mm.is_finite() {
+        return Ok(());
+    }
+    Err(Error::invalid(
+        SCALE,
+        "mm_per_pixel",
+        mm,
+        "must be finite and > 0",
+    ))
+}
 
 /// How kernel millimetres map to pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -36,26 +66,23 @@ pub enum Scale {
 }
 
 impl Scale {
+    /// Checks the scale's parameters (context "kernel scale"; fields named
+    /// as the variants' fields).
     pub fn validate(&self) -> Result<()> {
         match *self {
-            Scale::MmPerPixel(m) if !(m > 0.0 && m.is_finite()) => Err(Error::invalid(
-                "apply",
-                "--mm-per-pixel",
-                m,
-                "must be finite and > 0",
-            )),
+            Scale::MmPerPixel(m) => check_mm_per_pixel(m),
             Scale::Perspective { fov_y_deg, .. } if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) => Err(
-                Error::invalid("apply", "--fov-y", fov_y_deg, "must be in (0, 180) degrees"),
+                Error::invalid(SCALE, "fov_y_deg", fov_y_deg, "must be in (0, 180) degrees"),
             ),
             Scale::Perspective { sss_width, .. } if !(sss_width > 0.0 && sss_width.is_finite()) => {
                 Err(Error::invalid(
-                    "apply",
-                    "--sss-width",
+                    SCALE,
+                    "sss_width",
                     sss_width,
                     "must be finite and > 0",
                 ))
             }
-            _ => Ok(()),
+            Scale::Perspective { .. } => Ok(()),
         }
     }
 
@@ -166,6 +193,9 @@ impl From<&Pass> for Taps {
     }
 }
 
+/// The context of a bad [`Setup`] field in errors.
+const SETUP: &str = "filter setup";
+
 /// Everything both backends need besides the image.
 #[derive(Clone, Debug)]
 pub struct Setup {
@@ -216,21 +246,27 @@ impl Setup {
                 }
             }
         } else if matches!(self.scale, Scale::Perspective { .. }) {
-            return Err(Error::Unsupported(
-                "--fov-y/--sss-width scale the kernel by depth (Freude 2014, eq. 4.11): give --depth \
-                 or an input EXR with a depth channel"
-                    .into(),
+            return Err(Error::invalid(
+                SETUP,
+                "depth",
+                "none",
+                "the perspective kernel scale divides the kernel size by depth (Freude 2014, \
+                 eq. 4.11): give a depth image or an input EXR with a depth channel",
             ));
         } else if self.follow_surface.is_some() {
-            return Err(Error::Unsupported(
-                "--follow-surface needs a depth image (--depth or a depth channel)".into(),
+            return Err(Error::invalid(
+                SETUP,
+                "depth",
+                "none",
+                "following the surface lerps by depth difference (Freude 2014, eq. 4.12): give \
+                 a depth image or an input EXR with a depth channel",
             ));
         }
         if let Some(c) = self.follow_surface {
             if !(c >= 0.0 && c.is_finite()) {
                 return Err(Error::invalid(
-                    "apply",
-                    "--follow-surface",
+                    SETUP,
+                    "follow_surface",
                     c,
                     "must be finite and >= 0",
                 ));
@@ -367,8 +403,8 @@ fn check_span(span: f64, mm: f64, width: usize, height: usize) -> Result<()> {
     if !(span <= max as f64) {
         let extent = (span - 3.0) * mm;
         return Err(Error::invalid(
-            "apply",
-            "mm per pixel",
+            SCALE,
+            "mm_per_pixel",
             mm,
             format!(
                 "the kernel ({extent:.4e} mm wide) would span {span:.3e} pixels; at most {max} \

@@ -44,6 +44,25 @@ pub fn generate(signal: Signal, width: usize, height: usize, checker_px: usize) 
     Ok(img)
 }
 
+/// White noise in [0, 1): every sample of R, G, B in turn (row-major) from
+/// one 64-bit linear congruential stream started at `seed` (Knuth's MMIX
+/// constants; the top 53 bits of each state). Not a signal of the thesis: a
+/// deterministic input with every spatial frequency, for checking that two
+/// paths of the filter agree.
+pub fn noise(width: usize, height: usize, seed: u64) -> Image {
+    let mut img = Image::new(width, height);
+    let mut s = seed;
+    for c in 0..3 {
+        for v in img.rgb[c].iter_mut() {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v = (s >> 11) as f64 / (1u64 << 53) as f64;
+        }
+    }
+    img
+}
+
 /// Fraction of pixel (x, y) inside the circle or the two squares.
 fn coverage(x: usize, y: usize, w: usize, h: usize) -> f64 {
     let s = w.min(h) as f64;

@@ -44,6 +44,21 @@ fn check_range(dr: f64, r_max: f64) -> Result<()> {
 }
 
 impl RadialGrid {
+    /// Refuses edges that are not a grid: fewer than 2, not starting at 0,
+    /// not finite and strictly increasing (a given grid is only data).
+    pub fn check_edges(&self) -> Result<()> {
+        let e = &self.edges;
+        if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
+            return Err(Error::invalid(
+                "radial grid",
+                "edges",
+                format!("{} values", e.len()),
+                "need at least 2 edges, starting at 0, finite and strictly increasing",
+            ));
+        }
+        Ok(())
+    }
+
     /// `n = ceil(r_max / dr)` uniform bins of width `dr`.
     pub fn uniform(dr: f64, r_max: f64) -> Result<RadialGrid> {
         if !(dr.is_finite() && dr > 0.0) {

@@ -7,15 +7,24 @@
 //! factors resampled to whole pixels count one tap per pixel they cover.
 //! Error is the largest relative RMS (as `ssskit diff` reports it, per
 //! channel, divided by the exact image's peak) over the three channels and
-//! the signals chosen on (edge, shapes and a checker of [`CHECKER_PX`]-pixel
+//! the signals chosen on (edge, shapes and checkers of [`CHECKER_PX`]-pixel
 //! cells), against the exact 2D convolution with the profile
-//! ([`super::evaluate`]). The checker is there because edge and shapes alone
-//! under-state the error on sharp detail: measured on skin1 at 0.2 mm per
-//! pixel, 5 guided taps chosen at 7.1% on edge and shapes gave 10.4% on a
-//! checker of 1 mm cells. Its cells are fixed in pixels (detail at the
-//! screen's resolution), not in mm: at 2 mm per pixel a 1 mm checker would
-//! alternate every pixel, a pattern the renderer's own sampling already
-//! averages away. FLIP is reported for the chosen configuration.
+//! ([`super::evaluate`]). The checkers are there because edge and shapes
+//! alone under-state the error on sharp detail: measured on skin1 at 0.2 mm
+//! per pixel, 5 guided taps chosen at 7.1% on edge and shapes gave 10.4% on
+//! a checker of 1 mm cells. One checker is not enough either: a tap table
+//! whose gaps are a multiple of the checker's period reads only one colour
+//! (aliasing), so a choice made on 8-pixel cells alone measured 14% on
+//! 5-pixel cells where it met 6.7% on its own checker (skin1, 0.02 mm per
+//! pixel). Cells of 2 to 8 pixels span the periodic detail the screen
+//! can hold, from the finest (a 2-pixel cell, period 4 pixels; 1-pixel
+//! cells are what the renderer's own sampling averages away) to the coarse.
+//! The cells are fixed in pixels (detail at the screen's resolution), not
+//! in mm. A candidate is filtered on the finest checker first and not on
+//! the remaining signals once it is over the target (it cannot be chosen);
+//! when no candidate meets the target every one is filtered on every
+//! signal and the most accurate is chosen. FLIP is reported for the chosen
+//! configuration.
 //!
 //! Candidates: the kernel models of the comparison (SVD at ranks 1-3 raw and
 //! renormalised, pre-integration, guided, manual, sums of 2-3 Gaussians)
@@ -40,8 +49,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::collections::BTreeMap;
 
-/// Cell width of the checker signal advise chooses on, pixels.
-pub const CHECKER_PX: usize = 8;
+/// Cell widths of the checker signals advise chooses on, pixels.
+pub const CHECKER_PX: [usize; 5] = [2, 3, 4, 6, 8];
 
 /// Tap counts considered.
 pub const TAP_COUNTS: [usize; 11] = [1, 3, 5, 7, 9, 11, 13, 17, 21, 25, 33];
@@ -165,7 +174,10 @@ pub struct Candidate {
     pub cost: usize,
     /// Largest relative RMS over channels and the chosen-on signals.
     pub rel_rms: f64,
-    /// Per signal, the largest relative RMS over channels.
+    /// Per signal, the largest relative RMS over channels. A candidate
+    /// over the target on one signal is not filtered on the signals after
+    /// it (finest checker first): those are missing, and `rel_rms` is then
+    /// a lower bound.
     pub per_signal: BTreeMap<String, f64>,
 }
 
@@ -215,7 +227,8 @@ impl Advice {
     }
 
     /// Per model variant, its cheapest configuration meeting the target
-    /// (or its most accurate when none does), cheapest first.
+    /// (or, when none does, its most accurate on the signals filtered
+    /// before it went over the target), cheapest first.
     pub fn best_per_model(&self) -> Vec<&Candidate> {
         let mut by: BTreeMap<&str, &Candidate> = BTreeMap::new();
         for c in &self.candidates {
@@ -409,18 +422,20 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
     }
     let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
     let specs = candidate_models(&cfg.families, &profile.material.name)?;
-    let cases: Vec<ImageCase> = cfg
-        .signals
-        .iter()
-        .map(|&s| match s {
-            Signal::Checker => Ok(ImageCase {
-                name: format!("checker{CHECKER_PX}px"),
-                image: crate::filter::signals::generate(s, cfg.size, cfg.size, CHECKER_PX)?,
+    let mut cases: Vec<ImageCase> = Vec::new();
+    for &s in &cfg.signals {
+        if s != Signal::Checker {
+            cases.push(ImageCase::signal(s, cfg.size, cfg.mm_per_pixel)?);
+            continue;
+        }
+        for px in CHECKER_PX {
+            cases.push(ImageCase {
+                name: format!("checker{px}px"),
+                image: crate::filter::signals::generate(s, cfg.size, cfg.size, px)?,
                 mm_per_pixel: cfg.mm_per_pixel,
-            }),
-            _ => ImageCase::signal(s, cfg.size, cfg.mm_per_pixel),
-        })
-        .collect::<Result<_>>()?;
+            });
+        }
+    }
     let exact: Vec<Exact> = cases
         .par_iter()
         .map(|c| Exact::new(profile, c))
@@ -435,43 +450,65 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
             i
         })
         .collect();
+    // The finest detail first: it fails most candidates soonest.
+    let mut signal_order: Vec<usize> = (0..exact.len()).collect();
+    signal_order.sort_by_key(|&i| {
+        CHECKER_PX
+            .iter()
+            .position(|px| exact[i].case.name == format!("checker{px}px"))
+            .unwrap_or(CHECKER_PX.len())
+    });
     progress.start(specs.len() as u64, "kernel models");
-    let per_model: Vec<Vec<Candidate>> = specs
-        .par_iter()
-        .map(|spec| {
-            let fitted = fit_model(&truth, profile, &spec.model)
-                .map_err(|e| Error::Unsupported(format!("{}: {e}", spec.label)))?;
-            let f = fitted.factors.clone();
-            let file = assemble_with(profile, &truth, &spec.model, fitted, 17, None)?;
-            let mut out = Vec::new();
-            for l in layouts(&truth, &f, cfg)? {
-                let mut per_signal = BTreeMap::new();
-                let mut worst: f64 = 0.0;
-                for (e, ef) in exact.iter().zip(&exact_f32) {
-                    let v = rel_rms(e, ef, l.passes.clone())?;
-                    worst = worst.max(v);
-                    per_signal.insert(e.case.name.clone(), v);
+    let search = |stop_over_target: bool| -> Result<Vec<Candidate>> {
+        let per_model: Vec<Vec<Candidate>> = specs
+            .par_iter()
+            .map(|spec| {
+                let fitted = fit_model(&truth, profile, &spec.model)
+                    .map_err(|e| Error::Unsupported(format!("{}: {e}", spec.label)))?;
+                let f = fitted.factors.clone();
+                let file = assemble_with(profile, &truth, &spec.model, fitted, 17, None)?;
+                let mut out = Vec::new();
+                for l in layouts(&truth, &f, cfg)? {
+                    let mut per_signal = BTreeMap::new();
+                    let mut worst: f64 = 0.0;
+                    for &i in &signal_order {
+                        let (e, ef) = (&exact[i], &exact_f32[i]);
+                        let v = rel_rms(e, ef, l.passes.clone())?;
+                        worst = worst.max(v);
+                        per_signal.insert(e.case.name.clone(), v);
+                        if stop_over_target && worst > cfg.target {
+                            break;
+                        }
+                    }
+                    let per_pass = l.passes.iter().map(|t| t.offsets_mm.len()).sum::<usize>();
+                    out.push(Candidate {
+                        label: spec.label.clone(),
+                        model: file.model.name.clone(),
+                        params: file.model.params.clone(),
+                        rank: f.len(),
+                        taps: l.taps,
+                        extent_rule: l.rule,
+                        extent_mm: l.extent_mm,
+                        cost: 2 * per_pass,
+                        rel_rms: worst,
+                        per_signal,
+                    });
                 }
-                let per_pass = l.passes.iter().map(|t| t.offsets_mm.len()).sum::<usize>();
-                out.push(Candidate {
-                    label: spec.label.clone(),
-                    model: file.model.name.clone(),
-                    params: file.model.params.clone(),
-                    rank: f.len(),
-                    taps: l.taps,
-                    extent_rule: l.rule,
-                    extent_mm: l.extent_mm,
-                    cost: 2 * per_pass,
-                    rel_rms: worst,
-                    per_signal,
-                });
-            }
-            progress.advance(1);
-            Ok(out)
-        })
-        .collect::<Result<_>>()?;
+                if stop_over_target {
+                    progress.advance(1);
+                }
+                Ok(out)
+            })
+            .collect::<Result<_>>()?;
+        Ok(per_model.into_iter().flatten().collect())
+    };
+    let mut candidates = search(true)?;
+    if !candidates.iter().any(|c| meets(c, cfg.target)) {
+        // None meets the target: the most accurate is chosen, on every
+        // signal.
+        candidates = search(false)?;
+    }
     progress.finish();
-    let mut candidates: Vec<Candidate> = per_model.into_iter().flatten().collect();
     candidates.sort_by(|a, b| order(a, b, cfg.target));
     let chosen = 0;
     let c = candidates[chosen].clone();
@@ -582,11 +619,15 @@ pub fn explain(a: &Advice) -> String {
             b.extent_mm
         );
         for sig in &signals {
-            let _ = write!(
-                s,
-                " {:>9.3}",
-                100.0 * b.per_signal.get(*sig).copied().unwrap_or(f64::NAN)
-            );
+            match b.per_signal.get(*sig) {
+                Some(v) => {
+                    let _ = write!(s, " {:>9.3}", 100.0 * v);
+                }
+                // Not filtered: over the target on an earlier signal.
+                None => {
+                    let _ = write!(s, " {:>9}", "-");
+                }
+            }
         }
         let _ = writeln!(s, " {:>6}", if meets(b, a.target) { "yes" } else { "no" });
     }

@@ -252,6 +252,8 @@ pub struct Comparison {
     /// Material-major, models in [`model_specs`] order.
     pub fitted: Vec<Fitted>,
     pub rows: Vec<Row>,
+    /// The input profile of each material.
+    pub profiles: Vec<Profile>,
 }
 
 pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
@@ -362,6 +364,7 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         exact,
         fitted,
         rows,
+        profiles: inputs.iter().map(|m| m.profile.clone()).collect(),
     })
 }
 

@@ -1,5 +1,5 @@
 //! Plots of a kernel comparison: kernel slices along the axis and the
-//! diagonal with the ground truth dotted (Freude 2014, fig. 6.2 and the
+//! diagonal with the ground truth dashed (Freude 2014, fig. 6.2 and the
 //! appendix kernel plots), singular value spectra, and a contact sheet per
 //! material and signal with each model's filtered image and its difference
 //! from the exact convolution.

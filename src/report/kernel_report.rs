@@ -500,6 +500,49 @@ pub fn blocks_of(text: &str, kind: &str) -> Vec<(String, String)> {
     out
 }
 
+/// Per material, the shape errors of the engine models fitted to its
+/// profile (`crate::engine::fit`) and of the forward Burley model
+/// (`crate::engine::burley::forward_error`); "-" where a fit is refused
+/// (e.g. a profile without all of r, g, b).
+pub fn engine_table(cmp: &Comparison) -> Table {
+    use crate::engine::{self, Engine, Scene};
+    let mut t = Table::new(&[
+        "material",
+        "Burley fitted",
+        "Burley forward",
+        "fitted smaller by",
+        "Jimenez fitted (iryoku)",
+        "Godot",
+    ]);
+    let pct3 = |v: [f64; 3]| {
+        v.iter()
+            .map(|x| format!("{:.1}%", 100.0 * x))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    for (m, p) in cmp.materials.iter().zip(&cmp.profiles) {
+        let shape = |e: Engine| engine::fit(e, p, Scene::default()).map(|f| f.error.shape);
+        let (fit, fwd) = (shape(Engine::Unreal), engine::burley::forward_error(p));
+        let ratio = match (&fit, &fwd) {
+            (Ok(a), Ok(b)) => (0..3)
+                .map(|c| format!("{:.1}x", b.shape[c] / a[c]))
+                .collect::<Vec<_>>()
+                .join(", "),
+            _ => "-".into(),
+        };
+        let cell = |r: &crate::error::Result<[f64; 3]>| r.as_ref().map_or("-".into(), |v| pct3(*v));
+        t.push(vec![
+            m.clone(),
+            cell(&fit),
+            fwd.as_ref().map_or("-".into(), |e| pct3(e.shape)),
+            ratio,
+            cell(&shape(Engine::Iryoku)),
+            cell(&shape(Engine::Godot)),
+        ]);
+    }
+    t
+}
+
 /// What the report was made from, for its header.
 pub struct ReportContext<'a> {
     pub command: &'a str,
@@ -589,6 +632,12 @@ pub fn report(cmp: &Comparison, ctx: &ReportContext) -> String {
     let cl = claims(cmp, ctx.signals, ctx.factors, ctx.ranks);
     s += "\n## The thesis's claims, measured\n\n";
     s += &block("claims", &claims_table(&cl).markdown());
+    s += "\n## Engine parameters fitted to the profiles (`ssskit engine`)\n\n\
+          Shape error (relative L2 of r R_d(r), as `profiles compare`) per channel r, g, b \
+          of the Burley model fitted by least squares (Unreal, Unity HDRP and Blender share \
+          it) against the forward Burley model from the coefficients (`profile --model \
+          burley`), and of the fitted Jimenez models (iryoku per channel, Godot one kernel).\n\n";
+    s += &block("engines", &engine_table(cmp).markdown());
     if let Some(signal) = ctx.signals.first() {
         let _ = writeln!(
             s,

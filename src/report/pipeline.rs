@@ -185,17 +185,36 @@ pub fn write_comparison(
     Ok(files)
 }
 
-/// Writes a kernel file (read back) and its three shader arrays next to it.
+/// Every fitted kernel of the comparison as `dir/<material>-<label>.json`
+/// (read back), with its HLSL, GLSL and WGSL arrays next to it when
+/// `shaders`. `dir` is created. Returns the file names written.
+pub fn write_fitted_kernels(cmp: &Comparison, dir: &Path, shaders: bool) -> Result<Vec<String>> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::format(dir, format!("cannot create the kernel folder: {e}")))?;
+    let mut files = Vec::new();
+    for f in &cmp.fitted {
+        let stem = format!("{}-{}", f.material, f.spec.label);
+        write_kernel(&f.kernel, dir, &stem, shaders, &mut files)?;
+    }
+    Ok(files)
+}
+
+/// Writes a kernel file (read back) and, with `shaders`, its three shader
+/// arrays next to it.
 fn write_kernel(
     kernel: &KernelFile,
     dir: &Path,
     stem: &str,
+    shaders: bool,
     files: &mut Vec<String>,
 ) -> Result<()> {
     let path = dir.join(format!("{stem}.json"));
     kernel.write(&path)?;
     KernelFile::read(&path)?;
     files.push(format!("{stem}.json"));
+    if !shaders {
+        return Ok(());
+    }
     for (lang, ext) in [
         (Lang::Hlsl, "hlsl"),
         (Lang::Glsl, "glsl"),
@@ -246,17 +265,11 @@ pub fn run(
         profile: profile.clone(),
     };
     let cmp = kernel_compare::run(std::slice::from_ref(&input), &cfg, progress)?;
-    for f in &cmp.fitted {
-        write_kernel(
-            &f.kernel,
-            &dir.join("kernels"),
-            &format!("{name}-{}", f.spec.label),
-            &mut files,
-        )?;
-    }
-    for f in files.iter_mut().filter(|f| !f.starts_with("profile")) {
-        *f = format!("kernels/{f}");
-    }
+    files.extend(
+        write_fitted_kernels(&cmp, &dir.join("kernels"), true)?
+            .into_iter()
+            .map(|f| format!("kernels/{f}")),
+    );
     let factors = [Factor::Full, Factor::Taps(settings.taps)];
     let ctx = ReportContext {
         command,
@@ -285,7 +298,7 @@ pub fn run(
     let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
     acfg.size = settings.size;
     let advice = advise::advise(profile, &acfg, &crate::progress::NoProgress)?;
-    write_kernel(&advice.kernel, dir, "recommended", &mut files)?;
+    write_kernel(&advice.kernel, dir, "recommended", true, &mut files)?;
     crate::io::write_json_atomic(&dir.join("advice.json"), &advice.to_json())?;
     let _: serde_json::Value = crate::io::read_json(&dir.join("advice.json"))?;
     files.push("advice.json".into());

@@ -172,6 +172,11 @@ fn draw_panel<DB: DrawingBackend>(
     Ok(())
 }
 
+/// Dash and gap lengths of dashed curves, pixels (short enough that the
+/// 20-pixel legend sample shows two dashes).
+const DASH: u32 = 6;
+const GAP: u32 = 4;
+
 fn draw_curves<'a, DB: DrawingBackend + 'a, Y>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, Y>>,
     panel: &Panel,
@@ -217,12 +222,18 @@ where
         let style = c.color.stroke_width(if c.band.is_some() { 1 } else { 2 });
         let color = c.color;
         if c.dashed {
+            // The legend's sample carries the same dash pattern as the line.
             chart
-                .draw_series(DashedLineSeries::new(pts, 8, 5, style))
+                .draw_series(DashedLineSeries::new(pts, DASH, GAP, style))
                 .map_err(e)?
                 .label(&c.label)
                 .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                    plotters::element::DashedPathElement::new(
+                        vec![(x, y), (x + 20, y)],
+                        DASH,
+                        GAP,
+                        color.stroke_width(2),
+                    )
                 });
         } else {
             chart

@@ -83,8 +83,11 @@ impl Record {
         Ok(r)
     }
 
-    /// Writes atomically and reads the file back.
+    /// Writes atomically (creating the folder) and reads the file back.
     pub fn write(&self, path: &Path) -> Result<()> {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
         let text =
             serde_json::to_string_pretty(self).map_err(|e| Error::format(path, e.to_string()))?;
         crate::io::write_atomic(path, (text + "\n").as_bytes())?;
@@ -111,6 +114,14 @@ impl Record {
             self.date, self.command, self.machine
         ))
     }
+}
+
+/// Where record `name` lives in this source tree:
+/// `docs/records/<name>.json` (the benchmarks write there).
+pub fn docs_path(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("docs/records")
+        .join(format!("{name}.json"))
 }
 
 /// Today's UTC date from the system clock (civil-from-days, Hinnant 2013).

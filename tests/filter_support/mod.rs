@@ -140,18 +140,11 @@ pub fn preintegration_kernel(k: &Kernel2D, n_taps: usize) -> KernelFile {
     kernel_file("test-preintegration", vec![pass], vec![taps], n_taps)
 }
 
-/// Deterministic pseudo-random image in [lo, lo + 1).
+/// Deterministic pseudo-random image in [lo, lo + 1): the library's noise
+/// signal shifted by `lo`.
 pub fn noise_image(w: usize, h: usize, seed: u64, lo: f64) -> Image {
-    let mut img = Image::new(w, h);
-    let mut s = seed;
-    for c in 0..3 {
-        for v in img.rgb[c].iter_mut() {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            *v = lo + (s >> 11) as f64 / (1u64 << 53) as f64;
-        }
-    }
+    let mut img = ssskit::filter::signals::noise(w, h, seed);
+    img.rgb.iter_mut().flatten().for_each(|v| *v += lo);
     img
 }
 

@@ -21,16 +21,15 @@ use super::exact::ExactTally;
 use super::tally::{BinSums, ChunkTally, Moments};
 use super::tracer::Stack;
 use super::{
-    build_profile, rule_error, statuses, validate_config, BoundaryMode, ChannelRun, McConfig,
-    McOptions, PhotonBudget, Status, CHUNK,
+    build_profile, floor_ratio, rule_error, statuses, validate_config, BoundaryMode, ChannelRun,
+    McConfig, McOptions, PhotonBudget, Status, CHUNK,
 };
 use crate::error::{Error, Result};
-use crate::gpu::GpuContext;
+use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
 use crate::material::{Channel, Material};
 use crate::profile::{Profile, RadialGrid};
 use crate::progress::Progress;
 use serde_json::json;
-use wgpu::util::DeviceExt;
 
 const PHILOX: &str = include_str!("../../../shaders/mc_philox.wgsl");
 const TRACE: &str = include_str!("../../../shaders/mc_trace.wgsl");
@@ -47,19 +46,30 @@ pub const MAX_BATCH: u64 = 1 << 24;
 /// too.
 pub const CHECKPOINT: u64 = CHUNK * 16;
 
-// Word layout of the tally buffer (see mc_trace.wgsl).
+// Word layout of the tally buffer, given to mc_trace.wgsl by `shader_consts`:
+// 64-bit sums take 2 words, 96-bit sums of squares 3, least significant
+// first.
+/// Reflectance: sum at 0..2, squares at 2..5 (likewise T_TR, T_ABS).
 const T_RD: usize = 0;
 const T_TR: usize = 5;
 const T_ABS: usize = 10;
+/// Sums only (likewise T_LOSS to T_EVENTS).
 const T_BEYOND: usize = 15;
 const T_LOSS: usize = 17;
 const T_GAIN: usize = 19;
 const T_TRUNC: usize = 21;
+/// Packet count.
 const T_TRUNC_N: usize = 23;
 const T_EVENTS: usize = 25;
+/// One word: a value beyond the fixed-point range was met.
 const T_SATURATED: usize = 27;
+/// The next packet to trace (the shared work counter).
+const WORK: usize = 28;
+/// Packets whose walk stopped with weight left (a driver's loop limit), and
+/// packets traced: both checked by the host.
 const INCOMPLETE: usize = 29;
 const TRACED: usize = 30;
+/// Per bin from here: sum (2 words), sum of squares (3 words).
 const BINS: usize = 32;
 /// Threads per workgroup in mc_trace.wgsl.
 const WORKGROUP: u32 = 64;
@@ -104,41 +114,47 @@ impl GpuDispatch {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
-    seed_lo: u32,
-    seed_hi: u32,
-    channel: u32,
-    n_layers: u32,
-    base_lo: u32,
-    base_hi: u32,
-    count: u32,
-    n_bins: u32,
-    max_events: u32,
-    uniform_bins: u32,
-    dynamic: u32,
-    stride: u32,
-    w0: f32,
-    n_above: f32,
-    n_below: f32,
-    roulette: f32,
-    r_max: f32,
-    inv_dr: f32,
-    _pad1: [f32; 2],
+wgsl_struct! {
+    /// The uniform block of one dispatch.
+    struct Params {
+        seed_lo: u32,
+        seed_hi: u32,
+        channel: u32,
+        n_layers: u32,
+        base_lo: u32,
+        base_hi: u32,
+        count: u32,
+        n_bins: u32,
+        max_events: u32,
+        uniform_bins: u32,
+        /// 1: invocations take packets from a shared counter; 0: invocation
+        /// t traces packets t, t + stride, ...
+        dynamic: u32,
+        stride: u32,
+        w0: f32,
+        n_above: f32,
+        n_below: f32,
+        roulette: f32,
+        r_max: f32,
+        inv_dr: f32,
+        _pad0: f32,
+        _pad1: f32,
+    }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct GpuLayer {
-    z_top: f32,
-    z_bottom: f32,
-    sigma_t: f32,
-    inv_sigma_t: f32,
-    albedo: f32,
-    g: f32,
-    n: f32,
-    _pad: f32,
+wgsl_struct! {
+    /// One layer of the stack for one channel.
+    struct Layer {
+        z_top: f32,
+        /// `SEMI_INFINITE` for a semi-infinite layer.
+        z_bottom: f32,
+        sigma_t: f32,
+        inv_sigma_t: f32,
+        albedo: f32,
+        g: f32,
+        n: f32,
+        _pad: f32,
+    }
 }
 
 /// z_bottom of a semi-infinite layer: beyond any reachable depth, finite so
@@ -156,34 +172,8 @@ impl McGpu {
     /// Opens the adapter (see `GpuContext::open`) and compiles the shaders.
     pub fn new() -> Result<McGpu> {
         let ctx = GpuContext::open()?;
-        // A shader this adapter rejects is an error for the caller, not a
-        // panic in wgpu's default handler.
-        let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = |label: &str, src: &str, entry: &str| {
-            let module = ctx
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(label),
-                    source: wgpu::ShaderSource::Wgsl(format!("{PHILOX}\n{src}").into()),
-                });
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(label),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-        };
-        let trace = pipeline("mc_trace", TRACE, "trace");
-        let kat = pipeline("mc_kat", KAT, "kat");
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Unsupported(format!(
-                "the Monte Carlo shader does not compile on {}: {e}",
-                ctx.describe()
-            )));
-        }
+        let trace = ctx.compute_pipeline("mc_trace", &shader_source(TRACE), "trace")?;
+        let kat = ctx.compute_pipeline("mc_kat", &shader_source(KAT), "kat")?;
         Ok(McGpu { ctx, trace, kat })
     }
 
@@ -207,7 +197,7 @@ impl McGpu {
             .iter()
             .flat_map(|(c, k)| c.iter().chain(k).copied())
             .collect();
-        let input = self.buffer(
+        let input = self.ctx.buffer(
             "kat in",
             bytemuck::cast_slice(&words),
             wgpu::BufferUsages::STORAGE,
@@ -219,7 +209,7 @@ impl McGpu {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let group = self.group(&self.kat, &[&input, &out]);
+        let group = self.ctx.bind_group(&self.kat, &[&input, &out]);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
@@ -227,7 +217,7 @@ impl McGpu {
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(inputs.len() as u32, 1, 1);
         }
-        let words = self.read_back(enc, &out, size)?;
+        let words: Vec<u32> = self.ctx.read_back(enc, &out, size)?;
         Ok(words
             .chunks_exact(4)
             .map(|c| [c[0], c[1], c[2], c[3]])
@@ -310,13 +300,13 @@ impl McGpu {
         };
         let n_bins = grid.len();
         let layers = gpu_layers(material, ch);
-        let layer_buf = self.buffer(
+        let layer_buf = self.ctx.buffer(
             "layers",
             bytemuck::cast_slice(&layers),
             wgpu::BufferUsages::STORAGE,
         );
         let edges: Vec<f32> = grid.edges.iter().map(|&e| e as f32).collect();
-        let edge_buf = self.buffer(
+        let edge_buf = self.ctx.buffer(
             "edges",
             bytemuck::cast_slice(&edges),
             wgpu::BufferUsages::STORAGE,
@@ -336,7 +326,9 @@ impl McGpu {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let group = self.group(&self.trace, &[&param_buf, &layer_buf, &edge_buf, &acc]);
+        let group = self
+            .ctx
+            .bind_group(&self.trace, &[&param_buf, &layer_buf, &edge_buf, &acc]);
         let uniform_dr = uniform_bin_width(grid);
         let mut params = Params {
             seed_lo: cfg.seed as u32,
@@ -357,7 +349,8 @@ impl McGpu {
             roulette: opts.roulette_threshold as f32,
             r_max: grid.r_max() as f32,
             inv_dr: uniform_dr.map_or(0.0, |dr| (1.0 / dr) as f32),
-            _pad1: [0.0; 2],
+            _pad0: 0.0,
+            _pad1: 0.0,
         };
         let mut sums = Sums::new(n_bins);
         let mut status = Status {
@@ -365,8 +358,11 @@ impl McGpu {
             rel_profile: f64::INFINITY,
             r99: 0.0,
             rel_factor: f64::INFINITY,
+            rd: 0.0,
+            rd_stderr: f64::INFINITY,
         };
         let mut converged = false;
+        let mut by_floor = false;
         let mut work_capped = false;
         let mut tally = ChunkTally::new(n_bins, false);
         while sums.photons < cap {
@@ -393,7 +389,7 @@ impl McGpu {
                     pass.set_bind_group(0, &group, &[]);
                     pass.dispatch_workgroups(inv.div_ceil(WORKGROUP), 1, 1);
                 }
-                let batch = self.read_back(enc, &acc, (words * 4) as u64)?;
+                let batch: Vec<u32> = self.ctx.read_back(enc, &acc, (words * 4) as u64)?;
                 if batch[TRACED] as u64 != count || batch[INCOMPLETE] != 0 {
                     return Err(Error::Unsupported(format!(
                         "channel {}: the adapter ({}) traced {} of {count} packets and cut {} \
@@ -422,7 +418,10 @@ impl McGpu {
             let exact = exact_tally(&tally, n_bins);
             status = statuses(material, &[ch], grid, &[exact]).0.swap_remove(0);
             if let Some(rel) = target {
-                converged = rule_error(&cfg.budget, &status) <= rel;
+                let relative = rule_error(&cfg.budget, &status) <= rel;
+                by_floor = !relative
+                    && floor_ratio(&cfg.budget, opts.abs_floor, &status, tally.photons) <= 1.0;
+                converged = relative || by_floor;
                 if converged || tally.events >= opts.max_work {
                     work_capped = !converged;
                     progress.advance(cap - tally.photons);
@@ -435,72 +434,51 @@ impl McGpu {
             status,
             converged: target.is_none() || converged,
             work_capped,
+            by_floor,
         })
     }
+}
 
-    fn buffer(&self, label: &str, words: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
-        self.ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: words,
-                usage,
-            })
-    }
+/// The WGSL of `body` (mc_trace.wgsl or mc_kat.wgsl) after what it shares
+/// with this file: the constants, the structs, the wide product and the
+/// generator (mc_philox.wgsl).
+fn shader_source(body: &str) -> String {
+    [
+        &shader_consts(),
+        Params::WGSL,
+        Layer::WGSL,
+        WGSL_WIDE_MUL,
+        PHILOX,
+        body,
+    ]
+    .join("\n")
+}
 
-    fn group(&self, pipeline: &wgpu::ComputePipeline, bufs: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry> = bufs
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        self.ctx
-            .device
-            .create_bind_group(&wgpu::BindGroupDescriptor {
-                label: None,
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            })
-    }
-
-    /// Submits `enc` with a copy of `src` appended and returns its words.
-    fn read_back(
-        &self,
-        mut enc: wgpu::CommandEncoder,
-        src: &wgpu::Buffer,
-        size: u64,
-    ) -> Result<Vec<u32>> {
-        let readback = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        enc.copy_buffer_to_buffer(src, 0, &readback, 0, size);
-        self.ctx.queue.submit([enc.finish()]);
-        let slice = readback.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.ctx
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Unsupported(format!("GPU wait failed: {e}")))?;
-        rx.recv()
-            .map_err(|e| Error::Unsupported(format!("GPU readback lost: {e}")))?
-            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| Error::Unsupported(format!("GPU readback failed: {e}")))?;
-        let words = bytemuck::cast_slice::<u8, u32>(&view).to_vec();
-        drop(view);
-        readback.unmap();
-        Ok(words)
-    }
+/// The constants the shaders share with this file: Philox's, the tally
+/// layout, the workgroup size.
+fn shader_consts() -> String {
+    let word = |name, i: usize| (name, i as u32);
+    wgsl_u32_consts(&[
+        ("PHILOX_M0", PHILOX_M[0]),
+        ("PHILOX_M1", PHILOX_M[1]),
+        ("PHILOX_W0", PHILOX_W[0]),
+        ("PHILOX_W1", PHILOX_W[1]),
+        word("T_RD", T_RD),
+        word("T_TR", T_TR),
+        word("T_ABS", T_ABS),
+        word("T_BEYOND", T_BEYOND),
+        word("T_LOSS", T_LOSS),
+        word("T_GAIN", T_GAIN),
+        word("T_TRUNC", T_TRUNC),
+        word("T_TRUNC_N", T_TRUNC_N),
+        word("T_EVENTS", T_EVENTS),
+        word("T_SATURATED", T_SATURATED),
+        word("WORK", WORK),
+        word("INCOMPLETE", INCOMPLETE),
+        word("TRACED", TRACED),
+        word("BINS", BINS),
+        ("WORKGROUP", WORKGROUP),
+    ])
 }
 
 /// What the GPU tracer does not implement, refused before any work.
@@ -552,17 +530,11 @@ fn check_gpu_options(opts: &McOptions, dispatch: GpuDispatch) -> Result<()> {
     Ok(())
 }
 
+/// `RadialGrid::check_edges`, and edges distinct in f32 too, or bins would
+/// be empty by rounding alone.
 fn check_grid(grid: &RadialGrid) -> Result<()> {
+    grid.check_edges()?;
     let e = &grid.edges;
-    if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
-        return Err(Error::invalid(
-            "radial grid",
-            "edges",
-            format!("{} values", e.len()),
-            "need at least 2 edges, starting at 0, finite and strictly increasing",
-        ));
-    }
-    // Distinct in f32 too, or bins would be empty by rounding alone.
     if e.windows(2).any(|w| !((w[1] as f32) > (w[0] as f32))) {
         return Err(Error::invalid(
             "radial grid",
@@ -586,7 +558,7 @@ fn uniform_bin_width(grid: &RadialGrid) -> Option<f64> {
 }
 
 /// The layer stack of one channel, as `tracer::Stack` builds it.
-fn gpu_layers(m: &Material, ch: Channel) -> Vec<GpuLayer> {
+fn gpu_layers(m: &Material, ch: Channel) -> Vec<Layer> {
     let c = ch.index();
     let mut z = 0.0f64;
     m.layers
@@ -595,7 +567,7 @@ fn gpu_layers(m: &Material, ch: Channel) -> Vec<GpuLayer> {
             let sigma_t = l.sigma_a[c] + l.sigma_s[c];
             let z_top = z;
             z = l.thickness.map_or(f64::INFINITY, |t| z + t);
-            GpuLayer {
+            Layer {
                 z_top: z_top as f32,
                 z_bottom: if z.is_finite() {
                     z as f32
@@ -698,13 +670,20 @@ impl Sums {
     }
 }
 
+/// The round multipliers of Philox4x32 (Salmon et al. 2011; Random123's
+/// PHILOX_M4x32_0 and _1), for the CPU twin and the shader.
+const PHILOX_M: [u32; 2] = [0xD251_1F53, 0xCD9E_8D57];
+/// The key increments (Weyl sequence) of Philox4x32: 2^32 / golden ratio
+/// and 2^32 (sqrt(3) - 1) (Random123's PHILOX_W32_0 and _1).
+const PHILOX_W: [u32; 2] = [0x9E37_79B9, 0xBB67_AE85];
+
 /// Philox4x32-10 on the CPU (Salmon et al. 2011, Random123's
 /// `philox4x32_R` with R = 10): the reference for the shader's generator.
 pub fn philox4x32_10(ctr: [u32; 4], key: [u32; 2]) -> [u32; 4] {
     let (mut c, mut k) = (ctr, key);
     for _ in 0..10 {
-        let p0 = 0xD251_1F53u64 * c[0] as u64;
-        let p1 = 0xCD9E_8D57u64 * c[2] as u64;
+        let p0 = PHILOX_M[0] as u64 * c[0] as u64;
+        let p1 = PHILOX_M[1] as u64 * c[2] as u64;
         c = [
             (p1 >> 32) as u32 ^ c[1] ^ k[0],
             p1 as u32,
@@ -712,8 +691,8 @@ pub fn philox4x32_10(ctr: [u32; 4], key: [u32; 2]) -> [u32; 4] {
             p0 as u32,
         ];
         k = [
-            k[0].wrapping_add(0x9E37_79B9),
-            k[1].wrapping_add(0xBB67_AE85),
+            k[0].wrapping_add(PHILOX_W[0]),
+            k[1].wrapping_add(PHILOX_W[1]),
         ];
     }
     c
@@ -746,6 +725,12 @@ mod tests {
         for (c, k, want) in kat {
             assert_eq!(philox4x32_10(c, k), want);
         }
+    }
+
+    #[test]
+    fn the_assembled_shaders_are_valid_wgsl() {
+        crate::gpu::tests::assert_valid_wgsl(&shader_source(TRACE), "mc_trace");
+        crate::gpu::tests::assert_valid_wgsl(&shader_source(KAT), "mc_kat");
     }
 
     #[test]

@@ -141,6 +141,10 @@ pub struct McOptions {
     /// Trace one part of the run only (fixed budgets); the profile then
     /// carries the exact sums that `merge_shards` combines.
     pub shard: Option<Shard>,
+    /// Absolute floor of the kernel-factor rule (see `DEFAULT_ABS_FLOOR`);
+    /// 0 turns it off.
+    #[serde(default)]
+    pub abs_floor: f64,
 }
 
 impl Default for McOptions {
@@ -153,9 +157,30 @@ impl Default for McOptions {
             max_work: DEFAULT_MAX_WORK,
             roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
             shard: None,
+            abs_floor: DEFAULT_ABS_FLOOR,
         }
     }
 }
+
+/// Absolute floor of the kernel-factor rule, as a fraction of the incident
+/// light: a channel also stops once the noise it brings to a kernel, the
+/// standard error of its total R_d and R_d times the relative L2 error of
+/// its kernel factor, is below this, after at least `3 / floor` photons.
+///
+/// Why 2e-6: the smallest non-zero 8-bit sRGB value is 1/(255 x 12.92) =
+/// 3.0e-4 in linear light, the step near black of 10-bit sRGB 7.6e-5 and of
+/// 12-bit 1.9e-5, and a half float resolves 2^-11 of a value (2e-6 at 4e-3):
+/// an error of 2e-6 of the light reaching a surface is 150x below what an
+/// 8-bit display shows and 9x below a 12-bit step. Where R_d >= floor /
+/// target (4e-4 at the defaults) the floor implies the relative rule, so it
+/// never stops such a channel earlier (nor changes its rounds); every preset
+/// channel but wine's and beer's has R_d above 1e-3. It exists for media
+/// that barely scatter back (wine, beer: R_d 1e-6 to 1e-4), whose relative
+/// error would need 1e8+ photons to reach 0.5% while their kernels are
+/// invisible. The photon minimum is the rule of three: with no return in
+/// 3/floor photons a return probability above the floor is excluded at 95%,
+/// so a channel cannot stop on an error estimated from too few returns.
+pub const DEFAULT_ABS_FLOOR: f64 = 2e-6;
 
 /// Default work cap: about half a minute per channel on two cores of a
 /// 2020s CPU (~2.5e7 events/s per core).
@@ -191,15 +216,7 @@ pub fn simulate_with(
             matches!(cfg.budget, PhotonBudget::KernelFactor { .. }),
         ),
     };
-    let e = &grid.edges;
-    if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
-        return Err(Error::invalid(
-            "radial grid",
-            "edges",
-            format!("{} values", e.len()),
-            "need at least 2 edges, starting at 0, finite and strictly increasing",
-        ));
-    }
+    grid.check_edges()?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(cfg.threads.unwrap_or(0))
         .build()
@@ -365,6 +382,14 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
             "must be in (0, 1); MCML uses 1e-4",
         ));
     }
+    if !(opts.abs_floor >= 0.0 && opts.abs_floor < 1.0) {
+        return Err(Error::invalid(
+            "Monte Carlo options",
+            "absolute floor",
+            opts.abs_floor,
+            "must be in [0, 1): a fraction of the incident light, 0 = off",
+        ));
+    }
     if opts.event_roulette == 0 {
         return Err(Error::invalid(CONTEXT, "event_roulette", 0, "must be >= 1"));
     }
@@ -400,6 +425,9 @@ struct Status {
     r99: f64,
     /// Relative L2 standard error of the kernel factor (`consumer`).
     rel_factor: f64,
+    /// Total R_d and its standard error.
+    rd: f64,
+    rd_stderr: f64,
 }
 
 /// A finished channel: its tally and how the run ended.
@@ -409,6 +437,8 @@ struct ChannelRun {
     converged: bool,
     /// Stopped by `McOptions::max_work` before the target error.
     work_capped: bool,
+    /// Converged by the absolute floor, not the relative target.
+    by_floor: bool,
 }
 
 /// One simulation's fixed inputs, shared by the workers.
@@ -470,6 +500,7 @@ impl Job<'_> {
                 status: Status::default(),
                 converged: false,
                 work_capped: false,
+                by_floor: false,
             })
             .collect();
         let target = match self.cfg.budget {
@@ -536,9 +567,16 @@ impl Job<'_> {
                     } else {
                         rule_error(&self.cfg.budget, &status[c])
                     };
-                    ratio[c] = err / rel;
-                    if err <= rel {
+                    let floor = floor_ratio(
+                        &self.cfg.budget,
+                        self.opts.abs_floor,
+                        &status[c],
+                        runs[c].tally.photons,
+                    );
+                    ratio[c] = (err / rel).min(floor);
+                    if err <= rel || floor <= 1.0 {
                         runs[c].converged = true;
+                        runs[c].by_floor = err > rel;
                         active[c] = false;
                     } else if runs[c].tally.events >= self.opts.max_work {
                         runs[c].work_capped = true;
@@ -555,6 +593,22 @@ impl Job<'_> {
         }
         runs
     }
+}
+
+/// How far a channel is from the absolute floor of the kernel-factor rule
+/// (<= 1: reached; see `DEFAULT_ABS_FLOOR`) after `photons`; infinite for
+/// other rules or with the floor off.
+fn floor_ratio(budget: &PhotonBudget, floor: f64, s: &Status, photons: u64) -> f64 {
+    if !matches!(budget, PhotonBudget::KernelFactor { .. }) || !(floor > 0.0) {
+        return f64::INFINITY;
+    }
+    // Noise in the un-normalised kernel: R_d times the factor's relative
+    // error (nothing back counts as 0 here: the photon minimum covers it).
+    let shape = if s.rd > 0.0 { s.rd * s.rel_factor } else { 0.0 };
+    let noise = s.rd_stderr.max(shape) / floor;
+    // Written as an error ~ N^-1/2 so that round_len aims at it too.
+    let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
+    noise.max(minimum)
 }
 
 fn add_sums(mut a: Vec<Option<ExactTally>>, b: Vec<Option<ExactTally>>) -> Vec<Option<ExactTally>> {
@@ -650,6 +704,8 @@ fn statuses(
                 rel_profile,
                 r99,
                 rel_factor,
+                rd: t.rd.mean(t.photons),
+                rd_stderr: t.rd.stderr(t.photons),
             }
         })
         .collect();
@@ -785,7 +841,7 @@ fn build_profile(
              total R_d, each <= target_error, in every channel"
         }
     };
-    let budget = match cfg.budget {
+    let mut budget = match cfg.budget {
         PhotonBudget::Fixed(n) => json!({"rule": "fixed", "photons": n}),
         PhotonBudget::TargetError { rel, max_photons }
         | PhotonBudget::KernelFactor { rel, max_photons } => json!({
@@ -796,6 +852,14 @@ fn build_profile(
             "definition": definition,
         }),
     };
+    if matches!(cfg.budget, PhotonBudget::KernelFactor { .. }) {
+        budget["absolute_floor"] = json!({
+            "floor": opts.abs_floor,
+            "definition": "or: stderr of total R_d and R_d x relative L2 stderr of the kernel \
+                           factor, each <= floor (a fraction of the incident light), after at \
+                           least 3 / floor photons; 0 = off",
+        });
+    }
     let mut extra = json!({
         "energy_balance": balance,
         "rd_beyond_rmax": per(&|t| t.rd_beyond / t.photons as f64),
@@ -805,6 +869,7 @@ fn build_profile(
         "kernel_grid": geometry.map(|g| json!({"extent_mm": g.extent_mm, "size": g.size})),
         "r99_mm": per_run(&|s| s.r99),
         "converged": runs.iter().map(|r| r.converged).collect::<Vec<_>>(),
+        "stopped_by": runs.iter().map(|r| stop_reason(cfg, r)).collect::<Vec<_>>(),
         "events_per_photon": per(&|t| t.events as f64 / t.photons as f64),
         "truncated_photons": ts.iter().map(|t| t.truncated_photons).collect::<Vec<_>>(),
         "warnings": warnings,
@@ -846,6 +911,18 @@ fn build_profile(
         absorbed: Some(per(&|t| t.absorbed.mean(t.photons))),
         extra,
         elapsed_s,
+    }
+}
+
+/// Why a channel's run ended: "photons" (fixed budget or photon cap),
+/// "target", "absolute-floor" or "work-cap".
+fn stop_reason(cfg: &McConfig, r: &ChannelRun) -> &'static str {
+    match (&cfg.budget, r.converged) {
+        (PhotonBudget::Fixed(_), _) => "photons",
+        (_, true) if r.by_floor => "absolute-floor",
+        (_, true) => "target",
+        (_, false) if r.work_capped => "work-cap",
+        (_, false) => "photons",
     }
 }
 
@@ -1068,6 +1145,7 @@ pub fn merge_shards(parts: &[(String, Profile)]) -> Result<Profile> {
             status,
             converged: true,
             work_capped: false,
+            by_floor: false,
         })
         .collect();
     let elapsed: f64 = parts.iter().map(|(_, p)| p.elapsed_s).sum();

@@ -1,0 +1,211 @@
+//! The exact 2D reference: the image convolved with the full 2D kernel of
+//! the profile, M_e = E * R_d (Freude 2014, eq. 5.2), the ground truth the
+//! separable approximations are measured against in image space (Freude
+//! 2014, section 5.1, figure 5.6; table 6.4).
+//! Direct summation for small kernels, an FFT (rustfft) above
+//! [`FFT_ABOVE`]; borders clamped in both. Rayon over rows and columns, no
+//! cross-thread sums (deterministic).
+
+use super::{clamp_index, Image};
+use crate::error::{Error, Result};
+use crate::kernel::{Kernel2D, Kernel2DSpec};
+use crate::profile::Profile;
+use rayon::prelude::*;
+use rustfft::num_complex::Complex;
+
+/// The ground-truth 2D kernel of `profile` with cells the size of one pixel
+/// (`mm_per_pixel`), covering the radius that holds 99.9% of R_d.
+pub fn reference_kernel(profile: &Profile, mm_per_pixel: f64) -> Result<Kernel2D> {
+    super::check_mm_per_pixel(mm_per_pixel)?;
+    let radius = (0..profile.channels.len())
+        .map(|c| crate::kernel::kernel2d::radius_holding(profile, c, 0.999))
+        .fold(0.0, f64::max);
+    let half = (radius / mm_per_pixel).ceil().max(1.0) as usize;
+    let size = 2 * half + 1;
+    if size > crate::kernel::kernel2d::MAX_SIZE {
+        return Err(Error::invalid(
+            super::SCALE,
+            "mm_per_pixel",
+            mm_per_pixel,
+            format!(
+                "the exact reference kernel would be {size} pixels wide, at most {}: use a \
+                 coarser scale",
+                crate::kernel::kernel2d::MAX_SIZE
+            ),
+        ));
+    }
+    Kernel2D::from_profile(
+        profile,
+        &Kernel2DSpec {
+            size: Some(size),
+            extent_mm: Some(size as f64 * mm_per_pixel / 2.0),
+        },
+    )
+}
+
+/// Kernel sizes above this use the FFT.
+pub const FFT_ABOVE: usize = 21;
+
+/// Refuses an exact 2D convolution of a `width` x `height` image with a
+/// `size` x `size` kernel whose padded FFT grid exceeds
+/// [`crate::limits::MAX_FFT_CELLS`] (memory and minutes of work), before
+/// anything is allocated.
+pub fn check_reference_fits(width: usize, height: usize, size: usize) -> Result<()> {
+    let r = size / 2;
+    let cells = (width + 2 * r).saturating_mul(height + 2 * r);
+    if size > FFT_ABOVE && cells > crate::limits::MAX_FFT_CELLS {
+        return Err(Error::Unsupported(format!(
+            "the exact 2D reference of a {width}x{height} image with a {size}x{size} kernel \
+             needs an FFT grid of {cells} cells, above the cap of {} (3 GiB of buffers): use a \
+             coarser pixel scale or a smaller image",
+            crate::limits::MAX_FFT_CELLS
+        )));
+    }
+    Ok(())
+}
+
+/// Exact 2D convolution (clamped borders) with the kernel's cells taken as
+/// pixels: out(x, y) = sum K(i, j) I(x + i, y + j).
+pub fn convolve_2d(image: &Image, k: &Kernel2D) -> Image {
+    let mut out = Image::new(image.width, image.height);
+    out.alpha = image.alpha.clone();
+    if image.is_empty() {
+        return out;
+    }
+    for c in 0..3 {
+        out.rgb[c] = if k.size > FFT_ABOVE {
+            convolve_2d_fft(&image.rgb[c], image.width, image.height, &k.data[c], k.size)
+        } else {
+            convolve_2d_direct(&image.rgb[c], image.width, image.height, &k.data[c], k.size)
+        };
+    }
+    out
+}
+
+pub fn convolve_2d_direct(src: &[f64], w: usize, h: usize, k: &[f64], size: usize) -> Vec<f64> {
+    let r = (size / 2) as i64;
+    let mut out = vec![0.0; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, o)| {
+        for j in 0..size {
+            let sy = clamp_index(y as i64 + j as i64 - r, h);
+            let row = &src[sy * w..sy * w + w];
+            for i in 0..size {
+                let kv = k[j * size + i];
+                if kv == 0.0 {
+                    continue;
+                }
+                for (x, a) in o.iter_mut().enumerate() {
+                    *a += kv * row[clamp_index(x as i64 + i as i64 - r, w)];
+                }
+            }
+        }
+    });
+    out
+}
+
+/// Smallest n' >= n with no prime factor above 5 (fast FFT sizes).
+fn smooth_size(n: usize) -> usize {
+    let mut m = n.max(1);
+    loop {
+        let mut v = m;
+        for p in [2, 3, 5] {
+            while v.is_multiple_of(p) {
+                v /= p;
+            }
+        }
+        if v == 1 {
+            return m;
+        }
+        m += 1;
+    }
+}
+
+pub fn convolve_2d_fft(src: &[f64], w: usize, h: usize, k: &[f64], size: usize) -> Vec<f64> {
+    let r = size / 2;
+    let (pw, ph) = (w + 2 * r, h + 2 * r);
+    let (nx, ny) = (smooth_size(pw), smooth_size(ph));
+    let zero = Complex::new(0.0, 0.0);
+    // The image extended by clamping, zero beyond the padded extent.
+    let mut a = vec![zero; nx * ny];
+    a.par_chunks_mut(nx)
+        .enumerate()
+        .take(ph)
+        .for_each(|(y, row)| {
+            let sy = clamp_index(y as i64 - r as i64, h);
+            for (x, v) in row.iter_mut().enumerate().take(pw) {
+                *v = Complex::new(src[sy * w + clamp_index(x as i64 - r as i64, w)], 0.0);
+            }
+        });
+    // The kernel flipped (correlation), wrapped around the origin.
+    let mut b = vec![zero; nx * ny];
+    for j in 0..size {
+        for i in 0..size {
+            let (u, v) = (i as i64 - r as i64, j as i64 - r as i64);
+            let x = (-u).rem_euclid(nx as i64) as usize;
+            let y = (-v).rem_euclid(ny as i64) as usize;
+            b[y * nx + x] = Complex::new(k[j * size + i], 0.0);
+        }
+    }
+    let mut planner = rustfft::FftPlanner::<f64>::new();
+    let (fx, fy) = (planner.plan_fft_forward(nx), planner.plan_fft_forward(ny));
+    let (ix, iy) = (planner.plan_fft_inverse(nx), planner.plan_fft_inverse(ny));
+    fft_2d(&mut a, nx, ny, &*fx, &*fy);
+    fft_2d(&mut b, nx, ny, &*fx, &*fy);
+    a.par_iter_mut().zip(&b).for_each(|(x, y)| *x *= y);
+    fft_2d(&mut a, nx, ny, &*ix, &*iy);
+    let norm = 1.0 / (nx * ny) as f64;
+    let mut out = vec![0.0; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, o)| {
+        for (x, v) in o.iter_mut().enumerate() {
+            *v = a[(y + r) * nx + x + r].re * norm;
+        }
+    });
+    out
+}
+
+fn fft_2d(
+    data: &mut [Complex<f64>],
+    nx: usize,
+    ny: usize,
+    fx: &dyn rustfft::Fft<f64>,
+    fy: &dyn rustfft::Fft<f64>,
+) {
+    data.par_chunks_mut(nx).for_each(|row| fx.process(row));
+    let mut t = vec![Complex::new(0.0, 0.0); nx * ny];
+    transpose(data, &mut t, nx, ny);
+    t.par_chunks_mut(ny).for_each(|col| fy.process(col));
+    transpose(&t, data, ny, nx);
+}
+
+/// `dst[x * h + y] = src[y * w + x]` for a w x h `src`.
+fn transpose(src: &[Complex<f64>], dst: &mut [Complex<f64>], w: usize, h: usize) {
+    dst.par_chunks_mut(h).enumerate().for_each(|(x, col)| {
+        for (y, v) in col.iter_mut().enumerate() {
+            *v = src[y * w + x];
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::signals::noise;
+
+    #[test]
+    fn fft_equals_direct_convolution() {
+        let img = noise(37, 29, 12345);
+        let size = 25;
+        let k: Vec<f64> = (0..size * size)
+            .map(|i| {
+                let (x, y) = ((i % size) as f64 - 12.0, (i / size) as f64 - 12.0);
+                // Asymmetric on purpose: catches a flipped kernel.
+                (-(x * x + 0.5 * y * y) / 20.0).exp() * (1.0 + 0.1 * x)
+            })
+            .collect();
+        let a = convolve_2d_direct(&img.rgb[0], 37, 29, &k, size);
+        let b = convolve_2d_fft(&img.rgb[0], 37, 29, &k, size);
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() < 1e-11, "{x} {y}");
+        }
+    }
+}
