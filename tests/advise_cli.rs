@@ -3,31 +3,9 @@
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn ssskit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .args(args)
-        .output()
-        .expect("run ssskit")
-}
-
-/// Runs and returns (stdout, stderr); panics on failure.
-fn ok(args: &[&str]) -> (String, String) {
-    let o = ssskit(args);
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(o.status.success(), "ssskit {args:?} failed: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    (String::from_utf8_lossy(&o.stdout).into_owned(), err)
-}
-
-fn read(p: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{ok_both as ok, p as s, read_json as read, run as ssskit};
 
 fn pbd_profile(dir: &Path, material: &str) -> PathBuf {
     let p = dir.join(format!("{material}-pbd.json"));

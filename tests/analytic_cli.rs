@@ -2,7 +2,7 @@
 //! through the real binary: outputs, recorded parameters, error messages.
 
 mod common;
-use common::{read_json, run as ssskit, stderr};
+use common::{fails_with, read_json, run as ssskit, stderr};
 
 #[test]
 fn profile_writes_a_valid_analytic_profile_for_every_model() {
@@ -50,29 +50,32 @@ fn profile_writes_a_valid_analytic_profile_for_every_model() {
 fn profile_rejects_bad_input_with_a_clear_message_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("p.json");
-    let o = ssskit(&[
-        "profile",
-        "--material",
-        "marble",
-        "--model",
-        "dipole",
-        "--dr",
-        "-1",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    assert!(stderr(&o).contains("--dr"), "{}", stderr(&o));
-    let o = ssskit(&[
-        "profile",
-        "--material",
-        "marble",
-        "--model",
-        "nosuch",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
+    fails_with(
+        &[
+            "profile",
+            "--material",
+            "marble",
+            "--model",
+            "dipole",
+            "--dr",
+            "-1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &["--dr"],
+    );
+    fails_with(
+        &[
+            "profile",
+            "--material",
+            "marble",
+            "--model",
+            "nosuch",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &["nosuch", "possible values"],
+    );
     // Analytic models describe a half-space only, and eta = 3 is outside the
     // Fresnel fits: each material file is refused with a message naming why.
     let toml = dir.path().join("m.toml");
@@ -87,17 +90,18 @@ fn profile_rejects_bad_input_with_a_clear_message_and_writes_nothing() {
             ),
         )
         .unwrap();
-        let o = ssskit(&[
-            "profile",
-            "--material",
-            toml.to_str().unwrap(),
-            "--model",
-            "pbd",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        assert!(!o.status.success());
-        assert!(stderr(&o).contains(expected), "{}", stderr(&o));
+        fails_with(
+            &[
+                "profile",
+                "--material",
+                toml.to_str().unwrap(),
+                "--model",
+                "pbd",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            &[expected],
+        );
     }
     assert!(!out.exists());
 }
@@ -135,43 +139,46 @@ fn plot_profile_writes_a_png() {
     let rgb = img.to_rgb8();
     assert!(rgb.pixels().filter(|p| p.0 != [255, 255, 255]).count() > 10_000);
     // A missing file is an error naming it.
-    let o = ssskit(&[
-        "plot",
-        "profile",
-        "/nonexistent.json",
-        "--out",
-        png.to_str().unwrap(),
-    ]);
-    assert!(!o.status.success());
-    assert!(stderr(&o).contains("nonexistent.json"));
+    fails_with(
+        &[
+            "plot",
+            "profile",
+            "/nonexistent.json",
+            "--out",
+            png.to_str().unwrap(),
+        ],
+        &["nonexistent.json"],
+    );
 }
 
 #[test]
 fn compare_rejects_bad_flags() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().to_str().unwrap();
-    let o = ssskit(&[
-        "profiles",
-        "compare",
-        "--materials",
-        "nosuch",
-        "--out-dir",
-        d,
-    ]);
-    assert!(!o.status.success());
-    assert!(stderr(&o).contains("nosuch"));
-    let o = ssskit(&[
-        "profiles",
-        "compare",
-        "--materials",
-        "marble",
-        "--target-error",
-        "0",
-        "--out-dir",
-        d,
-    ]);
-    assert!(!o.status.success());
-    assert!(stderr(&o).contains("--target-error"), "{}", stderr(&o));
+    fails_with(
+        &[
+            "profiles",
+            "compare",
+            "--materials",
+            "nosuch",
+            "--out-dir",
+            d,
+        ],
+        &["nosuch"],
+    );
+    fails_with(
+        &[
+            "profiles",
+            "compare",
+            "--materials",
+            "marble",
+            "--target-error",
+            "0",
+            "--out-dir",
+            d,
+        ],
+        &["--target-error"],
+    );
 }
 
 #[test]

@@ -160,4 +160,5 @@ fn cli_writes_the_fit_and_a_plot_and_refuses_unknown_engines() {
     ]);
     assert_eq!(bad.status.code(), Some(2));
     assert!(stderr(&bad).contains("cryengine"));
+    assert!(stderr(&bad).contains("unreal, unity-hdrp, blender, godot, iryoku"));
 }

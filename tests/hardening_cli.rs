@@ -14,19 +14,31 @@ const MEMORY_LIMIT: &str = "--as=4000000000";
 const TIME_LIMIT: Duration = Duration::from_secs(20);
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
+mod common;
+
 fn command(args: &[&str]) -> Command {
-    let bin = env!("CARGO_BIN_EXE_ssskit");
     // prlimit is in util-linux (Debian, CI); without it the run is unbounded
     // in memory but still bounded in time.
     let mut c = if Path::new("/usr/bin/prlimit").exists() {
         let mut c = Command::new("/usr/bin/prlimit");
-        c.args([MEMORY_LIMIT, "--", bin]);
+        c.args([MEMORY_LIMIT, "--", common::BIN]);
         c
     } else {
-        Command::new(bin)
+        common::bin()
     };
     c.args(args).env("RUST_BACKTRACE", "1");
     c
+}
+
+/// Starts `ssskit args` in `dir`, bounded in memory, standard input closed.
+fn spawn_in(dir: &Path, args: &[&str], stdout: Stdio, stderr: Stdio) -> Child {
+    command(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(stdout)
+        .stderr(stderr)
+        .spawn()
+        .expect("spawn ssskit")
 }
 
 /// Waits for `child` at most `TIME_LIMIT`; a run past it is killed and fails
@@ -46,13 +58,7 @@ fn wait_bounded(mut child: Child, what: &str) -> Output {
 }
 
 fn run_in(dir: &Path, args: &[&str]) -> Output {
-    let child = command(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn ssskit");
+    let child = spawn_in(dir, args, Stdio::piped(), Stdio::piped());
     let out = wait_bounded(child, &format!("ssskit {args:?}"));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -65,28 +71,12 @@ fn run_in(dir: &Path, args: &[&str]) -> Output {
 }
 
 fn ok_in(dir: &Path, args: &[&str]) -> String {
-    let o = run_in(dir, args);
-    assert!(
-        o.status.success(),
-        "ssskit {args:?} failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    common::assert_ok(&run_in(dir, args), args).0
 }
 
 /// Runs, expects exit 2 and every needle in stderr; returns stderr.
 fn fails_in(dir: &Path, args: &[&str], needles: &[&str]) -> String {
-    let o = run_in(dir, args);
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "ssskit {args:?} should fail: {err}"
-    );
-    for n in needles {
-        assert!(err.contains(n), "ssskit {args:?}: '{err}' lacks '{n}'");
-    }
-    err
+    common::assert_fails(&run_in(dir, args), args, needles)
 }
 
 fn kernel() -> String {
@@ -285,17 +275,9 @@ fn simulate_refuses_a_work_cap_it_would_ignore() {
 
 /// Runs with standard output going to `stdout`: (exit code, stderr).
 fn run_to(dir: &Path, args: &[&str], stdout: Stdio) -> (Option<i32>, String) {
-    let child = command(args)
-        .current_dir(dir)
-        .stdout(stdout)
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = spawn_in(dir, args, stdout, Stdio::piped());
     let o = wait_bounded(child, &format!("ssskit {args:?}"));
-    (
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
+    (o.status.code(), common::stderr(&o))
 }
 
 // ---- 2. No panic on output ----------------------------------------------
@@ -586,6 +568,68 @@ fn profile_grid_messages_name_the_flags_given() {
     );
 }
 
+#[test]
+fn enumerated_flags_refuse_other_values_listing_theirs() {
+    let dir = tempfile::tempdir().unwrap();
+    dipole_profile(dir.path());
+    dirac(dir.path());
+    let k = kernel();
+    let fit = |extra: &[&'static str]| {
+        let mut v = vec!["fit", "--profile", "p.json", "--out", "k.json"];
+        v.extend_from_slice(extra);
+        v
+    };
+    for (args, values) in [
+        (
+            vec!["simulate", "--material", "skin1", "--boundary", "both"],
+            "classic, split",
+        ),
+        (
+            [&apply_dirac(&k, "0.1")[..], &["--png-bits", "12"]].concat(),
+            "8, 16",
+        ),
+        (
+            fit(&["--model", "svd", "--emit", "metal"]),
+            "hlsl, glsl, wgsl",
+        ),
+        (fit(&["--model", "manual", "--preset", "milk"]), "skin1"),
+        (
+            vec!["engine", "--profile", "p.json", "--engine", "cryengine"],
+            "unity-hdrp",
+        ),
+        (
+            vec![
+                "advise",
+                "--profile",
+                "p.json",
+                "--mm-per-pixel",
+                "0.1",
+                "--models",
+                "svd,foo",
+            ],
+            "svd, preintegrate, guided, manual, gaussians",
+        ),
+    ] {
+        fails_in(
+            dir.path(),
+            &args,
+            &["invalid value", "possible values", values],
+        );
+    }
+    // A preset of the other model is named as such.
+    fails_in(
+        dir.path(),
+        &fit(&["--model", "manual", "--preset", "deon-skin"]),
+        &["deon-skin", "gaussians"],
+    );
+    fails_in(
+        dir.path(),
+        &fit(&["--model", "gaussians", "--preset", "skin1"]),
+        &["skin1", "manual"],
+    );
+    assert!(!dir.path().join("k.json").exists());
+}
+
 // ---- 5. Debris -----------------------------------------------------------
 
 #[cfg(unix)]
@@ -594,19 +638,19 @@ fn a_signal_while_writing_leaves_no_temp_file() {
     let dir = tempfile::tempdir().unwrap();
     // An 8K EXR takes long enough to write that the temp file is seen.
     for _attempt in 0..5 {
-        let mut child = command(&[
-            "signal",
-            "shapes",
-            "--size",
-            "7680x4320",
-            "--out",
-            "big.exr",
-        ])
-        .current_dir(dir.path())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+        let mut child = spawn_in(
+            dir.path(),
+            &[
+                "signal",
+                "shapes",
+                "--size",
+                "7680x4320",
+                "--out",
+                "big.exr",
+            ],
+            Stdio::null(),
+            Stdio::null(),
+        );
         let start = Instant::now();
         while temp_files(dir.path()).is_empty() && start.elapsed() < TIME_LIMIT {
             if child.try_wait().unwrap().is_some() {
@@ -679,28 +723,28 @@ fn concurrent_runs_leave_json_and_csv_of_one_run() {
     let dir = tempfile::tempdir().unwrap();
     let children: Vec<Child> = (1..=4)
         .map(|seed| {
-            command(&[
-                "simulate",
-                "--material",
-                "skin1",
-                "--channels",
-                "r",
-                "--photons",
-                &(2000 * seed).to_string(),
-                "--seed",
-                &seed.to_string(),
-                "--out",
-                "o.json",
-                "--csv",
-                "o.csv",
-                "--threads",
-                "1",
-            ])
-            .current_dir(dir.path())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap()
+            spawn_in(
+                dir.path(),
+                &[
+                    "simulate",
+                    "--material",
+                    "skin1",
+                    "--channels",
+                    "r",
+                    "--photons",
+                    &(2000 * seed).to_string(),
+                    "--seed",
+                    &seed.to_string(),
+                    "--out",
+                    "o.json",
+                    "--csv",
+                    "o.csv",
+                    "--threads",
+                    "1",
+                ],
+                Stdio::null(),
+                Stdio::piped(),
+            )
         })
         .collect();
     for c in children {

@@ -299,7 +299,7 @@ fn bad_flags_give_clear_errors() {
             "--out",
             o,
         ],
-        &["--emit", "metal"],
+        &["--emit", "metal", "possible values: hlsl, glsl, wgsl"],
     );
     fails(
         &[

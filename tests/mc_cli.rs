@@ -253,7 +253,11 @@ fn invalid_flags_are_reported() {
         &s(&["--dr", "1", "--rmax", "0.5", "--photons", "10"]),
         &["rmax", "0.5"],
     );
-    fails_with(d, &s(&["--boundary", "maybe"]), &["--boundary", "maybe"]);
+    fails_with(
+        d,
+        &s(&["--boundary", "maybe"]),
+        &["--boundary", "maybe", "possible values: classic, split"],
+    );
     fails_with(
         d,
         &s(&["--max-events", "0", "--photons", "10"]),

@@ -4,12 +4,15 @@
 //! whatever adapter wgpu finds (lavapipe in CI); fails, never skips, when
 //! there is none.
 
-use ssskit::material::{parse_material_toml, preset, Channel, Material};
+use ssskit::material::{preset, Channel, Material};
 use ssskit::profile::mc::gpu::{philox4x32_10, GpuDispatch, McGpu};
 use ssskit::profile::mc::{simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget};
-use ssskit::profile::{Profile, RadialGrid};
+use ssskit::profile::Profile;
 use ssskit::progress::NoProgress;
 use std::sync::OnceLock;
+
+mod common;
+use common::mc::{self, cfg, material, within};
 
 /// One device for the whole file: opening lavapipe and compiling the shader
 /// costs about a second.
@@ -21,20 +24,6 @@ fn gpu() -> &'static McGpu {
         eprintln!("adapter: {}", g.describe());
         g
     })
-}
-
-fn material(toml: &str) -> Material {
-    parse_material_toml(toml, "test.toml", "test").expect("valid test material")
-}
-
-fn cfg(photons: u64, ch: Channel, grid: Option<RadialGrid>) -> McConfig {
-    McConfig {
-        budget: PhotonBudget::Fixed(photons),
-        seed: 2024,
-        threads: None,
-        channels: vec![ch],
-        grid,
-    }
 }
 
 fn run(m: &Material, c: &McConfig) -> Profile {
@@ -49,28 +38,13 @@ fn run(m: &Material, c: &McConfig) -> Profile {
     .expect("GPU simulation")
 }
 
-fn within(x: f64, truth: f64, sigma: f64, what: &str) {
-    assert!(sigma > 0.0, "{what}: zero standard error");
-    assert!(
-        (x - truth).abs() <= 4.0 * sigma,
-        "{what}: {x} vs {truth}, {:.2} sigma (sigma {sigma:.2e})",
-        (x - truth) / sigma
-    );
-}
-
 /// The energy balance closes to f32 rounding: each packet's absorbed weight
 /// is an f32 running sum over its events (relative rounding ~1e-7 per event,
 /// unbiased), and its tallies are rounded to 2^-24. Measured |sum - 1| stays
 /// below 1e-7 on these tests; 2e-6 leaves room without hiding a lost term
 /// (the smallest terms, roulette gain and loss, are ~1e-3).
 fn assert_balance(p: &Profile) {
-    for c in &p.channels {
-        let d = p.extra["energy_balance"][c.name()]["sum_minus_1"]
-            .as_f64()
-            .expect("balance recorded");
-        eprintln!("{} {}: balance - 1 = {d:.2e}", p.material.name, c.name());
-        assert!(d.abs() < 2e-6, "{}: energy balance off by {d}", c.name());
-    }
+    common::mc::assert_balance(p, 2e-6);
 }
 
 #[test]
@@ -97,21 +71,17 @@ fn philox_on_the_device_matches_the_reference() {
 
 #[test]
 fn van_de_hulst_slab() {
-    // n = 1, sigma_a = 1, sigma_s = 9 /mm, g = 0.75, d = 0.2 mm:
-    // adding-doubling R_d = 0.09739, T = 0.66096.
-    let m = material(
-        "unit = \"mm\"\nsigma_a = 1.0\nsigma_s = 9.0\ng = 0.75\neta = 1.0\nthickness = 0.2\n",
-    );
+    let m = material(mc::SLAB);
     let p = run(&m, &cfg(200_000, Channel::R, None));
     within(
         p.total_rd[0],
-        0.09739,
+        mc::SLAB_RD,
         p.total_rd_stderr.as_ref().unwrap()[0],
         "R_d",
     );
     within(
         p.transmittance.as_ref().unwrap()[0],
-        0.66096,
+        mc::SLAB_T,
         p.transmittance_stderr.as_ref().unwrap()[0],
         "T",
     );
@@ -122,12 +92,8 @@ fn van_de_hulst_slab() {
 
 #[test]
 fn semi_infinite_isotropic_albedo_09() {
-    // Exact (Chandrasekhar H-function) totals: n = 1 -> 0.41495;
-    // n = 1.5 under air -> 0.21993 with specular 0.04.
-    for (eta, truth, spec) in [(1.0, 0.41495, 0.0), (1.5, 0.21993, 0.04)] {
-        let m = material(&format!(
-            "unit = \"mm\"\nsigma_a = 0.1\nsigma_s = 0.9\neta = {eta}\n"
-        ));
+    for (eta, truth, spec) in mc::ALBEDO_09 {
+        let m = mc::albedo_09(eta);
         let p = run(&m, &cfg(100_000, Channel::G, None));
         let se = p.total_rd_stderr.as_ref().unwrap()[0];
         within(p.total_rd[0], truth, se, &format!("eta {eta} R_d"));

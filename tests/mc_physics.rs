@@ -3,7 +3,7 @@
 //! the simulator itself, plus the stated error of the reference where it is
 //! an approximation (dipole).
 
-use ssskit::material::{parse_material_toml, preset, Channel, Material};
+use ssskit::material::{preset, Channel};
 use ssskit::profile::analytic::{bin_averages, dipole::Dipole, gauss_legendre};
 use ssskit::profile::fresnel::FresnelMode;
 use ssskit::profile::mc::{
@@ -12,19 +12,8 @@ use ssskit::profile::mc::{
 use ssskit::profile::{Profile, RadialGrid};
 use ssskit::progress::NoProgress;
 
-fn material(toml: &str) -> Material {
-    parse_material_toml(toml, "test.toml", "test").expect("valid test material")
-}
-
-fn cfg(photons: u64, ch: Channel, grid: Option<RadialGrid>) -> McConfig {
-    McConfig {
-        budget: PhotonBudget::Fixed(photons),
-        seed: 2024,
-        threads: None,
-        channels: vec![ch],
-        grid,
-    }
-}
+mod common;
+use common::mc::{self, cfg, material, within};
 
 /// The three settings the benchmark compares: default (classic, roulette
 /// 0.01), MCML (classic, roulette 1e-4) and splitting (roulette 1e-4).
@@ -44,43 +33,22 @@ fn settings() -> [(&'static str, McOptions); 3] {
     ]
 }
 
-/// specular + R_d + T + absorbed + roulette/truncation residual = 1.
+/// specular + R_d + T + absorbed + roulette/truncation residual = 1: the
+/// f64 tallies close it to rounding.
 fn assert_balance(p: &Profile) {
-    for c in &p.channels {
-        let b = &p.extra["energy_balance"][c.name()];
-        let d = b["sum_minus_1"].as_f64().expect("balance recorded");
-        assert!(
-            d.abs() < 1e-9,
-            "{} {}: energy balance off by {d}",
-            p.material.name,
-            c.name()
-        );
-    }
-}
-
-fn within(x: f64, truth: f64, sigma: f64, what: &str) {
-    assert!(sigma > 0.0, "{what}: zero standard error");
-    assert!(
-        (x - truth).abs() <= 4.0 * sigma,
-        "{what}: {x} vs {truth}, {:.2} sigma (sigma {sigma:.2e})",
-        (x - truth) / sigma
-    );
+    common::mc::assert_balance(p, 1e-9);
 }
 
 #[test]
 fn van_de_hulst_slab_all_settings() {
-    // n = 1, sigma_a = 1, sigma_s = 9 /mm, g = 0.75, d = 0.2 mm:
-    // adding-doubling R_d = 0.09739, T = 0.66096 (van de Hulst 1980).
-    let m = material(
-        "unit = \"mm\"\nsigma_a = 1.0\nsigma_s = 9.0\ng = 0.75\neta = 1.0\nthickness = 0.2\n",
-    );
+    let m = material(mc::SLAB);
     for (mode, o) in settings() {
         let p = simulate_with(&m, &cfg(400_000, Channel::R, None), &o, &NoProgress).unwrap();
         let se = p.total_rd_stderr.as_ref().unwrap()[0];
-        within(p.total_rd[0], 0.09739, se, &format!("{mode:?} R_d"));
+        within(p.total_rd[0], mc::SLAB_RD, se, &format!("{mode:?} R_d"));
         let t = p.transmittance.as_ref().unwrap()[0];
         let te = p.transmittance_stderr.as_ref().unwrap()[0];
-        within(t, 0.66096, te, &format!("{mode:?} T"));
+        within(t, mc::SLAB_T, te, &format!("{mode:?} T"));
         assert_eq!(p.specular[0], 0.0);
         assert_balance(&p);
     }
@@ -88,12 +56,8 @@ fn van_de_hulst_slab_all_settings() {
 
 #[test]
 fn semi_infinite_isotropic_albedo_09() {
-    // Exact (Chandrasekhar H-function) totals: n = 1 -> 0.41495;
-    // n = 1.5 under air -> 0.21993 with specular 0.04.
-    for (eta, truth, spec) in [(1.0, 0.41495, 0.0), (1.5, 0.21993, 0.04)] {
-        let m = material(&format!(
-            "unit = \"mm\"\nsigma_a = 0.1\nsigma_s = 0.9\neta = {eta}\n"
-        ));
+    for (eta, truth, spec) in mc::ALBEDO_09 {
+        let m = mc::albedo_09(eta);
         for (mode, o) in settings() {
             let p = simulate_with(&m, &cfg(200_000, Channel::G, None), &o, &NoProgress).unwrap();
             let se = p.total_rd_stderr.as_ref().unwrap()[0];
@@ -411,7 +375,7 @@ fn extremes_terminate_and_report() {
         assert!(t0.elapsed().as_secs_f64() < 60.0, "{name} too slow");
         assert_balance(&p);
         p.validate(name).unwrap();
-        let warnings = p.extra["warnings"].to_string();
+        let warnings = p.warnings().unwrap().join("\n");
         match *name {
             "albedo 1" => {
                 // Nothing is absorbed or truncated: the event-count roulette
@@ -429,7 +393,7 @@ fn extremes_terminate_and_report() {
                     simulate_with(&m, &cfg(8192, Channel::R, None), &capped, &NoProgress).unwrap();
                 assert_balance(&p);
                 assert!(p.extra["truncated_photons"][0].as_u64().unwrap() > 0);
-                assert!(p.extra["warnings"].to_string().contains("truncated"));
+                assert!(p.warnings().unwrap().join("\n").contains("truncated"));
             }
             "no scattering" => {
                 assert_eq!(p.total_rd[0], 0.0);
@@ -499,7 +463,7 @@ fn target_error_is_met_or_reported() {
     let p = simulate(&m, &c, &NoProgress).unwrap();
     assert_eq!(p.source.photons.as_ref().unwrap()[0], 10_000);
     assert_eq!(p.extra["converged"][0], false);
-    assert!(p.extra["warnings"].to_string().contains("not reached"));
+    assert!(p.warnings().unwrap().join("\n").contains("not reached"));
 }
 
 #[test]

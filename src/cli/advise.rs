@@ -8,6 +8,16 @@ use ssskit::report::advise::{self, ViewScale, DEFAULT_TARGET};
 use ssskit::report::kernel_report::sig;
 use std::path::PathBuf;
 
+/// The model families advise can try (`advise::FAMILIES`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum Family {
+    Svd,
+    Preintegrate,
+    Guided,
+    Manual,
+    Gaussians,
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
@@ -34,10 +44,9 @@ pub struct Args {
     /// Side of the square test signals, pixels.
     #[arg(long, default_value_t = 128)]
     size: usize,
-    /// Model families to try, comma-separated (svd, preintegrate, guided,
-    /// manual, gaussians); default all of them.
-    #[arg(long, value_delimiter = ',')]
-    models: Vec<String>,
+    /// Model families to try, comma-separated; default all of them.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    models: Vec<Family>,
     /// Print the answer as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -83,15 +92,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut cfg = advise::Config::new(mm, a.target_error);
     cfg.size = a.size;
     if !a.models.is_empty() {
-        for m in &a.models {
-            if !advise::FAMILIES.contains(&m.as_str()) {
-                bail!(
-                    "--models: unknown model '{m}' (known: {})",
-                    advise::FAMILIES.join(", ")
-                );
-            }
-        }
-        cfg.families = a.models.clone();
+        cfg.families = a.models.iter().map(super::flag_value).collect();
     }
     let advice = advise::advise(&profile, &cfg, &super::progress::Bar::new())?;
     if let Some(out) = &a.out {

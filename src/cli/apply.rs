@@ -36,6 +36,24 @@ impl From<Precision> for cpu::Precision {
     }
 }
 
+/// Bits per sample of a PNG output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PngBits {
+    #[value(name = "8")]
+    Eight,
+    #[value(name = "16")]
+    Sixteen,
+}
+
+impl From<PngBits> for PngDepth {
+    fn from(b: PngBits) -> PngDepth {
+        match b {
+            PngBits::Eight => PngDepth::Eight,
+            PngBits::Sixteen => PngDepth::Sixteen,
+        }
+    }
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Kernel file (ssskit.kernel/1).
@@ -105,8 +123,8 @@ pub struct Args {
     #[arg(long)]
     sanitize: bool,
     /// PNG output bit depth (default: the input PNG's, else 8).
-    #[arg(long, value_parser = ["8", "16"])]
-    png_bits: Option<String>,
+    #[arg(long, value_enum)]
+    png_bits: Option<PngBits>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -130,9 +148,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     scale.validate()?;
 
-    let png_depth = match args.png_bits.as_deref() {
-        Some("16") => PngDepth::Sixteen,
-        Some(_) => PngDepth::Eight,
+    let png_depth = match args.png_bits {
+        Some(bits) => bits.into(),
         None if !is_exr(&args.input) => png_depth_of(&args.input)?,
         None => PngDepth::Eight,
     };

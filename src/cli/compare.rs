@@ -2,6 +2,7 @@
 //! image space; report.md, compare.csv, compare.json, the fitted kernels
 //! and plots.
 
+use super::fit::ModelArg;
 use super::out::out;
 use super::progress::Bar;
 use anyhow::{bail, Context};
@@ -26,6 +27,20 @@ pub enum ProfileModelArg {
     DirectionalDipole,
 }
 
+/// `--models`: a kernel model as `fit --model` spells it
+/// (`kernel_compare::FAMILIES`), or "all" (None).
+fn model_or_all() -> impl clap::builder::TypedValueParser<Value = Option<ModelArg>> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let all = PossibleValue::new("all");
+    let models = ModelArg::value_variants()
+        .iter()
+        .filter_map(ValueEnum::to_possible_value)
+        // Their help names `fit`'s flags.
+        .map(|v| v.help(None::<&'static str>));
+    PossibleValuesParser::new(std::iter::once(all).chain(models))
+        .map(|s| ModelArg::from_str(&s, false).ok())
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Comma-separated material names, or "all" (every profile in
@@ -44,10 +59,9 @@ pub struct Args {
     /// Seed for --profile-model mc.
     #[arg(long, default_value_t = 20260101)]
     seed: u64,
-    /// Comma-separated models as `fit --model` spells them, or "all":
-    /// svd, preintegrate, guided, manual, gaussians, jimenez.
-    #[arg(long, default_value = "all")]
-    models: String,
+    /// Comma-separated kernel models, or all.
+    #[arg(long, value_parser = model_or_all(), value_delimiter = ',', default_value = "all")]
+    models: Vec<Option<ModelArg>>,
     /// Comma-separated test signals: edge, shapes, checker, dirac; "" for
     /// kernel space only.
     #[arg(long, default_value = "edge,shapes")]
@@ -157,8 +171,15 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
         .into_iter()
         .map(|n| {
             let m = Material::load(&n)?;
-            let profile = match model {
-                ProfileModelArg::Mc => {
+            let analytic_model = match model {
+                ProfileModelArg::Mc => None,
+                ProfileModelArg::Pbd => Some(ProfileModel::Pbd),
+                ProfileModelArg::Dipole => Some(ProfileModel::Dipole),
+                ProfileModelArg::Burley => Some(ProfileModel::Burley),
+                ProfileModelArg::DirectionalDipole => Some(ProfileModel::DirectionalDipole),
+            };
+            let profile = match analytic_model {
+                None => {
                     if a.photons == 0 {
                         bail!("--photons: invalid value 0: must be > 0");
                     }
@@ -171,13 +192,7 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
                     };
                     simulate(&m, &cfg, &Bar::new())?
                 }
-                other => {
-                    let pm = match other {
-                        ProfileModelArg::Pbd => ProfileModel::Pbd,
-                        ProfileModelArg::Dipole => ProfileModel::Dipole,
-                        ProfileModelArg::Burley => ProfileModel::Burley,
-                        _ => ProfileModel::DirectionalDipole,
-                    };
+                Some(pm) => {
                     let grid = analytic::default_grid(&m, &channels)?;
                     let opts = ProfileOptions {
                         fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
@@ -195,22 +210,13 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let families = if a.models.trim() == "all" {
-        kernel_compare::FAMILIES
+    let families: Vec<String> = match a.models.iter().copied().collect::<Option<Vec<_>>>() {
+        Some(models) => models.iter().map(super::flag_value).collect(),
+        None => kernel_compare::FAMILIES
             .iter()
             .map(|s| s.to_string())
-            .collect()
-    } else {
-        list(&a.models)
+            .collect(),
     };
-    for f in &families {
-        if !kernel_compare::FAMILIES.contains(&f.as_str()) {
-            bail!(
-                "--models: unknown model '{f}' (known: {}, all)",
-                kernel_compare::FAMILIES.join(", ")
-            );
-        }
-    }
     let ranks = parse_ranks(&a.ranks).context("--ranks")?;
     let taps = parse_taps(&a.taps)?;
     if !(a.mm_per_pixel.is_finite() && a.mm_per_pixel > 0.0) {

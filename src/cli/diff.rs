@@ -37,9 +37,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     if let Some(s) = args.scale {
-        if !(s > 0.0 && s.is_finite()) {
-            anyhow::bail!("--scale = {s}: must be finite and > 0");
-        }
+        super::errors::positive("--scale", s)?;
     }
     let stats = compare(&a, &b)?;
     if args.json {

@@ -7,14 +7,40 @@ use ssskit::profile::Profile;
 use ssskit::report::plot;
 use std::path::PathBuf;
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum EngineArg {
+    /// Unreal Engine's Subsurface Profile (Burley).
+    Unreal,
+    /// Unity HDRP's Diffusion Profile (Burley normalized diffusion).
+    UnityHdrp,
+    /// Blender's Principled BSDF, Christensen-Burley subsurface.
+    Blender,
+    /// Godot's screen-space subsurface scattering (one width).
+    Godot,
+    /// Jimenez's separable SSS (strength and falloff per channel).
+    Iryoku,
+}
+
+impl From<EngineArg> for Engine {
+    fn from(e: EngineArg) -> Engine {
+        match e {
+            EngineArg::Unreal => Engine::Unreal,
+            EngineArg::UnityHdrp => Engine::UnityHdrp,
+            EngineArg::Blender => Engine::Blender,
+            EngineArg::Godot => Engine::Godot,
+            EngineArg::Iryoku => Engine::Iryoku,
+        }
+    }
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Reflectance profile (ssskit.profile/1 JSON) with r, g, b channels.
     #[arg(long, value_name = "FILE.json")]
     profile: PathBuf,
-    /// unreal, unity-hdrp, blender, godot or iryoku.
-    #[arg(long)]
-    engine: String,
+    /// The engine whose model is fitted.
+    #[arg(long, value_enum, ignore_case = true)]
+    engine: EngineArg,
     /// Write {"engine", "params", "units", "error"} as JSON.
     #[arg(long, value_name = "FILE.json")]
     out: Option<PathBuf>,
@@ -27,7 +53,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let e: Engine = a.engine.parse()?;
+    let e = Engine::from(a.engine);
     let profile = Profile::read(&a.profile)?;
     let scene = Scene {
         units_per_mm: a.units_per_mm,

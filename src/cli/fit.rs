@@ -34,6 +34,41 @@ pub enum MethodArg {
     Grid,
 }
 
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum LangArg {
+    Hlsl,
+    Glsl,
+    Wgsl,
+}
+
+impl From<LangArg> for Lang {
+    fn from(l: LangArg) -> Lang {
+        match l {
+            LangArg::Hlsl => Lang::Hlsl,
+            LangArg::Glsl => Lang::Glsl,
+            LangArg::Wgsl => Lang::Wgsl,
+        }
+    }
+}
+
+/// Named parameter sets: the manual model's (Freude 2014, table A.1) and
+/// the Gaussians model's (d'Eon et al. 2007).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PresetArg {
+    /// manual (Freude 2014, table A.1).
+    Apple,
+    /// manual (Freude 2014, table A.1).
+    Ketchup,
+    /// manual (Freude 2014, table A.1).
+    Marble,
+    /// manual (Freude 2014, table A.1).
+    Skin1,
+    /// manual (Freude 2014, table A.1).
+    Wholemilk,
+    /// gaussians: d'Eon et al. 2007's six-Gaussian skin.
+    DeonSkin,
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Reflectance profile (ssskit.profile/1 JSON).
@@ -62,8 +97,8 @@ pub struct Args {
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     tap_extent: Option<f64>,
     /// Print the tap table as a shader constant array.
-    #[arg(long, value_name = "hlsl|glsl|wgsl")]
-    emit: Option<String>,
+    #[arg(long, value_enum, value_name = "LANG", ignore_case = true)]
+    emit: Option<LangArg>,
     #[command(flatten)]
     opts: Box<ModelOpts>,
     /// Do not print the summary.
@@ -96,15 +131,14 @@ pub struct ModelOpts {
     #[arg(long, allow_negative_numbers = true)]
     w: Option<f64>,
     /// manual: sqrt(tau_n) per channel in mm, "R,G,B".
-    #[arg(long, value_name = "R,G,B")]
-    near: Option<String>,
+    #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+    near: Option<[f64; 3]>,
     /// manual: sqrt(tau_f) per channel in mm, "R,G,B".
-    #[arg(long, value_name = "R,G,B")]
-    far: Option<String>,
-    /// manual: table A.1 preset (apple, ketchup, marble, skin1, wholemilk);
-    /// gaussians: deon-skin.
-    #[arg(long)]
-    preset: Option<String>,
+    #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+    far: Option<[f64; 3]>,
+    /// manual or gaussians: a published parameter set.
+    #[arg(long, value_enum, ignore_case = true)]
+    preset: Option<PresetArg>,
     /// manual: find w, tau_n, tau_f by least squares in kernel space.
     #[arg(long)]
     fit: bool,
@@ -115,25 +149,23 @@ pub struct ModelOpts {
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     width: f64,
     /// jimenez: strength t per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28")]
-    strength: String,
+    #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28", value_parser = rgb)]
+    strength: [f64; 3],
     /// jimenez: falloff f per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "1.0,0.37,0.3")]
-    falloff: String,
+    #[arg(long, value_name = "R,G,B", default_value = "1.0,0.37,0.3", value_parser = rgb)]
+    falloff: [f64; 3],
 }
 
-fn triple(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+/// "R,G,B": three numbers, one per channel.
+fn rgb(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = s
         .split(',')
         .map(|t| t.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .with_context(|| format!("{flag}: '{s}' is not three numbers R,G,B"))?;
+        .map_err(|e| format!("not three numbers R,G,B ({e})"))?;
     match v.as_slice() {
         [r, g, b] => Ok([*r, *g, *b]),
-        _ => bail!(
-            "{flag}: '{s}' has {} values, expected three (R,G,B)",
-            v.len()
-        ),
+        _ => Err(format!("{} values, expected three (R,G,B)", v.len())),
     }
 }
 
@@ -156,17 +188,20 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
         }),
         ModelArg::Manual => {
             let explicit = a.opts.w.is_some() || a.opts.near.is_some() || a.opts.far.is_some();
-            match (&a.opts.preset, a.opts.fit, explicit) {
-                (Some(p), false, false) => Model::ManualPreset(p.clone()),
+            match (a.opts.preset, a.opts.fit, explicit) {
+                (Some(PresetArg::DeonSkin), _, _) => {
+                    bail!("manual: --preset deon-skin is a preset of --model gaussians")
+                }
+                (Some(p), false, false) => Model::ManualPreset(super::flag_value(&p)),
                 (None, true, false) => Model::ManualFit,
                 (None, false, true) => {
-                    let (Some(w), Some(n), Some(f)) = (a.opts.w, &a.opts.near, &a.opts.far) else {
+                    let (Some(w), Some(n), Some(f)) = (a.opts.w, a.opts.near, a.opts.far) else {
                         bail!("manual: give all of --w, --near and --far (or --preset / --fit)");
                     };
                     Model::Manual(ManualParams {
                         w,
-                        sqrt_tau_near: triple("--near", n)?,
-                        sqrt_tau_far: triple("--far", f)?,
+                        sqrt_tau_near: n,
+                        sqrt_tau_far: f,
                     })
                 }
                 _ => bail!(
@@ -174,23 +209,26 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
                 ),
             }
         }
-        ModelArg::Gaussians => match a.opts.preset.as_deref() {
+        ModelArg::Gaussians => match a.opts.preset {
             None => Model::Gaussians {
                 count: a.opts.count,
             },
-            Some(p) if p.eq_ignore_ascii_case("deon-skin") => Model::DeonSkin,
-            Some(p) => bail!("gaussians: unknown --preset '{p}' (known: deon-skin)"),
+            Some(PresetArg::DeonSkin) => Model::DeonSkin,
+            Some(p) => bail!(
+                "gaussians: --preset {} is a preset of --model manual (gaussians has deon-skin)",
+                super::flag_value(&p)
+            ),
         },
         ModelArg::Jimenez => Model::Jimenez(JimenezParams {
             width: a.opts.width,
-            strength: triple("--strength", &a.opts.strength)?,
-            falloff: triple("--falloff", &a.opts.falloff)?,
+            strength: a.opts.strength,
+            falloff: a.opts.falloff,
         }),
     })
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let lang: Option<Lang> = a.emit.as_deref().map(str::parse).transpose()?;
+    let lang = a.emit.map(Lang::from);
     let kernel = if let Some(path) = &a.kernel {
         KernelFile::read(path)?
     } else {
@@ -242,4 +280,17 @@ fn summary(k: &KernelFile) {
         f(m.asymmetry),
         m.fit_seconds
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_manual_preset_flag_value_names_a_library_preset() {
+        for p in PresetArg::value_variants() {
+            let known = ssskit::kernel::manual::preset(&crate::cli::flag_value(p)).is_ok();
+            assert_eq!(known, *p != PresetArg::DeonSkin, "{p:?}");
+        }
+    }
 }

@@ -2,76 +2,47 @@
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
 use super::out::out;
-use super::profile_source::{command_line, ProfileArgs, ProfileModelArg};
-use anyhow::bail;
+use super::profile_source::{command_line, ProfileArgs, ProfileModelArg, ReportArgs};
 use ssskit::report::advise::DEFAULT_TARGET;
 use ssskit::report::pipeline::{self, Settings};
-use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
     profile: ProfileArgs,
-    /// Surface millimetres per pixel the recommendation and the image-space
-    /// errors are for.
-    #[arg(long, default_value_t = 0.1)]
-    mm_per_pixel: f64,
+    #[command(flatten)]
+    report: ReportArgs,
     /// Taps per pass of the stored tables (odd).
     #[arg(long, default_value_t = 17)]
     taps: usize,
     /// Target relative RMS of the recommendation (0.02 = 2%).
     #[arg(long, default_value_t = DEFAULT_TARGET)]
     target_error: f64,
-    /// Side of the square test signals, pixels.
-    #[arg(long, default_value_t = 128)]
-    size: usize,
-    /// Skip the PNG plots.
-    #[arg(long)]
-    no_plots: bool,
-    /// Output folder (created).
-    #[arg(long)]
-    out: PathBuf,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    if !(a.mm_per_pixel > 0.0 && a.mm_per_pixel.is_finite()) {
-        bail!(
-            "--mm-per-pixel: invalid value {}: must be finite and > 0",
-            a.mm_per_pixel
-        );
-    }
-    if a.taps == 0 || a.taps.is_multiple_of(2) || a.taps > 255 {
-        bail!(
-            "--taps: invalid value {}: must be odd, between 1 and 255",
-            a.taps
-        );
-    }
-    if !(8..=1024).contains(&a.size) {
-        bail!(
-            "--size: invalid value {}: must be between 8 and 1024",
-            a.size
-        );
-    }
+    a.report.check()?;
+    ssskit::kernel::taps::check_count(a.taps)?;
     let t0 = std::time::Instant::now();
     let (profile, source) = a.profile.load(ProfileModelArg::Mc)?;
     eprintln!("{}: profile {source}", profile.material.name);
     let settings = Settings {
-        mm_per_pixel: a.mm_per_pixel,
+        mm_per_pixel: a.report.mm_per_pixel,
         taps: a.taps,
         target: a.target_error,
-        size: a.size,
-        plots: !a.no_plots,
+        size: a.report.size,
+        plots: !a.report.no_plots,
     };
     let outcome = pipeline::run(
         &profile,
         &settings,
-        &a.out,
-        &command_line(&a.out),
+        &a.report.out,
+        &command_line(&a.report.out),
         &super::progress::Bar::new(),
     )?;
     out!(
         "{}",
-        pipeline::summary(&outcome, &settings, &source, &a.out)
+        pipeline::summary(&outcome, &settings, &source, &a.report.out)
     )?;
     eprintln!(
         "{} files in {:.1} s",

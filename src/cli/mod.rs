@@ -72,6 +72,13 @@ enum Command {
     Compare(compare::Args),
 }
 
+/// How a value of an enumerated flag is spelled on the command line.
+fn flag_value<T: clap::ValueEnum>(v: &T) -> String {
+    v.to_possible_value()
+        .map(|p| p.get_name().to_string())
+        .unwrap_or_default()
+}
+
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
 pub fn main() -> i32 {
     out::install_panic_hook();
@@ -120,5 +127,28 @@ pub fn main() -> i32 {
                 2
             }
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ssskit::engine::Engine;
+    use ssskit::report::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
+
+    fn names<T: clap::ValueEnum>() -> Vec<String> {
+        T::value_variants().iter().map(flag_value).collect()
+    }
+
+    /// Enumerated flags whose values the library also spells: the same names.
+    #[test]
+    fn flag_values_are_the_library_names() {
+        assert_eq!(names::<advise::Family>(), ADVISE);
+        assert_eq!(names::<fit::ModelArg>(), COMPARE);
+        let engines: Vec<&str> = Engine::ALL.iter().map(|e| e.name()).collect();
+        assert_eq!(names::<engine::EngineArg>(), engines);
+        for &e in <engine::EngineArg as clap::ValueEnum>::value_variants() {
+            assert_eq!(Engine::from(e).name(), flag_value(&e));
+        }
     }
 }

@@ -5,7 +5,7 @@ use clap::ValueEnum;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::fresnel::FresnelMode;
-use ssskit::profile::{GridSpec, RadialGrid};
+use ssskit::profile::GridSpec;
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -77,7 +77,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ssskit::io::check_extension(&args.out, &["json"], "profile")?;
     let material = Material::load(&args.material)?;
     let channels = Channel::parse_list(&args.channels)?;
-    let grid = grid_from_flags(&material, &channels, args.dr, args.rmax)?;
+    let spec = GridSpec {
+        dr: args.dr,
+        r_max: args.rmax,
+        log_bins: false,
+    };
+    let grid = spec.grid(&material, &channels)?;
     let options = Options {
         fresnel: args.fresnel.into(),
         channels,
@@ -102,20 +107,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.out.display()
     );
     Ok(())
-}
-
-/// The radial grid from --dr/--rmax, each defaulting to the 002 rule.
-pub fn grid_from_flags(
-    material: &Material,
-    channels: &[Channel],
-    dr: Option<f64>,
-    rmax: Option<f64>,
-) -> anyhow::Result<RadialGrid> {
-    material.validate(&format!("material '{}'", material.name))?;
-    let spec = GridSpec {
-        dr,
-        r_max: rmax,
-        log_bins: false,
-    };
-    Ok(spec.grid(material, channels)?)
 }

@@ -1,6 +1,8 @@
 //! Flags shared by the commands that make their own profile (advise,
-//! kernels, study): where the profile comes from.
+//! kernels, study): where the profile comes from, and the test images
+//! kernels and study measure on and where their report goes.
 
+use super::errors::{between, invalid, positive};
 use clap::ValueEnum;
 use ssskit::profile::analytic::Model as AnalyticModel;
 use ssskit::profile::Profile;
@@ -39,18 +41,41 @@ pub struct ProfileArgs {
     pub seed: u64,
 }
 
+/// What kernels and study measure on and where their report goes.
+#[derive(clap::Args)]
+pub struct ReportArgs {
+    /// Surface millimetres per pixel of the test images: the scale the
+    /// image-space errors (and a recommendation) are for.
+    #[arg(long, default_value_t = 0.1)]
+    pub mm_per_pixel: f64,
+    /// Side of the square test signals, pixels.
+    #[arg(long, default_value_t = 128)]
+    pub size: usize,
+    /// Skip the PNG plots.
+    #[arg(long)]
+    pub no_plots: bool,
+    /// Output folder (created).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+impl ReportArgs {
+    pub fn check(&self) -> anyhow::Result<()> {
+        positive("--mm-per-pixel", self.mm_per_pixel)?;
+        between("--size", self.size, 8, 1024)?;
+        Ok(())
+    }
+}
+
 impl ProfileArgs {
     pub fn source(&self, default: ProfileModelArg) -> anyhow::Result<ProfileSource> {
         Ok(match self.profile_model.unwrap_or(default) {
             ProfileModelArg::Mc => {
                 if !(self.mc_error > 0.0 && self.mc_error < 1.0) {
-                    anyhow::bail!(
-                        "--mc-error: invalid value {}: must be in (0, 1)",
-                        self.mc_error
-                    );
+                    return Err(invalid("--mc-error", self.mc_error, "must be in (0, 1)"));
                 }
                 if self.mc_photons == 0 {
-                    anyhow::bail!("--mc-photons: invalid value 0: must be > 0");
+                    return Err(invalid("--mc-photons", 0, "must be > 0"));
                 }
                 ProfileSource::MonteCarlo {
                     rel_error: self.mc_error,

@@ -1,5 +1,6 @@
 //! `ssskit signal`: test images for kernels in image space.
 
+use super::errors::positive;
 use ssskit::filter::image::{write_image, PngDepth};
 use ssskit::filter::signals::{generate, Signal};
 use std::path::PathBuf;
@@ -21,8 +22,8 @@ pub struct Args {
     #[arg(value_enum)]
     kind: Kind,
     /// Image size, e.g. 512x256.
-    #[arg(long, default_value = "256x256")]
-    size: String,
+    #[arg(long, value_name = "WxH", default_value = "256x256", value_parser = parse_size)]
+    size: (usize, usize),
     /// Surface millimetres per pixel (sets the checker cell in pixels).
     #[arg(long, default_value_t = 0.1)]
     mm_per_pixel: f64,
@@ -35,17 +36,10 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let (w, h) = parse_size(&args.size)?;
-    if !(args.mm_per_pixel > 0.0 && args.mm_per_pixel.is_finite()) {
-        anyhow::bail!(
-            "--mm-per-pixel = {}: must be finite and > 0",
-            args.mm_per_pixel
-        );
-    }
-    if !(args.checker_mm > 0.0 && args.checker_mm.is_finite()) {
-        anyhow::bail!("--checker-mm = {}: must be finite and > 0", args.checker_mm);
-    }
-    let cell = (args.checker_mm / args.mm_per_pixel).round().max(1.0) as usize;
+    let (w, h) = args.size;
+    let mm_per_pixel = positive("--mm-per-pixel", args.mm_per_pixel)?;
+    let checker_mm = positive("--checker-mm", args.checker_mm)?;
+    let cell = (checker_mm / mm_per_pixel).round().max(1.0) as usize;
     let signal = match args.kind {
         Kind::Edge => Signal::Edge,
         Kind::Shapes => Signal::Shapes,
@@ -58,8 +52,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
-    let bad = || anyhow::anyhow!("--size = '{s}': expected WIDTHxHEIGHT, e.g. 512x256");
+/// "WIDTHxHEIGHT".
+fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let bad = || "expected WIDTHxHEIGHT, e.g. 512x256".to_string();
     let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     Ok((
         a.trim().parse().map_err(|_| bad())?,

@@ -6,8 +6,10 @@ use super::progress::Bar;
 use anyhow::Context;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::mc::gpu::McGpu;
-use ssskit::profile::mc::{self, mci, BoundaryMode, McConfig, McOptions, PhotonBudget, Shard};
-use ssskit::profile::{Profile, RadialGrid};
+use ssskit::profile::mc::{
+    self, mci, BoundaryMode, EnergyBalance, McConfig, McOptions, PhotonBudget, Shard,
+};
+use ssskit::profile::{GridSpec, Profile};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -19,6 +21,23 @@ enum McBackend {
     Cpu,
     Gpu,
     Auto,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum BoundaryArg {
+    /// MCML's all-or-none random choice (the more efficient, see docs/mc.md).
+    Classic,
+    /// Score (1-R) w, keep R w.
+    Split,
+}
+
+impl From<BoundaryArg> for BoundaryMode {
+    fn from(b: BoundaryArg) -> BoundaryMode {
+        match b {
+            BoundaryArg::Classic => BoundaryMode::Classic,
+            BoundaryArg::Split => BoundaryMode::Split,
+        }
+    }
 }
 
 /// Boxed so that the subcommand enum stays small.
@@ -90,10 +109,9 @@ struct Flags {
     /// Geometric bins: width dr at the centre growing out to rmax.
     #[arg(long)]
     log_bins: bool,
-    /// Boundary treatment: classic (MCML's all-or-none random choice; the
-    /// more efficient, see docs/mc.md) or split (score (1-R) w, keep R w).
-    #[arg(long, default_value = "classic", value_parser = ["classic", "split"])]
-    boundary: String,
+    /// Boundary treatment where a packet meets the ambient medium.
+    #[arg(long, value_enum, default_value = "classic")]
+    boundary: BoundaryArg,
     /// Events per packet from which the event-count roulette plays (survival
     /// 1/sqrt(2) at each doubling of the count, weight boosted on survival):
     /// unbiased; ends the unbounded walks of albedo 1, see docs/mc.md.
@@ -193,15 +211,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
              --target-error with --max-work"
         );
     }
-    let grid = match (&mci_run, args.dr, args.rmax, args.log_bins) {
-        (Some(r), None, None, false) => Some(r.grid.clone()),
-        (_, None, None, false) => None,
-        (_, dr, rmax, log) => Some(explicit_grid(&material, &channels, dr, rmax, log)?),
+    let spec = GridSpec {
+        dr: args.dr,
+        r_max: args.rmax,
+        log_bins: args.log_bins,
     };
-    let boundary = match args.boundary.as_str() {
-        "classic" => BoundaryMode::Classic,
-        _ => BoundaryMode::Split,
+    // No grid flag: the .mci file's grid, else the tracer's own rule. A
+    // value given completes from the material's rule, as in `profile`.
+    let grid = match &mci_run {
+        _ if spec != GridSpec::default() => Some(spec.grid(&material, &channels)?),
+        Some(r) => Some(r.grid.clone()),
+        None => None,
     };
+    let boundary = BoundaryMode::from(args.boundary);
     let cfg = McConfig {
         budget,
         seed: args.seed,
@@ -344,31 +366,6 @@ fn parse_shard(s: &str) -> Result<Shard, String> {
     Ok(Shard { k, n })
 }
 
-/// The grid from --dr/--rmax/--log-bins; a missing value comes from the
-/// material rule.
-fn explicit_grid(
-    m: &Material,
-    channels: &[Channel],
-    dr: Option<f64>,
-    rmax: Option<f64>,
-    log_bins: bool,
-) -> anyhow::Result<RadialGrid> {
-    let auto = RadialGrid::for_material(m, channels);
-    let dr = dr.unwrap_or(auto.edges[1]);
-    let rmax = rmax.unwrap_or(auto.r_max());
-    for (flag, v) in [("--dr", dr), ("--rmax", rmax)] {
-        if !(v.is_finite() && v > 0.0) {
-            anyhow::bail!("{flag}: invalid value {v}: must be finite and > 0 (mm)");
-        }
-    }
-    Ok(if log_bins {
-        let n = (25.0 * (rmax / dr).ln()).ceil().clamp(50.0, 2000.0) as usize;
-        RadialGrid::logarithmic(dr, rmax, n)?
-    } else {
-        RadialGrid::uniform(dr, rmax)?
-    })
-}
-
 /// CSV: one row per bin, r and R_d with standard error per channel.
 pub(super) fn write_csv(
     p: &Profile,
@@ -416,9 +413,7 @@ pub(super) fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
         "balance-1"
     )?;
     for (i, c) in p.channels.iter().enumerate() {
-        let bal = p.extra["energy_balance"][c.name()]["sum_minus_1"]
-            .as_f64()
-            .unwrap_or(f64::NAN);
+        let bal = EnergyBalance::of(p, *c)?.map_or(f64::NAN, |b| b.sum_minus_1);
         outln!(
             "{:>2} {:>10} {:>11.6} +- {:<7.1e} {:>10.6} {:>10.6} {:>9.6} {:>10.1e}",
             c.name(),
@@ -431,10 +426,8 @@ pub(super) fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
             bal
         )?;
     }
-    if let Some(ws) = p.extra["warnings"].as_array() {
-        for w in ws.iter().filter_map(|w| w.as_str()) {
-            eprintln!("warning: {w}");
-        }
+    for w in p.warnings()? {
+        eprintln!("warning: {w}");
     }
     outln!("wrote {}", out.display())
 }

@@ -21,8 +21,8 @@ impl std::str::FromStr for Lang {
             "glsl" => Ok(Lang::Glsl),
             "wgsl" => Ok(Lang::Wgsl),
             _ => Err(Error::invalid(
-                "fit",
-                "--emit",
+                "shader",
+                "language",
                 s,
                 "expected hlsl, glsl or wgsl",
             )),

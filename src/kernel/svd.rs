@@ -18,7 +18,7 @@ pub fn svd(k: &Kernel2D, rank: usize, renormalize: bool) -> Result<(Factors, ser
     if rank == 0 || rank > k.size {
         return Err(Error::invalid(
             "svd",
-            "--rank",
+            "rank",
             rank,
             format!("must be between 1 and the kernel size {}", k.size),
         ));

@@ -120,6 +120,19 @@ pub fn tap_table(k: &Kernel2D, f: &Factors, count: usize) -> Result<TapTable> {
     tap_table_with(k, f, count, None)
 }
 
+/// A tap count a table can have: odd (a centre tap), at most 255.
+pub fn check_count(count: usize) -> Result<()> {
+    if count == 0 || count.is_multiple_of(2) || count > 255 {
+        return Err(Error::invalid(
+            "taps",
+            "count",
+            count,
+            "must be odd, between 1 and 255",
+        ));
+    }
+    Ok(())
+}
+
 /// The table of `count` taps over +-`extent_mm` (None: [`auto_extent`]).
 /// The factor beyond the extent is dropped and each channel renormalised to
 /// the model's 1-norm: folding it into the end taps instead would put a
@@ -130,20 +143,13 @@ pub fn tap_table_with(
     count: usize,
     extent_mm: Option<f64>,
 ) -> Result<TapTable> {
-    if count == 0 || count.is_multiple_of(2) || count > 255 {
-        return Err(Error::invalid(
-            "taps",
-            "--taps",
-            count,
-            "must be odd, between 1 and 255",
-        ));
-    }
+    check_count(count)?;
     let e = match extent_mm {
         Some(x) if x.is_finite() && x > 0.0 => x.min(k.extent_mm()),
         Some(x) => {
             return Err(Error::invalid(
                 "taps",
-                "--tap-extent",
+                "extent_mm",
                 x,
                 "must be finite and > 0 (mm)",
             ))

@@ -21,8 +21,20 @@ pub struct GridSpec {
 impl GridSpec {
     /// The grid; a missing value comes from the material rule. Invalid
     /// values fail with the parameter named ("radial grid", "dr" or
-    /// "rmax").
+    /// "rmax"), an invalid material (whose rule would be meaningless) with
+    /// its own error.
     pub fn grid(&self, material: &Material, channels: &[Channel]) -> Result<RadialGrid> {
+        material.validate(&format!("material '{}'", material.name))?;
+        for (field, value) in [("dr", self.dr), ("rmax", self.r_max)] {
+            if let Some(v) = value.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(Error::invalid(
+                    "radial grid",
+                    field,
+                    v,
+                    "must be finite and > 0 (mm)",
+                ));
+            }
+        }
         let auto = RadialGrid::for_material(material, channels);
         let dr = self.dr.unwrap_or(auto.edges[1]);
         let r_max = self.r_max.unwrap_or(auto.r_max());

@@ -134,6 +134,23 @@ impl Profile {
             .sum()
     }
 
+    /// What the maker of the profile warned about (`extra.warnings`: the
+    /// grid rule's and the simulation's), none when it recorded none.
+    pub fn warnings(&self) -> Result<Vec<String>> {
+        let v = &self.extra["warnings"];
+        if v.is_null() {
+            return Ok(Vec::new());
+        }
+        serde_json::from_value(v.clone()).map_err(|e| {
+            Error::invalid(
+                format!("profile of '{}'", self.material.name),
+                "extra.warnings",
+                v,
+                format!("{e}: expected a list of sentences"),
+            )
+        })
+    }
+
     /// Checks structure and values; `context` names the file in errors.
     pub fn validate(&self, context: &str) -> Result<()> {
         let bad = |msg: String| Err(Error::format(context, msg));

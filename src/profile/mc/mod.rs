@@ -11,6 +11,7 @@
 //! the totals so far, and checks its rule between rounds, so the photon
 //! count does not depend on the thread count either.
 
+mod balance;
 mod consumer;
 mod exact;
 pub mod gpu;
@@ -19,6 +20,7 @@ pub mod mco;
 mod tally;
 mod tracer;
 
+pub use balance::EnergyBalance;
 pub use consumer::{kernel_geometry, KernelGeometry};
 pub use tally::Moments;
 pub use tracer::{
@@ -308,29 +310,34 @@ struct ShardRecord {
     tallies: Vec<ExactTally>,
 }
 
+/// The context of a bad setting's error; its parameters are the fields of
+/// `McConfig`, `PhotonBudget` (the rule's name for its relative error) and
+/// `McOptions`.
+pub const CONTEXT: &str = "Monte Carlo";
+
 fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     match cfg.budget {
         PhotonBudget::Fixed(n) if n == 0 => {
-            return Err(Error::invalid("--photons", "photons", n, "must be >= 1"))
+            return Err(Error::invalid(CONTEXT, "photons", n, "must be >= 1"))
         }
         PhotonBudget::TargetError { rel, max_photons }
         | PhotonBudget::KernelFactor { rel, max_photons } => {
-            let flag = match cfg.budget {
-                PhotonBudget::TargetError { .. } => "--target-error",
-                _ => "--kernel-error",
+            let field = match cfg.budget {
+                PhotonBudget::TargetError { .. } => "target_error",
+                _ => "kernel_error",
             };
             if !(rel.is_finite() && rel > 0.0 && rel < 1.0) {
                 return Err(Error::invalid(
-                    flag,
-                    "relative error",
+                    CONTEXT,
+                    field,
                     rel,
                     "must be in (0, 1), e.g. 0.01",
                 ));
             }
             if max_photons == 0 {
                 return Err(Error::invalid(
-                    "--max-photons",
-                    "max photons",
+                    CONTEXT,
+                    "max_photons",
                     max_photons,
                     "must be >= 1",
                 ));
@@ -341,17 +348,17 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     if let Some(s) = opts.shard {
         if !matches!(cfg.budget, PhotonBudget::Fixed(_)) {
             return Err(Error::invalid(
-                "--shard",
+                CONTEXT,
                 "shard",
                 format!("{}/{}", s.k, s.n),
-                "needs a fixed photon count shared by all shards (--photons N); \
+                "needs a fixed photon count shared by all shards; \
                  a target-error rule cannot be split",
             ));
         }
         let chunks = cfg.budget.max_photons().div_ceil(CHUNK);
         if s.n == 0 || s.k == 0 || s.k > s.n || s.n > chunks {
             return Err(Error::invalid(
-                "--shard",
+                CONTEXT,
                 "shard",
                 format!("{}/{}", s.k, s.n),
                 format!("need 1 <= K <= N <= {chunks} (the run's chunks of {CHUNK} photons)"),
@@ -359,18 +366,18 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
         }
     }
     if cfg.channels.is_empty() {
-        return Err(Error::invalid("--channels", "channels", "''", "empty"));
+        return Err(Error::invalid(CONTEXT, "channels", "''", "empty"));
     }
     if let Some(n) = cfg.threads {
         crate::limits::check_threads("worker threads", n)?;
     }
     if opts.max_work == 0 {
-        return Err(Error::invalid("--max-work", "max work", 0, "must be >= 1"));
+        return Err(Error::invalid(CONTEXT, "max_work", 0, "must be >= 1"));
     }
     if !(opts.roulette_threshold > 0.0 && opts.roulette_threshold < 1.0) {
         return Err(Error::invalid(
-            "--roulette",
-            "roulette threshold",
+            CONTEXT,
+            "roulette_threshold",
             opts.roulette_threshold,
             "must be in (0, 1); MCML uses 1e-4",
         ));
@@ -384,20 +391,10 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
         ));
     }
     if opts.event_roulette == 0 {
-        return Err(Error::invalid(
-            "--event-roulette",
-            "event roulette start",
-            0,
-            "must be >= 1",
-        ));
+        return Err(Error::invalid(CONTEXT, "event_roulette", 0, "must be >= 1"));
     }
     if opts.max_events == 0 {
-        return Err(Error::invalid(
-            "--max-events",
-            "max events",
-            0,
-            "must be >= 1",
-        ));
+        return Err(Error::invalid(CONTEXT, "max_events", 0, "must be >= 1"));
     }
     Ok(())
 }
@@ -800,20 +797,18 @@ fn build_profile(
             t.residual(),
         ];
         let sum: f64 = parts.iter().sum::<f64>() / nf;
-        balance.insert(
-            ch.name().into(),
-            json!({
-                "specular": t.specular / nf,
-                "rd": t.rd.sum / nf,
-                "transmittance": t.transmittance.sum / nf,
-                "absorbed": t.absorbed.sum / nf,
-                "roulette_loss": t.roulette_loss / nf,
-                "roulette_gain": t.roulette_gain / nf,
-                "truncated": t.truncated / nf,
-                "sum": sum,
-                "sum_minus_1": sum - 1.0,
-            }),
-        );
+        let b = EnergyBalance {
+            specular: t.specular / nf,
+            rd: t.rd.sum / nf,
+            transmittance: t.transmittance.sum / nf,
+            absorbed: t.absorbed.sum / nf,
+            roulette_loss: t.roulette_loss / nf,
+            roulette_gain: t.roulette_gain / nf,
+            truncated: t.truncated / nf,
+            sum,
+            sum_minus_1: sum - 1.0,
+        };
+        balance.insert(ch.name().into(), json!(b));
         if opts.single_scatter {
             let (v, e) = density(&t.single_bins, n);
             single.push(json!({
@@ -1195,13 +1190,13 @@ mod tests {
             grid: None,
         };
         let e = simulate(&m, &cfg, &NoProgress).unwrap_err().to_string();
-        assert!(e.contains("--photons"), "{e}");
+        assert!(e.contains("invalid photons = 0"), "{e}");
         cfg.budget = PhotonBudget::TargetError {
             rel: f64::NAN,
             max_photons: 10,
         };
         let e = simulate(&m, &cfg, &NoProgress).unwrap_err().to_string();
-        assert!(e.contains("--target-error"), "{e}");
+        assert!(e.contains("invalid target_error = NaN"), "{e}");
         cfg.budget = PhotonBudget::Fixed(10);
         for edges in [
             vec![0.0],
