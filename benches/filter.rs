@@ -26,18 +26,9 @@ use std::time::Instant;
 const W: usize = 1920;
 const H: usize = 1080;
 
+/// The frame filtered: white noise (every spatial frequency).
 fn image() -> Image {
-    let mut img = Image::new(W, H);
-    let mut s = 42u64;
-    for c in 0..3 {
-        for v in img.rgb[c].iter_mut() {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            *v = (s >> 40) as f64 / (1u64 << 24) as f64;
-        }
-    }
-    img
+    ssskit::filter::signals::noise(W, H, 42)
 }
 
 /// 17 taps: a Gaussian on whole pixels (-8..8) and the quadratic table.

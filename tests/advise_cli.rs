@@ -5,7 +5,7 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::{ok_both as ok, p as s, read_json as read, run as ssskit};
+use common::{ok_both as ok, p as s, read_json as read};
 
 fn pbd_profile(dir: &Path, material: &str) -> PathBuf {
     let p = dir.join(format!("{material}-pbd.json"));
@@ -207,19 +207,20 @@ fn advise_from_a_perspective_view_matches_the_filter_scale() {
         (got - expected).abs() < 1e-12 * expected,
         "{got} vs {expected}"
     );
-    let o = ssskit(&[
-        "advise",
-        "--profile",
-        s(&profile),
-        "--fov",
-        "40",
-        "--depth",
-        "-1",
-        "--height",
-        "1080",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("depth"));
+    common::fails_with(
+        &[
+            "advise",
+            "--profile",
+            s(&profile),
+            "--fov",
+            "40",
+            "--depth",
+            "-1",
+            "--height",
+            "1080",
+        ],
+        &["depth"],
+    );
 }
 
 /// `fit` records the tap extent; the default is the one chosen for the
@@ -265,19 +266,20 @@ fn fit_records_the_tap_extent() {
     );
     let (given, _) = extent_of(&["--taps", "17", "--tap-extent", "3.5"]);
     assert_eq!(given, 3.5);
-    let o = ssskit(&[
-        "fit",
-        "--profile",
-        s(&profile),
-        "--model",
-        "svd",
-        "--out",
-        s(&d.join("x.json")),
-        "--tap-extent",
-        "-1",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--tap-extent"));
+    common::fails_with(
+        &[
+            "fit",
+            "--profile",
+            s(&profile),
+            "--model",
+            "svd",
+            "--out",
+            s(&d.join("x.json")),
+            "--tap-extent",
+            "-1",
+        ],
+        &["--tap-extent"],
+    );
 }
 
 /// `apply` says when the kernel is under a pixel and when tap gaps band,

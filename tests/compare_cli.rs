@@ -5,22 +5,13 @@
 
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_ssskit"))
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().expect("the binary runs")
-}
+mod common;
+use common::{bin, p, run};
 
 fn ok(o: &Output) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
 }
 
 const MM: &str = "0.25";
@@ -213,13 +204,8 @@ fn bad_flags_are_refused_with_their_name() {
     ] {
         let mut args = vec!["compare", "--profiles", profiles, "--out", p(&out)];
         args.extend(flags.iter().copied());
-        let o = run(&args);
-        assert_eq!(o.status.code(), Some(2), "{flags:?}");
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(err.contains(needle), "{flags:?}: {err}");
+        common::fails_with(&args, &[needle]);
         assert!(!out.join("compare.json").exists());
     }
-    let o = run(&["compare", "--out", p(&out)]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--profiles"));
+    common::fails_with(&["compare", "--out", p(&out)], &["--profiles"]);
 }

@@ -15,6 +15,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+mod common;
+
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
 /// Splits a command line on spaces, keeping "quoted words" (may be empty).
@@ -122,14 +124,7 @@ fn blocks(text: &str) -> Vec<(String, String)> {
 #[test]
 fn committed_tables_are_what_the_runs_produce() {
     let r = runs();
-    let mut files = vec![Path::new(ROOT).join("README.md")];
-    let mut docs: Vec<PathBuf> = std::fs::read_dir(Path::new(ROOT).join("docs"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "md"))
-        .collect();
-    docs.sort();
-    files.extend(docs);
+    let files = common::doc_markdown_files();
     let mut checked = 0;
     let mut stale = Vec::new();
     for f in &files {

@@ -10,21 +10,11 @@
 
 use ssskit::report::kernel_report::blocks_of;
 use ssskit::report::record::Record;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+mod common;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
-
-fn markdown_files() -> Vec<PathBuf> {
-    let mut files = vec![Path::new(ROOT).join("README.md")];
-    let mut docs: Vec<PathBuf> = std::fs::read_dir(Path::new(ROOT).join("docs"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "md"))
-        .collect();
-    docs.sort();
-    files.extend(docs);
-    files
-}
 
 fn fresh_block(name: &str, file: &Path) -> String {
     let (record, table) = name
@@ -47,7 +37,7 @@ fn recorded_tables_match_their_records() {
     let bless = std::env::var_os("SSSKIT_BLESS").is_some_and(|v| v == "1");
     let mut stale = Vec::new();
     let mut checked = 0;
-    for f in markdown_files() {
+    for f in common::doc_markdown_files() {
         let mut text = std::fs::read_to_string(&f).unwrap();
         let mut changed = false;
         for (name, body) in blocks_of(&text.clone(), "record") {
@@ -92,7 +82,7 @@ fn every_record_is_shown() {
     let Ok(entries) = std::fs::read_dir(&dir) else {
         return;
     };
-    let all: String = markdown_files()
+    let all: String = common::doc_markdown_files()
         .iter()
         .map(|f| std::fs::read_to_string(f).unwrap())
         .collect();

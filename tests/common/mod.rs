@@ -86,6 +86,20 @@ pub fn p(path: &Path) -> &str {
     path.to_str().expect("UTF-8 path")
 }
 
+/// README.md and docs/*.md (sorted): the files that hold generated blocks.
+pub fn doc_markdown_files() -> Vec<std::path::PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut docs: Vec<_> = std::fs::read_dir(root.join("docs"))
+        .expect("docs/ readable")
+        .map(|e| e.expect("docs/ entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .collect();
+    docs.sort();
+    let mut files = vec![root.join("README.md")];
+    files.extend(docs);
+    files
+}
+
 /// Monte Carlo test cases and checks shared by the CPU and GPU tracer
 /// tests: materials with exact answers, a fixed-budget configuration,
 /// 4-sigma agreement and the energy balance.
