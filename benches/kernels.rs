@@ -10,6 +10,9 @@
 //!   cargo bench --bench kernels            # everything, a few minutes
 //!   cargo bench --bench kernels -- sweep   # only the fit table (no record)
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
 use ssskit::kernel::preintegrate::PreMethod;
@@ -141,7 +144,7 @@ fn wall(args: &[&str]) -> f64 {
         })
         .collect();
     let t0 = Instant::now();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_ssskit"))
+    let o = common::bin()
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .args(&argv)
         .output()

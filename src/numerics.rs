@@ -49,22 +49,6 @@ pub fn plane_total(f: impl Fn(f64) -> f64, scale: f64, decay: f64) -> f64 {
     s + if tail.is_finite() { tail.max(0.0) } else { 0.0 }
 }
 
-/// 2 pi int_0^inf f(r) r dr for a profile decaying at least like
-/// exp(-r / scale): geometric panels from scale * 1e-6 out to 60 scales.
-pub fn radial_total(f: impl Fn(f64) -> f64, scale: f64) -> f64 {
-    let g = |r: f64| f(r) * 2.0 * std::f64::consts::PI * r;
-    let g = &g;
-    let mut a = 0.0;
-    let mut b = scale * 1e-6;
-    let mut s = 0.0;
-    while a < 60.0 * scale {
-        s += gauss_legendre(g, a, b);
-        a = b;
-        b = (b * 1.15).max(b + scale * 1e-6);
-    }
-    s
-}
-
 /// Bin averages of a radial function over annuli: int f(r) 2 pi r dr / area,
 /// by 8-point Gauss-Legendre per bin. Averages stay finite where f has an
 /// integrable singularity at r = 0 because no node sits at r = 0.
@@ -161,7 +145,6 @@ mod tests {
             let exact = 2.0 * PI * s * s;
             let f = |r: f64| (-r / s).exp();
             assert!((plane_total(f, s, s) - exact).abs() < 1e-9 * exact, "{s}");
-            assert!((radial_total(f, s) - exact).abs() < 1e-9 * exact, "{s}");
         }
         // No exponential decay, an r^-3 tail: 2 pi int r (1 + r^2)^-3/2 dr
         // = 2 pi, of which 2 pi 1e-7 lies beyond the quadrature's end (1e7

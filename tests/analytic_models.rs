@@ -3,7 +3,8 @@
 
 use proptest::prelude::*;
 use ssskit::material::{preset, Channel, Layer, Material, Medium};
-use ssskit::profile::analytic::{self, plane_total, ChannelModel, Model, Options};
+use ssskit::numerics::plane_total;
+use ssskit::profile::analytic::{self, ChannelModel, Model, Options};
 use ssskit::profile::fresnel::FresnelMode;
 use ssskit::profile::RadialGrid;
 

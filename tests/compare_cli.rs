@@ -5,14 +5,9 @@
 
 use serde_json::Value;
 use std::path::Path;
-use std::process::Output;
 
 mod common;
-use common::{bin, p, run};
-
-fn ok(o: &Output) {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
+use common::{bin, ok, p};
 
 const MM: &str = "0.25";
 
@@ -44,7 +39,7 @@ fn small_compare(out: &Path, threads: &str) -> Vec<Value> {
         ])
         .output()
         .unwrap();
-    ok(&o);
+    common::assert_ok(&o, &["compare"]);
     let text = std::fs::read_to_string(out.join("compare.json")).unwrap();
     serde_json::from_str(&text).unwrap()
 }
@@ -95,7 +90,7 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
         );
         for signal in ["edge", "shapes"] {
             let input = dir.path().join(format!("{signal}.exr"));
-            ok(&run(&[
+            ok(&[
                 "signal",
                 signal,
                 "--size",
@@ -104,9 +99,9 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
                 MM,
                 "--out",
                 p(&input),
-            ]));
+            ]);
             let exact = dir.path().join(format!("exact-{material}-{signal}.exr"));
-            ok(&run(&[
+            ok(&[
                 "apply",
                 "--reference",
                 &profile,
@@ -118,7 +113,7 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
                 "cpu",
                 "--out",
                 p(&exact),
-            ]));
+            ]);
             for label in ["svd1-renorm", "preintegrate", "jimenez"] {
                 let kernel = out.join("kernels").join(format!("{material}-{label}.json"));
                 for (factor, extra) in [("full", None), ("17", Some("--taps-only"))] {
@@ -139,10 +134,9 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
                         p(&filtered),
                     ];
                     args.extend(extra);
-                    ok(&run(&args));
-                    let d = run(&["diff", p(&exact), p(&filtered), "--json"]);
-                    ok(&d);
-                    let v: Value = serde_json::from_slice(&d.stdout).unwrap();
+                    ok(&args);
+                    let d = ok(&["diff", p(&exact), p(&filtered), "--json"]);
+                    let v: Value = serde_json::from_str(&d).unwrap();
                     for (c, ch) in ["r", "g", "b"].iter().enumerate() {
                         let row = rows
                             .iter()

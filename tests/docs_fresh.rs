@@ -85,7 +85,7 @@ fn runs() -> &'static Runs {
                     })
                     .collect()
             };
-            let r = std::process::Command::new(env!("CARGO_BIN_EXE_ssskit"))
+            let r = common::bin()
                 .current_dir(ROOT)
                 .args(&argv)
                 .output()

@@ -23,7 +23,7 @@ fn reference_2d() -> (Kernel2D, f64) {
     let profile = dipole_profile("skin1", 0.01, 8.0);
     // About 20 pixels of radius: small enough to be quick, FFT-sized.
     let radius = (0..3)
-        .map(|c| ssskit::kernel::kernel2d::radius_holding(&profile, c, 0.999))
+        .map(|c| ssskit::profile::radius_holding(&profile, c, 0.999))
         .fold(0.0, f64::max);
     let mm = radius / 20.0;
     (cpu::reference_kernel(&profile, mm).unwrap(), mm)

@@ -568,7 +568,7 @@ fn abel_projection_and_cell_averages_match_a_gaussian_exactly_integrated() {
     // R_d = 2D Gaussian (v = 1 mm^2): its strip integrals over a cell are
     // products of 1D Gaussian masses, the oracle for both discretisations.
     use ssskit::kernel::gaussians::gaussian_mass;
-    use ssskit::profile::analytic::bin_averages;
+    use ssskit::numerics::bin_averages;
     use ssskit::profile::RadialGrid;
     let v = 1.0;
     let grid = RadialGrid::uniform(0.01, 9.0).unwrap();

@@ -295,7 +295,7 @@ fn cli_backend_choice_is_printed_and_recorded() {
     let dir = tempfile::tempdir().unwrap();
     let sim = |backend: &str, extra: &[&str]| {
         let out = dir.path().join(format!("{backend}.json"));
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_ssskit"))
+        let o = common::bin()
             .args(["simulate", "--material", "skin1", "--channels", "b"])
             .args(["--photons", "2000", "--backend", backend, "--out"])
             .arg(&out)

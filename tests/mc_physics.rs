@@ -4,7 +4,8 @@
 //! an approximation (dipole).
 
 use ssskit::material::{preset, Channel};
-use ssskit::profile::analytic::{bin_averages, dipole::Dipole, gauss_legendre};
+use ssskit::numerics::{bin_averages, gauss_legendre};
+use ssskit::profile::analytic::dipole::Dipole;
 use ssskit::profile::fresnel::FresnelMode;
 use ssskit::profile::mc::{
     simulate, simulate_with, BoundaryMode, McConfig, McOptions, PhotonBudget, ROULETTE_THRESHOLD,

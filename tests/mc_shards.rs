@@ -3,13 +3,8 @@
 
 mod common;
 
-use common::{fails_with_in as fails_with, run_in, stderr};
+use common::{fails_with_in as fails_with, ok_in as ok};
 use std::path::Path;
-
-fn ok(dir: &Path, args: &[&str]) {
-    let o = run_in(dir, args);
-    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
-}
 
 /// The JSON of a profile without its wall time.
 fn json_without_time(path: &Path) -> serde_json::Value {

@@ -18,7 +18,7 @@ use rustfft::num_complex::Complex;
 pub fn reference_kernel(profile: &Profile, mm_per_pixel: f64) -> Result<Kernel2D> {
     super::check_mm_per_pixel(mm_per_pixel)?;
     let radius = (0..profile.channels.len())
-        .map(|c| crate::kernel::kernel2d::radius_holding(profile, c, 0.999))
+        .map(|c| crate::profile::radius_holding(profile, c, 0.999))
         .fold(0.0, f64::max);
     let half = (radius / mm_per_pixel).ceil().max(1.0) as usize;
     let size = 2 * half + 1;

@@ -186,7 +186,8 @@ pub fn deon_skin(k: &Kernel2D) -> (Factors, serde_json::Value) {
 
 /// Least squares over non-negative w of || R - sum_i w_i g_i g_i^T ||_F^2
 /// given the Gaussians' cell vectors: the normal equations have Gram
-/// M_ij = (g_i . g_j)^2 and right side b_i = g_i^T R g_i (Lawson-Hanson).
+/// M_ij = (g_i . g_j)^2 and right side b_i = g_i^T R g_i (Lawson and
+/// Hanson 1974).
 /// `q` is R's quadrant and `g` the Gaussians' half vectors.
 fn nnls_weights(q: &[f64], g: &[Vec<f64>]) -> (Vec<f64>, f64) {
     let m = g.len();

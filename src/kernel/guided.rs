@@ -7,8 +7,9 @@
 //!
 //! Unlike Freude's soft penalty the constraint is exact by parametrisation:
 //! a = sqrt(||R||_1) p / sum(p) for free, even-symmetric p, and the gradient
-//! goes through the rescaling. Solved with argmin's L-BFGS (More-Thuente line
-//! search), started from the better of pre-integration and rank-1 SVD.
+//! goes through the rescaling. Solved with argmin's L-BFGS (Nocedal 1980)
+//! with the line search of Moré and Thuente 1994, started from the better of
+//! pre-integration and rank-1 SVD.
 
 use super::kernel2d::multiplicity;
 use super::model::Factors;

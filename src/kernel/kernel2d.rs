@@ -9,9 +9,8 @@
 
 use crate::error::{Error, Result};
 use crate::material::Channel;
-pub use crate::profile::interp::RadialInterp;
-pub use crate::profile::radius_holding;
 use crate::profile::Profile;
+use crate::profile::{radius_holding, RadialInterp};
 use rayon::prelude::*;
 
 /// How to discretise: both optional, chosen from the profile when absent.

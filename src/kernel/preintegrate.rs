@@ -8,12 +8,13 @@
 //! and integrated over each cell in x. Quadrature: Gauss-Legendre panels
 //! split at the profile's nodes (where the reconstruction has kinks).
 
-use super::kernel2d::{rgb_indices, RadialInterp};
+use super::kernel2d::rgb_indices;
 use super::model::Factors;
 use super::Kernel2D;
 use crate::error::Result;
 use crate::numerics::{gauss_legendre, gauss_legendre_sqrt_end, gauss_legendre_sqrt_start};
 use crate::profile::Profile;
+use crate::profile::RadialInterp;
 use rayon::prelude::*;
 use serde_json::json;
 

@@ -1,6 +1,7 @@
 //! Rank-N separable approximation by singular value decomposition (Freude 2014, sec. 5.1):
 //! R = U S V^T, a_i = u_i sqrt(sigma_i), A_N = sum_{i<=N} a_i a_i^T, the best
-//! rank-N approximation in the Frobenius norm (Eckart-Young, Freude 2014, eq. 5.6).
+//! rank-N approximation in the Frobenius norm (Eckart and Young 1936; Freude 2014,
+//! eq. 5.6).
 
 use super::kernel2d::multiplicity;
 use super::model::Factors;

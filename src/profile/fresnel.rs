@@ -206,7 +206,7 @@ mod tests {
             m.boundary_a(1.3)
         );
         // eta = 1.5: the diffuse internal reflectance of glass, 2 C_1 = 0.5963
-        // (Egan and Hilgeman's fit as used by Jensen 2001 gives 0.5963 too).
+        // (Egan and Hilgeman's fit as used by Jensen et al. 2001 gives 0.5963 too).
         let fdr = 2.0 * fresnel_moment1_exact(1.5);
         assert!((fdr - 0.5963).abs() < 5e-4, "{fdr}");
         let fit = FresnelMode::Fit;

@@ -5,6 +5,8 @@ use super::plot::{Curve, Panel, PALETTE};
 use super::table::Table;
 use crate::error::{Error, Result};
 use crate::material::Channel;
+// The engine's fits still name it through this module.
+pub(crate) use crate::profile::radius_holding;
 use crate::profile::Profile;
 use plotters::style::RGBColor;
 
@@ -44,12 +46,6 @@ pub fn relative(model: f64, reference: f64) -> f64 {
     } else {
         0.0
     }
-}
-
-/// Radius where the cumulative tabulated R_d of channel `c` reaches
-/// `fraction` of the tabulated total (the last edge if never).
-pub fn radius_holding(p: &Profile, c: usize, fraction: f64) -> f64 {
-    super::plot::radius_holding(p, c, fraction)
 }
 
 /// Relative L2 error of r R_d(r) over [0, r_lim] on the bins of `reference`

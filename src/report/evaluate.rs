@@ -473,7 +473,7 @@ mod tests {
     /// About 20 pixels of kernel radius: quick, and the FFT path.
     fn scale(p: &Profile) -> f64 {
         let r = (0..3)
-            .map(|c| crate::kernel::kernel2d::radius_holding(p, c, 0.999))
+            .map(|c| crate::profile::radius_holding(p, c, 0.999))
             .fold(0.0, f64::max);
         r / 20.0
     }

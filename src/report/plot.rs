@@ -3,7 +3,7 @@
 //! DejaVu Sans, registered once as "sans-serif" (no system fonts).
 
 use crate::error::{Error, Result};
-pub use crate::profile::radius_holding;
+use crate::profile::radius_holding;
 use crate::profile::Profile;
 use plotters::prelude::*;
 use plotters::style::FontStyle;

@@ -50,6 +50,11 @@ pub fn ok(args: &[&str]) -> String {
     assert_ok(&run(args), args).0
 }
 
+/// `ok` in the working directory `dir`.
+pub fn ok_in(dir: &Path, args: &[&str]) -> String {
+    assert_ok(&run_in(dir, args), args).0
+}
+
 /// Runs a command that must succeed; returns (stdout, stderr).
 pub fn ok_both(args: &[&str]) -> (String, String) {
     assert_ok(&run(args), args)

@@ -5,8 +5,8 @@ use crate::material::Medium;
 use crate::profile::fresnel::{fresnel_moment1_exact, FresnelMode};
 use std::f64::consts::PI;
 
-/// Diffuse Fresnel reflectance fit F_dr(eta) (Egan and Hilgeman; Jensen et
-/// al. 2001 eq. 5). A transcription of it prints the last coefficient as
+/// Diffuse Fresnel reflectance fit F_dr(eta) (Egan and Hilgeman 1979;
+/// Jensen et al. 2001, eq. 5). A transcription of it prints the last coefficient as
 /// 0.0036: an erratum. The published 0.0636 matches the exact diffuse internal
 /// reflectance 2 C_1 (0.4446 at eta = 1.3, 0.5963 at 1.5; see
 /// `fresnel_moment1_exact`), while 0.0036 is off by 0.08 and changes A by 25%.
@@ -22,7 +22,7 @@ pub fn diffuse_fresnel(eta: f64, mode: FresnelMode) -> f64 {
     }
 }
 
-/// Boundary mismatch A = (1 + F_dr) / (1 - F_dr) (Jensen 2001 eq. 6) with
+/// Boundary mismatch A = (1 + F_dr) / (1 - F_dr) (Jensen et al. 2001, eq. 6) with
 /// F_dr from the chosen Fresnel mode. This, not `FresnelMode::boundary_a`
 /// (built from C_phi and C_E), is the A of the standard dipole.
 pub fn boundary_a(eta: f64, mode: FresnelMode) -> f64 {
@@ -71,7 +71,7 @@ impl Dipole {
         self.t_entry * (alpha / (4.0 * PI) * (pole(z_r, d_r) + pole(z_v, d_v)))
     }
 
-    /// Closed-form total over the plane (Jensen 2001 eq. 8):
+    /// Closed-form total over the plane (Jensen et al. 2001, eq. 8):
     /// (alpha'/2) (1 + e^{-(4/3) A sqrt(3(1-alpha'))}) e^{-sqrt(3(1-alpha'))}.
     pub fn total(&self) -> f64 {
         let alpha = self.medium.reduced_albedo();
@@ -84,7 +84,7 @@ impl Dipole {
 mod tests {
     use super::*;
     use crate::material::{preset, Channel};
-    use crate::profile::analytic::radial_total;
+    use crate::numerics::plane_total;
 
     #[test]
     fn integrated_profile_equals_closed_form_total() {
@@ -93,7 +93,7 @@ mod tests {
                 let m = preset(name).unwrap().top(ch);
                 let scale = 1.0 / m.sigma_tr();
                 let d = Dipole::new(&m, FresnelMode::Fit, 1.0);
-                let num = radial_total(|r| d.rd(r), scale);
+                let num = plane_total(|r| d.rd(r), m.mfp().min(scale), scale);
                 let exact = d.total();
                 assert!(
                     (num - exact).abs() < 1e-6 * exact.max(1e-3),

@@ -15,9 +15,10 @@ use super::fresnel::{specular_normal, FresnelMode};
 use super::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material, Medium};
-pub use crate::numerics::{
-    bin_averages, bin_averages_resolved, gauss_legendre, plane_total, radial_total,
-};
+// The quadrature lives in `crate::numerics`; the engine's fits still name
+// two of its functions through this module.
+use crate::numerics::plane_total;
+pub(crate) use crate::numerics::{bin_averages, bin_averages_resolved};
 use rayon::prelude::*;
 use serde_json::json;
 
@@ -177,42 +178,40 @@ impl ChannelModel {
 /// Rejects a Fresnel mode whose constants, as `model` uses them, are
 /// unphysical at `eta`: the standard dipole (and normalized diffusion, whose
 /// albedo is the dipole's total) needs only A = (1 + F_dr) / (1 - F_dr);
-/// photon beam diffusion needs C_phi, C_E and the extrapolation distance's
-/// A = (1 - C_E) / (2 C_phi); the directional dipole needs those and, for
-/// its exit normalisation, C_phi(1/eta).
+/// photon beam diffusion and the directional dipole need C_phi, C_E and
+/// A = (1 - C_E) / (2 C_phi) at eta (the directional dipole's exit
+/// normalisation C_phi(1/eta) cancels at normal incidence and is never
+/// evaluated, so it is not checked).
 fn check_fresnel(model: Model, eta: f64, mode: FresnelMode) -> Result<()> {
-    let refuse = |eta: f64, detail: String| {
-        Err(Error::invalid(
-            "Fresnel fits",
-            "eta",
-            eta,
-            format!(
-                "the Fresnel fits give {detail} here (outside their range); the exact \
-                 moments hold at every eta"
-            ),
-        ))
-    };
-    let moments = |eta: f64| {
-        let (c_phi, c_e, a) = (mode.c_phi(eta), mode.c_e(eta), mode.boundary_a(eta));
-        if c_phi > 0.0 && c_e > 0.0 && a.is_finite() && a > 0.0 {
-            Ok(())
-        } else {
-            refuse(eta, format!("C_phi = {c_phi:.4}, C_E = {c_e:.4}"))
-        }
-    };
-    match model {
+    let (valid, detail) = match model {
         Model::Dipole | Model::Burley => {
             let a = dipole::boundary_a(eta, mode);
-            if a.is_finite() && a > 0.0 {
-                Ok(())
-            } else {
-                let f_dr = dipole::diffuse_fresnel(eta, mode);
-                refuse(eta, format!("F_dr = {f_dr:.4}, A = {a:.4}"))
-            }
+            let f_dr = dipole::diffuse_fresnel(eta, mode);
+            (
+                a.is_finite() && a > 0.0,
+                format!("F_dr = {f_dr:.4}, A = {a:.4}"),
+            )
         }
-        Model::Pbd => moments(eta),
-        Model::DirectionalDipole => moments(eta).and_then(|()| moments(1.0 / eta)),
+        Model::Pbd | Model::DirectionalDipole => {
+            let (c_phi, c_e, a) = (mode.c_phi(eta), mode.c_e(eta), mode.boundary_a(eta));
+            (
+                c_phi > 0.0 && c_e > 0.0 && a.is_finite() && a > 0.0,
+                format!("C_phi = {c_phi:.4}, C_E = {c_e:.4}"),
+            )
+        }
+    };
+    if valid {
+        return Ok(());
     }
+    Err(Error::invalid(
+        "Fresnel fits",
+        "eta",
+        eta,
+        format!(
+            "the Fresnel fits give {detail} here (outside their range); the exact \
+             moments hold at every eta"
+        ),
+    ))
 }
 
 /// The shortest length of the medium: where the profile's structure starts.
@@ -369,6 +368,7 @@ pub fn diffusion_regime(m: &Medium) -> &'static str {
 mod tests {
     use super::*;
     use crate::material::preset;
+    use crate::numerics::gauss_legendre;
 
     #[test]
     fn resolved_bin_averages_match_fine_quadrature() {
@@ -459,6 +459,49 @@ mod tests {
                 ChannelModel::new(Model::Dipole, &m, FresnelMode::Exact, 1.0).is_ok(),
                 "eta {eta}"
             );
+        }
+    }
+
+    #[test]
+    fn directional_dipole_is_checked_at_its_own_eta_only() {
+        // At eta = 0.3 the moment fits are valid (C_phi = 0.17) but not at
+        // 1/eta = 3.3 (C_phi < 0). The directional dipole evaluates its
+        // constants at eta only, so it is accepted like photon beam
+        // diffusion, and its profile is finite and positive.
+        let m = Medium {
+            sigma_a: 0.01,
+            sigma_s: 2.0,
+            g: 0.0,
+            eta: 0.3,
+        };
+        let fit = FresnelMode::Fit;
+        assert!(fit.c_phi(0.3) > 0.0 && fit.c_e(0.3) > 0.0 && fit.boundary_a(0.3) > 0.0);
+        assert!(fit.c_phi(1.0 / 0.3) < 0.0);
+        for model in [Model::Pbd, Model::DirectionalDipole] {
+            let cm = ChannelModel::new(model, &m, fit, 1.0).unwrap();
+            let v = cm.rd(0.5);
+            assert!(v.is_finite() && v > 0.0, "{model:?}: {v}");
+        }
+    }
+
+    #[test]
+    fn beam_diffusion_uses_the_boundary_constants_that_are_checked() {
+        // pbrt-v3 writes the extrapolation distance with (1 + 3 C_2) /
+        // (1 - 2 C_1); it is the A = (1 - C_E) / (2 C_phi) that
+        // `check_fresnel` tests.
+        for mode in [FresnelMode::Fit, FresnelMode::Exact] {
+            for eta in [0.7, 1.0, 1.3, 1.5, 2.0] {
+                let m = Medium {
+                    sigma_a: 0.01,
+                    sigma_s: 2.0,
+                    g: 0.5,
+                    eta,
+                };
+                let b = pbd::BeamDiffusion::new(&m, mode, 1.0);
+                let pbrt = (1.0 + 3.0 * b.fm2) / (1.0 - 2.0 * b.fm1);
+                assert!((b.a - pbrt).abs() <= 1e-14 * pbrt.abs(), "{mode:?} {eta}");
+                assert_eq!((b.c_phi, b.c_e), (mode.c_phi(eta), mode.c_e(eta)));
+            }
         }
     }
 

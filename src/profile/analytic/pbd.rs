@@ -42,6 +42,12 @@ pub struct BeamDiffusion {
     /// Fresnel moments C_1, C_2 at the medium's eta.
     pub fm1: f64,
     pub fm2: f64,
+    /// Exitance weights C_phi = (1 - 2 C_1) / 4, C_E = (1 - 3 C_2) / 2 and
+    /// the boundary mismatch A = (1 - C_E) / (2 C_phi) of the extrapolated
+    /// boundary, from `FresnelMode` (the constants `check_fresnel` checks).
+    pub c_phi: f64,
+    pub c_e: f64,
+    pub a: f64,
     pub t_entry: f64,
     /// -ln(1 - (i + 1/2)/N): the beam's depth quantiles in units of the
     /// mean free path, computed once.
@@ -54,6 +60,9 @@ impl BeamDiffusion {
             medium: *medium,
             fm1: mode.moment1(medium.eta),
             fm2: mode.moment2(medium.eta),
+            c_phi: mode.c_phi(medium.eta),
+            c_e: mode.c_e(medium.eta),
+            a: mode.boundary_a(medium.eta),
             t_entry,
             quantiles: std::array::from_fn(|i| {
                 -(1.0 - (i as f64 + 0.5) / BEAM_SAMPLES as f64).ln()
@@ -99,10 +108,10 @@ impl BeamDiffusion {
         }
         let d_g = grosjean_diffusion_coefficient(m);
         let tr = (m.sigma_a / d_g).sqrt();
-        // Extrapolated boundary z_e and the exitance weights C_phi, C_E.
-        let z_e = -2.0 * d_g * (1.0 + 3.0 * self.fm2) / (1.0 - 2.0 * self.fm1);
-        let c_phi = 0.25 * (1.0 - 2.0 * self.fm1);
-        let c_e = 0.5 * (1.0 - 3.0 * self.fm2);
+        // Extrapolated boundary z_e = -2 A D_g (pbrt-v3 writes A out as
+        // (1 + 3 C_2) / (1 - 2 C_1), the same number).
+        let z_e = -2.0 * self.a * d_g;
+        let (c_phi, c_e) = (self.c_phi, self.c_e);
         let n = BEAM_SAMPLES as f64;
         let mut sum = 0.0;
         for q in &self.quantiles {

@@ -2,8 +2,8 @@
 //! (shaders/mc_trace.wgsl): same physics, f32 transport, the same profile
 //! schema, standard errors and energy balance as the CPU tracer.
 //!
-//! Reproducibility: packet i of channel c draws from Philox4x32-10 (Salmon,
-//! Moraes, Dror & Shaw 2011) keyed by the seed with counter (draw, c, i), and
+//! Reproducibility: packet i of channel c draws from Philox4x32-10 (Salmon
+//! et al. 2011) keyed by the seed with counter (draw, c, i), and
 //! every tally is an exact integer sum of per-packet values rounded to the
 //! fixed point 2^-24 (sums 64-bit, sums of squares 96-bit, built from u32
 //! atomics with carries; the host adds batches in u128). Integer addition

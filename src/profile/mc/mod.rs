@@ -3,10 +3,11 @@
 //! energy balance, reproducible whatever the thread count.
 //!
 //! Reproducibility: photons run in chunks of `CHUNK` packets; chunk k of
-//! channel c draws from its own Xoshiro256++ stream seeded from (seed, c, k)
-//! by SplitMix64 hashing. Each chunk's f64 sums are added to exact
-//! fixed-point totals (`exact`), so the result does not depend on which
-//! thread traced which chunk, in which order, or on which machine (shards).
+//! channel c draws from its own Xoshiro256++ stream (Blackman and Vigna
+//! 2021) seeded from (seed, c, k) by SplitMix64 hashing. Each chunk's f64
+//! sums are added to exact fixed-point totals (`exact`), so the result does
+//! not depend on which thread traced which chunk, in which order, or on
+//! which machine (shards).
 //! A target-error run traces rounds of chunks whose length depends only on
 //! the totals so far, and checks its rule between rounds, so the photon
 //! count does not depend on the thread count either.
