@@ -13,8 +13,10 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-/// Everything in the repository that is text a reader may meet.
-const ROOTS: [&str; 10] = [
+/// Everything in the repository that is text a reader may meet (the
+/// presets' comments and the committed profiles' and kernels' recorded
+/// rules included).
+const ROOTS: [&str; 12] = [
     "src",
     "tests",
     "docs",
@@ -22,6 +24,8 @@ const ROOTS: [&str; 10] = [
     "benches",
     "shaders",
     ".ci",
+    "profiles",
+    "kernels",
     "README.md",
     "DEVELOPERS.md",
     "Cargo.toml",
@@ -89,27 +93,27 @@ fn forbidden(line: &str) -> Option<&'static str> {
     if line.contains("../shared") || line.contains("shared/seeds") {
         return Some("a path outside the repository");
     }
-    let chars: Vec<char> = line.chars().collect();
     let lower = line.to_lowercase();
-    let at = |i: usize| chars.get(i).copied();
-    let before_ok = |i: usize| i == 0 || !(is_word(chars[i - 1]) || ".,+-".contains(chars[i - 1]));
-    for i in 0..chars.len() {
-        let rest: String = chars[i..].iter().collect();
+    let mut prev: Option<char> = None;
+    for (i, c) in line.char_indices() {
+        let rest = &line[i..];
+        let next = |n: usize| rest.chars().nth(n);
+        let before_ok = !prev.is_some_and(|p| is_word(p) || ".,+-".contains(p));
+        prev = Some(c);
         // "REFERENCE" as a word, in capitals.
-        if rest.starts_with("REFERENCE") && before_ok(i) && !at(i + 9).is_some_and(is_word) {
+        if rest.starts_with("REFERENCE") && before_ok && !next(9).is_some_and(is_word) {
             return Some("the outside specification REFERENCE");
         }
         // The seed folder: "seeds/002_freude.txt".
-        if rest.starts_with("seeds/") && at(i + 6).is_some_and(|c| c.is_ascii_digit()) {
+        if rest.starts_with("seeds/") && next(6).is_some_and(|c| c.is_ascii_digit()) {
             return Some("a path outside the repository");
         }
         // A seed number used as a source: "002 eq.", "000 ch.", "001's",
         // "000 §3".
-        if before_ok(i)
-            && rest.len() >= 4
+        if before_ok
             && rest.starts_with("00")
-            && ('0'..='4').contains(&chars[i + 2])
-            && !at(i + 3).is_some_and(|c| c.is_ascii_digit() || c == '.')
+            && next(2).is_some_and(|c| ('0'..='4').contains(&c))
+            && !next(3).is_some_and(|c| c.is_ascii_digit() || c == '.')
         {
             let after = &rest[3..];
             let after = after.strip_prefix(' ').unwrap_or(after);
@@ -135,14 +139,11 @@ fn forbidden(line: &str) -> Option<&'static str> {
         }
         // "#13", "(#9)": an issue or pull request number. Not "#[test]",
         // not a colour ("#1f77b4"), not a shell comment ("# 1").
-        if chars[i] == '#'
-            && (i == 0 || chars[i - 1].is_whitespace() || "([".contains(chars[i - 1]))
+        if c == '#'
+            && (i == 0 || line[..i].ends_with(|p: char| p.is_whitespace() || "([".contains(p)))
         {
-            let digits = chars[i + 1..]
-                .iter()
-                .take_while(|c| c.is_ascii_digit())
-                .count();
-            if (1..=4).contains(&digits) && !at(i + 1 + digits).is_some_and(is_word) {
+            let digits = rest[1..].chars().take_while(|c| c.is_ascii_digit()).count();
+            if (1..=4).contains(&digits) && !next(1 + digits).is_some_and(is_word) {
                 return Some("an issue number");
             }
         }
