@@ -29,7 +29,7 @@ pub fn specular_normal(n1: f64, n2: f64) -> f64 {
 /// First Fresnel moment, polynomial fit (pbrt-v3 FresnelMoment1), for light
 /// inside a medium of relative index `eta` meeting its boundary. Equals Dal Corso's
 /// 2 C_1 / 2 fit (d'Eon and Irving 2011).
-pub fn fresnel_moment1(eta: f64) -> f64 {
+fn fresnel_moment1(eta: f64) -> f64 {
     let (e, e2) = (eta, eta * eta);
     let (e3, e4, e5) = (e2 * e, e2 * e2, e2 * e2 * e);
     if eta < 1.0 {
@@ -40,7 +40,7 @@ pub fn fresnel_moment1(eta: f64) -> f64 {
 }
 
 /// Second Fresnel moment, polynomial fit (pbrt-v3 FresnelMoment2).
-pub fn fresnel_moment2(eta: f64) -> f64 {
+fn fresnel_moment2(eta: f64) -> f64 {
     let (e, e2) = (eta, eta * eta);
     let (e3, e4, e5) = (e2 * e, e2 * e2, e2 * e2 * e);
     if eta < 1.0 {
@@ -140,12 +140,12 @@ fn fresnel_moment_exact(eta: f64, n: i32) -> f64 {
 }
 
 /// First Fresnel moment by numerical integration (see `fresnel_moment_exact`).
-pub fn fresnel_moment1_exact(eta: f64) -> f64 {
+fn fresnel_moment1_exact(eta: f64) -> f64 {
     fresnel_moment_exact(eta, 1)
 }
 
 /// Second Fresnel moment by numerical integration.
-pub fn fresnel_moment2_exact(eta: f64) -> f64 {
+fn fresnel_moment2_exact(eta: f64) -> f64 {
     fresnel_moment_exact(eta, 2)
 }
 

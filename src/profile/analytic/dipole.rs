@@ -2,14 +2,14 @@
 //! ch. 3, with the sign erratum of eq. 3.7/3.10 fixed).
 
 use crate::material::Medium;
-use crate::profile::fresnel::{fresnel_moment1_exact, FresnelMode};
+use crate::profile::fresnel::FresnelMode;
 use std::f64::consts::PI;
 
 /// Diffuse Fresnel reflectance fit F_dr(eta) (Egan and Hilgeman 1979;
 /// Jensen et al. 2001, eq. 5). A transcription of it prints the last coefficient as
 /// 0.0036: an erratum. The published 0.0636 matches the exact diffuse internal
 /// reflectance 2 C_1 (0.4446 at eta = 1.3, 0.5963 at 1.5; see
-/// `fresnel_moment1_exact`), while 0.0036 is off by 0.08 and changes A by 25%.
+/// `FresnelMode::moment1`), while 0.0036 is off by 0.08 and changes A by 25%.
 fn diffuse_fresnel_fit(eta: f64) -> f64 {
     -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
 }
@@ -18,7 +18,7 @@ fn diffuse_fresnel_fit(eta: f64) -> f64 {
 pub fn diffuse_fresnel(eta: f64, mode: FresnelMode) -> f64 {
     match mode {
         FresnelMode::Fit => diffuse_fresnel_fit(eta),
-        FresnelMode::Exact => 2.0 * fresnel_moment1_exact(eta),
+        FresnelMode::Exact => 2.0 * FresnelMode::Exact.moment1(eta),
     }
 }
 
