@@ -82,7 +82,7 @@ impl std::fmt::Display for ScaleWarning {
 
 /// Radius (mm) from the origin holding `fraction` of sum |w| of one pass
 /// (largest over channels).
-fn radius_holding(t: &Taps, fraction: f64) -> f64 {
+fn pass_radius_holding(t: &Taps, fraction: f64) -> f64 {
     let mut r: f64 = 0.0;
     for c in 0..3 {
         let total: f64 = t.weights.iter().map(|w| w[c].abs()).sum();
@@ -115,7 +115,7 @@ pub fn scale_warnings(passes: &[Taps], px_per_mm: f64, sampled: bool) -> Vec<Sca
     }
     let radius_mm = passes
         .iter()
-        .map(|t| radius_holding(t, RADIUS_HOLD))
+        .map(|t| pass_radius_holding(t, RADIUS_HOLD))
         .fold(0.0, f64::max);
     let extent_mm = passes
         .iter()
