@@ -272,6 +272,10 @@ fn bad_inputs_fail_clearly() {
     let o = run(&cmp);
     assert_fails(&o, &cmp, &["2 NaN/Inf samples", "pixel (3, 2)"]);
     assert!(!stderr(&o).contains("--sanitize"), "{}", stderr(&o));
+    let args = ["diff", p(&nan), p(&nan)];
+    let o = run(&args);
+    assert_fails(&o, &args, &["2 NaN/Inf samples", "pixel (3, 2) channel G"]);
+    assert!(!stderr(&o).contains("--sanitize"), "{}", stderr(&o));
     let mut a = apply_args(&k, &nan, &out);
     a.push("--sanitize");
     let o = run(&a);

@@ -2,7 +2,7 @@
 //! image space; report.md, compare.csv, compare.json, the fitted kernels
 //! and plots.
 
-use super::errors::{between, positive};
+use super::errors::{between, invalid, positive};
 use super::fit::ModelArg;
 use super::out::out;
 use super::profile_source::command_line;
@@ -126,9 +126,9 @@ fn parse_taps(s: &str) -> anyhow::Result<Vec<usize>> {
     for t in list(s) {
         let n: usize = t
             .parse()
-            .map_err(|_| anyhow::anyhow!("--taps: '{t}' is not a number (e.g. 11,17,25)"))?;
+            .map_err(|_| invalid("--taps", &t, "not a number (e.g. 11,17,25)"))?;
         if n == 0 || n.is_multiple_of(2) || n > 255 {
-            bail!("--taps: {n} must be odd, between 1 and 255");
+            return Err(invalid("--taps", n, "must be odd, between 1 and 255"));
         }
         if !v.contains(&n) {
             v.push(n);
@@ -198,7 +198,7 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
             let profile = match analytic_model {
                 None => {
                     if a.photons == 0 {
-                        bail!("--photons: invalid value 0: must be > 0");
+                        return Err(invalid("--photons", 0, "must be > 0"));
                     }
                     let cfg = McConfig {
                         budget: PhotonBudget::Fixed(a.photons),
@@ -269,9 +269,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         });
     }
     if let Some(e) = a.extent {
-        if !(e.is_finite() && e > 0.0) {
-            bail!("--extent: invalid value {e}: must be finite and > 0 (mm)");
-        }
+        positive("--extent", e)?;
     }
     let inputs = load_profiles(&a)?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("--out {}", a.out.display()))?;

@@ -351,6 +351,9 @@ mod tests {
         }
         p.extra["warnings"] = json!([1]);
         let e = p.warnings().unwrap_err().to_string();
-        assert!(e.contains("extra.warnings") && e.contains("sentences"), "{e}");
+        assert!(
+            e.contains("extra.warnings") && e.contains("sentences"),
+            "{e}"
+        );
     }
 }
