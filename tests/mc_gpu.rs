@@ -43,9 +43,9 @@ fn run(m: &Material, c: &McConfig) -> Profile {
 
 /// The energy balance closes to f32 rounding: each packet's absorbed weight
 /// is an f32 running sum over its events (relative rounding ~1e-7 per event,
-/// unbiased), and its tallies are rounded to 2^-24. Measured |sum - 1| stays
-/// below 1e-7 on these tests; 2e-6 leaves room without hiding a lost term
-/// (the smallest terms, roulette gain and loss, are ~1e-3).
+/// unbiased), and its tallies are rounded to 2^-24 (each test prints its
+/// |sum - 1|); 2e-6 leaves room without hiding a lost term (the smallest
+/// terms, roulette gain and loss, are ~1e-3).
 fn assert_balance(p: &Profile) {
     common::mc::assert_balance(p, 2e-6);
 }

@@ -126,7 +126,8 @@ pub struct McOptions {
     /// event-count roulette (unbiased; see `EVENT_ROULETTE_SURVIVAL`).
     pub event_roulette: u64,
     /// Hard cap on events per packet, default none (u64::MAX): a packet
-    /// stopped there is abandoned and its weight reported as truncated.
+    /// stopped there is abandoned and its weight reported as truncated. The
+    /// GPU tracer applies at most `gpu::GPU_MAX_EVENTS`.
     pub max_events: u64,
     /// Also tally reflectance of packets scattered exactly once
     /// (`extra.single_scatter`).
@@ -175,24 +176,27 @@ impl Default for McOptions {
 /// an error of 2e-6 of the light reaching a surface is 150x below what an
 /// 8-bit display shows and 9x below a 12-bit step. Where R_d >= floor /
 /// target (4e-4 at the defaults) the floor implies the relative rule, so it
-/// never stops such a channel earlier (nor changes its rounds); every preset
-/// channel but wine's and beer's has R_d above 1e-3. It exists for media
-/// that barely scatter back (wine, beer: R_d 1e-6 to 1e-4), whose relative
-/// error would need 1e8+ photons to reach 0.5% while their kernels are
-/// invisible. The photon minimum is the rule of three: with no return in
+/// never stops such a channel earlier (nor changes its rounds); only wine's
+/// and beer's channels stop at the floor (`stopped_by` per preset in
+/// docs/records/mc-presets.json). It exists for media that barely scatter
+/// back: a return probability p estimated from N photons has a relative
+/// error of about (N p)^-1/2, so 0.5% at p = 1e-4 takes 4e8 photons while
+/// the kernel is invisible. The photon minimum is the rule of three: with no return in
 /// 3/floor photons a return probability above the floor is excluded at 95%,
 /// so a channel cannot stop on an error estimated from too few returns.
 pub const DEFAULT_ABS_FLOOR: f64 = 2e-6;
 
-/// Default work cap, in events per channel: sized to keep a default run
-/// of any preset under about a minute on two cores; the events per second
-/// it stands for are measured by `cargo bench --bench mc` (ns per event in
-/// docs/records/mc-speed.json).
+/// Default work cap, in events per channel: far above what a default run
+/// of any preset spends (photons per preset in docs/records/mc-presets.json)
+/// and small enough that an albedo-1 medium ends in minutes, not hours; the
+/// time per event on a given machine is measured by `cargo bench --bench
+/// mc` (ns per event in docs/records/mc-speed.json).
 pub const DEFAULT_MAX_WORK: u64 = 1_500_000_000;
 
 /// Default hard event cap: none. Albedo-1 walks are ended without bias by
-/// the event-count roulette instead (a cap at n leaves ~n^-1/2 of the
-/// energy unaccounted: 0.24% at 10^6 events for spectralon).
+/// the event-count roulette instead (a cap at n events leaves ~n^-1/2 of
+/// the energy unaccounted, the first-passage law of
+/// `EVENT_ROULETTE_SURVIVAL`).
 pub const DEFAULT_MAX_EVENTS: u64 = u64::MAX;
 
 /// Simulates the diffuse reflectance profile of `material`.
