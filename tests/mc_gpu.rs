@@ -466,6 +466,7 @@ fn the_event_cap_truncates_as_on_the_cpu() {
     // Without a cap asked for, the GPU's own is recorded, not "none".
     let p = run(&m, &cfg(2000, Channel::R, None));
     assert_eq!(p.source.params["max_events"], GPU_MAX_EVENTS);
+    assert_eq!(p.source.params["max_events_requested"], "none");
     let o = McOptions {
         max_events: 5 * GPU_MAX_EVENTS,
         ..McOptions::default()

@@ -295,19 +295,23 @@ impl McGpu {
             "none: the GPU tracer ends walks at max_events, booking what is left as truncated"
         );
         if requested_events > GPU_MAX_EVENTS {
-            params["max_events_requested"] = json!(requested_events);
+            let asked = match requested_events {
+                u64::MAX => json!("none"),
+                n => json!(n),
+            };
             let capped: Vec<&str> = runs_truncated(&p);
             if !capped.is_empty() {
                 if let Some(w) = p.extra["warnings"].as_array_mut() {
                     w.push(json!(format!(
                         "channel(s) {}: the GPU tracer stops every walk at {GPU_MAX_EVENTS} \
                          events (a shader invocation's loop must end: drivers stop long-running \
-                         shaders), not at the {requested_events} asked for (`max_events`); the \
-                         CPU tracer's event-count roulette ends long walks without bias",
+                         shaders), below the cap asked for (`max_events`: {asked}); the CPU \
+                         tracer's event-count roulette ends long walks without bias",
                         capped.join(", ")
                     )));
                 }
             }
+            p.source.params["max_events_requested"] = asked;
         }
         Ok(p)
     }
