@@ -494,33 +494,74 @@ fn fixed_counts_beyond_the_work_cap_are_refused_on_the_gpu() {
         max_work: 1_000_000,
         ..McOptions::default()
     };
-    let g = gpu();
-    let e = g
-        .simulate(
+    let refusal = |photons: u64| {
+        let g = gpu();
+        g.simulate(
             &m,
-            &cfg(2_000_000, Channel::R, None),
+            &cfg(photons, Channel::R, None),
             &o,
             g.default_dispatch(),
             &NoProgress,
         )
         .unwrap_err()
-        .to_string();
+        .to_string()
+    };
+    let e = refusal(2_000_000);
     assert!(
         e.contains("photons") && e.contains("at least one event"),
         "{e}"
     );
-    let e = g
-        .simulate(
-            &m,
-            &cfg(900_000, Channel::R, None),
-            &o,
-            g.default_dispatch(),
-            &NoProgress,
-        )
-        .unwrap_err()
-        .to_string();
+    let e = refusal(900_000);
     assert!(
         e.contains(&format!("over its first {CHECKPOINT} photons")) && e.contains("work cap"),
         "{e}"
     );
+}
+
+/// The work cap stops a fixed GPU run whose first checkpoint underestimated
+/// its cost (tests/mc_cli.rs has the CPU twin): the rounds trace
+/// `CHECKPOINT` photons, then as many again, then the rest; with a seed
+/// where the second round costs more than the first and a cap at the first
+/// round's projection for one photon more than two rounds, the run passes
+/// its first check and stops after the second, one photon short.
+#[test]
+fn a_fixed_gpu_run_stops_at_the_work_cap() {
+    let m = preset("skin1").unwrap();
+    let g = gpu();
+    let sim = |photons: u64, seed: u64, max_work: u64| {
+        let o = McOptions {
+            max_work,
+            ..McOptions::default()
+        };
+        let c = McConfig {
+            seed,
+            ..cfg(photons, Channel::B, None)
+        };
+        g.simulate(&m, &c, &o, g.default_dispatch(), &NoProgress)
+            .unwrap()
+    };
+    let events = |p: &Profile| {
+        let per = p.extra["events_per_photon"][0].as_f64().unwrap();
+        (per * p.source.photons.as_ref().unwrap()[0] as f64).round() as u64
+    };
+    for seed in 1..=20 {
+        let first = events(&sim(CHECKPOINT, seed, u64::MAX));
+        let both = events(&sim(2 * CHECKPOINT, seed, u64::MAX));
+        let n = 2 * CHECKPOINT + 1;
+        let cap = (first as f64 / CHECKPOINT as f64 * n as f64).ceil() as u64;
+        if both < cap {
+            continue;
+        }
+        let p = sim(n, seed, cap);
+        assert_eq!(p.source.photons, Some(vec![2 * CHECKPOINT]));
+        assert_eq!(p.extra["stopped_by"][0], "work-cap");
+        assert_eq!(p.extra["converged"][0], false);
+        let w = p.extra["warnings"].to_string();
+        assert!(
+            w.contains(&format!("{} of {n} photons", 2 * CHECKPOINT)),
+            "{w}"
+        );
+        return;
+    }
+    panic!("no seed in 1..=20 where the second round costs more than the first");
 }
