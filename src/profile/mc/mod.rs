@@ -181,9 +181,10 @@ impl Default for McOptions {
 /// docs/records/mc-presets.json). It exists for media that barely scatter
 /// back: a return probability p estimated from N photons has a relative
 /// error of about (N p)^-1/2, so 0.5% at p = 1e-4 takes 4e8 photons while
-/// the kernel is invisible. The photon minimum is the rule of three: with no return in
-/// 3/floor photons a return probability above the floor is excluded at 95%,
-/// so a channel cannot stop on an error estimated from too few returns.
+/// the kernel is invisible. The photon minimum is the rule of three: with
+/// no return in 3/floor photons a return probability above the floor is
+/// excluded at 95%, so a channel cannot stop on an error estimated from too
+/// few returns.
 pub const DEFAULT_ABS_FLOOR: f64 = 2e-6;
 
 /// Default work cap, in events per channel: far above what a default run
