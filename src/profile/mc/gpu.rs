@@ -294,25 +294,7 @@ impl McGpu {
         params["event_roulette"] = json!(
             "none: the GPU tracer ends walks at max_events, booking what is left as truncated"
         );
-        if requested_events > GPU_MAX_EVENTS {
-            let asked = match requested_events {
-                u64::MAX => json!("none"),
-                n => json!(n),
-            };
-            let capped: Vec<&str> = runs_truncated(&p);
-            if !capped.is_empty() {
-                if let Some(w) = p.extra["warnings"].as_array_mut() {
-                    w.push(json!(format!(
-                        "channel(s) {}: the GPU tracer stops every walk at {GPU_MAX_EVENTS} \
-                         events (a shader invocation's loop must end: drivers stop long-running \
-                         shaders), below the cap asked for (`max_events`: {asked}); the CPU \
-                         tracer's event-count roulette ends long walks without bias",
-                        capped.join(", ")
-                    )));
-                }
-            }
-            p.source.params["max_events_requested"] = asked;
-        }
+        note_event_clamp(&mut p, requested_events);
         Ok(p)
     }
 
@@ -535,6 +517,31 @@ fn shader_consts() -> String {
 /// its roulette; at albedo 1 it leaves ~n^-1/2 of the energy behind (see
 /// `DEFAULT_MAX_EVENTS`).
 pub const GPU_MAX_EVENTS: u64 = 1_000_000;
+
+/// Records the event cap asked for where the GPU's own was lower, and warns
+/// where packets were cut there.
+fn note_event_clamp(p: &mut Profile, requested_events: u64) {
+    if requested_events <= GPU_MAX_EVENTS {
+        return;
+    }
+    let (asked, text) = match requested_events {
+        u64::MAX => (json!("none"), "none".to_string()),
+        n => (json!(n), n.to_string()),
+    };
+    let capped: Vec<&str> = runs_truncated(p);
+    if !capped.is_empty() {
+        if let Some(w) = p.extra["warnings"].as_array_mut() {
+            w.push(json!(format!(
+                "channel(s) {}: the GPU tracer stops every walk at {GPU_MAX_EVENTS} events (a \
+                 shader invocation's loop must end: drivers stop long-running shaders), below \
+                 the cap asked for (`max_events`: {text}); the CPU tracer's event-count \
+                 roulette ends long walks without bias",
+                capped.join(", ")
+            )));
+        }
+    }
+    p.source.params["max_events_requested"] = asked;
+}
 
 /// Channels of a profile where packets were truncated.
 fn runs_truncated(p: &Profile) -> Vec<&'static str> {
@@ -791,6 +798,34 @@ mod tests {
     fn the_assembled_shaders_are_valid_wgsl() {
         crate::gpu::tests::assert_valid_wgsl(&shader_source(TRACE), "mc_trace");
         crate::gpu::tests::assert_valid_wgsl(&shader_source(KAT), "mc_kat");
+    }
+
+    #[test]
+    fn a_clamped_event_cap_is_recorded_and_warned_where_it_cut() {
+        // lavapipe cannot run a walk to 10^6 events: the note is checked on a
+        // profile whose red channel reports truncated packets.
+        let m = crate::material::preset("skin1").unwrap();
+        let cfg = McConfig {
+            budget: PhotonBudget::Fixed(100),
+            seed: 1,
+            threads: Some(1),
+            channels: vec![Channel::R, Channel::B],
+            grid: None,
+        };
+        let mut p = super::super::simulate(&m, &cfg, &crate::progress::NoProgress).unwrap();
+        note_event_clamp(&mut p, GPU_MAX_EVENTS);
+        assert!(p.source.params.get("max_events_requested").is_none());
+        p.extra["truncated_photons"][0] = json!(3);
+        note_event_clamp(&mut p, u64::MAX);
+        assert_eq!(p.source.params["max_events_requested"], "none");
+        let w = p.extra["warnings"].to_string();
+        assert!(
+            w.contains("channel(s) r: the GPU tracer stops every walk at 1000000 events")
+                && w.contains("`max_events`: none"),
+            "{w}"
+        );
+        note_event_clamp(&mut p, 5_000_000);
+        assert_eq!(p.source.params["max_events_requested"], 5_000_000);
     }
 
     #[test]

@@ -1296,6 +1296,33 @@ mod tests {
     }
 
     #[test]
+    fn a_fixed_count_above_the_work_cap_is_refused_per_shard() {
+        // One event per photon at the least: 10 chunks exceed a cap of 5
+        // chunks' photons, a tenth of them (one shard) does not.
+        let cfg = McConfig {
+            budget: PhotonBudget::Fixed(10 * CHUNK),
+            seed: 1,
+            threads: None,
+            channels: vec![Channel::R],
+            grid: None,
+        };
+        let mut opts = McOptions {
+            max_work: 5 * CHUNK,
+            ..McOptions::default()
+        };
+        let e = validate_config(&cfg, &opts).unwrap_err().to_string();
+        assert!(
+            e.contains("invalid photons = 81920") && e.contains("work cap of 40960"),
+            "{e}"
+        );
+        opts.shard = Some(Shard { k: 3, n: 10 });
+        assert!(validate_config(&cfg, &opts).is_ok());
+        opts.max_work = CHUNK - 1;
+        let e = validate_config(&cfg, &opts).unwrap_err().to_string();
+        assert!(e.contains("8192 photons per channel"), "{e}");
+    }
+
+    #[test]
     fn invalid_config_is_rejected() {
         let m = crate::material::preset("skin1").unwrap();
         let mut cfg = McConfig {
