@@ -128,8 +128,8 @@ struct Flags {
     #[arg(long, allow_hyphen_values = true, value_parser = parse_count)]
     max_work: Option<u64>,
     /// Weight below which Russian roulette plays, survival 1/10 (unbiased for
-    /// any value in (0, 1); MCML uses 1e-4, the default 0.01 is ~1.5x more
-    /// efficient, see docs/mc.md).
+    /// any value in (0, 1); MCML uses 1e-4, the default 0.01 is more
+    /// efficient: the Speed table of docs/mc.md).
     #[arg(long, default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true)]
     roulette: f64,
     /// Where photons are traced: cpu (f64); gpu (wgpu compute, f32, classic
