@@ -13,6 +13,19 @@ pub enum Error {
         value: String,
         reason: String,
     },
+    /// Input samples that are NaN or infinite where only finite ones make
+    /// sense; replacing them by `fill` is the caller's choice, not ours.
+    #[error("{what}: {count} NaN/Inf {unit}, the first at {first}")]
+    NonFinite {
+        what: String,
+        count: usize,
+        /// What was counted ("samples", "values").
+        unit: &'static str,
+        /// Where the first one is ("pixel (3, 2) channel R").
+        first: String,
+        /// The value a sanitising caller puts in their place.
+        fill: f64,
+    },
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {

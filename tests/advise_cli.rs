@@ -219,8 +219,26 @@ fn advise_from_a_perspective_view_matches_the_filter_scale() {
             "--height",
             "1080",
         ],
-        &["depth"],
+        &["--depth: invalid value -1"],
     );
+    // The field of view is --fov here (--fov-y in apply): the message
+    // names the flag the user typed.
+    for fov in ["0", "180"] {
+        let args = [
+            "advise",
+            "--profile",
+            s(&profile),
+            "--fov",
+            fov,
+            "--depth",
+            "0.5",
+            "--height",
+            "1080",
+        ];
+        let o = common::run(&args);
+        common::assert_fails(&o, &args, &[&format!("--fov: invalid value {fov}")]);
+        assert!(!common::stderr(&o).contains("--fov-y"));
+    }
 }
 
 /// `fit` records the tap extent; the default is the one chosen for the

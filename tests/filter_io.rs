@@ -253,6 +253,29 @@ fn bad_inputs_fail_clearly() {
         &["2 NaN/Inf samples", "pixel (3, 2)", "--sanitize"],
         &out,
     );
+    // compare has no --sanitize: it must not suggest one.
+    let report = d.join("cmp");
+    let cmp = [
+        "compare",
+        "--materials",
+        "skin1",
+        "--profile-model",
+        "pbd",
+        "--models",
+        "svd",
+        "--images",
+        p(&nan),
+        "--no-plots",
+        "--out",
+        p(&report),
+    ];
+    let o = run(&cmp);
+    assert_fails(&o, &cmp, &["2 NaN/Inf samples", "pixel (3, 2)"]);
+    assert!(!stderr(&o).contains("--sanitize"), "{}", stderr(&o));
+    let args = ["diff", p(&nan), p(&nan)];
+    let o = run(&args);
+    assert_fails(&o, &args, &["2 NaN/Inf samples", "pixel (3, 2) channel G"]);
+    assert!(!stderr(&o).contains("--sanitize"), "{}", stderr(&o));
     let mut a = apply_args(&k, &nan, &out);
     a.push("--sanitize");
     let o = run(&a);

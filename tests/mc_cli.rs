@@ -432,3 +432,36 @@ fn a_fixed_run_stops_at_the_work_cap_with_a_warning() {
     }
     panic!("no seed in 1..=20 where chunks 3-4 cost more than chunks 1-2");
 }
+
+/// A run cut short says so in the terms of where it is read: the profile
+/// names the library parameter, the command line names the flag.
+#[test]
+fn warnings_name_the_parameter_in_the_file_and_the_flag_on_screen() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = ssskit(
+        dir.path(),
+        &[
+            "simulate",
+            "--material",
+            "skin1",
+            "--channels",
+            "r",
+            "--max-photons",
+            "2000",
+            "--threads",
+            "1",
+            "--out",
+            "p.json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("not reached within the cap of 2000 photons (--max-photons)"),
+        "{err}"
+    );
+    let p = Profile::read(&dir.path().join("p.json")).unwrap();
+    let w = p.warnings().unwrap().join("\n");
+    assert!(w.contains("2000 photons (`max_photons`)"), "{w}");
+    assert!(!w.contains("--"), "the library names no flags: {w}");
+}

@@ -108,7 +108,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         out!("{text}")?;
     }
     for w in &advice.warnings {
-        eprintln!("warning: {w}");
+        super::errors::warn(&w.to_string());
     }
     if let Some(out) = &a.out {
         eprintln!("kernel ({}) -> {}", c.describe(), out.display());

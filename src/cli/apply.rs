@@ -220,7 +220,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .fold(0.0, f64::max);
     let sampled = factors == Factors::Taps || uniform.is_none();
     for w in scale_warnings(&setup.passes, largest_step, sampled) {
-        eprintln!("warning: {w}");
+        super::errors::warn(&w.to_string());
     }
 
     let precision = cpu::Precision::from(args.precision);

@@ -2,9 +2,12 @@
 //! image space; report.md, compare.csv, compare.json, the fitted kernels
 //! and plots.
 
+use super::errors::{between, invalid, positive};
 use super::fit::ModelArg;
 use super::out::out;
+use super::profile_source::command_line;
 use super::progress::Bar;
+use super::signal::Kind as SignalArg;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
@@ -12,10 +15,10 @@ use ssskit::material::{preset_names, Channel, Material};
 use ssskit::profile::analytic::{self, Model as ProfileModel, Options as ProfileOptions};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::profile::Profile;
-use ssskit::report::evaluate::{parse_signal, ImageCase, Options, Which};
+use ssskit::report::evaluate::{ImageCase, Options, Which};
 use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
 use ssskit::report::{kernel_report, pipeline};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum ProfileModelArg {
@@ -41,6 +44,21 @@ fn model_or_all() -> impl clap::builder::TypedValueParser<Value = Option<ModelAr
         .map(|s| ModelArg::from_str(&s, false).ok())
 }
 
+/// `--signals`: a test signal as `signal` spells it, or "none" (also "")
+/// for kernel space only (None).
+fn signal_or_none() -> impl clap::builder::TypedValueParser<Value = Option<SignalArg>> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let none = PossibleValue::new("none")
+        .alias("")
+        .help("kernel space only");
+    let signals = SignalArg::value_variants()
+        .iter()
+        .filter_map(ValueEnum::to_possible_value)
+        .map(|v| v.help(None::<&'static str>));
+    PossibleValuesParser::new(std::iter::once(none).chain(signals))
+        .map(|s| SignalArg::from_str(&s, false).ok())
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Comma-separated material names, or "all" (every profile in
@@ -62,10 +80,9 @@ pub struct Args {
     /// Comma-separated kernel models, or all.
     #[arg(long, value_parser = model_or_all(), value_delimiter = ',', default_value = "all")]
     models: Vec<Option<ModelArg>>,
-    /// Comma-separated test signals: edge, shapes, checker, dirac; "" for
-    /// kernel space only.
-    #[arg(long, default_value = "edge,shapes")]
-    signals: String,
+    /// Comma-separated test signals, or none for kernel space only.
+    #[arg(long, value_parser = signal_or_none(), value_delimiter = ',', default_value = "edge,shapes")]
+    signals: Vec<Option<SignalArg>>,
     /// Further images in linear light (.exr) or sRGB (.png), at --mm-per-pixel.
     #[arg(long, num_args = 1..)]
     images: Vec<PathBuf>,
@@ -109,9 +126,9 @@ fn parse_taps(s: &str) -> anyhow::Result<Vec<usize>> {
     for t in list(s) {
         let n: usize = t
             .parse()
-            .map_err(|_| anyhow::anyhow!("--taps: '{t}' is not a number (e.g. 11,17,25)"))?;
+            .map_err(|_| invalid("--taps", &t, "not a number (e.g. 11,17,25)"))?;
         if n == 0 || n.is_multiple_of(2) || n > 255 {
-            bail!("--taps: {n} must be odd, between 1 and 255");
+            return Err(invalid("--taps", n, "must be odd, between 1 and 255"));
         }
         if !v.contains(&n) {
             v.push(n);
@@ -181,7 +198,7 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
             let profile = match analytic_model {
                 None => {
                     if a.photons == 0 {
-                        bail!("--photons: invalid value 0: must be > 0");
+                        return Err(invalid("--photons", 0, "must be > 0"));
                     }
                     let cfg = McConfig {
                         budget: PhotonBudget::Fixed(a.photons),
@@ -219,29 +236,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let ranks = parse_ranks(&a.ranks).context("--ranks")?;
     let taps = parse_taps(&a.taps)?;
-    if !(a.mm_per_pixel.is_finite() && a.mm_per_pixel > 0.0) {
-        bail!(
-            "--mm-per-pixel: invalid value {}: must be finite and > 0",
-            a.mm_per_pixel
-        );
-    }
-    if a.size < 8 || a.size > 4096 {
-        bail!(
-            "--size: invalid value {}: must be between 8 and 4096",
-            a.size
-        );
-    }
-    if !(a.pixels_per_degree.is_finite() && a.pixels_per_degree > 0.0) {
-        bail!(
-            "--pixels-per-degree: invalid value {}: must be finite and > 0",
-            a.pixels_per_degree
-        );
-    }
+    positive("--mm-per-pixel", a.mm_per_pixel)?;
+    between("--size", a.size, 8, 4096)?;
+    positive("--pixels-per-degree", a.pixels_per_degree)?;
     let mut cases = Vec::new();
     let mut signals = Vec::new();
-    for s in list(&a.signals) {
-        let sig = parse_signal(&s).context("--signals")?;
-        let case = ImageCase::signal(sig, a.size, a.mm_per_pixel)?;
+    for &sig in a.signals.iter().flatten() {
+        let case = ImageCase::signal(sig.into(), a.size, a.mm_per_pixel)?;
+        if signals.contains(&case.name) {
+            continue;
+        }
         signals.push(case.name.clone());
         cases.push(case);
     }
@@ -265,9 +269,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         });
     }
     if let Some(e) = a.extent {
-        if !(e.is_finite() && e > 0.0) {
-            bail!("--extent: invalid value {e}: must be finite and > 0 (mm)");
-        }
+        positive("--extent", e)?;
     }
     let inputs = load_profiles(&a)?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("--out {}", a.out.display()))?;
@@ -289,12 +291,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let factors: Vec<Factor> = std::iter::once(Factor::Full)
         .chain(taps.iter().map(|&n| Factor::Taps(n)))
         .collect();
-    let command: Vec<String> = std::env::args()
-        .skip(1)
-        .map(|s| if s.contains(' ') { format!("'{s}'") } else { s })
-        .filter(|s| !s.is_empty())
-        .collect();
-    let command = normalise_command(&command, &a.out);
+    let command = command_line(&a.out);
     let ctx = kernel_report::ReportContext {
         command: &command,
         signals: &signals,
@@ -322,16 +319,4 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if a.no_plots { "" } else { ", PNG plots" }
     );
     Ok(())
-}
-
-/// The command line as the report prints it: the output folder replaced by
-/// "OUT" so that the report does not depend on where it was written.
-fn normalise_command(args: &[String], out: &Path) -> String {
-    let o = out.display().to_string();
-    let mut v = vec!["ssskit".to_string()];
-    v.extend(
-        args.iter()
-            .map(|s| if *s == o { "OUT".into() } else { s.clone() }),
-    );
-    v.join(" ")
 }

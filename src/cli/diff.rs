@@ -25,17 +25,10 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let (a, _) = read_image(&args.a, None)?;
-    let (b, _) = read_image(&args.b, None)?;
-    for (img, p) in [(&a, &args.a), (&b, &args.b)] {
-        let (n, first) = img.non_finite();
-        if let Some((x, y, c)) = first {
-            anyhow::bail!(
-                "{}: {n} NaN/Inf samples, the first at pixel ({x}, {y}) channel {c}",
-                p.display()
-            );
-        }
-    }
+    let (mut a, _) = read_image(&args.a, None)?;
+    let (mut b, _) = read_image(&args.b, None)?;
+    a.check_finite(&args.a.display().to_string(), false)?;
+    b.check_finite(&args.b.display().to_string(), false)?;
     if let Some(s) = args.scale {
         super::errors::positive("--scale", s)?;
     }

@@ -61,7 +61,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let fit = engine::fit(e, &profile, scene)?;
     outln!("engine: {} (profile {})", fit.engine, a.profile.display())?;
     for (name, v) in &fit.params {
-        let unit = fit.units.get(name).and_then(|u| u.as_str()).unwrap_or("");
+        let unit = fit.units.get(name).map_or("", String::as_str);
         outln!("  {name} = {v}    [{unit}]")?;
     }
     let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", 100.0 * x)).join(", ");

@@ -22,7 +22,7 @@ mod signal;
 mod simulate;
 mod study;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 #[derive(Parser)]
 #[command(
@@ -85,8 +85,11 @@ pub fn main() -> i32 {
     if let Err(e) = ssskit::io::remove_temps_on_signals() {
         eprintln!("warning: {e}: an interrupted write may leave a .ssskit-*.tmp file");
     }
-    let cli = match Cli::try_parse() {
-        Ok(cli) => cli,
+    let parsed = Cli::command()
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m).map(|cli| (cli, m)));
+    let (cli, matches) = match parsed {
+        Ok(parsed) => parsed,
         // Help, version and usage errors: clap prints them; a closed or
         // full standard output must not turn --help into a panic or a lie.
         Err(e) => {
@@ -100,6 +103,15 @@ pub fn main() -> i32 {
             };
         }
     };
+    // The subcommand that runs, whose flags the messages name.
+    let mut path = Vec::new();
+    let mut m = &matches;
+    while let Some((name, sub)) = m.subcommand() {
+        path.push(name.to_string());
+        m = sub;
+    }
+    errors::set_running(path);
+    let scope = errors::running();
     let result = match cli.command {
         Command::Kernels(a) => kernels::run(a),
         Command::Advise(a) => advise::run(a),
@@ -123,17 +135,49 @@ pub fn main() -> i32 {
         Err(e) => match out::quiet_exit(&e) {
             Some(code) => code,
             None => {
-                eprintln!("error: {}", errors::message(&e));
+                eprintln!("error: {}", scope.message(&e));
                 2
             }
         },
     }
 }
 
+/// The whole command line interface, built (help subcommands and all).
+fn top_command() -> clap::Command {
+    let mut c = Cli::command();
+    c.build();
+    c
+}
+
+/// The subcommand at `path` (`["profiles", "compare"]`), with its flags.
+fn subcommand(path: &[&str]) -> Option<clap::Command> {
+    let mut c = top_command();
+    for name in path {
+        c = c.find_subcommand(name)?.clone();
+    }
+    Some(c)
+}
+
+/// Every subcommand that runs something (no subcommands of its own).
+#[cfg(test)]
+fn leaf_subcommands() -> Vec<clap::Command> {
+    fn walk(c: &clap::Command, out: &mut Vec<clap::Command>) {
+        if c.has_subcommands() {
+            c.get_subcommands().for_each(|s| walk(s, out));
+        } else {
+            out.push(c.clone());
+        }
+    }
+    let mut out = Vec::new();
+    walk(&top_command(), &mut out);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use ssskit::engine::Engine;
+    use ssskit::report::evaluate::signal_name;
     use ssskit::report::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
 
     fn names<T: clap::ValueEnum>() -> Vec<String> {
@@ -147,6 +191,11 @@ mod tests {
         assert_eq!(names::<fit::ModelArg>(), COMPARE);
         let engines: Vec<&str> = Engine::ALL.iter().map(|e| e.name()).collect();
         assert_eq!(names::<engine::EngineArg>(), engines);
+        let signals: Vec<String> = <signal::Kind as clap::ValueEnum>::value_variants()
+            .iter()
+            .map(|&k| signal_name(k.into()).to_string())
+            .collect();
+        assert_eq!(names::<signal::Kind>(), signals);
         for &e in <engine::EngineArg as clap::ValueEnum>::value_variants() {
             assert_eq!(Engine::from(e).name(), flag_value(&e));
         }

@@ -105,6 +105,9 @@ impl ProfileArgs {
             &source,
             &super::progress::Bar::new(),
         )?;
+        for w in profile.warnings()? {
+            super::errors::warn(&w);
+        }
         let photons = profile
             .source
             .photons
@@ -125,7 +128,7 @@ pub fn command_line(out: &std::path::Path) -> String {
     v.extend(std::env::args().skip(1).map(|s| {
         if s == o {
             "OUT".into()
-        } else if s.contains(' ') {
+        } else if s.is_empty() || s.contains(' ') {
             format!("'{s}'")
         } else {
             s

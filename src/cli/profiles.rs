@@ -2,6 +2,7 @@
 //! reference on the same grid, per material and channel; markdown table,
 //! CSV and one PNG per material.
 
+use super::errors::invalid;
 use super::out::out;
 use super::profile::FresnelArg;
 use super::progress::Bar;
@@ -85,12 +86,12 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         }
     }
     let budget = match (a.reference_photons, a.target_error) {
-        (Some(0), _) => anyhow::bail!("--reference-photons: invalid value 0: must be > 0"),
+        (Some(0), _) => return Err(invalid("--reference-photons", 0, "must be > 0")),
         (Some(n), _) => PhotonBudget::Fixed(n),
         (None, e) => {
             let rel = e.unwrap_or(0.01);
             if !(rel.is_finite() && rel > 0.0 && rel < 1.0) {
-                anyhow::bail!("--target-error: invalid value {rel}: must be in (0, 1)");
+                return Err(invalid("--target-error", rel, "must be in (0, 1)"));
             }
             PhotonBudget::TargetError {
                 rel,

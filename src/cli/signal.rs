@@ -6,7 +6,7 @@ use ssskit::filter::signals::{generate, Signal};
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum Kind {
+pub(super) enum Kind {
     /// Vertical white-black edge (white left half).
     Edge,
     /// A circle and two tilted adjacent squares (Freude 2014, figure 6.6).
@@ -15,6 +15,17 @@ enum Kind {
     Dirac,
     /// A checker of --checker-mm cells.
     Checker,
+}
+
+impl From<Kind> for Signal {
+    fn from(k: Kind) -> Signal {
+        match k {
+            Kind::Edge => Signal::Edge,
+            Kind::Shapes => Signal::Shapes,
+            Kind::Dirac => Signal::Dirac,
+            Kind::Checker => Signal::Checker,
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -40,13 +51,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mm_per_pixel = positive("--mm-per-pixel", args.mm_per_pixel)?;
     let checker_mm = positive("--checker-mm", args.checker_mm)?;
     let cell = (checker_mm / mm_per_pixel).round().max(1.0) as usize;
-    let signal = match args.kind {
-        Kind::Edge => Signal::Edge,
-        Kind::Shapes => Signal::Shapes,
-        Kind::Dirac => Signal::Dirac,
-        Kind::Checker => Signal::Checker,
-    };
-    let img = generate(signal, w, h, cell)?;
+    let img = generate(args.kind.into(), w, h, cell)?;
     write_image(&args.out, &img, PngDepth::Sixteen)?;
     eprintln!("{w}x{h} {:?} -> {}", args.kind, args.out.display());
     Ok(())

@@ -235,12 +235,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         shard: args.shard,
         abs_floor: args.abs_floor,
     };
-    if !(args.abs_floor >= 0.0 && args.abs_floor < 1.0) {
-        anyhow::bail!(
-            "--abs-floor {}: must be in [0, 1), a fraction of the incident light (0 = off)",
-            args.abs_floor
-        );
-    }
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(match args.shard {
             Some(s) => format!("{}.shard-{}-of-{}.json", material.name, s.k, s.n),
@@ -441,7 +435,7 @@ pub(super) fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
         )?;
     }
     for w in p.warnings()? {
-        eprintln!("warning: {w}");
+        super::errors::warn(&w);
     }
     outln!("wrote {}", out.display())
 }

@@ -8,7 +8,7 @@
 //! values are a starting point there, not a fit.
 
 use super::burley::Burley;
-use super::{color, number, table, triple, Scene};
+use super::{color, number, table, triple, Scene, Units};
 use crate::error::Result;
 use serde_json::{json, Map, Value};
 use std::f64::consts::PI;
@@ -18,7 +18,7 @@ pub fn burley_fitting(a: f64) -> f64 {
     1.9 - a + 3.5 * (a - 0.8) * (a - 0.8)
 }
 
-pub fn params(b: &Burley, scene: Scene) -> (Map<String, Value>, Map<String, Value>) {
+pub fn params(b: &Burley, scene: Scene) -> (Map<String, Value>, Units) {
     let radius_mm: [f64; 3] =
         std::array::from_fn(|c| b.d_mm[c] * burley_fitting(b.albedo[c]) * 4.0 * PI);
     let max = radius_mm.iter().fold(0.0f64, |m, v| m.max(*v));

@@ -10,11 +10,11 @@
 //! scale settings to screen pixels is not converted here.
 
 use super::jimenez::{Jimenez, SKIN_STRENGTH_RED};
-use super::{color, number, table, triple};
+use super::{color, number, table, triple, Units};
 use crate::error::Result;
 use serde_json::{json, Map, Value};
 
-pub fn params(j: &Jimenez) -> (Map<String, Value>, Map<String, Value>) {
+pub fn params(j: &Jimenez) -> (Map<String, Value>, Units) {
     table(vec![
         (
             "kernel_width_mm",

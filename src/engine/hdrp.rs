@@ -7,11 +7,11 @@
 //! surface albedo.
 
 use super::burley::Burley;
-use super::{color, number, table, triple, Scene};
+use super::{color, number, table, triple, Scene, Units};
 use crate::error::Result;
 use serde_json::{json, Map, Value};
 
-pub fn params(b: &Burley, scene: Scene) -> (Map<String, Value>, Map<String, Value>) {
+pub fn params(b: &Burley, scene: Scene) -> (Map<String, Value>, Units) {
     let max = b.d_mm.iter().fold(0.0f64, |m, v| m.max(*v));
     table(vec![
         (

@@ -9,11 +9,11 @@
 //! w = 2 sssWidth / (3 u), u the scene units per mm, i.e. sssWidth = 1.5 w u.
 
 use super::jimenez::Jimenez;
-use super::{color, number, table, triple, Scene};
+use super::{color, number, table, triple, Scene, Units};
 use crate::error::Result;
 use serde_json::{json, Map, Value};
 
-pub fn params(j: &Jimenez, scene: Scene) -> (Map<String, Value>, Map<String, Value>) {
+pub fn params(j: &Jimenez, scene: Scene) -> (Map<String, Value>, Units) {
     // The widest channel gets falloff 1, as in iryoku's defaults.
     let w = j.scale_mm.iter().fold(0.0f64, |m, v| m.max(*v)) / 1.001;
     table(vec![

@@ -81,6 +81,9 @@ pub struct FitError {
     pub shape: [f64; 3],
 }
 
+/// Parameter name (the engine's) -> its unit and meaning.
+pub type Units = std::collections::BTreeMap<String, String>;
+
 /// The answer for one engine: `{"engine", "params", "units", "error"}`.
 #[derive(Clone, Debug, Serialize)]
 pub struct EngineFit {
@@ -88,7 +91,7 @@ pub struct EngineFit {
     /// Parameter name (the engine's) -> a number or [r, g, b].
     pub params: Map<String, Value>,
     /// Parameter name -> unit and meaning.
-    pub units: Map<String, Value>,
+    pub units: Units,
     pub error: FitError,
     /// The engine model's profile on the input's grid.
     #[serde(skip)]
@@ -364,12 +367,12 @@ pub(crate) fn triple(params: &Map<String, Value>, name: &str) -> Result<[f64; 3]
 }
 
 /// A parameter map from (name, value, unit) rows.
-pub(crate) fn table(rows: Vec<(&str, Value, &str)>) -> (Map<String, Value>, Map<String, Value>) {
+pub(crate) fn table(rows: Vec<(&str, Value, &str)>) -> (Map<String, Value>, Units) {
     let mut p = Map::new();
-    let mut u = Map::new();
+    let mut u = Units::new();
     for (name, v, unit) in rows {
         p.insert(name.into(), v);
-        u.insert(name.into(), Value::String(unit.into()));
+        u.insert(name.into(), unit.into());
     }
     (p, u)
 }

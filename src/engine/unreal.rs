@@ -7,7 +7,7 @@
 //! (GetPerpendicularScalingFactor; Christensen and Burley 2015, eq. 6).
 
 use super::burley::Burley;
-use super::{color, number, table, triple};
+use super::{color, number, table, triple, Units};
 use crate::error::Result;
 use serde_json::{json, Map, Value};
 
@@ -21,7 +21,7 @@ pub fn perpendicular_scaling(a: f64) -> f64 {
     1.85 - a + 7.0 * (a - 0.8).abs().powi(3)
 }
 
-pub fn params(b: &Burley) -> (Map<String, Value>, Map<String, Value>) {
+pub fn params(b: &Burley) -> (Map<String, Value>, Units) {
     let mfp_cm: [f64; 3] =
         std::array::from_fn(|c| b.d_mm[c] * perpendicular_scaling(b.albedo[c]) / MM_PER_CM);
     let dist = mfp_cm.iter().fold(0.0f64, |m, v| m.max(*v));

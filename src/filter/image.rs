@@ -82,11 +82,13 @@ impl Image {
         }
         if !sanitize {
             let (x, y, c) = first.unwrap_or_default();
-            return Err(Error::Unsupported(format!(
-                "{what}: {count} NaN/Inf samples, the first at pixel ({x}, {y}) channel {}; \
-                 pass --sanitize to replace them by 0",
-                ["R", "G", "B"][c]
-            )));
+            return Err(Error::NonFinite {
+                what: what.into(),
+                count,
+                unit: "samples",
+                first: format!("pixel ({x}, {y}) channel {}", ["R", "G", "B"][c]),
+                fill: 0.0,
+            });
         }
         for plane in self.rgb.iter_mut() {
             plane
@@ -109,13 +111,13 @@ impl Plane {
         }
         if !sanitize {
             let i = bad[0];
-            return Err(Error::Unsupported(format!(
-                "{what}: {} NaN/Inf values, the first at pixel ({}, {}); \
-                 pass --sanitize to replace them",
-                bad.len(),
-                i % self.width,
-                i / self.width
-            )));
+            return Err(Error::NonFinite {
+                what: what.into(),
+                count: bad.len(),
+                unit: "values",
+                first: format!("pixel ({}, {})", i % self.width, i / self.width),
+                fill,
+            });
         }
         for &i in &bad {
             self.data[i] = fill;

@@ -177,7 +177,8 @@ pub fn fit(k: &Kernel2D) -> Result<(ManualParams, serde_json::Value)> {
             best = Some((x, f));
         }
     }
-    let (x, f) = best.ok_or_else(|| Error::Unsupported("manual --fit found nothing".into()))?;
+    let (x, f) = best
+        .ok_or_else(|| Error::Unsupported("the manual two-Gaussian fit found no optimum".into()))?;
     let mut p = decode(&x);
     // Keep "near" the narrower Gaussian per channel (swap w is shared, so
     // only report; the model is symmetric in the roles when w = 1/2).

@@ -200,7 +200,7 @@ impl RadialGrid {
             dr = r_max / MAX_AUTO_BINS as f64;
             warnings.push(format!(
                 "grid: dr widened to {dr:.4e} mm to keep {MAX_AUTO_BINS} bins; \
-                 use --log-bins to resolve the centre"
+                 logarithmic bins (`log_bins`) resolve the centre"
             ));
         }
         let (grid, bins) = if log_bins {

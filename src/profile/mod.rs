@@ -137,18 +137,51 @@ impl Profile {
     /// What the maker of the profile warned about (`extra.warnings`: the
     /// grid rule's and the simulation's), none when it recorded none.
     pub fn warnings(&self) -> Result<Vec<String>> {
-        let v = &self.extra["warnings"];
-        if v.is_null() {
-            return Ok(Vec::new());
+        Ok(self
+            .extra_record("warnings", "a list of sentences")?
+            .unwrap_or_default())
+    }
+
+    /// Per channel, the diffuse reflectance a simulation scored beyond the
+    /// last bin edge (`extra.rd_beyond_rmax`, a fraction of the incident
+    /// light, counted in `total_rd` but not in `rd`); `None` when the maker
+    /// recorded none (an analytic profile).
+    pub fn rd_beyond_rmax(&self) -> Result<Option<Vec<f64>>> {
+        let v: Option<Vec<f64>> = self.extra_record("rd_beyond_rmax", "one number per channel")?;
+        if let Some(v) = &v {
+            if v.len() != self.channels.len() || v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(self.bad_record(
+                    "rd_beyond_rmax",
+                    &self.extra["rd_beyond_rmax"],
+                    "expected one finite number >= 0 per channel",
+                ));
+            }
         }
-        serde_json::from_value(v.clone()).map_err(|e| {
-            Error::invalid(
-                format!("profile of '{}'", self.material.name),
-                "extra.warnings",
-                v,
-                format!("{e}: expected a list of sentences"),
-            )
-        })
+        Ok(v)
+    }
+
+    /// `extra[key]` read as a `T`; `None` when absent.
+    fn extra_record<T: serde::de::DeserializeOwned>(
+        &self,
+        key: &str,
+        expected: &str,
+    ) -> Result<Option<T>> {
+        let v = &self.extra[key];
+        if v.is_null() {
+            return Ok(None);
+        }
+        serde_json::from_value(v.clone())
+            .map(Some)
+            .map_err(|e| self.bad_record(key, v, &format!("{e}: expected {expected}")))
+    }
+
+    fn bad_record(&self, key: &str, v: &serde_json::Value, reason: &str) -> Error {
+        Error::invalid(
+            format!("profile of '{}'", self.material.name),
+            format!("extra.{key}"),
+            v,
+            reason,
+        )
     }
 
     /// Checks structure and values; `context` names the file in errors.
@@ -286,5 +319,41 @@ impl Profile {
         crate::io::check_extension(path, &["json"], "profile")?;
         self.validate(&format!("refusing to write {}", path.display()))?;
         group.add_json(path, self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn profile() -> Profile {
+        let m = crate::material::preset("skin1").unwrap();
+        let grid = RadialGrid::uniform(0.05, 4.0).unwrap();
+        crate::kernel::reference::dipole_profile(&m, &grid).unwrap()
+    }
+
+    /// The records a simulation leaves in `extra` read back typed; absent
+    /// ones are none, malformed ones an error naming the record.
+    #[test]
+    fn extra_records_read_back_typed() {
+        let mut p = profile();
+        assert_eq!(p.rd_beyond_rmax().unwrap(), None);
+        assert!(p.warnings().unwrap().is_empty());
+        p.extra["rd_beyond_rmax"] = json!([1e-4, 0.0, 2e-3]);
+        p.extra["warnings"] = json!(["a", "b"]);
+        assert_eq!(p.rd_beyond_rmax().unwrap(), Some(vec![1e-4, 0.0, 2e-3]));
+        assert_eq!(p.warnings().unwrap(), ["a", "b"]);
+        for bad in [json!([1e-4, 0.0]), json!([1e-4, -1.0, 0.0]), json!("x")] {
+            p.extra["rd_beyond_rmax"] = bad;
+            let e = p.rd_beyond_rmax().unwrap_err().to_string();
+            assert!(e.contains("extra.rd_beyond_rmax"), "{e}");
+        }
+        p.extra["warnings"] = json!([1]);
+        let e = p.warnings().unwrap_err().to_string();
+        assert!(
+            e.contains("extra.warnings") && e.contains("sentences"),
+            "{e}"
+        );
     }
 }

@@ -113,22 +113,6 @@ pub fn signal_name(s: Signal) -> &'static str {
     }
 }
 
-/// Parses a signal name ("edge", "shapes", "checker", "dirac").
-pub fn parse_signal(s: &str) -> Result<Signal> {
-    match s.trim().to_ascii_lowercase().as_str() {
-        "edge" => Ok(Signal::Edge),
-        "shapes" => Ok(Signal::Shapes),
-        "checker" => Ok(Signal::Checker),
-        "dirac" => Ok(Signal::Dirac),
-        other => Err(Error::invalid(
-            "signal",
-            "name",
-            other,
-            "expected edge, shapes, checker or dirac",
-        )),
-    }
-}
-
 fn check_scale(mm_per_pixel: f64) -> Result<()> {
     Scale::MmPerPixel(mm_per_pixel).validate()
 }

@@ -635,8 +635,8 @@ pub fn report(cmp: &Comparison, ctx: &ReportContext) -> String {
     s += "\n## Engine parameters fitted to the profiles (`ssskit engine`)\n\n\
           Shape error (relative L2 of r R_d(r), as `profiles compare`) per channel r, g, b \
           of the Burley model fitted by least squares (Unreal, Unity HDRP and Blender share \
-          it) against the forward Burley model from the coefficients (`profile --model \
-          burley`), and of the fitted Jimenez models (iryoku per channel, Godot one kernel).\n\n";
+          it) against the forward Burley model from the coefficients (the `burley` \
+          analytic profile), and of the fitted Jimenez models (iryoku per channel, Godot one kernel).\n\n";
     s += &block("engines", &engine_table(cmp).markdown());
     if let Some(signal) = ctx.signals.first() {
         let _ = writeln!(

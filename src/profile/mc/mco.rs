@@ -137,7 +137,7 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
         c_g(get(&p.transmittance))
     );
     let _ = writeln!(s, "Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]");
-    let beyond = p.extra["rd_beyond_rmax"][0].as_f64().unwrap_or(0.0);
+    let beyond = p.rd_beyond_rmax()?.map_or(0.0, |b| b[0]);
     let last_area = std::f64::consts::PI * (p.r_edges[n].powi(2) - p.r_edges[n - 1].powi(2));
     for (i, v) in p.rd[0].iter().enumerate() {
         let mm2 = if i + 1 == n {

@@ -394,8 +394,8 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     }
     if !(opts.abs_floor >= 0.0 && opts.abs_floor < 1.0) {
         return Err(Error::invalid(
-            "Monte Carlo options",
-            "absolute floor",
+            CONTEXT,
+            "abs_floor",
             opts.abs_floor,
             "must be in [0, 1): a fraction of the incident light, 0 = off",
         ));
@@ -1056,9 +1056,9 @@ fn channel_warnings(
     if !run.converged && !matches!(cfg.budget, PhotonBudget::Fixed(_)) {
         let max_photons = cfg.budget.max_photons();
         let cap = if run.work_capped {
-            format!("the work cap of {} events (--max-work)", opts.max_work)
+            format!("the work cap of {} events (`max_work`)", opts.max_work)
         } else {
-            format!("the cap of {max_photons} photons")
+            format!("the cap of {max_photons} photons (`max_photons`)")
         };
         let s = &run.status;
         let achieved = match cfg.budget {
