@@ -73,7 +73,11 @@ fn main() {
         "R_d cpu",
         "diff/se"
     );
-    let opts = McOptions::default();
+    // A throughput run: its photon counts are the point, not the work cap.
+    let opts = McOptions {
+        max_work: u64::MAX,
+        ..McOptions::default()
+    };
     for (name, ch, hw, sw, cpu_n) in cases {
         let m = preset(name).expect("preset exists");
         let n_gpu = ((if software { sw } else { hw }) as f64 * scale).max(1000.0) as u64;

@@ -254,22 +254,66 @@ fn signal_size_is_capped_at_what_ssskit_reads_back() {
 }
 
 #[test]
-fn simulate_refuses_a_work_cap_it_would_ignore() {
+fn absurd_photon_counts_are_refused_before_the_work() {
     let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = |photons: &'static str, extra: &[&'static str]| {
+        let mut v = vec!["simulate", "--material", "marble", "--out", "x.json"];
+        v.extend_from_slice(&["--photons", photons]);
+        v.extend_from_slice(extra);
+        v
+    };
+    // Not a count of photons: the flag and the value are named.
+    for bad in ["nan", "inf", "-5", "1.5", "1e300", "lots"] {
+        let e = fails_in(d, &sim(bad, &[]), &["--photons"]);
+        assert!(e.contains(&format!("'{bad}'")), "{bad}: {e}");
+    }
+    fails_in(d, &sim("1e300", &[]), &["beyond the largest count"]);
+    // Each photon costs at least one event: a count above the work cap is
+    // refused before any photon is traced, and the same with a cap raised
+    // to it is not refused by that rule (it fails on its first round).
+    let started = Instant::now();
     fails_in(
-        dir.path(),
+        d,
+        &sim("1e15", &[]),
         &[
-            "simulate",
-            "--material",
-            "skin1",
             "--photons",
-            "100000000000",
-            "--max-work",
-            "10",
-            "--out",
-            "x.json",
+            "1000000000000000 photons per channel",
+            "work cap of 1500000000",
         ],
-        &["--max-work 10", "fixed"],
+    );
+    fails_in(
+        d,
+        &sim("100000000000", &["--max-work", "10"]),
+        &["--photons", "work cap of 10 events"],
+    );
+    // Within the cap by count, beyond it by the events per photon that its
+    // first round measures (marble: hundreds): refused after that round,
+    // naming the estimate; the cap given as 1e9 is read as 1000000000.
+    let e = fails_in(
+        d,
+        &sim("1e7", &["--max-work", "1e9", "--channels", "b"]),
+        &[
+            "--photons",
+            "channel b",
+            "events per photon over its first 16384 photons",
+            "work cap of 1000000000",
+        ],
+    );
+    assert!(e.contains("for 10000000 photons"), "{e}");
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "the refusals took {:?}",
+        started.elapsed()
+    );
+    assert!(!d.join("x.json").exists());
+    // Exponent notation is a count like any other.
+    ok_in(d, &sim("2e3", &["--channels", "r"]));
+    let p = common::read_json(&d.join("x.json"));
+    assert_eq!(p["source"]["photons"][0], 2000);
+    assert_eq!(
+        p["source"]["params"]["budget"]["max_work"],
+        1_500_000_000u64
     );
 }
 

@@ -141,7 +141,7 @@ fn bad_floors_are_refused() {
         let e = simulate_with(&m, &default_cfg(1), &o, &NoProgress)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("absolute floor"), "{bad}: {e}");
+        assert!(e.contains("invalid abs_floor"), "{bad}: {e}");
     }
 }
 

@@ -370,6 +370,69 @@ fn mco_output_follows_mcml() {
     assert!(!d.join("x.mco").exists());
 }
 
+/// The work cap stops a fixed run whose first round underestimated its
+/// cost: no new round starts once a channel has spent `--max-work` events.
+/// The rounds trace 2 chunks (16384 photons), then 2 more, then the rest;
+/// a seed where chunks 3-4 cost more than chunks 1-2 and a cap at the first
+/// round's projection for 32769 photons lets the run pass its first round
+/// and stop after the second, one photon short.
+#[test]
+fn a_fixed_run_stops_at_the_work_cap_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = |photons: u64, seed: u64, max_work: Option<u64>| -> Profile {
+        let (photons, seed) = (photons.to_string(), seed.to_string());
+        let mut args = vec![
+            "simulate",
+            "--material",
+            "skin1",
+            "--channels",
+            "b",
+            "--photons",
+            &photons,
+            "--seed",
+            &seed,
+            "--out",
+            "f.json",
+        ];
+        let cap = max_work.map(|w| w.to_string());
+        if let Some(w) = &cap {
+            args.extend(["--max-work", w.as_str()]);
+        }
+        let o = ssskit(d, &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        Profile::read(&d.join("f.json")).unwrap()
+    };
+    let events = |p: &Profile| {
+        let per = p.extra["events_per_photon"][0].as_f64().unwrap();
+        (per * p.source.photons.as_ref().unwrap()[0] as f64).round() as u64
+    };
+    for seed in 1..=20 {
+        let first = events(&sim(16384, seed, None));
+        let both = events(&sim(32768, seed, None));
+        // The run's own projection after its first round.
+        let cap = (first as f64 / 16384.0 * 32769.0).ceil() as u64;
+        if both < cap {
+            continue;
+        }
+        let p = sim(32769, seed, Some(cap));
+        assert_eq!(p.source.photons, Some(vec![32768]));
+        assert_eq!(p.extra["stopped_by"][0], "work-cap");
+        assert_eq!(p.extra["converged"][0], false);
+        assert_eq!(p.source.params["budget"]["max_work"], cap);
+        let w = p.extra["warnings"].to_string();
+        assert!(
+            w.contains("work cap") && w.contains("32768 of 32769 photons"),
+            "{w}"
+        );
+        // The photons it did trace are those of the full run.
+        let full = sim(32768, seed, None);
+        assert_eq!(p.rd, full.rd);
+        return;
+    }
+    panic!("no seed in 1..=20 where chunks 3-4 cost more than chunks 1-2");
+}
+
 /// A run cut short says so in the terms of where it is read: the profile
 /// names the library parameter, the command line names the flag.
 #[test]

@@ -59,8 +59,9 @@ struct Flags {
     /// Which run of the .mci file to simulate (1-based).
     #[arg(long, default_value_t = 1, requires = "mci")]
     mci_run: usize,
-    /// Photons per channel (rule "fixed").
-    #[arg(long, conflicts_with_all = ["target_error", "kernel_error"], allow_hyphen_values = true)]
+    /// Photons per channel (rule "fixed"), e.g. 1000000 or 1e6; refused
+    /// before the run when it would exceed --max-work.
+    #[arg(long, conflicts_with_all = ["target_error", "kernel_error"], allow_hyphen_values = true, value_parser = parse_count)]
     photons: Option<u64>,
     /// Rule "kernel-factor" (the default, E = 0.005 when no other budget is
     /// given): trace until the relative L2 standard error of the
@@ -89,7 +90,7 @@ struct Flags {
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     target_error: Option<f64>,
     /// Cap on photons per channel for --kernel-error and --target-error.
-    #[arg(long, default_value_t = DEFAULT_MAX_PHOTONS, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = DEFAULT_MAX_PHOTONS, allow_hyphen_values = true, value_parser = parse_count)]
     max_photons: u64,
     /// RNG seed: the same seed gives bit-identical output.
     #[arg(long, default_value_t = 1)]
@@ -121,14 +122,14 @@ struct Flags {
     /// is abandoned and its energy reported as truncated (biased).
     #[arg(long, value_name = "N")]
     max_events: Option<u64>,
-    /// Work cap per channel for --target-error runs, in events
-    /// (interactions + boundary hits); ~1.5e9 is about half a minute on 2 cores
-    /// [default: 1500000000]. A fixed --photons count is not capped: refused with it.
-    #[arg(long)]
+    /// Work cap per channel, in events (interactions + boundary hits), for
+    /// every rule [default: 1.5e9]. A --photons
+    /// count is refused up front when its first photons project more.
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_count)]
     max_work: Option<u64>,
     /// Weight below which Russian roulette plays, survival 1/10 (unbiased for
-    /// any value in (0, 1); MCML uses 1e-4, the default 0.01 is ~1.5x more
-    /// efficient, see docs/mc.md).
+    /// any value in (0, 1); MCML uses 1e-4, the default 0.01 is more
+    /// efficient: the Speed table of docs/mc.md).
     #[arg(long, default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true)]
     roulette: f64,
     /// Where photons are traced: cpu (f64); gpu (wgpu compute, f32, classic
@@ -202,13 +203,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--shard needs --photons N (or an .mci photon count): every shard traces its part \
              of one fixed total; the target-error rules decide when to stop from all photons \
              and cannot be split"
-        );
-    }
-    if let (PhotonBudget::Fixed(n), Some(w)) = (&budget, args.max_work) {
-        anyhow::bail!(
-            "--max-work {w} caps runs with a target error, but this run traces a fixed {n} \
-             photons per channel (--photons or the .mci count): lower the photon count, or give \
-             --target-error with --max-work"
         );
     }
     let spec = GridSpec {
@@ -344,6 +338,26 @@ fn open_gpu(backend: McBackend, opts: &McOptions) -> anyhow::Result<Option<McGpu
             }
         }
     }
+}
+
+/// A count: an integer, or a whole number in exponent notation (1e6).
+fn parse_count(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    if let Ok(n) = t.parse::<u64>() {
+        return Ok(n);
+    }
+    let bad = |why: &str| format!("'{s}': {why}");
+    let v: f64 = t
+        .parse()
+        .map_err(|_| bad("expected a whole number, e.g. 1000000 or 1e6"))?;
+    // 2^64 is exactly representable; every f64 below it converts exactly.
+    if !(v >= 0.0 && v.fract() == 0.0) {
+        return Err(bad("expected a whole number >= 0, e.g. 1000000 or 1e6"));
+    }
+    if v >= 18_446_744_073_709_551_616.0 {
+        return Err(bad(&format!("beyond the largest count, {}", u64::MAX)));
+    }
+    Ok(v as u64)
 }
 
 /// "K/N" with 1 <= K <= N.

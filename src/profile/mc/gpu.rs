@@ -21,8 +21,8 @@ use super::exact::ExactTally;
 use super::tally::{BinSums, ChunkTally, Moments};
 use super::tracer::Stack;
 use super::{
-    build_profile, floor_ratio, rule_error, statuses, validate_config, BoundaryMode, ChannelRun,
-    McConfig, McOptions, PhotonBudget, Status, CHUNK,
+    build_profile, check_fixed_work, floor_ratio, rule_error, statuses, validate_config,
+    BoundaryMode, ChannelRun, McConfig, McOptions, PhotonBudget, Status, CHUNK,
 };
 use crate::error::{Error, Result};
 use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
@@ -43,7 +43,8 @@ pub const TALLY_RESOLUTION: f64 = 1.0 / (1u64 << 24) as f64;
 pub const MAX_BATCH: u64 = 1 << 24;
 /// Photons between two checks of a target-error run: the CPU tracer's
 /// granularity, and independent of the batch size, so the stopping point is
-/// too.
+/// too. A fixed run checks its work after one checkpoint, then after rounds
+/// that double the photons traced.
 pub const CHECKPOINT: u64 = CHUNK * 16;
 
 // Word layout of the tally buffer, given to mc_trace.wgsl by `shader_consts`:
@@ -238,9 +239,21 @@ impl McGpu {
         material.validate(&format!("material '{}'", material.name))?;
         validate_config(cfg, opts)?;
         check_gpu_options(opts, dispatch)?;
+        let requested_events = opts.max_events;
+        // What the shader applies, so that the recorded cap and the
+        // truncation warning name it.
+        let opts = &McOptions {
+            max_events: requested_events.min(GPU_MAX_EVENTS),
+            ..opts.clone()
+        };
         let (grid, grid_rule) = match &cfg.grid {
             Some(g) => (g.clone(), json!({"rule": "given"})),
-            None => RadialGrid::for_material_rule(material, &cfg.channels, false),
+            // The CPU tracer's grid for the same rule.
+            None => RadialGrid::for_material_rule(
+                material,
+                &cfg.channels,
+                matches!(cfg.budget, PhotonBudget::KernelFactor { .. }),
+            ),
         };
         check_grid(&grid)?;
         let cap = cfg.budget.max_photons();
@@ -278,6 +291,10 @@ impl McGpu {
             "sums": "exact integer sums of per-photon values, independent of scheduling",
         });
         params["checkpoint"] = json!(CHECKPOINT);
+        params["event_roulette"] = json!(
+            "none: the GPU tracer ends walks at max_events, booking what is left as truncated"
+        );
+        note_event_clamp(&mut p, requested_events);
         Ok(p)
     }
 
@@ -368,7 +385,7 @@ impl McGpu {
         while sums.photons < cap {
             let stop = match target {
                 Some(_) => cap.min((sums.photons / CHECKPOINT + 1) * CHECKPOINT),
-                None => cap,
+                None => cap.min(CHECKPOINT.max(2 * sums.photons)),
             };
             while sums.photons < stop {
                 let count = dispatch.batch.min(stop - sums.photons);
@@ -427,12 +444,21 @@ impl McGpu {
                     progress.advance(cap - tally.photons);
                     break;
                 }
+            } else if tally.photons < cap {
+                if tally.photons <= CHECKPOINT {
+                    check_fixed_work(ch, tally.photons, tally.events, cap, cap, opts.max_work)?;
+                }
+                if tally.events >= opts.max_work {
+                    work_capped = true;
+                    progress.advance(cap - tally.photons);
+                    break;
+                }
             }
         }
         Ok(ChannelRun {
             tally: exact_tally(&tally, n_bins),
             status,
-            converged: target.is_none() || converged,
+            converged: (target.is_none() && !work_capped) || converged,
             work_capped,
             by_floor,
         })
@@ -481,11 +507,51 @@ fn shader_consts() -> String {
     ])
 }
 
-/// What the GPU tracer does not implement, refused before any work.
-/// Events per packet on the GPU: a hard cap (weight left is reported as
-/// truncated), since the shader has no event-count roulette; 10^6 as the CPU
-/// tracer had before its roulette, or the user's smaller cap.
+/// Events per packet on the GPU: a hard cap whatever `max_events` asks
+/// (the smaller of the two applies), since the shader has no event-count
+/// roulette and one invocation's walk loop must end: a driver watchdog stops
+/// a long-running shader (and llvmpipe cuts an invocation's loops after
+/// 65535 iterations, see `INCOMPLETE`). A packet stopped there is abandoned
+/// and its weight booked as truncated, counted in `truncated_photons` and
+/// warned about, as on the CPU. 10^6 is the cap the CPU tracer had before
+/// its roulette; at albedo 1 it leaves ~n^-1/2 of the energy behind (see
+/// `DEFAULT_MAX_EVENTS`).
 pub const GPU_MAX_EVENTS: u64 = 1_000_000;
+
+/// Records the event cap asked for where the GPU's own was lower, and warns
+/// where packets were cut there.
+fn note_event_clamp(p: &mut Profile, requested_events: u64) {
+    if requested_events <= GPU_MAX_EVENTS {
+        return;
+    }
+    let (asked, text) = match requested_events {
+        u64::MAX => (json!("none"), "none".to_string()),
+        n => (json!(n), n.to_string()),
+    };
+    let capped: Vec<&str> = runs_truncated(p);
+    if !capped.is_empty() {
+        if let Some(w) = p.extra["warnings"].as_array_mut() {
+            w.push(json!(format!(
+                "channel(s) {}: the GPU tracer stops every walk at {GPU_MAX_EVENTS} events (a \
+                 shader invocation's loop must end: drivers stop long-running shaders), below \
+                 the cap asked for (`max_events`: {text}); the CPU tracer's event-count \
+                 roulette ends long walks without bias",
+                capped.join(", ")
+            )));
+        }
+    }
+    p.source.params["max_events_requested"] = asked;
+}
+
+/// Channels of a profile where packets were truncated.
+fn runs_truncated(p: &Profile) -> Vec<&'static str> {
+    p.channels
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| p.extra["truncated_photons"][*i].as_u64().unwrap_or(0) > 0)
+        .map(|(_, c)| c.name())
+        .collect()
+}
 
 fn gpu_max_events(opts: &McOptions) -> u32 {
     opts.max_events.min(GPU_MAX_EVENTS) as u32
@@ -498,6 +564,7 @@ fn exact_tally(t: &ChunkTally, bins: usize) -> ExactTally {
     e
 }
 
+/// What the GPU tracer does not implement, refused before any work.
 fn check_gpu_options(opts: &McOptions, dispatch: GpuDispatch) -> Result<()> {
     if opts.boundary != BoundaryMode::Classic {
         return Err(Error::Unsupported(format!(
@@ -731,6 +798,34 @@ mod tests {
     fn the_assembled_shaders_are_valid_wgsl() {
         crate::gpu::tests::assert_valid_wgsl(&shader_source(TRACE), "mc_trace");
         crate::gpu::tests::assert_valid_wgsl(&shader_source(KAT), "mc_kat");
+    }
+
+    #[test]
+    fn a_clamped_event_cap_is_recorded_and_warned_where_it_cut() {
+        // lavapipe cannot run a walk to 10^6 events: the note is checked on a
+        // profile whose red channel reports truncated packets.
+        let m = crate::material::preset("skin1").unwrap();
+        let cfg = McConfig {
+            budget: PhotonBudget::Fixed(100),
+            seed: 1,
+            threads: Some(1),
+            channels: vec![Channel::R, Channel::B],
+            grid: None,
+        };
+        let mut p = super::super::simulate(&m, &cfg, &crate::progress::NoProgress).unwrap();
+        note_event_clamp(&mut p, GPU_MAX_EVENTS);
+        assert!(p.source.params.get("max_events_requested").is_none());
+        p.extra["truncated_photons"][0] = json!(3);
+        note_event_clamp(&mut p, u64::MAX);
+        assert_eq!(p.source.params["max_events_requested"], "none");
+        let w = p.extra["warnings"].to_string();
+        assert!(
+            w.contains("channel(s) r: the GPU tracer stops every walk at 1000000 events")
+                && w.contains("`max_events`: none"),
+            "{w}"
+        );
+        note_event_clamp(&mut p, 5_000_000);
+        assert_eq!(p.source.params["max_events_requested"], 5_000_000);
     }
 
     #[test]

@@ -127,14 +127,17 @@ pub struct McOptions {
     /// event-count roulette (unbiased; see `EVENT_ROULETTE_SURVIVAL`).
     pub event_roulette: u64,
     /// Hard cap on events per packet, default none (u64::MAX): a packet
-    /// stopped there is abandoned and its weight reported as truncated.
+    /// stopped there is abandoned and its weight reported as truncated. The
+    /// GPU tracer applies at most `gpu::GPU_MAX_EVENTS`.
     pub max_events: u64,
     /// Also tally reflectance of packets scattered exactly once
     /// (`extra.single_scatter`).
     pub single_scatter: bool,
-    /// Work cap of a target-error run: no new batch starts once a channel
-    /// has spent this many events (interactions + boundary hits). Keeps
-    /// slow media (albedo near 1) bounded; reported when it stops a run.
+    /// Work cap of every run, in events (interactions + boundary hits) per
+    /// channel: no new round starts once a channel has spent this many.
+    /// Keeps slow media (albedo near 1) bounded; reported when it stops a
+    /// run. A fixed photon count that would surely exceed it, or whose first
+    /// round projects more, is refused (see `check_fixed_work`).
     pub max_work: u64,
     /// Weight below which Russian roulette plays (default 0.01; MCML: 1e-4).
     /// Any value in (0, 1) is unbiased; higher values trade variance for speed.
@@ -174,22 +177,28 @@ impl Default for McOptions {
 /// an error of 2e-6 of the light reaching a surface is 150x below what an
 /// 8-bit display shows and 9x below a 12-bit step. Where R_d >= floor /
 /// target (4e-4 at the defaults) the floor implies the relative rule, so it
-/// never stops such a channel earlier (nor changes its rounds); every preset
-/// channel but wine's and beer's has R_d above 1e-3. It exists for media
-/// that barely scatter back (wine, beer: R_d 1e-6 to 1e-4), whose relative
-/// error would need 1e8+ photons to reach 0.5% while their kernels are
-/// invisible. The photon minimum is the rule of three: with no return in
-/// 3/floor photons a return probability above the floor is excluded at 95%,
-/// so a channel cannot stop on an error estimated from too few returns.
+/// never stops such a channel earlier (nor changes its rounds); only wine's
+/// and beer's channels stop at the floor (`stopped_by` per preset in
+/// docs/records/mc-presets.json). It exists for media that barely scatter
+/// back: a return probability p estimated from N photons has a relative
+/// error of about (N p)^-1/2, so 0.5% at p = 1e-4 takes 4e8 photons while
+/// the kernel is invisible. The photon minimum is the rule of three: with
+/// no return in 3/floor photons a return probability above the floor is
+/// excluded at 95%, so a channel cannot stop on an error estimated from too
+/// few returns.
 pub const DEFAULT_ABS_FLOOR: f64 = 2e-6;
 
-/// Default work cap: about half a minute per channel on two cores of a
-/// 2020s CPU (~2.5e7 events/s per core).
+/// Default work cap, in events per channel: far above what a default run
+/// of any preset spends (photons per preset in docs/records/mc-presets.json)
+/// and small enough that an albedo-1 medium ends in minutes, not hours; the
+/// time per event on a given machine is measured by `cargo bench --bench
+/// mc` (ns per event in docs/records/mc-speed.json).
 pub const DEFAULT_MAX_WORK: u64 = 1_500_000_000;
 
 /// Default hard event cap: none. Albedo-1 walks are ended without bias by
-/// the event-count roulette instead (a cap at n leaves ~n^-1/2 of the
-/// energy unaccounted: 0.24% at 10^6 events for spectralon).
+/// the event-count roulette instead (a cap at n events leaves ~n^-1/2 of
+/// the energy unaccounted, the first-passage law of
+/// `EVENT_ROULETTE_SURVIVAL`).
 pub const DEFAULT_MAX_EVENTS: u64 = u64::MAX;
 
 /// Simulates the diffuse reflectance profile of `material`.
@@ -257,6 +266,7 @@ pub fn simulate_with(
     );
     let runs = pool.install(|| job.run(progress));
     progress.finish();
+    let runs = runs?;
     let mut p = build_profile(
         material,
         cfg,
@@ -397,6 +407,65 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     if opts.max_events == 0 {
         return Err(Error::invalid(CONTEXT, "max_events", 0, "must be >= 1"));
     }
+    if let PhotonBudget::Fixed(n) = cfg.budget {
+        // Every packet makes at least one event (it enters with weight
+        // 1 - R_sp > 0): more photons than the cap surely exceed it.
+        let mine = match opts.shard {
+            Some(s) => {
+                let (a, b) = s.chunks(n.div_ceil(CHUNK));
+                (b * CHUNK).min(n) - a * CHUNK
+            }
+            None => n,
+        };
+        if mine > opts.max_work {
+            return Err(fixed_over_cap(
+                n,
+                format!("{mine} photons per channel cost at least one event each"),
+                opts.max_work,
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The refusal of a fixed photon count whose work exceeds the cap.
+fn fixed_over_cap(photons: u64, why: String, max_work: u64) -> Error {
+    Error::invalid(
+        CONTEXT,
+        "photons",
+        photons,
+        format!(
+            "{why}, above the work cap of {max_work} events per channel (`max_work`): \
+             lower the photon count, raise the work cap, or split the run into shards"
+        ),
+    )
+}
+
+/// A fixed run's check after its first round (`photons_done` of `total`
+/// photons per channel, which cost `events`): refused before the rest when
+/// the events per photon measured so far project more than `max_work`. An
+/// estimate; the run itself also stops at the cap (`Job::run`).
+pub(crate) fn check_fixed_work(
+    ch: Channel,
+    photons_done: u64,
+    events: u64,
+    total: u64,
+    requested: u64,
+    max_work: u64,
+) -> Result<()> {
+    let per_photon = events as f64 / photons_done.max(1) as f64;
+    let projected = per_photon * total as f64;
+    if projected > max_work as f64 {
+        return Err(fixed_over_cap(
+            requested,
+            format!(
+                "channel {}: {per_photon:.1} events per photon over its first {photons_done} \
+                 photons project {projected:.2e} events for {total} photons",
+                ch.name()
+            ),
+            max_work,
+        ));
+    }
     Ok(())
 }
 
@@ -491,8 +560,11 @@ impl Job<'_> {
     }
 
     /// Traces rounds of chunks over all channels at once (any number of
-    /// threads share a round), checking the budget's rule between rounds.
-    fn run(&self, progress: &dyn Progress) -> Vec<ChannelRun> {
+    /// threads share a round), checking the budget's rule and the work cap
+    /// between rounds. A fixed run's rounds double (`FIRST_ROUND` chunks,
+    /// then as many as traced so far): the sums are the same whatever the
+    /// rounds, and the work cap is checked log2(chunks) times.
+    fn run(&self, progress: &dyn Progress) -> Result<Vec<ChannelRun>> {
         let nch = self.stacks.len();
         let (nb, single) = (self.bins.len(), self.set.single_scatter);
         let mut runs: Vec<ChannelRun> = (0..nch)
@@ -513,14 +585,13 @@ impl Job<'_> {
         let mut next = vec![self.range.0; nch];
         let mut active = vec![true; nch];
         let mut ratio = vec![f64::INFINITY; nch];
+        let mine = (self.range.1 * CHUNK).min(self.cap) - self.range.0 * CHUNK;
+        let mut first = true;
         loop {
             let mut units = Vec::new();
             for c in (0..nch).filter(|&c| active[c]) {
                 let left = self.range.1 - next[c];
-                let len = match target {
-                    None => left,
-                    Some(_) => round_len(next[c] - self.range.0, ratio[c]).min(left),
-                };
+                let len = round_len(next[c] - self.range.0, ratio[c]).min(left);
                 units.extend((next[c]..next[c] + len).map(|k| (c, k)));
                 next[c] += len;
             }
@@ -583,16 +654,33 @@ impl Job<'_> {
                         runs[c].work_capped = true;
                         active[c] = false;
                     }
+                } else if next[c] < self.range.1 {
+                    let t = &runs[c].tally;
+                    if first {
+                        check_fixed_work(
+                            self.cfg.channels[c],
+                            t.photons,
+                            t.events,
+                            mine,
+                            self.cap,
+                            self.opts.max_work,
+                        )?;
+                    }
+                    if t.events >= self.opts.max_work {
+                        runs[c].work_capped = true;
+                        active[c] = false;
+                    }
                 }
                 if next[c] >= self.range.1 {
                     active[c] = false;
                 }
             }
+            first = false;
         }
         if target.is_none() {
-            runs.iter_mut().for_each(|r| r.converged = true);
+            runs.iter_mut().for_each(|r| r.converged = !r.work_capped);
         }
-        runs
+        Ok(runs)
     }
 }
 
@@ -623,9 +711,10 @@ fn add_sums(mut a: Vec<Option<ExactTally>>, b: Vec<Option<ExactTally>>) -> Vec<O
     a
 }
 
-/// Chunks in the next round of a target-error run: `FIRST_ROUND` to start,
-/// then what error ~ N^-1/2 predicts is missing (plus 10%), at least one
-/// chunk and at most as many as traced so far. A function of the totals
+/// Chunks in the next round: `FIRST_ROUND` to start, then for a target-error
+/// run what error ~ N^-1/2 predicts is missing (plus 10%), at least one
+/// chunk and at most as many as traced so far (a fixed run, `ratio`
+/// infinite: as many as traced so far). A function of the totals
 /// only, so the photon count does not depend on the thread count.
 fn round_len(done: u64, ratio: f64) -> u64 {
     if done == 0 {
@@ -821,6 +910,7 @@ fn build_profile(
             }));
         }
         warnings.extend(channel_warnings(t, run, *ch, opts, cfg));
+        warnings.extend(fixed_cap_warning(t, run, *ch, opts, cfg));
     }
     if let Some(w) = grid_rule.get("warnings").and_then(|w| w.as_array()) {
         warnings.extend(w.iter().filter_map(|s| s.as_str().map(String::from)));
@@ -843,7 +933,9 @@ fn build_profile(
         }
     };
     let mut budget = match cfg.budget {
-        PhotonBudget::Fixed(n) => json!({"rule": "fixed", "photons": n}),
+        PhotonBudget::Fixed(n) => {
+            json!({"rule": "fixed", "photons": n, "max_work": opts.max_work})
+        }
         PhotonBudget::TargetError { rel, max_photons }
         | PhotonBudget::KernelFactor { rel, max_photons } => json!({
             "rule": cfg.budget.rule(),
@@ -919,6 +1011,7 @@ fn build_profile(
 /// "target", "absolute-floor" or "work-cap".
 fn stop_reason(cfg: &McConfig, r: &ChannelRun) -> &'static str {
     match (&cfg.budget, r.converged) {
+        (PhotonBudget::Fixed(_), _) if r.work_capped => "work-cap",
         (PhotonBudget::Fixed(_), _) => "photons",
         (_, true) if r.by_floor => "absolute-floor",
         (_, true) => "target",
@@ -961,7 +1054,7 @@ fn channel_warnings(
             "channel {c}: no diffuse reflectance (no scattering or nothing comes back)"
         ));
     }
-    if !run.converged {
+    if !run.converged && !matches!(cfg.budget, PhotonBudget::Fixed(_)) {
         let max_photons = cfg.budget.max_photons();
         let cap = if run.work_capped {
             format!("the work cap of {} events (`max_work`)", opts.max_work)
@@ -986,6 +1079,29 @@ fn channel_warnings(
         ));
     }
     w
+}
+
+/// A fixed run that the work cap stopped short of its photons.
+fn fixed_cap_warning(
+    t: &ChunkTally,
+    run: &ChannelRun,
+    ch: Channel,
+    opts: &McOptions,
+    cfg: &McConfig,
+) -> Option<String> {
+    let PhotonBudget::Fixed(n) = cfg.budget else {
+        return None;
+    };
+    run.work_capped.then(|| {
+        format!(
+            "channel {}: the work cap of {} events (`max_work`) stopped this fixed run at {} of \
+             {n} photons ({} events; its first round had projected fewer)",
+            ch.name(),
+            opts.max_work,
+            t.photons,
+            t.events
+        )
+    })
 }
 
 /// Combines shards of one run (profiles written with `McOptions::shard`,
@@ -1178,6 +1294,33 @@ mod tests {
         let c = chunk_rng(1, Channel::G, 0).next_u64();
         let d = chunk_rng(2, Channel::R, 0).next_u64();
         assert!(a != b && a != c && a != d && b != c);
+    }
+
+    #[test]
+    fn a_fixed_count_above_the_work_cap_is_refused_per_shard() {
+        // One event per photon at the least: 10 chunks exceed a cap of 5
+        // chunks' photons, a tenth of them (one shard) does not.
+        let cfg = McConfig {
+            budget: PhotonBudget::Fixed(10 * CHUNK),
+            seed: 1,
+            threads: None,
+            channels: vec![Channel::R],
+            grid: None,
+        };
+        let mut opts = McOptions {
+            max_work: 5 * CHUNK,
+            ..McOptions::default()
+        };
+        let e = validate_config(&cfg, &opts).unwrap_err().to_string();
+        assert!(
+            e.contains("invalid photons = 81920") && e.contains("work cap of 40960"),
+            "{e}"
+        );
+        opts.shard = Some(Shard { k: 3, n: 10 });
+        assert!(validate_config(&cfg, &opts).is_ok());
+        opts.max_work = CHUNK - 1;
+        let e = validate_config(&cfg, &opts).unwrap_err().to_string();
+        assert!(e.contains("8192 photons per channel"), "{e}");
     }
 
     #[test]

@@ -11,10 +11,13 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 /// Russian roulette threshold and survival chance of MCML (1e-4, 1/10).
 pub const ROULETTE_THRESHOLD: f64 = 1e-4;
 pub const ROULETTE_CHANCE: f64 = 0.1;
-/// The default threshold here: 1.4-1.6x MCML's efficiency 1/(variance x
-/// time) on total R_d and on every annulus of the profile out to 4 r99
-/// (skin1 R, marble B, apple R; docs/mc.md). Thresholds near 0.1 gain more
-/// near the centre but lose in the far tail.
+/// The default threshold here. Any threshold is unbiased; a higher one
+/// ends the long low-weight tails of walks sooner, which a packet that is
+/// still far from the surface rarely turns into reflectance, so the time per
+/// photon falls faster than the variance rises. The Speed table of
+/// docs/mc.md (`cargo bench --bench mc`, docs/records/mc-speed.json) records
+/// both games' photons per second and variances per photon. Thresholds near
+/// 0.1 were found to gain near the centre but lose in the far tail.
 pub const DEFAULT_ROULETTE_THRESHOLD: f64 = 0.01;
 
 /// Survival chance of the event-count roulette, played each time a packet's
@@ -33,10 +36,11 @@ pub const DEFAULT_ROULETTE_THRESHOLD: f64 = 0.01;
 /// an infinite second moment. The game is unbiased for any schedule.
 pub const EVENT_ROULETTE_SURVIVAL: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// Default event count from which the event-count roulette plays.
-/// Measured on an albedo-1 half-space (n = 1.3): starting at 10^3 events
-/// costs 600 events per photon and a per-photon variance of R_d of 0.34;
-/// at 10^4, 1730 and 0.10: the same efficiency for the total, and 1/(var x
-/// time) of the profile near the source (short walks) is 2.9x higher at 10^3.
+/// Starting earlier costs fewer events per photon and a higher per-photon
+/// variance of R_d; on an albedo-1 half-space (n = 1.3) the two balanced
+/// for the total when the default was chosen (no record keeps that
+/// comparison), while the profile near the source, made of short walks the
+/// roulette never touches, gains from the time saved on long ones.
 pub const DEFAULT_EVENT_ROULETTE: u64 = 1_000;
 
 /// What happens where a packet meets the ambient medium.
@@ -219,8 +223,8 @@ impl Azimuths {
     /// (cos phi, sin phi) for phi = 2 pi a / 2^32: the table's angle for the
     /// top AZ_BITS bits rotated by the rest, delta < 2 pi / 256, through
     /// Taylor series to delta^6 and delta^7 (truncation < 1e-17). No branch
-    /// and no rejection loop, whose mispredicted exit (21% of draws) cost
-    /// more than the arithmetic.
+    /// and no rejection loop, whose mispredicted exit (on 1 - pi/4 = 21% of
+    /// draws) cost more than the arithmetic.
     #[inline(always)]
     fn cos_sin(&self, a: u32) -> (f64, f64) {
         const STEP: f64 = std::f64::consts::TAU / 4_294_967_296.0;
