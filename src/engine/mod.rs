@@ -147,7 +147,7 @@ pub fn fit(engine: Engine, profile: &Profile, scene: Scene) -> Result<EngineFit>
         }
         Engine::Godot => {
             let j = jimenez::fit(profile, true)?;
-            let (p, u) = godot::params(&j);
+            let (p, u) = godot::params(&j, scene);
             (p, u, Model::Jimenez(j))
         }
     };
@@ -176,7 +176,7 @@ pub fn model_from_params(
         Engine::UnityHdrp => Model::Burley(hdrp::from_params(params)?),
         Engine::Blender => Model::Burley(blender::from_params(params, scene)?),
         Engine::Iryoku => Model::Jimenez(iryoku::from_params(params, scene)?),
-        Engine::Godot => Model::Jimenez(godot::from_params(params)?),
+        Engine::Godot => Model::Jimenez(godot::from_params(params, scene)?),
     };
     Ok(model.profile(profile, engine.name()))
 }
