@@ -631,3 +631,41 @@ fn abel_projection_and_cell_averages_match_a_gaussian_exactly_integrated() {
         "cell averages off by {cell_err:e} (centre {h})"
     );
 }
+
+/// A pixel wider than the whole profile (the tiny-kernel extreme): the
+/// kernel is a delta holding all of R_d, not an error (supersampling the
+/// centre cell missed a profile narrower than its sample spacing), and
+/// just below that the centre cell's exact integral keeps the total.
+#[test]
+fn a_cell_wider_than_the_profile_is_a_delta_with_all_of_rd() {
+    let p = dipole_preset("skin1").unwrap();
+    let r_max = *p.r_edges.last().unwrap();
+    // Cells of 2 extent / 3 >= 2 r_max hold the profile in the centre one.
+    for extent in [3.0 * r_max, 1e6 * r_max] {
+        let k = Kernel2D::from_profile(
+            &p,
+            &Kernel2DSpec {
+                size: Some(3),
+                extent_mm: Some(extent),
+            },
+        )
+        .unwrap();
+        for c in 0..3 {
+            assert_eq!(k.data[c][4], 1.0, "centre of channel {c}");
+            assert!((k.captured[c] - 1.0).abs() < 1e-3, "{:?}", k.captured);
+        }
+    }
+    // Just past the centre cell the neighbours are supersampled: together
+    // with the centre they still hold all of R_d.
+    let k = Kernel2D::from_profile(
+        &p,
+        &Kernel2DSpec {
+            size: Some(3),
+            extent_mm: Some(2.98 * r_max),
+        },
+    )
+    .unwrap();
+    for c in 0..3 {
+        assert!((k.captured[c] - 1.0).abs() < 1e-3, "{:?}", k.captured);
+    }
+}

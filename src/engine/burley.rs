@@ -7,7 +7,7 @@
 
 use super::{minimise_log, Target};
 use crate::error::{Error, Result};
-use crate::profile::analytic::bin_averages_resolved;
+use crate::numerics::bin_averages_resolved;
 use crate::profile::{Profile, RadialGrid};
 use std::f64::consts::PI;
 

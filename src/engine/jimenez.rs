@@ -10,7 +10,7 @@
 use super::{minimise_log, Target};
 use crate::error::{Error, Result};
 use crate::kernel::gaussians::{DEON_SKIN_VARIANCES, DEON_SKIN_WEIGHTS};
-use crate::profile::analytic::bin_averages;
+use crate::numerics::bin_averages;
 use crate::profile::{Profile, RadialGrid};
 use std::f64::consts::PI;
 

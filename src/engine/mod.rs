@@ -306,7 +306,7 @@ pub(crate) struct Target {
 
 impl Target {
     pub fn new(p: &Profile, c: usize) -> Target {
-        let r99 = compare::radius_holding(p, c, 0.99);
+        let r99 = crate::profile::radius_holding(p, c, 0.99);
         let bins = p.r_edges.windows(2).take_while(|e| e[0] < r99).count();
         Target {
             bins,

@@ -3,12 +3,14 @@
 //!
 //! Cells hold cell averages (times the cell area), not point samples: the
 //! radial profile is supersampled in each cell, more finely where the cell is
-//! wide compared with the profile's bins and near r = 0 where R_d peaks.
+//! wide compared with the profile's bins, and the centre cell, where R_d
+//! peaks, is integrated exactly in r with the arc length inside the square.
 //! Only one octant is computed; the other seven are mirrors, which makes the
 //! kernel exactly symmetric under x <-> -x, y <-> -y and x <-> y.
 
 use crate::error::{Error, Result};
 use crate::material::Channel;
+use crate::numerics::{gauss_legendre, gauss_legendre_sqrt_start};
 use crate::profile::Profile;
 use crate::profile::{radius_holding, RadialInterp};
 use rayon::prelude::*;
@@ -243,6 +245,42 @@ fn supersampling(cell: f64, r_near: f64, ring: usize, bin_width: f64) -> usize {
     by_bins.max(by_peak).clamp(3, 64)
 }
 
+/// Integral of the reconstruction over the centre cell [-a, a]^2 as
+/// int R(r) L(r) dr, with L(r) the length of the circle of radius r inside
+/// the square: 2 pi r up to a, then r (2 pi - 8 acos(a / r)) up to the
+/// corner a sqrt 2. The peak of R_d sits in this cell: supersampling it
+/// undersamples a peak much narrower than the cell (a pixel wider than the
+/// kernel), and misses a profile that ends inside the first sample spacing.
+fn centre_cell_integral(interp: &RadialInterp, a: f64) -> f64 {
+    use std::f64::consts::{PI, SQRT_2};
+    let arc = |r: f64| {
+        if r <= a {
+            2.0 * PI * r
+        } else {
+            r * (2.0 * PI - 8.0 * (a / r).min(1.0).acos())
+        }
+    };
+    let g = |r: f64| interp.eval(r) * arc(r);
+    let end = (a * SQRT_2).min(interp.r_max());
+    let mut cuts: Vec<f64> = std::iter::once(0.0)
+        .chain(interp.nodes().iter().copied())
+        .chain([a, end])
+        .filter(|&r| r <= end)
+        .collect();
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    cuts.windows(2)
+        .map(|w| {
+            if w[0] == a {
+                // L(r) has a square-root corner at r = a.
+                gauss_legendre_sqrt_start(&g, w[0], w[1])
+            } else {
+                gauss_legendre(g, w[0], w[1])
+            }
+        })
+        .sum()
+}
+
 /// Integrals of the reconstruction over each cell (octant, then mirrored).
 fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
     let half = size / 2;
@@ -263,6 +301,9 @@ fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
                 let r_near = ((x0.max(0.0)).powi(2) + (y0.max(0.0)).powi(2)).sqrt();
                 if r_near > interp.r_max() {
                     return (dx, dy, 0.0);
+                }
+                if dx == 0 {
+                    return (0, 0, centre_cell_integral(interp, cell / 2.0));
                 }
                 let ss = supersampling(cell, r_near, dx, bin_width);
                 let h = cell / ss as f64;

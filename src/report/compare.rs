@@ -6,7 +6,7 @@ use super::table::Table;
 use crate::error::{Error, Result};
 use crate::material::Channel;
 // The engine's fits still name it through this module.
-pub(crate) use crate::profile::radius_holding;
+use crate::profile::radius_holding;
 use crate::profile::Profile;
 use plotters::style::RGBColor;
 

@@ -17,8 +17,8 @@ use crate::error::{Error, Result};
 use crate::material::{Channel, Material, Medium};
 // The quadrature lives in `crate::numerics`; the engine's fits still name
 // two of its functions through this module.
+use crate::numerics::bin_averages_resolved;
 use crate::numerics::plane_total;
-pub(crate) use crate::numerics::{bin_averages, bin_averages_resolved};
 use rayon::prelude::*;
 use serde_json::json;
 
