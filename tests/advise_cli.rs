@@ -207,34 +207,25 @@ fn advise_from_a_perspective_view_matches_the_filter_scale() {
         (got - expected).abs() < 1e-12 * expected,
         "{got} vs {expected}"
     );
-    common::fails_with(
-        &[
+    let path = s(&profile);
+    let view = |fov: &'static str, depth: &'static str| {
+        vec![
             "advise",
             "--profile",
-            s(&profile),
-            "--fov",
-            "40",
-            "--depth",
-            "-1",
-            "--height",
-            "1080",
-        ],
-        &["--depth: invalid value -1"],
-    );
-    // The field of view is --fov here (--fov-y in apply): the message
-    // names the flag the user typed.
-    for fov in ["0", "180"] {
-        let args = [
-            "advise",
-            "--profile",
-            s(&profile),
+            path,
             "--fov",
             fov,
             "--depth",
-            "0.5",
+            depth,
             "--height",
             "1080",
-        ];
+        ]
+    };
+    common::fails_with(&view("40", "-1"), &["--depth: invalid value -1"]);
+    // The field of view is --fov here (--fov-y in apply): the message
+    // names the flag the user typed.
+    for fov in ["0", "180"] {
+        let args = view(fov, "0.5");
         let o = common::run(&args);
         common::assert_fails(&o, &args, &[&format!("--fov: invalid value {fov}")]);
         assert!(!common::stderr(&o).contains("--fov-y"));

@@ -30,33 +30,38 @@ pub enum ProfileModelArg {
     DirectionalDipole,
 }
 
+/// A list item of an enumerated flag: a value of `T` (Some) or the one
+/// extra word `other` (None). The values' own help is dropped: it names
+/// the flags of the subcommand that owns `T`.
+fn value_or<T>(
+    other: clap::builder::PossibleValue,
+) -> impl clap::builder::TypedValueParser<Value = Option<T>>
+where
+    T: ValueEnum + Clone + Send + Sync + 'static,
+{
+    use clap::builder::{PossibleValuesParser, TypedValueParser};
+    let values = T::value_variants()
+        .iter()
+        .filter_map(ValueEnum::to_possible_value)
+        .map(|v| v.help(None::<&'static str>));
+    PossibleValuesParser::new(std::iter::once(other).chain(values))
+        .map(|s| T::from_str(&s, false).ok())
+}
+
 /// `--models`: a kernel model as `fit --model` spells it
 /// (`kernel_compare::FAMILIES`), or "all" (None).
 fn model_or_all() -> impl clap::builder::TypedValueParser<Value = Option<ModelArg>> {
-    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
-    let all = PossibleValue::new("all");
-    let models = ModelArg::value_variants()
-        .iter()
-        .filter_map(ValueEnum::to_possible_value)
-        // Their help names `fit`'s flags.
-        .map(|v| v.help(None::<&'static str>));
-    PossibleValuesParser::new(std::iter::once(all).chain(models))
-        .map(|s| ModelArg::from_str(&s, false).ok())
+    value_or(clap::builder::PossibleValue::new("all"))
 }
 
 /// `--signals`: a test signal as `signal` spells it, or "none" (also "")
 /// for kernel space only (None).
 fn signal_or_none() -> impl clap::builder::TypedValueParser<Value = Option<SignalArg>> {
-    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
-    let none = PossibleValue::new("none")
-        .alias("")
-        .help("kernel space only");
-    let signals = SignalArg::value_variants()
-        .iter()
-        .filter_map(ValueEnum::to_possible_value)
-        .map(|v| v.help(None::<&'static str>));
-    PossibleValuesParser::new(std::iter::once(none).chain(signals))
-        .map(|s| SignalArg::from_str(&s, false).ok())
+    value_or(
+        clap::builder::PossibleValue::new("none")
+            .alias("")
+            .help("kernel space only"),
+    )
 }
 
 #[derive(clap::Args)]

@@ -131,19 +131,20 @@ impl Scope {
 
     /// The flag of this subcommand that sets `field` of `context`, if any.
     pub fn flag_of(&self, context: &str, field: &str) -> Option<&'static str> {
-        FLAGS
-            .iter()
-            .filter(|(c, f, _)| *c == context && *f == field)
-            .flat_map(|(_, _, flags)| flags.iter().copied())
-            .find(|flag| self.has(flag))
+        self.first_flag(|c, f| c == context && f == field)
     }
 
     /// The flag of this subcommand that sets the parameter `field` in any
     /// context: for texts that name a parameter without its context.
     fn flag_of_parameter(&self, field: &str) -> Option<&'static str> {
+        self.first_flag(|_, f| f == field)
+    }
+
+    /// The first flag of this subcommand among the table rows `row` keeps.
+    fn first_flag(&self, row: impl Fn(&str, &str) -> bool) -> Option<&'static str> {
         FLAGS
             .iter()
-            .filter(|(_, f, _)| *f == field)
+            .filter(|(c, f, _)| row(c, f))
             .flat_map(|(_, _, flags)| flags.iter().copied())
             .find(|flag| self.has(flag))
     }
