@@ -88,11 +88,23 @@ pub type Units = std::collections::BTreeMap<String, String>;
 #[derive(Clone, Debug, Serialize)]
 pub struct EngineFit {
     pub engine: String,
+    /// The engine version whose conversion chain the parameters follow
+    /// (e.g. "Unreal Engine 5.4"), as read from that version's source.
+    pub version: String,
     /// Parameter name (the engine's) -> a number or [r, g, b].
     pub params: Map<String, Value>,
     /// Parameter name -> unit and meaning.
     pub units: Units,
     pub error: FitError,
+    /// Which of the engine's rendering paths `error` is for (e.g. the
+    /// radial Burley path, or the separable tap table).
+    pub error_for: String,
+    /// What else must hold in the engine for `error` to apply (material
+    /// settings, world scale), one sentence each.
+    pub requirements: Vec<String>,
+    /// Values moved to fit the engine's UI (clamps, rounding) and what
+    /// that costs, one sentence each.
+    pub warnings: Vec<String>,
     /// The engine model's profile on the input's grid.
     #[serde(skip)]
     pub profile: Profile,
@@ -155,9 +167,13 @@ pub fn fit(engine: Engine, profile: &Profile, scene: Scene) -> Result<EngineFit>
     let error = error(&model_profile, profile)?;
     Ok(EngineFit {
         engine: engine.name().into(),
+        version: String::new(),
         params,
         units,
         error,
+        error_for: String::new(),
+        requirements: Vec::new(),
+        warnings: Vec::new(),
         profile: model_profile,
     })
 }
