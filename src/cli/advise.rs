@@ -1,107 +1,113 @@
 //! `ssskit advise`: the cheapest kernel configuration that meets a target
 //! image-space error at a pixel scale.
 
+use super::args::{
+    self, count, FovYArg, ImageErrorArg, JsonArg, MmPerPixelArg, ModelsArg, OutFile, ProfileModel,
+    ProfileSourceArgs, SignalSizeArg, UnitsPerMmArg,
+};
 use super::out::{out, outln};
-use super::profile_source::{ProfileArgs, ProfileModelArg};
 use anyhow::bail;
-use ssskit::report::advise::{self, ViewScale, DEFAULT_TARGET};
+use ssskit::report::advise::{self, ViewScale, FAMILIES};
 use ssskit::report::kernel_report::sig;
-use std::path::PathBuf;
 
-/// The model families advise can try (`advise::FAMILIES`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum Family {
-    Svd,
-    Preintegrate,
-    Guided,
-    Manual,
-    Gaussians,
+/// The perspective scale's own flags (with --fov-y and --units-per-mm).
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// Linear view depth of the surface, scene units (with --fov-y).
+    #[arg(long, value_name = "UNITS", allow_negative_numbers = true)]
+    view_depth: Option<f64>,
+    /// Image height in pixels (with --fov-y).
+    #[arg(long, value_name = "PX", value_parser = count::<usize>)]
+    image_height: Option<usize>,
 }
 
 #[derive(clap::Args)]
+#[command(mut_args(args::profile_source(ProfileModel::Pbd)))]
+#[command(
+    mut_arg("mm_per_pixel", |a| a
+        .conflicts_with_all(["fov_y", "view_depth", "image_height"])
+        .required_unless_present("fov_y")
+        .help("Scale: surface millimetres per pixel (orthographic) [default: none: give it or --fov-y]")),
+    mut_arg("fov_y", |a| a.requires_all(["view_depth", "image_height"]).alias("fov")),
+    mut_arg("view_depth", args::alias("--depth")),
+    mut_arg("image_height", args::alias("--height")),
+    mut_arg("units_per_mm", args::alias("--scene-units-per-mm")),
+    mut_arg("image_error", args::alias("--target-error")),
+    mut_arg("signal_size", args::alias("--size")),
+    mut_arg("models", args::default(FAMILIES.join(","))),
+    mut_arg("out", args::help("Output file: the chosen kernel (ssskit.kernel/1 JSON) [default: not written]")),
+)]
 pub struct Args {
     #[command(flatten)]
-    profile: ProfileArgs,
-    /// Orthographic scale: surface millimetres per pixel.
-    #[arg(long, conflicts_with_all = ["fov", "depth", "height"], required_unless_present = "fov", allow_negative_numbers = true)]
-    mm_per_pixel: Option<f64>,
-    /// Vertical field of view in degrees (perspective scale, with --depth
-    /// and --height; the filter's formula, Freude 2014, eq. 4.11).
-    #[arg(long, requires_all = ["depth", "height"], allow_negative_numbers = true)]
-    fov: Option<f64>,
-    /// Linear view depth of the surface, scene units.
-    #[arg(long, allow_negative_numbers = true)]
-    depth: Option<f64>,
-    /// Image height, pixels.
-    #[arg(long)]
-    height: Option<usize>,
-    /// Scene units per millimetre (0.001: a scene in metres).
-    #[arg(long, default_value_t = 0.001)]
-    scene_units_per_mm: f64,
-    /// Largest relative RMS accepted over channels and signals (0.02 = 2%).
-    #[arg(long, default_value_t = DEFAULT_TARGET)]
-    target_error: f64,
-    /// Side of the square test signals, pixels.
-    #[arg(long, default_value_t = 128)]
-    size: usize,
-    /// Model families to try, comma-separated; default all of them.
-    #[arg(long, value_enum, value_delimiter = ',')]
-    models: Vec<Family>,
-    /// Print the answer as JSON on stdout.
-    #[arg(long)]
-    json: bool,
-    /// Write the chosen kernel (ssskit.kernel/1).
-    #[arg(long, value_name = "KERNEL.json")]
-    out: Option<PathBuf>,
+    profile: ProfileSourceArgs,
+    #[command(flatten)]
+    mm_per_pixel: MmPerPixelArg,
+    #[command(flatten)]
+    fov_y: FovYArg,
+    #[command(flatten)]
+    view: ViewArgs,
+    #[command(flatten)]
+    units_per_mm: UnitsPerMmArg,
+    #[command(flatten)]
+    target: ImageErrorArg,
+    #[command(flatten)]
+    signal_size: SignalSizeArg,
+    #[command(flatten)]
+    models: ModelsArg,
+    #[command(flatten)]
+    json: JsonArg,
+    #[command(flatten)]
+    out: OutFile,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let view = match (a.mm_per_pixel, a.fov, a.depth, a.height) {
+    let units_per_mm = a.units_per_mm.units_per_mm;
+    let view = match (
+        a.mm_per_pixel.mm_per_pixel,
+        a.fov_y.fov_y,
+        a.view.view_depth,
+        a.view.image_height,
+    ) {
         (Some(m), _, _, _) => ViewScale::MmPerPixel(m),
         (None, Some(f), Some(d), Some(h)) => ViewScale::Perspective {
             fov_y_deg: f,
             depth: d,
             height: h,
-            scene_units_per_mm: a.scene_units_per_mm,
+            scene_units_per_mm: units_per_mm,
         },
-        _ => bail!("give --mm-per-pixel, or --fov with --depth and --height"),
+        _ => bail!("give --mm-per-pixel, or --fov-y with --view-depth and --image-height"),
     };
     let mm = view.mm_per_pixel()?;
-    if !(8..=2048).contains(&a.size) {
-        bail!(
-            "--size: invalid value {}: must be between 8 and 2048",
-            a.size
-        );
-    }
-    let (profile, source) = a.profile.load(ProfileModelArg::Pbd)?;
+    let (profile, source) = a.profile.load()?;
     eprintln!(
         "{}: profile {source}; scale {} mm per pixel{}",
         profile.material.name,
         sig(mm),
         match view {
-            ViewScale::Perspective { .. } => format!(
-                " (fov {} deg, depth {}, height {} px, {} scene units per mm)",
-                a.fov.unwrap_or(0.0),
-                a.depth.unwrap_or(0.0),
-                a.height.unwrap_or(0),
-                a.scene_units_per_mm
+            ViewScale::Perspective {
+                fov_y_deg,
+                depth,
+                height,
+                ..
+            } => format!(
+                " (fov {fov_y_deg} deg, depth {depth}, height {height} px, \
+                 {units_per_mm} scene units per mm)"
             ),
             ViewScale::MmPerPixel(_) => String::new(),
         }
     );
-    let mut cfg = advise::Config::new(mm, a.target_error);
-    cfg.size = a.size;
-    if !a.models.is_empty() {
-        cfg.families = a.models.iter().map(super::flag_value).collect();
-    }
+    let mut cfg = advise::Config::new(mm, a.target.image_error);
+    cfg.size = a.signal_size.signal_size;
+    cfg.families = a.models.families();
     let advice = advise::advise(&profile, &cfg, &super::progress::Bar::new())?;
-    if let Some(out) = &a.out {
+    let out = a.out.out.as_ref();
+    if let Some(out) = out {
         advice.kernel.write(out)?;
         ssskit::kernel::KernelFile::read(out)?;
     }
     let c = advice.chosen();
     let text = advise::explain(&advice);
-    if a.json {
+    if a.json.json {
         eprint!("{text}");
         outln!("{}", serde_json::to_string_pretty(&advice.to_json())?)?;
     } else {
@@ -110,7 +116,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for w in &advice.warnings {
         super::errors::warn(&w.to_string());
     }
-    if let Some(out) = &a.out {
+    if let Some(out) = out {
         eprintln!("kernel ({}) -> {}", c.describe(), out.display());
     }
     Ok(())

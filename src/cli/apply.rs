@@ -1,6 +1,10 @@
 //! `ssskit apply`: a kernel (or, as ground truth, the full 2D profile) applied
 //! to an image on the CPU or with wgpu.
 
+use super::args::{
+    self, Backend, BackendArg, FovYArg, KernelFile as KernelFileArg, MmPerPixelArg, OutFile,
+    UnitsPerMmArg,
+};
 use anyhow::Context;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
 use ssskit::filter::warnings::scale_warnings;
@@ -9,16 +13,6 @@ use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Backend {
-    /// wgpu; an error when no adapter is found.
-    Gpu,
-    /// The CPU (precision: see --precision).
-    Cpu,
-    /// wgpu when a hardware adapter is found, else the CPU; says which it used.
-    Auto,
-}
 
 /// Working precision of the CPU fixed-kernel path.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -55,96 +49,109 @@ impl From<PngBits> for PngDepth {
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("kernel", |a| a.required_unless_present("reference").conflicts_with("reference")),
+    mut_arg("out", |a| args::required()(a).help("Output file: the image, .exr or .png by extension")),
+    mut_arg("backend", args::default_enum(Backend::Auto)),
+    mut_arg("mm_per_pixel", |a| a
+        .conflicts_with_all(["fov_y", "units_per_mm"])
+        .required_unless_present("fov_y")
+        .help("Scale: surface millimetres per pixel (orthographic) [default: none: give it or --fov-y]")),
+    mut_arg("units_per_mm", |a| a.alias("sss-width")),
+)]
 pub struct Args {
-    /// Kernel file (ssskit.kernel/1).
-    #[arg(
-        long,
-        required_unless_present = "reference",
-        conflicts_with = "reference"
-    )]
-    kernel: Option<PathBuf>,
-    /// Ground truth instead of a kernel: exact 2D convolution with this
-    /// profile's full 2D kernel at --mm-per-pixel (CPU only, f64).
-    #[arg(long)]
+    #[command(flatten)]
+    kernel: KernelFileArg,
+    /// Ground truth instead of a kernel: the profile's exact 2D convolution.
+    ///
+    /// The exact 2D convolution with this profile's full 2D kernel at
+    /// --mm-per-pixel (CPU only, f64).
+    #[arg(long, value_name = "PROFILE.json")]
     reference: Option<PathBuf>,
     /// Irradiance image in linear light (.exr) or sRGB (.png).
-    #[arg(long)]
+    #[arg(long, value_name = "IMAGE")]
     input: PathBuf,
-    /// Output image (.exr or .png by extension).
-    #[arg(long)]
-    out: PathBuf,
-    #[arg(long, value_enum, default_value = "auto")]
-    backend: Backend,
-    /// CPU working precision of the fixed-kernel path (uniform
-    /// --mm-per-pixel scale without --strength or --follow-surface); f32
-    /// differs from f64 by a few f32 round-offs (at most about taps x 1e-7
-    /// of the peak), the precision an EXR output stores anyway.
-    /// The per-pixel path (--fov-y, --strength, --follow-surface) and
-    /// --reference exist in f64 only and ignore it; the GPU is f32.
-    #[arg(long, value_enum, default_value = "f32")]
+    #[command(flatten)]
+    out: OutFile,
+    #[command(flatten)]
+    backend: BackendArg,
+    /// CPU working precision of the fixed-kernel path.
+    ///
+    /// The fixed-kernel path: uniform --mm-per-pixel scale without
+    /// --strength or --follow-surface. f32 differs from f64 by a few f32
+    /// round-offs (at most about taps x 1e-7 of the peak), the precision an
+    /// EXR output stores anyway. The per-pixel path (--fov-y, --strength,
+    /// --follow-surface) and --reference exist in f64 only and ignore it;
+    /// the GPU is f32.
+    #[arg(long, value_enum, value_name = "BITS", default_value_t = Precision::F32)]
     precision: Precision,
-    /// Depth image (.exr channel Z, Y or R, or --depth-channel; .png grey).
-    /// Without it, an EXR input's depth channel is used when one is needed.
-    #[arg(long)]
+    /// Depth image (.exr channel Z, Y or R, or --depth-channel; .png grey)
+    /// [default: the input EXR's depth channel].
+    ///
+    /// Depth is needed by --fov-y and --follow-surface; without this image,
+    /// an EXR input's depth channel is used.
+    #[arg(long, value_name = "IMAGE")]
     depth: Option<PathBuf>,
-    /// Name of the depth channel in the input EXR or in --depth (default Z).
-    #[arg(long)]
+    /// Name of the depth channel in the input EXR or in --depth [default: Z].
+    #[arg(long, value_name = "NAME")]
     depth_channel: Option<String>,
-    /// Specular image added after the blur.
-    #[arg(long)]
+    /// Specular image added after the blur [default: none].
+    #[arg(long, value_name = "IMAGE")]
     specular: Option<PathBuf>,
-    /// Per-pixel SSS strength in [0, inf): multiplies the kernel size.
-    #[arg(long)]
+    /// Per-pixel SSS strength image in [0, inf): multiplies the kernel size [default: 1].
+    #[arg(long, value_name = "IMAGE")]
     strength: Option<PathBuf>,
-    /// Orthographic scale: surface millimetres per pixel.
-    #[arg(long, conflicts_with_all = ["fov_y", "sss_width"], required_unless_present_any = ["fov_y"])]
-    mm_per_pixel: Option<f64>,
-    /// Vertical field of view in degrees (perspective scale, Freude 2014, eq. 4.11).
-    #[arg(long, requires = "sss_width")]
-    fov_y: Option<f64>,
-    /// Scene units per kernel millimetre (0.001 for a scene in metres).
-    #[arg(long, requires = "fov_y")]
-    sss_width: Option<f64>,
-    /// Depth-aware lerp toward the centre colour with constant C (Freude 2014, eq.
-    /// 4.12; Jimenez uses 300).
-    #[arg(long)]
+    #[command(flatten)]
+    mm_per_pixel: MmPerPixelArg,
+    #[command(flatten)]
+    fov_y: FovYArg,
+    #[command(flatten)]
+    units_per_mm: UnitsPerMmArg,
+    /// Depth-aware lerp toward the centre colour with constant C [default: off].
+    ///
+    /// Freude 2014, eq. 4.12; Jimenez uses 300.
+    #[arg(long, value_name = "C")]
     follow_surface: Option<f64>,
     /// Use the kernel's real-time tap table instead of its full-resolution factors.
     #[arg(long)]
     taps_only: bool,
-    /// Jitter each tap per pixel inside the interval it stands for
-    /// (interleaved gradient noise, Jimenez 2014): trades the banding
+    /// Jitter each tap per pixel inside the interval it stands for.
+    ///
+    /// Interleaved gradient noise (Jimenez 2014): trades the banding
     /// stripes of few taps on a large kernel for fine noise; the same
     /// result on the CPU and the GPU.
     #[arg(long)]
     jitter: bool,
-    /// Replace NaN/Inf samples (colour, specular by 0; depth by the largest
-    /// finite depth; strength by 0) instead of failing; the count is reported.
+    /// Replace NaN/Inf samples instead of failing; the count is reported.
+    ///
+    /// Colour and specular by 0; depth by the largest finite depth;
+    /// strength by 0.
     #[arg(long)]
     sanitize: bool,
-    /// PNG output bit depth (default: the input PNG's, else 8).
-    #[arg(long, value_enum)]
+    /// PNG output bit depth [default: the input PNG's, else 8].
+    #[arg(long, value_enum, value_name = "BITS")]
     png_bits: Option<PngBits>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let need_depth = args.fov_y.is_some() || args.follow_surface.is_some();
+    let out_path = args.out.path()?;
+    let need_depth = args.fov_y.fov_y.is_some() || args.follow_surface.is_some();
     let input_depth_channel = match (&args.depth, need_depth, is_exr(&args.input)) {
         (None, true, true) => Some(args.depth_channel.clone().unwrap_or_else(|| "Z".into())),
         _ => None,
     };
-    ssskit::io::check_extension(&args.out, &["exr", "png"], "image")?;
+    ssskit::io::check_extension(out_path, &["exr", "png"], "image")?;
     let (mut image, extras) = read_image(&args.input, input_depth_channel.as_deref())?;
     let what = args.input.display().to_string();
     report_sanitized(&what, image.check_finite(&what, args.sanitize)?);
 
-    let scale = match (args.mm_per_pixel, args.fov_y, args.sss_width) {
-        (Some(m), _, _) => Scale::MmPerPixel(m),
-        (None, Some(f), Some(w)) => Scale::Perspective {
+    let scale = match (args.mm_per_pixel.mm_per_pixel, args.fov_y.fov_y) {
+        (Some(m), _) => Scale::MmPerPixel(m),
+        (None, Some(f)) => Scale::Perspective {
             fov_y_deg: f,
-            sss_width: w,
+            sss_width: args.units_per_mm.units_per_mm,
         },
-        _ => anyhow::bail!("give --mm-per-pixel, or --fov-y with --sss-width"),
+        _ => anyhow::bail!("give --mm-per-pixel or --fov-y"),
     };
     scale.validate()?;
 
@@ -157,16 +164,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     if let Some(reference) = &args.reference {
         let out = run_reference(&args, reference, &image, scale)?;
-        write_image(&args.out, &out, png_depth)?;
+        write_image(out_path, &out, png_depth)?;
         eprintln!(
             "exact 2D reference on the CPU: {:.3} s -> {}",
             start.elapsed().as_secs_f64(),
-            args.out.display()
+            out_path.display()
         );
         return Ok(());
     }
 
-    let Some(kernel_path) = &args.kernel else {
+    let Some(kernel_path) = &args.kernel.kernel else {
         anyhow::bail!("give --kernel K.json or --reference PROFILE.json");
     };
     let kernel = KernelFile::read(kernel_path)?;
@@ -229,7 +236,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         "per-pixel, f64".into()
     };
-    let out = match args.backend {
+    let out = match args.backend.backend {
         Backend::Cpu => {
             eprintln!("backend: cpu ({cpu_path})");
             cpu::apply_with(&image, &setup, precision)?
@@ -258,7 +265,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         },
     };
-    write_image(&args.out, &out, png_depth)?;
+    write_image(out_path, &out, png_depth)?;
     eprintln!(
         "{} pass(es) of {} taps, {:.3} s -> {}",
         setup.passes.len(),
@@ -269,7 +276,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .max()
             .unwrap_or(0),
         start.elapsed().as_secs_f64(),
-        args.out.display()
+        out_path.display()
     );
     Ok(())
 }
@@ -295,7 +302,7 @@ fn run_reference(
              --follow-surface, --specular, --taps-only or --jitter"
         );
     }
-    if args.backend == Backend::Gpu {
+    if args.backend.backend == Backend::Gpu {
         anyhow::bail!("--reference runs on the CPU only (use --backend cpu or auto)");
     }
     let profile = Profile::read(reference)?;

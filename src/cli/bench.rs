@@ -1,9 +1,8 @@
 //! `ssskit bench filter`: GPU time per frame of the wgpu post-process.
 
+use super::args::{self, count, ImageSizeArg, KernelFile};
 use super::out::outln;
 use ssskit::filter::{gpu, timing};
-use ssskit::kernel::KernelFile;
-use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -13,6 +12,8 @@ pub struct Args {
 
 #[derive(clap::Subcommand)]
 enum What {
+    /// GPU time of one frame of the post-process, by timestamp queries.
+    ///
     /// GPU timestamps around one frame of the post-process (depth-aware,
     /// perspective scale), upload and readback excluded; refuses to report
     /// a software rasteriser's time.
@@ -20,17 +21,29 @@ enum What {
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("kernel", |a| args::required()(a).help(
+        "Kernel file (ssskit.kernel/1 JSON): its tap table runs, e.g. kernels/skin1-svd1.json"
+    )),
+    mut_arg("image_size", |a| a
+        .default_value(format!("{}x{}", timing::DEFAULT_FRAME.0, timing::DEFAULT_FRAME.1))
+        .help("Image size in pixels, WIDTHxHEIGHT: the frame")),
+)]
 struct FilterArgs {
-    /// Kernel file whose tap table runs (e.g. kernels/skin1-svd1.json: 17 taps, rank 1).
-    #[arg(long)]
-    kernel: PathBuf,
-    #[arg(long, default_value_t = 1920)]
-    width: usize,
-    #[arg(long, default_value_t = 1080)]
-    height: usize,
-    /// Frames timed after one warm-up frame (at most 1000; 2 on a software
-    /// rasteriser, which only checks that the path runs).
-    #[arg(long, default_value_t = 200)]
+    #[command(flatten)]
+    kernel: KernelFile,
+    #[command(flatten)]
+    image_size: ImageSizeArg,
+    /// Deprecated: use --image-size WxH.
+    #[arg(long, hide = true, conflicts_with = "image_size", value_parser = count::<usize>)]
+    width: Option<usize>,
+    /// Deprecated: use --image-size WxH.
+    #[arg(long, hide = true, conflicts_with = "image_size", value_parser = count::<usize>)]
+    height: Option<usize>,
+    /// Frames timed after one warm-up frame (at most 1000).
+    ///
+    /// 2 on a software rasteriser, which only checks that the path runs.
+    #[arg(long, value_name = "N", default_value_t = timing::DEFAULT_FRAMES, value_parser = count::<u32>)]
     frames: u32,
 }
 
@@ -41,7 +54,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 }
 
 fn run_filter(a: FilterArgs) -> anyhow::Result<()> {
-    let kernel = KernelFile::read(&a.kernel)?;
+    let path = a
+        .kernel
+        .kernel
+        .as_deref()
+        .ok_or_else(|| anyhow::anyhow!("give --kernel"))?;
+    let kernel = ssskit::kernel::KernelFile::read(path)?;
+    let (w, h) = a.image_size.image_size;
+    let (width, height) = (a.width.unwrap_or(w), a.height.unwrap_or(h));
     let g = gpu::Gpu::new()?;
     outln!("adapter: {}", g.describe())?;
     let frames = if g.is_software() {
@@ -49,11 +69,11 @@ fn run_filter(a: FilterArgs) -> anyhow::Result<()> {
     } else {
         a.frames
     };
-    let t = timing::time_post_process(&g, &kernel, a.width, a.height, frames)?;
+    let t = timing::time_post_process(&g, &kernel, width, height, frames)?;
     outln!(
         "frame: {}x{}, {} taps, rank {}, perspective (fov_y {} deg), depth-aware (C = {})",
-        a.width,
-        a.height,
+        width,
+        height,
         t.taps,
         t.rank,
         timing::FOV_Y_DEG,

@@ -2,8 +2,11 @@
 //! image space; report.md, compare.csv, compare.json, the fitted kernels
 //! and plots.
 
-use super::errors::{between, invalid, positive};
-use super::fit::ModelArg;
+use super::args::{
+    self, value_or, ExtentArg, MaterialsArg, MmPerPixelArg, ModelsArg, NoPlotsArg, OutDir,
+    PhotonsArg, ProfileModel, ProfileModelArg, SeedArg, SignalSizeArg,
+};
+use super::errors::{invalid, positive};
 use super::out::out;
 use super::profile_source::command_line;
 use super::progress::Bar;
@@ -11,48 +14,14 @@ use super::signal::Kind as SignalArg;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
-use ssskit::material::{preset_names, Channel, Material};
-use ssskit::profile::analytic::{self, Model as ProfileModel, Options as ProfileOptions};
+use ssskit::material::{Channel, Material};
+use ssskit::profile::analytic::{self, Options as ProfileOptions};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::profile::Profile;
-use ssskit::report::evaluate::{ImageCase, Options, Which};
+use ssskit::report::evaluate::{self, ImageCase, Options, Which};
 use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
 use ssskit::report::{kernel_report, pipeline};
 use std::path::PathBuf;
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum ProfileModelArg {
-    /// Monte Carlo (--photons per channel, fixed seed).
-    Mc,
-    Pbd,
-    Dipole,
-    Burley,
-    DirectionalDipole,
-}
-
-/// A list item of an enumerated flag: a value of `T` (Some) or the one
-/// extra word `other` (None). The values' own help is dropped: it names
-/// the flags of the subcommand that owns `T`.
-fn value_or<T>(
-    other: clap::builder::PossibleValue,
-) -> impl clap::builder::TypedValueParser<Value = Option<T>>
-where
-    T: ValueEnum + Clone + Send + Sync + 'static,
-{
-    use clap::builder::{PossibleValuesParser, TypedValueParser};
-    let values = T::value_variants()
-        .iter()
-        .filter_map(ValueEnum::to_possible_value)
-        .map(|v| v.help(None::<&'static str>));
-    PossibleValuesParser::new(std::iter::once(other).chain(values))
-        .map(|s| T::from_str(&s, false).ok())
-}
-
-/// `--models`: a kernel model as `fit --model` spells it
-/// (`kernel_compare::FAMILIES`), or "all" (None).
-fn model_or_all() -> impl clap::builder::TypedValueParser<Value = Option<ModelArg>> {
-    value_or(clap::builder::PossibleValue::new("all"))
-}
 
 /// `--signals`: a test signal as `signal` spells it, or "none" (also "")
 /// for kernel space only (None).
@@ -65,100 +34,81 @@ fn signal_or_none() -> impl clap::builder::TypedValueParser<Value = Option<Signa
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("profile_model", |a| a.conflicts_with("profiles").help(
+        "Profile model: how the profiles are made from the materials [default: none: \
+         give --profiles or this]"
+    )),
+    mut_arg("photons", |a| args::default(args::count_text(kernel_compare::MC_PHOTONS))(a)
+        .help("Photons per channel of the Monte Carlo run: a fixed count, with --profile-model mc")),
+    mut_arg("models", args::default("all")),
+    mut_arg("mm_per_pixel", |a| args::default(evaluate::DEFAULT_MM_PER_PIXEL)(a)
+        .help("Scale: surface millimetres per pixel of the signals and the images")),
+    mut_arg("signal_size", args::alias("--size")),
+    mut_arg("out_dir", |a| a.alias("out").help(
+        "Output folder (created): report.md, compare.csv, compare.json, kernels/, plots"
+    )),
+    mut_arg("no_plots", args::help("No PNG plots: no plots and no contact sheets")),
+)]
 pub struct Args {
-    /// Comma-separated material names, or "all" (every profile in
-    /// --profiles, or every half-space preset with --profile-model).
-    #[arg(long, default_value = "all")]
-    materials: String,
+    #[command(flatten)]
+    materials: MaterialsArg,
     /// Folder of profiles named <material>.json (e.g. profiles/reference).
-    #[arg(long, value_name = "DIR", conflicts_with = "profile_model")]
+    #[arg(long, value_name = "DIR")]
     profiles: Option<PathBuf>,
-    /// Make the profiles instead of reading them.
-    #[arg(long, value_enum)]
-    profile_model: Option<ProfileModelArg>,
-    /// Photons per channel for --profile-model mc.
-    #[arg(long, default_value_t = 1_000_000)]
-    photons: u64,
-    /// Seed for --profile-model mc.
-    #[arg(long, default_value_t = 20260101)]
-    seed: u64,
-    /// Comma-separated kernel models, or all.
-    #[arg(long, value_parser = model_or_all(), value_delimiter = ',', default_value = "all")]
-    models: Vec<Option<ModelArg>>,
-    /// Comma-separated test signals, or none for kernel space only.
-    #[arg(long, value_parser = signal_or_none(), value_delimiter = ',', default_value = "edge,shapes")]
+    #[command(flatten)]
+    profile_model: ProfileModelArg,
+    #[command(flatten)]
+    photons: PhotonsArg,
+    #[command(flatten)]
+    seed: SeedArg,
+    #[command(flatten)]
+    models: ModelsArg,
+    /// Test signals, comma-separated, or none for kernel space only.
+    #[arg(long, value_name = "SIGNAL,...", value_parser = signal_or_none(), value_delimiter = ',', default_value = "edge,shapes")]
     signals: Vec<Option<SignalArg>>,
-    /// Further images in linear light (.exr) or sRGB (.png), at --mm-per-pixel.
-    #[arg(long, num_args = 1..)]
+    /// Further images in linear light (.exr) or sRGB (.png), at --mm-per-pixel [default: none].
+    #[arg(long, value_name = "IMAGE,...", value_delimiter = ',')]
     images: Vec<PathBuf>,
-    /// Surface millimetres per pixel of the images.
-    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
-    mm_per_pixel: f64,
-    /// Side of the square test signals in pixels.
-    #[arg(long, default_value_t = 256)]
-    size: usize,
-    /// Tap counts of the real-time tables (odd), e.g. 11,17,25; the first
-    /// is the one stored in the kernels.
-    #[arg(long, default_value = "17")]
-    taps: String,
-    /// SVD ranks and Gaussian counts, e.g. 1-6 or 1,3.
-    #[arg(long, default_value = "1-3")]
-    ranks: String,
-    /// Half-width of the kernels in mm (default: the radius holding 99.9%
-    /// of each profile's R_d).
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    extent: Option<f64>,
-    /// FLIP viewing condition.
-    #[arg(long, default_value_t = 67.0)]
+    #[command(flatten)]
+    mm_per_pixel: MmPerPixelArg,
+    #[command(flatten)]
+    signal_size: SignalSizeArg,
+    /// Taps per pass of the real-time tap table: odd, comma-separated (11,17,25).
+    ///
+    /// The first count is the one stored in the kernels.
+    #[arg(long, value_name = "N,...", value_delimiter = ',', default_value = ssskit::kernel::taps::DEFAULT_TAPS.to_string(), value_parser = args::taps)]
+    taps: Vec<usize>,
+    /// SVD ranks and Gaussian counts: N or N-M, comma-separated, e.g. 1-6 or 1,3.
+    #[arg(long, value_name = "N-M,...", value_delimiter = ',', default_value = "1-3", value_parser = args::rank_item)]
+    ranks: Vec<String>,
+    #[command(flatten)]
+    extent: ExtentArg,
+    /// FLIP viewing condition: pixels per degree of visual angle.
+    #[arg(long, value_name = "PPD", default_value_t = Options::default().pixels_per_degree)]
     pixels_per_degree: f64,
-    /// Skip the PNG plots and contact sheets.
-    #[arg(long)]
-    no_plots: bool,
-    /// Output folder (created).
-    #[arg(long)]
-    out: PathBuf,
-}
-
-fn list(s: &str) -> Vec<String> {
-    s.split(',')
-        .map(|x| x.trim().to_string())
-        .filter(|x| !x.is_empty())
-        .collect()
-}
-
-fn parse_taps(s: &str) -> anyhow::Result<Vec<usize>> {
-    let mut v = Vec::new();
-    for t in list(s) {
-        let n: usize = t
-            .parse()
-            .map_err(|_| invalid("--taps", &t, "not a number (e.g. 11,17,25)"))?;
-        if n == 0 || n.is_multiple_of(2) || n > 255 {
-            return Err(invalid("--taps", n, "must be odd, between 1 and 255"));
-        }
-        if !v.contains(&n) {
-            v.push(n);
-        }
-    }
-    if v.is_empty() {
-        bail!("--taps: give at least one tap count");
-    }
-    Ok(v)
+    #[command(flatten)]
+    no_plots: NoPlotsArg,
+    #[command(flatten)]
+    out_dir: OutDir,
 }
 
 fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
+    let named = a.materials.named()?;
     if let Some(dir) = &a.profiles {
-        let names: Vec<String> = if a.materials.trim() == "all" {
-            let mut v: Vec<String> = std::fs::read_dir(dir)
-                .with_context(|| format!("--profiles {}", dir.display()))?
-                .filter_map(|e| e.ok())
-                .map(|e| e.path())
-                .filter(|p| p.extension().is_some_and(|x| x == "json"))
-                .filter_map(|p| p.file_stem()?.to_str().map(String::from))
-                .collect();
-            v.sort();
-            v
-        } else {
-            list(&a.materials)
+        let names: Vec<String> = match named {
+            Some(v) => v.to_vec(),
+            None => {
+                let mut v: Vec<String> = std::fs::read_dir(dir)
+                    .with_context(|| format!("--profiles {}", dir.display()))?
+                    .filter_map(|e| e.ok())
+                    .map(|e| e.path())
+                    .filter(|p| p.extension().is_some_and(|x| x == "json"))
+                    .filter_map(|p| p.file_stem()?.to_str().map(String::from))
+                    .collect();
+                v.sort();
+                v
+            }
         };
         if names.is_empty() {
             bail!("--profiles {}: no <material>.json found", dir.display());
@@ -173,41 +123,34 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
             })
             .collect();
     }
-    let Some(model) = a.profile_model else {
-        bail!("give --profiles DIR (e.g. profiles/reference) or --profile-model mc|pbd|dipole|burley|directional-dipole");
+    let Some(model) = a.profile_model.profile_model else {
+        bail!(
+            "give --profiles DIR (e.g. profiles/reference) or --profile-model {}",
+            ProfileModel::value_variants()
+                .iter()
+                .map(args::flag_value)
+                .collect::<Vec<_>>()
+                .join("|")
+        );
     };
-    let names: Vec<String> = if a.materials.trim() == "all" {
-        preset_names()
-            .iter()
-            .filter(|n| Material::load(n).is_ok_and(|m| m.is_half_space()))
-            .map(|s| s.to_string())
-            .collect()
-    } else {
-        list(&a.materials)
+    let names: Vec<String> = match named {
+        Some(v) => v.to_vec(),
+        None => MaterialsArg::half_space_presets(),
     };
-    if names.is_empty() {
-        bail!("--materials: no material named");
-    }
     let channels = Channel::ALL.to_vec();
+    let photons = a.photons.photons.unwrap_or(kernel_compare::MC_PHOTONS);
     names
         .into_iter()
         .map(|n| {
             let m = Material::load(&n)?;
-            let analytic_model = match model {
-                ProfileModelArg::Mc => None,
-                ProfileModelArg::Pbd => Some(ProfileModel::Pbd),
-                ProfileModelArg::Dipole => Some(ProfileModel::Dipole),
-                ProfileModelArg::Burley => Some(ProfileModel::Burley),
-                ProfileModelArg::DirectionalDipole => Some(ProfileModel::DirectionalDipole),
-            };
-            let profile = match analytic_model {
+            let profile = match model.analytic() {
                 None => {
-                    if a.photons == 0 {
+                    if photons == 0 {
                         return Err(invalid("--photons", 0, "must be > 0"));
                     }
                     let cfg = McConfig {
-                        budget: PhotonBudget::Fixed(a.photons),
-                        seed: a.seed,
+                        budget: PhotonBudget::Fixed(photons),
+                        seed: a.seed.seed,
                         threads: None,
                         channels: channels.clone(),
                         grid: None,
@@ -231,23 +174,31 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
         .collect()
 }
 
+/// The tap counts in the order given, each once.
+fn distinct(v: &[usize]) -> Vec<usize> {
+    let mut out: Vec<usize> = Vec::new();
+    for &n in v {
+        if !out.contains(&n) {
+            out.push(n);
+        }
+    }
+    out
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let families: Vec<String> = match a.models.iter().copied().collect::<Option<Vec<_>>>() {
-        Some(models) => models.iter().map(super::flag_value).collect(),
-        None => kernel_compare::FAMILIES
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
-    };
-    let ranks = parse_ranks(&a.ranks).context("--ranks")?;
-    let taps = parse_taps(&a.taps)?;
-    positive("--mm-per-pixel", a.mm_per_pixel)?;
-    between("--size", a.size, 8, 4096)?;
+    let families = a.models.families();
+    let ranks = parse_ranks(&a.ranks.join(",")).context("--ranks")?;
+    let taps = distinct(&a.taps);
+    if taps.is_empty() {
+        bail!("--taps: give at least one tap count");
+    }
+    let mm_per_pixel = positive("--mm-per-pixel", a.mm_per_pixel.or_default())?;
     positive("--pixels-per-degree", a.pixels_per_degree)?;
+    let size = a.signal_size.signal_size;
     let mut cases = Vec::new();
     let mut signals = Vec::new();
     for &sig in a.signals.iter().flatten() {
-        let case = ImageCase::signal(sig.into(), a.size, a.mm_per_pixel)?;
+        let case = ImageCase::signal(sig.into(), size, mm_per_pixel)?;
         if signals.contains(&case.name) {
             continue;
         }
@@ -270,14 +221,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         cases.push(ImageCase {
             name,
             image,
-            mm_per_pixel: a.mm_per_pixel,
+            mm_per_pixel,
         });
     }
-    if let Some(e) = a.extent {
+    if let Some(e) = a.extent.extent {
         positive("--extent", e)?;
     }
     let inputs = load_profiles(&a)?;
-    std::fs::create_dir_all(&a.out).with_context(|| format!("--out {}", a.out.display()))?;
+    let out_dir = a.out_dir.path()?;
+    std::fs::create_dir_all(out_dir).with_context(|| format!("--out-dir {}", out_dir.display()))?;
+    let no_plots = a.no_plots.no_plots;
     let options = Options {
         round_to_f32: true,
         pixels_per_degree: a.pixels_per_degree,
@@ -288,15 +241,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         cases,
         taps: taps.clone(),
         options,
-        keep: (!a.no_plots).then_some(Which::Taps(taps[0])),
-        extent_mm: a.extent,
+        keep: (!no_plots).then_some(Which::Taps(taps[0])),
+        extent_mm: a.extent.extent,
     };
     let t0 = std::time::Instant::now();
     let cmp = kernel_compare::run(&inputs, &cfg, &Bar::new())?;
     let factors: Vec<Factor> = std::iter::once(Factor::Full)
         .chain(taps.iter().map(|&n| Factor::Taps(n)))
         .collect();
-    let command = command_line(&a.out);
+    let command = command_line(out_dir);
     let ctx = kernel_report::ReportContext {
         command: &command,
         signals: &signals,
@@ -307,11 +260,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     pipeline::write_comparison(
         &cmp,
         &ctx,
-        &a.out,
-        !a.no_plots,
+        out_dir,
+        !no_plots,
         &format!("{}-tap tables", taps[0]),
     )?;
-    pipeline::write_fitted_kernels(&cmp, &a.out.join("kernels"), false)?;
+    pipeline::write_fitted_kernels(&cmp, &out_dir.join("kernels"), false)?;
     let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
     out!("{}", kernel_report::claims_table(&claims).markdown())?;
     eprintln!(
@@ -320,8 +273,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         cmp.fitted.len(),
         signals.len(),
         t0.elapsed().as_secs_f64(),
-        a.out.display(),
-        if a.no_plots { "" } else { ", PNG plots" }
+        out_dir.display(),
+        if no_plots { "" } else { ", PNG plots" }
     );
     Ok(())
 }

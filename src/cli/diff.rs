@@ -1,26 +1,34 @@
 //! `ssskit diff`: image-space error between a reference A and an image B.
 
+use super::args::{self, JsonArg, OutFile};
 use super::out::outln;
 use ssskit::filter::diff::{abs_difference, compare, false_colour};
 use ssskit::filter::image::{read_image, write_image, PngDepth};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
+#[command(mut_arg(
+    "out",
+    args::help(
+        "Output file: the difference image, .png in false colour, .exr per channel \
+     [default: not written]"
+    )
+))]
 pub struct Args {
-    /// Reference image (relative errors are relative to its peak).
+    /// Reference image A (relative errors are relative to its peak).
+    #[arg(value_name = "A")]
     a: PathBuf,
-    /// Image compared with A.
+    /// Image B compared with A.
+    #[arg(value_name = "B")]
     b: PathBuf,
-    /// Print JSON: {"rms": [3], "max_abs": [3], "rms_rel": [3], "max_rel": [3]}.
-    #[arg(long)]
-    json: bool,
-    /// Difference image: .png in false colour (max over channels of |A - B|),
-    /// .exr with |A - B| per channel.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Difference mapped to the top of the colour ramp (default: the largest
-    /// in the image); give the same value to compare several images.
-    #[arg(long)]
+    #[command(flatten)]
+    json: JsonArg,
+    #[command(flatten)]
+    out: OutFile,
+    /// Difference at the top of the colour ramp [default: the largest in the image].
+    ///
+    /// Give the same value to compare several images.
+    #[arg(long, value_name = "DIFF", allow_negative_numbers = true)]
     scale: Option<f64>,
 }
 
@@ -33,7 +41,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         super::errors::positive("--scale", s)?;
     }
     let stats = compare(&a, &b)?;
-    if args.json {
+    if args.json.json {
         outln!("{}", serde_json::to_string(&stats)?)?;
     } else {
         outln!("{:<8} {:>12} {:>12} {:>12}", "", "R", "G", "B")?;
@@ -45,7 +53,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         row("rms_rel", stats.rms_rel)?;
         row("max_rel", stats.max_rel)?;
     }
-    if let Some(out) = &args.out {
+    if let Some(out) = &args.out.out {
         let is_exr = out
             .extension()
             .and_then(|e| e.to_str())

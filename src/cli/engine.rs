@@ -1,6 +1,7 @@
 //! `ssskit engine`: the parameters of an engine's own diffusion model
 //! fitted to a profile, with the fit's error and a plot.
 
+use super::args::{self, OutFile, ProfileFile, UnitsPerMmArg};
 use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
 use ssskit::profile::Profile;
@@ -34,32 +35,45 @@ impl From<EngineArg> for Engine {
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("profile", |a| args::required()(a)
+        .help("Reflectance profile file (ssskit.profile/1 JSON): with r, g, b channels")),
+    mut_arg("out", args::help(
+        "Output file: {\"engine\", \"params\", \"units\", \"error\"} as JSON [default: not written]"
+    )),
+)]
 pub struct Args {
-    /// Reflectance profile (ssskit.profile/1 JSON) with r, g, b channels.
-    #[arg(long, value_name = "FILE.json")]
-    profile: PathBuf,
+    #[command(flatten)]
+    profile: ProfileFile,
     /// The engine whose model is fitted.
-    #[arg(long, value_enum, ignore_case = true)]
+    #[arg(long, value_enum, value_name = "ENGINE", ignore_case = true)]
     engine: EngineArg,
-    /// Write {"engine", "params", "units", "error"} as JSON.
-    #[arg(long, value_name = "FILE.json")]
-    out: Option<PathBuf>,
-    /// Plot the input profile and the engine model's r R_d(r).
+    #[command(flatten)]
+    out: OutFile,
+    /// Plot the input profile and the engine model's r R_d(r) [default: not written].
     #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
-    /// Scene units per millimetre (0.001: a scene in metres).
-    #[arg(long, default_value_t = 0.001)]
-    units_per_mm: f64,
+    #[command(flatten)]
+    units_per_mm: UnitsPerMmArg,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let e = Engine::from(a.engine);
-    let profile = Profile::read(&a.profile)?;
+    let profile_path = a
+        .profile
+        .profile
+        .as_deref()
+        .ok_or_else(|| anyhow::anyhow!("give --profile"))?;
+    let profile = Profile::read(profile_path)?;
     let scene = Scene {
-        units_per_mm: a.units_per_mm,
+        units_per_mm: a.units_per_mm.units_per_mm,
     };
     let fit = engine::fit(e, &profile, scene)?;
-    outln!("engine: {} (profile {})", fit.engine, a.profile.display())?;
+    outln!(
+        "engine: {} (profile {})",
+        fit.engine,
+        profile_path.display()
+    )?;
     for (name, v) in &fit.params {
         let unit = fit.units.get(name).map_or("", String::as_str);
         outln!("  {name} = {v}    [{unit}]")?;
@@ -78,7 +92,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         )?,
         Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
     }
-    if let Some(out) = &a.out {
+    if let Some(out) = &a.out.out {
         ssskit::io::write_json_atomic(out, &fit)?;
         eprintln!("wrote {}", out.display());
     }
@@ -90,7 +104,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         plot::render(
             &panels,
             2,
-            &format!("{} fitted to {}", fit.engine, a.profile.display()),
+            &format!("{} fitted to {}", fit.engine, profile_path.display()),
             png,
         )?;
         eprintln!("wrote {}", png.display());

@@ -9,7 +9,8 @@
 //! in the subcommand that ran, since two subcommands may spell one
 //! parameter differently (`apply --fov-y`, `advise --fov`) or not have it
 //! at all. Errors whose parameter no flag of the subcommand sets (a field of
-//! a material file, say) keep the library's wording.
+//! a material file, say) keep the library's wording. A flag typed in a
+//! deprecated spelling (`--size` for `--signal-size`) is named as typed.
 
 use ssskit::profile::mc;
 use ssskit::Error;
@@ -21,17 +22,17 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("radial grid", "rmax", &["--rmax"]),
     ("radial grid", "log_bins", &["--log-bins"]),
     ("kernel", "extent_mm", &["--extent"]),
-    ("kernel", "size", &["--size"]),
-    ("analytic profile", "model", &["--model", "--profile-model"]),
+    ("kernel", "size", &["--grid-size"]),
+    ("analytic profile", "model", &["--profile-model"]),
     ("channels", "channels", &["--channels"]),
     ("channels", "channel", &["--channels"]),
     ("manual", "preset", &["--preset"]),
     ("manual", "w", &["--w"]),
     ("manual", "sqrt_tau_near", &["--near"]),
     ("manual", "sqrt_tau_far", &["--far"]),
-    ("jimenez", "width", &["--width"]),
-    ("jimenez", "strength", &["--strength"]),
-    ("jimenez", "falloff", &["--falloff"]),
+    ("jimenez", "width", &["--jimenez-width"]),
+    ("jimenez", "strength", &["--jimenez-strength"]),
+    ("jimenez", "falloff", &["--jimenez-falloff"]),
     ("gaussians", "count", &["--count"]),
     ("guided", "k", &["--k"]),
     ("guided", "b", &["--b"]),
@@ -40,22 +41,14 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("taps", "count", &["--taps"]),
     ("taps", "extent_mm", &["--tap-extent"]),
     ("shader", "language", &["--emit"]),
-    (mc::CONTEXT, "photons", &["--photons", "--mc-photons"]),
-    (
-        mc::CONTEXT,
-        "target_error",
-        &["--target-error", "--mc-error"],
-    ),
+    (mc::CONTEXT, "photons", &["--photons", "--max-photons"]),
+    (mc::CONTEXT, "target_error", &["--mc-error"]),
     (
         mc::CONTEXT,
         "kernel_error",
         &["--kernel-error", "--mc-error"],
     ),
-    (
-        mc::CONTEXT,
-        "max_photons",
-        &["--max-photons", "--mc-photons"],
-    ),
+    (mc::CONTEXT, "max_photons", &["--max-photons"]),
     (mc::CONTEXT, "shard", &["--shard"]),
     (mc::CONTEXT, "channels", &["--channels"]),
     (mc::CONTEXT, "max_work", &["--max-work"]),
@@ -64,13 +57,13 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     (mc::CONTEXT, "max_events", &["--max-events"]),
     (mc::CONTEXT, "abs_floor", &["--abs-floor"]),
     ("kernel scale", "mm_per_pixel", &["--mm-per-pixel"]),
-    ("kernel scale", "fov_y_deg", &["--fov-y", "--fov"]),
-    ("kernel scale", "sss_width", &["--sss-width"]),
+    ("kernel scale", "fov_y_deg", &["--fov-y"]),
+    ("kernel scale", "sss_width", &["--units-per-mm"]),
     ("filter setup", "follow_surface", &["--follow-surface"]),
     ("filter setup", "depth", &["--depth"]),
-    ("advise", "depth", &["--depth"]),
-    ("advise", "height", &["--height"]),
-    ("advise", "target error", &["--target-error"]),
+    ("advise", "depth", &["--view-depth"]),
+    ("advise", "height", &["--image-height"]),
+    ("advise", "target error", &["--image-error"]),
     ("compare", "model", &["--models"]),
     ("compare", "ranks", &["--ranks"]),
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),
@@ -87,6 +80,47 @@ const ADVICE: &[(&str, &str, &str, &str)] =
 /// The path of the subcommand that runs (`["profiles", "compare"]`), set
 /// once after parsing.
 static RUNNING: OnceLock<Vec<String>> = OnceLock::new();
+
+/// The flags typed in a deprecated spelling: (flag, as typed), set once
+/// before parsing.
+static TYPED: OnceLock<Vec<(String, String)>> = OnceLock::new();
+
+/// Records the flags typed in a deprecated spelling: messages name them as
+/// typed.
+pub fn set_typed(pairs: Vec<(String, String)>) {
+    let _ = TYPED.set(pairs);
+}
+
+/// `text` with every flag the user typed in a deprecated spelling named as
+/// typed (a whole flag only: `--out` is not a part of `--out-dir`).
+pub fn as_typed(text: &str) -> String {
+    let pairs = TYPED.get().map(Vec::as_slice).unwrap_or_default();
+    with_spellings(text, pairs)
+}
+
+fn with_spellings(text: &str, pairs: &[(String, String)]) -> String {
+    let part_of_flag = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_';
+    let mut out = text.to_string();
+    for (flag, typed) in pairs.iter().filter(|(f, t)| f != t) {
+        let mut result = String::with_capacity(out.len());
+        let mut rest = out.as_str();
+        while let Some(i) = rest.find(flag.as_str()) {
+            let end = i + flag.len();
+            let before = rest[..i].chars().next_back();
+            let after = rest[end..].chars().next();
+            result.push_str(&rest[..i]);
+            if before.is_some_and(part_of_flag) || after.is_some_and(part_of_flag) {
+                result.push_str(flag);
+            } else {
+                result.push_str(typed);
+            }
+            rest = &rest[end..];
+        }
+        result.push_str(rest);
+        out = result;
+    }
+    out
+}
 
 /// Records which subcommand runs, for [`running`] and [`warn`].
 pub fn set_running(path: Vec<String>) {
@@ -173,17 +207,19 @@ impl Scope {
     }
 
     /// The message printed for an error: its context chain, with a library
-    /// parameter error told in terms of the flag that set it.
+    /// parameter error told in terms of the flag that set it, as typed.
     pub fn message(&self, e: &anyhow::Error) -> String {
-        e.chain()
-            .map(|cause| {
-                cause
-                    .downcast_ref::<Error>()
-                    .and_then(|e| self.describe(e))
-                    .unwrap_or_else(|| cause.to_string())
-            })
-            .collect::<Vec<_>>()
-            .join(": ")
+        as_typed(
+            &e.chain()
+                .map(|cause| {
+                    cause
+                        .downcast_ref::<Error>()
+                        .and_then(|e| self.describe(e))
+                        .unwrap_or_else(|| cause.to_string())
+                })
+                .collect::<Vec<_>>()
+                .join(": "),
+        )
     }
 
     /// A library warning with each parameter it names in backticks told as
@@ -202,7 +238,7 @@ impl Scope {
             drop_tick = flag.is_some();
             out.push_str(flag.unwrap_or(piece));
         }
-        out
+        as_typed(&out)
     }
 }
 
@@ -217,15 +253,6 @@ pub fn positive(flag: &str, v: f64) -> anyhow::Result<f64> {
         Ok(v)
     } else {
         Err(invalid(flag, v, "must be finite and > 0"))
-    }
-}
-
-/// `v` if `lo <= v <= hi`.
-pub fn between(flag: &str, v: usize, lo: usize, hi: usize) -> anyhow::Result<usize> {
-    if (lo..=hi).contains(&v) {
-        Ok(v)
-    } else {
-        Err(invalid(flag, v, &format!("must be between {lo} and {hi}")))
     }
 }
 
@@ -265,7 +292,9 @@ mod tests {
         let e = anyhow::Error::new(Error::invalid("kernel scale", "fov_y_deg", 0, "bad"));
         let (apply, advise, fit) = (sub("apply"), sub("advise"), sub("fit"));
         assert_eq!(apply.message(&e), "--fov-y: invalid value 0: bad");
-        assert_eq!(advise.message(&e), "--fov: invalid value 0: bad");
+        let e = anyhow::Error::new(Error::invalid("kernel scale", "sss_width", 0, "bad"));
+        assert_eq!(advise.message(&e), "--units-per-mm: invalid value 0: bad");
+        let e = anyhow::Error::new(Error::invalid("kernel scale", "fov_y_deg", 0, "bad"));
         assert_eq!(fit.message(&e), "kernel scale: invalid fov_y_deg = 0: bad");
         let nan = anyhow::Error::new(Error::NonFinite {
             what: "in.exr".into(),
@@ -298,6 +327,26 @@ mod tests {
         assert_eq!(simulate.warning("odd ` tick"), "odd ` tick");
     }
 
+    /// A flag typed in a deprecated spelling is named as typed, a whole
+    /// flag at a time.
+    #[test]
+    fn deprecated_spellings_are_named_as_typed() {
+        let pairs = [
+            ("--signal-size".to_string(), "--size".to_string()),
+            ("--out-dir".to_string(), "--out".to_string()),
+        ];
+        assert_eq!(
+            with_spellings("--signal-size: invalid value 5: too small", &pairs),
+            "--size: invalid value 5: too small"
+        );
+        assert_eq!(
+            with_spellings("'--signal-size <PX>' and --out-dir DIR, --out-dirs", &pairs),
+            "'--size <PX>' and --out DIR, --out-dirs"
+        );
+        assert_eq!(with_spellings("--signal-sizes", &pairs), "--signal-sizes");
+        assert_eq!(with_spellings("no flags", &pairs), "no flags");
+    }
+
     #[test]
     fn flag_checks_speak_the_same_format() {
         assert_eq!(positive("--scale", 2.0).unwrap(), 2.0);
@@ -308,9 +357,6 @@ mod tests {
                 format!("--scale: invalid value {v}: must be finite and > 0")
             );
         }
-        assert_eq!(between("--size", 8, 8, 16).unwrap(), 8);
-        let e = between("--size", 17, 8, 16).unwrap_err().to_string();
-        assert_eq!(e, "--size: invalid value 17: must be between 8 and 16");
     }
 
     /// Every flag in the tables is a flag of some subcommand: a renamed

@@ -1,5 +1,8 @@
 //! `ssskit fit`: a separable kernel from a reflectance profile.
 
+use super::args::{
+    self, count, ExtentArg, KernelFile as KernelFileArg, OutFile, ProfileFile, TapsArg,
+};
 use super::out::out;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
@@ -10,7 +13,6 @@ use ssskit::kernel::manual::ManualParams;
 use ssskit::kernel::preintegrate::PreMethod;
 use ssskit::kernel::{fit_kernel_file_with, Kernel2DSpec, KernelFile, Model};
 use ssskit::profile::Profile;
-use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum ModelArg {
@@ -24,7 +26,7 @@ pub enum ModelArg {
     Manual,
     /// d'Eon sum of 2D Gaussians: --count, or --preset deon-skin.
     Gaussians,
-    /// Jimenez's skin model (Freude 2014, eq. 4.8): --width --strength --falloff.
+    /// Jimenez's skin model (Freude 2014, eq. 4.8): --jimenez-width, --jimenez-strength, --jimenez-falloff.
     Jimenez,
 }
 
@@ -70,33 +72,42 @@ pub enum PresetArg {
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("profile", |a| a.required_unless_present("kernel")
+        .help("Reflectance profile file (ssskit.profile/1 JSON): the profile to fit")),
+    mut_arg("kernel", |a| a.conflicts_with_all(["profile", "model"])
+        .help("Kernel file (ssskit.kernel/1 JSON): read instead of fitting (validate, --emit)")),
+    mut_arg("out", args::help("Output file: the kernel, .json [default: not written]")),
+)]
 pub struct Args {
-    /// Reflectance profile (ssskit.profile/1 JSON).
-    #[arg(long, value_name = "FILE.json", required_unless_present = "kernel")]
-    profile: Option<PathBuf>,
+    #[command(flatten)]
+    profile: ProfileFile,
     /// Kernel model.
-    #[arg(long, value_enum, required_unless_present = "kernel")]
+    #[arg(
+        long,
+        value_enum,
+        value_name = "MODEL",
+        required_unless_present = "kernel"
+    )]
     model: Option<ModelArg>,
-    /// Output kernel file (ssskit.kernel/1 JSON).
-    #[arg(long, value_name = "KERNEL.json")]
-    out: Option<PathBuf>,
-    /// Read an existing kernel file instead of fitting (validate, --emit).
-    #[arg(long, value_name = "KERNEL.json", conflicts_with_all = ["profile", "model"])]
-    kernel: Option<PathBuf>,
-    /// Kernel grid cells per side (odd); default chosen from the profile.
-    #[arg(long)]
-    size: Option<usize>,
-    /// Half-width of the kernel in mm; default: radius holding 99.9% of R_d.
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    extent: Option<f64>,
-    /// Taps per pass of the real-time table (odd).
-    #[arg(long, default_value_t = 17)]
-    taps: usize,
-    /// Half-width in mm the taps span; default: chosen for the tap count
-    /// (the radius holding 1 - 0.7 taps^-1.2 of the factor's mass).
+    #[command(flatten)]
+    out: OutFile,
+    #[command(flatten)]
+    kernel: KernelFileArg,
+    /// Kernel grid cells per side (odd) [default: chosen from the profile].
+    #[arg(long, value_name = "N", alias = "size", value_parser = count::<usize>)]
+    grid_size: Option<usize>,
+    #[command(flatten)]
+    extent: ExtentArg,
+    #[command(flatten)]
+    taps: TapsArg,
+    /// Half-width in mm the taps span [default: chosen for the tap count].
+    ///
+    /// The default is the radius holding 1 - 0.7 taps^-1.2 of the factor's
+    /// mass.
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     tap_extent: Option<f64>,
-    /// Print the tap table as a shader constant array.
+    /// Print the tap table as a shader constant array [default: not printed].
     #[arg(long, value_enum, value_name = "LANG", ignore_case = true)]
     emit: Option<LangArg>,
     #[command(flatten)]
@@ -110,63 +121,50 @@ pub struct Args {
 #[derive(clap::Args)]
 pub struct ModelOpts {
     /// svd: number of separable terms.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = count::<usize>)]
     rank: usize,
     /// svd: scale to the ground truth's 1-norm (Freude 2014, eq. 5.12).
     #[arg(long)]
     renormalize: bool,
     /// preintegrate: Abel projection of the profile or row sums of the grid.
-    #[arg(long, value_enum, default_value = "abel")]
+    #[arg(long, value_enum, value_name = "METHOD", default_value_t = MethodArg::Abel)]
     method: MethodArg,
     /// guided: exponent of the radial weight (Freude 2014, eq. 5.20).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    #[arg(long, value_name = "K", default_value_t = GuidedParams::default().k, allow_negative_numbers = true)]
     k: f64,
     /// guided: axis suppression (Freude 2014, eq. 5.20, for x, y in [-1, 1]); 0 = off.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, value_name = "B", default_value_t = GuidedParams::default().b, allow_negative_numbers = true)]
     b: f64,
     /// guided: L-BFGS iteration limit.
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, value_name = "N", default_value_t = GuidedParams::default().max_iters, value_parser = count::<u64>)]
     max_iters: u64,
-    /// manual: weight of the near Gaussian.
-    #[arg(long, allow_negative_numbers = true)]
+    /// manual: weight of the near Gaussian [default: none: give --w, --near, --far].
+    #[arg(long, value_name = "W", allow_negative_numbers = true)]
     w: Option<f64>,
-    /// manual: sqrt(tau_n) per channel in mm, "R,G,B".
-    #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+    /// manual: sqrt(tau_n) per channel in mm, "R,G,B" [default: none].
+    #[arg(long, value_name = "R,G,B", value_parser = args::rgb)]
     near: Option<[f64; 3]>,
-    /// manual: sqrt(tau_f) per channel in mm, "R,G,B".
-    #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+    /// manual: sqrt(tau_f) per channel in mm, "R,G,B" [default: none].
+    #[arg(long, value_name = "R,G,B", value_parser = args::rgb)]
     far: Option<[f64; 3]>,
-    /// manual or gaussians: a published parameter set.
-    #[arg(long, value_enum, ignore_case = true)]
+    /// manual or gaussians: a published parameter set [default: none].
+    #[arg(long, value_enum, value_name = "NAME", ignore_case = true)]
     preset: Option<PresetArg>,
     /// manual: find w, tau_n, tau_f by least squares in kernel space.
     #[arg(long)]
     fit: bool,
     /// gaussians: number of 2D Gaussians.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = count::<usize>)]
     count: usize,
     /// jimenez: width scale (w = 1: d'Eon's skin profile in mm).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    width: f64,
+    #[arg(long, value_name = "SCALE", alias = "width", default_value_t = JimenezParams::default().width, allow_negative_numbers = true)]
+    jimenez_width: f64,
     /// jimenez: strength t per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28", value_parser = rgb)]
-    strength: [f64; 3],
+    #[arg(long, value_name = "R,G,B", alias = "strength", default_value = args::rgb_text(JimenezParams::default().strength), value_parser = args::rgb)]
+    jimenez_strength: [f64; 3],
     /// jimenez: falloff f per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "1.0,0.37,0.3", value_parser = rgb)]
-    falloff: [f64; 3],
-}
-
-/// "R,G,B": three numbers, one per channel.
-fn rgb(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|t| t.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("not three numbers R,G,B ({e})"))?;
-    match v.as_slice() {
-        [r, g, b] => Ok([*r, *g, *b]),
-        _ => Err(format!("{} values, expected three (R,G,B)", v.len())),
-    }
+    #[arg(long, value_name = "R,G,B", alias = "falloff", default_value = args::rgb_text(JimenezParams::default().falloff), value_parser = args::rgb)]
+    jimenez_falloff: [f64; 3],
 }
 
 fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
@@ -192,7 +190,7 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
                 (Some(PresetArg::DeonSkin), _, _) => {
                     bail!("manual: --preset deon-skin is a preset of --model gaussians")
                 }
-                (Some(p), false, false) => Model::ManualPreset(super::flag_value(&p)),
+                (Some(p), false, false) => Model::ManualPreset(args::flag_value(&p)),
                 (None, true, false) => Model::ManualFit,
                 (None, false, true) => {
                     let (Some(w), Some(n), Some(f)) = (a.opts.w, a.opts.near, a.opts.far) else {
@@ -216,40 +214,40 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
             Some(PresetArg::DeonSkin) => Model::DeonSkin,
             Some(p) => bail!(
                 "gaussians: --preset {} is a preset of --model manual (gaussians has deon-skin)",
-                super::flag_value(&p)
+                args::flag_value(&p)
             ),
         },
         ModelArg::Jimenez => Model::Jimenez(JimenezParams {
-            width: a.opts.width,
-            strength: a.opts.strength,
-            falloff: a.opts.falloff,
+            width: a.opts.jimenez_width,
+            strength: a.opts.jimenez_strength,
+            falloff: a.opts.jimenez_falloff,
         }),
     })
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let lang = a.emit.map(Lang::from);
-    let kernel = if let Some(path) = &a.kernel {
+    let kernel = if let Some(path) = &a.kernel.kernel {
         KernelFile::read(path)?
     } else {
-        let (Some(pp), Some(m)) = (&a.profile, a.model) else {
+        let (Some(pp), Some(m)) = (&a.profile.profile, a.model) else {
             bail!("give --profile and --model (or --kernel)")
         };
-        if a.out.is_none() && lang.is_none() {
+        if a.out.out.is_none() && lang.is_none() {
             bail!("nothing to do: give --out KERNEL.json and/or --emit LANG");
         }
-        if let Some(out) = &a.out {
+        if let Some(out) = &a.out.out {
             ssskit::io::check_extension(out, &["json"], "kernel")?;
         }
         let profile = Profile::read(pp)?;
         let spec = Kernel2DSpec {
-            size: a.size,
-            extent_mm: a.extent,
+            size: a.grid_size,
+            extent_mm: a.extent.extent,
         };
         let m = model(&a, m)?;
-        let k = fit_kernel_file_with(&profile, &spec, &m, a.taps, a.tap_extent)
+        let k = fit_kernel_file_with(&profile, &spec, &m, a.taps.taps, a.tap_extent)
             .with_context(|| format!("fitting a kernel to {}", pp.display()))?;
-        if let Some(out) = &a.out {
+        if let Some(out) = &a.out.out {
             k.write(out)?;
             // Read back what was written: the file must load as is.
             KernelFile::read(out)?;
@@ -261,7 +259,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     if let Some(lang) = lang {
         out!("{}", emit(&kernel, lang))?;
-    } else if a.kernel.is_some() && !a.quiet {
+    } else if a.kernel.kernel.is_some() && !a.quiet {
         summary(&kernel);
     }
     Ok(())
@@ -289,7 +287,7 @@ mod tests {
     #[test]
     fn every_manual_preset_flag_value_names_a_library_preset() {
         for p in PresetArg::value_variants() {
-            let known = ssskit::kernel::manual::preset(&crate::cli::flag_value(p)).is_ok();
+            let known = ssskit::kernel::manual::preset(&args::flag_value(p)).is_ok();
             assert_eq!(known, *p != PresetArg::DeonSkin, "{p:?}");
         }
     }

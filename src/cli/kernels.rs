@@ -1,48 +1,52 @@
 //! `ssskit kernels`: the main job in one command. Profile, every kernel
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
+use super::args::{self, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs, TapsArg};
 use super::out::out;
-use super::profile_source::{command_line, ProfileArgs, ProfileModelArg, ReportArgs};
-use ssskit::report::advise::DEFAULT_TARGET;
+use super::profile_source::command_line;
 use ssskit::report::pipeline::{self, Settings};
 
 #[derive(clap::Args)]
+#[command(
+    mut_args(args::profile_source(ProfileModel::Mc)),
+    mut_args(args::report())
+)]
+#[command(mut_arg("image_error", args::alias("--target-error")))]
 pub struct Args {
     #[command(flatten)]
-    profile: ProfileArgs,
+    profile: ProfileSourceArgs,
     #[command(flatten)]
     report: ReportArgs,
-    /// Taps per pass of the stored tables (odd).
-    #[arg(long, default_value_t = 17)]
-    taps: usize,
-    /// Target relative RMS of the recommendation (0.02 = 2%).
-    #[arg(long, default_value_t = DEFAULT_TARGET)]
-    target_error: f64,
+    #[command(flatten)]
+    taps: TapsArg,
+    #[command(flatten)]
+    target: ImageErrorArg,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    a.report.check()?;
-    ssskit::kernel::taps::check_count(a.taps)?;
+    let mm_per_pixel =
+        super::errors::positive("--mm-per-pixel", a.report.mm_per_pixel.or_default())?;
     let t0 = std::time::Instant::now();
-    let (profile, source) = a.profile.load(ProfileModelArg::Mc)?;
+    let (profile, source) = a.profile.load()?;
     eprintln!("{}: profile {source}", profile.material.name);
+    let out_dir = a.report.out_dir.path()?;
     let settings = Settings {
-        mm_per_pixel: a.report.mm_per_pixel,
-        taps: a.taps,
-        target: a.target_error,
-        size: a.report.size,
-        plots: !a.report.no_plots,
+        mm_per_pixel,
+        taps: a.taps.taps,
+        target: a.target.image_error,
+        size: a.report.signal_size.signal_size,
+        plots: !a.report.no_plots.no_plots,
     };
     let outcome = pipeline::run(
         &profile,
         &settings,
-        &a.report.out,
-        &command_line(&a.report.out),
+        out_dir,
+        &command_line(out_dir),
         &super::progress::Bar::new(),
     )?;
     out!(
         "{}",
-        pipeline::summary(&outcome, &settings, &source, &a.report.out)
+        pipeline::summary(&outcome, &settings, &source, out_dir)
     )?;
     eprintln!(
         "{} files in {:.1} s",

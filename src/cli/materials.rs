@@ -1,15 +1,16 @@
 //! `ssskit materials`: the presets and their derived quantities.
 
+use super::args::JsonArg;
 use super::out::outln;
 use ssskit::material::{preset, preset_names, Channel, Material};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Show only these presets or material files (default: all presets).
+    /// Show only these presets or material files [default: all presets].
+    #[arg(value_name = "NAME")]
     names: Vec<String>,
-    /// Print JSON instead of a table.
-    #[arg(long)]
-    json: bool,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -21,7 +22,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map(|n| Material::load(n))
             .collect::<Result<_, _>>()?
     };
-    if args.json {
+    if args.json.json {
         let rows: Vec<_> = mats.iter().map(derived_json).collect();
         outln!("{}", serde_json::to_string_pretty(&rows)?)?;
         return Ok(());

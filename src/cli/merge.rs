@@ -1,22 +1,24 @@
 //! `ssskit merge`: combines the shards of one Monte Carlo run (written by
 //! `simulate --shard K/N`) into the profile of the single run.
 
+use super::args::{self, CsvArg, OutFile};
 use anyhow::Context;
 use ssskit::profile::{mc, Profile};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
+#[command(mut_arg("out", |a| args::required()(a).help(
+    "Output file: the merged profile, .json, bit-identical to the single run \
+     (except elapsed_s, the sum of the parts')"
+)))]
 pub struct Args {
     /// The N partial profiles of one run (any order).
     #[arg(required = true, value_name = "PART.json")]
     parts: Vec<PathBuf>,
-    /// Output profile JSON: bit-identical to the single run (except
-    /// elapsed_s, the sum of the parts').
-    #[arg(long, value_name = "FILE.json")]
-    out: PathBuf,
-    /// Also write the profile as CSV.
-    #[arg(long, value_name = "FILE.csv")]
-    csv: Option<PathBuf>,
+    #[command(flatten)]
+    out: OutFile,
+    #[command(flatten)]
+    csv: CsvArg,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -25,18 +27,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let p = Profile::read(path)?;
         parts.push((path.display().to_string(), p));
     }
-    ssskit::io::check_extension(&args.out, &["json"], "profile")?;
-    if let Some(csv) = &args.csv {
+    let out = args.out.path()?;
+    ssskit::io::check_extension(out, &["json"], "profile")?;
+    if let Some(csv) = &args.csv.csv {
         ssskit::io::check_extension(csv, &["csv"], "table")?;
     }
     let profile = mc::merge_shards(&parts)?;
     let mut outputs = ssskit::io::AtomicGroup::new();
     profile
-        .write_into(&mut outputs, &args.out)
-        .with_context(|| format!("writing {}", args.out.display()))?;
-    if let Some(csv) = &args.csv {
+        .write_into(&mut outputs, out)
+        .with_context(|| format!("writing {}", out.display()))?;
+    if let Some(csv) = &args.csv.csv {
         super::simulate::write_csv(&profile, csv, &mut outputs)?;
     }
     outputs.commit()?;
-    super::simulate::print_summary(&profile, &args.out)
+    super::simulate::print_summary(&profile, out)
 }

@@ -1,14 +1,18 @@
-//! Every flag of every subcommand is defined in this folder, one file per
-//! subcommand; each file's `run` calls the library and prints or writes.
+//! Every flag of every subcommand is defined in this folder: a flag that
+//! several subcommands take once, in `args.rs`; the others in the file of
+//! their subcommand, one file per subcommand; each file's `run` calls the
+//! library and prints or writes. `walk.rs` checks the vocabulary.
 
 mod advise;
 mod apply;
+mod args;
 mod bench;
 mod compare;
 mod diff;
 mod engine;
 mod errors;
 mod fit;
+mod generate;
 mod kernels;
 mod materials;
 mod merge;
@@ -21,14 +25,21 @@ mod progress;
 mod signal;
 mod simulate;
 mod study;
+#[cfg(test)]
+mod walk;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+
+/// Columns of the help: every line of `-h` (and of `--help`) fits in 80,
+/// however wide the terminal (clap wraps to the terminal when narrower).
+const HELP_WIDTH: usize = 79;
 
 #[derive(Parser)]
 #[command(
     name = "ssskit",
     version,
-    about = "Subsurface-scattering kernels from optical coefficients"
+    about = "Subsurface-scattering kernels from optical coefficients",
+    max_term_width = HELP_WIDTH
 )]
 struct Cli {
     #[command(subcommand)]
@@ -42,6 +53,11 @@ enum Command {
     /// The cheapest kernel configuration meeting a target error at a pixel scale.
     Advise(advise::Args),
     /// Speed/accuracy study: photons, profile model, taps, rank, kernel model.
+    ///
+    /// The speed/accuracy trade of every knob for one material: Monte Carlo
+    /// photons, profile model, taps, SVD rank and kernel model, against one
+    /// reference profile. The photon sweep uses seed --seed + 1, independent
+    /// of a reference made with --seed.
     Study(study::Args),
     /// List material presets with derived quantities per channel.
     Materials(materials::Args),
@@ -60,23 +76,26 @@ enum Command {
     /// Write a test image (edge, shapes, dirac, checker).
     Signal(signal::Args),
     /// Image-space difference of two images.
+    ///
+    /// Per channel: RMS and largest absolute difference, and both relative
+    /// to the peak of A. --json prints {"rms": [3], "max_abs": [3],
+    /// "rms_rel": [3], "max_rel": [3]}.
     Diff(diff::Args),
-    /// Plots of profiles and kernels.
+    /// Plots of profiles: R_d(r), linear and log.
     Plot(plot::Args),
-    /// Engine parameters (Unreal, Unity HDRP, Blender, Godot, iryoku)
-    /// fitted to a profile.
+    /// Engine parameters (Unreal, Unity HDRP, Blender, Godot, iryoku) fitted to a profile.
     Engine(engine::Args),
     /// GPU timing of the post-process (timestamp queries).
     Bench(bench::Args),
     /// Kernel models across materials, in kernel and image space (report, CSV, JSON, plots).
     Compare(compare::Args),
-}
-
-/// How a value of an enumerated flag is spelled on the command line.
-fn flag_value<T: clap::ValueEnum>(v: &T) -> String {
-    v.to_possible_value()
-        .map(|p| p.get_name().to_string())
-        .unwrap_or_default()
+    /// Shell completions: bash, zsh, fish, powershell or elvish.
+    ///
+    /// Prints the completion script for SHELL, generated from the flag
+    /// definitions; e.g. `source <(ssskit completions bash)`.
+    Completions(generate::CompletionsArgs),
+    /// Man pages, or the markdown command-line reference (docs/cli.md).
+    Man(generate::ManArgs),
 }
 
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
@@ -85,15 +104,31 @@ pub fn main() -> i32 {
     if let Err(e) = ssskit::io::remove_temps_on_signals() {
         eprintln!("warning: {e}: an interrupted write may leave a .ssskit-*.tmp file");
     }
-    let parsed = Cli::command()
-        .try_get_matches()
+    let argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let top = top_command();
+    // Deprecated spellings: still accepted, noted, and named as typed in
+    // every message.
+    let deprecated = args::deprecated_spellings(&args::running_command(&top, &argv), &argv);
+    errors::set_typed(
+        deprecated
+            .iter()
+            .map(|d| (d.canonical.clone(), d.typed.clone()))
+            .collect(),
+    );
+    let parsed = top
+        .try_get_matches_from(&argv)
         .and_then(|m| Cli::from_arg_matches(&m).map(|cli| (cli, m)));
     let (cli, matches) = match parsed {
         Ok(parsed) => parsed,
         // Help, version and usage errors: clap prints them; a closed or
         // full standard output must not turn --help into a panic or a lie.
         Err(e) => {
-            let printed = e.print().map_err(out::map_err).and_then(|()| out::flush());
+            let printed = if e.use_stderr() && !deprecated.is_empty() {
+                eprint!("{}", errors::as_typed(&e.render().to_string()));
+                Ok(())
+            } else {
+                e.print().map_err(out::map_err).and_then(|()| out::flush())
+            };
             return match printed {
                 Ok(()) => e.exit_code(),
                 Err(err) => out::quiet_exit(&err).unwrap_or_else(|| {
@@ -103,6 +138,9 @@ pub fn main() -> i32 {
             };
         }
     };
+    for d in &deprecated {
+        eprintln!("{}", d.note);
+    }
     // The subcommand that runs, whose flags the messages name.
     let mut path = Vec::new();
     let mut m = &matches;
@@ -129,6 +167,8 @@ pub fn main() -> i32 {
         Command::Engine(a) => engine::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Completions(a) => generate::completions(a),
+        Command::Man(a) => generate::man(a),
     };
     match result.and_then(|()| out::flush()) {
         Ok(()) => 0,
@@ -144,7 +184,7 @@ pub fn main() -> i32 {
 
 /// The whole command line interface, built (help subcommands and all).
 fn top_command() -> clap::Command {
-    let mut c = Cli::command();
+    let mut c = args::long_help_opens_with_help(Cli::command());
     c.build();
     c
 }
@@ -175,6 +215,7 @@ fn leaf_subcommands() -> Vec<clap::Command> {
 
 #[cfg(test)]
 mod tests {
+    use super::args::flag_value;
     use super::*;
     use ssskit::engine::Engine;
     use ssskit::report::evaluate::signal_name;
@@ -187,8 +228,9 @@ mod tests {
     /// Enumerated flags whose values the library also spells: the same names.
     #[test]
     fn flag_values_are_the_library_names() {
-        assert_eq!(names::<advise::Family>(), ADVISE);
         assert_eq!(names::<fit::ModelArg>(), COMPARE);
+        // advise's default families are kernel models of `fit --model`.
+        assert!(ADVISE.iter().all(|f| COMPARE.contains(f)));
         let engines: Vec<&str> = Engine::ALL.iter().map(|e| e.name()).collect();
         assert_eq!(names::<engine::EngineArg>(), engines);
         let signals: Vec<String> = <signal::Kind as clap::ValueEnum>::value_variants()
@@ -199,5 +241,20 @@ mod tests {
         for &e in <engine::EngineArg as clap::ValueEnum>::value_variants() {
             assert_eq!(Engine::from(e).name(), flag_value(&e));
         }
+        // --profile-model: Monte Carlo and every analytic model, each
+        // spelled as the library names it.
+        let analytic: Vec<String> = <args::ProfileModel as clap::ValueEnum>::value_variants()
+            .iter()
+            .filter_map(|&m| m.analytic().map(|a| (m, a)))
+            .map(|(m, a)| {
+                assert_eq!(flag_value(&m), a.name());
+                a.name().to_string()
+            })
+            .collect();
+        let all: Vec<String> = ssskit::profile::analytic::Model::ALL
+            .iter()
+            .map(|m| m.name().to_string())
+            .collect();
+        assert_eq!(analytic, all);
     }
 }

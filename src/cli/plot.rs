@@ -1,5 +1,6 @@
 //! `ssskit plot`: PNG plots of profiles.
 
+use super::args::{self, OutFile};
 use ssskit::profile::Profile;
 use ssskit::report::plot;
 use std::path::PathBuf;
@@ -12,23 +13,29 @@ pub struct Args {
 
 #[derive(clap::Subcommand)]
 enum What {
-    /// R_d(r) of one or more profile files: linear near the origin and log
-    /// over the full range side by side (Freude 2014, figure 6.1), one row per channel.
-    Profile {
-        /// Profile files (JSON) to overlay.
-        #[arg(required = true)]
-        files: Vec<PathBuf>,
-        /// Output PNG.
-        #[arg(long)]
-        out: PathBuf,
-    },
+    /// R_d(r) of profile files, linear and log side by side.
+    ///
+    /// Linear near the origin and log over the full range side by side
+    /// (Freude 2014, figure 6.1), one row per channel.
+    Profile(ProfileArgs),
+}
+
+#[derive(clap::Args)]
+#[command(mut_arg("out", |a| args::required()(a).help("Output file: the plot, .png")))]
+struct ProfileArgs {
+    /// Profile files (JSON) to overlay.
+    #[arg(required = true, value_name = "PROFILE.json")]
+    files: Vec<PathBuf>,
+    #[command(flatten)]
+    out: OutFile,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.what {
-        What::Profile { files, out } => {
+        What::Profile(a) => {
+            let out = a.out.path()?;
             let mut profiles = Vec::new();
-            for f in &files {
+            for f in &a.files {
                 let p = Profile::read(f)?;
                 let label = match (&p.source.model, p.source.kind.as_str()) {
                     (Some(m), _) => format!("{} {m}", p.material.name),
@@ -38,7 +45,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             let title = format!(
                 "R_d(r): {}",
-                files
+                a.files
                     .iter()
                     .map(|f| f
                         .file_name()
@@ -48,7 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     .collect::<Vec<_>>()
                     .join(", ")
             );
-            plot::render(&plot::profile_panels(&profiles), 2, &title, &out)?;
+            plot::render(&plot::profile_panels(&profiles), 2, &title, out)?;
             eprintln!("wrote {}", out.display());
             Ok(())
         }

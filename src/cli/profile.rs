@@ -1,95 +1,66 @@
 //! `ssskit profile`: an analytic reflectance profile (dipole, photon beam
 //! diffusion, normalized diffusion, directional dipole) as a profile file.
 
-use clap::ValueEnum;
-use ssskit::material::{Channel, Material};
-use ssskit::profile::analytic::{self, Model, Options};
-use ssskit::profile::fresnel::FresnelMode;
+use super::args::{self, ChannelsArg, FresnelArg, GridArgs, MaterialArg, OutFile, ProfileModelArg};
+use super::errors::invalid;
+use ssskit::material::Material;
+use ssskit::profile::analytic::{self, Options};
 use ssskit::profile::GridSpec;
-use std::path::PathBuf;
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum ModelArg {
-    /// Standard dipole (Jensen et al. 2001), closed-form total.
-    Dipole,
-    /// Photon beam diffusion (Habel et al. 2013), multiple + single scattering.
-    Pbd,
-    /// Normalized diffusion (Christensen and Burley 2015).
-    Burley,
-    /// Directional dipole (Frisvad et al. 2014) at normal incidence.
-    DirectionalDipole,
-}
-
-impl From<ModelArg> for Model {
-    fn from(m: ModelArg) -> Model {
-        match m {
-            ModelArg::Dipole => Model::Dipole,
-            ModelArg::Pbd => Model::Pbd,
-            ModelArg::Burley => Model::Burley,
-            ModelArg::DirectionalDipole => Model::DirectionalDipole,
-        }
-    }
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum FresnelArg {
-    /// Polynomial fits of the Fresnel moments (d'Eon and Irving 2011).
-    Fit,
-    /// Numerical integration of the exact Fresnel reflectance.
-    Exact,
-}
-
-impl From<FresnelArg> for FresnelMode {
-    fn from(f: FresnelArg) -> FresnelMode {
-        match f {
-            FresnelArg::Fit => FresnelMode::Fit,
-            FresnelArg::Exact => FresnelMode::Exact,
-        }
-    }
-}
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("material", |a| args::required()(a)
+        .help("Material: a preset name or a TOML file, one semi-infinite layer")),
+    mut_arg("profile_model", |a| args::required()(a).alias("model")),
+    mut_arg("out", args::help("Output file: the profile, .json [default: <material>-<model>.json]")),
+)]
 pub struct Args {
-    /// Material preset name or TOML file (must be one semi-infinite layer).
-    #[arg(long)]
-    material: String,
-    /// Profile model.
-    #[arg(long, value_enum)]
-    model: ModelArg,
-    /// Radial bin width in mm (default: min MFP / 20, Freude 2014, table 6.1).
-    #[arg(long, allow_negative_numbers = true)]
-    dr: Option<f64>,
-    /// Largest radius in mm (default: 32 max MFP, Freude 2014, table 6.1).
-    #[arg(long, allow_negative_numbers = true)]
-    rmax: Option<f64>,
-    /// Fresnel moments: polynomial fits or exact integration.
-    #[arg(long, value_enum, default_value = "fit")]
+    #[command(flatten)]
+    material: MaterialArg,
+    #[command(flatten)]
+    model: ProfileModelArg,
+    #[command(flatten)]
+    grid: GridArgs,
+    #[command(flatten)]
     fresnel: FresnelArg,
-    /// Channels to compute, e.g. "rgb" or "g".
-    #[arg(long, default_value = "rgb")]
-    channels: String,
-    /// Output profile (JSON).
-    #[arg(long)]
-    out: PathBuf,
+    #[command(flatten)]
+    channels: ChannelsArg,
+    #[command(flatten)]
+    out: OutFile,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    ssskit::io::check_extension(&args.out, &["json"], "profile")?;
-    let material = Material::load(&args.material)?;
-    let channels = Channel::parse_list(&args.channels)?;
+    let Some(name) = &args.material.material else {
+        anyhow::bail!("give --material NAME");
+    };
+    let Some(model_arg) = args.model.profile_model else {
+        anyhow::bail!("give --profile-model MODEL");
+    };
+    let Some(model) = model_arg.analytic() else {
+        return Err(invalid(
+            "--profile-model",
+            args::flag_value(&model_arg),
+            "`profile` computes the analytic models; Monte Carlo is `ssskit simulate`",
+        ));
+    };
+    let material = Material::load(name)?;
+    let default_out = std::path::PathBuf::from(format!("{}-{}.json", material.name, model.name()));
+    let out = args.out.out.as_deref().unwrap_or(&default_out);
+    ssskit::io::check_extension(out, &["json"], "profile")?;
+    let channels = args.channels.channels()?;
     let spec = GridSpec {
-        dr: args.dr,
-        r_max: args.rmax,
+        dr: args.grid.dr,
+        r_max: args.grid.rmax,
         log_bins: false,
     };
     let grid = spec.grid(&material, &channels)?;
     let options = Options {
-        fresnel: args.fresnel.into(),
+        fresnel: args.fresnel.fresnel.into(),
         channels,
     };
-    let p = analytic::profile(&material, args.model.into(), &grid, &options)?;
-    p.validate(&args.out.display().to_string())?;
-    p.write(&args.out)?;
+    let p = analytic::profile(&material, model, &grid, &options)?;
+    p.validate(&out.display().to_string())?;
+    p.write(out)?;
     let totals: Vec<String> = p
         .channels
         .iter()
@@ -99,12 +70,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     eprintln!(
         "{} {}: {} bins to {:.4} mm, total R_d {} ({:.2} ms) -> {}",
         material.name,
-        Model::from(args.model).name(),
+        model.name(),
         grid.len(),
         grid.r_max(),
         totals.join(" "),
         p.elapsed_s * 1e3,
-        args.out.display()
+        out.display()
     );
     Ok(())
 }

@@ -2,15 +2,16 @@
 //! reference on the same grid, per material and channel; markdown table,
 //! CSV and one PNG per material.
 
+use super::args::{
+    self, FresnelArg, MaterialsArg, MaxPhotonsArg, McErrorArg, OutDir, PhotonsArg, SeedArg,
+};
 use super::errors::invalid;
 use super::out::out;
-use super::profile::FresnelArg;
 use super::progress::Bar;
-use ssskit::material::{preset_names, Channel, Material};
+use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::report::{compare, plot};
-use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -20,35 +21,42 @@ pub struct Args {
 
 #[derive(clap::Subcommand)]
 enum What {
-    /// Analytic models against Monte Carlo: error of the total, relative L2
-    /// error of r R_d(r) over the range holding 99% of R_d, time.
+    /// Analytic models against a Monte Carlo reference: errors and time.
+    ///
+    /// Per material and channel: the error of the total, the relative L2
+    /// error of r R_d(r) over the range holding 99% of R_d, and the time
+    /// of each analytic model, against a Monte Carlo reference on the same
+    /// grid.
     Compare(CompareArgs),
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("photons", |a| a.conflicts_with("mc_error").alias("reference-photons").help(
+        "Photons per channel of the Monte Carlo run: a fixed count (e.g. 1e6) \
+         [default: none: --mc-error decides]"
+    )),
+    mut_arg("mc_error", |a| args::default(compare::REFERENCE_MC_ERROR)(a).alias("target-error")),
+    mut_arg("max_photons", args::default(args::count_text(compare::REFERENCE_MAX_PHOTONS))),
+    mut_arg("out_dir", |a| a.help(
+        "Output folder (created): compare.md, compare.csv, compare_<material>.png"
+    )),
+)]
 struct CompareArgs {
-    /// Comma-separated presets or material files, or "all" (every preset).
-    #[arg(long, default_value = "all")]
-    materials: String,
-    /// Photons per channel for the reference.
-    #[arg(long, conflicts_with = "target_error")]
-    reference_photons: Option<u64>,
-    /// Trace until the reference's relative standard error is below this
-    /// (default 0.01 when --reference-photons is not given).
-    #[arg(long, allow_negative_numbers = true)]
-    target_error: Option<f64>,
-    /// Photon cap per channel with --target-error.
-    #[arg(long, default_value_t = 10_000_000)]
-    max_photons: u64,
-    /// Fresnel moments for the models.
-    #[arg(long, value_enum, default_value = "fit")]
+    #[command(flatten)]
+    materials: MaterialsArg,
+    #[command(flatten)]
+    photons: PhotonsArg,
+    #[command(flatten)]
+    mc_error: McErrorArg,
+    #[command(flatten)]
+    max_photons: MaxPhotonsArg,
+    #[command(flatten)]
     fresnel: FresnelArg,
-    /// Seed of the reference simulation.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Output folder for compare.md, compare.csv and compare_<material>.png.
-    #[arg(long, default_value = ".")]
-    out_dir: PathBuf,
+    #[command(flatten)]
+    seed: SeedArg,
+    #[command(flatten)]
+    out_dir: OutDir,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -58,21 +66,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
-    let names: Vec<String> = if a.materials.trim() == "all" {
-        preset_names().iter().map(|s| s.to_string()).collect()
-    } else {
-        a.materials
-            .split(',')
-            .map(|s| s.trim().to_string())
-            .filter(|s| !s.is_empty())
-            .collect()
+    let names: Vec<String> = match a.materials.named()? {
+        Some(v) => v.to_vec(),
+        None => MaterialsArg::half_space_presets(),
     };
-    if names.is_empty() {
-        anyhow::bail!(
-            "--materials: invalid value '{}': no material named",
-            a.materials
-        );
-    }
     let materials: Vec<Material> = names
         .iter()
         .map(|n| Material::load(n))
@@ -85,24 +82,25 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let budget = match (a.reference_photons, a.target_error) {
-        (Some(0), _) => return Err(invalid("--reference-photons", 0, "must be > 0")),
+    let budget = match (a.photons.photons, a.mc_error.mc_error) {
+        (Some(0), _) => return Err(invalid("--photons", 0, "must be > 0")),
         (Some(n), _) => PhotonBudget::Fixed(n),
         (None, e) => {
-            let rel = e.unwrap_or(0.01);
+            let rel = e.unwrap_or(compare::REFERENCE_MC_ERROR);
             if !(rel.is_finite() && rel > 0.0 && rel < 1.0) {
-                return Err(invalid("--target-error", rel, "must be in (0, 1)"));
+                return Err(invalid("--mc-error", rel, "must be in (0, 1)"));
             }
             PhotonBudget::TargetError {
                 rel,
-                max_photons: a.max_photons,
+                max_photons: a.max_photons.max_photons,
             }
         }
     };
-    std::fs::create_dir_all(&a.out_dir)
-        .map_err(|e| anyhow::anyhow!("--out-dir {}: {e}", a.out_dir.display()))?;
+    let out_dir = a.out_dir.path()?;
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| anyhow::anyhow!("--out-dir {}: {e}", out_dir.display()))?;
     let options = Options {
-        fresnel: a.fresnel.into(),
+        fresnel: a.fresnel.fresnel.into(),
         channels: Channel::ALL.to_vec(),
     };
     let mut rows = Vec::new();
@@ -110,7 +108,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         let grid = analytic::default_grid(mat, &options.channels)?;
         let cfg = McConfig {
             budget: budget.clone(),
-            seed: a.seed,
+            seed: a.seed.seed,
             threads: None,
             channels: options.channels.clone(),
             grid: Some(grid.clone()),
@@ -128,7 +126,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
                 Err(e) => eprintln!("{}: {} left out: {e:#}", mat.name, model.name()),
             }
         }
-        let png = a.out_dir.join(format!("compare_{}.png", mat.name));
+        let png = out_dir.join(format!("compare_{}.png", mat.name));
         let title = format!(
             "{}: analytic models vs Monte Carlo ({} photons/channel)",
             mat.name,
@@ -148,8 +146,8 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         )?;
         eprintln!("{}: done -> {}", mat.name, png.display());
     }
-    let md = a.out_dir.join("compare.md");
-    let csv = a.out_dir.join("compare.csv");
+    let md = out_dir.join("compare.md");
+    let csv = out_dir.join("compare.csv");
     ssskit::io::write_atomic(&md, compare::report(&rows).as_bytes())?;
     compare::csv_table(&rows).write_csv(&csv)?;
     out!("{}", compare::table(&rows).markdown())?;

@@ -1,9 +1,10 @@
 //! `ssskit signal`: test images for kernels in image space.
 
+use super::args::{self, ImageSizeArg, MmPerPixelArg, OutFile};
 use super::errors::positive;
 use ssskit::filter::image::{write_image, PngDepth};
-use ssskit::filter::signals::{generate, Signal};
-use std::path::PathBuf;
+use ssskit::filter::signals::{generate, Signal, DEFAULT_SIZE};
+use ssskit::report::evaluate;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub(super) enum Kind {
@@ -29,40 +30,35 @@ impl From<Kind> for Signal {
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("image_size", |a| args::default(format!("{}x{}", DEFAULT_SIZE.0, DEFAULT_SIZE.1))(a).alias("size")),
+    mut_arg("mm_per_pixel", |a| args::default(evaluate::DEFAULT_MM_PER_PIXEL)(a)
+        .help("Scale: surface millimetres per pixel (sets the checker cell in pixels)")),
+    mut_arg("out", |a| args::required()(a).help("Output file: the image, .exr or .png")),
+)]
 pub struct Args {
-    #[arg(value_enum)]
+    /// The test signal.
+    #[arg(value_enum, value_name = "SIGNAL")]
     kind: Kind,
-    /// Image size, e.g. 512x256.
-    #[arg(long, value_name = "WxH", default_value = "256x256", value_parser = parse_size)]
-    size: (usize, usize),
-    /// Surface millimetres per pixel (sets the checker cell in pixels).
-    #[arg(long, default_value_t = 0.1)]
-    mm_per_pixel: f64,
+    #[command(flatten)]
+    image_size: ImageSizeArg,
+    #[command(flatten)]
+    mm_per_pixel: MmPerPixelArg,
     /// Checker cell width in mm.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, value_name = "MM", default_value_t = evaluate::CHECKER_MM, allow_negative_numbers = true)]
     checker_mm: f64,
-    /// Output image (.exr or .png).
-    #[arg(long)]
-    out: PathBuf,
+    #[command(flatten)]
+    out: OutFile,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let (w, h) = args.size;
-    let mm_per_pixel = positive("--mm-per-pixel", args.mm_per_pixel)?;
+    let (w, h) = args.image_size.image_size;
+    let out = args.out.path()?;
+    let mm_per_pixel = positive("--mm-per-pixel", args.mm_per_pixel.or_default())?;
     let checker_mm = positive("--checker-mm", args.checker_mm)?;
     let cell = (checker_mm / mm_per_pixel).round().max(1.0) as usize;
     let img = generate(args.kind.into(), w, h, cell)?;
-    write_image(&args.out, &img, PngDepth::Sixteen)?;
-    eprintln!("{w}x{h} {:?} -> {}", args.kind, args.out.display());
+    write_image(out, &img, PngDepth::Sixteen)?;
+    eprintln!("{w}x{h} {:?} -> {}", args.kind, out.display());
     Ok(())
-}
-
-/// "WIDTHxHEIGHT".
-fn parse_size(s: &str) -> Result<(usize, usize), String> {
-    let bad = || "expected WIDTHxHEIGHT, e.g. 512x256".to_string();
-    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    Ok((
-        a.trim().parse().map_err(|_| bad())?,
-        b.trim().parse().map_err(|_| bad())?,
-    ))
 }

@@ -1,6 +1,10 @@
 //! `ssskit simulate`: Monte Carlo reflectance profile of a material (or of
 //! the first run, or a chosen run, of an MCML .mci file).
 
+use super::args::{
+    self, count, Backend, BackendArg, ChannelsArg, CsvArg, GridArgs, MaterialArg, MaxPhotonsArg,
+    McErrorArg, OutFile, PhotonsArg, SeedArg,
+};
 use super::out::outln;
 use super::progress::Bar;
 use anyhow::Context;
@@ -12,16 +16,6 @@ use ssskit::profile::mc::{
 use ssskit::profile::{GridSpec, Profile};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-
-/// Cap on photons per channel of the target-error rules.
-const DEFAULT_MAX_PHOTONS: u64 = 100_000_000;
-
-#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum McBackend {
-    Cpu,
-    Gpu,
-    Auto,
-}
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum BoundaryArg {
@@ -40,6 +34,15 @@ impl From<BoundaryArg> for BoundaryMode {
     }
 }
 
+impl From<BoundaryMode> for BoundaryArg {
+    fn from(b: BoundaryMode) -> BoundaryArg {
+        match b {
+            BoundaryMode::Classic => BoundaryArg::Classic,
+            BoundaryMode::Split => BoundaryArg::Split,
+        }
+    }
+}
+
 /// Boxed so that the subcommand enum stays small.
 #[derive(clap::Args)]
 pub struct Args {
@@ -48,117 +51,129 @@ pub struct Args {
 }
 
 #[derive(clap::Args)]
+#[command(
+    mut_arg("material", |a| a.required_unless_present("mci").conflicts_with("mci")),
+    mut_arg("photons", |a| a.conflicts_with_all(["mc_error", "kernel_error"]).help(
+        "Photons per channel of the Monte Carlo run: a fixed count (e.g. 1e6) \
+         [default: none: an error target decides]"
+    )),
+    mut_arg("mc_error", |a| a.conflicts_with("kernel_error").alias("target-error").help(
+        "Monte Carlo target: relative standard error of total R_d and profile \
+         [default: none: --kernel-error decides]"
+    )),
+    mut_arg("max_photons", args::default(args::count_text(mc::DEFAULT_MAX_PHOTONS))),
+    mut_arg("kernel_error", |a| a.help(format!(
+        "Monte Carlo target on the kernel: relative error of its 1D factor \
+         [default: E = {} when no other budget is given]",
+        mc::DEFAULT_KERNEL_ERROR
+    ))),
+    mut_arg("backend", args::default_enum(Backend::Cpu)),
+    mut_arg("out", args::help(
+        "Output file: the profile, .json [default: <material>.json, or \
+         <material>.shard-K-of-N.json with --shard]"
+    )),
+)]
 struct Flags {
-    /// Material preset name or TOML file.
-    #[arg(long, required_unless_present = "mci", conflicts_with = "mci")]
-    material: Option<String>,
-    /// MCML input file (.mci, lengths in cm): layers, photon count and grid
-    /// are taken from it; flags given here override photons and grid.
+    #[command(flatten)]
+    material: MaterialArg,
+    /// MCML input file (.mci, lengths in cm) instead of --material.
+    ///
+    /// Layers, photon count and grid are taken from it; flags given here
+    /// override photons and grid.
     #[arg(long, value_name = "FILE.mci")]
     mci: Option<PathBuf>,
     /// Which run of the .mci file to simulate (1-based).
-    #[arg(long, default_value_t = 1, requires = "mci")]
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "mci", value_parser = count::<usize>)]
     mci_run: usize,
-    /// Photons per channel (rule "fixed"), e.g. 1000000 or 1e6; refused
-    /// before the run when it would exceed --max-work.
-    #[arg(long, conflicts_with_all = ["target_error", "kernel_error"], allow_hyphen_values = true, value_parser = parse_count)]
-    photons: Option<u64>,
-    /// Rule "kernel-factor" (the default, E = 0.005 when no other budget is
-    /// given): trace until the relative L2 standard error of the
-    /// pre-integrated 1D kernel factor on the default kernel grid and the
-    /// relative standard error of total R_d are below E in every channel.
-    /// Its default grid has geometric bins. A channel also stops at the
+    #[command(flatten)]
+    photons: PhotonsArg,
+    /// Monte Carlo target on the kernel: relative error of its 1D factor.
+    ///
+    /// Trace until the relative L2 standard error of the pre-integrated 1D
+    /// kernel factor on the default kernel grid and the relative standard
+    /// error of total R_d are below E in every channel (rule
+    /// "kernel-factor", the default when no other budget is given). Its
+    /// default grid has geometric bins. A channel also stops at the
     /// absolute floor (--abs-floor).
-    #[arg(
-        long,
-        value_name = "E",
-        conflicts_with = "target_error",
-        allow_hyphen_values = true
-    )]
-    kernel_error: Option<f64>,
-    /// Absolute floor of the kernel-factor rule, a fraction of the incident
-    /// light: a channel also stops once the standard error of its total R_d
-    /// and R_d x the kernel factor's relative error are below A, after at
-    /// least 3/A photons (media that barely scatter back, e.g. wine, beer;
-    /// 2e-6 is 150x below the smallest 8-bit sRGB value); never before the
-    /// relative target where R_d >= A/E. 0 = off.
-    #[arg(long, value_name = "A", default_value_t = mc::DEFAULT_ABS_FLOOR, allow_hyphen_values = true)]
-    abs_floor: f64,
-    /// Rule "total-and-profile": trace until the relative standard error of
-    /// total R_d and of the profile (R_d-weighted mean relative error of the
-    /// bins inside the 99% radius) are below E in every channel.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
-    target_error: Option<f64>,
-    /// Cap on photons per channel for --kernel-error and --target-error.
-    #[arg(long, default_value_t = DEFAULT_MAX_PHOTONS, allow_hyphen_values = true, value_parser = parse_count)]
-    max_photons: u64,
-    /// RNG seed: the same seed gives bit-identical output.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Worker threads (results are identical for any count).
-    #[arg(long, allow_hyphen_values = true)]
+    kernel_error: Option<f64>,
+    /// Absolute floor of the kernel-factor rule, a fraction of the incident light.
+    ///
+    /// A channel also stops once the standard error of its total R_d and
+    /// R_d x the kernel factor's relative error are below A, after at least
+    /// 3/A photons (media that barely scatter back, e.g. wine, beer; 2e-6
+    /// is 150x below the smallest 8-bit sRGB value); never before the
+    /// relative target where R_d >= A/E. 0 = off.
+    #[arg(long, value_name = "A", default_value = format!("{:e}", mc::DEFAULT_ABS_FLOOR), allow_hyphen_values = true)]
+    abs_floor: f64,
+    #[command(flatten)]
+    mc_error: McErrorArg,
+    #[command(flatten)]
+    max_photons: MaxPhotonsArg,
+    #[command(flatten)]
+    seed: SeedArg,
+    /// Worker threads (results are identical for any count) [default: one per core].
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
     threads: Option<usize>,
-    /// Channels to simulate: rgb, r, g, b, rg, ...
-    #[arg(long, default_value = "rgb")]
-    channels: String,
-    /// Radial bin width in mm (default: min MFP / 20).
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    dr: Option<f64>,
-    /// Outer radius of the tally in mm (default: from the material).
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    rmax: Option<f64>,
-    /// Geometric bins: width dr at the centre growing out to rmax.
+    #[command(flatten)]
+    channels: ChannelsArg,
+    #[command(flatten)]
+    grid: GridArgs,
+    /// Geometric bins: width --dr at the centre, growing out to --rmax.
     #[arg(long)]
     log_bins: bool,
     /// Boundary treatment where a packet meets the ambient medium.
-    #[arg(long, value_enum, default_value = "classic")]
+    #[arg(long, value_enum, value_name = "MODE", default_value_t = BoundaryArg::from(McOptions::default().boundary))]
     boundary: BoundaryArg,
-    /// Events per packet from which the event-count roulette plays (survival
-    /// 1/sqrt(2) at each doubling of the count, weight boosted on survival):
-    /// unbiased; ends the unbounded walks of albedo 1, see docs/mc.md.
-    #[arg(long, value_name = "N", default_value_t = mc::DEFAULT_EVENT_ROULETTE)]
+    /// Events per packet from which the event-count roulette plays.
+    ///
+    /// Survival 1/sqrt(2) at each doubling of the count, weight boosted on
+    /// survival: unbiased; ends the unbounded walks of albedo 1, see
+    /// docs/mc.md.
+    #[arg(long, value_name = "N", default_value_t = mc::DEFAULT_EVENT_ROULETTE, value_parser = count::<u64>)]
     event_roulette: u64,
-    /// Hard cap on events per packet (default: none); a packet stopped there
-    /// is abandoned and its energy reported as truncated (biased).
-    #[arg(long, value_name = "N")]
+    /// Hard cap on events per packet [default: none].
+    ///
+    /// A packet stopped there is abandoned and its energy reported as
+    /// truncated (biased).
+    #[arg(long, value_name = "N", value_parser = count::<u64>)]
     max_events: Option<u64>,
-    /// Work cap per channel, in events (interactions + boundary hits), for
-    /// every rule [default: 1.5e9]. A --photons
-    /// count is refused up front when its first photons project more.
-    #[arg(long, allow_hyphen_values = true, value_parser = parse_count)]
-    max_work: Option<u64>,
-    /// Weight below which Russian roulette plays, survival 1/10 (unbiased for
-    /// any value in (0, 1); MCML uses 1e-4, the default 0.01 is more
-    /// efficient: the Speed table of docs/mc.md).
-    #[arg(long, default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true)]
+    /// Work cap per channel, in events (interactions + boundary hits).
+    ///
+    /// Applies to every rule; a --photons count is refused up front when
+    /// its first photons project more.
+    #[arg(long, value_name = "N", default_value = args::count_text(mc::DEFAULT_MAX_WORK), allow_hyphen_values = true, value_parser = count::<u64>)]
+    max_work: u64,
+    /// Weight below which Russian roulette plays, survival 1/10.
+    ///
+    /// Unbiased for any value in (0, 1); MCML uses 1e-4, the default is
+    /// more efficient: the Speed table of docs/mc.md.
+    #[arg(long, value_name = "WEIGHT", default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true)]
     roulette: f64,
-    /// Where photons are traced: cpu (f64); gpu (wgpu compute, f32, classic
-    /// boundaries; see docs/mc_gpu.md); auto (a hardware GPU adapter when
-    /// one is found and the run is supported there, else the CPU). The same
-    /// seed gives the same output per backend and adapter, not across them.
-    #[arg(long, value_enum, default_value = "cpu")]
-    backend: McBackend,
-    /// Trace part K of N disjoint parts of the run (same seed, same
-    /// --photons for every part): writes a partial profile with exact sums
-    /// that `ssskit merge` combines into the single run, bit for bit.
+    #[command(flatten)]
+    backend: BackendArg,
+    /// Trace part K of N disjoint parts of the run [default: all of it].
+    ///
+    /// Same seed, same --photons for every part: writes a partial profile
+    /// with exact sums that `ssskit merge` combines into the single run,
+    /// bit for bit.
     #[arg(long, value_name = "K/N", value_parser = parse_shard)]
     shard: Option<Shard>,
-    /// Output profile JSON (default: <material>.json, or
-    /// <material>.shard-K-of-N.json with --shard).
-    #[arg(long, value_name = "FILE.json")]
-    out: Option<PathBuf>,
-    /// Also write the profile as CSV.
-    #[arg(long, value_name = "FILE.csv")]
-    csv: Option<PathBuf>,
-    /// Also write MCML's .mco format (InParm, RAT, Rd_r in cm units; one
-    /// channel, uniform grid; weight beyond the grid in the last bin as MCML).
+    #[command(flatten)]
+    out: OutFile,
+    #[command(flatten)]
+    csv: CsvArg,
+    /// Also write MCML's .mco format [default: not written].
+    ///
+    /// InParm, RAT, Rd_r in cm units; one channel, uniform grid; weight
+    /// beyond the grid in the last bin as MCML.
     #[arg(long, value_name = "FILE.mco")]
     mco: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let args = *args.flags;
-    let (material, mci_run) = match (&args.material, &args.mci) {
+    let (material, mci_run) = match (&args.material.material, &args.mci) {
         (_, Some(path)) => {
             let runs = mci::read_mci(path)?;
             let run = runs
@@ -179,23 +194,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let channels = match &mci_run {
         // MCML is monochrome: the .mci coefficients fill every channel.
-        Some(_) if args.channels == "rgb" => vec![Channel::R],
-        _ => Channel::parse_list(&args.channels)?,
+        Some(_) if args.channels.is_default() => vec![Channel::R],
+        _ => args.channels.channels()?,
     };
-    let budget = match (args.photons, args.target_error, args.kernel_error, &mci_run) {
+    let max_photons = args.max_photons.max_photons;
+    let budget = match (
+        args.photons.photons,
+        args.mc_error.mc_error,
+        args.kernel_error,
+        &mci_run,
+    ) {
         (Some(n), _, _, _) => PhotonBudget::Fixed(n),
         (None, Some(e), _, _) => PhotonBudget::TargetError {
             rel: e,
-            max_photons: args.max_photons,
+            max_photons,
         },
         (None, None, Some(e), _) => PhotonBudget::KernelFactor {
             rel: e,
-            max_photons: args.max_photons,
+            max_photons,
         },
         (None, None, None, Some(r)) => PhotonBudget::Fixed(r.photons),
         (None, None, None, None) => PhotonBudget::KernelFactor {
             rel: mc::DEFAULT_KERNEL_ERROR,
-            max_photons: args.max_photons,
+            max_photons,
         },
     };
     if args.shard.is_some() && !matches!(budget, PhotonBudget::Fixed(_)) {
@@ -206,8 +227,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let spec = GridSpec {
-        dr: args.dr,
-        r_max: args.rmax,
+        dr: args.grid.dr,
+        r_max: args.grid.rmax,
         log_bins: args.log_bins,
     };
     // No grid flag: the .mci file's grid, else the tracer's own rule. A
@@ -220,7 +241,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let boundary = BoundaryMode::from(args.boundary);
     let cfg = McConfig {
         budget,
-        seed: args.seed,
+        seed: args.seed.seed,
         threads: args.threads,
         channels,
         grid,
@@ -230,12 +251,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         event_roulette: args.event_roulette,
         max_events: args.max_events.unwrap_or(mc::DEFAULT_MAX_EVENTS),
         single_scatter: false,
-        max_work: args.max_work.unwrap_or(mc::DEFAULT_MAX_WORK),
+        max_work: args.max_work,
         roulette_threshold: args.roulette,
         shard: args.shard,
         abs_floor: args.abs_floor,
     };
-    let out = args.out.clone().unwrap_or_else(|| {
+    let out = args.out.out.clone().unwrap_or_else(|| {
         PathBuf::from(match args.shard {
             Some(s) => format!("{}.shard-{}-of-{}.json", material.name, s.k, s.n),
             None => format!("{}.json", material.name),
@@ -248,7 +269,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     ssskit::io::check_extension(&out, &["json"], "profile")?;
-    if let Some(csv) = &args.csv {
+    if let Some(csv) = &args.csv.csv {
         ssskit::io::check_extension(csv, &["csv"], "table")?;
     }
     if let Some(mco) = &args.mco {
@@ -256,7 +277,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     for (flag, path) in [
         ("--out", Some(&out)),
-        ("--csv", args.csv.as_ref()),
+        ("--csv", args.csv.csv.as_ref()),
         ("--mco", args.mco.as_ref()),
     ] {
         if let Some(dir) = path.and_then(|p| p.parent()) {
@@ -266,7 +287,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let bar = Bar::new();
-    let mut profile = match open_gpu(args.backend, &opts)? {
+    let mut profile = match open_gpu(args.backend.backend, &opts)? {
         Some(g) => g.simulate(&material, &cfg, &opts, g.default_dispatch(), &bar)?,
         None => mc::simulate_with(&material, &cfg, &opts, &bar)?,
     };
@@ -279,7 +300,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     profile
         .write_into(&mut outputs, &out)
         .with_context(|| format!("writing {}", out.display()))?;
-    if let Some(csv) = &args.csv {
+    if let Some(csv) = &args.csv.csv {
         write_csv(&profile, csv, &mut outputs)?;
     }
     if let Some(mco) = &args.mco {
@@ -299,11 +320,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// The GPU tracer when the backend asks for it (printing the adapter), None
 /// for the CPU; `auto` falls back to the CPU, saying why.
-fn open_gpu(backend: McBackend, opts: &McOptions) -> anyhow::Result<Option<McGpu>> {
+fn open_gpu(backend: Backend, opts: &McOptions) -> anyhow::Result<Option<McGpu>> {
     let open = || McGpu::new().context("--backend gpu");
     match backend {
-        McBackend::Cpu => Ok(None),
-        McBackend::Gpu => {
+        Backend::Cpu => Ok(None),
+        Backend::Gpu => {
             let g = open()?;
             let kind = if g.is_software() {
                 " (software rasteriser: correct but slower than the CPU)"
@@ -313,7 +334,7 @@ fn open_gpu(backend: McBackend, opts: &McOptions) -> anyhow::Result<Option<McGpu
             eprintln!("backend: gpu, adapter {}{kind}", g.describe());
             Ok(Some(g))
         }
-        McBackend::Auto => {
+        Backend::Auto => {
             if opts.boundary != BoundaryMode::Classic {
                 eprintln!("backend: cpu (auto: the GPU tracer has classic boundaries only)");
                 return Ok(None);
@@ -338,26 +359,6 @@ fn open_gpu(backend: McBackend, opts: &McOptions) -> anyhow::Result<Option<McGpu
             }
         }
     }
-}
-
-/// A count: an integer, or a whole number in exponent notation (1e6).
-fn parse_count(s: &str) -> Result<u64, String> {
-    let t = s.trim();
-    if let Ok(n) = t.parse::<u64>() {
-        return Ok(n);
-    }
-    let bad = |why: &str| format!("'{s}': {why}");
-    let v: f64 = t
-        .parse()
-        .map_err(|_| bad("expected a whole number, e.g. 1000000 or 1e6"))?;
-    // 2^64 is exactly representable; every f64 below it converts exactly.
-    if !(v >= 0.0 && v.fract() == 0.0) {
-        return Err(bad("expected a whole number >= 0, e.g. 1000000 or 1e6"));
-    }
-    if v >= 18_446_744_073_709_551_616.0 {
-        return Err(bad(&format!("beyond the largest count, {}", u64::MAX)));
-    }
-    Ok(v as u64)
 }
 
 /// "K/N" with 1 <= K <= N.

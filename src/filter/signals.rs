@@ -6,6 +6,9 @@
 use super::Image;
 use crate::error::Result;
 
+/// Default size of a generated test image, width x height pixels.
+pub const DEFAULT_SIZE: (usize, usize) = (256, 256);
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Signal {
     Edge,

@@ -17,6 +17,10 @@ pub const FOV_Y_DEG: f64 = 45.0;
 pub const SSS_WIDTH: f64 = 0.001;
 pub const FOLLOW_SURFACE: f64 = 300.0;
 
+/// The frame's default size (1080p) and frames timed by default.
+pub const DEFAULT_FRAME: (usize, usize) = (1920, 1080);
+pub const DEFAULT_FRAMES: u32 = 200;
+
 pub struct Timing {
     /// "name (backend, device type, driver)".
     pub adapter: String,

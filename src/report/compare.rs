@@ -10,6 +10,12 @@ use crate::profile::radius_holding;
 use crate::profile::Profile;
 use plotters::style::RGBColor;
 
+/// Default accuracy of the Monte Carlo reference the analytic models are
+/// compared with: 1% relative standard error, at most 1e7 photons per
+/// channel.
+pub const REFERENCE_MC_ERROR: f64 = 0.01;
+pub const REFERENCE_MAX_PHOTONS: u64 = 10_000_000;
+
 /// One model in one channel of one material.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Row {

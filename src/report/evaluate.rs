@@ -88,6 +88,17 @@ pub struct ImageCase {
 /// Width of a checker cell in the generated checker signal, mm.
 pub const CHECKER_MM: f64 = 1.0;
 
+/// Default scale of the test signals: surface millimetres per pixel.
+pub const DEFAULT_MM_PER_PIXEL: f64 = 0.1;
+
+/// Default side of the square test signals, pixels.
+pub const DEFAULT_SIGNAL_SIZE: usize = 128;
+
+/// Range of the side of the square test signals, pixels: below 8 the
+/// shapes do not fit; above 4096 one exact convolution per model and
+/// signal takes minutes.
+pub const SIGNAL_SIZE_RANGE: std::ops::RangeInclusive<usize> = 8..=4096;
+
 impl ImageCase {
     /// A test signal of `size` x `size` pixels at `mm_per_pixel` (the
     /// checker's cells are [`CHECKER_MM`] wide, as `ssskit signal` draws

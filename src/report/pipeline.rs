@@ -44,7 +44,7 @@ pub const MC_MAX_PHOTONS: u64 = 2_000_000;
 /// Event cap per channel (about 4 s of one core at 2.5e7 events/s): keeps
 /// slow media (albedo near 1) inside the pipeline's minute.
 pub const MC_MAX_WORK: u64 = 100_000_000;
-pub const MC_SEED: u64 = 20260101;
+pub const MC_SEED: u64 = mc::DEFAULT_SEED;
 
 impl ProfileSource {
     pub fn monte_carlo() -> ProfileSource {

@@ -56,8 +56,8 @@ pub struct Settings {
 impl Default for Settings {
     fn default() -> Settings {
         Settings {
-            mm_per_pixel: 0.1,
-            size: 128,
+            mm_per_pixel: evaluate::DEFAULT_MM_PER_PIXEL,
+            size: evaluate::DEFAULT_SIGNAL_SIZE,
             photons: vec![10_000, 30_000, 100_000, 300_000],
             seed: 7,
             taps: vec![5, 7, 9, 11, 13, 17, 21, 25, 33],

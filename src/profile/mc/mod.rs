@@ -51,6 +51,14 @@ pub const FIRST_ROUND: u64 = 2;
 /// Default target of the kernel-factor rule: 0.5% relative L2 standard error.
 pub const DEFAULT_KERNEL_ERROR: f64 = 0.005;
 
+/// Default photon cap per channel of the target-error rules.
+pub const DEFAULT_MAX_PHOTONS: u64 = 100_000_000;
+
+/// The one default seed of every Monte Carlo run (the seed of the reference
+/// profiles in profiles/reference/, so that a run with the defaults
+/// reproduces them).
+pub const DEFAULT_SEED: u64 = 20260101;
+
 /// How many photons to trace.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
