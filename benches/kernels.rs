@@ -168,14 +168,14 @@ fn main() {
         return;
     }
     let runs: [&[&str]; 3] = [
-        &["kernels", "--material", "skin1", "--out", "OUT"],
+        &["kernels", "--material", "skin1", "--out-dir", "OUT"],
         &[
             "kernels",
             "--material",
             "skin1",
             "--profile-model",
             "pbd",
-            "--out",
+            "--out-dir",
             "OUT",
         ],
         &[
@@ -186,7 +186,7 @@ fn main() {
             "all",
             "--models",
             "all",
-            "--out",
+            "--out-dir",
             "OUT",
         ],
     ];

@@ -13,7 +13,7 @@ fn pbd_profile(dir: &Path, material: &str) -> PathBuf {
         "profile",
         "--material",
         material,
-        "--model",
+        "--profile-model",
         "pbd",
         "--out",
         s(&p),
@@ -56,9 +56,9 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
             s(&profile),
             "--mm-per-pixel",
             mm,
-            "--target-error",
+            "--image-error",
             &target.to_string(),
-            "--size",
+            "--signal-size",
             "64",
             "--models",
             "svd,preintegrate,guided",
@@ -117,7 +117,14 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
             let input = d.join(format!("{name}{mm}.exr"));
             let mut args: Vec<&str> = vec!["signal"];
             args.extend(signal_args.iter().map(String::as_str));
-            args.extend(["--mm-per-pixel", mm, "--out", s(&input), "--size", "96x96"]);
+            args.extend([
+                "--mm-per-pixel",
+                mm,
+                "--out",
+                s(&input),
+                "--image-size",
+                "96x96",
+            ]);
             ok(&args);
             let exact = d.join(format!("exact-{name}{mm}.exr"));
             ok(&[
@@ -188,13 +195,13 @@ fn advise_from_a_perspective_view_matches_the_filter_scale() {
         "advise",
         "--profile",
         s(&profile),
-        "--fov",
+        "--fov-y",
         "40",
-        "--depth",
+        "--view-depth",
         "0.5",
-        "--height",
+        "--image-height",
         "1080",
-        "--size",
+        "--signal-size",
         "32",
         "--models",
         "preintegrate",
@@ -208,27 +215,33 @@ fn advise_from_a_perspective_view_matches_the_filter_scale() {
         "{got} vs {expected}"
     );
     let path = s(&profile);
-    let view = |fov: &'static str, depth: &'static str| {
+    let view = |fov_flag: &'static str, fov: &'static str, depth: &'static str| {
         vec![
             "advise",
             "--profile",
             path,
-            "--fov",
+            fov_flag,
             fov,
-            "--depth",
+            "--view-depth",
             depth,
-            "--height",
+            "--image-height",
             "1080",
         ]
     };
-    common::fails_with(&view("40", "-1"), &["--depth: invalid value -1"]);
-    // The field of view is --fov here (--fov-y in apply): the message
-    // names the flag the user typed.
+    common::fails_with(
+        &view("--fov-y", "40", "-1"),
+        &["--view-depth: invalid value -1"],
+    );
     for fov in ["0", "180"] {
-        let args = view(fov, "0.5");
+        let args = view("--fov-y", fov, "0.5");
+        common::fails_with(&args, &[&format!("--fov-y: invalid value {fov}")]);
+        // The old spelling --fov (advise's before --fov-y, as apply's):
+        // still accepted, noted, and named as typed.
+        let args = view("--fov", fov, "0.5");
         let o = common::run(&args);
-        common::assert_fails(&o, &args, &[&format!("--fov: invalid value {fov}")]);
-        assert!(!common::stderr(&o).contains("--fov-y"));
+        let e = common::assert_fails(&o, &args, &[&format!("--fov: invalid value {fov}")]);
+        assert!(!e.contains("--fov-y:"), "{e}");
+        assert!(e.contains("note: --fov is deprecated: use --fov-y"), "{e}");
     }
 }
 
@@ -314,7 +327,7 @@ fn apply_warns_about_the_kernel_at_the_pixel_scale() {
         "--quiet",
     ]);
     let img = d.join("edge.exr");
-    ok(&["signal", "edge", "--size", "24x24", "--out", s(&img)]);
+    ok(&["signal", "edge", "--image-size", "24x24", "--out", s(&img)]);
     let o_exr = d.join("o.exr");
     let run = |mm: &str, taps_only: bool| {
         let mut args = vec![
@@ -364,9 +377,9 @@ fn kernels_runs_the_main_job_in_one_command() {
         "skin1",
         "--profile-model",
         "pbd",
-        "--size",
+        "--signal-size",
         "32",
-        "--out",
+        "--out-dir",
         s(&out),
     ]);
     assert!(stdout.contains("ship: "), "{stdout}");
@@ -411,11 +424,11 @@ fn study_measures_the_trade_of_every_knob() {
         "study",
         "--profile",
         s(&committed_profile("skin1")),
-        "--photons",
+        "--sweep-photons",
         "4000,64000",
-        "--size",
+        "--signal-size",
         "48",
-        "--out",
+        "--out-dir",
         s(&out),
     ]);
     let v = read(&out.join("study.json"));

@@ -13,7 +13,7 @@ fn profile_writes_a_valid_analytic_profile_for_every_model() {
             "profile",
             "--material",
             "skin1",
-            "--model",
+            "--profile-model",
             model,
             "--dr",
             "0.05",
@@ -55,7 +55,7 @@ fn profile_rejects_bad_input_with_a_clear_message_and_writes_nothing() {
             "profile",
             "--material",
             "marble",
-            "--model",
+            "--profile-model",
             "dipole",
             "--dr",
             "-1",
@@ -69,7 +69,7 @@ fn profile_rejects_bad_input_with_a_clear_message_and_writes_nothing() {
             "profile",
             "--material",
             "marble",
-            "--model",
+            "--profile-model",
             "nosuch",
             "--out",
             out.to_str().unwrap(),
@@ -95,7 +95,7 @@ fn profile_rejects_bad_input_with_a_clear_message_and_writes_nothing() {
                 "profile",
                 "--material",
                 toml.to_str().unwrap(),
-                "--model",
+                "--profile-model",
                 "pbd",
                 "--out",
                 out.to_str().unwrap(),
@@ -116,7 +116,7 @@ fn plot_profile_writes_a_png() {
             "profile",
             "--material",
             "wholemilk",
-            "--model",
+            "--profile-model",
             model,
             "--out",
             out.to_str().unwrap(),
@@ -172,12 +172,12 @@ fn compare_rejects_bad_flags() {
             "compare",
             "--materials",
             "marble",
-            "--target-error",
+            "--mc-error",
             "0",
             "--out-dir",
             d,
         ],
-        &["--target-error"],
+        &["--mc-error: invalid value 0"],
     );
 }
 
@@ -190,7 +190,7 @@ fn compare_writes_table_csv_and_plot_with_the_failures_visible() {
         "compare",
         "--materials",
         "ketchup",
-        "--reference-photons",
+        "--photons",
         "5000",
         "--out-dir",
         d,
@@ -228,7 +228,7 @@ fn bad_values_are_reported_in_one_format_naming_the_flag() {
         "profile",
         "--material",
         "skin1",
-        "--model",
+        "--profile-model",
         "dipole",
         "--dr",
         "0.05",
@@ -237,7 +237,13 @@ fn bad_values_are_reported_in_one_format_naming_the_flag() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let profile = |extra: &[&'static str]| {
-        let mut a = vec!["profile", "--material", "skin1", "--model", "dipole"];
+        let mut a = vec![
+            "profile",
+            "--material",
+            "skin1",
+            "--profile-model",
+            "dipole",
+        ];
         a.extend_from_slice(extra);
         a.extend_from_slice(&["--out", out_s]);
         a
@@ -255,13 +261,16 @@ fn bad_values_are_reported_in_one_format_naming_the_flag() {
         ),
         (
             profile(&["--channels", "rx"]),
-            "--channels: invalid value x: ",
+            "--channels: invalid value rx: ",
         ),
         (
             fit(&["svd", "--extent", "-2"]),
             "--extent: invalid value -2: ",
         ),
-        (fit(&["svd", "--size", "20"]), "--size: invalid value 20: "),
+        (
+            fit(&["svd", "--grid-size", "20"]),
+            "--grid-size: invalid value 20: ",
+        ),
         (
             fit(&["manual", "--w", "2", "--near", "1,1,1", "--far", "2,2,2"]),
             "--w: invalid value 2: ",
@@ -272,8 +281,8 @@ fn bad_values_are_reported_in_one_format_naming_the_flag() {
             "--count: invalid value 0: ",
         ),
         (
-            fit(&["jimenez", "--width", "0"]),
-            "--width: invalid value 0: ",
+            fit(&["jimenez", "--jimenez-width", "0"]),
+            "--jimenez-width: invalid value 0: ",
         ),
     ];
     for (args, expect) in cases {

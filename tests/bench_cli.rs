@@ -17,10 +17,8 @@ fn bench_refuses_to_time_a_software_rasteriser() {
             "filter",
             "--kernel",
             "kernels/skin1-svd1.json",
-            "--width",
-            "64",
-            "--height",
-            "48",
+            "--image-size",
+            "64x48",
         ])
         .output()
         .unwrap();

@@ -28,13 +28,13 @@ fn small_compare(out: &Path, threads: &str) -> Vec<Value> {
             "1",
             "--signals",
             "edge,shapes",
-            "--size",
+            "--signal-size",
             "64",
             "--mm-per-pixel",
             MM,
             "--taps",
             "17,9",
-            "--out",
+            "--out-dir",
             p(out),
         ])
         .output()
@@ -93,7 +93,7 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
             ok(&[
                 "signal",
                 signal,
-                "--size",
+                "--image-size",
                 "64x64",
                 "--mm-per-pixel",
                 MM,
@@ -196,10 +196,10 @@ fn bad_flags_are_refused_with_their_name() {
         (vec!["--mm-per-pixel", "-1"], "--mm-per-pixel"),
         (vec!["--materials", "unobtainium"], "unobtainium"),
     ] {
-        let mut args = vec!["compare", "--profiles", profiles, "--out", p(&out)];
+        let mut args = vec!["compare", "--profiles", profiles, "--out-dir", p(&out)];
         args.extend(flags.iter().copied());
         common::fails_with(&args, &[needle]);
         assert!(!out.join("compare.json").exists());
     }
-    common::fails_with(&["compare", "--out", p(&out)], &["--profiles"]);
+    common::fails_with(&["compare", "--out-dir", p(&out)], &["--profiles"]);
 }

@@ -70,7 +70,7 @@ fn runs() -> &'static Runs {
             let argv: Vec<String> = if words.first().is_some_and(|w| w.starts_with("--")) {
                 let mut v = vec!["compare".to_string()];
                 v.extend(words);
-                v.extend(["--out".to_string(), o.display().to_string()]);
+                v.extend(["--out-dir".to_string(), o.display().to_string()]);
                 v
             } else {
                 // Another subcommand: OUT stands for the run's folder.

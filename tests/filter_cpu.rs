@@ -82,7 +82,14 @@ fn cli_reference_equals_the_library() {
     let input = dir.path().join("edge.exr");
     let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
     let mm_s = format!("{mm}");
-    let o = run(&["signal", "edge", "--size", "64x16", "--out", p(&input)]);
+    let o = run(&[
+        "signal",
+        "edge",
+        "--image-size",
+        "64x16",
+        "--out",
+        p(&input),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&[
         "apply",

@@ -172,7 +172,14 @@ fn apply_dirac(dir: &Path, backend: &[&str]) -> (std::process::Output, PathBuf) 
     gaussian_kernel(1, 11).write(&k).unwrap();
     let input = dir.join("in.exr");
     let out = dir.join("out.exr");
-    let o = run(&["signal", "dirac", "--size", "21x17", "--out", p(&input)]);
+    let o = run(&[
+        "signal",
+        "dirac",
+        "--image-size",
+        "21x17",
+        "--out",
+        p(&input),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let mut args = vec![
         "apply",

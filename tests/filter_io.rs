@@ -184,7 +184,7 @@ fn bad_inputs_fail_clearly() {
         "cpu",
         "--fov-y",
         "40",
-        "--sss-width",
+        "--units-per-mm",
         "0.01",
     ];
     fails_with(
@@ -237,7 +237,7 @@ fn bad_inputs_fail_clearly() {
         "cpu",
         "--fov-y",
         "40",
-        "--sss-width",
+        "--units-per-mm",
         "0.01",
     ];
     fails_with(&a, &["depth", "must be > 0"], &out);
@@ -266,7 +266,7 @@ fn bad_inputs_fail_clearly() {
         "--images",
         p(&nan),
         "--no-plots",
-        "--out",
+        "--out-dir",
         p(&report),
     ];
     let o = run(&cmp);
@@ -293,7 +293,7 @@ fn bad_inputs_fail_clearly() {
     fails_with(&a, &["--mm-per-pixel: invalid value -1: must be"], &out);
     let mut a = apply_args(&k, &zero_z, &out);
     a.truncate(a.len() - 2);
-    a.extend(["--fov-y", "180", "--sss-width", "0.01"]);
+    a.extend(["--fov-y", "180", "--units-per-mm", "0.01"]);
     fails_with(
         &a,
         &["--fov-y: invalid value 180: must be in (0, 180)"],
@@ -343,7 +343,7 @@ fn signals_are_written_by_the_cli() {
     let dir = tempfile::tempdir().unwrap();
     for kind in ["edge", "shapes", "dirac", "checker"] {
         let out = dir.path().join(format!("{kind}.png"));
-        let o = run(&["signal", kind, "--size", "40x20", "--out", p(&out)]);
+        let o = run(&["signal", kind, "--image-size", "40x20", "--out", p(&out)]);
         assert!(o.status.success(), "{}", stderr(&o));
         let (img, _) = read_image(&out, None).unwrap();
         assert_eq!((img.width, img.height), (40, 20));
@@ -351,8 +351,8 @@ fn signals_are_written_by_the_cli() {
     }
     let out = dir.path().join("x.png");
     fails_with(
-        &["signal", "edge", "--size", "40by20", "--out", p(&out)],
-        &["--size"],
+        &["signal", "edge", "--image-size", "40by20", "--out", p(&out)],
+        &["--image-size"],
         &out,
     );
 }

@@ -152,7 +152,14 @@ fn cli_jitter_changes_the_image_and_the_reference_refuses_it() {
     let k = dir.path().join("k.json");
     gaussian_kernel(1, 9).write(&k).unwrap();
     let input = dir.path().join("in.exr");
-    let o = run(&["signal", "dirac", "--size", "65x65", "--out", p(&input)]);
+    let o = run(&[
+        "signal",
+        "dirac",
+        "--image-size",
+        "65x65",
+        "--out",
+        p(&input),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let apply = |out: &std::path::Path, extra: &[&str]| {
         let mut args = vec![

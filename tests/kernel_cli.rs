@@ -13,7 +13,7 @@ fn profile(dir: &Path, material: &str) -> PathBuf {
         "profile",
         "--material",
         material,
-        "--model",
+        "--profile-model",
         "dipole",
         "--out",
         p.to_str().unwrap(),
@@ -42,11 +42,17 @@ fn every_model_writes_a_kernel_that_reads_back() {
         &["manual", "--fit"],
         &["gaussians", "--count", "3"],
         &["gaussians", "--preset", "deon-skin"],
-        &["jimenez", "--strength", "0.5,0.4,0.3"],
+        &["jimenez", "--jimenez-strength", "0.5,0.4,0.3"],
     ];
     for m in models {
         let out = dir.path().join("k.json");
-        let mut args = vec!["fit", "--profile", prof.to_str().unwrap(), "--size", "61"];
+        let mut args = vec![
+            "fit",
+            "--profile",
+            prof.to_str().unwrap(),
+            "--grid-size",
+            "61",
+        ];
         args.extend_from_slice(&["--out", out.to_str().unwrap(), "--taps", "11", "--model"]);
         args.extend_from_slice(m);
         ok(&args);
@@ -87,7 +93,7 @@ fn svd_reports_spectrum_and_energy() {
         "svd",
         "--rank",
         "2",
-        "--size",
+        "--grid-size",
         "51",
         "--out",
         out.to_str().unwrap(),
@@ -141,7 +147,7 @@ fn manual_presets_reproduce_table_a1() {
             "manual",
             "--preset",
             name,
-            "--size",
+            "--grid-size",
             "31",
             "--out",
             out.to_str().unwrap(),
@@ -170,12 +176,12 @@ fn bad_flags_give_clear_errors() {
             p,
             "--model",
             "svd",
-            "--size",
+            "--grid-size",
             "20",
             "--out",
             o,
         ],
-        &["--size", "20", "odd"],
+        &["--grid-size", "20", "odd"],
     );
     fails(
         &[
@@ -200,7 +206,7 @@ fn bad_flags_give_clear_errors() {
             "svd",
             "--rank",
             "0",
-            "--size",
+            "--grid-size",
             "11",
             "--out",
             o,
@@ -216,7 +222,7 @@ fn bad_flags_give_clear_errors() {
             "svd",
             "--taps",
             "4",
-            "--size",
+            "--grid-size",
             "11",
             "--out",
             o,
@@ -264,7 +270,7 @@ fn bad_flags_give_clear_errors() {
             "guided",
             "--k",
             "-1",
-            "--size",
+            "--grid-size",
             "11",
             "--out",
             o,
@@ -280,7 +286,7 @@ fn bad_flags_give_clear_errors() {
             "jimenez",
             "--strength",
             "2,0,0",
-            "--size",
+            "--grid-size",
             "11",
             "--out",
             o,
@@ -327,7 +333,7 @@ fn malformed_kernel_files_are_rejected() {
         prof.to_str().unwrap(),
         "--model",
         "preintegrate",
-        "--size",
+        "--grid-size",
         "21",
         "--out",
         good.to_str().unwrap(),
@@ -414,7 +420,13 @@ fn rank1_svd_is_lowest_on_a_monte_carlo_profile_too() {
     ]);
     let rms = |model: &[&str]| -> Vec<f64> {
         let out = dir.path().join("k.json");
-        let mut args = vec!["fit", "--profile", prof.to_str().unwrap(), "--size", "61"];
+        let mut args = vec![
+            "fit",
+            "--profile",
+            prof.to_str().unwrap(),
+            "--grid-size",
+            "61",
+        ];
         args.extend_from_slice(&["--out", out.to_str().unwrap(), "--model"]);
         args.extend_from_slice(model);
         ok(&args);

@@ -504,7 +504,7 @@ fn degenerate_profiles_give_errors_or_results_never_panics() {
     // Even, too large and absurd sizes and extents.
     for size in [0usize, 2, 4003, usize::MAX] {
         let e = Kernel2D::from_profile(&p, &spec(size)).unwrap_err();
-        // The library names the parameter; the CLI maps it to --size.
+        // The library names the parameter; the CLI maps it to --grid-size.
         assert!(
             matches!(&e, ssskit::Error::Invalid { context, field, .. }
                 if context == "kernel" && field == "size"),

@@ -222,22 +222,24 @@ fn invalid_flags_are_reported() {
     fails_with(d, &s(&["--photons", "-5"]), &["--photons"]);
     fails_with(
         d,
+        &s(&["--mc-error", "2"]),
+        &["--mc-error: invalid value 2", "(0, 1)"],
+    );
+    // The old spelling: accepted, noted, named as typed.
+    fails_with(
+        d,
         &s(&["--target-error", "2"]),
-        &["--target-error", "2", "(0, 1)"],
+        &[
+            "note: --target-error is deprecated: use --mc-error",
+            "--target-error: invalid value 2",
+            "(0, 1)",
+        ],
     );
+    fails_with(d, &s(&["--mc-error", "-0.1"]), &["--mc-error", "-0.1"]);
+    fails_with(d, &s(&["--mc-error", "nan"]), &["--mc-error", "NaN"]);
     fails_with(
         d,
-        &s(&["--target-error", "-0.1"]),
-        &["--target-error", "-0.1"],
-    );
-    fails_with(
-        d,
-        &s(&["--target-error", "nan"]),
-        &["--target-error", "NaN"],
-    );
-    fails_with(
-        d,
-        &s(&["--photons", "10", "--target-error", "0.1"]),
+        &s(&["--photons", "10", "--mc-error", "0.1"]),
         &["cannot be used with"],
     );
     fails_with(d, &s(&["--channels", "rx"]), &["--channels", "x"]);

@@ -122,11 +122,11 @@ fn model_args(kernel: &Value) -> Option<(Vec<String>, f64)> {
         "jimenez" => (
             vec![
                 s("jimenez"),
-                s("--width"),
+                s("--jimenez-width"),
                 num(&params["width"])?,
-                s("--strength"),
+                s("--jimenez-strength"),
                 triple(&params["strength"])?,
-                s("--falloff"),
+                s("--jimenez-falloff"),
                 triple(&params["falloff"])?,
             ],
             DETERMINISTIC,

@@ -26,32 +26,49 @@ use std::path::{Path, PathBuf};
 
 // ---- Parsers -------------------------------------------------------------
 
+// A parser's message is the reason only: the one format of a bad value
+// (`errors::parse_error`) names the flag and the value.
+
 /// A count: an integer, or a whole number in exponent notation (1e6).
 pub fn count<T: TryFrom<u64>>(s: &str) -> Result<T, String> {
     let t = s.trim();
-    let bad = |why: &str| format!("'{s}': {why}");
     let n = match t.parse::<u64>() {
         Ok(n) => n,
         Err(_) => {
             let v: f64 = t
                 .parse()
-                .map_err(|_| bad("expected a whole number, e.g. 1000000 or 1e6"))?;
+                .map_err(|_| "expected a whole number, e.g. 1000000 or 1e6".to_string())?;
             if !(v >= 0.0 && v.fract() == 0.0) {
-                return Err(bad("expected a whole number >= 0, e.g. 1000000 or 1e6"));
+                return Err("expected a whole number >= 0, e.g. 1000000 or 1e6".into());
             }
             // 2^64 is exactly representable; every f64 below it converts exactly.
             if v >= 18_446_744_073_709_551_616.0 {
-                return Err(bad(&format!("beyond the largest count, {}", u64::MAX)));
+                return Err(format!("beyond the largest count, {}", u64::MAX));
             }
             v as u64
         }
     };
-    T::try_from(n).map_err(|_| bad("too large"))
+    T::try_from(n).map_err(|_| format!("too large (at most {})", max_of::<T>()))
+}
+
+/// The largest `T` a count converts to.
+fn max_of<T: TryFrom<u64>>() -> u64 {
+    // The largest n with T::try_from(n) ok: bisection over u64.
+    let (mut lo, mut hi) = (0u64, u64::MAX);
+    while lo < hi {
+        let mid = lo + (hi - lo).div_ceil(2);
+        if T::try_from(mid).is_ok() {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    lo
 }
 
 /// "WIDTHxHEIGHT", each a [`count`].
 pub fn image_size(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("'{s}': expected WIDTHxHEIGHT, e.g. 512x256");
+    let bad = || "expected WIDTHxHEIGHT, e.g. 512x256".to_string();
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     Ok((count(w).map_err(|_| bad())?, count(h).map_err(|_| bad())?))
 }
@@ -86,11 +103,7 @@ pub fn signal_size(s: &str) -> Result<usize, String> {
     let n = count::<usize>(s)?;
     let r = evaluate::SIGNAL_SIZE_RANGE;
     if !r.contains(&n) {
-        return Err(format!(
-            "{n}: must be between {} and {}",
-            r.start(),
-            r.end()
-        ));
+        return Err(format!("must be between {} and {}", r.start(), r.end()));
     }
     Ok(n)
 }
@@ -771,7 +784,10 @@ mod tests {
         assert_eq!(count::<u64>(" 2.5e3 "), Ok(2500));
         assert_eq!(count::<usize>("17"), Ok(17));
         assert_eq!(count::<u32>("1e9"), Ok(1_000_000_000));
-        assert!(count::<u32>("1e10").unwrap_err().contains("too large"));
+        assert_eq!(
+            count::<u32>("1e10").unwrap_err(),
+            "too large (at most 4294967295)"
+        );
         assert!(count::<u64>("1.5").unwrap_err().contains("whole number"));
         assert!(count::<u64>("-1").unwrap_err().contains(">= 0"));
         assert!(count::<u64>("abc").unwrap_err().contains("whole number"));

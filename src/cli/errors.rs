@@ -242,6 +242,26 @@ impl Scope {
     }
 }
 
+/// A value clap's parser refused (a count, a list item...), in the one
+/// format of a bad value, the flag named as typed; None for the other
+/// errors of clap (unknown flags, missing values, help), printed as clap
+/// prints them.
+pub fn parse_error(e: &clap::Error) -> Option<String> {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    if e.kind() != ErrorKind::ValueValidation {
+        return None;
+    }
+    let text = |k| match e.get(k) {
+        Some(ContextValue::String(s)) => Some(s.clone()),
+        _ => None,
+    };
+    let arg = text(ContextKind::InvalidArg)?;
+    let value = text(ContextKind::InvalidValue)?;
+    let reason = std::error::Error::source(e)?.to_string();
+    let flag = arg.split_whitespace().next()?;
+    Some(as_typed(&invalid(flag, value, &reason).to_string()))
+}
+
 /// A bad flag value in the one format: `--flag: invalid value V: reason`.
 pub fn invalid(flag: &str, value: impl std::fmt::Display, reason: &str) -> anyhow::Error {
     anyhow::anyhow!("{flag}: invalid value {value}: {reason}")

@@ -123,6 +123,10 @@ pub fn main() -> i32 {
         // Help, version and usage errors: clap prints them; a closed or
         // full standard output must not turn --help into a panic or a lie.
         Err(e) => {
+            if let Some(message) = errors::parse_error(&e) {
+                eprintln!("error: {message}");
+                return 2;
+            }
             let printed = if e.use_stderr() && !deprecated.is_empty() {
                 eprint!("{}", errors::as_typed(&e.render().to_string()));
                 Ok(())

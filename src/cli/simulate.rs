@@ -363,7 +363,7 @@ fn open_gpu(backend: Backend, opts: &McOptions) -> anyhow::Result<Option<McGpu>>
 
 /// "K/N" with 1 <= K <= N.
 fn parse_shard(s: &str) -> Result<Shard, String> {
-    let bad = || format!("'{s}': expected K/N with 1 <= K <= N, e.g. 3/8");
+    let bad = || "expected K/N with 1 <= K <= N, e.g. 3/8".to_string();
     let (k, n) = s.split_once('/').ok_or_else(bad)?;
     let (k, n) = (
         k.trim().parse::<u64>().map_err(|_| bad())?,
