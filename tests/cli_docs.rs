@@ -226,3 +226,37 @@ fn image_size(path: &Path) -> (u32, u32) {
         u32::from_be_bytes(d[20..24].try_into().unwrap()),
     )
 }
+
+/// The study's photon sweep never traces the photons of its reference: a
+/// seed whose sweep stream (seed + 1) is the reference's is refused, before
+/// any work.
+#[test]
+fn the_study_sweep_never_reuses_the_reference_photons() {
+    let dir = tempfile::tempdir().unwrap();
+    let profile = Path::new(ROOT).join("profiles/reference/skin1.json");
+    let seed: u64 = common::read_json(&profile)["source"]["seed"]
+        .as_u64()
+        .unwrap();
+    let clash = (seed - 1).to_string();
+    let out = dir.path().join("study");
+    let args = [
+        "study",
+        "--profile",
+        p(&profile),
+        "--seed",
+        &clash,
+        "--sweep-photons",
+        "1000",
+        "--signal-size",
+        "8",
+        "--no-plots",
+        "--out-dir",
+        p(&out),
+    ];
+    assert_fails(
+        &run(&args),
+        &args,
+        &[&format!("--seed: invalid value {clash}"), "reference"],
+    );
+    assert!(!out.exists());
+}

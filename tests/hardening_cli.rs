@@ -266,7 +266,7 @@ fn absurd_photon_counts_are_refused_before_the_work() {
     // Not a count of photons: the flag and the value are named.
     for bad in ["nan", "inf", "-5", "1.5", "1e300", "lots"] {
         let e = fails_in(d, &sim(bad, &[]), &["--photons"]);
-        assert!(e.contains(&format!("'{bad}'")), "{bad}: {e}");
+        assert!(e.contains(&format!("invalid value {bad}")), "{bad}: {e}");
     }
     fails_in(d, &sim("1e300", &[]), &["beyond the largest count"]);
     // Each photon costs at least one event: a count above the work cap is

@@ -218,7 +218,7 @@ pub fn long_help_opens_with_help(cmd: clap::Command) -> clap::Command {
 /// A count as a person writes it: 1e6, 1.5e9, 20260101, 17.
 pub fn count_text(n: u64) -> String {
     let zeros = (0..19)
-        .take_while(|&k| n != 0 && n % 10u64.pow(k + 1) == 0)
+        .take_while(|&k| n != 0 && n.is_multiple_of(10u64.pow(k + 1)))
         .count() as u32;
     if n < 10_000 || zeros < 3 {
         return n.to_string();

@@ -446,3 +446,23 @@ fn every_old_spelling_is_accepted_and_noted() {
         .collect();
     assert_eq!(found, expected);
 }
+
+/// One default seed: every `--seed` defaults to the library's one.
+#[test]
+fn one_default_seed() {
+    let seed = ssskit::profile::mc::DEFAULT_SEED.to_string();
+    let mut seen = 0;
+    for (path, c) in commands() {
+        for a in c.get_arguments().filter(|a| a.get_long() == Some("seed")) {
+            let d: Vec<String> = a
+                .get_default_values()
+                .iter()
+                .map(|v| v.to_string_lossy().into())
+                .collect();
+            assert_eq!(d, std::slice::from_ref(&seed), "{path} --seed");
+            seen += 1;
+        }
+    }
+    // kernels, advise, study, simulate, profiles compare, compare.
+    assert_eq!(seen, 6);
+}

@@ -54,9 +54,9 @@ pub const DEFAULT_KERNEL_ERROR: f64 = 0.005;
 /// Default photon cap per channel of the target-error rules.
 pub const DEFAULT_MAX_PHOTONS: u64 = 100_000_000;
 
-/// The one default seed of every Monte Carlo run (the seed of the reference
-/// profiles in profiles/reference/, so that a run with the defaults
-/// reproduces them).
+/// The one default seed of every Monte Carlo run of the command line (the
+/// seed scripts/regen-kernels gives the reference profiles in
+/// profiles/reference/).
 pub const DEFAULT_SEED: u64 = 20260101;
 
 /// How many photons to trace.
