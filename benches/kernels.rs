@@ -186,6 +186,8 @@ fn main() {
             "all",
             "--models",
             "all",
+            "--signal-size",
+            "256",
             "--out-dir",
             "OUT",
         ],
