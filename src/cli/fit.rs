@@ -154,7 +154,7 @@ pub struct ModelOpts {
     #[arg(long)]
     fit: bool,
     /// gaussians: number of 2D Gaussians.
-    #[arg(long, value_name = "N", default_value_t = 4, value_parser = count::<usize>)]
+    #[arg(long, value_name = "N", default_value_t = ssskit::kernel::gaussians::DEFAULT_COUNT, value_parser = count::<usize>)]
     count: usize,
     /// jimenez: width scale (w = 1: d'Eon's skin profile in mm).
     #[arg(long, value_name = "SCALE", alias = "width", default_value_t = JimenezParams::default().width, allow_negative_numbers = true)]

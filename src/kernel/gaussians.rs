@@ -10,6 +10,10 @@ use super::Kernel2D;
 use crate::error::{Error, Result};
 use serde_json::json;
 
+/// Gaussians in a sum by default: four, the sum of the reference kernels
+/// (kernels/*-gaussians4.json).
+pub const DEFAULT_COUNT: usize = 4;
+
 /// d'Eon's six-Gaussian skin profile: variances (mm^2) and RGB weights
 /// (d'Eon and Luebke 2007).
 pub const DEON_SKIN_VARIANCES: [f64; 6] = [0.0064, 0.0484, 0.187, 0.567, 1.99, 7.41];
