@@ -480,3 +480,39 @@ fn rank1_svd_is_lowest_on_a_monte_carlo_profile_too() {
         }
     }
 }
+
+/// docs/engines.md's sign convention, on the committed rank-3 kernels:
+/// every SVD term sums to a positive value per channel (full factors and
+/// tap table), and the terms after the first have negative taps (so an
+/// engine needs a signed target); skin1's second term at its centre tap.
+#[test]
+fn committed_svd_terms_sum_positive_and_later_terms_go_negative() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels");
+    let mut checked = 0;
+    for material in ["apple", "ketchup", "marble", "skin1", "wholemilk"] {
+        let k = read(&dir.join(format!("{material}-svd3.json")));
+        for table in [&k["passes"], &k["taps"]["passes"]] {
+            let passes = table.as_array().unwrap();
+            assert_eq!(passes.len(), 3, "{material}");
+            for (i, p) in passes.iter().enumerate() {
+                let w: Vec<[f64; 3]> = serde_json::from_value(p["weights"].clone()).unwrap();
+                for c in 0..3 {
+                    let s: f64 = w.iter().map(|x| x[c]).sum();
+                    assert!(s > 0.0, "{material} term {i} channel {c} sums to {s}");
+                }
+                let negative = w.iter().flatten().any(|x| *x < 0.0);
+                assert_eq!(negative, i > 0, "{material} term {i}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 5 * 2 * 3);
+    let k = read(&dir.join("skin1-svd3.json"));
+    let second = &k["taps"]["passes"][1]["weights"];
+    let centre = second.as_array().unwrap().len() / 2;
+    assert!(
+        second[centre][0].as_f64().unwrap() < 0.0,
+        "{}",
+        second[centre]
+    );
+}
