@@ -160,36 +160,31 @@ fn apply_case(name: &str, golden: &str, signal: &str, flags: &[&str], threshold:
     );
 }
 
+/// Orthographic, 0.1 mm per pixel, on the CPU in f64.
+const CPU_ORTHO: [&str; 6] = [
+    "--mm-per-pixel",
+    "0.1",
+    "--backend",
+    "cpu",
+    "--precision",
+    "f64",
+];
+
 #[test]
 fn apply_full_factors_cpu() {
-    let flags = [
-        "--mm-per-pixel",
-        "0.1",
-        "--backend",
-        "cpu",
-        "--precision",
-        "f64",
-    ];
     apply_case(
         "apply_full_factors_cpu",
         "shapes-full",
         "shapes",
-        &flags,
+        &CPU_ORTHO,
         CPU_F64,
     );
 }
 
 #[test]
 fn apply_tap_table_cpu() {
-    let flags = [
-        "--mm-per-pixel",
-        "0.1",
-        "--backend",
-        "cpu",
-        "--precision",
-        "f64",
-        "--taps-only",
-    ];
+    let mut flags = CPU_ORTHO.to_vec();
+    flags.push("--taps-only");
     apply_case(
         "apply_tap_table_cpu",
         "shapes-taps",
