@@ -79,12 +79,16 @@ fn max_rel(a: &ssskit::filter::Image, b: &ssskit::filter::Image) -> f64 {
 }
 
 /// A depth plane for the perspective case: 40 mm on the left half, 80 mm
-/// on the right (a silhouette), in the R, G and B channels of an EXR.
+/// on the right (a silhouette where the depth-aware lerp saturates), both
+/// tilted by 2e-5 mm per pixel (where it lerps part way: the lerp's
+/// constant times the depth step between taps is a fraction of 1), in the
+/// R, G and B channels of an EXR.
 fn write_depth(path: &Path, w: usize, h: usize) {
     let mut img = ssskit::filter::Image::new(w, h);
     for c in 0..3 {
         for (i, v) in img.rgb[c].iter_mut().enumerate() {
-            *v = if i % w < w / 2 { 40.0 } else { 80.0 };
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            *v = if i % w < w / 2 { 40.0 } else { 80.0 } + 2e-5 * (x + y);
         }
     }
     ssskit::filter::image::write_image(path, &img, ssskit::filter::image::PngDepth::Sixteen)
@@ -210,8 +214,8 @@ fn apply_perspective_depth_aware_cpu() {
     ];
     apply_case(
         "apply_perspective_depth_aware_cpu",
-        "edge-perspective",
-        "edge",
+        "shapes-perspective",
+        "shapes",
         &flags,
         CPU_F64,
     );
