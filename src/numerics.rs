@@ -62,13 +62,23 @@ pub fn bin_averages(f: impl Fn(f64) -> f64, grid: &RadialGrid) -> Vec<f64> {
         .collect()
 }
 
+/// First panel of the first bin in `bin_averages_resolved`, as a fraction
+/// of the bin's width.
+pub const FIRST_BIN_START: f64 = 1e-9;
+/// Ratio of consecutive geometric panels in the first bin.
+pub const FIRST_BIN_RATIO: f64 = 1.5;
+/// Bins starting at least this many of their widths from the origin get the
+/// 2-point rule in `bin_averages_resolved`.
+pub const FAR_BIN_WIDTHS: f64 = 8.0;
+
 /// Bin averages like `bin_averages`, adapted to profiles whose structure
 /// scale is the radius itself: the first bin on geometric panels (ratio
-/// 1.5, from 1e-9 of its width) so that structure at r -> 0 much finer than
-/// the bin (single scattering at depth ~1/sigma_t, the 1/r of normalized
-/// diffusion) is resolved; bins starting beyond 8 widths from the origin by
-/// 2-point Gauss-Legendre (exact for cubics; for e^{-s r} r^-k with k <= 3
-/// the relative error is below (3/8)^4 / 4320 ~ 5e-6); the rest by 8 points.
+/// `FIRST_BIN_RATIO`, from `FIRST_BIN_START` of its width) so that
+/// structure at r -> 0 much finer than the bin (single scattering at depth
+/// ~1/sigma_t, the 1/r of normalized diffusion) is resolved; bins starting
+/// beyond `FAR_BIN_WIDTHS` widths from the origin by 2-point
+/// Gauss-Legendre (exact for cubics; for e^{-s r} r^-k with k <= 3 the
+/// relative error is below (3/8)^4 / 4320 ~ 5e-6); the rest by 8 points.
 pub fn bin_averages_resolved(f: impl Fn(f64) -> f64, grid: &RadialGrid) -> Vec<f64> {
     let g = |r: f64| f(r) * 2.0 * std::f64::consts::PI * r;
     grid.edges
@@ -77,15 +87,15 @@ pub fn bin_averages_resolved(f: impl Fn(f64) -> f64, grid: &RadialGrid) -> Vec<f
         .map(|(e, area)| {
             let (a, b) = (e[0], e[1]);
             let integral = if a == 0.0 {
-                let (mut lo, mut hi) = (0.0, b * 1e-9);
+                let (mut lo, mut hi) = (0.0, b * FIRST_BIN_START);
                 let mut s = 0.0;
                 while lo < b {
                     s += gauss_legendre(g, lo, hi);
                     lo = hi;
-                    hi = (hi * 1.5).min(b);
+                    hi = (hi * FIRST_BIN_RATIO).min(b);
                 }
                 s
-            } else if a >= 8.0 * (b - a) {
+            } else if a >= FAR_BIN_WIDTHS * (b - a) {
                 let (m, h) = (0.5 * (a + b), 0.5 * (b - a) / 3f64.sqrt());
                 (b - a) * 0.5 * (g(m - h) + g(m + h))
             } else {

@@ -1,11 +1,13 @@
 //! Analytic models against the Monte Carlo reference (same grid), with
 //! small photon counts so the whole file runs in seconds. Totals are
-//! compared within a stated model tolerance plus 4 reference standard
-//! errors; profile shapes by the relative L2 error of r R_d(r) over the
-//! range holding 99% of R_d with the reference's own noise removed
-//! (`rel_l2_model`). The tolerances state what each model achieves where
-//! diffusion holds, and the failures where it does not are asserted too, so
-//! a change that hid them would fail.
+//! compared as (model - mc) / mc with the reference's standard error;
+//! profile shapes by the relative L2 error of r R_d(r) over the range
+//! holding 99% of R_d with the reference's own noise removed
+//! (`rel_l2_model`). What the physics predicts is asserted (photon beam
+//! diffusion, with single scattering, has the best shape; diffusion fails
+//! at low albedo); the measured numbers themselves are pinned in the
+//! record `analytic-vs-mc` (docs/analytic.md shows it), so a change that
+//! moved them fails too.
 
 use ssskit::material::{preset, Channel};
 use ssskit::profile::analytic::{self, Model, Options};
@@ -13,13 +15,20 @@ use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::progress::NoProgress;
 use ssskit::report::compare::{compare, Row};
 
+mod common;
+use common::measured;
+
 const PHOTONS: u64 = 10_000;
 
 fn rows(material: &str) -> Vec<Row> {
+    rows_with(material, PHOTONS)
+}
+
+fn rows_with(material: &str, photons: u64) -> Vec<Row> {
     let mat = preset(material).unwrap();
     let grid = analytic::default_grid(&mat, &Channel::ALL).unwrap();
     let cfg = McConfig {
-        budget: PhotonBudget::Fixed(PHOTONS),
+        budget: PhotonBudget::Fixed(photons),
         seed: 7,
         threads: None,
         channels: Channel::ALL.to_vec(),
@@ -66,47 +75,126 @@ fn l2_below(r: &Row, tol: f64) {
     );
 }
 
+/// (model - mc) / mc in standard errors of the reference.
+fn sigmas(r: &Row) -> f64 {
+    (r.total_model - r.total_mc) / r.total_mc_stderr
+}
+
+/// One record row: material, model, channel, total error (in reference
+/// standard errors), shape error with the reference's noise removed.
+fn record_row(r: &Row) -> Vec<String> {
+    vec![
+        r.material.clone(),
+        r.model.clone(),
+        r.channel.name().to_string(),
+        format!(
+            "{:+.1}% ({:+.1} sigma)",
+            100.0 * r.rel_total_error,
+            sigmas(r)
+        ),
+        format!("{:.1}%", 100.0 * r.rel_l2_model),
+    ]
+}
+
+fn record_data(r: &Row) -> serde_json::Value {
+    serde_json::json!({
+        "material": r.material,
+        "model": r.model,
+        "channel": r.channel.name(),
+        "total_model": r.total_model,
+        "total_mc": r.total_mc,
+        "total_mc_stderr": r.total_mc_stderr,
+        "rel_l2_model": r.rel_l2_model,
+    })
+}
+
+const HEADER: [&str; 5] = [
+    "material",
+    "model",
+    "channel",
+    "total, (model - MC) / MC",
+    "shape, L2 (MC noise removed)",
+];
+
+/// Where diffusion holds (marble and whole milk, reduced albedo > 0.996):
+/// photon beam diffusion, the only model with single scattering, has the
+/// best shape of the four in every channel; the directional dipole, whose
+/// real source sits at depth D with no albedo factor, overshoots the total
+/// by more than 4 standard errors. Every number is pinned in the record.
 #[test]
 fn models_agree_where_diffusion_holds() {
-    // Marble and whole milk: reduced albedo > 0.996. Measured at 1e5
-    // photons: dipole totals -0.6..-1.5%, PBD +1.8..+4.5%, Burley = dipole
-    // total; L2 (noise removed) PBD < 10%, dipole ~40% (it misses the
-    // single-scattering peak at r -> 0 and sits low near the source),
-    // Burley 40-70% (its searchlight shape decays far faster than the
-    // sigma_tr tail), directional dipole ~40% with totals +21..+29% (its
-    // real source at depth D overshoots at normal incidence).
+    let (mut table, mut data) = (Vec::new(), Vec::new());
     for material in ["marble", "wholemilk"] {
         let rows = rows(material);
         for ch in Channel::ALL {
-            let dip = row(&rows, Model::Dipole, ch);
-            total_within(dip, 0.03);
-            l2_below(dip, 0.5);
             let pbd = row(&rows, Model::Pbd, ch);
-            total_within(pbd, 0.05);
-            l2_below(pbd, 0.12);
+            let dip = row(&rows, Model::Dipole, ch);
             let bur = row(&rows, Model::Burley, ch);
-            total_within(bur, 0.03);
-            l2_below(bur, 0.8);
             let dd = row(&rows, Model::DirectionalDipole, ch);
-            total_within(dd, 0.35);
             assert!(
-                dd.rel_total_error > 0.15,
+                pbd.rel_l2_model < dip.rel_l2_model.min(bur.rel_l2_model).min(dd.rel_l2_model),
+                "{material} {ch:?}: PBD is not the best shape: {pbd:?}"
+            );
+            assert!(
+                sigmas(dd) > 4.0,
                 "directional dipole overshoot went away: {dd:?}"
             );
-            l2_below(dd, 0.55);
-            // PBD, with single scattering, is the best shape of the four.
-            assert!(pbd.rel_l2_model < dip.rel_l2_model.min(bur.rel_l2_model));
+            for r in [dip, pbd, bur, dd] {
+                table.push(record_row(r));
+                data.push(record_data(r));
+            }
         }
     }
+    let mut ketchup_table = Vec::new();
+    for r in rows("ketchup").iter().filter(|r| r.channel != Channel::R) {
+        ketchup_table.push(record_row(r));
+        data.push(record_data(r));
+    }
+    let beer = beer_rows();
+    let mut beer_table = Vec::new();
+    for r in &beer {
+        beer_table.push(record_row(r));
+        data.push(record_data(r));
+    }
+    measured::check(
+        "analytic-vs-mc",
+        "analytic_vs_mc",
+        "Monte Carlo references of 1e4 photons per channel (beer: 4e6), seed 7, on \
+         the default grid; no closed form gives these errors, so they are pinned: a \
+         change of a model, of the tracer or of the comparison moves them",
+        [
+            ("diffusion".to_string(), measured::table(&HEADER, table)),
+            (
+                "ketchup".to_string(),
+                measured::table(&HEADER, ketchup_table),
+            ),
+            ("beer".to_string(), measured::table(&HEADER, beer_table)),
+        ]
+        .into_iter()
+        .collect(),
+        serde_json::Value::Array(data),
+    );
+}
+
+const BEER_PHOTONS: u64 = 4_000_000;
+
+/// Beer's dipole and Burley rows against a reference long enough that its
+/// 4 standard errors are below half its total in every channel.
+fn beer_rows() -> Vec<Row> {
+    let b = rows_with("beer", BEER_PHOTONS);
+    b.into_iter()
+        .filter(|r| r.model == Model::Dipole.name() || r.model == Model::Burley.name())
+        .collect()
 }
 
 #[test]
 fn diffusion_fails_at_low_albedo_and_the_numbers_show_it() {
     // Ketchup green and blue (reduced albedo 0.07 and 0.02): the dipole
-    // misses the shape entirely (measured L2 92-94%) and overestimates the
-    // total by 15-20%; PBD, whose single-scattering term carries most of
-    // the light here, stays within 10% in total and 20% in shape; the
-    // directional dipole, without an albedo factor, is off by 25x-90x.
+    // misses the shape and overestimates the total; photon beam diffusion,
+    // whose single-scattering term carries most of the light here, stays
+    // within 10% in total and 20% in shape; the directional dipole, without
+    // an albedo factor, is off by more than 10x (the record analytic-vs-mc
+    // holds the numbers).
     let k = rows("ketchup");
     for ch in [Channel::G, Channel::B] {
         let dip = row(&k, Model::Dipole, ch);
@@ -131,21 +219,20 @@ fn diffusion_fails_at_low_albedo_and_the_numbers_show_it() {
             .is_infinite());
     }
     // Beer (reduced albedo <= 0.002): the dipole and Burley overestimate
-    // the (tiny) total by 2.6x-3.5x (measured +165..+254%). The shapes are
-    // not asserted: at this photon count the reference's own noise (60-98%
-    // L2) dominates.
-    // At this photon count only a handful of packets come back from beer
-    // (the reference's own standard error is 30-100% of its total), so the
-    // claim is checked as "not contradicted at 4 standard errors": the model
-    // exceeds 1.5x every total the reference allows.
-    let b = rows("beer");
-    for ch in Channel::ALL {
-        for model in [Model::Dipole, Model::Burley] {
-            let r = row(&b, model, ch);
-            assert!(
-                r.total_model > 1.5 * (r.total_mc - 4.0 * r.total_mc_stderr),
-                "{r:?}"
-            );
-        }
+    // the (tiny) total (the record holds by how much). The reference is
+    // long enough that the claim can fail: its 4 standard errors are below
+    // half its total, and the model must exceed 1.5x the largest total the
+    // reference allows.
+    let beer = beer_rows();
+    assert_eq!(beer.len(), 6);
+    for r in &beer {
+        assert!(
+            4.0 * r.total_mc_stderr < 0.5 * r.total_mc,
+            "reference too noisy: {r:?}"
+        );
+        assert!(
+            r.total_model > 1.5 * (r.total_mc + 4.0 * r.total_mc_stderr),
+            "{r:?}"
+        );
     }
 }

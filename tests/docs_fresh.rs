@@ -212,9 +212,12 @@ fn image_sum(
 
 /// Table 6.3: the unnormalised rank-1 SVD has the lowest kernel RMS of the
 /// rank-1 models on every material and channel (reproduces); pre-integration
-/// is 2-3x (reproduces: Freude 2014 prints 2.06-2.38); guided k = 1 2-3x
-/// (reproduces except ketchup green and blue, whose kernels span a few
-/// cells of a grid sized by the red channel: there the ratio is above 5).
+/// is 2-3x (reproduces; Freude 2014 prints 2.06-2.38); guided k = 1 is 2-3x
+/// in Freude 2014: the lower end holds everywhere and is asserted, the upper
+/// end does not (ketchup green and blue, whose kernels span a few cells of
+/// a grid sized by the red channel, and others): the measured range is in
+/// the generated claims table (docs/kernels.md), which
+/// `committed_tables_are_what_the_runs_produce` pins.
 #[test]
 fn table_6_3_kernel_rms_ordering() {
     let rows = rows("kernels");
@@ -241,26 +244,20 @@ fn table_6_3_kernel_rms_ordering() {
                 "{m} {c}: pre-integration / svd1 = {pre}"
             );
             let g = k("guided-k1") / s;
-            if m == "ketchup" && c != "r" {
-                assert!(g > 5.0, "{m} {c}: guided k=1 / svd1 = {g}");
-            } else {
-                assert!((2.0..=3.7).contains(&g), "{m} {c}: guided k=1 / svd1 = {g}");
-            }
+            assert!(g >= 2.0, "{m} {c}: guided k=1 / svd1 = {g}");
         }
     }
 }
 
 /// Table 6.4: the renormalised rank-1 SVD (Freude's renderer normalises every
 /// kernel) has the largest image error of SVD, pre-integration, guided k = 1
-/// and manual (table A.1) "in most cases": here on 3 of the 5 materials for
-/// both signals, with 17-tap tables and with full factors (the table A.1
-/// manual kernels, tuned by eye for Freude's scenes, are worse on ketchup and
-/// marble). "Pre-integration, guided and manual comparable" reproduces for
-/// pre-integration and guided with full factors (within 2.6x of each other;
-/// with 17-tap tables up to 3.03x, ketchup on shapes) but manual is 1.5 to
-/// 6.3 times pre-integration. On the edge with full factors
-/// pre-integration is exact up to the resampling of its grid to pixels
-/// (Freude 2014, sec. 5.2) and at least 5 times better than guided and manual.
+/// and manual (table A.1) "in most cases": asserted as a majority, 3 of the
+/// 5 materials, for both signals, with 17-tap tables and with full factors.
+/// On the edge with full factors pre-integration is exact up to the
+/// resampling of its grid to pixels (Freude 2014, sec. 5.2): better than
+/// guided and manual on every material. "Pre-integration, guided and manual
+/// comparable" has no number to test: the ratios are in the generated
+/// claims table (pinned by `committed_tables_are_what_the_runs_produce`).
 #[test]
 fn table_6_4_image_space_ranking() {
     let rows = rows("kernels");
@@ -279,22 +276,8 @@ fn table_6_4_image_space_ranking() {
                 assert!(e("svd1") > svd, "{signal} {factor} {m}");
                 if signal == "edge" && factor == "full" {
                     // Exact up to the resampling of the kernel grid to pixels.
-                    assert!(pre < 0.2 * gui.min(man), "{m}: pre-integration {pre}");
-                    continue;
+                    assert!(pre < gui.min(man), "{m}: pre-integration {pre}");
                 }
-                let r = pre.max(gui) / pre.min(gui);
-                // With 17-tap tables the tap table's own error (extent chosen
-                // for the count) is added to the model's: ketchup's narrow
-                // green and blue channels measure up to 3.03x on shapes, so
-                // "comparable" is asserted for the models themselves (full
-                // factors) and only reported for the tap tables.
-                if factor == "full" {
-                    assert!(r < 2.6, "{signal} {factor} {m}: pre {pre} vs guided {gui}");
-                }
-                assert!(
-                    man > 1.5 * pre,
-                    "{signal} {factor} {m}: manual {man} vs pre {pre}"
-                );
             }
             assert!(
                 worst >= 3,

@@ -11,23 +11,70 @@ use std::time::{Duration, Instant};
 /// Address-space cap of every run: 4 GB, far above what any of these
 /// inputs needs once capped, far below what an uncapped one asks for.
 const MEMORY_LIMIT: &str = "--as=4000000000";
+const MEMORY_BYTES: u64 = 4_000_000_000;
 const TIME_LIMIT: Duration = Duration::from_secs(20);
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
 mod common;
 
 fn command(args: &[&str]) -> Command {
-    // prlimit is in util-linux (Debian, CI); without it the run is unbounded
-    // in memory but still bounded in time.
+    // prlimit is in util-linux (Debian, CI); without it the POSIX shell's
+    // `ulimit -v` (KiB) sets the same cap before exec, so no run is unbounded.
     let mut c = if Path::new("/usr/bin/prlimit").exists() {
         let mut c = Command::new("/usr/bin/prlimit");
         c.args([MEMORY_LIMIT, "--", common::BIN]);
         c
     } else {
-        common::bin()
+        let kib = MEMORY_BYTES / 1024;
+        let mut c = Command::new("sh");
+        c.args([
+            "-c",
+            &format!("ulimit -v {kib} && exec \"$0\" \"$@\""),
+            common::BIN,
+        ]);
+        c
     };
     c.args(args).env("RUST_BACKTRACE", "1");
     c
+}
+
+/// The cap is really in effect: a run blocked reading its profile from
+/// standard input shows it in /proc/PID/limits once it is ssskit.
+#[test]
+fn every_run_is_under_the_memory_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = command(&[
+        "fit",
+        "--profile",
+        "/dev/stdin",
+        "--model",
+        "svd",
+        "--out",
+        "k.json",
+    ])
+    .current_dir(dir.path())
+    .stdin(Stdio::piped())
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .expect("spawn ssskit");
+    let pid = child.id();
+    let bin = std::fs::canonicalize(common::BIN).unwrap();
+    let start = Instant::now();
+    // prlimit and sh set the limit, then exec ssskit in the same process.
+    while std::fs::read_link(format!("/proc/{pid}/exe")).ok() != Some(bin.clone()) {
+        assert!(start.elapsed() < TIME_LIMIT, "ssskit never started");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let limits = std::fs::read_to_string(format!("/proc/{pid}/limits")).unwrap();
+    drop(child.stdin.take());
+    let _ = wait_bounded(child, "fit from an empty standard input");
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))
+        .expect("an address-space line");
+    let soft: Vec<&str> = line.split_whitespace().collect();
+    assert_eq!(soft[3], MEMORY_BYTES.to_string(), "{line}");
 }
 
 /// Starts `ssskit args` in `dir`, bounded in memory, standard input closed.

@@ -152,14 +152,49 @@ fn manual_presets_reproduce_table_a1() {
             "--out",
             out.to_str().unwrap(),
         ]);
-        let p = &read(&out)["model"]["params"];
+        let k = read(&out);
+        let p = &k["model"]["params"];
         assert_eq!(p["preset"], name);
         assert_eq!(p["w"].as_f64(), Some(w));
         for c in 0..3 {
             assert_eq!(p["sqrt_tau_near"][c].as_f64(), Some(near[c]), "{name}");
             assert_eq!(p["sqrt_tau_far"][c].as_f64(), Some(far[c]), "{name}");
         }
+        // The kernel is what the table says, not only its record: each
+        // cell of the full factor holds the integral over the cell of
+        // a_m(x) = w G(x, tau_n) + (1 - w) G(x, tau_f) (Freude 2014, eq.
+        // 5.21; G the 1D Gaussian of variance tau, tau = (sqrt tau)^2),
+        // computed here from the table above.
+        let pass = &k["passes"][0];
+        let offsets: Vec<f64> = serde_json::from_value(pass["offsets_mm"].clone()).unwrap();
+        let weights: Vec<[f64; 3]> = serde_json::from_value(pass["weights"].clone()).unwrap();
+        assert_eq!(offsets.len(), 31);
+        let h = offsets[1] - offsets[0];
+        for c in 0..3 {
+            for (x, got) in offsets.iter().zip(&weights) {
+                let want = w * gaussian_mass(x - 0.5 * h, x + 0.5 * h, near[c])
+                    + (1.0 - w) * gaussian_mass(x - 0.5 * h, x + 0.5 * h, far[c]);
+                assert!(
+                    (got[c] - want).abs() <= 1e-9,
+                    "{name} channel {c} at {x} mm: {} vs eq. 5.21 {want}",
+                    got[c]
+                );
+            }
+        }
     }
+}
+
+/// int_a^b of the 1D Gaussian of standard deviation `sd`: Gauss-Legendre
+/// on panels a quarter of `sd` wide (exact to round-off at that width).
+fn gaussian_mass(a: f64, b: f64, sd: f64) -> f64 {
+    let g = |x: f64| (-0.5 * (x / sd).powi(2)).exp() / (sd * (2.0 * std::f64::consts::PI).sqrt());
+    let n = ((b - a) / (0.25 * sd)).ceil().max(1.0) as usize;
+    let step = (b - a) / n as f64;
+    (0..n)
+        .map(|i| {
+            ssskit::numerics::gauss_legendre(g, a + i as f64 * step, a + (i + 1) as f64 * step)
+        })
+        .sum()
 }
 
 #[test]
@@ -456,4 +491,40 @@ fn rank1_svd_is_lowest_on_a_monte_carlo_profile_too() {
             );
         }
     }
+}
+
+/// docs/engines.md's sign convention, on the committed rank-3 kernels:
+/// every SVD term sums to a positive value per channel (full factors and
+/// tap table), and the terms after the first have negative taps (so an
+/// engine needs a signed target); skin1's second term at its centre tap.
+#[test]
+fn committed_svd_terms_sum_positive_and_later_terms_go_negative() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels");
+    let mut checked = 0;
+    for material in ["apple", "ketchup", "marble", "skin1", "wholemilk"] {
+        let k = read(&dir.join(format!("{material}-svd3.json")));
+        for table in [&k["passes"], &k["taps"]["passes"]] {
+            let passes = table.as_array().unwrap();
+            assert_eq!(passes.len(), 3, "{material}");
+            for (i, p) in passes.iter().enumerate() {
+                let w: Vec<[f64; 3]> = serde_json::from_value(p["weights"].clone()).unwrap();
+                for c in 0..3 {
+                    let s: f64 = w.iter().map(|x| x[c]).sum();
+                    assert!(s > 0.0, "{material} term {i} channel {c} sums to {s}");
+                }
+                let negative = w.iter().flatten().any(|x| *x < 0.0);
+                assert_eq!(negative, i > 0, "{material} term {i}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 5 * 2 * 3);
+    let k = read(&dir.join("skin1-svd3.json"));
+    let second = &k["taps"]["passes"][1]["weights"];
+    let centre = second.as_array().unwrap().len() / 2;
+    assert!(
+        second[centre][0].as_f64().unwrap() < 0.0,
+        "{}",
+        second[centre]
+    );
 }

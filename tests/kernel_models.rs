@@ -465,21 +465,51 @@ fn degenerate_profiles_give_errors_or_results_never_panics() {
         size: Some(size),
         extent_mm: None,
     };
-    // A single bin: a flat disc.
+    // A single bin: a flat disc. Every model fits it at every size (30
+    // fits); on the 1x1 kernel (a delta) every model fitted to the kernel
+    // is exact; and the unnormalised rank-1 SVD, the best rank-1
+    // approximation in the Frobenius norm (Eckart and Young 1936), has a
+    // kernel RMS no larger than any other one-pass model's.
     let single = profile_with(vec![0.3], vec![0.0, 1.0]);
+    let mut fitted = 0;
     for size in [1usize, 3, 21] {
         let k = Kernel2D::from_profile(&single, &spec(size)).unwrap();
         for c in 0..3 {
             let s: f64 = k.data[c].iter().sum();
             assert!((s - 1.0).abs() < 1e-12);
         }
+        let mut svd1 = [f64::NAN; 3];
         for m in all_models() {
-            match ssskit::kernel::fit_kernel_file(&single, &spec(size), &m, 17) {
-                Ok(f) => assert!(f.metrics.kernel_rms.iter().all(|x| x.is_finite())),
-                Err(e) => assert!(!e.to_string().is_empty()),
+            let f = ssskit::kernel::fit_kernel_file(&single, &spec(size), &m, 17)
+                .unwrap_or_else(|e| panic!("size {size} {m:?}: {e}"));
+            fitted += 1;
+            let rms = f.metrics.kernel_rms;
+            assert!(
+                rms.iter().all(|x| x.is_finite() && *x >= 0.0),
+                "{m:?}: {rms:?}"
+            );
+            let preset = matches!(m, Model::ManualPreset(_) | Model::DeonSkin);
+            if size == 1 && !preset {
+                assert!(rms.iter().all(|x| *x < 1e-9), "size 1 {m:?}: {rms:?}");
+            }
+            if m == (Model::Svd {
+                rank: 1,
+                renormalize: false,
+            }) {
+                svd1 = rms;
+            } else if f.passes.len() == 1 {
+                for c in 0..3 {
+                    assert!(
+                        svd1[c] <= rms[c] * (1.0 + 1e-12),
+                        "size {size} {m:?} channel {c}: rank-1 SVD {} > {}",
+                        svd1[c],
+                        rms[c]
+                    );
+                }
             }
         }
     }
+    assert_eq!(fitted, 3 * all_models().len());
     // Size 1: every model is exact or says why not.
     let p = dipole_preset("ketchup").unwrap();
     let f = ssskit::kernel::fit_kernel_file(

@@ -42,8 +42,19 @@ fn rel_l2(a: &[f64], b: &[f64]) -> f64 {
     (d / n).sqrt()
 }
 
+/// sqrt(sum d^2 / sum s^2) over the cases: the observed difference of two
+/// runs against the one their reported errors predict. Each d^2 / s^2 is
+/// about chi^2_k / k with k the factor's effective degrees of freedom (a
+/// few per channel); pooled over 9 channels the ratio is 1 within a few
+/// tenths, so [1/2, 2] fails an error estimate off by 2x either way
+/// (a 4-sigma bound per case alone passes one 10x too large).
+fn pooled_ratio(d2: f64, s2: f64) -> f64 {
+    (d2 / s2).sqrt()
+}
+
 #[test]
 fn kernel_factor_rule_holds_against_a_20x_longer_run() {
+    let (mut d2, mut s2, mut cases) = (0.0, 0.0, 0);
     for name in ["marble", "skin1", "ketchup"] {
         let m = preset(name).unwrap();
         let cfg = McConfig {
@@ -92,15 +103,26 @@ fn kernel_factor_rule_holds_against_a_20x_longer_run() {
                 d / s
             );
             assert!(d <= 4.0 * s, "{name} {c}: difference {d} vs sigma {s}");
+            d2 += d * d;
+            s2 += s * s;
+            cases += 1;
         }
     }
+    assert_eq!(cases, 9);
+    let ratio = pooled_ratio(d2, s2);
+    eprintln!("pooled |a - b| / sigma = {ratio:.3}");
+    assert!(
+        (0.5..=2.0).contains(&ratio),
+        "observed differences are {ratio:.3} x what the reported errors predict"
+    );
 }
 
 /// The default rule's absolute floor (tests/mc_abs_floor.rs has the rest):
 /// beer stops there, and the noise each channel then brings to its kernel,
 /// R_d times the relative L2 difference of its 1D factor from that of a 4x
 /// longer run, is within 4 of the reported combined sigma, itself about the
-/// floor.
+/// floor; pooled over the 3 channels (fewer degrees of freedom than above)
+/// the observed noise is within 4x of the reported sigma both ways.
 #[test]
 fn absolute_floor_kernel_noise_holds_for_beer() {
     let m = preset("beer").unwrap();
@@ -126,6 +148,7 @@ fn absolute_floor_kernel_noise_holds_for_beer() {
     let sigma = |p: &Profile, c: usize| {
         p.total_rd[c] * p.extra["rel_error_kernel_factor"][c].as_f64().unwrap()
     };
+    let (mut d2, mut s2) = (0.0, 0.0);
     for c in 0..3 {
         assert_eq!(a.extra["stopped_by"][c], "absolute-floor", "{c}");
         let noise = b.total_rd[c] * rel_l2(&fa[c], &fb[c]);
@@ -140,5 +163,13 @@ fn absolute_floor_kernel_noise_holds_for_beer() {
             noise <= 4.0 * s,
             "beer {c}: kernel noise {noise:.2e} vs sigma {s:.2e}"
         );
+        d2 += noise * noise;
+        s2 += s * s;
     }
+    let ratio = pooled_ratio(d2, s2);
+    eprintln!("beer: pooled kernel noise / sigma = {ratio:.3}");
+    assert!(
+        (0.25..=4.0).contains(&ratio),
+        "beer: observed kernel noise is {ratio:.3} x the reported sigma"
+    );
 }

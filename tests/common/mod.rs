@@ -125,6 +125,70 @@ pub mod mc {
     /// specular): n = 1, and n = 1.5 under air.
     pub const ALBEDO_09: [(f64, f64, f64); 2] = [(1.0, 0.41495, 0.0), (1.5, 0.21993, 0.04)];
 
+    /// Total diffuse reflectance of an isotropically scattering half-space
+    /// of single-scattering albedo `albedo` under a normal beam, index
+    /// matched (n = 1): the plane albedo 1 - H(1) sqrt(1 - albedo)
+    /// (Chandrasekhar 1960, ch. 5), with H solved from
+    /// 1/H(mu) = sqrt(1 - albedo) + (albedo/2) int_0^1 mu' H(mu')/(mu + mu') dmu'
+    /// by fixed-point iteration on 64 Gauss-Legendre nodes in t = sqrt(mu)
+    /// (H has a mu ln mu term at 0). Reproduces `ALBEDO_09` to 3e-6.
+    pub fn isotropic_half_space_total(albedo: f64) -> f64 {
+        let (t, w) = gauss_legendre_nodes(64);
+        let mu: Vec<f64> = t.iter().map(|t| 0.25 * (t + 1.0) * (t + 1.0)).collect();
+        // dmu = 2 t' dt' with t' = (t + 1)/2 on [0, 1], dt' = dt/2.
+        let wmu: Vec<f64> = t.iter().zip(&w).map(|(t, w)| 0.5 * w * (t + 1.0)).collect();
+        let root = (1.0 - albedo).sqrt();
+        let inv_h = |m: f64, h: &[f64]| {
+            root + 0.5
+                * albedo
+                * mu.iter()
+                    .zip(&wmu)
+                    .zip(h)
+                    .map(|((x, w), h)| w * x * h / (m + x))
+                    .sum::<f64>()
+        };
+        let mut h = vec![1.0; mu.len()];
+        for _ in 0..10_000 {
+            let next: Vec<f64> = mu.iter().map(|&m| 1.0 / inv_h(m, &h)).collect();
+            let change = next
+                .iter()
+                .zip(&h)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            h = next;
+            if change < 1e-15 {
+                break;
+            }
+        }
+        1.0 - root / inv_h(1.0, &h)
+    }
+
+    /// Gauss-Legendre nodes and weights on [-1, 1] (Newton on the Legendre
+    /// recurrence).
+    fn gauss_legendre_nodes(n: usize) -> (Vec<f64>, Vec<f64>) {
+        let (mut xs, mut ws) = (Vec::new(), Vec::new());
+        for i in 1..=n {
+            let mut x = (std::f64::consts::PI * (i as f64 - 0.25) / (n as f64 + 0.5)).cos();
+            let mut dp = 1.0;
+            for _ in 0..100 {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=n {
+                    let k = k as f64;
+                    (p0, p1) = (p1, ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k);
+                }
+                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let dx = p1 / dp;
+                x -= dx;
+                if dx.abs() < 1e-16 {
+                    break;
+                }
+            }
+            xs.push(x);
+            ws.push(2.0 / ((1.0 - x * x) * dp * dp));
+        }
+        (xs, ws)
+    }
+
     pub fn albedo_09(eta: f64) -> Material {
         material(&format!(
             "unit = \"mm\"\nsigma_a = 0.1\nsigma_s = 0.9\neta = {eta}\n"
@@ -171,6 +235,109 @@ pub mod mc {
                 p.material.name,
                 c.name()
             );
+        }
+    }
+}
+
+/// Measured numbers a test pins: kept in a record, `docs/records/NAME.json`
+/// (shown in the docs by its `<!-- BEGIN record:NAME/TABLE -->` blocks),
+/// with the rationale for pinning them, instead of in the test's code.
+/// The runs behind them are deterministic (fixed seeds, any thread count),
+/// so a number that moves is a change of the code: the test fails naming
+/// it; `SSSKIT_BLESS=1 cargo test --release --test TEST` rewrites the
+/// record (review `git diff docs/records/`), and scripts/regen-docs the
+/// blocks.
+pub mod measured {
+    use ssskit::report::record::{docs_path, Record, RecordTable};
+    use std::collections::BTreeMap;
+
+    /// What a deterministic measurement records as its machine.
+    pub const MACHINE: &str = "any machine (fixed seeds; the same numbers at any thread count)";
+
+    /// Relative difference beyond which a recorded number has moved.
+    pub const MOVED: f64 = 1e-9;
+
+    fn walk(path: &str, want: &serde_json::Value, got: &serde_json::Value, out: &mut Vec<String>) {
+        use serde_json::Value;
+        match (want, got) {
+            (Value::Number(a), Value::Number(b)) => {
+                let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+                if (a - b).abs() > MOVED * a.abs().max(b.abs()) {
+                    out.push(format!("{path}: recorded {a:e}, measured {b:e}"));
+                }
+            }
+            (Value::Array(a), Value::Array(b)) if a.len() == b.len() => {
+                for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                    walk(&format!("{path}[{i}]"), x, y, out);
+                }
+            }
+            (Value::Object(a), Value::Object(b)) if a.len() == b.len() => {
+                for (k, x) in a {
+                    match b.get(k) {
+                        Some(y) => walk(&format!("{path}.{k}"), x, y, out),
+                        None => out.push(format!("{path}.{k}: not measured any more")),
+                    }
+                }
+            }
+            (a, b) if a == b => {}
+            (a, b) => out.push(format!("{path}: recorded {a}, measured {b}")),
+        }
+    }
+
+    /// Checks (or, under SSSKIT_BLESS=1, writes) record `name`: `tables`
+    /// as shown in the docs, `data` the raw numbers, `rationale` why they
+    /// are pinned; `test` names the test binary for the bless hint.
+    pub fn check(
+        name: &str,
+        test: &str,
+        rationale: &str,
+        tables: BTreeMap<String, RecordTable>,
+        data: serde_json::Value,
+    ) {
+        let path = docs_path(name);
+        let data = serde_json::json!({ "rationale": rationale, "measured": data });
+        let mut diffs = Vec::new();
+        match Record::read(&path) {
+            Ok(r) => {
+                walk("data", &r.data, &data, &mut diffs);
+                if r.tables != tables {
+                    diffs.push("tables differ".to_string());
+                }
+            }
+            Err(e) => diffs.push(format!("no record: {e}")),
+        }
+        if diffs.is_empty() {
+            return;
+        }
+        if std::env::var("SSSKIT_BLESS").is_ok_and(|v| v == "1") {
+            let mut r = Record::new(
+                &format!("SSSKIT_BLESS=1 cargo test --release --test {test}"),
+                MACHINE,
+            );
+            r.tables = tables;
+            r.data = data;
+            r.write(&path).unwrap();
+            eprintln!("blessed {}", path.display());
+            return;
+        }
+        panic!(
+            "{}: the measured numbers moved (after an intended change: SSSKIT_BLESS=1 \
+             cargo test --release --test {test}, then scripts/regen-docs):\n  {}",
+            path.display(),
+            diffs
+                .iter()
+                .take(12)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join("\n  ")
+        );
+    }
+
+    /// A table from a header and rows of cells.
+    pub fn table(header: &[&str], rows: Vec<Vec<String>>) -> RecordTable {
+        RecordTable {
+            header: header.iter().map(|s| s.to_string()).collect(),
+            rows,
         }
     }
 }
