@@ -103,7 +103,7 @@ fn apply_case(name: &str, golden: &str, signal: &str, flags: &[&str], threshold:
     common::ok(&[
         "signal",
         signal,
-        "--size",
+        "--image-size",
         "64x48",
         "--mm-per-pixel",
         "0.1",
@@ -205,7 +205,7 @@ fn apply_perspective_depth_aware_cpu() {
         "DEPTH",
         "--fov-y",
         "30",
-        "--sss-width",
+        "--units-per-mm",
         "1",
         "--follow-surface",
         "300",
