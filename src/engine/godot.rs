@@ -157,11 +157,27 @@ pub fn step_scene_units(s: &Settings, cam: &Camera) -> f64 {
     step_uv(s, cam) * cam.screen_width()
 }
 
+/// Scene units per offset unit per unit of strength on the horizontal
+/// pass at depth_scale 1: 2/3 for every camera (`step_scene_units`,
+/// evaluated for one).
+fn step_per_strength() -> f64 {
+    let exact = Settings {
+        strength: 1.0,
+        scale: DEFAULT_SCALE,
+        depth_scale: 1.0,
+    };
+    step_scene_units(&exact, &Camera::perspective(std::f64::consts::FRAC_PI_2, 1.0))
+}
+
 /// The strength that makes the kernel `width` scene units per offset unit
-/// at depth_scale 1, where `step_scene_units` is 2 strength / 3 for every
-/// camera.
+/// at depth_scale 1: 1.5 width.
 pub fn strength_for_width(width: f64) -> f64 {
-    1.5 * width
+    width / step_per_strength()
+}
+
+/// The horizontal pass's scene units per offset unit at depth_scale 1.
+pub fn width_for_strength(strength: f64) -> f64 {
+    strength * step_per_strength()
 }
 
 /// Scene units per offset unit on the vertical pass: the same texture
@@ -251,7 +267,7 @@ pub fn strength_warning(strength: f64) -> Option<String> {
              stops at every neighbour (abs(alpha) < {MIN_STRENGTH}): Godot cannot blur this \
              narrow in these scene units; its narrowest kernel is {:.6} scene units per offset \
              unit",
-            MIN_STRENGTH / 1.5
+            width_for_strength(MIN_STRENGTH)
         ))
     } else if strength < INSPECTOR_STEP {
         Some(format!(
@@ -331,7 +347,7 @@ pub fn godot_from_params(p: &Map<String, Value>, scene: Scene) -> Result<Godot> 
             "only 1 gives a width in the scene; below 1 it depends on the camera's distance",
         ));
     }
-    let w = number(p, "subsurf_scatter_strength")? / (1.5 * scene.units_per_mm);
+    let w = width_for_strength(number(p, "subsurf_scatter_strength")?) / scene.units_per_mm;
     let stated = number(p, "kernel_width_mm")?;
     if (w - stated).abs() > 1e-9 * stated.abs() {
         return Err(Error::invalid(
@@ -417,7 +433,7 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
     if let Some(typed) = inspector_strength(strength) {
         if typed != strength {
             let moved = Godot {
-                mm_per_unit: typed / (1.5 * scene.units_per_mm),
+                mm_per_unit: width_for_strength(typed) / scene.units_per_mm,
                 ..k
             };
             let (_, e) = shape_of(&moved.separable()?)?;

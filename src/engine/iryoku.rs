@@ -60,10 +60,21 @@ pub fn horizontal_step(sss_width: f64, fov_y: f64, depth: f64, aspect: f64) -> f
     aspect * vertical_step(sss_width, fov_y, depth)
 }
 
+/// Scene units per offset unit per unit of sssWidth on the vertical pass:
+/// 2/3 for every camera (`vertical_step`, evaluated at one).
+fn step_per_width() -> f64 {
+    vertical_step(1.0, 1.0, 1.0)
+}
+
 /// sssWidth that makes the vertical pass step `mm_per_unit` mm per offset
-/// unit (`vertical_step` = 2 sssWidth / 3 for every camera).
+/// unit: 1.5 mm_per_unit u.
 pub fn sss_width_for(mm_per_unit: f64, scene: Scene) -> f64 {
-    1.5 * mm_per_unit * scene.units_per_mm
+    mm_per_unit * scene.units_per_mm / step_per_width()
+}
+
+/// The vertical pass's mm per offset unit for `sss_width`.
+pub fn mm_per_unit(sss_width: f64, scene: Scene) -> f64 {
+    sss_width * step_per_width() / scene.units_per_mm
 }
 
 /// iryoku's values: what SeparableSSS takes.
@@ -158,7 +169,7 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Separable> {
     }
     Iryoku {
         samples: samples as usize,
-        mm_per_unit: number(p, "sssWidth")? / (1.5 * scene.units_per_mm),
+        mm_per_unit: mm_per_unit(number(p, "sssWidth")?, scene),
         strength: triple(p, "strength")?,
         falloff: triple(p, "falloff")?,
         albedo: triple(p, "albedo")?,
