@@ -90,7 +90,14 @@ fn godot_table(t: &[[f64; 2]], mm: f64) -> Vec<(f64, [f64; 3])> {
 /// unit_size = x / w of Projection::xform4(Plane(1, 0, -1, 1))
 /// (SSEffects::sub_surface_scattering), cot(fov_x / 2) for a perspective
 /// projection of vertical field of view fov_y and aspect a: cot(fov_y / 2) / a.
-fn horizontal_scene_units(strength: f64, scale: f64, depth_scale: f64, fovy_deg: f64, aspect: f64, depth: f64) -> f64 {
+fn horizontal_scene_units(
+    strength: f64,
+    scale: f64,
+    depth_scale: f64,
+    fovy_deg: f64,
+    aspect: f64,
+    depth: f64,
+) -> f64 {
     let unit_size = 1.0 / (0.5 * fovy_deg.to_radians()).tan() / aspect;
     let mixed = scale + (unit_size / depth - scale) * depth_scale;
     mixed * strength / 3.0 * 2.0 * depth / unit_size
@@ -103,7 +110,10 @@ fn printed_values_render_the_reported_error() {
         let json = engine_json(m, "godot");
         let params = json["params"].as_object().unwrap();
         assert!(json["version"].as_str().unwrap().contains("Godot 4"));
-        assert!(json["error_for"].as_str().unwrap().contains("horizontal pass"));
+        assert!(json["error_for"]
+            .as_str()
+            .unwrap()
+            .contains("horizontal pass"));
         assert_eq!(params["subsurface_scattering_depth_scale"], 1.0);
         let quality = params["subsurface_scattering_quality"].as_str().unwrap();
         let t = table_for(quality);
@@ -122,8 +132,8 @@ fn printed_values_render_the_reported_error() {
         assert!((mm - stated).abs() < 1e-9 * mm, "{m}: {mm} vs {stated}");
         let albedo = rgb(&params["albedo"]);
         let reference = reference(m);
-        for c in 0..3 {
-            assert!((albedo[c] - reference.total_rd[c]).abs() < 1e-12);
+        for (a, t) in albedo.iter().zip(&reference.total_rd) {
+            assert!((a - t).abs() < 1e-12);
         }
         check_reported(m, &json, &godot_table(t, mm), albedo, &reference);
     }
@@ -133,7 +143,11 @@ fn printed_values_render_the_reported_error() {
 /// width, for every quality.
 #[test]
 fn the_kernel_is_the_shader_table() {
-    for (samples, t) in [(11, &GODOT_11[..]), (17, &GODOT_17[..]), (25, &GODOT_25[..])] {
+    for (samples, t) in [
+        (11, &GODOT_11[..]),
+        (17, &GODOT_17[..]),
+        (25, &GODOT_25[..]),
+    ] {
         let k = godot::Godot {
             samples,
             mm_per_unit: 1.7,
@@ -144,14 +158,15 @@ fn the_kernel_is_the_shader_table() {
         let want = godot_table(t, 1.7);
         assert_eq!(k.taps.offsets_mm.len(), want.len());
         for (i, (o, w)) in want.iter().enumerate() {
-            assert!((k.taps.offsets_mm[i] - o).abs() < 1e-5, "{samples}: tap {i}");
-            for c in 0..3 {
+            assert!(
+                (k.taps.offsets_mm[i] - o).abs() < 1e-5,
+                "{samples}: tap {i}"
+            );
+            for (got, want) in k.taps.weights[i].iter().zip(w) {
                 // Printed to 6 significant digits.
                 assert!(
-                    (k.taps.weights[i][c] - w[c]).abs() < 1e-5 * w[c],
-                    "{samples} tap {i}: {} vs {}",
-                    k.taps.weights[i][c],
-                    w[c]
+                    (got - want).abs() < 1e-5 * want,
+                    "{samples} tap {i}: {got} vs {want}"
                 );
             }
         }
@@ -227,17 +242,24 @@ fn written(mm: f64, units_per_mm: f64) -> serde_json::Map<String, serde_json::Va
 #[test]
 fn godot_strength_outside_the_inspector_is_flagged() {
     // A scene in mm: w = 2 mm gives 1.5 x 2 x 1 = 3, above the range.
-    let s = written(2.0, 1.0)["subsurf_scatter_strength"].as_f64().unwrap();
+    let s = written(2.0, 1.0)["subsurf_scatter_strength"]
+        .as_f64()
+        .unwrap();
     assert!((s - 3.0).abs() < 1e-12);
     let w = godot::strength_warning(s).unwrap();
     assert!(w.contains("above the inspector's range [0, 1]"), "{w}");
     // Metres, w = 0.5 mm: 0.00075 < 0.001, do_filter blurs nothing.
-    let s = written(0.5, 0.001)["subsurf_scatter_strength"].as_f64().unwrap();
+    let s = written(0.5, 0.001)["subsurf_scatter_strength"]
+        .as_f64()
+        .unwrap();
     assert!((s - 0.00075).abs() < 1e-15);
     assert!(godot::strength_warning(s).unwrap().contains("below 0.001"));
     // Metres, w = 2 mm: 0.003, rounded to 0.00 by the inspector.
     let w = godot::strength_warning(0.003).unwrap();
-    assert!(w.contains("below the inspector's step 0.01, which rounds it to 0.00"), "{w}");
+    assert!(
+        w.contains("below the inspector's step 0.01, which rounds it to 0.00"),
+        "{w}"
+    );
     // Metres, w = 401 mm: 0.6015, which the inspector takes as 0.60.
     assert!(godot::strength_warning(0.6015).is_none());
     assert!((godot::inspector_strength(0.6015).unwrap() - 0.6).abs() < 1e-12);
@@ -247,12 +269,24 @@ fn godot_strength_outside_the_inspector_is_flagged() {
     let json = engine_json("skin1", "godot");
     let s = json["params"]["subsurf_scatter_strength"].as_f64().unwrap();
     let warnings = json["warnings"].as_array().unwrap();
-    assert_eq!(s < 0.01, warnings.iter().any(|w| w.as_str().unwrap().contains("inspector's step")));
+    assert_eq!(
+        s < 0.01,
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("inspector's step"))
+    );
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cm.json");
     ok(&[
-        "engine", "--profile", "profiles/reference/skin1.json", "--engine", "godot",
-        "--units-per-mm", "0.1", "--out", p(&out),
+        "engine",
+        "--profile",
+        "profiles/reference/skin1.json",
+        "--engine",
+        "godot",
+        "--units-per-mm",
+        "0.1",
+        "--out",
+        p(&out),
     ]);
     let cm = read_json(&out);
     let s = cm["params"]["subsurf_scatter_strength"].as_f64().unwrap();
@@ -278,7 +312,11 @@ fn godot_params_that_do_not_fix_a_width_are_refused() {
         let e = godot::from_params(&bad, scene).unwrap_err().to_string();
         assert!(e.contains(key) && e.contains(needle), "{e}");
     };
-    refused("kernel_width_mm", serde_json::json!(3.0), "subsurf_scatter_strength");
+    refused(
+        "kernel_width_mm",
+        serde_json::json!(3.0),
+        "subsurf_scatter_strength",
+    );
     refused(
         "subsurface_scattering_depth_scale",
         serde_json::json!(0.01),

@@ -25,7 +25,11 @@ fn vertical_scene_units(sss_width: f64, fovy_deg: f64, depth: f64) -> f64 {
 /// The horizontal pass (dir (1, 0)) steps the same texture distance over
 /// the screen's width, `aspect` times its height.
 fn horizontal_scene_units(sss_width: f64, fovy_deg: f64, depth: f64, aspect: f64) -> f64 {
-    final_step(sss_width, fovy_deg, depth) * aspect * 2.0 * depth * (0.5 * fovy_deg.to_radians()).tan()
+    final_step(sss_width, fovy_deg, depth)
+        * aspect
+        * 2.0
+        * depth
+        * (0.5 * fovy_deg.to_radians()).tan()
 }
 
 #[test]
@@ -43,7 +47,10 @@ fn printed_values_render_the_reported_error() {
             "{m}"
         );
         assert!(json["version"].as_str().unwrap().contains("b2174689"));
-        assert!(json["error_for"].as_str().unwrap().contains("vertical pass"));
+        assert!(json["error_for"]
+            .as_str()
+            .unwrap()
+            .contains("vertical pass"));
         assert!(json["requirements"]
             .as_array()
             .unwrap()
@@ -53,7 +60,10 @@ fn printed_values_render_the_reported_error() {
         assert!([11, 17, 25].contains(&n), "{m}: nSamples {n}");
         let (strength, falloff) = (rgb(&params["strength"]), rgb(&params["falloff"]));
         for c in 0..3 {
-            assert!((0.0..=1.0).contains(&strength[c]), "{m} strength {strength:?}");
+            assert!(
+                (0.0..=1.0).contains(&strength[c]),
+                "{m} strength {strength:?}"
+            );
             assert!((0.0..=1.0).contains(&falloff[c]), "{m} falloff {falloff:?}");
         }
         let sss_width = params["sssWidth"].as_f64().unwrap();

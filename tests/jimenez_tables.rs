@@ -104,10 +104,21 @@ fn fitted_table(extra: &[&str]) -> Vec<(f64, [f64; 3])> {
 }
 
 /// Same taps (offsets to `offset_tol` mm), weights to `rel` of each weight.
-fn assert_tables(what: &str, got: &[(f64, [f64; 3])], want: &[(f64, [f64; 3])], offset_tol: f64, rel: f64) {
+fn assert_tables(
+    what: &str,
+    got: &[(f64, [f64; 3])],
+    want: &[(f64, [f64; 3])],
+    offset_tol: f64,
+    rel: f64,
+) {
     assert_eq!(got.len(), want.len(), "{what}");
     for (i, (g, w)) in got.iter().zip(want).enumerate() {
-        assert!((g.0 - w.0).abs() <= offset_tol, "{what} tap {i}: offset {} vs {}", g.0, w.0);
+        assert!(
+            (g.0 - w.0).abs() <= offset_tol,
+            "{what} tap {i}: offset {} vs {}",
+            g.0,
+            w.0
+        );
         for c in 0..3 {
             assert!(
                 (g.1[c] - w.1[c]).abs() <= rel * w.1[c].abs(),
@@ -183,8 +194,16 @@ fn other_parameters_follow_calculate_kernel() {
         assert_tables(&format!("{n} taps"), &got, &want, 1e-12, 1e-12);
         // A wider span moves the taps out and samples the profile there.
         let wide = fitted_table(&[
-            "--width", "2.5", "--tap-extent", "9", "--taps", &taps, "--strength", "0.2,0.9,1",
-            "--falloff", "0.5,0.1,0.8",
+            "--width",
+            "2.5",
+            "--tap-extent",
+            "9",
+            "--taps",
+            &taps,
+            "--strength",
+            "0.2,0.9,1",
+            "--falloff",
+            "0.5,0.1,0.8",
         ]);
         assert!((wide[n - 1].0 - 9.0).abs() < 1e-12);
         assert!(wide[n / 2].1[0] > got[n / 2].1[0]);

@@ -93,7 +93,8 @@ pub struct Args {
     #[arg(long, default_value_t = 17)]
     taps: usize,
     /// Half-width in mm the taps span; default: chosen for the tap count
-    /// (the radius holding 1 - 0.7 taps^-1.2 of the factor's mass).
+    /// (the radius holding 1 - 0.7 taps^-1.2 of the factor's mass; jimenez:
+    /// iryoku's span, RANGE x width, RANGE 2 below 21 taps and 3 from 21).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     tap_extent: Option<f64>,
     /// Print the tap table as a shader constant array.
@@ -145,15 +146,30 @@ pub struct ModelOpts {
     /// gaussians: number of 2D Gaussians.
     #[arg(long, default_value_t = 4)]
     count: usize,
-    /// jimenez: width scale (w = 1: d'Eon's skin profile in mm).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    /// jimenez: mm per unit of the kernel's offsets (w = 1: d'Eon's skin
+    /// profile in mm, iryoku's table in its offset units).
+    #[arg(long, default_value_t = JimenezParams::default().width, allow_negative_numbers = true)]
     width: f64,
-    /// jimenez: strength t per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "0.48,0.41,0.28", value_parser = rgb)]
-    strength: [f64; 3],
-    /// jimenez: falloff f per channel, "R,G,B".
-    #[arg(long, value_name = "R,G,B", default_value = "1.0,0.37,0.3", value_parser = rgb)]
-    falloff: [f64; 3],
+    /// jimenez: strength t per channel, "R,G,B" (default: iryoku's).
+    #[arg(long, value_name = "R,G,B", default_value_t = Rgb(JimenezParams::default().strength), value_parser = rgb_flag)]
+    strength: Rgb,
+    /// jimenez: falloff f per channel, "R,G,B" (default: iryoku's).
+    #[arg(long, value_name = "R,G,B", default_value_t = Rgb(JimenezParams::default().falloff), value_parser = rgb_flag)]
+    falloff: Rgb,
+}
+
+/// Three numbers, one per channel, written as the flags take them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rgb(pub [f64; 3]);
+
+impl std::fmt::Display for Rgb {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{}", self.0[0], self.0[1], self.0[2])
+    }
+}
+
+fn rgb_flag(s: &str) -> Result<Rgb, String> {
+    rgb(s).map(Rgb)
 }
 
 /// "R,G,B": three numbers, one per channel.
@@ -221,8 +237,8 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
         },
         ModelArg::Jimenez => Model::Jimenez(JimenezParams {
             width: a.opts.width,
-            strength: a.opts.strength,
-            falloff: a.opts.falloff,
+            strength: a.opts.strength.0,
+            falloff: a.opts.falloff.0,
         }),
     })
 }

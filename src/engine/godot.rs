@@ -57,13 +57,12 @@
 //! iryoku has cot(fov_y / 2). The vertical pass steps the same texture
 //! distance over the screen's height, 1 / aspect of that in the scene.
 
-use super::jimenez::{self as sep, Binned, FitData, Separable, TAP_COUNTS};
-use super::{color, number, table, triple, EngineFit, Model, Scene, Units};
+use super::jimenez::{self as sep, FitData, Separable};
+use super::{color, number, table, triple, EngineFit, Scene, Units};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams};
 use crate::kernel::taps;
 use crate::profile::Profile;
-use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 pub const VERSION: &str = "Godot 4 Forward+ (godotengine/godot 19843743: \
@@ -166,7 +165,10 @@ fn step_per_strength() -> f64 {
         scale: DEFAULT_SCALE,
         depth_scale: 1.0,
     };
-    step_scene_units(&exact, &Camera::perspective(std::f64::consts::FRAC_PI_2, 1.0))
+    step_scene_units(
+        &exact,
+        &Camera::perspective(std::f64::consts::FRAC_PI_2, 1.0),
+    )
 }
 
 /// The strength that makes the kernel `width` scene units per offset unit
@@ -410,24 +412,10 @@ fn requirements(k: &Godot) -> Vec<String> {
 
 /// Fits Godot's width with each quality's table and keeps the best.
 pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
-    let fits: Vec<(Godot, f64)> = TAP_COUNTS
-        .par_iter()
-        .map(|&n| fit_samples(profile, n))
-        .collect::<Result<_>>()?;
-    // The first of the smallest: the same answer whatever the threads.
-    let (k, _) = fits
-        .into_iter()
-        .reduce(|a, b| if b.1 < a.1 { b } else { a })
-        .ok_or_else(|| Error::Unsupported("no tap count to fit".into()))?;
+    let k = sep::best_count(|n| fit_samples(profile, n))?;
     let (params, units) = params(&k, scene);
-    let shape_of = |k: &Separable| -> Result<(Profile, super::FitError)> {
-        let binned: Binned = k.on_grid(&profile.r_edges)?;
-        let model_profile = Model::Separable(binned).profile(profile, "godot");
-        let error = super::error(&model_profile, profile)?;
-        Ok((model_profile, error))
-    };
     // The error of what the engine renders from the values as written.
-    let (model_profile, error) = shape_of(&from_params(&params, scene)?)?;
+    let (model_profile, error) = sep::rendered(&from_params(&params, scene)?, profile, "godot")?;
     let strength = number(&params, "subsurf_scatter_strength")?;
     let mut warnings: Vec<String> = strength_warning(strength).into_iter().collect();
     if let Some(typed) = inspector_strength(strength) {
@@ -436,7 +424,7 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
                 mm_per_unit: width_for_strength(typed) / scene.units_per_mm,
                 ..k
             };
-            let (_, e) = shape_of(&moved.separable()?)?;
+            let (_, e) = sep::rendered(&moved.separable()?, profile, "godot")?;
             let pct = |v: [f64; 3]| v.map(|x| format!("{:.1}%", 100.0 * x)).join(", ");
             warnings.push(format!(
                 "the inspector rounds `subsurf_scatter_strength` to {typed:.2} ({:+.1}% width; \

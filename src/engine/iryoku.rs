@@ -29,13 +29,12 @@
 //! scores the table at that step on both axes. The shader's "kernels range
 //! from -3 to 3" holds for 25 taps; below 21 the table spans +-2 units.
 
-use super::jimenez::{self as sep, Binned, ChannelFit, FitData, Separable, TAP_COUNTS};
-use super::{color, number, table, triple, EngineFit, Model, Scene, Units};
+use super::jimenez::{self as sep, ChannelFit, FitData, Separable};
+use super::{color, number, table, triple, EngineFit, Scene, Units};
 use crate::error::{Error, Result};
-use crate::kernel::jimenez::{tap_table, JimenezParams};
+use crate::kernel::jimenez::{tap_table, JimenezParams, IRYOKU_FALLOFF, IRYOKU_STRENGTH};
 use crate::kernel::taps;
 use crate::profile::Profile;
-use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 pub const VERSION: &str =
@@ -177,6 +176,10 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Separable> {
     .separable()
 }
 
+fn list(v: [f64; 3]) -> String {
+    v.map(|x| x.to_string()).join(", ")
+}
+
 /// What else must hold for the error to apply.
 fn requirements() -> Vec<String> {
     vec![
@@ -190,10 +193,13 @@ fn requirements() -> Vec<String> {
         "the strength source (SSSS_STREGTH_SOURCE, the colour buffer's alpha by default) is 1 \
          on the material: it multiplies the step"
             .into(),
-        "the kernel comes from SeparableSSS::calculateKernel with these strength, falloff and \
-         nSamples (setStrength, setFalloff), not from the preset tables of SeparableSSS.h \
-         (those are the defaults strength 0.48, 0.41, 0.28 and falloff 1, 0.37, 0.3)"
-            .into(),
+        format!(
+            "the kernel comes from SeparableSSS::calculateKernel with these strength, falloff \
+             and nSamples (setStrength, setFalloff), not from the preset tables of \
+             SeparableSSS.h (those are the defaults strength {} and falloff {})",
+            list(IRYOKU_STRENGTH),
+            list(IRYOKU_FALLOFF)
+        ),
     ]
 }
 
@@ -212,20 +218,10 @@ fn warnings(k: &Iryoku) -> Vec<String> {
 
 /// Fits iryoku's kernel with each of its tap counts and keeps the best.
 pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
-    let fits: Vec<(Iryoku, f64)> = TAP_COUNTS
-        .par_iter()
-        .map(|&n| fit_samples(profile, n))
-        .collect::<Result<_>>()?;
-    // The first of the smallest: the same answer whatever the threads.
-    let (k, _) = fits
-        .into_iter()
-        .reduce(|a, b| if b.1 < a.1 { b } else { a })
-        .ok_or_else(|| Error::Unsupported("no tap count to fit".into()))?;
+    let k = sep::best_count(|n| fit_samples(profile, n))?;
     let (params, units) = params(&k, scene);
     // The error of what the engine renders from the values as written.
-    let binned: Binned = from_params(&params, scene)?.on_grid(&profile.r_edges)?;
-    let model_profile = Model::Separable(binned).profile(profile, "iryoku");
-    let error = super::error(&model_profile, profile)?;
+    let (model_profile, error) = sep::rendered(&from_params(&params, scene)?, profile, "iryoku")?;
     Ok(EngineFit {
         engine: "iryoku".into(),
         version: VERSION.into(),

@@ -13,12 +13,13 @@
 //! r R_d(r) over r < r99 (the shape error `profiles compare` reports),
 //! summed over the channels.
 
-use super::{minimise_log, Target};
+use super::{minimise_log, FitError, Model, Target};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{offsets_mm, scattered_weights};
 use crate::kernel::tap_kernel::{radial_bins, SeparableBins};
 use crate::kernel::{taps, Pass};
 use crate::profile::Profile;
+use rayon::prelude::*;
 
 /// The tap counts of the tables iryoku prints and Godot ships.
 pub const TAP_COUNTS: [usize; 3] = [11, 17, 25];
@@ -52,6 +53,31 @@ impl Separable {
             }),
         })
     }
+}
+
+/// The best of the fits with each of [`TAP_COUNTS`] taps: the first of
+/// the smallest cost, the same answer whatever the threads.
+pub(crate) fn best_count<K: Send>(fit: impl Fn(usize) -> Result<(K, f64)> + Sync) -> Result<K> {
+    let fits: Vec<(K, f64)> = TAP_COUNTS
+        .par_iter()
+        .map(|&n| fit(n))
+        .collect::<Result<_>>()?;
+    fits.into_iter()
+        .reduce(|a, b| if b.1 < a.1 { b } else { a })
+        .map(|k| k.0)
+        .ok_or_else(|| Error::Unsupported("no tap count to fit".into()))
+}
+
+/// What `kernel` renders, on `like`'s grid, and its error against `like`.
+pub(crate) fn rendered(
+    kernel: &Separable,
+    like: &Profile,
+    engine: &str,
+) -> Result<(Profile, FitError)> {
+    let binned = kernel.on_grid(&like.r_edges)?;
+    let model_profile = Model::Separable(binned).profile(like, engine);
+    let error = super::error(&model_profile, like)?;
+    Ok((model_profile, error))
 }
 
 /// The profile's least-squares targets on the grid up to the widest r99.
@@ -131,20 +157,15 @@ impl StrengthFit {
     /// From the parts, which vanish past bin `support`, and the target's
     /// y.y.
     fn new(t: &Target, parts: [&[f64]; 3], support: usize, yy: f64) -> StrengthFit {
+        let n = t.bins.min(support);
         let (mut y, mut gram) = ([0.0; 3], [[0.0; 3]; 3]);
-        for i in 0..t.bins.min(support) {
-            let (w, v) = (t.weight[i], t.value[i]);
-            let p = [parts[0][i], parts[1][i], parts[2][i]];
-            for a in 0..3 {
-                y[a] += w * v * p[a];
-                for b in a..3 {
-                    gram[a][b] += w * p[a] * p[b];
+        for (i, (w, v)) in t.weight[..n].iter().zip(&t.value[..n]).enumerate() {
+            let p = parts.map(|q| q[i]);
+            for (a, pa) in p.iter().enumerate() {
+                y[a] += w * v * pa;
+                for (g, pb) in gram[a].iter_mut().zip(&p) {
+                    *g += w * pa * pb;
                 }
-            }
-        }
-        for a in 0..3 {
-            for b in 0..a {
-                gram[a][b] = gram[b][a];
             }
         }
         StrengthFit { y, gram, yy }

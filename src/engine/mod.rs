@@ -185,12 +185,12 @@ pub fn model_from_params(
         Engine::Unreal => Model::Burley(unreal::from_params(params)?),
         Engine::UnityHdrp => Model::Burley(hdrp::from_params(params)?),
         Engine::Blender => Model::Burley(blender::from_params(params, scene)?),
-        Engine::Iryoku => Model::Separable(
-            iryoku::from_params(params, scene)?.on_grid(&profile.r_edges)?,
-        ),
-        Engine::Godot => Model::Separable(
-            godot::from_params(params, scene)?.on_grid(&profile.r_edges)?,
-        ),
+        Engine::Iryoku => {
+            Model::Separable(iryoku::from_params(params, scene)?.on_grid(&profile.r_edges)?)
+        }
+        Engine::Godot => {
+            Model::Separable(godot::from_params(params, scene)?.on_grid(&profile.r_edges)?)
+        }
     };
     Ok(model.profile(profile, engine.name()))
 }

@@ -65,11 +65,7 @@ impl JimenezParams {
                 "each must be in [0, 1]",
             ));
         }
-        if let Some(f) = self
-            .falloff
-            .iter()
-            .find(|f| !(f.is_finite() && **f >= 0.0))
-        {
+        if let Some(f) = self.falloff.iter().find(|f| !(f.is_finite() && **f >= 0.0)) {
             return Err(Error::invalid(
                 "jimenez",
                 "falloff",
@@ -123,7 +119,11 @@ pub fn scattered_weights(offsets_mm: &[f64], width: f64, falloff: f64) -> Vec<f6
         .map(|i| {
             let x = offsets_mm[i];
             let w0 = if i > 0 { x - offsets_mm[i - 1] } else { 0.0 };
-            let w1 = if i + 1 < n { offsets_mm[i + 1] - x } else { 0.0 };
+            let w1 = if i + 1 < n {
+                offsets_mm[i + 1] - x
+            } else {
+                0.0
+            };
             0.5 * (w0.abs() + w1.abs()) * skin_profile(x / width, falloff)
         })
         .collect();

@@ -154,7 +154,13 @@ impl SeparableBins {
             iv.extend((c + 1..n).map(|i| (bounds[i], bounds[i + 1])));
             let of: Vec<usize> = (0..n).map(|i| i.abs_diff(c)).collect();
             let sp: Vec<f64> = (0..n)
-                .map(|i| if i == c { half } else { bounds[i + 1] - bounds[i] })
+                .map(|i| {
+                    if i == c {
+                        half
+                    } else {
+                        bounds[i + 1] - bounds[i]
+                    }
+                })
                 .collect();
             (iv, of, sp)
         } else {

@@ -29,7 +29,15 @@ pub fn engine_json(m: &str, engine: &str) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("e.json");
     let profile = format!("profiles/reference/{m}.json");
-    ok(&["engine", "--profile", &profile, "--engine", engine, "--out", p(&out)]);
+    ok(&[
+        "engine",
+        "--profile",
+        &profile,
+        "--engine",
+        engine,
+        "--out",
+        p(&out),
+    ]);
     read_json(&out)
 }
 
@@ -38,6 +46,8 @@ pub fn engine_json(m: &str, engine: &str) -> serde_json::Value {
 /// SeparableSSS::gaussian and SeparableSSS::profile), in f64: the kernel as
 /// the shader receives it, centre tap first, (r, g, b, offset in offset
 /// units).
+// The loops and the 3.14 are the C++ code's.
+#[allow(clippy::needless_range_loop, clippy::approx_constant)]
 pub fn calculate_kernel(n: usize, strength: [f64; 3], falloff: [f64; 3]) -> Vec<[f64; 4]> {
     let gaussian = |variance: f64, r: f64, c: usize| {
         let rr = r / (0.001 + falloff[c]);
@@ -166,8 +176,8 @@ pub fn rendered_bins(table: &[(f64, [f64; 3])], edges: &[f64]) -> [Vec<f64>; 3] 
                 } else {
                     area_in_disc(x0, x1, y0, y1, edges[k + 1], 400)
                 };
-                for c in 0..3 {
-                    mass[c][k] += table[i].1[c] * table[j].1[c] * (above - below) / rect;
+                for (c, m) in mass.iter_mut().enumerate() {
+                    m[k] += table[i].1[c] * table[j].1[c] * (above - below) / rect;
                 }
                 below = above;
                 if edges[k + 1] >= far {
