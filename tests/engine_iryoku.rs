@@ -87,3 +87,34 @@ fn printed_values_render_the_reported_error() {
         }
     }
 }
+
+/// Values iryoku cannot take are refused, naming the value.
+#[test]
+fn values_outside_iryokus_are_refused() {
+    use ssskit::engine::{iryoku, Scene};
+    let scene = Scene::default();
+    let good = serde_json::json!({
+        "sssWidth": 0.003, "nSamples": 17, "strength": [0.48, 0.41, 0.28],
+        "falloff": [1.0, 0.37, 0.3], "albedo": [0.5, 0.4, 0.3],
+    });
+    let good = good.as_object().unwrap().clone();
+    // The defaults at 2 mm per offset unit: iryoku's 17-tap table, scaled.
+    let k = iryoku::from_params(&good, scene).unwrap();
+    let want = sorted(&calculate_kernel(17, [0.48, 0.41, 0.28], [1.0, 0.37, 0.3]));
+    for (i, (o, w)) in want.iter().enumerate() {
+        assert!((k.taps.offsets_mm[i] - 2.0 * o).abs() < 1e-12);
+        assert!((k.taps.weights[i][0] - w[0]).abs() < 1e-12);
+    }
+    for (key, v, needle) in [
+        ("nSamples", serde_json::json!(16), "odd"),
+        ("nSamples", serde_json::json!(17.5), "odd"),
+        ("sssWidth", serde_json::json!(-0.003), "> 0"),
+        ("strength", serde_json::json!([1.5, 0.4, 0.3]), "[0, 1]"),
+        ("falloff", serde_json::json!([1.0, -0.4, 0.3]), ">= 0"),
+    ] {
+        let mut bad = good.clone();
+        bad.insert(key.into(), v);
+        let e = iryoku::from_params(&bad, scene).unwrap_err().to_string();
+        assert!(e.contains(key) && e.contains(needle), "{key}: {e}");
+    }
+}

@@ -349,7 +349,16 @@ pub fn godot_from_params(p: &Map<String, Value>, scene: Scene) -> Result<Godot> 
             "only 1 gives a width in the scene; below 1 it depends on the camera's distance",
         ));
     }
-    let w = width_for_strength(number(p, "subsurf_scatter_strength")?) / scene.units_per_mm;
+    let strength = number(p, "subsurf_scatter_strength")?;
+    if !(strength > 0.0) {
+        return Err(Error::invalid(
+            "engine",
+            "subsurf_scatter_strength",
+            strength,
+            "must be > 0: at 0 Godot does not blur",
+        ));
+    }
+    let w = width_for_strength(strength) / scene.units_per_mm;
     let stated = number(p, "kernel_width_mm")?;
     if (w - stated).abs() > 1e-9 * stated.abs() {
         return Err(Error::invalid(

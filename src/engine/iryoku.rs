@@ -166,9 +166,18 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Separable> {
             "must be an odd whole number from 3 to 255",
         ));
     }
+    let width = number(p, "sssWidth")?;
+    if !(width > 0.0) {
+        return Err(Error::invalid(
+            "engine",
+            "sssWidth",
+            width,
+            "must be > 0 (scene units)",
+        ));
+    }
     Iryoku {
         samples: samples as usize,
-        mm_per_unit: mm_per_unit(number(p, "sssWidth")?, scene),
+        mm_per_unit: mm_per_unit(width, scene),
         strength: triple(p, "strength")?,
         falloff: triple(p, "falloff")?,
         albedo: triple(p, "albedo")?,
