@@ -104,7 +104,8 @@ pub struct Args {
     /// Half-width in mm the taps span [default: chosen for the tap count].
     ///
     /// The default is the radius holding 1 - 0.7 taps^-1.2 of the factor's
-    /// mass.
+    /// mass; for jimenez, iryoku's span: RANGE x width, RANGE 2 below 21
+    /// taps and 3 from 21.
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     tap_extent: Option<f64>,
     /// Print the tap table as a shader constant array [default: not printed].
@@ -156,7 +157,8 @@ pub struct ModelOpts {
     /// gaussians: number of 2D Gaussians.
     #[arg(long, value_name = "N", default_value_t = ssskit::kernel::gaussians::DEFAULT_COUNT, value_parser = count::<usize>)]
     count: usize,
-    /// jimenez: width scale (w = 1: d'Eon's skin profile in mm).
+    /// jimenez: mm per unit of the kernel's offsets (w = 1: d'Eon's skin
+    /// profile in mm, iryoku's table in its offset units).
     #[arg(long, value_name = "SCALE", alias = "width", default_value_t = JimenezParams::default().width, allow_negative_numbers = true)]
     jimenez_width: f64,
     /// jimenez: strength t per channel, "R,G,B".

@@ -1,10 +1,26 @@
-//! Godot 4's screen-space subsurface scattering (Forward+ renderer): one
-//! kernel table for every channel, iryoku's red-channel skin kernel
-//! (strength 0.48, falloff 1), whose only free parameter is its width on
-//! screen; the colour comes from the material's albedo.
+//! Godot 4's screen-space subsurface scattering (Forward+ renderer; read
+//! at godotengine/godot commit 19843743 for
+//! servers/rendering/renderer_rd/shaders/effects/subsurface_scattering.glsl
+//! and 006f0390 for renderer_rd/effects/ss_effects.cpp): one fixed kernel
+//! table for every channel, whose only free parameters are its width on
+//! screen and its tap count; the colour comes from the material's albedo.
 //!
-//! The chain from Godot's settings to the kernel's width, as read from
-//! Godot's source:
+//! The kernel, as read from Godot's source:
+//!
+//! - subsurface_scattering.glsl holds three tables, chosen by the define
+//!   USE_11_SAMPLES, USE_17_SAMPLES or USE_25_SAMPLES; SSEffects compiles
+//!   them as shader versions 0, 1, 2 and binds version
+//!   `subsurface_scattering_quality - 1` (project setting, "Low (Fast)",
+//!   "Medium (Average)", "High (Slow)" = 1, 2, 3; default 1, Low). Each
+//!   `kernel[]` is (weight, offset) for the centre and one side: the red
+//!   column of iryoku's default table (strength 0.48, falloff 1;
+//!   SeparableSSS.h), which `kernel::jimenez::tap_table` reproduces. main()
+//!   weights the centre by kernel[0].x and do_filter adds both sides,
+//!   dividing by the sum of the weights used (1 for the whole table), the
+//!   same weights for r, g, b (the skin mode, negative alpha, uses the
+//!   per-channel `skin_kernel` instead).
+//!
+//! The chain from Godot's settings to the kernel's width:
 //!
 //! - The material writes `SSS_STRENGTH` (BaseMaterial3D: the
 //!   `subsurf_scatter_strength` property times the red channel of
@@ -41,10 +57,16 @@
 //! iryoku has cot(fov_y / 2). The vertical pass steps the same texture
 //! distance over the screen's height, 1 / aspect of that in the scene.
 
-use super::jimenez::{Jimenez, SKIN_STRENGTH_RED};
-use super::{color, number, table, triple, Scene, Units};
+use super::jimenez::{self as sep, FitData, Separable};
+use super::{color, number, table, triple, EngineFit, Scene, Units};
 use crate::error::{Error, Result};
+use crate::kernel::jimenez::{tap_table, JimenezParams};
+use crate::kernel::taps;
+use crate::profile::Profile;
 use serde_json::{json, Map, Value};
+
+pub const VERSION: &str = "Godot 4 Forward+ (godotengine/godot 19843743: \
+     subsurface_scattering.glsl; ss_effects.cpp)";
 
 /// Default of subsurface_scattering_scale (rendering_server.cpp).
 pub const DEFAULT_SCALE: f64 = 0.05;
@@ -134,60 +156,161 @@ pub fn step_scene_units(s: &Settings, cam: &Camera) -> f64 {
     step_uv(s, cam) * cam.screen_width()
 }
 
-/// The strength that makes the kernel `width` scene units per offset unit
-/// at depth_scale 1, where `step_scene_units` is 2 strength / 3 for every
-/// camera.
-pub fn strength_for_width(width: f64) -> f64 {
-    1.5 * width
+/// Scene units per offset unit per unit of strength on the horizontal
+/// pass at depth_scale 1: 2/3 for every camera (`step_scene_units`,
+/// evaluated for one).
+fn step_per_strength() -> f64 {
+    let exact = Settings {
+        strength: 1.0,
+        scale: DEFAULT_SCALE,
+        depth_scale: 1.0,
+    };
+    step_scene_units(
+        &exact,
+        &Camera::perspective(std::f64::consts::FRAC_PI_2, 1.0),
+    )
 }
 
-/// What stands between `strength` and Godot, in words.
-pub fn strength_note(strength: f64) -> String {
-    if strength < MIN_STRENGTH {
-        format!(
-            "WARNING: below {MIN_STRENGTH}, where do_filter stops at every neighbour \
-             (abs(alpha) < {MIN_STRENGTH}): Godot cannot blur this narrow in these scene \
-             units; its narrowest kernel is {:.6} scene units per offset unit",
-            MIN_STRENGTH / 1.5
-        )
-    } else if strength < INSPECTOR_STEP {
-        format!(
-            "WARNING: below the inspector's step {INSPECTOR_STEP}, which rounds it to {:.2}: \
-             set it from a script (set_subsurface_scattering_strength keeps it) or as \
-             SSS_STRENGTH in a shader",
-            (strength / INSPECTOR_STEP).round() * INSPECTOR_STEP
-        )
-    } else if strength > 1.0 {
-        "WARNING: above the inspector's range [0, 1]: set it from a script or as SSS_STRENGTH \
-         in a shader (the renderer reads abs(alpha) of an RGBA16F buffer and does not clamp); \
-         no project setting widens the kernel at subsurface_scattering_depth_scale 1"
-            .into()
-    } else {
-        let rounded = (strength / INSPECTOR_STEP).round() * INSPECTOR_STEP;
-        format!(
-            "the inspector rounds it to {rounded:.2} ({:+.1}% width); a script keeps it exact",
-            100.0 * (rounded / strength - 1.0)
-        )
+/// The strength that makes the kernel `width` scene units per offset unit
+/// at depth_scale 1: 1.5 width.
+pub fn strength_for_width(width: f64) -> f64 {
+    width / step_per_strength()
+}
+
+/// The horizontal pass's scene units per offset unit at depth_scale 1.
+pub fn width_for_strength(strength: f64) -> f64 {
+    strength * step_per_strength()
+}
+
+/// Scene units per offset unit on the vertical pass: the same texture
+/// step over the screen's height, 1 / `aspect` of the width.
+pub fn vertical_step_scene_units(s: &Settings, cam: &Camera, aspect: f64) -> f64 {
+    step_scene_units(s, cam) / aspect
+}
+
+/// The project setting subsurface_scattering_quality (its inspector label)
+/// and the table it selects (SSEffects: shader version quality - 1).
+pub const QUALITIES: [(&str, usize); 3] = [
+    ("Low (Fast)", 11),
+    ("Medium (Average)", 17),
+    ("High (Slow)", 25),
+];
+
+fn quality_label(samples: usize) -> &'static str {
+    QUALITIES
+        .iter()
+        .find(|q| q.1 == samples)
+        .map_or("?", |q| q.0)
+}
+
+/// Godot's kernel: its table for `samples` taps at `mm_per_unit` mm per
+/// offset unit on the horizontal pass, times the albedo.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Godot {
+    pub samples: usize,
+    pub mm_per_unit: f64,
+    pub albedo: [f64; 3],
+}
+
+impl Godot {
+    /// The table Godot ships: the red column of iryoku's default kernel
+    /// for every channel, divided by its sum as do_filter does.
+    pub fn separable(&self) -> Result<Separable> {
+        let n = self.samples;
+        let p = JimenezParams {
+            width: self.mm_per_unit,
+            ..JimenezParams::default()
+        };
+        let mut t = tap_table(&p, n, taps::range(n) * self.mm_per_unit)?;
+        let sum: f64 = t.weights.iter().map(|w| w[0]).sum();
+        t.weights.iter_mut().for_each(|w| *w = [w[0] / sum; 3]);
+        Ok(Separable {
+            albedo: self.albedo,
+            taps: t,
+        })
     }
 }
 
-pub fn params(j: &Jimenez, scene: Scene) -> (Map<String, Value>, Units) {
-    let w = j.scale_mm[0] / 1.001;
-    let strength = strength_for_width(w * scene.units_per_mm);
-    let strength_unit = format!(
-        "material subsurf_scatter_strength (SSS_STRENGTH) with \
-         subsurface_scattering_depth_scale = 1: 1.5 x kernel_width_mm x scene units per mm \
-         (the horizontal pass steps 2/3 of it in scene units per offset unit, the vertical \
-         pass 1 / aspect of that); {}",
-        strength_note(strength)
-    );
+/// The summed squared shape error of Godot's table at `mm_per_unit`, the
+/// albedo the profile's total.
+fn cost(d: &FitData, p: &Profile, samples: usize, mm_per_unit: f64) -> Result<f64> {
+    let k = Godot {
+        samples,
+        mm_per_unit,
+        albedo: [1.0; 3],
+    }
+    .separable()?;
+    let w: Vec<f64> = k.taps.weights.iter().map(|w| w[0]).collect();
+    let (_, g) = d.geometry(samples, mm_per_unit)?;
+    let shape = g.bilinear(&w, &w);
+    Ok((0..3)
+        .map(|c| sep::relative_residual(&d.targets[c], &shape, p.total_rd[c]))
+        .sum())
+}
+
+/// The best width for `samples` taps and its summed squared shape error.
+pub fn fit_samples(p: &Profile, samples: usize) -> Result<(Godot, f64)> {
+    let d = FitData::new(p)?;
+    let l = sep::best_unit(&d, |l| cost(&d, p, samples, l))?;
+    let k = Godot {
+        samples,
+        mm_per_unit: l,
+        albedo: std::array::from_fn(|c| p.total_rd[c]),
+    };
+    Ok((k, cost(&d, p, samples, l)?))
+}
+
+/// What stands between `strength` and Godot, in words (None: the
+/// inspector takes it, to its step).
+pub fn strength_warning(strength: f64) -> Option<String> {
+    if strength < MIN_STRENGTH {
+        Some(format!(
+            "`subsurf_scatter_strength` {strength:.6} is below {MIN_STRENGTH}, where do_filter \
+             stops at every neighbour (abs(alpha) < {MIN_STRENGTH}): Godot cannot blur this \
+             narrow in these scene units; its narrowest kernel is {:.6} scene units per offset \
+             unit",
+            width_for_strength(MIN_STRENGTH)
+        ))
+    } else if strength < INSPECTOR_STEP {
+        Some(format!(
+            "`subsurf_scatter_strength` {strength:.6} is below the inspector's step \
+             {INSPECTOR_STEP}, which rounds it to {:.2}: set it from a script \
+             (set_subsurface_scattering_strength keeps it) or as SSS_STRENGTH in a shader",
+            (strength / INSPECTOR_STEP).round() * INSPECTOR_STEP
+        ))
+    } else if strength > 1.0 {
+        Some(format!(
+            "`subsurf_scatter_strength` {strength:.4} is above the inspector's range [0, 1]: set \
+             it from a script or as SSS_STRENGTH in a shader (the renderer reads abs(alpha) of \
+             an RGBA16F buffer and does not clamp); no project setting widens the kernel at \
+             subsurface_scattering_depth_scale 1"
+        ))
+    } else {
+        None
+    }
+}
+
+/// The inspector's value for `strength` (its step, 0.01), when it takes it.
+pub fn inspector_strength(strength: f64) -> Option<f64> {
+    (strength_warning(strength).is_none())
+        .then(|| (strength / INSPECTOR_STEP).round() * INSPECTOR_STEP)
+}
+
+pub fn params(k: &Godot, scene: Scene) -> (Map<String, Value>, Units) {
     table(vec![
         (
             "kernel_width_mm",
-            json!(w),
-            "mm per unit of the kernel's offsets (iryoku's width w at falloff 1)",
+            json!(k.mm_per_unit),
+            "mm per unit of the kernel's offsets on the horizontal pass (the vertical pass \
+             steps 1 / aspect of it)",
         ),
-        ("subsurf_scatter_strength", json!(strength), &strength_unit),
+        (
+            "subsurf_scatter_strength",
+            json!(strength_for_width(k.mm_per_unit * scene.units_per_mm)),
+            "material subsurf_scatter_strength (SSS_STRENGTH) with \
+             subsurface_scattering_depth_scale = 1: 1.5 x kernel_width_mm x scene units per mm \
+             (the horizontal pass steps 2/3 of it in scene units per offset unit)",
+        ),
         (
             "subsurface_scattering_depth_scale",
             json!(1.0),
@@ -196,21 +319,27 @@ pub fn params(j: &Jimenez, scene: Scene) -> (Map<String, Value>, Units) {
              the width is mostly a fixed fraction of the screen and grows with distance",
         ),
         (
-            "albedo",
-            color(j.albedo),
-            "the material's albedo (linear RGB)",
+            "subsurface_scattering_quality",
+            json!(quality_label(k.samples)),
+            "project setting (default Low (Fast)): the table of nSamples taps",
         ),
         (
-            "subsurface_scattering_quality",
-            json!("High (25 samples)"),
-            "project setting; fewer samples band on large kernels",
+            "nSamples",
+            json!(k.samples),
+            "taps per pass of that table (USE_11/17/25_SAMPLES)",
+        ),
+        (
+            "albedo",
+            color(k.albedo),
+            "the material's albedo (linear RGB)",
         ),
     ])
 }
 
-/// The model from the Godot values: the width from subsurf_scatter_strength
-/// at depth_scale 1, checked against kernel_width_mm.
-pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Jimenez> {
+/// Godot's kernel from its values as written: the width from
+/// subsurf_scatter_strength at depth_scale 1, checked against
+/// kernel_width_mm; the table from the quality, checked against nSamples.
+pub fn godot_from_params(p: &Map<String, Value>, scene: Scene) -> Result<Godot> {
     let depth_scale = number(p, "subsurface_scattering_depth_scale")?;
     if depth_scale != 1.0 {
         return Err(Error::invalid(
@@ -220,7 +349,16 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Jimenez> {
             "only 1 gives a width in the scene; below 1 it depends on the camera's distance",
         ));
     }
-    let w = number(p, "subsurf_scatter_strength")? / (1.5 * scene.units_per_mm);
+    let strength = number(p, "subsurf_scatter_strength")?;
+    if !(strength > 0.0) {
+        return Err(Error::invalid(
+            "engine",
+            "subsurf_scatter_strength",
+            strength,
+            "must be > 0: at 0 Godot does not blur",
+        ));
+    }
+    let w = width_for_strength(strength) / scene.units_per_mm;
     let stated = number(p, "kernel_width_mm")?;
     if (w - stated).abs() > 1e-9 * stated.abs() {
         return Err(Error::invalid(
@@ -232,9 +370,93 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Jimenez> {
             ),
         ));
     }
-    Ok(Jimenez {
+    let label = p
+        .get("subsurface_scattering_quality")
+        .and_then(Value::as_str)
+        .unwrap_or_default();
+    let Some(&(_, samples)) = QUALITIES.iter().find(|q| q.0 == label) else {
+        return Err(Error::invalid(
+            "engine",
+            "subsurface_scattering_quality",
+            label,
+            "expected Low (Fast), Medium (Average) or High (Slow)",
+        ));
+    };
+    let stated = number(p, "nSamples")?;
+    if stated != samples as f64 {
+        return Err(Error::invalid(
+            "engine",
+            "nSamples",
+            stated,
+            format!("the quality {label} selects the {samples}-tap table"),
+        ));
+    }
+    Ok(Godot {
+        samples,
+        mm_per_unit: w,
         albedo: triple(p, "albedo")?,
-        strength: [SKIN_STRENGTH_RED; 3],
-        scale_mm: [w * 1.001; 3],
+    })
+}
+
+pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Separable> {
+    godot_from_params(p, scene)?.separable()
+}
+
+fn requirements(k: &Godot) -> Vec<String> {
+    vec![
+        "project setting rendering/environment/subsurface_scattering/\
+         subsurface_scattering_depth_scale = 1 (default 0.01): the width is then a length in \
+         the scene whatever the camera"
+            .into(),
+        format!(
+            "project setting subsurface_scattering_quality = {} ({} taps)",
+            quality_label(k.samples),
+            k.samples
+        ),
+        "the material's subsurf_scatter_texture is unset or white (its red channel multiplies \
+         the strength), and the SSS mode is not Skin (which uses the per-channel skin table)"
+            .into(),
+    ]
+}
+
+/// Fits Godot's width with each quality's table and keeps the best.
+pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
+    let k = sep::best_count(|n| fit_samples(profile, n))?;
+    let (params, units) = params(&k, scene);
+    // The error of what the engine renders from the values as written.
+    let (model_profile, error) = sep::rendered(&from_params(&params, scene)?, profile, "godot")?;
+    let strength = number(&params, "subsurf_scatter_strength")?;
+    let mut warnings: Vec<String> = strength_warning(strength).into_iter().collect();
+    if let Some(typed) = inspector_strength(strength) {
+        if typed != strength {
+            let moved = Godot {
+                mm_per_unit: width_for_strength(typed) / scene.units_per_mm,
+                ..k
+            };
+            let (_, e) = sep::rendered(&moved.separable()?, profile, "godot")?;
+            let pct = |v: [f64; 3]| v.map(|x| format!("{:.1}%", 100.0 * x)).join(", ");
+            warnings.push(format!(
+                "the inspector rounds `subsurf_scatter_strength` to {typed:.2} ({:+.1}% width; \
+                 shape error there {}): a script keeps it exact",
+                100.0 * (typed / strength - 1.0),
+                pct(e.shape)
+            ));
+        }
+    }
+    Ok(EngineFit {
+        engine: "godot".into(),
+        version: VERSION.into(),
+        params,
+        units,
+        error,
+        error_for: format!(
+            "the separable product K(x) K(y) of Godot's {}-tap table, each tap's weight spread \
+             over its footprint, at the horizontal pass's step (the vertical pass steps \
+             1 / aspect of it)",
+            k.samples
+        ),
+        requirements: requirements(&k),
+        warnings,
+        profile: model_profile,
     })
 }

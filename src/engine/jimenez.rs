@@ -1,154 +1,293 @@
-//! Jimenez's separable skin model as a radial profile (Jimenez et al.
-//! 2015, iryoku/separable-sss): R(r) = A [t P_s(r) + (1 - t) delta(r)], P_s
-//! the sum of d'Eon's skin Gaussians (red weights, the narrowest left out as
-//! in the reference code) with variances v_i s^2, normalised to 1; s =
-//! width (0.001 + falloff) in mm, t the strength. The shader evaluates this
-//! profile along each axis as its 1D factor; the profile itself is what it
-//! approximates. The delta (light that does not scatter) lands in the
-//! first bin.
+//! The separable screen-space kernels iryoku and Godot render, and their
+//! fit (Jimenez et al. 2015).
+//!
+//! Both engines filter the lit image with one 1D tap table, horizontally
+//! then vertically: the kernel on the surface is the separable product
+//! K(x) K(y) of a truncated table, not the radial skin profile the table
+//! was sampled from. ssskit scores it as the kernel the table stands for
+//! (`kernel::tap_kernel`): each tap's weight spread evenly over its
+//! footprint, the product binned on the profile's annuli, at the step of
+//! the pass whose length in the scene does not depend on the screen's
+//! aspect ratio (iryoku's vertical pass, Godot's horizontal one). The fit
+//! minimises that error: per channel the squared relative L2 error of
+//! r R_d(r) over r < r99 (the shape error `profiles compare` reports),
+//! summed over the channels.
 
-use super::{minimise_log, Target};
+use super::{minimise_log, FitError, Model, Target};
 use crate::error::{Error, Result};
-use crate::kernel::gaussians::{DEON_SKIN_VARIANCES, DEON_SKIN_WEIGHTS};
-use crate::numerics::bin_averages;
-use crate::profile::{Profile, RadialGrid};
-use std::f64::consts::PI;
+use crate::kernel::jimenez::{offsets_mm, scattered_weights};
+use crate::kernel::tap_kernel::{radial_bins, SeparableBins};
+use crate::kernel::{taps, Pass};
+use crate::profile::Profile;
+use rayon::prelude::*;
 
+/// The tap counts of the tables iryoku prints and Godot ships.
+pub const TAP_COUNTS: [usize; 3] = [11, 17, 25];
+
+/// What a separable engine renders: one 1D table (offsets in mm on the
+/// surface at the scored pass's step, weights per channel) applied along
+/// both axes, times the albedo.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Jimenez {
-    /// Colour the blurred result is multiplied by (the diffuse albedo).
+pub struct Separable {
     pub albedo: [f64; 3],
-    /// Strength t per channel, in [0, 1].
-    pub strength: [f64; 3],
-    /// Scale s = width (0.001 + falloff) per channel, mm.
-    pub scale_mm: [f64; 3],
+    pub taps: Pass,
 }
 
-/// Iryoku's default strength of the red channel, the one Godot's
-/// single-channel kernel uses for every channel.
-pub const SKIN_STRENGTH_RED: f64 = 0.48;
+/// A [`Separable`] kernel on a radial grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Binned {
+    /// Annulus averages of albedo K(x) K(y), per channel.
+    pub rd: [Vec<f64>; 3],
+    /// albedo (sum of the weights)^2: the 2D kernel's total.
+    pub total: [f64; 3],
+}
 
-/// P_s(r), mm^-2, unit mass.
-pub fn gaussians(s: f64, r: f64) -> f64 {
-    let pairs = DEON_SKIN_VARIANCES.iter().zip(&DEON_SKIN_WEIGHTS).skip(1);
-    let total: f64 = pairs.clone().map(|(_, w)| w[0]).sum();
-    pairs
-        .map(|(v, w)| {
-            let vs = v * s * s;
-            w[0] * (-r * r / (2.0 * vs)).exp() / (2.0 * PI * vs)
+impl Separable {
+    pub fn on_grid(&self, edges: &[f64]) -> Result<Binned> {
+        let k = radial_bins(std::slice::from_ref(&self.taps), edges)?;
+        let a = self.albedo;
+        Ok(Binned {
+            rd: std::array::from_fn(|c| k[c].iter().map(|v| a[c] * v).collect()),
+            total: std::array::from_fn(|c| {
+                a[c] * self.taps.weights.iter().map(|w| w[c]).sum::<f64>().powi(2)
+            }),
         })
-        .sum::<f64>()
-        / total
-}
-
-fn delta_bins(grid: &RadialGrid) -> Vec<f64> {
-    let mut d = vec![0.0; grid.len()];
-    if let Some(a) = grid.areas().first() {
-        d[0] = 1.0 / a;
-    }
-    d
-}
-
-impl Jimenez {
-    pub fn bins(&self, c: usize, grid: &RadialGrid) -> Vec<f64> {
-        let (a, t, s) = (self.albedo[c], self.strength[c], self.scale_mm[c]);
-        let g = bin_averages(|r| gaussians(s, r), grid);
-        let d = delta_bins(grid);
-        g.iter()
-            .zip(&d)
-            .map(|(g, d)| a * (t * g + (1.0 - t) * d))
-            .collect()
     }
 }
 
-/// Best (alpha, beta) >= 0 for alpha g + beta e0 against the target, and
-/// the squared residual.
-fn two_terms(t: &Target, g: &[f64], e0: &[f64]) -> (f64, f64, f64) {
-    let dot =
-        |a: &[f64], b: &[f64]| -> f64 { (0..t.bins).map(|i| t.weight[i] * a[i] * b[i]).sum() };
-    let (gg, ee, ge) = (dot(g, g), dot(e0, e0), dot(g, e0));
-    let (gy, ey, yy) = (dot(g, &t.value), dot(e0, &t.value), dot(&t.value, &t.value));
-    let det = gg * ee - ge * ge;
-    let residual = |a: f64, b: f64| {
-        yy - 2.0 * a * gy - 2.0 * b * ey + a * a * gg + 2.0 * a * b * ge + b * b * ee
-    };
-    if det > 0.0 {
-        let a = (gy * ee - ey * ge) / det;
-        let b = (ey * gg - gy * ge) / det;
-        if a >= 0.0 && b >= 0.0 {
-            return (a, b, residual(a, b));
+/// The best of the fits with each of [`TAP_COUNTS`] taps: the first of
+/// the smallest cost, the same answer whatever the threads.
+pub(crate) fn best_count<K: Send>(fit: impl Fn(usize) -> Result<(K, f64)> + Sync) -> Result<K> {
+    let fits: Vec<(K, f64)> = TAP_COUNTS
+        .par_iter()
+        .map(|&n| fit(n))
+        .collect::<Result<_>>()?;
+    fits.into_iter()
+        .reduce(|a, b| if b.1 < a.1 { b } else { a })
+        .map(|k| k.0)
+        .ok_or_else(|| Error::Unsupported("no tap count to fit".into()))
+}
+
+/// What `kernel` renders, on `like`'s grid, and its error against `like`.
+pub(crate) fn rendered(
+    kernel: &Separable,
+    like: &Profile,
+    engine: &str,
+) -> Result<(Profile, FitError)> {
+    let binned = kernel.on_grid(&like.r_edges)?;
+    let model_profile = Model::Separable(binned).profile(like, engine);
+    let error = super::error(&model_profile, like)?;
+    Ok((model_profile, error))
+}
+
+/// The profile's least-squares targets on the grid up to the widest r99.
+pub(crate) struct FitData {
+    pub targets: Vec<Target>,
+    pub edges: Vec<f64>,
+    pub r99: f64,
+}
+
+impl FitData {
+    pub fn new(p: &Profile) -> Result<FitData> {
+        let targets: Vec<Target> = (0..3).map(|c| Target::new(p, c)).collect();
+        let bins = targets.iter().map(|t| t.bins).max().unwrap_or(0);
+        if bins == 0 {
+            return Err(Error::Unsupported("no profile bins to fit".into()));
         }
+        let edges = p.r_edges[..=bins].to_vec();
+        Ok(FitData {
+            r99: edges[bins],
+            targets,
+            edges,
+        })
     }
-    let (a, _) = t.scale_of(g);
-    let (b, _) = t.scale_of(e0);
-    let (ra, rb) = (residual(a, 0.0), residual(0.0, b));
-    if ra <= rb {
-        (a, 0.0, ra)
+
+    /// The geometry of a table of `count` taps, `mm_per_unit` mm per offset
+    /// unit (iryoku's span: RANGE units), and its centre tap.
+    pub fn geometry(&self, count: usize, mm_per_unit: f64) -> Result<(Vec<f64>, SeparableBins)> {
+        let offsets = offsets_mm(count, taps::range(count) * mm_per_unit);
+        let g = SeparableBins::new(&offsets, &self.edges)?;
+        Ok((offsets, g))
+    }
+
+    /// Range of mm per offset unit the fits search: from a kernel far
+    /// narrower than the profile to one whose taps reach past r99.
+    pub fn unit_range(&self) -> (f64, f64) {
+        (1e-3 * self.r99, 2.0 * self.r99)
+    }
+}
+
+/// w-weighted dot product over the target's bins.
+fn dot(t: &Target, a: &[f64], b: &[f64]) -> f64 {
+    (0..t.bins).map(|i| t.weight[i] * a[i] * b[i]).sum()
+}
+
+/// The squared relative error of amplitude x `shape` against the target.
+pub(crate) fn relative_residual(t: &Target, shape: &[f64], amplitude: f64) -> f64 {
+    let yy = dot(t, &t.value, &t.value);
+    if yy > 0.0 {
+        t.residual_at(shape, amplitude) / yy
     } else {
-        (0.0, b, rb)
+        0.0
     }
 }
 
-/// Least squares on r R_d(r). Free per channel: albedo, strength, scale
-/// (iryoku); or `shared`: one scale for all channels, the red strength
-/// fixed and the albedo the profile's total (Godot's single-channel
-/// kernel).
-pub fn fit(p: &Profile, shared: bool) -> Result<Jimenez> {
-    let targets: Vec<Target> = (0..3).map(|c| Target::new(p, c)).collect();
-    let bins = targets.iter().map(|t| t.bins).max().unwrap_or(0);
-    if bins == 0 {
-        return Err(Error::Unsupported("no profile bins to fit".into()));
-    }
-    let grid = RadialGrid {
-        edges: p.r_edges[..=bins].to_vec(),
-    };
-    let e0 = delta_bins(&grid);
-    let r99 = p.r_edges[bins];
-    let shape = |s: f64| bin_averages(|r| gaussians(s, r), &grid);
-    let mut out = Jimenez {
-        albedo: [0.0; 3],
-        strength: [0.0; 3],
-        scale_mm: [0.0; 3],
-    };
-    if shared {
-        let t0 = SKIN_STRENGTH_RED;
-        let mixed = |s: f64| -> Vec<f64> {
-            shape(s)
-                .iter()
-                .zip(&e0)
-                .map(|(g, d)| t0 * g + (1.0 - t0) * d)
-                .collect()
-        };
-        // The albedo is the profile's total (Godot multiplies the material's
-        // albedo after the blur); the width alone shapes the kernel.
-        // Relative residuals, so that every channel counts alike.
-        let cost = |s: f64| -> f64 {
-            let m = mixed(s);
-            targets
-                .iter()
-                .enumerate()
-                .map(|(c, t)| t.residual_at(&m, p.total_rd[c]) / t.residual_at(&m, 0.0).max(1e-300))
-                .sum()
-        };
-        let s = minimise_log(cost, 1e-4 * r99, 10.0 * r99, 41);
-        for c in 0..3 {
-            out.albedo[c] = p.total_rd[c];
-            out.strength[c] = t0;
-            out.scale_mm[c] = s;
+/// One channel of iryoku's kernel fitted at a given geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ChannelFit {
+    pub falloff: f64,
+    pub strength: f64,
+    pub albedo: f64,
+    /// Squared relative error of the fit.
+    pub residual: f64,
+}
+
+/// The kernel of strength t is t^2 P + 2 t (1 - t) X + (1 - t)^2 E, with P
+/// the product of the scattered table, E of the centre tap alone and X the
+/// cross term (`SeparableBins::bilinear`); with the best amplitude its
+/// residual is 1 - (y.s)^2 / ((s.s)(y.y)) for s(t) the shape, a quartic over
+/// a quadratic in t from nine dot products.
+struct StrengthFit {
+    y: [f64; 3],
+    gram: [[f64; 3]; 3],
+    yy: f64,
+}
+
+impl StrengthFit {
+    /// From the parts, which vanish past bin `support`, and the target's
+    /// y.y.
+    fn new(t: &Target, parts: [&[f64]; 3], support: usize, yy: f64) -> StrengthFit {
+        let n = t.bins.min(support);
+        let (mut y, mut gram) = ([0.0; 3], [[0.0; 3]; 3]);
+        for (i, (w, v)) in t.weight[..n].iter().zip(&t.value[..n]).enumerate() {
+            let p = parts.map(|q| q[i]);
+            for (a, pa) in p.iter().enumerate() {
+                y[a] += w * v * pa;
+                for (g, pb) in gram[a].iter_mut().zip(&p) {
+                    *g += w * pa * pb;
+                }
+            }
         }
-    } else {
-        for (c, t) in targets.iter().enumerate() {
-            let s = minimise_log(
-                |s| two_terms(t, &shape(s), &e0).2,
-                1e-4 * r99,
-                10.0 * r99,
-                41,
-            );
-            let (a, b, _) = two_terms(t, &shape(s), &e0);
-            out.albedo[c] = a + b;
-            out.strength[c] = if a + b > 0.0 { a / (a + b) } else { 1.0 };
-            out.scale_mm[c] = s;
+        StrengthFit { y, gram, yy }
+    }
+
+    /// (amplitude, squared relative residual) at strength `s`.
+    fn at(&self, s: f64) -> (f64, f64) {
+        let c = [s * s, 2.0 * s * (1.0 - s), (1.0 - s) * (1.0 - s)];
+        let ys: f64 = (0..3).map(|i| c[i] * self.y[i]).sum();
+        let ss: f64 = (0..3)
+            .flat_map(|i| (0..3).map(move |j| (i, j)))
+            .map(|(i, j)| c[i] * c[j] * self.gram[i][j])
+            .sum();
+        if !(self.yy > 0.0) {
+            return (0.0, 0.0);
+        }
+        if !(ys > 0.0 && ss > 0.0) {
+            return (0.0, 1.0);
+        }
+        (ys / ss, (1.0 - ys * ys / (ss * self.yy)).max(0.0))
+    }
+
+    fn best(&self) -> (f64, f64, f64) {
+        let s = minimise_log(|s| self.at(s).1, 1e-3, 1.0, 21);
+        let (a, r) = self.at(s);
+        (s, a, r)
+    }
+}
+
+/// iryoku's channel `t` at a geometry: falloff in [0, 1] (the demo's
+/// slider), strength in [0, 1] and amplitude (the albedo) by least squares.
+pub(crate) fn fit_channel(
+    t: &Target,
+    offsets: &[f64],
+    g: &SeparableBins,
+    mm_per_unit: f64,
+) -> ChannelFit {
+    let centre = offsets.len() / 2;
+    let mut e0 = vec![0.0; offsets.len()];
+    e0[centre] = 1.0;
+    let ee = g.bilinear(&e0, &e0);
+    let (support, yy) = (g.support(), dot(t, &t.value, &t.value));
+    let at = |rho: f64| {
+        let p = scattered_weights(offsets, mm_per_unit, rho - 0.001);
+        let (pp, pe) = (g.bilinear(&p, &p), g.bilinear(&p, &e0));
+        StrengthFit::new(t, [&pp, &pe, &ee], support, yy).best()
+    };
+    // rho = 0.001 + falloff, searched in log space.
+    let rho = minimise_log(|rho| at(rho).2, 0.001, 1.001, 21);
+    let (strength, albedo, residual) = at(rho);
+    ChannelFit {
+        falloff: (rho - 0.001).clamp(0.0, 1.0),
+        strength,
+        albedo,
+        residual,
+    }
+}
+
+/// One fit per channel at `mm_per_unit`, and their summed residual.
+pub(crate) fn fit_channels(
+    d: &FitData,
+    count: usize,
+    mm_per_unit: f64,
+) -> Result<([ChannelFit; 3], f64)> {
+    let (offsets, g) = d.geometry(count, mm_per_unit)?;
+    let fits: [ChannelFit; 3] =
+        std::array::from_fn(|c| fit_channel(&d.targets[c], &offsets, &g, mm_per_unit));
+    let total = fits.iter().map(|f| f.residual).sum();
+    Ok((fits, total))
+}
+
+/// The mm per offset unit minimising `cost` over the fits' range; a
+/// geometry the cost cannot build (too many entries) counts as no fit.
+pub(crate) fn best_unit(d: &FitData, cost: impl Fn(f64) -> Result<f64>) -> Result<f64> {
+    let (lo, hi) = d.unit_range();
+    // Check once that the geometry builds at all, so that a refusal is an
+    // error, not a silently skipped range.
+    cost(lo)?;
+    Ok(minimise_log(
+        |l| cost(l).unwrap_or(f64::INFINITY),
+        lo,
+        hi,
+        25,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::jimenez::apply_strength;
+
+    /// The strength search's closed form agrees with the kernel built at
+    /// that strength.
+    #[test]
+    fn strength_residual_matches_the_kernel_it_stands_for() {
+        let edges: Vec<f64> = (0..=100).map(|i| 0.04 * i as f64).collect();
+        let offsets = offsets_mm(17, 2.0);
+        let g = SeparableBins::new(&offsets, &edges).unwrap();
+        let r: Vec<f64> = edges.windows(2).map(|e| 0.5 * (e[0] + e[1])).collect();
+        let t = Target {
+            bins: 80,
+            weight: (0..80).map(|i| 0.04 * r[i] * r[i]).collect(),
+            value: (0..80).map(|i| (-r[i]).exp()).collect(),
+        };
+        let p = scattered_weights(&offsets, 1.0, 0.6);
+        let mut e0 = vec![0.0; 17];
+        e0[8] = 1.0;
+        let (pp, pe, ee) = (
+            g.bilinear(&p, &p),
+            g.bilinear(&p, &e0),
+            g.bilinear(&e0, &e0),
+        );
+        let yy = dot(&t, &t.value, &t.value);
+        let f = StrengthFit::new(&t, [&pp, &pe, &ee], g.support(), yy);
+        for s in [0.2, 0.5, 0.9] {
+            let mut w = p.clone();
+            apply_strength(&mut w, 8, s);
+            let k = g.bilinear(&w, &w);
+            let (a, _) = t.scale_of(&k);
+            let (a2, rel) = f.at(s);
+            assert!((a - a2).abs() < 1e-9 * a);
+            assert!((relative_residual(&t, &k, a) - rel).abs() < 1e-9);
         }
     }
-    Ok(out)
 }

@@ -2,12 +2,13 @@
 //! into an engine's own diffusion model so that it matches a measured or
 //! simulated R_d(r) as closely as that model can.
 //!
-//! Every engine here renders one of two radial models: Christensen and
-//! Burley's normalized diffusion (Unreal, Unity HDRP, Blender's
-//! Christensen-Burley) or Jimenez's separable skin kernel (iryoku, Godot).
-//! The fit works in the model's own parameters (surface albedo A and shape
-//! distance d per channel for Burley; width, strength and falloff for
-//! Jimenez) by least squares on r R_d(r) over the radius holding 99% of the
+//! Every engine here renders one of two models: Christensen and Burley's
+//! radial normalized diffusion (Unreal, Unity HDRP, Blender's
+//! Christensen-Burley) or a separable tap table sampled from Jimenez's skin
+//! profile (iryoku, Godot; `jimenez.rs` scores the table as the kernel it
+//! stands for). The fit works in the model's own parameters (surface albedo
+//! A and shape distance d per channel for Burley; width, strength, falloff
+//! and tap count for Jimenez) by least squares on r R_d(r) over the radius holding 99% of the
 //! profile, the norm `profiles compare` reports as the shape error; each
 //! engine file then converts them to the engine's parameter names, units
 //! and world scale, and back (the round trip the tests check).
@@ -152,16 +153,9 @@ pub fn fit(engine: Engine, profile: &Profile, scene: Scene) -> Result<EngineFit>
             let (p, u) = blender::params(&b, scene);
             (p, u, Model::Burley(b))
         }
-        Engine::Iryoku => {
-            let j = jimenez::fit(profile, false)?;
-            let (p, u) = iryoku::params(&j, scene);
-            (p, u, Model::Jimenez(j))
-        }
-        Engine::Godot => {
-            let j = jimenez::fit(profile, true)?;
-            let (p, u) = godot::params(&j, scene);
-            (p, u, Model::Jimenez(j))
-        }
+        // The separable engines fill their whole answer (`jimenez.rs`).
+        Engine::Iryoku => return iryoku::fit(profile, scene),
+        Engine::Godot => return godot::fit(profile, scene),
     };
     let model_profile = model.profile(profile, engine.name());
     let error = error(&model_profile, profile)?;
@@ -191,8 +185,12 @@ pub fn model_from_params(
         Engine::Unreal => Model::Burley(unreal::from_params(params)?),
         Engine::UnityHdrp => Model::Burley(hdrp::from_params(params)?),
         Engine::Blender => Model::Burley(blender::from_params(params, scene)?),
-        Engine::Iryoku => Model::Jimenez(iryoku::from_params(params, scene)?),
-        Engine::Godot => Model::Jimenez(godot::from_params(params, scene)?),
+        Engine::Iryoku => {
+            Model::Separable(iryoku::from_params(params, scene)?.on_grid(&profile.r_edges)?)
+        }
+        Engine::Godot => {
+            Model::Separable(godot::from_params(params, scene)?.on_grid(&profile.r_edges)?)
+        }
     };
     Ok(model.profile(profile, engine.name()))
 }
@@ -229,11 +227,12 @@ fn check(profile: &Profile) -> Result<()> {
     Ok(())
 }
 
-/// A fitted radial model, per channel.
+/// A fitted radial model, per channel, or a separable tap table on the
+/// profile's grid.
 #[derive(Clone, Debug)]
 enum Model {
     Burley(burley::Burley),
-    Jimenez(jimenez::Jimenez),
+    Separable(jimenez::Binned),
 }
 
 impl Model {
@@ -247,11 +246,7 @@ impl Model {
                 b.albedo.to_vec(),
                 "burley",
             ),
-            Model::Jimenez(j) => (
-                (0..3).map(|c| j.bins(c, &grid)).collect(),
-                j.albedo.to_vec(),
-                "jimenez",
-            ),
+            Model::Separable(b) => (b.rd.to_vec(), b.total.to_vec(), "separable taps"),
         };
         let mut p = like.clone();
         p.source = crate::profile::Source {

@@ -14,6 +14,7 @@ pub mod model;
 pub mod preintegrate;
 pub mod reference;
 pub mod svd;
+pub mod tap_kernel;
 pub mod taps;
 
 pub use format::{KernelFile, Metrics, ModelInfo, Pass, TapTable, Usage, KERNEL_SCHEMA};

@@ -162,7 +162,11 @@ pub fn assemble_with(
     tap_count: usize,
     tap_extent_mm: Option<f64>,
 ) -> Result<KernelFile> {
-    let taps = taps::tap_table_with(k, &fitted.factors, tap_count, tap_extent_mm)?;
+    // Jimenez's model is defined by its own table (iryoku's calculateKernel).
+    let taps = match model {
+        Model::Jimenez(p) => jimenez::table(p, tap_count, tap_extent_mm)?,
+        _ => taps::tap_table_with(k, &fitted.factors, tap_count, tap_extent_mm)?,
+    };
     let m = metrics::measure(k, &fitted.factors);
     let offsets = k.offsets();
     let passes: Vec<Pass> = fitted
