@@ -41,25 +41,33 @@ pub struct Args {
     /// The engine whose model is fitted.
     #[arg(long, value_enum, ignore_case = true)]
     engine: EngineArg,
-    /// Write {"engine", "params", "units", "error"} as JSON.
+    /// The engine version whose conversion chain to follow (unreal: 5.4,
+    /// 5.0; unity-hdrp: 17; blender: 4, eevee, 2.93); the newest by
+    /// default.
+    #[arg(long, value_name = "VERSION")]
+    engine_version: Option<String>,
+    /// Write {"engine", "version", "params", "units", "error", ...} as JSON.
     #[arg(long, value_name = "FILE.json")]
     out: Option<PathBuf>,
     /// Plot the input profile and the engine model's r R_d(r).
     #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
-    /// Scene units per millimetre (0.001: a scene in metres).
-    #[arg(long, default_value_t = 0.001)]
-    units_per_mm: f64,
+    /// Scene units per millimetre (0.001: a scene in metres); by default
+    /// the engine's own unit (Unreal: the cm, 0.1; the others: the metre).
+    #[arg(long)]
+    units_per_mm: Option<f64>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let e = Engine::from(a.engine);
     let profile = Profile::read(&a.profile)?;
-    let scene = Scene {
-        units_per_mm: a.units_per_mm,
-    };
-    let fit = engine::fit(e, &profile, scene)?;
+    let scene = a
+        .units_per_mm
+        .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
+    let fit = engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?;
     outln!("engine: {} (profile {})", fit.engine, a.profile.display())?;
+    outln!("version: {}", fit.version)?;
+    outln!("scene: {} units per mm", scene.units_per_mm)?;
     for (name, v) in &fit.params {
         let unit = fit.units.get(name).map_or("", String::as_str);
         outln!("  {name} = {v}    [{unit}]")?;
@@ -77,6 +85,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             pct(f.shape)
         )?,
         Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
+    }
+    if !fit.error_for.is_empty() {
+        outln!("the error is for: {}", fit.error_for)?;
+    }
+    for r in &fit.requirements {
+        outln!("requires: {r}")?;
+    }
+    for w in &fit.warnings {
+        outln!("warning: {w}")?;
     }
     if let Some(out) = &a.out {
         ssskit::io::write_json_atomic(out, &fit)?;

@@ -521,7 +521,7 @@ pub fn engine_table(cmp: &Comparison) -> Table {
             .join(", ")
     };
     for (m, p) in cmp.materials.iter().zip(&cmp.profiles) {
-        let shape = |e: Engine| engine::fit(e, p, Scene::default()).map(|f| f.error.shape);
+        let shape = |e: Engine| engine::fit(e, p, Scene::native(e)).map(|f| f.error.shape);
         let (fit, fwd) = (shape(Engine::Unreal), engine::burley::forward_error(p));
         let ratio = match (&fit, &fwd) {
             (Ok(a), Ok(b)) => (0..3)
