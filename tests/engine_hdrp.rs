@@ -29,16 +29,14 @@ fn hdrp_chain(p: &Map<String, Value>, units_per_mm: f64) -> Rendered {
     let mask = num(p, "Subsurface Mask");
     let mm_per_unit = 1000.0 * meters_per_unit / mask;
     let base = rgb(p, "Base Color").map(srgb_decode);
-    let mut out = Rendered {
+    Rendered {
         albedo: base,
-        d_mm: [0.0; 3],
-    };
-    for c in 0..3 {
-        let shape = (1.0 / (multiplier * stored[c])).min(16777216.0);
-        // d in the engine's mm, to scene units, to scene mm.
-        out.d_mm[c] = (1.0 / shape) / mm_per_unit / units_per_mm;
+        // d = 1 / S in the engine's mm, to scene units, to scene mm.
+        d_mm: stored.map(|s| {
+            let shape = (1.0 / (multiplier * s)).min(16777216.0);
+            (1.0 / shape) / mm_per_unit / units_per_mm
+        }),
     }
-    out
 }
 
 #[test]

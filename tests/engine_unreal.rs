@@ -215,6 +215,25 @@ fn a_profile_reflecting_more_than_one_keeps_every_colour_inside_the_label() {
         let d = triple(&rendered["d_mm"])[c];
         assert!((chain.d_mm[c] - d).abs() <= 1e-9 * d, "channel {c}");
     }
+    // d is fitted for the capped colour: its shape error beats the d the
+    // uncapped fit of the same shape (skin1's) would give at that colour.
+    let bright_profile = ssskit::profile::Profile::read(&bright).unwrap();
+    let (plain, _) = engine_json("profiles/reference/skin1.json", "unreal", &[]);
+    let uncapped_d = unreal_chain(params(&plain), 0.1, false).d_mm;
+    let (_, capped) = score(&chain, &bright_profile);
+    let (_, naive) = score(
+        &Rendered {
+            albedo: chain.albedo,
+            d_mm: uncapped_d,
+        },
+        &bright_profile,
+    );
+    for c in 0..3 {
+        if chain.albedo[c] >= 1.0 {
+            eprintln!("channel {c}: shape {} with d refitted, {} without", capped[c], naive[c]);
+            assert!(capped[c] < 0.95 * naive[c], "channel {c}: {} against {}", capped[c], naive[c]);
+        }
+    }
 }
 
 #[test]
