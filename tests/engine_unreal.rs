@@ -230,8 +230,16 @@ fn a_profile_reflecting_more_than_one_keeps_every_colour_inside_the_label() {
     );
     for c in 0..3 {
         if chain.albedo[c] >= 1.0 {
-            eprintln!("channel {c}: shape {} with d refitted, {} without", capped[c], naive[c]);
-            assert!(capped[c] < 0.95 * naive[c], "channel {c}: {} against {}", capped[c], naive[c]);
+            eprintln!(
+                "channel {c}: shape {} with d refitted, {} without",
+                capped[c], naive[c]
+            );
+            assert!(
+                capped[c] < 0.95 * naive[c],
+                "channel {c}: {} against {}",
+                capped[c],
+                naive[c]
+            );
         }
     }
 }

@@ -32,7 +32,8 @@
 
 use super::burley::Burley;
 use super::{
-    color, number, require, srgb_hex, table, text, triple, typed, Printed, Scene, Version,
+    color, in_range, number, printed, require, srgb_hex, text, triple, typed, Printed, Scene,
+    Version,
 };
 use crate::error::{Error, Result};
 use crate::profile::analytic::burley::diffuse_surface_scale;
@@ -193,25 +194,10 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
             ),
         ]
     };
-    let (params, units) = table(rows);
-    Printed {
-        params,
-        units,
-        warnings,
-    }
+    printed(rows, warnings)
 }
 
-fn in_range(name: &str, x: f64, (lo, hi): (f64, f64)) -> Result<f64> {
-    if !(lo..=hi).contains(&x) {
-        return Err(Error::invalid(
-            "engine",
-            name,
-            x,
-            format!("Blender's socket takes [{lo}, {hi}]"),
-        ));
-    }
-    Ok(x)
-}
+const UI: &str = "Blender's socket";
 
 /// The profile Blender renders from the values `params` prints, by the
 /// chain of the module comment for version `v`.
@@ -234,8 +220,8 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
         let colour = triple(p, "Subsurface Color")?;
         let r = triple(p, "Subsurface Radius")?;
         for c in 0..3 {
-            in_range("Subsurface Color", colour[c], (0.0, 1.0))?;
-            in_range("Subsurface Radius", r[c], RADIUS_RANGE)?;
+            in_range(UI, "Subsurface Color", colour[c], (0.0, 1.0))?;
+            in_range(UI, "Subsurface Radius", r[c], RADIUS_RANGE)?;
         }
         (colour, r)
     } else {
@@ -248,12 +234,13 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
         let colour = triple(p, "Base Color")?.map(|c| c.clamp(0.0, 1.0));
         let r = triple(p, "Subsurface Radius")?;
         let scale = in_range(
+            UI,
             "Subsurface Scale",
             number(p, "Subsurface Scale")?,
             SCALE_RANGE,
         )?;
         for x in r {
-            in_range("Subsurface Radius", x, RADIUS_RANGE)?;
+            in_range(UI, "Subsurface Radius", x, RADIUS_RANGE)?;
         }
         (colour, r.map(|x| x * scale))
     };

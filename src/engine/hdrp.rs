@@ -29,8 +29,8 @@
 
 use super::burley::Burley;
 use super::{
-    color, from_srgb_hex, linear_to_srgb, number, srgb_hex, srgb_to_linear, table, text, triple,
-    typed, Printed, Scene, Version,
+    color, from_srgb_hex, in_range, linear_to_srgb, number, printed, srgb_hex, srgb_to_linear,
+    text, triple, typed, Printed, Scene, Version,
 };
 use crate::error::{Error, Result};
 use serde_json::{json, Map, Value};
@@ -85,67 +85,57 @@ pub fn params(b: &Burley, scene: Scene, _v: Version) -> Printed {
         }
     }
     let base = b.albedo.map(|a| typed(linear_to_srgb(a.clamp(0.0, 1.0))));
-    let (params, units) = table(vec![
-        (
-            "Scattering Color",
-            color(scattering),
-            "diffusion profile, as the colour picker shows it (sRGB, 0 to 1; HDRP stores \
+    printed(
+        vec![
+            (
+                "Scattering Color",
+                color(scattering),
+                "diffusion profile, as the colour picker shows it (sRGB, 0 to 1; HDRP stores \
              its .linear): the shape distance per channel, times Multiplier",
-        ),
-        (
-            "Scattering Color hex",
-            json!(hex),
-            "the same colour as the picker's 8-bit hex field",
-        ),
-        (
-            "Multiplier",
-            json!(multiplier),
-            "diffusion profile: mm at World Scale x scene units per mm = 0.001",
-        ),
-        (
-            "World Scale",
-            json!(world_scale),
-            "diffusion profile: metres per scene unit",
-        ),
-        (
-            "Base Color",
-            color(base),
-            "the Lit material's Base Map colour, as the picker shows it (sRGB): the \
+            ),
+            (
+                "Scattering Color hex",
+                json!(hex),
+                "the same colour as the picker's 8-bit hex field",
+            ),
+            (
+                "Multiplier",
+                json!(multiplier),
+                "diffusion profile: mm at World Scale x scene units per mm = 0.001",
+            ),
+            (
+                "World Scale",
+                json!(world_scale),
+                "diffusion profile: metres per scene unit",
+            ),
+            (
+                "Base Color",
+                color(base),
+                "the Lit material's Base Map colour, as the picker shows it (sRGB): the \
              profile's total reflectance",
-        ),
-        (
-            "Base Color hex",
-            json!(srgb_hex(b.albedo)),
-            "the same colour as the picker's 8-bit hex field",
-        ),
-        (
-            "Subsurface Mask",
-            json!(1.0),
-            "Lit material: the filter is scaled by it, 1 keeps the profile's width",
-        ),
-        (
-            "Texturing Mode",
-            json!("Post-scatter"),
-            "diffusion profile (Pre- and post-scatter gives the same for a uniform colour)",
-        ),
-    ]);
-    Printed {
-        params,
-        units,
+            ),
+            (
+                "Base Color hex",
+                json!(srgb_hex(b.albedo)),
+                "the same colour as the picker's 8-bit hex field",
+            ),
+            (
+                "Subsurface Mask",
+                json!(1.0),
+                "Lit material: the filter is scaled by it, 1 keeps the profile's width",
+            ),
+            (
+                "Texturing Mode",
+                json!("Post-scatter"),
+                "diffusion profile (Pre- and post-scatter gives the same for a uniform colour)",
+            ),
+        ],
         warnings,
-    }
+    )
 }
 
 fn unit_interval(name: &str, x: f64) -> Result<f64> {
-    if !(0.0..=1.0).contains(&x) {
-        return Err(Error::invalid(
-            "engine",
-            name,
-            x,
-            "HDRP's colour picker takes [0, 1]",
-        ));
-    }
-    Ok(x)
+    in_range("HDRP's colour picker", name, x, (0.0, 1.0))
 }
 
 /// The profile HDRP renders from the values `params` prints, through

@@ -554,6 +554,17 @@ pub(crate) fn triple(params: &Map<String, Value>, name: &str) -> Result<[f64; 3]
     Ok(out)
 }
 
+/// What a Burley engine's UI takes, from (name, value, unit) rows and the
+/// warnings of the values moved to fit it.
+pub(crate) fn printed(rows: Vec<(&str, Value, &str)>, warnings: Vec<String>) -> Printed {
+    let (params, units) = table(rows);
+    Printed {
+        params,
+        units,
+        warnings,
+    }
+}
+
 /// A parameter map from (name, value, unit) rows.
 pub(crate) fn table(rows: Vec<(&str, Value, &str)>) -> (Map<String, Value>, Units) {
     let mut p = Map::new();
@@ -612,6 +623,20 @@ pub(crate) fn text<'a>(params: &'a Map<String, Value>, name: &str) -> Result<&'a
         .get(name)
         .and_then(Value::as_str)
         .ok_or_else(|| Error::Unsupported(format!("parameter '{name}' is missing or not text")))
+}
+
+/// `x` if it lies in [lo, hi], the range `ui` (the engine's UI) takes for
+/// parameter `name`; an error naming both otherwise.
+pub(crate) fn in_range(ui: &str, name: &str, x: f64, (lo, hi): (f64, f64)) -> Result<f64> {
+    if !(lo..=hi).contains(&x) {
+        return Err(Error::invalid(
+            "engine",
+            name,
+            x,
+            format!("{ui} takes [{lo}, {hi}]"),
+        ));
+    }
+    Ok(x)
 }
 
 /// Refuses a parameter that is not the one value the fit assumes.

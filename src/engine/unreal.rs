@@ -36,8 +36,8 @@
 //! perpendicular-searchlight and diffuse-mean-free-path fits.
 
 use super::burley::Burley;
-use super::{color, number, require, table, triple, typed, Printed, Scene, Version};
-use crate::error::{Error, Result};
+use super::{color, in_range, number, printed, require, triple, typed, Printed, Scene, Version};
+use crate::error::Result;
 use crate::profile::analytic::burley::{dmfp_scale, searchlight_scale};
 use serde_json::{json, Map, Value};
 
@@ -207,25 +207,10 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
             ),
         );
     }
-    let (params, units) = table(rows);
-    Printed {
-        params,
-        units,
-        warnings,
-    }
+    printed(rows, warnings)
 }
 
-fn in_range(name: &str, x: f64, (lo, hi): (f64, f64)) -> Result<f64> {
-    if !(lo..=hi).contains(&x) {
-        return Err(Error::invalid(
-            "engine",
-            name,
-            x,
-            format!("Unreal's UI takes [{lo}, {hi}]"),
-        ));
-    }
-    Ok(x)
-}
+const UI: &str = "Unreal's UI";
 
 /// The profile Unreal renders from the values `params` prints, through
 /// steps 1 to 5 of the module comment.
@@ -233,15 +218,17 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
     let surface = triple(p, "SurfaceAlbedo")?;
     let mfp_color = triple(p, "MeanFreePathColor")?;
     for c in 0..3 {
-        in_range("SurfaceAlbedo", surface[c], SURFACE_ALBEDO_RANGE)?;
-        in_range("MeanFreePathColor", mfp_color[c], MFP_COLOR_RANGE)?;
+        in_range(UI, "SurfaceAlbedo", surface[c], SURFACE_ALBEDO_RANGE)?;
+        in_range(UI, "MeanFreePathColor", mfp_color[c], MFP_COLOR_RANGE)?;
     }
     let distance = in_range(
+        UI,
         "MeanFreePathDistance",
         number(p, "MeanFreePathDistance")?,
         DISTANCE_RANGE,
     )?;
     let wus = in_range(
+        UI,
         "WorldUnitScale",
         number(p, "WorldUnitScale")?,
         WORLD_UNIT_SCALE_RANGE,
@@ -254,7 +241,7 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
     )?;
     let base = triple(p, "Base Color")?;
     for b in base {
-        in_range("Base Color", b, (0.0, 1.0))?;
+        in_range(UI, "Base Color", b, (0.0, 1.0))?;
     }
     let k = scene_mm_per_profile_mm(v, wus, scene.units_per_mm);
     Ok(Burley {
