@@ -259,3 +259,18 @@ fn unknown_versions_are_refused_with_the_known_ones() {
         &["--engine-version", "4.27", "5.4, 5.0"],
     );
 }
+
+/// The library refuses nothing it is handed: a colour above 1 (the 4.99
+/// that was written) still prints inside [0, 1].
+#[test]
+fn params_clamp_colours_the_fit_did_not_cap() {
+    use ssskit::engine::{burley::Burley, unreal, Engine, Scene};
+    let b = Burley {
+        albedo: [4.99, 0.5, 0.001],
+        d_mm: [1.0, 0.5, 0.2],
+    };
+    let printed = unreal::params(&b, Scene::native(Engine::Unreal), unreal::VERSIONS[0]);
+    assert_inside_the_ui("library", &printed.params);
+    assert_eq!(rgb(&printed.params, "Base Color")[0], 1.0);
+    assert_eq!(rgb(&printed.params, "SurfaceAlbedo"), [1.0, 0.5, 0.01]);
+}
