@@ -205,7 +205,8 @@ fn a_profile_reflecting_more_than_one_keeps_every_colour_inside_the_label() {
         fit["error"]
     );
     assert!(
-        text.contains("warning: channel r: the profile reflects") && text.contains("capped at 1"),
+        text.contains("warning: channel r: the fit asks for a colour above 1")
+            && text.contains("capped at 1"),
         "{text}"
     );
     // The chain still gives what ssskit scored.
@@ -273,4 +274,26 @@ fn params_clamp_colours_the_fit_did_not_cap() {
     assert_inside_the_ui("library", &printed.params);
     assert_eq!(rgb(&printed.params, "Base Color")[0], 1.0);
     assert_eq!(rgb(&printed.params, "SurfaceAlbedo"), [1.0, 0.5, 0.01]);
+}
+
+/// A scene in metres: WorldUnitScale would be 0.01, under its ClampMin
+/// 0.1; 0.1 is printed and the mean free paths carry the rest, so the
+/// profile keeps its width in the scene.
+#[test]
+fn world_unit_scale_under_its_clamp_is_made_up_by_the_mean_free_paths() {
+    let (fit, text) = engine_json(
+        "profiles/reference/skin1.json",
+        "unreal",
+        &["--units-per-mm", "0.001"],
+    );
+    let p = params(&fit);
+    assert_inside_the_ui("skin1 m", p);
+    assert_eq!(num(p, "WorldUnitScale"), 0.1);
+    assert!(text.contains("warning: WorldUnitScale"), "{text}");
+    check_against_report(
+        "unreal skin1 m",
+        &fit,
+        &unreal_chain(p, 0.001, false),
+        &reference("skin1"),
+    );
 }

@@ -116,7 +116,7 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
         if r > rhi {
             warnings.push(format!(
                 "Subsurface Radius: {r:.4} is above the socket's {rhi}; {rhi} is printed, so \
-                 the profile renders narrower (the error above includes it)"
+                 the profile renders narrower (the error includes it)"
             ));
         }
         typed(r.clamp(rlo, rhi))

@@ -61,9 +61,7 @@ pub fn params(b: &Burley, scene: Scene, _v: Version) -> Printed {
     if want < MIN_WORLD_SCALE {
         warnings.push(format!(
             "World Scale: {want} m per unit is below the {MIN_WORLD_SCALE} Validate keeps; \
-             {world_scale} is printed, so the profile renders {:.3} times as wide (the error \
-             above includes it)",
-            want / world_scale
+             {world_scale} is printed and the Multiplier scaled to keep the profile's width"
         ));
     }
     // d in the engine's mm (step 3 with Subsurface Mask 1).

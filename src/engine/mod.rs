@@ -277,9 +277,9 @@ fn fit_burley(engine: Engine, v: Version, profile: &Profile, scene: Scene) -> Re
     for c in 0..3 {
         if fitted.albedo[c] >= BURLEY_COLOUR_CAP {
             warnings.push(format!(
-                "channel {}: the profile reflects {:.4} in total, more than the colour 1 the \
-                 engine takes; the colour is capped at 1 and d fitted for it (total error \
-                 {:+.1}%)",
+                "channel {}: the fit asks for a colour above 1, the most the engine takes \
+                 (the profile reflects {:.4} in total); the colour is capped at 1 and d \
+                 fitted for it (total error {:+.1}%)",
                 ["r", "g", "b"][c],
                 profile.total_rd[c],
                 100.0 * error.total[c]

@@ -110,9 +110,8 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
     if want != want.clamp(lo, hi) {
         warnings.push(format!(
             "WorldUnitScale: {want:.4} would map the profile's mm to the scene's at {u} units \
-             per mm, outside [{lo}, {hi}]; {wus} is printed, so the profile renders {:.3} times \
-             as wide (the error above includes it)",
-            scene_mm_per_profile_mm(v, wus, u)
+             per mm, outside [{lo}, {hi}]; {wus} is printed and the mean free paths scaled to \
+             keep the profile's width in the scene"
         ));
     }
     let k = scene_mm_per_profile_mm(v, wus, u);
@@ -137,7 +136,7 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
         warnings.push(format!(
             "MeanFreePathDistance: the longest mean free path is {longest:.4} cm, above the \
              ClampMax {dhi}; {dhi} is printed, so the profile renders narrower (the error \
-             above includes it)"
+             includes it)"
         ));
     }
     let mut mfp_color = mfp_cm.map(|m| m / distance);
@@ -146,7 +145,7 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
             warnings.push(format!(
                 "MeanFreePathColor channel {c}: {col:.5} is below {TEXTURE_MIN}, the least \
                  CreateTexture keeps (GetClamped(Bias)); {TEXTURE_MIN} is printed (the error \
-                 above includes it)"
+                 includes it)"
             ));
             *col = TEXTURE_MIN;
         }
@@ -159,7 +158,7 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
         if dmfp > DMFP_MAX_MM {
             warnings.push(format!(
                 "channel {c}: the diffuse mean free path {dmfp:.1} mm is above the {DMFP_MAX_MM} mm \
-                 the profile texture encodes; Unreal clamps it (the error above includes it)"
+                 the profile texture encodes; Unreal clamps it (the error includes it)"
             ));
         }
     }
