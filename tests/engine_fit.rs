@@ -1,13 +1,13 @@
 //! Engine parameters fitted to the reference profiles: the fitted Burley
 //! model beats the forward Burley-from-coefficients model on shape error,
-//! the written parameters reproduce the reported error, and each engine's
-//! unit conversion matches a case computed by hand (iryoku and Godot:
-//! tests/engine_iryoku.rs, tests/engine_godot.rs).
+//! the written parameters reproduce the reported error (every engine,
+//! every version). Each engine's conversion chain is checked against its
+//! own source in tests/engine_{unreal,hdrp,blender,iryoku,godot}.rs.
 
 mod filter_support;
 use filter_support::*;
-use ssskit::engine::burley::{forward_error, Burley};
-use ssskit::engine::{self, blender, hdrp, unreal, Engine, Scene};
+use ssskit::engine::burley::forward_error;
+use ssskit::engine::{self, Engine, Scene};
 use ssskit::profile::Profile;
 use std::path::Path;
 
@@ -24,7 +24,7 @@ fn reference(m: &str) -> Profile {
 fn fitted_burley_beats_the_forward_model_on_every_preset() {
     for m in PRESETS {
         let p = reference(m);
-        let fit = engine::fit(Engine::Unreal, &p, Scene::default()).unwrap();
+        let fit = engine::fit(Engine::Unreal, &p, Scene::native(Engine::Unreal)).unwrap();
         let fwd = forward_error(&p).unwrap();
         for c in 0..3 {
             eprintln!(
@@ -47,17 +47,20 @@ fn fitted_burley_beats_the_forward_model_on_every_preset() {
 /// reported error, for every engine on two presets.
 #[test]
 fn fitted_parameters_round_trip_with_the_reported_error() {
-    let scene = Scene::default();
     for m in ["skin1", "marble"] {
         let p = reference(m);
-        for e in Engine::ALL {
-            let fit = engine::fit(e, &p, scene).unwrap();
+        for (e, v) in Engine::ALL
+            .into_iter()
+            .flat_map(|e| e.versions().iter().map(move |v| (e, v.key)))
+        {
+            let scene = Scene::native(e);
+            let fit = engine::fit_version(e, &p, scene, Some(v)).unwrap();
             let json = serde_json::to_value(&fit).unwrap();
-            for key in ["engine", "params", "units", "error"] {
+            for key in ["engine", "version", "params", "units", "error"] {
                 assert!(json.get(key).is_some(), "{key} missing");
             }
             let params = json["params"].as_object().unwrap();
-            let model = engine::model_from_params(e, params, &p, scene).unwrap();
+            let model = engine::model_from_params_version(e, Some(v), params, &p, scene).unwrap();
             let err = engine::error(&model, &p).unwrap();
             for c in 0..3 {
                 for (a, b, what) in [
@@ -73,41 +76,6 @@ fn fitted_parameters_round_trip_with_the_reported_error() {
             }
         }
     }
-}
-
-#[test]
-fn unit_conversions_match_hand_computed_cases() {
-    let scene = Scene::default();
-    let b = Burley {
-        albedo: [0.8; 3],
-        d_mm: [1.0, 2.0, 4.0],
-    };
-    let close = |a: f64, b: f64| (a - b).abs() < 1e-12 * b.abs().max(1.0);
-    // Unreal: s(0.8) = 1.85 - 0.8 = 1.05; l = d s = 4.2 mm = 0.42 cm.
-    let (p, _) = unreal::params(&b);
-    assert!(close(p["MeanFreePathDistance"].as_f64().unwrap(), 0.42));
-    assert_eq!(p["MeanFreePathColor"], serde_json::json!([0.25, 0.5, 1.0]));
-    // HDRP: S = 1/d with d in mm at worldScale 1 (metres).
-    let (p, _) = hdrp::params(&b, scene);
-    assert!(close(
-        p["scatteringDistanceMultiplier"].as_f64().unwrap(),
-        4.0
-    ));
-    assert!(close(p["worldScale"].as_f64().unwrap(), 1.0));
-    // Blender: s(0.8) = 1.9 - 0.8 = 1.1, radius = 4 pi l = 4 pi d s mm,
-    // in metres: 4 * 1.1 * 4 pi / 1000 = 0.0552920...
-    let (p, _) = blender::params(&b, scene);
-    assert!(close(
-        p["Subsurface Scale"].as_f64().unwrap(),
-        4.0 * 1.1 * 4.0 * std::f64::consts::PI / 1000.0
-    ));
-    // A scene in centimetres: ten times the metre values.
-    let cm = Scene { units_per_mm: 0.1 };
-    let (p, _) = blender::params(&b, cm);
-    assert!(close(
-        p["Subsurface Scale"].as_f64().unwrap(),
-        4.0 * 1.1 * 4.0 * std::f64::consts::PI / 10.0
-    ));
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! `ssskit engine`: the parameters of an engine's own diffusion model
 //! fitted to a profile, with the fit's error and a plot.
 
-use super::args::{self, OutFile, ProfileFile, UnitsPerMmArg};
+use super::args::{self, OutFile, ProfileFile};
 use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
 use ssskit::profile::Profile;
@@ -48,13 +48,19 @@ pub struct Args {
     /// The engine whose model is fitted.
     #[arg(long, value_enum, value_name = "ENGINE", ignore_case = true)]
     engine: EngineArg,
+    /// The engine version whose conversion chain to follow (unreal: 5.4,
+    /// 5.0; unity-hdrp: 17; blender: 4, eevee, 2.93) [default: the newest].
+    #[arg(long, value_name = "VERSION")]
+    engine_version: Option<String>,
     #[command(flatten)]
     out: OutFile,
     /// Plot the input profile and the engine model's r R_d(r) [default: not written].
     #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
-    #[command(flatten)]
-    units_per_mm: UnitsPerMmArg,
+    /// Scene units per millimetre (0.001: a scene in metres) [default: the
+    /// engine's own unit: unreal 0.1 (the cm), the others 0.001 (the metre)].
+    #[arg(long, value_name = "UNITS", allow_negative_numbers = true)]
+    units_per_mm: Option<f64>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -65,15 +71,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .as_deref()
         .ok_or_else(|| anyhow::anyhow!("give --profile"))?;
     let profile = Profile::read(profile_path)?;
-    let scene = Scene {
-        units_per_mm: a.units_per_mm.units_per_mm,
-    };
-    let fit = engine::fit(e, &profile, scene)?;
-    outln!(
-        "engine: {} (profile {})",
-        fit.engine,
-        profile_path.display()
-    )?;
+    let scene = a
+        .units_per_mm
+        .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
+    let fit = engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?;
+    outln!("engine: {} (profile {})", fit.engine, profile_path.display())?;
+    outln!("version: {}", fit.version)?;
+    outln!("scene: {} units per mm", scene.units_per_mm)?;
     for (name, v) in &fit.params {
         let unit = fit.units.get(name).map_or("", String::as_str);
         outln!("  {name} = {v}    [{unit}]")?;
@@ -91,6 +95,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             pct(f.shape)
         )?,
         Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
+    }
+    if !fit.error_for.is_empty() {
+        outln!("the error is for: {}", fit.error_for)?;
+    }
+    for r in &fit.requirements {
+        outln!("requires: {r}")?;
+    }
+    for w in &fit.warnings {
+        outln!("warning: {w}")?;
     }
     if let Some(out) = &a.out.out {
         ssskit::io::write_json_atomic(out, &fit)?;

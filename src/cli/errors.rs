@@ -68,6 +68,7 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("compare", "ranks", &["--ranks"]),
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),
     ("engine", "scene units per mm", &["--units-per-mm"]),
+    ("engine", "engine version", &["--engine-version"]),
     ("bench", "frames", &["--frames"]),
 ];
 

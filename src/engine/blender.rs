@@ -1,60 +1,277 @@
-//! Blender's Principled BSDF, subsurface method Christensen-Burley (Cycles,
-//! intern/cycles/kernel/closure/bssrdf.h: bssrdf_burley_setup): Subsurface
-//! Radius (RGB) times Subsurface Scale, in scene units, is turned into a
-//! mean free path l = radius / (4 pi) (bssrdf_burley_compatible_mfp) and a
-//! shape distance d = l / s(A) with s(A) = 1.9 - A + 3.5 (A - 0.8)^2
-//! (bssrdf_burley_fitting); A is the Base Color. Random Walk reads the
-//! same radius as a mean free path per channel for its volume, so these
-//! values are a starting point there, not a fit.
+//! Blender's Principled BSDF subsurface, the chain from the node's values
+//! to the profile the renderer draws, for three conventions (Cycles from
+//! the blender/cycles repository at its release tags, EEVEE from
+//! blender/blender):
+//!
+//! - Cycles 4.x (`--engine-version 4`; read at v4.0.0, v4.5.0, v5.0.0):
+//!   kernel/svm/closure.h (principled BSDF) sets the subsurface closure's
+//!   weight to min(Base Color, 1) x Subsurface Weight x the layers' weight
+//!   and its radius to Subsurface Radius x Subsurface Scale (scene units);
+//!   kernel/closure/bssrdf.h `bssrdf_setup_radius` multiplies the radius
+//!   by 1 / (4 pi) for Christensen-Burley and Random Walk, and
+//!   `bssrdf_burley_eval` uses it as Burley's d with the albedo already in
+//!   the weight: R(r) = Base Color x Burley(d = radius / (4 pi)).
+//!   `bssrdf_burley_setup` (the albedo fit s(A)) is still defined but no
+//!   longer called.
+//! - Cycles 2.83 to 2.93 (`--engine-version 2.93`; read at v2.83.12,
+//!   v2.90.1, v2.93.0): kernel/svm/svm_closure.h sets radius = Subsurface
+//!   Radius x Subsurface and albedo = Subsurface Color;
+//!   kernel/closure/bssrdf.h `bssrdf_setup` calls `bssrdf_burley_setup`,
+//!   d = radius / (4 pi) / s(A), s = 1.9 - A + 3.5 (A - 0.8)^2
+//!   (`bssrdf_burley_fitting`).
+//! - EEVEE (Next), Blender 4.2 and later (`--engine-version eevee`):
+//!   gpu_shader_material_principled.glsl sets sss_radius = Subsurface
+//!   Radius x Subsurface Scale and the colour to the weights x min(Base
+//!   Color, 1); eevee_subsurface_convolve_comp.glsl normalises that colour
+//!   by its largest channel and calls `burley_setup` (eevee_shader_shared.hh):
+//!   d = radius / (4 pi) / s(colour / max colour), the blur divided by the
+//!   sum of its weights and multiplied by the colour.
+//!
+//! The node's colours are scene linear in the colour picker's RGB fields;
+//! its hex field is sRGB (Blender Manual, Color Picker).
 
 use super::burley::Burley;
-use super::{color, number, table, triple, Scene, Units};
-use crate::error::Result;
+use super::{
+    color, in_range, number, printed, require, srgb_hex, text, triple, typed, Printed, Scene,
+    Version,
+};
+use crate::error::{Error, Result};
+use crate::profile::analytic::burley::diffuse_surface_scale;
 use serde_json::{json, Map, Value};
 use std::f64::consts::PI;
 
-/// bssrdf_burley_fitting.
-pub fn burley_fitting(a: f64) -> f64 {
-    1.9 - a + 3.5 * (a - 0.8) * (a - 0.8)
+pub const VERSIONS: [Version; 3] = [
+    Version {
+        key: "4",
+        aliases: &["4.0", "4.1", "4.2", "4.3", "4.4", "4.5", "5.0", "cycles"],
+        label: "Blender 4.0 to 5.0, Cycles: Principled BSDF, Christensen-Burley \
+                (read in Cycles v4.0.0, v4.5.0, v5.0.0)",
+    },
+    Version {
+        key: "eevee",
+        aliases: &["eevee-next"],
+        label: "Blender 4.2 and later, EEVEE: Principled BSDF subsurface \
+                (read in blender/blender's EEVEE Next shaders)",
+    },
+    Version {
+        key: "2.93",
+        aliases: &["2.83", "2.90", "2.91", "2.92"],
+        label: "Blender 2.83 to 2.93, Cycles: Principled BSDF, Christensen-Burley \
+                (read in Cycles v2.83.12, v2.90.1, v2.93.0)",
+    },
+];
+
+/// Subsurface Radius's socket range (node_shader_bsdf_principled.cc).
+pub const RADIUS_RANGE: (f64, f64) = (0.0, 100.0);
+/// Subsurface Scale's socket range (Blender 4.x).
+pub const SCALE_RANGE: (f64, f64) = (0.0, 10.0);
+const METHOD: &str = "Christensen-Burley";
+
+/// `bssrdf_setup_radius` / `bssrdf_burley_compatible_mfp`: d per unit of
+/// radius before any albedo fit.
+const D_PER_RADIUS: f64 = 0.25 / PI;
+
+pub fn error_for(v: Version) -> &'static str {
+    match v.key {
+        "eevee" => {
+            "EEVEE's screen-space subsurface pass (eevee_subsurface_convolve_comp.glsl), its \
+             expected value; it blurs nothing where the radius is under a pixel"
+        }
+        "2.93" => {
+            "Cycles' Christensen-Burley closure (disk sampling of the normalized profile, \
+             truncated at 16 d: about 0.4% of the light); Random Walk renders a volume walk \
+             with the same radius, not scored here"
+        }
+        _ => {
+            "Cycles' Christensen-Burley closure (disk sampling of the normalized profile, \
+             truncated at 16 d: about 0.4% of the light); Random Walk reads the same radius as \
+             a mean free path per channel for a volume walk, a different profile not scored \
+             here"
+        }
+    }
 }
 
-pub fn params(b: &Burley, scene: Scene) -> (Map<String, Value>, Units) {
-    let radius_mm: [f64; 3] =
-        std::array::from_fn(|c| b.d_mm[c] * burley_fitting(b.albedo[c]) * 4.0 * PI);
-    let max = radius_mm.iter().fold(0.0f64, |m, v| m.max(*v));
-    table(vec![
-        ("Base Color", color(b.albedo), "linear RGB"),
-        (
-            "Subsurface Weight",
-            json!(1.0),
-            "fraction of diffuse that scatters",
-        ),
-        (
-            "Subsurface Radius",
-            color(radius_mm.map(|v| v / max)),
-            "per channel, times Subsurface Scale",
-        ),
-        (
-            "Subsurface Scale",
-            json!(max * scene.units_per_mm),
-            "scene units (metres by default)",
-        ),
-        (
+/// The albedo fit's s(A) per channel: none in Cycles 4.x, s of the colour
+/// over its largest channel in EEVEE, s of the Subsurface Color in 2.93.
+fn albedo_fit(v: Version, colour: [f64; 3]) -> [f64; 3] {
+    match v.key {
+        "eevee" => {
+            let max = colour.iter().fold(1e-6f64, |m, c| m.max(*c));
+            colour.map(|c| diffuse_surface_scale(c / max))
+        }
+        "2.93" => colour.map(diffuse_surface_scale),
+        _ => [1.0; 3],
+    }
+}
+
+pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
+    let u = scene.units_per_mm;
+    let mut warnings = Vec::new();
+    let colour = b.albedo.map(|a| typed(a.clamp(0.0, 1.0)));
+    let s = albedo_fit(v, colour);
+    // radius (scene units) = d (scene units) / D_PER_RADIUS x s(A).
+    let radius: [f64; 3] = std::array::from_fn(|c| b.d_mm[c] * u / D_PER_RADIUS * s[c]);
+    let (rlo, rhi) = RADIUS_RANGE;
+    let clamp_radius = |r: f64, warnings: &mut Vec<String>| {
+        if r > rhi {
+            warnings.push(format!(
+                "Subsurface Radius: {r:.4} is above the socket's {rhi}; {rhi} is printed, so \
+                 the profile renders narrower (the error includes it)"
+            ));
+        }
+        typed(r.clamp(rlo, rhi))
+    };
+    let hex = srgb_hex(colour);
+    let rows = if v.key == "2.93" {
+        let radius = radius.map(|r| clamp_radius(r, &mut warnings));
+        vec![
+            (
+                "Subsurface",
+                json!(1.0),
+                "all of the diffuse light scatters; the Base Color is then unused",
+            ),
+            (
+                "Subsurface Color",
+                color(colour),
+                "scene linear RGB (the picker's RGB fields): the profile's total reflectance \
+                 and the albedo of Cycles' s(A) fit",
+            ),
+            (
+                "Subsurface Color hex",
+                json!(hex),
+                "the picker's hex field (sRGB)",
+            ),
+            (
+                "Subsurface Radius",
+                color(radius),
+                "scene units per channel, in [0, 100]",
+            ),
+            ("Subsurface Method", json!(METHOD), "the model fitted"),
+        ]
+    } else {
+        let longest = radius.iter().fold(0.0f64, |m, r| m.max(*r));
+        let (_, shi) = SCALE_RANGE;
+        let scale = typed(longest.min(shi));
+        if longest > shi {
+            warnings.push(format!(
+                "Subsurface Scale: {longest:.4} is above the socket's {shi}; {shi} is printed \
+                 and Subsurface Radius scaled up to keep the radii"
+            ));
+        }
+        let per_channel = radius.map(|r| clamp_radius(r / scale, &mut warnings));
+        vec![
+            (
+                "Base Color",
+                color(colour),
+                "scene linear RGB (the picker's RGB fields), in [0, 1]: the profile's total \
+                 reflectance",
+            ),
+            (
+                "Base Color hex",
+                json!(hex),
+                "the picker's hex field (sRGB)",
+            ),
+            (
+                "Subsurface Weight",
+                json!(1.0),
+                "all of the diffuse light scatters",
+            ),
+            (
+                "Subsurface Radius",
+                color(per_channel),
+                "per channel, in [0, 100], times Subsurface Scale",
+            ),
+            ("Subsurface Scale", json!(scale), "scene units, in [0, 10]"),
+            (
+                "Subsurface Method",
+                json!(METHOD),
+                if v.key == "eevee" {
+                    "EEVEE renders every method alike; Cycles' Christensen-Burley needs \
+                     --engine-version 4"
+                } else {
+                    "the model fitted"
+                },
+            ),
+        ]
+    };
+    printed(rows, warnings)
+}
+
+const UI: &str = "Blender's socket";
+
+/// The profile Blender renders from the values `params` prints, by the
+/// chain of the module comment for version `v`.
+pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<Burley> {
+    if text(p, "Subsurface Method")? != METHOD && v.key != "eevee" {
+        return Err(Error::invalid(
+            "engine",
             "Subsurface Method",
-            json!("Christensen-Burley"),
-            "the model fitted",
-        ),
-    ])
+            text(p, "Subsurface Method")?,
+            "only Christensen-Burley renders the Burley profile",
+        ));
+    }
+    let (colour, radius) = if v.key == "2.93" {
+        require(
+            p,
+            "Subsurface",
+            &json!(1.0),
+            "below 1 Base Color's diffuse mixes in",
+        )?;
+        let colour = triple(p, "Subsurface Color")?;
+        let r = triple(p, "Subsurface Radius")?;
+        for c in 0..3 {
+            in_range(UI, "Subsurface Color", colour[c], (0.0, 1.0))?;
+            in_range(UI, "Subsurface Radius", r[c], RADIUS_RANGE)?;
+        }
+        (colour, r)
+    } else {
+        require(
+            p,
+            "Subsurface Weight",
+            &json!(1.0),
+            "below 1 a diffuse BSDF takes the rest",
+        )?;
+        let colour = triple(p, "Base Color")?.map(|c| c.clamp(0.0, 1.0));
+        let r = triple(p, "Subsurface Radius")?;
+        let scale = in_range(
+            UI,
+            "Subsurface Scale",
+            number(p, "Subsurface Scale")?,
+            SCALE_RANGE,
+        )?;
+        for x in r {
+            in_range(UI, "Subsurface Radius", x, RADIUS_RANGE)?;
+        }
+        (colour, r.map(|x| x * scale))
+    };
+    let s = albedo_fit(v, colour);
+    Ok(Burley {
+        albedo: colour,
+        d_mm: std::array::from_fn(|c| radius[c] * D_PER_RADIUS / s[c] / scene.units_per_mm),
+    })
 }
 
-pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Burley> {
-    let albedo = triple(p, "Base Color")?;
-    let radius = triple(p, "Subsurface Radius")?;
-    let scale = number(p, "Subsurface Scale")?;
-    Ok(Burley {
-        albedo,
-        d_mm: std::array::from_fn(|c| {
-            radius[c] * scale / scene.units_per_mm / (4.0 * PI) / burley_fitting(albedo[c])
-        }),
-    })
+pub fn requirements(v: Version, scene: Scene) -> Vec<String> {
+    let mut r = vec![format!(
+        "scene units of {} mm (--units-per-mm {}): the radius is a distance in scene units",
+        1.0 / scene.units_per_mm,
+        scene.units_per_mm
+    )];
+    if v.key == "2.93" {
+        r.push("Metallic 0 and Transmission 0 (they take their share of the subsurface)".into());
+    } else {
+        r.push(
+            "Metallic 0, Transmission 0, Coat 0 and Sheen 0 (each layer takes its share of the \
+             subsurface weight)"
+                .into(),
+        );
+        r.push(
+            "the specular layer (IOR, Specular IOR Level) takes its reflectance out of the \
+             subsurface weight (closure_layering_weight), while the profile's total already \
+             leaves out the specular reflection at entry: the diffuse renders lower by that \
+             reflectance (about 4% at IOR 1.5 and normal incidence)"
+                .into(),
+        );
+    }
+    r
 }

@@ -1,35 +1,32 @@
-//! Christensen and Burley 2015 normalized diffusion with its two
-//! parameters free per channel: R(r) = A (e^{-r/d} + e^{-r/(3d)}) /
-//! (8 pi d r), which integrates to A for any shape distance d (the paper's
-//! eq. 2 with s = 1/d). The forward model (`profile::analytic::burley`)
-//! takes A from the dipole and d from the searchlight fit; here both come
-//! from the profile itself.
+//! Christensen and Burley 2015 normalized diffusion as the Burley engines
+//! render it: R(r) = A (e^{-r/d} + e^{-r/(3d)}) / (8 pi d r), the engine's
+//! blur normalised to 1 and multiplied by a colour A (Unreal's material
+//! Base Color, HDRP's Base Map colour, Blender's Base Color), the shape
+//! distance d in mm on the surface. The fit takes A and d per channel
+//! from the profile itself; each engine file turns them into the values a
+//! user types, and back through that engine's own chain.
 
 use super::{minimise_log, Target};
 use crate::error::{Error, Result};
 use crate::numerics::bin_averages_resolved;
+use crate::profile::analytic::burley::normalized_diffusion;
 use crate::profile::{Profile, RadialGrid};
-use std::f64::consts::PI;
 
-#[derive(Clone, Debug, PartialEq)]
+/// A Burley profile per channel, as an engine renders it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Burley {
-    /// Surface albedo A per channel (= the total reflectance).
+    /// The colour the normalised blur is multiplied by (= the total
+    /// reflectance).
     pub albedo: [f64; 3],
-    /// Shape distance d per channel, mm.
+    /// Shape distance d per channel, mm on the surface.
     pub d_mm: [f64; 3],
-}
-
-/// R(r) in mm^-2; singular like 1/r at 0 (bins integrate it).
-pub fn rd(a: f64, d: f64, r: f64) -> f64 {
-    let r = r.max(1e-12 * d);
-    a * ((-r / d).exp() + (-r / (3.0 * d)).exp()) / (8.0 * PI * d * r)
 }
 
 impl Burley {
     /// Bin averages of channel `c` on `grid`.
     pub fn bins(&self, c: usize, grid: &RadialGrid) -> Vec<f64> {
         let (a, d) = (self.albedo[c], self.d_mm[c]);
-        bin_averages_resolved(|r| rd(a, d, r), grid)
+        bin_averages_resolved(|r| normalized_diffusion(a, d, r), grid)
     }
 }
 
@@ -37,6 +34,14 @@ impl Burley {
 /// best A is linear; d by a log-space search from 1e-4 to 10 times the
 /// radius holding 99% of the channel.
 pub fn fit(p: &Profile) -> Result<Burley> {
+    fit_capped(p, [f64::INFINITY; 3])
+}
+
+/// `fit` with A at most `cap` per channel (an engine colour field that
+/// cannot exceed 1): where the best A for a d is above the cap, that d is
+/// scored with A = cap, so d is the best one for the colour the engine
+/// can take, not the best one for a colour it cannot.
+pub fn fit_capped(p: &Profile, cap: [f64; 3]) -> Result<Burley> {
     let mut albedo = [0.0; 3];
     let mut d_mm = [0.0; 3];
     for c in 0..3 {
@@ -49,10 +54,19 @@ pub fn fit(p: &Profile) -> Result<Burley> {
         let grid = RadialGrid {
             edges: p.r_edges[..=t.bins].to_vec(),
         };
-        let shape = |d: f64| bin_averages_resolved(|r| rd(1.0, d, r), &grid);
+        let shape = |d: f64| bin_averages_resolved(|r| normalized_diffusion(1.0, d, r), &grid);
+        let scored = |d: f64| {
+            let s = shape(d);
+            let (a, res) = t.scale_of(&s);
+            if a > cap[c] {
+                (cap[c], t.residual_at(&s, cap[c]))
+            } else {
+                (a, res)
+            }
+        };
         let r99 = p.r_edges[t.bins];
-        let d = minimise_log(|d| t.scale_of(&shape(d)).1, 1e-4 * r99, 10.0 * r99, 41);
-        albedo[c] = t.scale_of(&shape(d)).0;
+        let d = minimise_log(|d| scored(d).1, 1e-4 * r99, 10.0 * r99, 41);
+        albedo[c] = scored(d).0;
         d_mm[c] = d;
     }
     Ok(Burley { albedo, d_mm })

@@ -457,6 +457,7 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
         ),
         requirements: requirements(&k),
         warnings,
+        rendered: None,
         profile: model_profile,
     })
 }

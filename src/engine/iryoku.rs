@@ -244,6 +244,7 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
         ),
         requirements: requirements(),
         warnings: warnings(&k),
+        rendered: None,
         profile: model_profile,
     })
 }

@@ -2,16 +2,19 @@
 //! into an engine's own diffusion model so that it matches a measured or
 //! simulated R_d(r) as closely as that model can.
 //!
-//! Every engine here renders one of two models: Christensen and Burley's
-//! radial normalized diffusion (Unreal, Unity HDRP, Blender's
-//! Christensen-Burley) or a separable tap table sampled from Jimenez's skin
-//! profile (iryoku, Godot; `jimenez.rs` scores the table as the kernel it
-//! stands for). The fit works in the model's own parameters (surface albedo
-//! A and shape distance d per channel for Burley; width, strength, falloff
-//! and tap count for Jimenez) by least squares on r R_d(r) over the radius holding 99% of the
-//! profile, the norm `profiles compare` reports as the shape error; each
-//! engine file then converts them to the engine's parameter names, units
-//! and world scale, and back (the round trip the tests check).
+//! Every engine here renders one of two radial models: Christensen and
+//! Burley's normalized diffusion (Unreal, Unity HDRP, Blender) or a
+//! separable tap table sampled from Jimenez's skin profile (iryoku, Godot;
+//! `jimenez.rs` scores the table as the kernel it stands for). The fit works in the
+//! model's own parameters (the colour A and shape distance d per channel
+//! for Burley; width, strength and falloff for Jimenez) by least squares on
+//! r R_d(r) over the radius holding 99% of the profile, the norm `profiles
+//! compare` reports as the shape error (`profile::metrics`). Each engine
+//! file then writes the values a user types into that engine's UI (its
+//! names, units, colour encoding and clamps, for one pinned version of
+//! its source) and reads them back through the engine's own conversion
+//! chain: the error is that of the profile the engine renders from the
+//! printed values.
 
 pub mod blender;
 pub mod burley;
@@ -22,8 +25,8 @@ pub mod jimenez;
 pub mod unreal;
 
 use crate::error::{Error, Result};
+use crate::profile::metrics::{channel_error, same_grid};
 use crate::profile::{Profile, RadialGrid};
-use crate::report::compare;
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -44,6 +47,38 @@ impl Engine {
         Engine::Godot,
         Engine::Iryoku,
     ];
+
+    /// The versions of the engine whose conversion chain ssskit follows,
+    /// the default first.
+    pub fn versions(self) -> &'static [Version] {
+        match self {
+            Engine::Unreal => &unreal::VERSIONS,
+            Engine::UnityHdrp => &hdrp::VERSIONS,
+            Engine::Blender => &blender::VERSIONS,
+            Engine::Godot => &GODOT_VERSIONS,
+            Engine::Iryoku => &IRYOKU_VERSIONS,
+        }
+    }
+
+    /// The version named `requested` (a key or an alias), or the default.
+    pub fn version(self, requested: Option<&str>) -> Result<Version> {
+        let all = self.versions();
+        let Some(name) = requested else {
+            return Ok(all[0]);
+        };
+        all.iter()
+            .find(|v| v.key == name || v.aliases.contains(&name))
+            .copied()
+            .ok_or_else(|| {
+                let keys: Vec<&str> = all.iter().map(|v| v.key).collect();
+                Error::invalid(
+                    "engine",
+                    "engine version",
+                    name,
+                    format!("{} knows {}", self.name(), keys.join(", ")),
+                )
+            })
+    }
 
     pub fn name(self) -> &'static str {
         match self {
@@ -72,6 +107,31 @@ impl std::str::FromStr for Engine {
             })
     }
 }
+
+/// One version of an engine's conversion chain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Version {
+    /// What `--engine-version` takes.
+    pub key: &'static str,
+    /// Other names `--engine-version` takes for it.
+    pub aliases: &'static [&'static str],
+    /// The versions covered and the source read, for the JSON and the
+    /// printout.
+    pub label: &'static str,
+}
+
+/// iryoku's reference code has no releases: the version is the repository.
+pub const IRYOKU_VERSIONS: [Version; 1] = [Version {
+    key: "reference",
+    aliases: &[],
+    label: "iryoku/separable-sss reference code (SeparableSSS.h)",
+}];
+
+pub const GODOT_VERSIONS: [Version; 1] = [Version {
+    key: "4",
+    aliases: &[],
+    label: "Godot 4 (Forward+ renderer)",
+}];
 
 /// The fitted profile's error against the input, per channel, as
 /// `profiles compare` computes it: total (model - input) / input, and the
@@ -106,6 +166,11 @@ pub struct EngineFit {
     /// Values moved to fit the engine's UI (clamps, rounding) and what
     /// that costs, one sentence each.
     pub warnings: Vec<String>,
+    /// The Burley profile the engine renders from `params` (colour A and
+    /// shape distance d in mm on the surface, per channel), read back
+    /// through the engine's chain; absent for the Jimenez engines.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rendered: Option<burley::Burley>,
     /// The engine model's profile on the input's grid.
     #[serde(skip)]
     pub profile: Profile,
@@ -126,9 +191,114 @@ impl Default for Scene {
     }
 }
 
-/// Fits `engine`'s model to `profile`.
+impl Scene {
+    /// The engine's own world unit: Unreal's centimetre (0.1 units per
+    /// mm), the metre elsewhere (Unity, Blender, Godot).
+    pub fn native(engine: Engine) -> Scene {
+        match engine {
+            Engine::Unreal => Scene { units_per_mm: 0.1 },
+            _ => Scene::default(),
+        }
+    }
+}
+
+/// What a Burley engine's UI takes, as printed: parameter name -> value,
+/// name -> unit and meaning, and the values moved to fit the UI.
+pub struct Printed {
+    pub params: Map<String, Value>,
+    pub units: Units,
+    pub warnings: Vec<String>,
+}
+
+/// Fits `engine`'s model to `profile`, for the engine's default version.
 pub fn fit(engine: Engine, profile: &Profile, scene: Scene) -> Result<EngineFit> {
+    fit_version(engine, profile, scene, None)
+}
+
+/// Fits `engine`'s model to `profile` for the version named `version`
+/// (`Engine::versions`; None: the default).
+pub fn fit_version(
+    engine: Engine,
+    profile: &Profile,
+    scene: Scene,
+    version: Option<&str>,
+) -> Result<EngineFit> {
     check(profile)?;
+    check_scene(scene)?;
+    let v = engine.version(version)?;
+    match engine {
+        Engine::Unreal | Engine::UnityHdrp | Engine::Blender => fit_burley(engine, v, profile, scene),
+        // The separable engines fill their whole answer (`jimenez.rs`).
+        Engine::Iryoku => iryoku::fit(profile, scene),
+        Engine::Godot => godot::fit(profile, scene),
+    }
+}
+
+/// The largest colour the Burley engines take (Unreal's Base Color and
+/// Surface Albedo, HDRP's Base Map colour, Blender's Base Color are all
+/// clamped to [0, 1] or picked in it).
+const BURLEY_COLOUR_CAP: f64 = 1.0;
+
+/// Fit with the colour capped, print the values, read them back through
+/// the engine's chain, score that.
+fn fit_burley(engine: Engine, v: Version, profile: &Profile, scene: Scene) -> Result<EngineFit> {
+    let fitted = burley::fit_capped(profile, [BURLEY_COLOUR_CAP; 3])?;
+    let printed = match engine {
+        Engine::Unreal => unreal::params(&fitted, scene, v),
+        Engine::UnityHdrp => hdrp::params(&fitted, scene, v),
+        _ => blender::params(&fitted, scene, v),
+    };
+    let rendered = burley_from_params(engine, v, &printed.params, scene)?;
+    let model_profile = Model::Burley(rendered.clone()).profile(profile, engine.name());
+    let error = error(&model_profile, profile)?;
+    let mut warnings = Vec::new();
+    for c in 0..3 {
+        if fitted.albedo[c] >= BURLEY_COLOUR_CAP {
+            warnings.push(format!(
+                "channel {}: the fit asks for a colour above 1, the most the engine takes \
+                 (the profile reflects {:.4} in total); the colour is capped at 1 and d \
+                 fitted for it (total error {:+.1}%)",
+                ["r", "g", "b"][c],
+                profile.total_rd[c],
+                100.0 * error.total[c]
+            ));
+        }
+    }
+    warnings.extend(printed.warnings);
+    let (requirements, error_for) = match engine {
+        Engine::Unreal => (unreal::requirements(v, scene), unreal::ERROR_FOR),
+        Engine::UnityHdrp => (hdrp::requirements(v, scene), hdrp::ERROR_FOR),
+        _ => (blender::requirements(v, scene), blender::error_for(v)),
+    };
+    Ok(EngineFit {
+        engine: engine.name().into(),
+        version: v.label.into(),
+        params: printed.params,
+        units: printed.units,
+        error,
+        error_for: error_for.into(),
+        requirements,
+        warnings,
+        rendered: Some(rendered),
+        profile: model_profile,
+    })
+}
+
+/// The Burley profile a Burley engine renders from its printed values.
+fn burley_from_params(
+    engine: Engine,
+    v: Version,
+    params: &Map<String, Value>,
+    scene: Scene,
+) -> Result<burley::Burley> {
+    match engine {
+        Engine::Unreal => unreal::from_params(params, scene, v),
+        Engine::UnityHdrp => hdrp::from_params(params, scene, v),
+        _ => blender::from_params(params, scene, v),
+    }
+}
+
+fn check_scene(scene: Scene) -> Result<()> {
     if !(scene.units_per_mm > 0.0 && scene.units_per_mm.is_finite()) {
         return Err(Error::invalid(
             "engine",
@@ -137,54 +307,36 @@ pub fn fit(engine: Engine, profile: &Profile, scene: Scene) -> Result<EngineFit>
             "must be finite and > 0",
         ));
     }
-    let (params, units, model) = match engine {
-        Engine::Unreal => {
-            let b = burley::fit(profile)?;
-            let (p, u) = unreal::params(&b);
-            (p, u, Model::Burley(b))
-        }
-        Engine::UnityHdrp => {
-            let b = burley::fit(profile)?;
-            let (p, u) = hdrp::params(&b, scene);
-            (p, u, Model::Burley(b))
-        }
-        Engine::Blender => {
-            let b = burley::fit(profile)?;
-            let (p, u) = blender::params(&b, scene);
-            (p, u, Model::Burley(b))
-        }
-        // The separable engines fill their whole answer (`jimenez.rs`).
-        Engine::Iryoku => return iryoku::fit(profile, scene),
-        Engine::Godot => return godot::fit(profile, scene),
-    };
-    let model_profile = model.profile(profile, engine.name());
-    let error = error(&model_profile, profile)?;
-    Ok(EngineFit {
-        engine: engine.name().into(),
-        version: String::new(),
-        params,
-        units,
-        error,
-        error_for: String::new(),
-        requirements: Vec::new(),
-        warnings: Vec::new(),
-        profile: model_profile,
-    })
+    Ok(())
 }
 
 /// The engine model given its own parameters (as `fit` writes them),
-/// tabulated on `profile`'s grid: the round trip of a fit.
+/// tabulated on `profile`'s grid: the round trip of a fit, for the
+/// engine's default version.
 pub fn model_from_params(
     engine: Engine,
     params: &Map<String, Value>,
     profile: &Profile,
     scene: Scene,
 ) -> Result<Profile> {
+    model_from_params_version(engine, None, params, profile, scene)
+}
+
+/// `model_from_params` for the version named `version`.
+pub fn model_from_params_version(
+    engine: Engine,
+    version: Option<&str>,
+    params: &Map<String, Value>,
+    profile: &Profile,
+    scene: Scene,
+) -> Result<Profile> {
     check(profile)?;
+    check_scene(scene)?;
+    let v = engine.version(version)?;
     let model = match engine {
-        Engine::Unreal => Model::Burley(unreal::from_params(params)?),
-        Engine::UnityHdrp => Model::Burley(hdrp::from_params(params)?),
-        Engine::Blender => Model::Burley(blender::from_params(params, scene)?),
+        Engine::Unreal | Engine::UnityHdrp | Engine::Blender => {
+            Model::Burley(burley_from_params(engine, v, params, scene)?)
+        }
         Engine::Iryoku => {
             Model::Separable(iryoku::from_params(params, scene)?.on_grid(&profile.r_edges)?)
         }
@@ -195,18 +347,22 @@ pub fn model_from_params(
     Ok(model.profile(profile, engine.name()))
 }
 
-/// Total and shape error of `model` against `reference` (same grid).
+/// Total and shape error of `model` against `reference` (same grid,
+/// channels r, g, b in that order), as `profile::metrics` defines them.
 pub fn error(model: &Profile, reference: &Profile) -> Result<FitError> {
-    let rows = compare::compare(model, reference, 0.0)?;
-    if rows.len() != 3 {
+    same_grid(model, reference)?;
+    check(reference)?;
+    if model.rd.len() != 3 || model.total_rd.len() != 3 {
         return Err(Error::Unsupported(format!(
-            "the profile has {} of the channels r, g, b: engine parameters are RGB",
-            rows.len()
+            "the model profile has {} channels: engine parameters are RGB",
+            model.rd.len()
         )));
     }
+    let e: [_; 3] =
+        std::array::from_fn(|c| channel_error(&model.rd[c], model.total_rd[c], reference, c));
     Ok(FitError {
-        total: std::array::from_fn(|c| rows[c].rel_total_error),
-        shape: std::array::from_fn(|c| rows[c].rel_l2_error),
+        total: e.map(|e| e.total),
+        shape: e.map(|e| e.shape),
     })
 }
 
@@ -308,7 +464,7 @@ pub(crate) fn minimise_log(f: impl Fn(f64) -> f64, lo: f64, hi: f64, scan: usize
 
 /// Weights and targets of the least squares on r R_d(r): bins inside the
 /// radius holding 99% of channel `c`, weight w = bin width r^2 (the
-/// discrete norm of `compare::l2_errors`).
+/// discrete norm of `profile::metrics::l2_errors`).
 pub(crate) struct Target {
     pub bins: usize,
     pub weight: Vec<f64>,
@@ -377,6 +533,17 @@ pub(crate) fn triple(params: &Map<String, Value>, name: &str) -> Result<[f64; 3]
     Ok(out)
 }
 
+/// What a Burley engine's UI takes, from (name, value, unit) rows and the
+/// warnings of the values moved to fit it.
+pub(crate) fn printed(rows: Vec<(&str, Value, &str)>, warnings: Vec<String>) -> Printed {
+    let (params, units) = table(rows);
+    Printed {
+        params,
+        units,
+        warnings,
+    }
+}
+
 /// A parameter map from (name, value, unit) rows.
 pub(crate) fn table(rows: Vec<(&str, Value, &str)>) -> (Map<String, Value>, Units) {
     let mut p = Map::new();
@@ -390,4 +557,82 @@ pub(crate) fn table(rows: Vec<(&str, Value, &str)>) -> (Map<String, Value>, Unit
 
 pub(crate) fn color(v: [f64; 3]) -> Value {
     rgb(v)
+}
+
+/// `x` to 4 significant digits, as ssskit prints a value to type: the
+/// error is computed from this value, not from the unrounded fit.
+pub(crate) fn typed(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    format!("{x:.3e}").parse().unwrap_or(x)
+}
+
+/// A linear colour as an 8-bit sRGB hex code ("#RRGGBB"), the form the
+/// colour pickers' hex fields take.
+pub(crate) fn srgb_hex(linear: [f64; 3]) -> String {
+    let byte = |v: f64| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u8;
+    format!(
+        "#{:02X}{:02X}{:02X}",
+        byte(linear[0]),
+        byte(linear[1]),
+        byte(linear[2])
+    )
+}
+
+/// The linear colour an "#RRGGBB" sRGB hex code stands for.
+pub(crate) fn from_srgb_hex(hex: &str) -> Option<[f64; 3]> {
+    let h = hex.strip_prefix('#')?;
+    if h.len() != 6 || !h.is_ascii() {
+        return None;
+    }
+    let mut out = [0.0; 3];
+    for (c, o) in out.iter_mut().enumerate() {
+        let b = u8::from_str_radix(&h[2 * c..2 * c + 2], 16).ok()?;
+        *o = srgb_to_linear(b as f64 / 255.0);
+    }
+    Some(out)
+}
+
+pub(crate) use crate::filter::image::{linear_to_srgb, srgb_to_linear};
+
+/// Reads a string parameter.
+pub(crate) fn text<'a>(params: &'a Map<String, Value>, name: &str) -> Result<&'a str> {
+    params
+        .get(name)
+        .and_then(Value::as_str)
+        .ok_or_else(|| Error::Unsupported(format!("parameter '{name}' is missing or not text")))
+}
+
+/// `x` if it lies in [lo, hi], the range `ui` (the engine's UI) takes for
+/// parameter `name`; an error naming both otherwise.
+pub(crate) fn in_range(ui: &str, name: &str, x: f64, (lo, hi): (f64, f64)) -> Result<f64> {
+    if !(lo..=hi).contains(&x) {
+        return Err(Error::invalid(
+            "engine",
+            name,
+            x,
+            format!("{ui} takes [{lo}, {hi}]"),
+        ));
+    }
+    Ok(x)
+}
+
+/// Refuses a parameter that is not the one value the fit assumes.
+pub(crate) fn require(
+    params: &Map<String, Value>,
+    name: &str,
+    want: &Value,
+    why: &str,
+) -> Result<()> {
+    match params.get(name) {
+        Some(v) if v == want => Ok(()),
+        Some(v) => Err(Error::invalid(
+            "engine",
+            name,
+            v,
+            format!("must be {want}: {why}"),
+        )),
+        None => Err(Error::Unsupported(format!("parameter '{name}' is missing"))),
+    }
 }

@@ -1,64 +1,274 @@
-//! Unreal Engine's Subsurface Profile with Burley normalized diffusion
-//! (Engine/Classes/Engine/SubsurfaceProfile.h, FSubsurfaceProfileStruct;
-//! Engine/Shaders/Private/BurleyNormalizedSSSCommon.ush): SurfaceAlbedo A,
-//! MeanFreePathColor times MeanFreePathDistance = the mean free path l per
-//! channel in world units (cm), and the shape distance d = l / s(A) with
-//! the perpendicular-incidence scaling s(A) = 1.85 - A + 7 |A - 0.8|^3
-//! (GetPerpendicularScalingFactor; Christensen and Burley 2015, eq. 6).
+//! Unreal Engine 5's Subsurface Profile with Burley normalized diffusion,
+//! the chain from the values typed into the profile asset to the profile
+//! the screen-space Burley pass renders (Epic's UnrealEngine repository;
+//! read in the 5.0.3, 5.4 and 5.8.0 sources):
+//!
+//! 1. `FSubsurfaceProfileStruct` (Engine/Classes/Engine/SubsurfaceProfile.h):
+//!    SurfaceAlbedo (ClampMin 0.01, ClampMax 1), MeanFreePathColor (0.001
+//!    to 1), MeanFreePathDistance in cm (ClampMin 0.1, ClampMax 50),
+//!    WorldUnitScale (0.1 to 50), Tint.
+//! 2. `FSubsurfaceProfileTexture::CreateTexture` (Engine/Private/Rendering/
+//!    SubsurfaceProfile.cpp): SurfaceAlbedo and MeanFreePathColor clamped
+//!    to [0.009, 1] (`GetClamped(Bias)`), then the diffuse mean free path
+//!    in mm, DMFP = GetDiffuseMeanFreePathFromMeanFreePath(A, colour x
+//!    distance) x 10 = MFP s_dmfp(A) / (s_perp(A) x 0.6) x 10
+//!    (`Dmfp2MfpMagicNumber` 0.6; SubsurfaceScatteringMath.h in 5.8, the
+//!    division written out in 5.0.3), clamped to [0, 500] mm by
+//!    `SetupSurfaceAlbedoAndDiffuseMeanFreePath`.
+//! 3. The Burley pass (Shaders/Private/SubsurfaceBurleyNormalized.ush,
+//!    `BurleyNormalizedSS`; BurleyNormalizedSSSCommon.ush,
+//!    `GetDiffuseReflectProfileWithDiffuseMeanFreePath`) weights samples
+//!    by (e^{-r S/L} + e^{-r S/(3L)}) / (8 pi L / S) with L = DMFP and
+//!    S = s_dmfp(A) (`GetScalingFactor3D`), i.e. Burley's d = DMFP /
+//!    s_dmfp(A) = 10 MFP / (0.6 s_perp(A)) mm, and divides by the sum of
+//!    the weights: the blur is normalised to 1.
+//! 4. `CalculateBurleyScale` maps the profile's mm to the screen:
+//!    WorldUnitScale x SubsurfaceParams.x / depth (SSSScaleX =
+//!    cot(fov / 2) / 6, PostProcessSubsurface.cpp
+//!    `GetSubsurfaceCommonParameters`) x SUBSURFACE_KERNEL_SIZE /
+//!    BURLEY_CM_2_MM (= 0.3, in 5.4; absent in 5.0.3): one profile mm is
+//!    WorldUnitScale / 10 world units (5.4) or WorldUnitScale / 3 (5.0).
+//! 5. `SubsurfaceRecombinePS` (PostProcessSubsurface.usf): lerp(unblurred,
+//!    blurred, Tint) x the material's Base Color (`StoredBaseColor`).
+//!
+//! So the rendered profile is Base Color x Burley(d), with SurfaceAlbedo
+//! only shaping d; s_perp and s_dmfp are Christensen and Burley's
+//! perpendicular-searchlight and diffuse-mean-free-path fits.
 
 use super::burley::Burley;
-use super::{color, number, table, triple, Units};
+use super::{color, in_range, number, printed, require, triple, typed, Printed, Scene, Version};
 use crate::error::Result;
+use crate::profile::analytic::burley::{dmfp_scale, searchlight_scale};
 use serde_json::{json, Map, Value};
 
-/// Unreal's world unit in mm.
-pub const MM_PER_CM: f64 = 10.0;
-/// WorldUnitScale's default in the engine, reported as is.
-pub const WORLD_UNIT_SCALE: f64 = 0.1;
+pub const VERSIONS: [Version; 2] = [
+    Version {
+        key: "5.4",
+        aliases: &["5", "5.5", "5.6", "5.7", "5.8"],
+        label: "Unreal Engine 5.4 and later: Subsurface Profile, Burley \
+                (read in the 5.4 and 5.8.0 sources)",
+    },
+    Version {
+        key: "5.0",
+        aliases: &[],
+        label: "Unreal Engine 5.0: Subsurface Profile, Burley (read in the 5.0.3 source)",
+    },
+];
 
-/// GetPerpendicularScalingFactor.
-pub fn perpendicular_scaling(a: f64) -> f64 {
-    1.85 - a + 7.0 * (a - 0.8).abs().powi(3)
+/// `Dmfp2MfpMagicNumber` (SubsurfaceProfile.cpp, SubsurfaceScatteringMath.h).
+pub const DMFP2MFP: f64 = 0.6;
+/// The `Bias` CreateTexture clamps SurfaceAlbedo and MeanFreePathColor to.
+pub const TEXTURE_MIN: f64 = 0.009;
+/// `DEC_UNIT_TO_DIFFUSEMEANFREEPATH_IN_MM`: the DMFP encoding's range, mm.
+pub const DMFP_MAX_MM: f64 = 500.0;
+/// MeanFreePathDistance's ClampMin and ClampMax, cm.
+pub const DISTANCE_RANGE: (f64, f64) = (0.1, 50.0);
+/// WorldUnitScale's ClampMin and ClampMax.
+pub const WORLD_UNIT_SCALE_RANGE: (f64, f64) = (0.1, 50.0);
+/// SurfaceAlbedo's ClampMin and ClampMax.
+pub const SURFACE_ALBEDO_RANGE: (f64, f64) = (0.01, 1.0);
+/// MeanFreePathColor's ClampMin and ClampMax.
+pub const MFP_COLOR_RANGE: (f64, f64) = (0.001, 1.0);
+const MM_PER_CM: f64 = 10.0;
+
+pub const ERROR_FOR: &str = "the screen-space Burley pass (Implementation: Adaptive Filtered \
+     Importance Sampling, the default, at r.SSS.Burley.Quality 1), its expected value; the \
+     separable fallback (Implementation Separable, r.SSS.Burley.Quality 0, or r.SSS.HalfRes 1 \
+     with r.SSS.HalfRes.ForceSeparable 1) blurs with a separable kernel Unreal fits to the \
+     same profile and is not scored here";
+
+/// World units per profile mm, divided by WorldUnitScale
+/// (`CalculateBurleyScale` with SSSScaleX = cot(fov / 2) / 6).
+fn world_units_per_profile_mm(v: Version) -> f64 {
+    if v.key == "5.0" {
+        1.0 / 3.0
+    } else {
+        0.3 / 3.0
+    }
 }
 
-pub fn params(b: &Burley) -> (Map<String, Value>, Units) {
-    let mfp_cm: [f64; 3] =
-        std::array::from_fn(|c| b.d_mm[c] * perpendicular_scaling(b.albedo[c]) / MM_PER_CM);
-    let dist = mfp_cm.iter().fold(0.0f64, |m, v| m.max(*v));
-    table(vec![
-        ("SurfaceAlbedo", color(b.albedo), "linear RGB in [0, 1]"),
+/// Scene mm per profile mm for `wus` at `units_per_mm` world units per mm.
+fn scene_mm_per_profile_mm(v: Version, wus: f64, units_per_mm: f64) -> f64 {
+    wus * world_units_per_profile_mm(v) / units_per_mm
+}
+
+/// Burley's d in profile mm from one channel's asset values (steps 2, 3).
+fn profile_d_mm(albedo: f64, mfp_color: f64, distance_cm: f64) -> f64 {
+    let a = albedo.clamp(TEXTURE_MIN, 1.0);
+    let mfp_cm = mfp_color.clamp(TEXTURE_MIN, 1.0) * distance_cm;
+    let dmfp_mm =
+        (mfp_cm * dmfp_scale(a) / (searchlight_scale(a) * DMFP2MFP) * MM_PER_CM).min(DMFP_MAX_MM);
+    dmfp_mm / dmfp_scale(a)
+}
+
+pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
+    let u = scene.units_per_mm;
+    let mut warnings = Vec::new();
+    let (lo, hi) = WORLD_UNIT_SCALE_RANGE;
+    let want = u / world_units_per_profile_mm(v);
+    let wus = typed(want.clamp(lo, hi));
+    if want != want.clamp(lo, hi) {
+        warnings.push(format!(
+            "WorldUnitScale: {want:.4} would map the profile's mm to the scene's at {u} units \
+             per mm, outside [{lo}, {hi}]; {wus} is printed and the mean free paths scaled to \
+             keep the profile's width in the scene"
+        ));
+    }
+    let k = scene_mm_per_profile_mm(v, wus, u);
+    let (alo, ahi) = SURFACE_ALBEDO_RANGE;
+    let surface = b.albedo.map(|a| typed(a.clamp(alo, ahi)));
+    // Invert step 3 for the mean free path in cm.
+    let mfp_cm: [f64; 3] = std::array::from_fn(|c| {
+        b.d_mm[c] / k * DMFP2MFP * searchlight_scale(surface[c]) / MM_PER_CM
+    });
+    let longest = mfp_cm.iter().fold(0.0f64, |m, v| m.max(*v));
+    let (dlo, dhi) = DISTANCE_RANGE;
+    let distance = typed(longest.clamp(dlo, dhi));
+    if longest < dlo {
+        warnings.push(format!(
+            "MeanFreePathDistance: the longest mean free path is {longest:.4} cm, below the \
+             ClampMin {dlo}; {dlo} is printed and MeanFreePathColor scaled by {:.4} to keep \
+             the mean free paths (as Unreal's own UpgradeDiffuseMeanFreePathToMeanFreePath \
+             does)",
+            longest / dlo
+        ));
+    } else if longest > dhi {
+        warnings.push(format!(
+            "MeanFreePathDistance: the longest mean free path is {longest:.4} cm, above the \
+             ClampMax {dhi}; {dhi} is printed, so the profile renders narrower (the error \
+             includes it)"
+        ));
+    }
+    let mut mfp_color = mfp_cm.map(|m| m / distance);
+    for (c, col) in mfp_color.iter_mut().enumerate() {
+        if *col < TEXTURE_MIN {
+            warnings.push(format!(
+                "MeanFreePathColor channel {c}: {col:.5} is below {TEXTURE_MIN}, the least \
+                 CreateTexture keeps (GetClamped(Bias)); {TEXTURE_MIN} is printed (the error \
+                 includes it)"
+            ));
+            *col = TEXTURE_MIN;
+        }
+        *col = typed(col.min(MFP_COLOR_RANGE.1));
+    }
+    for c in 0..3 {
+        let dmfp = mfp_color[c] * distance * dmfp_scale(surface[c])
+            / (searchlight_scale(surface[c]) * DMFP2MFP)
+            * MM_PER_CM;
+        if dmfp > DMFP_MAX_MM {
+            warnings.push(format!(
+                "channel {c}: the diffuse mean free path {dmfp:.1} mm is above the {DMFP_MAX_MM} mm \
+                 the profile texture encodes; Unreal clamps it (the error includes it)"
+            ));
+        }
+    }
+    let base = b.albedo.map(|a| typed(a.clamp(0.0, 1.0)));
+    let mut rows = vec![
+        (
+            "SurfaceAlbedo",
+            color(surface),
+            "profile asset, linear RGB in [0.01, 1]: shapes the profile (through s(A)), the \
+             material's Base Color sets its brightness",
+        ),
         (
             "MeanFreePathColor",
-            color(mfp_cm.map(|v| v / dist)),
-            "per-channel fraction of MeanFreePathDistance",
+            color(mfp_color),
+            "profile asset, linear RGB in [0.001, 1], times MeanFreePathDistance",
         ),
         (
             "MeanFreePathDistance",
-            json!(dist),
-            "cm (Unreal world units)",
+            json!(distance),
+            "profile asset, cm (world units), in [0.1, 50]",
         ),
         (
             "WorldUnitScale",
-            json!(WORLD_UNIT_SCALE),
-            "the engine default, left as is",
+            json!(wus),
+            "profile asset, in [0.1, 50]: maps the profile's mm to the scene's",
         ),
-        ("bEnableBurley", json!(true), "Burley normalized"),
         (
-            "bEnableMeanFreePath",
-            json!(true),
-            "mean free path, not diffuse mean free path",
+            "Tint",
+            color([1.0; 3]),
+            "profile asset: 1 blurs all of the diffuse light",
         ),
-    ])
+        (
+            "Base Color",
+            color(base),
+            "the material's Base Color, linear RGB in [0, 1]: the profile's total reflectance",
+        ),
+    ];
+    if v.key != "5.0" {
+        rows.insert(
+            5,
+            (
+                "Implementation",
+                json!("Adaptive Filtered Importance Sampling"),
+                "profile asset: the Burley pass (Separable blurs with a fitted separable kernel)",
+            ),
+        );
+    }
+    printed(rows, warnings)
 }
 
-pub fn from_params(p: &Map<String, Value>) -> Result<Burley> {
-    let albedo = triple(p, "SurfaceAlbedo")?;
-    let color = triple(p, "MeanFreePathColor")?;
-    let dist = number(p, "MeanFreePathDistance")?;
+const UI: &str = "Unreal's UI";
+
+/// The profile Unreal renders from the values `params` prints, through
+/// steps 1 to 5 of the module comment.
+pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<Burley> {
+    let surface = triple(p, "SurfaceAlbedo")?;
+    let mfp_color = triple(p, "MeanFreePathColor")?;
+    for c in 0..3 {
+        in_range(UI, "SurfaceAlbedo", surface[c], SURFACE_ALBEDO_RANGE)?;
+        in_range(UI, "MeanFreePathColor", mfp_color[c], MFP_COLOR_RANGE)?;
+    }
+    let distance = in_range(
+        UI,
+        "MeanFreePathDistance",
+        number(p, "MeanFreePathDistance")?,
+        DISTANCE_RANGE,
+    )?;
+    let wus = in_range(
+        UI,
+        "WorldUnitScale",
+        number(p, "WorldUnitScale")?,
+        WORLD_UNIT_SCALE_RANGE,
+    )?;
+    require(
+        p,
+        "Tint",
+        &json!([1.0, 1.0, 1.0]),
+        "below 1 the recombine pass mixes in unblurred light, a spike the Burley model has not",
+    )?;
+    let base = triple(p, "Base Color")?;
+    for b in base {
+        in_range(UI, "Base Color", b, (0.0, 1.0))?;
+    }
+    let k = scene_mm_per_profile_mm(v, wus, scene.units_per_mm);
     Ok(Burley {
-        albedo,
-        d_mm: std::array::from_fn(|c| {
-            color[c] * dist * MM_PER_CM / perpendicular_scaling(albedo[c])
-        }),
+        albedo: base,
+        d_mm: std::array::from_fn(|c| profile_d_mm(surface[c], mfp_color[c], distance) * k),
     })
+}
+
+pub fn requirements(v: Version, scene: Scene) -> Vec<String> {
+    let mut r = vec![
+        "the material's Shading Model is Subsurface Profile with this profile, and its Base \
+         Color is the Base Color printed here: the recombine pass multiplies the normalised \
+         blur by it (SubsurfaceRecombinePS); SurfaceAlbedo only shapes the profile"
+            .to_string(),
+        format!(
+            "world units of {} mm (--units-per-mm {}): WorldUnitScale maps the profile's mm to \
+             them (CalculateBurleyScale); Unreal's own unit is the cm",
+            1.0 / scene.units_per_mm,
+            scene.units_per_mm
+        ),
+        "r.SSS.Scale 1 (it multiplies the radius) and r.SubsurfaceScattering 1".to_string(),
+        "a profile with Burley and mean free path enabled (bEnableBurley, \
+         bEnableMeanFreePath), as every profile Unreal 5 creates or loads is \
+         (UpgradeSubsurfaceProfileParameters)"
+            .to_string(),
+    ];
+    if v.key != "5.0" {
+        r.push("Implementation: Adaptive Filtered Importance Sampling".into());
+    }
+    r
 }

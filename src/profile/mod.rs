@@ -8,6 +8,7 @@ pub mod grid;
 pub mod grid_spec;
 pub mod interp;
 pub mod mc;
+pub mod metrics;
 pub mod radius;
 
 pub use grid::RadialGrid;

@@ -3,9 +3,10 @@
 
 use super::plot::{Curve, Panel, PALETTE};
 use super::table::Table;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::material::Channel;
-// The engine's fits still name it through this module.
+use crate::profile::metrics::{channel_error, same_grid};
+pub use crate::profile::metrics::{l2_errors, relative};
 use crate::profile::radius_holding;
 use crate::profile::Profile;
 use plotters::style::RGBColor;
@@ -43,57 +44,16 @@ pub struct Row {
     pub mc_time_s: f64,
 }
 
-/// (model - mc) / mc with the 0/0 and x/0 cases made explicit.
-pub fn relative(model: f64, reference: f64) -> f64 {
-    if reference > 0.0 {
-        (model - reference) / reference
-    } else if model > 0.0 {
-        f64::INFINITY
-    } else {
-        0.0
-    }
-}
-
-/// Relative L2 error of r R_d(r) over [0, r_lim] on the bins of `reference`
-/// (bin-width weights), and the same norm of the reference's stderr.
-pub fn l2_errors(model: &[f64], reference: &Profile, c: usize, r_lim: f64) -> (f64, f64) {
-    let (mut num, mut den, mut noise) = (0.0, 0.0, 0.0);
-    for (i, e) in reference.r_edges.windows(2).enumerate() {
-        if e[0] >= r_lim {
-            break;
-        }
-        let (w, r) = (e[1] - e[0], reference.r[i]);
-        let mc = reference.rd[c][i];
-        num += w * (r * (model[i] - mc)).powi(2);
-        den += w * (r * mc).powi(2);
-        if let Some(se) = &reference.rd_stderr {
-            noise += w * (r * se[c][i]).powi(2);
-        }
-    }
-    if den > 0.0 {
-        ((num / den).sqrt(), (noise / den).sqrt())
-    } else if num > 0.0 {
-        (f64::INFINITY, 0.0)
-    } else {
-        (0.0, 0.0)
-    }
-}
-
 /// Compares one model profile with the reference in every shared channel.
 pub fn compare(model: &Profile, reference: &Profile, model_time_s: f64) -> Result<Vec<Row>> {
-    if model.r_edges != reference.r_edges {
-        return Err(Error::Unsupported(
-            "model and reference profiles have different radial grids".into(),
-        ));
-    }
+    same_grid(model, reference)?;
     let name = model.source.model.clone().unwrap_or_else(|| "?".into());
     let mut rows = Vec::new();
     for (mi, &ch) in model.channels.iter().enumerate() {
         let Some(c) = reference.channel_index(ch) else {
             continue;
         };
-        let r99 = radius_holding(reference, c, 0.99);
-        let (l2, noise) = l2_errors(&model.rd[mi], reference, c, r99);
+        let e = channel_error(&model.rd[mi], model.total_rd[mi], reference, c);
         rows.push(Row {
             material: model.material.name.clone(),
             channel: ch,
@@ -106,11 +66,11 @@ pub fn compare(model: &Profile, reference: &Profile, model_time_s: f64) -> Resul
                 .as_ref()
                 .map(|s| s[c])
                 .unwrap_or(0.0),
-            rel_total_error: relative(model.total_rd[mi], reference.total_rd[c]),
-            rel_l2_error: l2,
-            mc_noise_l2: noise,
-            rel_l2_model: (l2 * l2 - noise * noise).max(0.0).sqrt(),
-            r99,
+            rel_total_error: e.total,
+            rel_l2_error: e.shape,
+            mc_noise_l2: e.noise,
+            rel_l2_model: (e.shape * e.shape - e.noise * e.noise).max(0.0).sqrt(),
+            r99: e.r99,
             model_time_s,
             mc_time_s: reference.elapsed_s,
         });

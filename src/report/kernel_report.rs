@@ -521,7 +521,7 @@ pub fn engine_table(cmp: &Comparison) -> Table {
             .join(", ")
     };
     for (m, p) in cmp.materials.iter().zip(&cmp.profiles) {
-        let shape = |e: Engine| engine::fit(e, p, Scene::default()).map(|f| f.error.shape);
+        let shape = |e: Engine| engine::fit(e, p, Scene::native(e)).map(|f| f.error.shape);
         let (fit, fwd) = (shape(Engine::Unreal), engine::burley::forward_error(p));
         let ratio = match (&fit, &fwd) {
             (Ok(a), Ok(b)) => (0..3)
@@ -539,6 +539,38 @@ pub fn engine_table(cmp: &Comparison) -> Table {
             cell(&shape(Engine::Iryoku)),
             cell(&shape(Engine::Godot)),
         ]);
+    }
+    t
+}
+
+/// Per material, the shape error of each Burley engine's export as that
+/// engine renders it (`crate::engine::fit_version`, every version, the
+/// engine's own scene unit); "-" where a fit is refused.
+pub fn burley_engine_table(cmp: &Comparison) -> Table {
+    use crate::engine::{self, Engine, Scene};
+    let columns: Vec<(Engine, &str)> = [Engine::Unreal, Engine::UnityHdrp, Engine::Blender]
+        .into_iter()
+        .flat_map(|e| e.versions().iter().map(move |v| (e, v.key)))
+        .collect();
+    let mut header = vec!["material".to_string()];
+    header.extend(columns.iter().map(|(e, v)| format!("{} {v}", e.name())));
+    let mut t = Table::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
+    for (m, p) in cmp.materials.iter().zip(&cmp.profiles) {
+        let mut row = vec![m.clone()];
+        for &(e, v) in &columns {
+            row.push(engine::fit_version(e, p, Scene::native(e), Some(v)).map_or(
+                "-".into(),
+                |f| {
+                    f.error
+                        .shape
+                        .iter()
+                        .map(|x| format!("{:.1}%", 100.0 * x))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                },
+            ));
+        }
+        t.push(row);
     }
     t
 }
@@ -634,10 +666,14 @@ pub fn report(cmp: &Comparison, ctx: &ReportContext) -> String {
     s += &block("claims", &claims_table(&cl).markdown());
     s += "\n## Engine parameters fitted to the profiles (`ssskit engine`)\n\n\
           Shape error (relative L2 of r R_d(r), as `profiles compare`) per channel r, g, b \
-          of the Burley model fitted by least squares (Unreal, Unity HDRP and Blender share \
+          of the Burley model fitted by least squares (the Unreal export as Unreal renders \
           it) against the forward Burley model from the coefficients (the `burley` \
           analytic profile), and of the fitted Jimenez models (iryoku per channel, Godot one kernel).\n\n";
     s += &block("engines", &engine_table(cmp).markdown());
+    s += "\nThe Burley engines' exports, each as its engine renders it from the printed \
+          values (shape error per channel, every version `ssskit engine --engine-version` \
+          takes).\n\n";
+    s += &block("burley-engines", &burley_engine_table(cmp).markdown());
     if let Some(signal) = ctx.signals.first() {
         let _ = writeln!(
             s,

@@ -1,0 +1,195 @@
+//! `ssskit engine --engine blender` against Blender's own chains,
+//! re-implemented here from Blender's source, not from ssskit's code:
+//!
+//! - Cycles 4.x (blender/cycles at v4.5.0): src/kernel/svm/closure.h, the
+//!   principled BSDF: bssrdf weight = min(base_color, 1) x
+//!   subsurface_weight x weight, radius = max(subsurface_radius x
+//!   subsurface_scale, 0); src/kernel/closure/bssrdf.h,
+//!   bssrdf_setup_radius: radius *= 0.25 x M_1_PI_F for
+//!   CLOSURE_BSSRDF_BURLEY_ID, then bssrdf_burley_eval(d = radius, r),
+//!   the albedo already in the weight;
+//! - Cycles 2.93 (v2.93.0): src/kernel/svm/svm_closure.h, radius =
+//!   subsurface_radius x subsurface, albedo = subsurface_color (mixed with
+//!   the base colour by subsurface, all of it at 1); bssrdf.h
+//!   bssrdf_burley_setup: d = 0.25 x M_1_PI_F x radius /
+//!   bssrdf_burley_fitting(A), fitting = 1.9 - A + 3.5 (A - 0.8)^2;
+//! - EEVEE (blender/blender, draw/engines/eevee_next):
+//!   gpu_shader_material_principled.glsl, sss_radius = subsurface_radius x
+//!   subsurface_scale and colour = weight x clamped base colour;
+//!   eevee_subsurface_convolve_comp.glsl, albedo = colour / max(colour),
+//!   d = burley_setup(radius, albedo) (eevee_shader_shared.hh: 0.25 x
+//!   m_1_pi x radius / (1.9 - A + 3.5 (A - 0.8)^2)).
+
+mod engine_support;
+use engine_support::*;
+use serde_json::{Map, Value};
+use std::f64::consts::PI;
+
+fn burley_fitting(a: f64) -> f64 {
+    1.9 - a + 3.5 * (a - 0.8) * (a - 0.8)
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Convention {
+    Cycles4,
+    Cycles293,
+    Eevee,
+}
+
+fn blender_chain(p: &Map<String, Value>, units_per_mm: f64, conv: Convention) -> Rendered {
+    let (albedo, radius, s) = match conv {
+        Convention::Cycles293 => {
+            assert_eq!(num(p, "Subsurface"), 1.0);
+            let colour = rgb(p, "Subsurface Color");
+            let radius = rgb(p, "Subsurface Radius").map(|r| r * num(p, "Subsurface"));
+            (colour, radius, colour.map(burley_fitting))
+        }
+        _ => {
+            assert_eq!(num(p, "Subsurface Weight"), 1.0);
+            let base = rgb(p, "Base Color").map(|b| b.clamp(0.0, 1.0));
+            let scale = num(p, "Subsurface Scale");
+            let radius = rgb(p, "Subsurface Radius").map(|r| (r * scale).max(0.0));
+            let s = if conv == Convention::Eevee {
+                let max = base.into_iter().fold(1e-6, f64::max);
+                base.map(|b| burley_fitting(b / max))
+            } else {
+                [1.0; 3]
+            };
+            (base, radius, s)
+        }
+    };
+    Rendered {
+        albedo,
+        d_mm: std::array::from_fn(|c| 0.25 * (1.0 / PI) * radius[c] / s[c] / units_per_mm),
+    }
+}
+
+fn assert_inside_the_sockets(what: &str, p: &Map<String, Value>) {
+    for (k, hi) in [
+        ("Base Color", 1.0),
+        ("Subsurface Color", 1.0),
+        ("Subsurface Radius", 100.0),
+    ] {
+        if p.contains_key(k) {
+            for x in rgb(p, k) {
+                assert!((0.0..=hi).contains(&x), "{what}: {k} = {:?}", rgb(p, k));
+            }
+        }
+    }
+    if p.contains_key("Subsurface Scale") {
+        let s = num(p, "Subsurface Scale");
+        assert!((0.0..=10.0).contains(&s), "{what}: Subsurface Scale {s}");
+    }
+    assert_eq!(p["Subsurface Method"], "Christensen-Burley");
+}
+
+#[test]
+fn printed_values_through_cycles_4_reproduce_the_reported_error() {
+    for m in MATERIALS {
+        let file = format!("profiles/reference/{m}.json");
+        let (fit, _) = engine_json(&file, "blender", &[]);
+        assert!(fit["version"]
+            .as_str()
+            .unwrap()
+            .starts_with("Blender 4.0 to 5.0, Cycles"));
+        let p = params(&fit);
+        assert_inside_the_sockets(m, p);
+        // The hex field is the linear Base Color in sRGB.
+        let from_hex = hex_decode(p["Base Color hex"].as_str().unwrap());
+        for c in 0..3 {
+            assert!(
+                (from_hex[c] - rgb(p, "Base Color")[c]).abs() < 0.01,
+                "{m}: {from_hex:?}"
+            );
+        }
+        check_against_report(
+            &format!("blender 4 {m}"),
+            &fit,
+            &blender_chain(p, 0.001, Convention::Cycles4),
+            &reference(m),
+        );
+    }
+}
+
+#[test]
+fn printed_values_through_cycles_2_93_and_eevee_reproduce_the_reported_error() {
+    for (version, conv) in [
+        ("2.93", Convention::Cycles293),
+        ("eevee", Convention::Eevee),
+    ] {
+        for m in MATERIALS {
+            let file = format!("profiles/reference/{m}.json");
+            let (fit, _) = engine_json(&file, "blender", &["--engine-version", version]);
+            let p = params(&fit);
+            assert_inside_the_sockets(m, p);
+            check_against_report(
+                &format!("blender {version} {m}"),
+                &fit,
+                &blender_chain(p, 0.001, conv),
+                &reference(m),
+            );
+        }
+    }
+}
+
+/// The same values typed into Cycles 4 and 2.93 give different profiles:
+/// 4.x dropped the albedo fit s(A), so the 4.x radius is s(A) times
+/// shorter for the same d.
+#[test]
+fn cycles_4_and_2_93_radii_differ_by_the_albedo_fit() {
+    let (new, _) = engine_json("profiles/reference/skin1.json", "blender", &[]);
+    let (old, _) = engine_json(
+        "profiles/reference/skin1.json",
+        "blender",
+        &["--engine-version", "2.93"],
+    );
+    let (pn, po) = (params(&new), params(&old));
+    let radius_new = rgb(pn, "Subsurface Radius").map(|r| r * num(pn, "Subsurface Scale"));
+    let radius_old = rgb(po, "Subsurface Radius");
+    let colour = rgb(po, "Subsurface Color");
+    for c in 0..3 {
+        let ratio = radius_old[c] / radius_new[c];
+        assert!(
+            (ratio / burley_fitting(colour[c]) - 1.0).abs() < 2e-3,
+            "channel {c}: ratio {ratio}, s(A) {}",
+            burley_fitting(colour[c])
+        );
+    }
+}
+
+/// A scene in millimetres: Subsurface Scale would exceed its socket's 10,
+/// so 10 is printed and the radius scaled up instead.
+#[test]
+fn subsurface_scale_above_its_socket_moves_into_the_radius() {
+    let (fit, text) = engine_json(
+        "profiles/reference/marble.json",
+        "blender",
+        &["--units-per-mm", "1"],
+    );
+    let p = params(&fit);
+    assert_inside_the_sockets("marble mm", p);
+    assert_eq!(num(p, "Subsurface Scale"), 10.0);
+    assert!(rgb(p, "Subsurface Radius")[0] > 1.0);
+    assert!(text.contains("warning: Subsurface Scale"), "{text}");
+    check_against_report(
+        "blender marble mm",
+        &fit,
+        &blender_chain(p, 1.0, Convention::Cycles4),
+        &reference("marble"),
+    );
+}
+
+/// A Base Color above 1 (9.9 was written) prints as 1, the most Cycles
+/// uses (`clamped_base_color`).
+#[test]
+fn params_clamp_the_base_color() {
+    use ssskit::engine::{blender, burley::Burley, Engine, Scene};
+    let b = Burley {
+        albedo: [9.9, 0.5, 0.2],
+        d_mm: [1.0, 0.5, 0.2],
+    };
+    for v in blender::VERSIONS {
+        let printed = blender::params(&b, Scene::native(Engine::Blender), v);
+        assert_inside_the_sockets(v.key, &printed.params);
+    }
+}
