@@ -188,47 +188,56 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
     if names.is_empty() {
         bail!("--materials: no material named");
     }
+    if matches!(model, ProfileModelArg::Mc) && a.photons == 0 {
+        return Err(invalid("--photons", 0, "must be > 0"));
+    }
     let channels = Channel::ALL.to_vec();
     names
         .into_iter()
-        .map(|n| {
-            let m = Material::load(&n)?;
-            let analytic_model = match model {
-                ProfileModelArg::Mc => None,
-                ProfileModelArg::Pbd => Some(ProfileModel::Pbd),
-                ProfileModelArg::Dipole => Some(ProfileModel::Dipole),
-                ProfileModelArg::Burley => Some(ProfileModel::Burley),
-                ProfileModelArg::DirectionalDipole => Some(ProfileModel::DirectionalDipole),
-            };
-            let profile = match analytic_model {
-                None => {
-                    if a.photons == 0 {
-                        return Err(invalid("--photons", 0, "must be > 0"));
-                    }
-                    let cfg = McConfig {
-                        budget: PhotonBudget::Fixed(a.photons),
-                        seed: a.seed,
-                        threads: None,
-                        channels: channels.clone(),
-                        grid: None,
-                    };
-                    simulate(&m, &cfg, &Bar::new())?
-                }
-                Some(pm) => {
-                    let grid = analytic::default_grid(&m, &channels)?;
-                    let opts = ProfileOptions {
-                        fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
-                        channels: channels.clone(),
-                    };
-                    analytic::profile(&m, pm, &grid, &opts)?
-                }
-            };
-            Ok(MaterialInput {
-                name: m.name.clone(),
-                profile,
-            })
-        })
+        .map(|n| make_profile(a, model, &n, &channels).with_context(|| format!("material '{n}'")))
         .collect()
+}
+
+/// The profile of material `n` (preset or file) by `model`.
+fn make_profile(
+    a: &Args,
+    model: ProfileModelArg,
+    n: &str,
+    channels: &[Channel],
+) -> anyhow::Result<MaterialInput> {
+    let m = Material::load(n)?;
+    let channels = channels.to_vec();
+    let analytic_model = match model {
+        ProfileModelArg::Mc => None,
+        ProfileModelArg::Pbd => Some(ProfileModel::Pbd),
+        ProfileModelArg::Dipole => Some(ProfileModel::Dipole),
+        ProfileModelArg::Burley => Some(ProfileModel::Burley),
+        ProfileModelArg::DirectionalDipole => Some(ProfileModel::DirectionalDipole),
+    };
+    let profile = match analytic_model {
+        None => {
+            let cfg = McConfig {
+                budget: PhotonBudget::Fixed(a.photons),
+                seed: a.seed,
+                threads: None,
+                channels: channels.clone(),
+                grid: None,
+            };
+            simulate(&m, &cfg, &Bar::new())?
+        }
+        Some(pm) => {
+            let grid = analytic::default_grid(&m, &channels)?;
+            let opts = ProfileOptions {
+                fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
+                channels: channels.clone(),
+            };
+            analytic::profile(&m, pm, &grid, &opts)?
+        }
+    };
+    Ok(MaterialInput {
+        name: m.name.clone(),
+        profile,
+    })
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -276,8 +285,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(e) = a.extent {
         positive("--extent", e)?;
     }
+    // The folder is written aside and swapped in whole at the end.
+    let staged = ssskit::io::StagedDir::new(&a.out).with_context(|| "--out".to_string())?;
     let inputs = load_profiles(&a)?;
-    std::fs::create_dir_all(&a.out).with_context(|| format!("--out {}", a.out.display()))?;
     let options = Options {
         round_to_f32: true,
         pixels_per_degree: a.pixels_per_degree,
@@ -307,11 +317,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     pipeline::write_comparison(
         &cmp,
         &ctx,
-        &a.out,
+        staged.path(),
         !a.no_plots,
         &format!("{}-tap tables", taps[0]),
     )?;
-    pipeline::write_fitted_kernels(&cmp, &a.out.join("kernels"), false)?;
+    pipeline::write_fitted_kernels(&cmp, &staged.path().join("kernels"), false)?;
+    staged.commit()?;
     let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
     out!("{}", kernel_report::claims_table(&claims).markdown())?;
     eprintln!(

@@ -23,6 +23,8 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     a.report.check()?;
     ssskit::kernel::taps::check_count(a.taps)?;
+    // The folder is written aside and swapped in whole at the end.
+    let staged = ssskit::io::StagedDir::new(&a.report.out)?;
     let t0 = std::time::Instant::now();
     let (profile, source) = a.profile.load(ProfileModelArg::Mc)?;
     eprintln!("{}: profile {source}", profile.material.name);
@@ -36,10 +38,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let outcome = pipeline::run(
         &profile,
         &settings,
-        &a.report.out,
+        staged.path(),
         &command_line(&a.report.out),
         &super::progress::Bar::new(),
     )?;
+    staged.commit()?;
     out!(
         "{}",
         pipeline::summary(&outcome, &settings, &source, &a.report.out)

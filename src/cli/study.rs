@@ -27,6 +27,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.photons.is_empty() || a.photons.iter().any(|&n| n == 0 || n > 100_000_000) {
         bail!("--photons: each count must be between 1 and 1e8");
     }
+    // The folder is written aside and swapped in whole at the end.
+    let staged = ssskit::io::StagedDir::new(&a.report.out)?;
     let t0 = std::time::Instant::now();
     let (reference, source) = a.profile.load(ProfileModelArg::Mc)?;
     eprintln!("{}: reference profile {source}", reference.material.name);
@@ -39,10 +41,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let s = study::run(&reference, &settings, &super::progress::Bar::new())?;
     let files = study::write(
         &s,
-        &a.report.out,
+        staged.path(),
         &command_line(&a.report.out),
         !a.report.no_plots,
     )?;
+    staged.commit()?;
     out!("{}", study::table(&s).markdown())?;
     eprintln!(
         "{} entries in {:.1} s -> {}/{}",

@@ -26,7 +26,7 @@ use crate::profile::RadialGrid;
 use std::path::Path;
 
 /// Most radial bins a run may ask for (as for any radial grid).
-const MAX_BINS: usize = 10_000_000;
+const MAX_BINS: usize = crate::limits::MAX_RADIAL_BINS;
 
 /// Thickness (cm) from which the last layer counts as semi-infinite.
 pub const SEMI_INFINITE_CM: f64 = 1e6;
@@ -45,7 +45,7 @@ pub struct McmlRun {
 
 /// Reads every run of an .mci file.
 pub fn read_mci(path: &Path) -> Result<Vec<McmlRun>> {
-    let text = crate::io::read_text(path)?;
+    let text = crate::io::read_text_capped(path, crate::limits::MAX_MCI_BYTES, "MCML .mci file")?;
     parse_mci(&text, &path.display().to_string())
 }
 

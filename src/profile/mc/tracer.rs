@@ -312,6 +312,10 @@ pub(crate) struct WalkSettings {
     pub single_scatter: bool,
     /// Weight below which Russian roulette plays (MCML: ROULETTE_THRESHOLD).
     pub roulette_threshold: f64,
+    /// Events the chunk may spend (u64::MAX: no bound): the packet that
+    /// crosses it is abandoned and the chunk's tally then holds more events
+    /// than this, which marks it unfinished (`Job::trace` discards it).
+    pub chunk_events: u64,
 }
 
 /// Where a packet goes at a boundary.
@@ -367,6 +371,14 @@ fn trace_one(
     tally: &mut ChunkTally,
     scratch: &mut PhotonScratch,
 ) {
+    if tally.events > set.chunk_events {
+        return;
+    }
+    // Events this packet may make: the hard cap, or one more than the
+    // chunk has left (crossing the budget marks the chunk).
+    let stop_at = set
+        .max_events
+        .min((set.chunk_events - tally.events).saturating_add(1));
     tally.photons += 1;
     tally.specular += stack.specular;
     let mut p = Packet {
@@ -508,9 +520,11 @@ fn trace_one(
             next_event_roulette = next_event_roulette.saturating_mul(2);
             roulette(&mut p.w, EVENT_ROULETTE_SURVIVAL, rng, tally);
         }
-        if events >= set.max_events && p.w > 0.0 {
-            tally.truncated += p.w;
-            tally.truncated_photons += 1;
+        if events >= stop_at && p.w > 0.0 {
+            if events >= set.max_events {
+                tally.truncated += p.w;
+                tally.truncated_photons += 1;
+            }
             p.w = 0.0;
         }
     }
