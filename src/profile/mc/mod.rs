@@ -796,7 +796,7 @@ impl Job<'_> {
                         check_fixed_work(
                             self.cfg.channels[c],
                             t.photons,
-                            work,
+                            t.events,
                             mine,
                             self.cap,
                             self.opts.max_work,
@@ -1203,6 +1203,15 @@ fn channel_warnings(
             "channel {c}: no diffuse reflectance (no scattering or nothing comes back)"
         ));
     }
+    if total > 1.0 {
+        // Unbiased but useless: reflectance is at most the incident light.
+        w.push(format!(
+            "channel {c}: total R_d {total:.4} +- {:.2e} is above 1, more light than came in: \
+             a few packets with boosted weights (long walks that survived the event-count \
+             roulette) dominate the estimate; trace more photons",
+            t.rd.stderr(t.photons)
+        ));
+    }
     if !run.converged && !matches!(cfg.budget, PhotonBudget::Fixed(_)) {
         let max_photons = cfg.budget.max_photons();
         let cap = if run.work_capped {
@@ -1522,6 +1531,187 @@ fn check_same_run(
 mod tests {
     use super::*;
     use crate::progress::NoProgress;
+
+    /// Two shards of a small run (channel r, two chunks, one thread).
+    fn shard_pair() -> [Profile; 2] {
+        let m = crate::material::preset("skin1").unwrap();
+        let cfg = McConfig {
+            budget: PhotonBudget::Fixed(2 * CHUNK),
+            seed: 11,
+            threads: Some(1),
+            channels: vec![Channel::R],
+            grid: Some(RadialGrid::uniform(0.2, 4.0).unwrap()),
+        };
+        [1, 2].map(|k| {
+            let opts = McOptions {
+                shard: Some(Shard { k, n: 2 }),
+                ..McOptions::default()
+            };
+            simulate_with(&m, &cfg, &opts, &NoProgress).unwrap()
+        })
+    }
+
+    /// `p` with its shard record edited by `edit`, the content hash
+    /// recomputed when `rehash` (so that the check under test is the one
+    /// that fires, not the hash).
+    fn tampered(p: &Profile, rehash: bool, edit: impl Fn(&mut ShardRecord)) -> Profile {
+        let mut r: ShardRecord = serde_json::from_value(p.extra["shard"].clone()).unwrap();
+        edit(&mut r);
+        if rehash {
+            r.sha256 = r.content_hash(&p.material, &p.r_edges).unwrap();
+        }
+        let mut q = p.clone();
+        q.extra["shard"] = serde_json::to_value(&r).unwrap();
+        q
+    }
+
+    fn merge_error(a: &Profile, b: &Profile) -> String {
+        merge_shards(&[("a.json".into(), a.clone()), ("b.json".into(), b.clone())])
+            .unwrap_err()
+            .to_string()
+    }
+
+    /// Each integrity check of a merge fires on its own, naming the shard
+    /// and the field: the content hash, the energy balance (a doubled
+    /// tally), a negative variance (zeroed sums of squares), bins that do
+    /// not add up to R_d, truncated photons beyond the photons, and counts
+    /// that would overflow (they used to wrap).
+    #[test]
+    fn merge_verifies_each_shard() {
+        let [a, b] = shard_pair();
+        let clean = merge_shards(&[("a".into(), a.clone()), ("b".into(), b.clone())]).unwrap();
+        assert_eq!(clean.source.photons, Some(vec![2 * CHUNK]));
+        let e = merge_error(&a, &tampered(&b, false, |r| r.tallies[0].events += 1));
+        assert!(
+            e.contains("b.json") && e.contains("sha256 does not match"),
+            "{e}"
+        );
+        let e = merge_error(&a, &tampered(&b, false, |r| r.sha256.clear()));
+        assert!(
+            e.contains("b.json") && e.contains("sha256 is missing"),
+            "{e}"
+        );
+        let double = |r: &mut ShardRecord| {
+            let t = &mut r.tallies[0];
+            for x in t.totals.iter_mut().chain(&mut t.rd_bins.sum) {
+                let y = *x;
+                assert!(x.add(&y));
+            }
+        };
+        let e = merge_error(&a, &tampered(&b, true, double));
+        assert!(
+            e.contains("b.json") && e.contains("tallies[r]") && e.contains("energy balance"),
+            "{e}"
+        );
+        let e = merge_error(
+            &a,
+            &tampered(&b, true, |r| {
+                r.tallies[0].totals[2] = Default::default();
+            }),
+        );
+        assert!(e.contains("rd: sum of squares"), "{e}");
+        let e = merge_error(
+            &tampered(&a, true, |r| {
+                let t = &mut r.tallies[0];
+                let i = t.rd_bins.sum.iter().position(|x| x.to_f64() > 0.0).unwrap();
+                t.rd_bins.sum_sq[i] = Default::default();
+            }),
+            &b,
+        );
+        assert!(e.contains("a.json") && e.contains("rd_bins["), "{e}");
+        let e = merge_error(
+            &a,
+            &tampered(&b, true, |r| {
+                let t = &mut r.tallies[0];
+                let i = t.rd_bins.sum.iter().position(|x| x.to_f64() > 0.0).unwrap();
+                t.rd_bins.sum[i] = Default::default();
+                t.rd_bins.sum_sq[i] = Default::default();
+            }),
+        );
+        assert!(e.contains("rd_bins and rd beyond"), "{e}");
+        let e = merge_error(
+            &a,
+            &tampered(&b, true, |r| r.tallies[0].truncated_photons = u64::MAX),
+        );
+        assert!(e.contains("truncated_photons"), "{e}");
+        let big = |r: &mut ShardRecord| r.tallies[0].events = u64::MAX - 1;
+        let e = merge_error(&tampered(&a, true, big), &tampered(&b, true, big));
+        assert!(
+            e.contains("b.json") && e.contains("event count overflows"),
+            "{e}"
+        );
+    }
+
+    /// A round that a chunk cannot finish within its share of the work cap
+    /// is discarded whole: the run keeps its earlier rounds, whatever the
+    /// thread count; a first round that cannot finish is refused.
+    #[test]
+    fn work_is_bounded_inside_a_round_for_any_thread_count() {
+        let m = crate::material::preset("marble").unwrap();
+        let run = |threads: usize, max_work: u64| {
+            let cfg = McConfig {
+                budget: PhotonBudget::TargetError {
+                    rel: 1e-6,
+                    max_photons: 1 << 30,
+                },
+                seed: 5,
+                threads: Some(threads),
+                channels: vec![Channel::G],
+                grid: Some(RadialGrid::uniform(0.5, 20.0).unwrap()),
+            };
+            let opts = McOptions {
+                max_work,
+                ..McOptions::default()
+            };
+            simulate_with(&m, &cfg, &opts, &NoProgress)
+        };
+        // The first round alone (2 chunks) costs E events.
+        let one = |threads| {
+            let cfg = McConfig {
+                budget: PhotonBudget::Fixed(2 * CHUNK),
+                seed: 5,
+                threads: Some(threads),
+                channels: vec![Channel::G],
+                grid: Some(RadialGrid::uniform(0.5, 20.0).unwrap()),
+            };
+            simulate_with(&m, &cfg, &McOptions::default(), &NoProgress).unwrap()
+        };
+        let first = one(1);
+        let e = first.extra["events_per_photon"][0].as_f64().unwrap() * (2 * CHUNK) as f64;
+        // Rounds of 2, 2 and 4 chunks: the third needs 2 E, a cap of 2.5 E
+        // leaves it 0.5 E.
+        let cap = (2.5 * e) as u64;
+        let p1 = run(1, cap).unwrap();
+        let p2 = run(2, cap).unwrap();
+        assert_eq!(p1.source.photons, Some(vec![4 * CHUNK]));
+        assert_eq!(p1.rd, p2.rd, "the stop depends on the threads");
+        assert_eq!(p1.extra["stopped_by"][0], "work-cap");
+        let spent = p1.extra["events_per_photon"][0].as_f64().unwrap() * (4 * CHUNK) as f64;
+        assert!(spent <= cap as f64, "{spent} > {cap}");
+        let e = run(2, (0.5 * e) as u64).unwrap_err().to_string();
+        assert!(
+            e.contains("invalid max_work") && e.contains("first 16384 photons"),
+            "{e}"
+        );
+    }
+
+    /// Tallies that would not fit the memory cap are refused before any
+    /// allocation, and fewer threads are used where only they do not fit.
+    #[test]
+    fn tally_memory_is_capped() {
+        assert_eq!(tally_threads(1000, 3, Some(1)).unwrap(), 1);
+        let bins = crate::limits::MAX_RADIAL_BINS;
+        let t = tally_threads(bins, 3, Some(crate::limits::max_threads())).unwrap();
+        let bytes = bins as u64 * (3 * EXACT_BYTES_PER_BIN + t as u64 * SCRATCH_BYTES_PER_BIN);
+        assert!(
+            t >= 1 && bytes <= crate::limits::MAX_TALLY_BYTES,
+            "{t} threads, {bytes}"
+        );
+        let e = tally_threads(10 * bins, 3, Some(1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bins") && e.contains("MiB"), "{e}");
+    }
 
     #[test]
     fn chunk_streams_differ() {
