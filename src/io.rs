@@ -468,13 +468,40 @@ pub fn join_inside(dir: &Path, name: &str) -> Result<PathBuf> {
     }
 }
 
+/// Opens an input for reading without waiting: a named pipe with no writer
+/// reads as empty (an error about its content) instead of blocking the open
+/// forever; a pipe with a writer (`/dev/stdin` from a shell) reads as usual.
+pub fn open_input(path: &Path) -> Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path).map_err(|e| Error::io(path, e))?;
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsRawFd;
+        let fd = file.as_raw_fd();
+        // SAFETY: fcntl on a descriptor we own; reads block again from here.
+        unsafe {
+            let flags = libc::fcntl(fd, libc::F_GETFL);
+            if flags >= 0 {
+                libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK);
+            }
+        }
+    }
+    Ok(file)
+}
+
 /// Reads at most `max` bytes of `path`, refusing a longer file: the count
 /// is made while reading, so a device or a pipe (no length to check first)
 /// is bounded too. `what` names the kind of file in the error ("material
 /// TOML").
 pub fn read_bytes_capped(path: &Path, max: u64, what: &str) -> Result<Vec<u8>> {
     use std::io::Read;
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let file = open_input(path)?;
     let mut bytes = Vec::new();
     file.take(max.saturating_add(1))
         .read_to_end(&mut bytes)
@@ -547,7 +574,7 @@ impl<R: std::io::Read> std::io::Read for Capped<R> {
 /// [`crate::limits::MAX_JSON_BYTES`]; parse errors carry line and column.
 pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
     let max = crate::limits::MAX_JSON_BYTES;
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let file = open_input(path)?;
     let reader = std::io::BufReader::with_capacity(
         1 << 16,
         Capped {
@@ -590,6 +617,25 @@ impl StagedDir {
     /// destination's parent folders): everything that can fail about the
     /// place fails here, before the work.
     pub fn new(target: &Path) -> Result<StagedDir> {
+        use std::path::Component;
+        let bad = |msg: &str| Error::io(target, std::io::Error::other(msg.to_string()));
+        if !matches!(target.components().next_back(), Some(Component::Normal(_))) {
+            return Err(bad(
+                "give the outputs a folder of their own (a name, not '.', '..' or '/'): it is \
+                 replaced as a whole",
+            ));
+        }
+        let inside = std::env::current_dir()
+            .and_then(|cwd| cwd.canonicalize())
+            .ok()
+            .zip(target.canonicalize().ok())
+            .is_some_and(|(cwd, t)| cwd.starts_with(t));
+        if inside {
+            return Err(bad(
+                "the working folder is inside it, and the outputs replace it as a whole: give \
+                 another folder",
+            ));
+        }
         check_replaceable(target)?;
         let parent = folder_of(target);
         std::fs::create_dir_all(parent).map_err(|e| cannot_write(target, parent, &e))?;
@@ -854,6 +900,25 @@ mod tests {
         std::fs::create_dir(&empty).unwrap();
         StagedDir::new(&empty).unwrap().commit().unwrap();
         assert!(empty.join(OUTPUT_MARKER).exists());
+    }
+
+    /// A named pipe nobody writes to is read as empty, not waited for.
+    #[cfg(unix)]
+    #[test]
+    fn a_pipe_without_a_writer_does_not_block() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("p.json");
+        let c = std::ffi::CString::new(p.to_str().unwrap()).unwrap();
+        // SAFETY: a NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let e = read_json::<serde_json::Value>(&p).unwrap_err().to_string();
+        assert!(e.contains("p.json") && e.contains("EOF"), "{e}");
+        assert_eq!(read_text_capped(&p, 10, "t").unwrap(), "");
+        let e = StagedDir::new(Path::new(".")).err().unwrap().to_string();
+        assert!(e.contains("a name, not '.'"), "{e}");
+        let cwd = std::env::current_dir().unwrap();
+        let e = StagedDir::new(&cwd).err().unwrap().to_string();
+        assert!(e.contains("working folder is inside it"), "{e}");
     }
 
     #[test]

@@ -1093,3 +1093,69 @@ fn missing_output_folders_are_found_before_the_work() {
     }
     assert!(!dir.path().join("no").exists());
 }
+
+// ---- Siblings the follow-up campaign found -------------------------------
+
+/// Inputs that are named pipes nobody writes to are read as empty (a clear
+/// error), not waited for; a kernel file's material is checked like a
+/// material file (its name used to reach the terminal through the shader
+/// comment); a folder output may not be the working folder.
+#[cfg(unix)]
+#[test]
+fn pipes_kernel_names_and_the_working_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for name in ["p.json", "p.toml", "p.exr", "p.png"] {
+        let status = Command::new("mkfifo").arg(d.join(name)).status().unwrap();
+        assert!(status.success());
+    }
+    let started = Instant::now();
+    for args in [
+        vec![
+            "fit",
+            "--profile",
+            "p.json",
+            "--model",
+            "svd",
+            "--out",
+            "k.json",
+        ],
+        vec!["materials", "p.toml"],
+        vec!["diff", "p.exr", "p.png"],
+        vec!["diff", "p.png", "p.exr"],
+    ] {
+        let pipe = args.iter().find(|a| a.starts_with("p.")).unwrap();
+        fails_in(d, &args, &[pipe]);
+    }
+    assert!(
+        started.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        started.elapsed()
+    );
+    let esc = edited(&kernel(), d, "esc.json", |v| {
+        v["material"]["name"] = "\u{1b}[2J".into();
+    });
+    let o = run_in(d, &["fit", "--kernel", &esc, "--emit", "hlsl"]);
+    assert!(!common::stdout(&o).contains('\u{1b}'));
+    common::assert_fails(&o, &["fit"], &["esc.json", "U+001B"]);
+    fails_in(
+        d,
+        &[
+            "compare",
+            "--materials",
+            "skin1",
+            "--profile-model",
+            "dipole",
+            "--models",
+            "svd",
+            "--ranks",
+            "1",
+            "--signals",
+            "none",
+            "--no-plots",
+            "--out",
+            ".",
+        ],
+        &["not '.'"],
+    );
+}

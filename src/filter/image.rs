@@ -252,16 +252,23 @@ fn channel_list(ch: &[(String, Vec<f64>)]) -> String {
 }
 
 fn exr_channels(path: &Path) -> Result<Channels> {
-    use exr::prelude::{read_first_flat_layer_from_file, Vec2};
-    if let Err(e) = std::fs::metadata(path) {
-        return Err(Error::io(path, e));
-    }
+    use exr::image::read::{image::ReadLayers, layers::ReadChannels};
+    use exr::prelude::{read, Vec2};
+    let unreadable =
+        |e: exr::error::Error| Error::format(path, format!("unreadable OpenEXR file: {e}"));
+    let buffered = |path: &Path| crate::io::open_input(path).map(std::io::BufReader::new);
     // The headers state the sizes: refuse them before any pixel is read.
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| Error::format(path, format!("unreadable OpenEXR file: {e}")))?;
+    let meta =
+        exr::meta::MetaData::read_from_buffered(buffered(path)?, false).map_err(unreadable)?;
     check_exr_headers(&path.display().to_string(), &meta.headers)?;
-    let image = read_first_flat_layer_from_file(path)
-        .map_err(|e| Error::format(path, format!("unreadable OpenEXR file: {e}")))?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(buffered(path)?)
+        .map_err(unreadable)?;
     let layer = image.layer_data;
     let (w, h) = (layer.size.x(), layer.size.y());
     crate::limits::check_image_size(&path.display().to_string(), w, h)?;
@@ -375,17 +382,17 @@ fn read_exr(path: &Path, depth_channel: Option<&str>) -> Result<(Image, Extras)>
 }
 
 fn decode_png(path: &Path) -> Result<image::DynamicImage> {
-    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    let reader = reader
-        .with_guessed_format()
-        .map_err(|e| Error::io(path, e))?;
-    let (w, h) = reader
+    let open = || -> Result<_> {
+        let file = std::io::BufReader::new(crate::io::open_input(path)?);
+        image::ImageReader::new(file)
+            .with_guessed_format()
+            .map_err(|e| Error::io(path, e))
+    };
+    let (w, h) = open()?
         .into_dimensions()
         .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
     crate::limits::check_image_size(&path.display().to_string(), w as usize, h as usize)?;
-    let mut reader = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| Error::io(path, e))?;
+    let mut reader = open()?;
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
     reader.limits(limits);

@@ -217,6 +217,9 @@ impl KernelFile {
         if self.passes.is_empty() {
             return bad("kernel has no passes".into());
         }
+        if let Some(m) = &self.material {
+            m.validate(context)?;
+        }
         if let Some(x) = self.total_rd.iter().find(|x| !x.is_finite() || **x < 0.0) {
             return bad(format!("total_rd holds {x}: must be finite and >= 0"));
         }
