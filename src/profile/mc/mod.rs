@@ -1700,6 +1700,8 @@ mod tests {
     #[test]
     fn tally_memory_is_capped() {
         assert_eq!(tally_threads(1000, 3, Some(1)).unwrap(), 1);
+        // 1.5e6 bins of three channels leave room for one thread's scratch.
+        assert_eq!(tally_threads(1_500_000, 3, Some(2)).unwrap(), 1);
         let bins = crate::limits::MAX_RADIAL_BINS;
         let t = tally_threads(bins, 3, Some(crate::limits::max_threads())).unwrap();
         let bytes = bins as u64 * (3 * EXACT_BYTES_PER_BIN + t as u64 * SCRATCH_BYTES_PER_BIN);

@@ -663,6 +663,56 @@ mod tests {
         assert!((mz2 / nf - 1.0 / 3.0).abs() < 5.0 * (4.0 / 45.0 / nf).sqrt());
     }
 
+    /// A chunk's event budget bounds the walk itself: the packet that
+    /// crosses it is abandoned there, and the chunk's tally says so by
+    /// holding exactly one event more than the budget.
+    #[test]
+    fn the_chunk_budget_stops_the_walk() {
+        use rand_core::SeedableRng;
+        let m = crate::material::Material {
+            name: "lossless".into(),
+            eta_above: 1.0,
+            eta_below: 1.0,
+            layers: vec![crate::material::Layer {
+                sigma_a: [0.0; 3],
+                sigma_s: [1.0; 3],
+                g: [0.9; 3],
+                eta: 1.3,
+                thickness: None,
+            }],
+        };
+        let stack = Stack::new(&m, Channel::R);
+        let grid = crate::profile::RadialGrid::uniform(0.1, 10.0).unwrap();
+        let bins = BinIndex::new(&grid);
+        let mut set = WalkSettings {
+            mode: BoundaryMode::Classic,
+            event_roulette: DEFAULT_EVENT_ROULETTE,
+            max_events: u64::MAX,
+            single_scatter: false,
+            roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
+            chunk_events: u64::MAX,
+        };
+        let run = |set: &WalkSettings| {
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
+            let mut t = ChunkTally::new(bins.len(), false);
+            let mut s = PhotonScratch::new(bins.len(), false);
+            trace_photons(&stack, &bins, set, &mut rng, 200, &mut t, &mut s);
+            t
+        };
+        let free = run(&set);
+        assert_eq!(free.photons, 200);
+        assert!(free.events > 20_000, "{} events", free.events);
+        set.chunk_events = 5_000;
+        let bounded = run(&set);
+        assert_eq!(bounded.events, 5_001);
+        assert!(bounded.photons < 200);
+        // A budget the chunk fits in changes nothing.
+        set.chunk_events = free.events;
+        let fits = run(&set);
+        assert_eq!((fits.events, fits.photons), (free.events, 200));
+        assert_eq!(fits.rd, free.rd);
+    }
+
     #[test]
     fn spin_keeps_unit_length() {
         let mut p = Packet {
