@@ -12,7 +12,16 @@
 //! - the exact 2D reference convolution: at most [`MAX_FFT_CELLS`] cells in
 //!   its padded FFT grid;
 //! - files whose headers state counts (.mci runs, layers, bins): the counts
-//!   must fit in the file's length (see `profile::mc::mci`).
+//!   must fit in the file's length (see `profile::mc::mci`);
+//! - input files: at most [`MAX_MATERIAL_BYTES`] (material TOML),
+//!   [`MAX_MCI_BYTES`] (.mci) and [`MAX_JSON_BYTES`] (profiles, kernels,
+//!   shards) are read, counted while reading (a device or a pipe has no
+//!   length to check first);
+//! - EXR files: at most [`MAX_EXR_DECODE_BYTES`] of samples declared over
+//!   all channels and parts, checked on the headers before any pixel;
+//! - radial grids: at most [`MAX_RADIAL_BINS`] bins; a Monte Carlo run's
+//!   tallies at most [`MAX_TALLY_BYTES`] (fewer worker threads where needed:
+//!   results never depend on their number).
 
 use crate::error::{Error, Result};
 
@@ -33,12 +42,16 @@ pub fn max_threads() -> usize {
 /// Refuses a thread count of 0 or above [`max_threads`]; `context` names the
 /// parameter.
 pub fn check_threads(context: &str, n: usize) -> Result<()> {
+    check_thread_count(context, "threads", &n.to_string(), n)
+}
+
+fn check_thread_count(context: &str, field: &str, value: &str, n: usize) -> Result<()> {
     let max = max_threads();
     if n == 0 || n > max {
         return Err(Error::invalid(
             context,
-            "threads",
-            n,
+            field,
+            value,
             format!(
                 "must be between 1 and {max} ({THREADS_PER_CORE} per available core, {} \
                  cores); results are the same for any thread count",
@@ -47,6 +60,77 @@ pub fn check_threads(context: &str, n: usize) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// The environment variable rayon reads for its default thread count.
+pub const THREADS_VARIABLE: &str = "RAYON_NUM_THREADS";
+
+/// The thread count the environment asks for ([`THREADS_VARIABLE`]), None
+/// when unset, empty or 0 (rayon's "default"); refused when it is not a
+/// count or above [`max_threads`]: the variable obeys the same cap as a
+/// thread count given any other way.
+pub fn threads_from_env() -> Result<Option<usize>> {
+    let Some(raw) = std::env::var_os(THREADS_VARIABLE) else {
+        return Ok(None);
+    };
+    let text = raw.to_string_lossy();
+    let t = text.trim();
+    if t.is_empty() || t == "0" {
+        return Ok(None);
+    }
+    let n: usize = t.parse().map_err(|_| {
+        Error::invalid(
+            "environment",
+            THREADS_VARIABLE,
+            format!("'{text}'"),
+            format!(
+                "expected a whole number of threads between 1 and {}",
+                max_threads()
+            ),
+        )
+    })?;
+    check_thread_count("environment", THREADS_VARIABLE, t, n)?;
+    Ok(Some(n))
+}
+
+/// Worker threads for a pool: `requested` (checked by [`check_threads`]),
+/// else the environment's ([`threads_from_env`]), else one per available
+/// core.
+pub fn worker_threads(requested: Option<usize>) -> Result<usize> {
+    match requested {
+        Some(n) => check_threads("worker threads", n).map(|()| n),
+        None => Ok(threads_from_env()?.unwrap_or_else(available_cores)),
+    }
+}
+
+/// A pool of `threads` worker threads; a pool that cannot start (a process
+/// or memory limit) is an error naming the count, never a panic later.
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| pool_error(threads, e))
+}
+
+fn pool_error(threads: usize, e: rayon::ThreadPoolBuildError) -> Error {
+    Error::Unsupported(format!(
+        "cannot start {threads} worker thread(s): {e} (a limit on processes, threads or memory; \
+         lower {THREADS_VARIABLE} or --threads, or raise the limit)"
+    ))
+}
+
+/// Starts rayon's global pool, which every parallel loop outside an
+/// explicit pool uses, with [`worker_threads`]`(None)` threads: the
+/// environment cannot ask for more than the cap, and a pool that cannot
+/// start is an error here rather than a panic inside the first parallel
+/// loop. For binaries, before any work; returns the thread count.
+pub fn start_global_pool() -> Result<usize> {
+    let n = worker_threads(None)?;
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| pool_error(n, e))?;
+    Ok(n)
 }
 
 /// Largest image, in pixels: 2^25, room for an 8K UHD frame (7680 x 4320).
@@ -101,6 +185,30 @@ pub const MAX_FILTER_WORK: f64 = 1e12;
 /// three complex f64 buffers of it are 3 GiB.
 pub const MAX_FFT_CELLS: usize = 1 << 26;
 
+/// Most bytes read from a material TOML file (a few lines; the TOML parser
+/// needs several times the text in memory).
+pub const MAX_MATERIAL_BYTES: u64 = 1 << 20;
+/// Most bytes read from an MCML .mci file (a few lines per run).
+pub const MAX_MCI_BYTES: u64 = 16 << 20;
+/// Most bytes read from a JSON file (profile, kernel, shard, report): a
+/// shard of [`MAX_RADIAL_BINS`] bins in three channels, its exact sums as
+/// hexadecimal text, is about 400 MB.
+pub const MAX_JSON_BYTES: u64 = 512 << 20;
+
+/// Most bytes of samples an EXR file may declare over all its channels
+/// and parts: RGBA and a depth channel in f32 at [`MAX_IMAGE_PIXELS`]
+/// (640 MiB). The decoder holds them while they are converted to f64.
+pub const MAX_EXR_DECODE_BYTES: u64 = 5 * 4 * MAX_IMAGE_PIXELS as u64;
+
+/// Most bins of a radial grid (tallies, profiles): 10^6 bins per channel
+/// make a 150 MB profile and, in a Monte Carlo run, 200 MB of exact sums
+/// per channel.
+pub const MAX_RADIAL_BINS: usize = 1_000_000;
+
+/// Most memory of a Monte Carlo run's tallies (exact sums per channel and
+/// per-thread scratch); see `profile::mc`.
+pub const MAX_TALLY_BYTES: u64 = 1 << 30;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -114,6 +222,35 @@ mod tests {
             .to_string();
         assert!(e.contains("per available core"), "{e}");
         assert!(check_threads("t", 0).is_err());
+    }
+
+    #[test]
+    fn environment_thread_count_obeys_the_cap() {
+        // The variable is read by this test only (tests in this binary run
+        // in threads of one process: set and restored under a lock).
+        static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let _g = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+        let old = std::env::var_os(THREADS_VARIABLE);
+        let with = |v: &str| {
+            std::env::set_var(THREADS_VARIABLE, v);
+            threads_from_env()
+        };
+        assert_eq!(with("1").unwrap(), Some(1));
+        assert_eq!(with(" 0 ").unwrap(), None);
+        assert_eq!(with("").unwrap(), None);
+        let over = (max_threads() + 1).to_string();
+        for bad in [over.as_str(), "5000", "-1", "two", "1e3"] {
+            let e = with(bad).unwrap_err().to_string();
+            assert!(
+                e.contains(THREADS_VARIABLE) && e.contains(bad) && e.contains("between 1 and"),
+                "{bad}: {e}"
+            );
+        }
+        assert_eq!(worker_threads(Some(1)).unwrap(), 1);
+        match old {
+            Some(v) => std::env::set_var(THREADS_VARIABLE, v),
+            None => std::env::remove_var(THREADS_VARIABLE),
+        }
     }
 
     #[test]

@@ -83,7 +83,7 @@ fn emitted_arrays_parse_and_validate_in_every_language() {
         let passes = k.taps.passes.len();
         // WGSL, with the engine example of docs/engines.md using it.
         let example = std::fs::read_to_string("docs/examples/engine_pass.wgsl").unwrap();
-        let src = format!("{}\n{example}", emit(&k, Lang::Wgsl));
+        let src = format!("{}\n{example}", emit(&k, Lang::Wgsl).unwrap());
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}: WGSL: {}", e.emit_to_string(&src)));
         validate(&module, name);
@@ -95,13 +95,13 @@ fn emitted_arrays_parse_and_validate_in_every_language() {
         let from_wgsl = arrays(&module);
         assert!(from_wgsl.iter().all(|a| a.len() == k.taps.count));
         // GLSL: the same numbers.
-        let glsl = glsl_shader(&emit(&k, Lang::Glsl), passes);
+        let glsl = glsl_shader(&emit(&k, Lang::Glsl).unwrap(), passes);
         let m = parse_glsl(&glsl, name);
         validate(&m, name);
         assert_eq!(arrays(&m), from_wgsl, "{name}: GLSL numbers differ");
         // HLSL through GLSL's identical array grammar; the initializer
         // list's length is checked against the declared size.
-        let hlsl = emit(&k, Lang::Hlsl);
+        let hlsl = emit(&k, Lang::Hlsl).unwrap();
         assert!(hlsl.contains("static const float4 sss_kernel_0["));
         let mapped = hlsl
             .replace("static const float4", "const vec4")
@@ -155,7 +155,7 @@ fn truncated_arrays_are_refused() {
     // The checks above can fail: an array one tap short of its declared
     // size is an error in each parser.
     let k = kernel("skin1-svd1");
-    let cut = drop_a_tap(&emit(&k, Lang::Wgsl), "    vec4<f32>(");
+    let cut = drop_a_tap(&emit(&k, Lang::Wgsl).unwrap(), "    vec4<f32>(");
     let refused = match naga::front::wgsl::parse_str(&cut) {
         Err(_) => true,
         Ok(m) => naga::valid::Validator::new(
@@ -167,9 +167,9 @@ fn truncated_arrays_are_refused() {
     };
     assert!(refused, "WGSL accepted a short array:\n{cut}");
     let n = k.taps.count;
-    let glsl = glsl_shader(&drop_a_tap(&emit(&k, Lang::Glsl), "    vec4("), 1);
+    let glsl = glsl_shader(&drop_a_tap(&emit(&k, Lang::Glsl).unwrap(), "    vec4("), 1);
     assert!(glsl_refused(&glsl, n), "GLSL accepted a short array");
-    let hlsl = drop_a_tap(&emit(&k, Lang::Hlsl), "    float4(")
+    let hlsl = drop_a_tap(&emit(&k, Lang::Hlsl).unwrap(), "    float4(")
         .replace("static const float4", "const vec4")
         .replace("static const uint", "const uint")
         .replace("float4(", "vec4(");
@@ -178,13 +178,16 @@ fn truncated_arrays_are_refused() {
         "HLSL check accepted a short array"
     );
     // And the full arrays pass the same check.
-    assert!(!glsl_refused(&glsl_shader(&emit(&k, Lang::Glsl), 1), n));
+    assert!(!glsl_refused(
+        &glsl_shader(&emit(&k, Lang::Glsl).unwrap(), 1),
+        n
+    ));
 }
 
 #[test]
 fn header_explains_units_pixels_depth_passes_and_sums() {
     let k = kernel("skin1-svd3");
-    let h = emit(&k, Lang::Hlsl);
+    let h = emit(&k, Lang::Hlsl).unwrap();
     for needle in [
         "millimetres",
         "pixels_per_mm = sss_width * viewport_height_px / (2 * tan(fov_y / 2) * depth)",
@@ -237,7 +240,7 @@ fn emitted_wgsl_array_through_the_wgpu_pass_reproduces_the_cpu() {
     ssskit::gpu::use_software_vulkan_if_unset();
     let g = gpu::Gpu::new().expect("GPU test needs an adapter (lavapipe in CI)");
     let k = kernel("skin1-svd3");
-    let module = naga::front::wgsl::parse_str(&emit(&k, Lang::Wgsl)).unwrap();
+    let module = naga::front::wgsl::parse_str(&emit(&k, Lang::Wgsl).unwrap()).unwrap();
     let passes: Vec<Taps> = (0..k.taps.passes.len())
         .map(|p| {
             let mut v = wgsl_array(&module, &format!("sss_kernel_{p}"));

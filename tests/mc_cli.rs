@@ -373,11 +373,13 @@ fn mco_output_follows_mcml() {
 }
 
 /// The work cap stops a fixed run whose first round underestimated its
-/// cost: no new round starts once a channel has spent `--max-work` events.
-/// The rounds trace 2 chunks (16384 photons), then 2 more, then the rest;
-/// a seed where chunks 3-4 cost more than chunks 1-2 and a cap at the first
-/// round's projection for 32769 photons lets the run pass its first round
-/// and stop after the second, one photon short.
+/// cost, inside the round that would pass it: each chunk of a round gets an
+/// equal share of the events left, and a round a chunk cannot finish within
+/// its share is discarded whole. The rounds trace 2 chunks (16384
+/// photons), then 2 more, then the rest; a seed where chunks 3-4 cost more
+/// than chunks 1-2 and a cap at the first round's projection for 32769
+/// photons lets the run pass its first round; its second would pass the
+/// cap, so the run stops after the first, never over the cap.
 #[test]
 fn a_fixed_run_stops_at_the_work_cap_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();
@@ -418,17 +420,18 @@ fn a_fixed_run_stops_at_the_work_cap_with_a_warning() {
             continue;
         }
         let p = sim(32769, seed, Some(cap));
-        assert_eq!(p.source.photons, Some(vec![32768]));
+        assert_eq!(p.source.photons, Some(vec![16384]));
+        assert!(events(&p) <= cap, "{} events, cap {cap}", events(&p));
         assert_eq!(p.extra["stopped_by"][0], "work-cap");
         assert_eq!(p.extra["converged"][0], false);
         assert_eq!(p.source.params["budget"]["max_work"], cap);
         let w = p.extra["warnings"].to_string();
         assert!(
-            w.contains("work cap") && w.contains("32768 of 32769 photons"),
+            w.contains("work cap") && w.contains("16384 of 32769 photons"),
             "{w}"
         );
         // The photons it did trace are those of the full run.
-        let full = sim(32768, seed, None);
+        let full = sim(16384, seed, None);
         assert_eq!(p.rd, full.rd);
         return;
     }

@@ -139,15 +139,15 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
     };
     let channels = Channel::ALL.to_vec();
     let photons = a.photons.photons.unwrap_or(kernel_compare::MC_PHOTONS);
+    if model.analytic().is_none() && photons == 0 {
+        return Err(invalid("--photons", 0, "must be > 0"));
+    }
     names
         .into_iter()
-        .map(|n| {
-            let m = Material::load(&n)?;
+        .map(|n| -> anyhow::Result<MaterialInput> {
+            let m = Material::load(&n).with_context(|| format!("material '{n}'"))?;
             let profile = match model.analytic() {
                 None => {
-                    if photons == 0 {
-                        return Err(invalid("--photons", 0, "must be > 0"));
-                    }
                     let cfg = McConfig {
                         budget: PhotonBudget::Fixed(photons),
                         seed: a.seed.seed,
@@ -227,10 +227,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(e) = a.extent.extent {
         positive("--extent", e)?;
     }
-    let inputs = load_profiles(&a)?;
     let out_dir = a.out_dir.path()?;
-    std::fs::create_dir_all(out_dir).with_context(|| format!("--out-dir {}", out_dir.display()))?;
+    // The folder is written aside and swapped in whole at the end.
+    let staged =
+        ssskit::io::StagedDir::new(out_dir).with_context(|| format!("--out-dir {}", out_dir.display()))?;
     let no_plots = a.no_plots.no_plots;
+    let inputs = load_profiles(&a)?;
     let options = Options {
         round_to_f32: true,
         pixels_per_degree: a.pixels_per_degree,
@@ -260,11 +262,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     pipeline::write_comparison(
         &cmp,
         &ctx,
-        out_dir,
+        staged.path(),
         !no_plots,
         &format!("{}-tap tables", taps[0]),
     )?;
-    pipeline::write_fitted_kernels(&cmp, &out_dir.join("kernels"), false)?;
+    pipeline::write_fitted_kernels(&cmp, &staged.path().join("kernels"), false)?;
+    staged.commit()?;
     let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
     out!("{}", kernel_report::claims_table(&claims).markdown())?;
     eprintln!(

@@ -210,17 +210,20 @@ impl Scope {
     /// The message printed for an error: its context chain, with a library
     /// parameter error told in terms of the flag that set it, as typed.
     pub fn message(&self, e: &anyhow::Error) -> String {
-        as_typed(
-            &e.chain()
-                .map(|cause| {
-                    cause
-                        .downcast_ref::<Error>()
-                        .and_then(|e| self.describe(e))
-                        .unwrap_or_else(|| cause.to_string())
-                })
-                .collect::<Vec<_>>()
-                .join(": "),
-        )
+        let mut parts: Vec<String> = Vec::new();
+        for cause in e.chain() {
+            let text = cause
+                .downcast_ref::<Error>()
+                .and_then(|e| self.describe(e))
+                .unwrap_or_else(|| cause.to_string());
+            // A cause its wrapper already prints (an I/O error inside
+            // "path: error") is said once.
+            if parts.last().is_some_and(|p| p.ends_with(&text)) {
+                continue;
+            }
+            parts.push(text);
+        }
+        as_typed(&parts.join(": "))
     }
 
     /// A library warning with each parameter it names in backticks told as
@@ -366,6 +369,18 @@ mod tests {
         );
         assert_eq!(with_spellings("--signal-sizes", &pairs), "--signal-sizes");
         assert_eq!(with_spellings("no flags", &pairs), "no flags");
+    }
+
+    /// An I/O error is said once, not again as the cause of the error that
+    /// names its file.
+    #[test]
+    fn causes_already_printed_are_not_repeated() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = anyhow::Error::new(Error::io("k.json", io)).context("reading the kernel");
+        assert_eq!(
+            sub("fit").message(&e),
+            "reading the kernel: k.json: no such file"
+        );
     }
 
     #[test]

@@ -260,7 +260,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         k
     };
     if let Some(lang) = lang {
-        out!("{}", emit(&kernel, lang))?;
+        let source = a.kernel.kernel.as_ref().or(a.profile.profile.as_ref());
+        let text = emit(&kernel, lang).with_context(|| {
+            format!(
+                "--emit: the kernel of {}",
+                source.map_or("?".into(), |p| p.display().to_string())
+            )
+        })?;
+        out!("{}", text)?;
     } else if a.kernel.kernel.is_some() && !a.quiet {
         summary(&kernel);
     }

@@ -26,10 +26,13 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let mm_per_pixel =
         super::errors::positive("--mm-per-pixel", a.report.mm_per_pixel.or_default())?;
+    ssskit::kernel::taps::check_count(a.taps.taps)?;
+    let out_dir = a.report.out_dir.path()?;
+    // The folder is written aside and swapped in whole at the end.
+    let staged = ssskit::io::StagedDir::new(out_dir)?;
     let t0 = std::time::Instant::now();
     let (profile, source) = a.profile.load()?;
     eprintln!("{}: profile {source}", profile.material.name);
-    let out_dir = a.report.out_dir.path()?;
     let settings = Settings {
         mm_per_pixel,
         taps: a.taps.taps,
@@ -40,10 +43,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let outcome = pipeline::run(
         &profile,
         &settings,
-        out_dir,
+        staged.path(),
         &command_line(out_dir),
         &super::progress::Bar::new(),
     )?;
+    staged.commit()?;
     out!(
         "{}",
         pipeline::summary(&outcome, &settings, &source, out_dir)

@@ -22,17 +22,18 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut parts = Vec::with_capacity(args.parts.len());
-    for path in &args.parts {
-        let p = Profile::read(path)?;
-        parts.push((path.display().to_string(), p));
-    }
     let out = args.out.path()?;
     ssskit::io::check_extension(out, &["json"], "profile")?;
     if let Some(csv) = &args.csv.csv {
         ssskit::io::check_extension(csv, &["csv"], "table")?;
     }
-    let profile = mc::merge_shards(&parts)?;
+    // One shard in memory at a time.
+    let mut merger = mc::ShardMerger::new();
+    for path in &args.parts {
+        let p = Profile::read(path)?;
+        merger.add(&path.display().to_string(), p)?;
+    }
+    let profile = merger.finish()?;
     let mut outputs = ssskit::io::AtomicGroup::new();
     profile
         .write_into(&mut outputs, out)

@@ -152,8 +152,17 @@ pub fn main() -> i32 {
         path.push(name.to_string());
         m = sub;
     }
-    errors::set_running(path);
+    errors::set_running(path.clone());
     let scope = errors::running();
+    // Before any work: the thread cap whatever the environment says, a
+    // pool that cannot start, and output files that cannot be written.
+    let ready = ssskit::limits::start_global_pool()
+        .map_err(anyhow::Error::from)
+        .and_then(|_| check_output_files(&path, m));
+    if let Err(e) = ready {
+        eprintln!("error: {}", scope.message(&e));
+        return 2;
+    }
     let result = match cli.command {
         Command::Kernels(a) => kernels::run(a),
         Command::Advise(a) => advise::run(a),
@@ -184,6 +193,47 @@ pub fn main() -> i32 {
             }
         },
     }
+}
+
+/// Outputs that are folders (created, staged and swapped as a whole), by
+/// subcommand path and argument id; every other argument named in
+/// [`FILE_OUTPUTS`] is a file.
+const FOLDER_OUTPUTS: &[(&[&str], &str)] = &[
+    (&["kernels"], "out"),
+    (&["study"], "out"),
+    (&["compare"], "out"),
+    (&["profiles", "compare"], "out_dir"),
+];
+
+/// Argument ids of output files.
+const FILE_OUTPUTS: &[&str] = &["out", "csv", "mco", "plot"];
+
+/// Checks every output file of the running subcommand `path` (arguments
+/// `m`) before the work: its folder exists and takes a file, the path is
+/// not a folder.
+fn check_output_files(path: &[String], m: &clap::ArgMatches) -> anyhow::Result<()> {
+    let path: Vec<&str> = path.iter().map(String::as_str).collect();
+    let Some(command) = subcommand(&path) else {
+        return Ok(());
+    };
+    for id in FILE_OUTPUTS {
+        if FOLDER_OUTPUTS
+            .iter()
+            .any(|(p, i)| *p == path.as_slice() && i == id)
+        {
+            continue;
+        }
+        let Ok(Some(file)) = m.try_get_one::<std::path::PathBuf>(id) else {
+            continue;
+        };
+        let flag = command
+            .get_arguments()
+            .find(|a| a.get_id() == id)
+            .and_then(|a| a.get_long())
+            .map_or_else(|| id.to_string(), |l| format!("--{l}"));
+        ssskit::io::check_output_file(file, &flag)?;
+    }
+    Ok(())
 }
 
 /// The whole command line interface, built (help subcommands and all).
@@ -227,6 +277,24 @@ mod tests {
 
     fn names<T: clap::ValueEnum>() -> Vec<String> {
         T::value_variants().iter().map(flag_value).collect()
+    }
+
+    /// The tables of output arguments name arguments that exist, and every
+    /// path-valued `out`-like argument is in one of them.
+    #[test]
+    fn output_tables_name_real_arguments() {
+        for (path, id) in FOLDER_OUTPUTS {
+            let c = subcommand(path).unwrap_or_else(|| panic!("{path:?}"));
+            assert!(c.get_arguments().any(|a| a.get_id() == id), "{path:?} {id}");
+        }
+        let mut files = 0;
+        for c in leaf_subcommands() {
+            files += c
+                .get_arguments()
+                .filter(|a| FILE_OUTPUTS.contains(&a.get_id().as_str()))
+                .count();
+        }
+        assert!(files >= 15, "only {files} output arguments found");
     }
 
     /// Enumerated flags whose values the library also spells: the same names.

@@ -126,7 +126,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
                 Err(e) => eprintln!("{}: {} left out: {e:#}", mat.name, model.name()),
             }
         }
-        let png = out_dir.join(format!("compare_{}.png", mat.name));
+        let png = out_dir.join(format!("compare_{}.png", mat.file_stem()));
         let title = format!(
             "{}: analytic models vs Monte Carlo ({} photons/channel)",
             mat.name,

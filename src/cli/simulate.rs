@@ -256,10 +256,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         shard: args.shard,
         abs_floor: args.abs_floor,
     };
+    // The default name comes from the material's name, a label: made a
+    // plain file name in the working folder.
     let out = args.out.out.clone().unwrap_or_else(|| {
+        let stem = material.file_stem();
         PathBuf::from(match args.shard {
-            Some(s) => format!("{}.shard-{}-of-{}.json", material.name, s.k, s.n),
-            None => format!("{}.json", material.name),
+            Some(s) => format!("{stem}.shard-{}-of-{}.json", s.k, s.n),
+            None => format!("{stem}.json"),
         })
     });
     // Fail before the simulation, not after it, on an unwritable destination.
@@ -280,10 +283,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ("--csv", args.csv.csv.as_ref()),
         ("--mco", args.mco.as_ref()),
     ] {
-        if let Some(dir) = path.and_then(|p| p.parent()) {
-            if !dir.as_os_str().is_empty() && !dir.is_dir() {
-                anyhow::bail!("{flag}: directory '{}' does not exist", dir.display());
-            }
+        if let Some(p) = path {
+            ssskit::io::check_output_file(p, flag)?;
         }
     }
     let bar = Bar::new();

@@ -40,6 +40,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             &format!("each count must be between 1 and {cap:e}"),
         ));
     }
+    let out_dir = a.report.out_dir.path()?;
+    // The folder is written aside and swapped in whole at the end.
+    let staged = ssskit::io::StagedDir::new(out_dir)?;
     let t0 = std::time::Instant::now();
     let (reference, source) = a.profile.load()?;
     let sweep_seed = a.profile.seed.seed.wrapping_add(1);
@@ -62,13 +65,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ..Settings::default()
     };
     let s = study::run(&reference, &settings, &super::progress::Bar::new())?;
-    let out_dir = a.report.out_dir.path()?;
     let files = study::write(
         &s,
-        out_dir,
+        staged.path(),
         &command_line(out_dir),
         !a.report.no_plots.no_plots,
     )?;
+    staged.commit()?;
     out!("{}", study::table(&s).markdown())?;
     eprintln!(
         "{} entries in {:.1} s -> {}/{}",

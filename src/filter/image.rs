@@ -58,13 +58,15 @@ impl Image {
         p
     }
 
-    /// Counts NaN/Inf samples; returns (count, first (x, y, channel)).
+    /// Counts NaN/Inf samples, alpha included; returns (count, first (x, y,
+    /// channel)), channel 3 being alpha.
     pub fn non_finite(&self) -> (usize, Option<(usize, usize, usize)>) {
         let mut count = 0;
         let mut first = None;
         for i in 0..self.len() {
-            for c in 0..3 {
-                if !self.rgb[c][i].is_finite() {
+            let alpha = self.alpha.as_ref().map(|a| a[i]);
+            for (c, v) in self.rgb.iter().map(|p| p[i]).chain(alpha).enumerate() {
+                if !v.is_finite() {
                     count += 1;
                     first.get_or_insert((i % self.width, i / self.width, c));
                 }
@@ -73,8 +75,8 @@ impl Image {
         (count, first)
     }
 
-    /// Rejects non-finite samples, or replaces them by 0 when `sanitize`;
-    /// returns how many were replaced.
+    /// Rejects non-finite samples (colour and alpha), or replaces them by 0
+    /// when `sanitize`; returns how many were replaced.
     pub fn check_finite(&mut self, what: &str, sanitize: bool) -> Result<usize> {
         let (count, first) = self.non_finite();
         if count == 0 {
@@ -86,11 +88,11 @@ impl Image {
                 what: what.into(),
                 count,
                 unit: "samples",
-                first: format!("pixel ({x}, {y}) channel {}", ["R", "G", "B"][c]),
+                first: format!("pixel ({x}, {y}) channel {}", ["R", "G", "B", "A"][c]),
                 fill: 0.0,
             });
         }
-        for plane in self.rgb.iter_mut() {
+        for plane in self.rgb.iter_mut().chain(self.alpha.as_mut()) {
             plane
                 .iter_mut()
                 .filter(|v| !v.is_finite())
@@ -197,18 +199,18 @@ pub fn read_image(path: &Path, depth_channel: Option<&str>) -> Result<(Image, Ex
 pub fn read_plane(path: &Path, channel: Option<&str>) -> Result<Plane> {
     match kind_of(path)? {
         Kind::Exr => {
-            let channels = exr_channels(path)?;
+            let mut channels = exr_channels(path)?;
             let (w, h) = channels.0;
             let names: Vec<&str> = match channel {
                 Some(c) => vec![c],
                 None => vec!["Z", "Y", "R"],
             };
             for n in &names {
-                if let Some((_, v)) = channels.1.iter().find(|(name, _)| name == n) {
+                if let Some(i) = channels.1.iter().position(|(name, _)| name == n) {
                     return Ok(Plane {
                         width: w,
                         height: h,
-                        data: v.clone(),
+                        data: std::mem::take(&mut channels.1[i].1),
                     });
                 }
             }
@@ -250,26 +252,30 @@ fn channel_list(ch: &[(String, Vec<f64>)]) -> String {
 }
 
 fn exr_channels(path: &Path) -> Result<Channels> {
-    use exr::prelude::{read_all_flat_layers_from_file, Vec2};
-    if let Err(e) = std::fs::metadata(path) {
-        return Err(Error::io(path, e));
-    }
-    // The header states the size: refuse it before the pixels are read.
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| Error::format(path, format!("unreadable OpenEXR file: {e}")))?;
-    for header in &meta.headers {
-        let size = header.layer_size;
-        crate::limits::check_image_size(&path.display().to_string(), size.x(), size.y())?;
-    }
-    let image = read_all_flat_layers_from_file(path)
-        .map_err(|e| Error::format(path, format!("unreadable OpenEXR file: {e}")))?;
-    let layer = image
-        .layer_data
-        .first()
-        .ok_or_else(|| Error::format(path, "OpenEXR file holds no layer"))?;
+    use exr::image::read::{image::ReadLayers, layers::ReadChannels};
+    use exr::prelude::{read, Vec2};
+    let unreadable =
+        |e: exr::error::Error| Error::format(path, format!("unreadable OpenEXR file: {e}"));
+    let buffered = |path: &Path| crate::io::open_input(path).map(std::io::BufReader::new);
+    // The headers state the sizes: refuse them before any pixel is read.
+    let meta =
+        exr::meta::MetaData::read_from_buffered(buffered(path)?, false).map_err(unreadable)?;
+    check_exr_headers(&path.display().to_string(), &meta.headers)?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(buffered(path)?)
+        .map_err(unreadable)?;
+    let layer = image.layer_data;
     let (w, h) = (layer.size.x(), layer.size.y());
+    crate::limits::check_image_size(&path.display().to_string(), w, h)?;
     let mut out = Vec::new();
-    for ch in layer.channel_data.list.iter() {
+    // Channel by channel, each decoded plane dropped once converted: the
+    // f64 planes never coexist with all the decoded ones.
+    for ch in layer.channel_data.list.into_iter() {
         if ch.sampling != Vec2(1, 1) {
             return Err(Error::format(
                 path,
@@ -285,64 +291,108 @@ fn exr_channels(path: &Path) -> Result<Channels> {
     Ok(((w, h), out))
 }
 
+/// Refuses EXR headers whose parts are over the image size cap, or whose
+/// samples over all channels and parts exceed
+/// [`crate::limits::MAX_EXR_DECODE_BYTES`] (64 channels or 200 parts of an
+/// 8K image each pass the per-layer size check). `what` names the file.
+pub fn check_exr_headers(what: &str, headers: &[exr::meta::header::Header]) -> Result<()> {
+    let max = crate::limits::MAX_EXR_DECODE_BYTES;
+    let mut declared: u64 = 0;
+    let mut channels = 0usize;
+    for header in headers {
+        let size = header.layer_size;
+        crate::limits::check_image_size(what, size.x(), size.y())?;
+        for ch in header.channels.list.iter() {
+            let (sx, sy) = (ch.sampling.x().max(1), ch.sampling.y().max(1));
+            let samples = (size.x() / sx) as u64 * (size.y() / sy) as u64;
+            let bytes = samples.saturating_mul(ch.sample_type.bytes_per_sample() as u64);
+            declared = declared.saturating_add(bytes);
+            channels += 1;
+        }
+    }
+    if declared > max {
+        return Err(Error::invalid(
+            what,
+            "samples",
+            format!(
+                "{declared} bytes in {channels} channel(s) of {} part(s)",
+                headers.len()
+            ),
+            format!(
+                "at most {max} bytes ({} MiB: RGBA and depth in f32 at the image size cap) over \
+                 all channels and parts: keep the channels ssskit reads (R, G, B, A, depth) in \
+                 one part",
+                max >> 20
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn read_exr(path: &Path, depth_channel: Option<&str>) -> Result<(Image, Extras)> {
-    let ((w, h), channels) = exr_channels(path)?;
-    let find = |n: &str| channels.iter().find(|(name, _)| name == n).map(|c| &c.1);
+    let ((w, h), mut channels) = exr_channels(path)?;
+    let names = channel_list(&channels);
+    // Planes are moved out, never copied: an image holds each sample once.
+    let mut take = |n: &str| {
+        channels
+            .iter()
+            .position(|(name, _)| name == n)
+            .map(|i| std::mem::take(&mut channels[i].1))
+    };
     let mut rgb: [Vec<f64>; 3] = Default::default();
     for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        rgb[c] = match find(name) {
-            Some(v) => v.clone(),
+        rgb[c] = match take(name) {
+            Some(v) => v,
             None => {
                 return Err(Error::format(
                     path,
                     format!(
-                        "missing channel {name}: an RGB image needs R, G and B (channels: {})",
-                        channel_list(&channels)
+                        "missing channel {name}: an RGB image needs R, G and B (channels: {names})"
                     ),
                 ))
             }
         };
     }
+    // A depth channel that is also a colour channel is the one copy made.
+    let colour = |d: &str| ["R", "G", "B"].iter().position(|c| *c == d);
     let depth = match depth_channel {
-        Some(d) => match find(d) {
+        Some(d) => match colour(d).map(|c| rgb[c].clone()).or_else(|| take(d)) {
             Some(v) => Some(Plane {
                 width: w,
                 height: h,
-                data: v.clone(),
+                data: v,
             }),
             None => {
                 return Err(Error::format(
                     path,
-                    format!(
-                        "missing depth channel {d} (channels: {})",
-                        channel_list(&channels)
-                    ),
+                    format!("missing depth channel {d} (channels: {names})"),
                 ))
             }
         },
         None => None,
     };
+    let alpha = take("A");
     let image = Image {
         width: w,
         height: h,
         rgb,
-        alpha: find("A").cloned(),
+        alpha,
     };
     Ok((image, Extras { depth }))
 }
 
 fn decode_png(path: &Path) -> Result<image::DynamicImage> {
-    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    let reader = reader
-        .with_guessed_format()
-        .map_err(|e| Error::io(path, e))?;
-    let (w, h) = reader
+    let open = || -> Result<_> {
+        let file = std::io::BufReader::new(crate::io::open_input(path)?);
+        image::ImageReader::new(file)
+            .with_guessed_format()
+            .map_err(|e| Error::io(path, e))
+    };
+    let (w, h) = open()?
         .into_dimensions()
         .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
     crate::limits::check_image_size(&path.display().to_string(), w as usize, h as usize)?;
-    let mut reader = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| Error::io(path, e))?;
+    let mut reader = open()?;
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
     reader.limits(limits);
@@ -354,28 +404,43 @@ fn decode_png(path: &Path) -> Result<image::DynamicImage> {
 fn read_png(path: &Path) -> Result<Image> {
     let img = decode_png(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
+    let channels = img.color().channel_count() as usize;
     let has_alpha = img.color().has_alpha();
-    let sixteen = img.color().bytes_per_pixel() / img.color().channel_count() > 1;
     let mut out = Image::new(w, h);
-    let mut alpha = vec![0.0; w * h];
-    let (max, rgba): (u16, Vec<[u16; 4]>) = if sixteen {
-        (u16::MAX, img.to_rgba16().pixels().map(|p| p.0).collect())
+    out.alpha = has_alpha.then(|| vec![0.0; w * h]);
+    // Straight from the decoder's samples (no RGBA copy of the image).
+    if let Some(f) = img.as_flat_samples_u8() {
+        fill_from_samples(f.samples, channels, u8::MAX as u16, &mut out);
+    } else if let Some(f) = img.as_flat_samples_u16() {
+        fill_from_samples(f.samples, channels, u16::MAX, &mut out);
     } else {
-        let pixels = img.to_rgba8();
-        (255, pixels.pixels().map(|p| p.0.map(u16::from)).collect())
-    };
-    let full = max as f64;
-    let lut: Vec<f64> = (0..=max).map(|v| srgb_to_linear(v as f64 / full)).collect();
-    for (i, p) in rgba.iter().enumerate() {
-        for c in 0..3 {
-            out.rgb[c][i] = lut[p[c] as usize];
-        }
-        alpha[i] = p[3] as f64 / full;
-    }
-    if has_alpha {
-        out.alpha = Some(alpha);
+        return Err(Error::format(
+            path,
+            format!("unsupported PNG sample type {:?}", img.color()),
+        ));
     }
     Ok(out)
+}
+
+/// Decodes interleaved sRGB samples (grey, grey + alpha, RGB or RGBA) of
+/// full scale `max` into linear `out` (alpha raw, as stored).
+fn fill_from_samples<T: Copy + Into<u16>>(
+    samples: &[T],
+    channels: usize,
+    max: u16,
+    out: &mut Image,
+) {
+    let full = max as f64;
+    let lut: Vec<f64> = (0..=max).map(|v| srgb_to_linear(v as f64 / full)).collect();
+    let colour = if channels >= 3 { 3 } else { 1 };
+    for (i, px) in samples.chunks_exact(channels).enumerate() {
+        for c in 0..3 {
+            out.rgb[c][i] = lut[px[c.min(colour - 1)].into() as usize];
+        }
+        if let Some(a) = out.alpha.as_mut() {
+            a[i] = px[channels - 1].into() as f64 / full;
+        }
+    }
 }
 
 /// PNG bit depth on output.

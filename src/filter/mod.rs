@@ -299,16 +299,41 @@ impl Setup {
         if uniform.is_none() {
             // Per-pixel steps (strength, 1/depth) must stay finite: an
             // infinite step times a zero offset is NaN in every pixel.
-            let widest = self
+            let (at, widest) = self
                 .steps(image.width, image.height)
                 .into_iter()
-                .fold(0.0, f64::max);
+                .enumerate()
+                .fold((0, 0.0), |a, (i, s)| if !(s <= a.1) { (i, s) } else { a });
             if !widest.is_finite() {
                 return Err(Error::Unsupported(
                     "the per-pixel kernel scale overflows (a huge strength, a tiny depth or a \
                      tiny pixel footprint): check the strength and depth images and the scale"
                         .into(),
                 ));
+            }
+            // The rule of the uniform scale at the widest pixel: beyond it
+            // every tap but the centre reads the border pixel.
+            let span = self
+                .passes
+                .iter()
+                .map(|t| pixel_span(&t.offsets_mm, 1.0 / widest))
+                .fold(0.0, f64::max);
+            let max = crate::limits::max_kernel_pixels(image.width, image.height);
+            if !(span <= max as f64) {
+                let (x, y) = (at % image.width, at / image.width);
+                let strength = self.strength.as_ref().map(|s| s.data[at]);
+                let depth = self.depth.as_ref().map(|d| d.data[at]);
+                return Err(Error::Unsupported(format!(
+                    "the per-pixel kernel scale reaches {widest:.4e} pixels per kernel mm at \
+                     pixel ({x}, {y}){}{}, where the kernel would span {span:.3e} pixels, more \
+                     than {max} for a {}x{} image (4 times its longer side, at least 4096; its \
+                     taps would all fall outside the image): check the strength and depth \
+                     images and the scale",
+                    strength.map_or(String::new(), |s| format!(", strength {s}")),
+                    depth.map_or(String::new(), |d| format!(", depth {d}")),
+                    image.width,
+                    image.height
+                )));
             }
         }
         let taps: Vec<f64> = self

@@ -54,7 +54,44 @@ fn comment(out: &mut String, text: &str) {
     let _ = writeln!(out, "{line}");
 }
 
-pub fn emit(k: &KernelFile, lang: Lang) -> String {
+/// Refuses a tap table with a value a shader's f32 cannot hold: beyond
+/// f32::MAX it would be written as `inf`, which no shader compiler
+/// accepts. Values below f32's smallest normal round towards 0 as the GPU
+/// would store them.
+fn check_f32(k: &KernelFile) -> Result<()> {
+    for (p, pass) in k.taps.passes.iter().enumerate() {
+        let values = pass
+            .offsets_mm
+            .iter()
+            .enumerate()
+            .map(|(i, &o)| (format!("taps.passes[{p}].offsets_mm[{i}]"), o))
+            .chain(pass.weights.iter().enumerate().flat_map(|(i, w)| {
+                w.iter()
+                    .enumerate()
+                    .map(move |(c, &v)| (format!("taps.passes[{p}].weights[{i}][{c}]"), v))
+            }));
+        for (field, v) in values {
+            if !(v.abs() <= f32::MAX as f64) {
+                return Err(Error::invalid(
+                    "shader",
+                    field,
+                    v,
+                    format!(
+                        "shader arrays hold f32: values must be finite and at most {:e} in \
+                         magnitude",
+                        f32::MAX
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The shader constant arrays of `k`'s tap table in `lang`; refused when a
+/// value does not fit an f32.
+pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
+    check_f32(k)?;
     let mut out = String::new();
     let n = k.taps.count;
     let usage = k.usage();
@@ -153,5 +190,5 @@ pub fn emit(k: &KernelFile, lang: Lang) -> String {
             ),
         };
     }
-    out
+    Ok(out)
 }

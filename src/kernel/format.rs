@@ -160,10 +160,17 @@ pub const MAX_STEPS: f64 = 1e7;
 /// while keeping a filtered image far inside f32.
 pub const MAX_KERNEL_SUM: f64 = 1e6;
 
+/// Smallest 2D sum of a kernel per channel: an exact kernel sums to 1 and
+/// every fitted one in this repository to more than 0.3 (its tap table
+/// keeps what the taps reach); one keeping less than a thousandth of the
+/// light turns the image black, whatever its weights' sizes.
+pub const MIN_KERNEL_SUM: f64 = 1e-3;
+
 /// The 2D kernel of separable `passes` sums, per channel, to
-/// sum_i (sum_k a_ik)^2; refuses a channel whose weights are all zero (a
-/// black image) or whose absolute sum is not finite or above
-/// [`MAX_KERNEL_SUM`].
+/// sum_i (sum_k a_ik)^2; refuses a channel whose weights are all zero or
+/// whose 2D sum is below [`MIN_KERNEL_SUM`] (a black image: weights that
+/// cancel, or that are all tiny), or whose absolute sum is not finite or
+/// above [`MAX_KERNEL_SUM`].
 fn check_weights(what: &str, passes: &[Pass]) -> std::result::Result<(), String> {
     for (c, name) in ["r", "g", "b"].iter().enumerate() {
         let abs: f64 = passes
@@ -173,6 +180,16 @@ fn check_weights(what: &str, passes: &[Pass]) -> std::result::Result<(), String>
         if abs == 0.0 {
             return Err(format!(
                 "{what}: every weight of channel {name} is 0: the kernel would turn the image black"
+            ));
+        }
+        let signed: f64 = passes
+            .iter()
+            .map(|p| p.weights.iter().map(|w| w[c]).sum::<f64>().powi(2))
+            .sum();
+        if !(signed >= MIN_KERNEL_SUM) && abs.is_finite() {
+            return Err(format!(
+                "{what}: the 2D kernel of channel {name} sums to {signed:.3e} (an exact kernel \
+                 sums to 1), below {MIN_KERNEL_SUM:.0e}: the kernel would turn the image black"
             ));
         }
         if !(abs <= MAX_KERNEL_SUM) {
@@ -199,6 +216,9 @@ impl KernelFile {
         }
         if self.passes.is_empty() {
             return bad("kernel has no passes".into());
+        }
+        if let Some(m) = &self.material {
+            m.validate(context)?;
         }
         if let Some(x) = self.total_rd.iter().find(|x| !x.is_finite() || **x < 0.0) {
             return bad(format!("total_rd holds {x}: must be finite and >= 0"));

@@ -40,6 +40,15 @@ pub struct Kernel2D {
     pub captured: [f64; 3],
 }
 
+/// Most of the tabulated R_d a kernel grid may hold (`Kernel2D::captured`
+/// is a fraction; see `from_profile`).
+pub const MAX_CAPTURED: f64 = 1.1;
+
+/// How errors about a profile name it: by its material.
+fn profile_context(profile: &Profile) -> String {
+    format!("profile of '{}'", profile.material.name)
+}
+
 /// Largest kernel accepted (cells per side); 4001^2 cells x 3 channels is
 /// about 384 MB of f64.
 pub const MAX_SIZE: usize = 4001;
@@ -133,11 +142,32 @@ impl Kernel2D {
             let sum: f64 = d.iter().sum();
             let tab = profile.tabulated_total(c);
             captured[k] = sum / tab;
+            let name = profile.channels[c].name();
             if !(sum > 0.0) || !sum.is_finite() {
                 return Err(Error::Unsupported(format!(
-                    "kernel grid ({size} cells over +-{extent} mm) holds no reflectance of channel '{}'",
-                    profile.channels[c].name()
+                    "{}: kernel grid ({size} cells over +-{extent} mm) holds no reflectance of \
+                     channel '{name}'",
+                    profile_context(profile)
                 )));
+            }
+            // A fraction: the grid holds at most the tabulated R_d, up to
+            // the difference between the reconstruction between bin centres
+            // and the bin averages (a few percent at most on real profiles).
+            if !(captured[k] <= MAX_CAPTURED) {
+                return Err(Error::invalid(
+                    profile_context(profile),
+                    format!("rd[{name}]"),
+                    format!(
+                        "{:.4e} in [0, {:.4e}] mm",
+                        profile.rd[c][0], profile.r_edges[1]
+                    ),
+                    format!(
+                        "the kernel grid would hold {:.3e} times the profile's tabulated \
+                         reflectance (at most {MAX_CAPTURED}): its bins do not describe R_d \
+                         (a degenerate first bin, or values that jump between bins)",
+                        captured[k]
+                    ),
+                ));
             }
             d.iter_mut().for_each(|v| *v /= sum);
             data[k] = d;
@@ -172,7 +202,16 @@ pub fn rgb_indices(profile: &Profile) -> Result<[usize; 3]> {
     let mut idx = [0; 3];
     for (k, ch) in Channel::ALL.iter().enumerate() {
         idx[k] = profile.channel_index(*ch).ok_or_else(|| {
-            Error::Unsupported("a kernel needs a profile with channels r, g and b".into())
+            Error::Unsupported(format!(
+                "{}: a kernel needs a profile with channels r, g and b (it has {})",
+                profile_context(profile),
+                profile
+                    .channels
+                    .iter()
+                    .map(|c| c.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
         })?;
     }
     Ok(idx)
@@ -183,15 +222,17 @@ pub fn rgb_indices(profile: &Profile) -> Result<[usize; 3]> {
 fn check_profile_values(profile: &Profile, idx: &[usize; 3]) -> Result<()> {
     let n = profile.r.len();
     if n == 0 || profile.r_edges.len() != n + 1 {
-        return Err(Error::Unsupported(
-            "profile has no radial bins (or r_edges does not match r)".into(),
-        ));
+        return Err(Error::Unsupported(format!(
+            "{}: no radial bins (or r_edges does not match r)",
+            profile_context(profile)
+        )));
     }
     for &c in idx {
         let name = profile.channels[c].name();
         if profile.rd.get(c).map(|v| v.len()) != Some(n) {
             return Err(Error::Unsupported(format!(
-                "profile channel '{name}' does not have {n} bins"
+                "{}: channel '{name}' does not have {n} bins",
+                profile_context(profile)
             )));
         }
         if let Some((i, x)) = profile.rd[c]
@@ -200,7 +241,7 @@ fn check_profile_values(profile: &Profile, idx: &[usize; 3]) -> Result<()> {
             .find(|(_, x)| !x.is_finite() || **x < 0.0)
         {
             return Err(Error::invalid(
-                "profile",
+                profile_context(profile),
                 format!("rd[{name}][{i}]"),
                 x,
                 "must be finite and >= 0",
@@ -208,14 +249,16 @@ fn check_profile_values(profile: &Profile, idx: &[usize; 3]) -> Result<()> {
         }
         if !(profile.tabulated_total(c) > 0.0) {
             return Err(Error::Unsupported(format!(
-                "profile channel '{name}' is zero everywhere: no kernel can be normalised"
+                "{}: channel '{name}' is zero everywhere (no diffuse reflectance comes back): no \
+                 kernel can be normalised",
+                profile_context(profile)
             )));
         }
         match profile.total_rd.get(c) {
             Some(t) if t.is_finite() && *t >= 0.0 => {}
             t => {
                 return Err(Error::invalid(
-                    "profile",
+                    profile_context(profile),
                     format!("total_rd[{name}]"),
                     format!("{t:?}"),
                     "must be finite and >= 0",

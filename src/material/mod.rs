@@ -142,7 +142,11 @@ impl Material {
     pub fn load(spec: &str) -> Result<Material> {
         let path = Path::new(spec);
         if path.exists() || spec.ends_with(".toml") {
-            let text = crate::io::read_text(path)?;
+            let text = crate::io::read_text_capped(
+                path,
+                crate::limits::MAX_MATERIAL_BYTES,
+                "material TOML file",
+            )?;
             let stem = path
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -180,8 +184,15 @@ impl Material {
         self.layers.len() == 1 && self.layers[0].thickness.is_none()
     }
 
+    /// The name as part of a file name: see [`crate::io::file_stem`]. A
+    /// name is a label, never a path.
+    pub fn file_stem(&self) -> String {
+        crate::io::file_stem(&self.name)
+    }
+
     /// Checks every parameter; `context` names the file or preset in errors.
     pub fn validate(&self, context: &str) -> Result<()> {
+        check_name(context, &self.name)?;
         finite_positive(context, "eta_above", self.eta_above)?;
         finite_positive(context, "eta_below", self.eta_below)?;
         if self.layers.is_empty() {
@@ -278,6 +289,49 @@ pub const MAX_COEFFICIENT: f64 = 1e9;
 /// radius (thousands of MFP) and its bin areas overflow.
 pub const MAX_MFP: f64 = 1e9;
 
+/// Longest material name, in bytes.
+pub const MAX_NAME_BYTES: usize = 200;
+
+/// A name is a label printed on terminals, in reports and plots: no
+/// control characters (an escape sequence would drive the terminal) and
+/// no invisible direction overrides, at most [`MAX_NAME_BYTES`].
+fn check_name(context: &str, name: &str) -> Result<()> {
+    let shown = || {
+        format!(
+            "\"{}\"",
+            name.chars().take(60).collect::<String>().escape_debug()
+        )
+    };
+    let bad = name.chars().find(|&c| {
+        c.is_control()
+            || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' | '\u{feff}')
+    });
+    if let Some(c) = bad {
+        return Err(Error::invalid(
+            context,
+            "name",
+            shown(),
+            format!(
+                "holds the control or formatting character U+{:04X}: a name is a label for \
+                 screens and file names, printable text only",
+                c as u32
+            ),
+        ));
+    }
+    if name.len() > MAX_NAME_BYTES {
+        return Err(Error::invalid(
+            context,
+            "name",
+            shown(),
+            format!("is {} bytes long, more than {MAX_NAME_BYTES}", name.len()),
+        ));
+    }
+    if name.trim().is_empty() {
+        return Err(Error::invalid(context, "name", shown(), "is empty"));
+    }
+    Ok(())
+}
+
 fn finite_positive(context: &str, field: &str, v: f64) -> Result<()> {
     if !v.is_finite() || v <= 0.0 {
         return Err(Error::invalid(context, field, v, "must be finite and > 0"));
@@ -302,6 +356,34 @@ mod tests {
         assert!((m.sigma_t_reduced() - 0.772).abs() < 1e-12);
         assert!((m.reduced_albedo() - 0.74 / 0.772).abs() < 1e-12);
         assert!((m.sigma_tr() - (3.0f64 * 0.032 * 0.772).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn names_are_printable_labels() {
+        let mut m = preset("skin1").unwrap();
+        for ok in ["../x", "/etc/passwd", "peau claire", "crème (dark)"] {
+            m.name = ok.into();
+            assert!(m.validate("m").is_ok(), "{ok}");
+        }
+        assert_eq!(m.file_stem(), "crème__dark_");
+        for (bad, needle) in [
+            ("a\u{1b}[31mRED", "U+001B"),
+            ("tab\there", "U+0009"),
+            ("new\nline", "U+000A"),
+            ("rtl\u{202e}txt", "U+202E"),
+            ("", "empty"),
+            ("  ", "empty"),
+        ] {
+            m.name = bad.into();
+            let e = m.validate("m.toml").unwrap_err().to_string();
+            assert!(
+                e.contains("m.toml") && e.contains("name") && e.contains(needle),
+                "{e}"
+            );
+            assert!(!e.contains('\u{1b}'), "the message carries the escape: {e}");
+        }
+        m.name = "x".repeat(MAX_NAME_BYTES + 1);
+        assert!(m.validate("m").is_err());
     }
 
     #[test]

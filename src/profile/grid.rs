@@ -48,6 +48,15 @@ impl RadialGrid {
     /// not finite and strictly increasing (a given grid is only data).
     pub fn check_edges(&self) -> Result<()> {
         let e = &self.edges;
+        let max = crate::limits::MAX_RADIAL_BINS;
+        if e.len() > max + 1 {
+            return Err(Error::invalid(
+                "radial grid",
+                "edges",
+                format!("{} values", e.len()),
+                format!("at most {max} bins"),
+            ));
+        }
         if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
             return Err(Error::invalid(
                 "radial grid",
@@ -78,15 +87,20 @@ impl RadialGrid {
             ));
         }
         check_range(dr, r_max)?;
-        let n = (r_max / dr - 1e-9).ceil().max(1.0) as usize;
-        if n > 10_000_000 {
+        let n = (r_max / dr - 1e-9).ceil().max(1.0);
+        let max = crate::limits::MAX_RADIAL_BINS;
+        if n > max as f64 {
             return Err(Error::invalid(
                 "radial grid",
                 "dr",
                 dr,
-                format!("gives {n} bins up to {r_max} mm, more than 10^7: use a wider bin or a smaller radius"),
+                format!(
+                    "gives {n:.0} bins up to {r_max} mm, more than {max}: use a wider bin or a \
+                     smaller radius"
+                ),
             ));
         }
+        let n = n as usize;
         Ok(RadialGrid {
             edges: (0..=n).map(|i| i as f64 * dr).collect(),
         })

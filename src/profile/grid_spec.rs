@@ -50,15 +50,16 @@ impl GridSpec {
                 ),
             ));
         }
-        if !self.log_bins && self.dr.is_none() && r_max / dr > 1e7 {
+        let max = crate::limits::MAX_RADIAL_BINS;
+        if !self.log_bins && self.dr.is_none() && r_max / dr > max as f64 {
             // Too many bins of the default width: the radius given is to blame.
             return Err(Error::invalid(
                 "radial grid",
                 "rmax",
                 r_max,
                 format!(
-                    "gives {:.3e} bins of the default width {dr:.4e} mm, more than 10^7: give a \
-                     smaller rmax or a wider dr",
+                    "gives {:.3e} bins of the default width {dr:.4e} mm, more than {max}: give \
+                     a smaller rmax or a wider dr",
                     r_max / dr
                 ),
             ));

@@ -206,6 +206,12 @@ impl Profile {
         if n == 0 {
             return bad("no radial bins".into());
         }
+        if n > crate::limits::MAX_RADIAL_BINS {
+            return bad(format!(
+                "{n} radial bins, more than {}",
+                crate::limits::MAX_RADIAL_BINS
+            ));
+        }
         if self.r_edges.len() != n + 1 {
             return bad(format!(
                 "r_edges has {} values, expected {}",

@@ -261,6 +261,16 @@ pub struct Comparison {
 
 pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
 
+/// An error about material `name`, naming it unless it already does.
+fn named(name: &str, e: Error) -> Error {
+    let text = e.to_string();
+    if text.contains(&format!("'{name}'")) {
+        e
+    } else {
+        Error::Unsupported(format!("material '{name}': {text}"))
+    }
+}
+
 /// Runs the comparison: fits every model of `cfg` to every material's
 /// ground-truth kernel (default grid, or the given extent) with the first tap count as the
 /// stored table, and evaluates it on every case.
@@ -286,6 +296,7 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
                     extent_mm: cfg.extent_mm,
                 },
             )
+            .map_err(|e| named(&m.name, e))
         })
         .collect::<Result<_>>()?;
     let exact: Vec<Vec<Exact>> = inputs
@@ -293,7 +304,14 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         .map(|m| {
             cfg.cases
                 .par_iter()
-                .map(|c| Exact::new(&m.profile, c))
+                .map(|c| {
+                    Exact::new(&m.profile, c).map_err(|e| {
+                        named(
+                            &m.name,
+                            Error::Unsupported(format!("image {}: {e}", c.name)),
+                        )
+                    })
+                })
                 .collect::<Result<Vec<_>>>()
         })
         .collect::<Result<_>>()?;

@@ -11,6 +11,7 @@ use super::kernel_report::{self, ReportContext};
 use super::{kernel_plots, plot};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
+use crate::io::{file_stem, join_inside};
 use crate::kernel::emit::{emit, Lang};
 use crate::kernel::KernelFile;
 use crate::material::{Channel, Material};
@@ -156,6 +157,7 @@ pub fn write_comparison(
     ];
     let md = kernel_report::report(cmp, ctx);
     crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
+    let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
     let json = dir.join("compare.json");
     crate::io::write_json_atomic(&json, &cmp.rows)?;
@@ -168,12 +170,14 @@ pub fn write_comparison(
     }
     if plots {
         for m in &cmp.materials {
-            let name = format!("slices_{m}.png");
-            kernel_plots::kernel_slices(cmp, m, &dir.join(&name))?;
+            let stem = file_stem(m);
+            let name = names.claim(format!("slices_{stem}.png"), m)?;
+            kernel_plots::kernel_slices(cmp, m, &join_inside(dir, &name)?)?;
             files.push(name);
             for (ci, s) in ctx.signals.iter().enumerate() {
-                let name = format!("sheet_{m}_{s}.png");
-                kernel_plots::contact_sheet(cmp, m, ci, sheet_factor, &dir.join(&name))?;
+                let label = format!("{m} {s}");
+                let name = names.claim(format!("sheet_{stem}_{}.png", file_stem(s)), &label)?;
+                kernel_plots::contact_sheet(cmp, m, ci, sheet_factor, &join_inside(dir, &name)?)?;
                 files.push(name);
             }
         }
@@ -185,15 +189,40 @@ pub fn write_comparison(
     Ok(files)
 }
 
+/// File names made from labels (materials, models, images) in one
+/// folder: each must be new, so that two labels that give one file name
+/// (`a/b` and `a_b`) are refused rather than one overwriting the other.
+#[derive(Default)]
+struct FileNames(std::collections::BTreeMap<String, String>);
+
+impl FileNames {
+    fn claim(&mut self, name: String, label: &str) -> Result<String> {
+        if let Some(other) = self.0.insert(name.clone(), label.to_string()) {
+            return Err(Error::Unsupported(format!(
+                "'{other}' and '{label}' give the same file name '{name}' (names become file \
+                 names with every character but letters, digits, '-', '_', '+' and '.' \
+                 replaced by '_'): rename one"
+            )));
+        }
+        Ok(name)
+    }
+}
+
 /// Every fitted kernel of the comparison as `dir/<material>-<label>.json`
-/// (read back), with its HLSL, GLSL and WGSL arrays next to it when
-/// `shaders`. `dir` is created. Returns the file names written.
+/// (read back; both names through [`file_stem`]), with its HLSL, GLSL and
+/// WGSL arrays next to it when `shaders`. `dir` is created. Returns the
+/// file names written.
 pub fn write_fitted_kernels(cmp: &Comparison, dir: &Path, shaders: bool) -> Result<Vec<String>> {
     std::fs::create_dir_all(dir)
         .map_err(|e| Error::format(dir, format!("cannot create the kernel folder: {e}")))?;
+    let mut names = FileNames::default();
     let mut files = Vec::new();
     for f in &cmp.fitted {
-        let stem = format!("{}-{}", f.material, f.spec.label);
+        let label = format!("{} {}", f.material, f.spec.label);
+        let stem = names.claim(
+            format!("{}-{}", file_stem(&f.material), file_stem(&f.spec.label)),
+            &label,
+        )?;
         write_kernel(&f.kernel, dir, &stem, shaders, &mut files)?;
     }
     Ok(files)
@@ -208,7 +237,7 @@ fn write_kernel(
     shaders: bool,
     files: &mut Vec<String>,
 ) -> Result<()> {
-    let path = dir.join(format!("{stem}.json"));
+    let path = join_inside(dir, &format!("{stem}.json"))?;
     kernel.write(&path)?;
     KernelFile::read(&path)?;
     files.push(format!("{stem}.json"));
@@ -221,7 +250,7 @@ fn write_kernel(
         (Lang::Wgsl, "wgsl"),
     ] {
         let name = format!("{stem}.{ext}");
-        crate::io::write_atomic(&dir.join(&name), emit(kernel, lang).as_bytes())?;
+        crate::io::write_atomic(&join_inside(dir, &name)?, emit(kernel, lang)?.as_bytes())?;
         files.push(name);
     }
     Ok(())

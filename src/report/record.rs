@@ -63,7 +63,7 @@ impl Record {
     }
 
     pub fn read(path: &Path) -> Result<Record> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::io::read_text(path)?;
         let r: Record = serde_json::from_str(&text)
             .map_err(|e| Error::format(path, format!("not a record: {e}")))?;
         if r.schema != SCHEMA {

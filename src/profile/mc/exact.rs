@@ -18,9 +18,15 @@ pub struct ExactSum {
 }
 
 impl ExactSum {
-    pub fn add_f64(&mut self, x: f64) {
-        if !(x > 0.0) {
-            return;
+    /// Adds `x` exactly; false (nothing added) for a value no tally holds:
+    /// negative, NaN, infinite or 2^64 and above, or a sum beyond 192 bits.
+    #[must_use]
+    pub fn add_f64(&mut self, x: f64) -> bool {
+        if x == 0.0 {
+            return true;
+        }
+        if !(x > 0.0 && x < 18_446_744_073_709_551_616.0) {
+            return false;
         }
         let bits = x.to_bits();
         let exp = ((bits >> 52) & 0x7ff) as i32;
@@ -30,7 +36,8 @@ impl ExactSum {
         } else {
             (frac | (1u64 << 52), exp - 1075)
         };
-        // x = m 2^e = m 2^(e + 128) units of 2^-128.
+        // x = m 2^e = m 2^(e + 128) units of 2^-128; x < 2^64 makes
+        // s - 64 <= 75 - 53 below.
         let s = e + 128;
         let part = if s < 0 {
             ExactSum {
@@ -44,24 +51,30 @@ impl ExactSum {
                 lo: full as u64,
             }
         } else {
-            // s - 64 <= 75 for x < 2^64; saturate beyond (never reached).
-            let sh = (s - 64) as u32;
             ExactSum {
-                hi: if sh >= 75 {
-                    u128::MAX >> 1
-                } else {
-                    (m as u128) << sh
-                },
+                hi: (m as u128) << (s - 64) as u32,
                 lo: 0,
             }
         };
-        self.add(&part);
+        self.add(&part)
     }
 
-    pub fn add(&mut self, o: &ExactSum) {
+    /// Adds `o` exactly; false (self unchanged) when the sum leaves the
+    /// 192 bits (never for a run's own sums; a tampered file can ask for it).
+    #[must_use]
+    pub fn add(&mut self, o: &ExactSum) -> bool {
         let (lo, carry) = self.lo.overflowing_add(o.lo);
-        self.lo = lo;
-        self.hi = self.hi.wrapping_add(o.hi).wrapping_add(carry as u128);
+        match self
+            .hi
+            .checked_add(o.hi)
+            .and_then(|h| h.checked_add(carry as u128))
+        {
+            Some(hi) => {
+                *self = ExactSum { hi, lo };
+                true
+            }
+            None => false,
+        }
     }
 
     /// The nearest f64 of the high part plus the low part: a function of the
@@ -118,22 +131,28 @@ impl ExactBins {
         }
     }
 
-    fn add_chunk(&mut self, b: &BinSums) {
+    #[must_use]
+    fn add_chunk(&mut self, b: &BinSums) -> bool {
+        let mut ok = true;
         for (a, x) in self.sum.iter_mut().zip(&b.sum) {
-            a.add_f64(*x);
+            ok &= a.add_f64(*x);
         }
         for (a, x) in self.sum_sq.iter_mut().zip(&b.sum_sq) {
-            a.add_f64(*x);
+            ok &= a.add_f64(*x);
         }
+        ok
     }
 
-    fn add(&mut self, o: &ExactBins) {
+    #[must_use]
+    fn add(&mut self, o: &ExactBins) -> bool {
+        let mut ok = true;
         for (a, x) in self.sum.iter_mut().zip(&o.sum) {
-            a.add(x);
+            ok &= a.add(x);
         }
         for (a, x) in self.sum_sq.iter_mut().zip(&o.sum_sq) {
-            a.add(x);
+            ok &= a.add(x);
         }
+        ok
     }
 
     fn to_f64(&self) -> BinSums {
@@ -199,26 +218,122 @@ impl ExactTally {
             && self.single_bins.sum_sq.len() == sb
     }
 
-    pub fn add_chunk(&mut self, t: &ChunkTally) {
-        self.photons += t.photons;
-        self.events += t.events;
-        self.truncated_photons += t.truncated_photons;
+    /// Adds a chunk's f64 sums exactly; an error names what did not fit.
+    pub fn add_chunk(&mut self, t: &ChunkTally) -> std::result::Result<(), String> {
+        self.add_counts(t.photons, t.events, t.truncated_photons)?;
+        let mut ok = true;
         for (a, x) in self.totals.iter_mut().zip(scalars(t)) {
-            a.add_f64(x);
+            ok &= a.add_f64(x);
         }
-        self.rd_bins.add_chunk(&t.rd_bins);
-        self.single_bins.add_chunk(&t.single_bins);
+        ok &= self.rd_bins.add_chunk(&t.rd_bins);
+        ok &= self.single_bins.add_chunk(&t.single_bins);
+        if !ok {
+            return Err("a chunk sum is negative, not finite or beyond 2^64".into());
+        }
+        Ok(())
     }
 
-    pub fn add(&mut self, o: &ExactTally) {
-        self.photons += o.photons;
-        self.events += o.events;
-        self.truncated_photons += o.truncated_photons;
+    /// Adds another tally exactly; an error names the count or sum that
+    /// would overflow (a tampered shard), leaving this tally unusable.
+    pub fn add(&mut self, o: &ExactTally) -> std::result::Result<(), String> {
+        self.add_counts(o.photons, o.events, o.truncated_photons)?;
+        let mut ok = true;
         for (a, x) in self.totals.iter_mut().zip(&o.totals) {
-            a.add(x);
+            ok &= a.add(x);
         }
-        self.rd_bins.add(&o.rd_bins);
-        self.single_bins.add(&o.single_bins);
+        ok &= self.rd_bins.add(&o.rd_bins);
+        ok &= self.single_bins.add(&o.single_bins);
+        if !ok {
+            return Err("an exact sum overflows its 192 bits".into());
+        }
+        Ok(())
+    }
+
+    fn add_counts(
+        &mut self,
+        photons: u64,
+        events: u64,
+        truncated: u64,
+    ) -> std::result::Result<(), String> {
+        let add = |a: u64, b: u64, what: &str| {
+            a.checked_add(b)
+                .ok_or_else(|| format!("the {what} count overflows 64 bits ({a} + {b})"))
+        };
+        self.photons = add(self.photons, photons, "photon")?;
+        self.events = add(self.events, events, "event")?;
+        self.truncated_photons = add(self.truncated_photons, truncated, "truncated photon")?;
+        Ok(())
+    }
+
+    /// Checks what any honest tally of `photons` packets satisfies, naming
+    /// the first field that does not: the energy balance closes (specular +
+    /// R_d + T + absorbed + roulette loss - gain + truncated = 1 per photon,
+    /// to `balance_tol`), each sum of squares is at least its sum squared
+    /// over the photons (Cauchy-Schwarz: a variance is never negative), the
+    /// radial bins and the reflectance beyond them add up to R_d, and no
+    /// more photons were truncated than traced.
+    pub fn verify(&self, balance_tol: f64) -> std::result::Result<(), String> {
+        if !self.has_layout(self.rd_bins.sum.len(), !self.single_bins.sum.is_empty()) {
+            return Err("the sums do not have the tally's layout".into());
+        }
+        let n = self.photons;
+        if n == 0 {
+            return Err("photons = 0".into());
+        }
+        if self.truncated_photons > n {
+            return Err(format!(
+                "truncated_photons = {} > photons = {n}",
+                self.truncated_photons
+            ));
+        }
+        let v: Vec<f64> = self.totals.iter().map(|x| x.to_f64()).collect();
+        let nf = n as f64;
+        let balance = (v[0] + v[1] + v[3] + v[5] + v[10] - v[11] + v[12]) / nf;
+        // Roulette gains and losses cancel: their size sets the rounding.
+        let scale = 1.0 + (v[10] + v[11]) / nf;
+        if !((balance - 1.0).abs() <= balance_tol * scale) {
+            return Err(format!(
+                "energy balance {balance:.12} per photon, not 1 (within {balance_tol:e}): \
+                 specular + R_d + T + absorbed + roulette loss - gain + truncated"
+            ));
+        }
+        let moments = |name: &str, sum: f64, sum_sq: f64| {
+            // n sum_sq >= sum^2, with room for the rounding of the f64 sums
+            // of a chunk before they were added exactly.
+            if sum_sq * nf < sum * sum * (1.0 - 1e-9) {
+                return Err(format!(
+                    "{name}: sum of squares {sum_sq:e} below sum^2 / photons = {:e}: a negative \
+                     variance",
+                    sum * sum / nf
+                ));
+            }
+            Ok(())
+        };
+        for (i, name) in [
+            (1, "rd"),
+            (3, "transmittance"),
+            (5, "absorbed"),
+            (8, "single"),
+        ] {
+            moments(name, v[i], v[i + 1])?;
+        }
+        let mut binned = v[7];
+        for (label, b) in [
+            ("rd_bins", &self.rd_bins),
+            ("single_bins", &self.single_bins),
+        ] {
+            for (i, (s, q)) in b.sum.iter().zip(&b.sum_sq).enumerate() {
+                moments(&format!("{label}[{i}]"), s.to_f64(), q.to_f64())?;
+            }
+        }
+        binned += self.rd_bins.sum.iter().map(|x| x.to_f64()).sum::<f64>();
+        if !((binned - v[1]).abs() <= 1e-9 * v[1].max(f64::MIN_POSITIVE)) {
+            return Err(format!(
+                "rd_bins and rd beyond r_max sum to {binned:e}, the total rd is {:e}",
+                v[1]
+            ));
+        }
+        Ok(())
     }
 
     /// The totals rounded to f64, as one chunk tally.
@@ -265,28 +380,61 @@ mod tests {
         ];
         let mut a = ExactSum::default();
         for x in xs {
-            a.add_f64(x);
+            assert!(a.add_f64(x));
         }
         let mut b = ExactSum::default();
         for x in xs.iter().rev() {
-            b.add_f64(*x);
+            assert!(b.add_f64(*x));
         }
         assert_eq!(a, b);
         // Split in two halves added separately, then combined.
         let (mut c, mut d) = (ExactSum::default(), ExactSum::default());
-        xs[..3].iter().for_each(|x| c.add_f64(*x));
-        xs[3..].iter().for_each(|x| d.add_f64(*x));
-        d.add(&c);
+        xs[..3].iter().for_each(|x| assert!(c.add_f64(*x)));
+        xs[3..].iter().for_each(|x| assert!(d.add_f64(*x)));
+        assert!(d.add(&c));
         assert_eq!(a, d);
         let sum: f64 = xs.iter().sum();
         assert!((a.to_f64() - sum).abs() <= 1e-15 * sum);
         // Representable values come back exactly; hex round-trips.
         for x in [0.75, 1e-20, 12345.678, 2.0f64.powi(-120)] {
             let mut e = ExactSum::default();
-            e.add_f64(x);
+            assert!(e.add_f64(x));
             assert_eq!(e.to_f64(), x);
             assert_eq!(ExactSum::from_hex(&e.to_hex()), Some(e));
         }
         assert_eq!(ExactSum::from_hex("zz"), None);
+    }
+
+    /// Sums that would wrap are refused and leave the sum as it was; so are
+    /// values no tally holds.
+    #[test]
+    fn overflow_is_refused_not_wrapped() {
+        let big = ExactSum {
+            hi: u128::MAX,
+            lo: u64::MAX,
+        };
+        let mut a = big;
+        assert!(!a.add(&ExactSum { hi: 0, lo: 1 }));
+        assert_eq!(a, big);
+        let mut b = ExactSum {
+            hi: u128::MAX - 1,
+            lo: u64::MAX,
+        };
+        assert!(b.add(&ExactSum { hi: 0, lo: 0 }));
+        assert!(!b.add(&ExactSum { hi: 1, lo: 1 }));
+        let mut c = ExactSum::default();
+        for bad in [f64::NAN, f64::INFINITY, -1.0, 2f64.powi(64)] {
+            assert!(!c.add_f64(bad), "{bad}");
+        }
+        assert!(c.add_f64(2f64.powi(63)));
+        assert_eq!(c.to_f64(), 2f64.powi(63));
+        let mut t = ExactTally::new(2, false);
+        t.photons = u64::MAX;
+        let one = ExactTally {
+            photons: 1,
+            ..ExactTally::new(2, false)
+        };
+        let e = t.add(&one).unwrap_err();
+        assert!(e.contains("photon count overflows"), "{e}");
     }
 }

@@ -421,6 +421,13 @@ impl McGpu {
                 }
                 sums.add(&batch, count);
                 progress.advance(count);
+                // Work is bounded inside a round too: a batch's work is at
+                // most its packets x GPU_MAX_EVENTS, and no batch starts
+                // past the cap (batches are fixed per adapter: the stop is
+                // reproducible).
+                if sums.events >= opts.max_work as u128 {
+                    break;
+                }
             }
             if sums.saturated {
                 return Err(Error::Unsupported(format!(
@@ -432,7 +439,7 @@ impl McGpu {
                 )));
             }
             tally = sums.tally(stack.specular);
-            let exact = exact_tally(&tally, n_bins);
+            let exact = exact_tally(&tally, n_bins)?;
             status = statuses(material, &[ch], grid, &[exact]).0.swap_remove(0);
             if let Some(rel) = target {
                 let relative = rule_error(&cfg.budget, &status) <= rel;
@@ -456,7 +463,7 @@ impl McGpu {
             }
         }
         Ok(ChannelRun {
-            tally: exact_tally(&tally, n_bins),
+            tally: exact_tally(&tally, n_bins)?,
             status,
             converged: (target.is_none() && !work_capped) || converged,
             work_capped,
@@ -558,10 +565,11 @@ fn gpu_max_events(opts: &McOptions) -> u32 {
 }
 
 /// The GPU's per-channel sums as the exact tally `build_profile` reads.
-fn exact_tally(t: &ChunkTally, bins: usize) -> ExactTally {
+fn exact_tally(t: &ChunkTally, bins: usize) -> Result<ExactTally> {
     let mut e = ExactTally::new(bins, false);
-    e.add_chunk(t);
-    e
+    e.add_chunk(t)
+        .map_err(|e| Error::Unsupported(format!("the GPU tally: {e}")))?;
+    Ok(e)
 }
 
 /// What the GPU tracer does not implement, refused before any work.

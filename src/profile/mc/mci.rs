@@ -26,7 +26,7 @@ use crate::profile::RadialGrid;
 use std::path::Path;
 
 /// Most radial bins a run may ask for (as for any radial grid).
-const MAX_BINS: usize = 10_000_000;
+const MAX_BINS: usize = crate::limits::MAX_RADIAL_BINS;
 
 /// Thickness (cm) from which the last layer counts as semi-infinite.
 pub const SEMI_INFINITE_CM: f64 = 1e6;
@@ -45,7 +45,7 @@ pub struct McmlRun {
 
 /// Reads every run of an .mci file.
 pub fn read_mci(path: &Path) -> Result<Vec<McmlRun>> {
-    let text = crate::io::read_text(path)?;
+    let text = crate::io::read_text_capped(path, crate::limits::MAX_MCI_BYTES, "MCML .mci file")?;
     parse_mci(&text, &path.display().to_string())
 }
 
@@ -154,6 +154,7 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
         let (no, t) = l.next(2, "dz dr (cm)")?;
         let _dz: f64 = l.num(no, t[0], "dz")?;
         let dr_cm: f64 = l.num(no, t[1], "dr")?;
+        let dr_line = no;
         let (no, t) = l.next(3, "nz nr na")?;
         let nr: usize = l.num(no, t[1], "nr")?;
         if nr > MAX_BINS {
@@ -220,7 +221,8 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
                 "radial grid needs dr > 0 and nr >= 1",
             ));
         }
-        let grid = RadialGrid::uniform(dr_cm * 10.0, nr as f64 * dr_cm * 10.0)?;
+        let grid = RadialGrid::uniform(dr_cm * 10.0, nr as f64 * dr_cm * 10.0)
+            .map_err(|e| Error::format(context, format!("run {}, line {dr_line}: {e}", k + 1)))?;
         runs.push(McmlRun {
             material,
             photons,
@@ -269,5 +271,12 @@ mod tests {
         let bad = SAMPLE.replace("0.9 0.1", "1.5 0.1");
         let e = parse_mci(&bad, "s.mci").unwrap_err().to_string();
         assert!(e.contains("run 1") && e.contains("g"), "{e}");
+        // A grid beyond f64 (found by the fuzz harness) names file and line.
+        let bad = SAMPLE.replace("20E-4 20E-4", "20E-4 1e308");
+        let e = parse_mci(&bad, "s.mci").unwrap_err().to_string();
+        assert!(
+            e.contains("s.mci") && e.contains("line 7") && e.contains("dr"),
+            "{e}"
+        );
     }
 }

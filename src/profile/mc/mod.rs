@@ -235,10 +235,8 @@ pub fn simulate_with(
         ),
     };
     grid.check_edges()?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(cfg.threads.unwrap_or(0))
-        .build()
-        .map_err(|e| Error::Unsupported(format!("cannot start worker threads: {e}")))?;
+    let threads = tally_threads(grid.len(), cfg.channels.len(), cfg.threads)?;
+    let pool = crate::limits::thread_pool(threads)?;
     let cap = cfg.budget.max_photons();
     let n_chunks = cap.div_ceil(CHUNK);
     let range = match opts.shard {
@@ -262,6 +260,7 @@ pub fn simulate_with(
             max_events: opts.max_events,
             single_scatter: opts.single_scatter,
             roulette_threshold: opts.roulette_threshold,
+            chunk_events: u64::MAX,
         },
         stacks,
         cap,
@@ -299,6 +298,11 @@ pub fn simulate_with(
             },
             grid_rule,
             tallies: runs.into_iter().map(|r| r.tally).collect(),
+            sha256: String::new(),
+        };
+        let record = ShardRecord {
+            sha256: record.content_hash(material, &grid.edges)?,
+            ..record
         };
         p.source.params["shard"] = json!({"k": s.k, "n": s.n});
         if let Some(w) = p.extra["warnings"].as_array_mut() {
@@ -327,7 +331,41 @@ struct ShardRecord {
     options: McOptions,
     grid_rule: serde_json::Value,
     tallies: Vec<ExactTally>,
+    /// SHA-256 of everything above with the material and the bin edges
+    /// (`content_hash`): a shard changed after it was written is refused.
+    #[serde(default)]
+    sha256: String,
 }
+
+impl ShardRecord {
+    /// The SHA-256 (hex) of the record's JSON without its hash, the
+    /// material and the bin edges: a function of the values only (the
+    /// exact sums serialise canonically, floats round-trip exactly).
+    fn content_hash(&self, material: &Material, edges: &[f64]) -> Result<String> {
+        use sha2::Digest;
+        let bytes = serde_json::to_vec(&(
+            self.k,
+            self.n,
+            self.chunks,
+            &self.config,
+            &self.options,
+            &self.grid_rule,
+            &self.tallies,
+            material,
+            edges,
+        ))
+        .map_err(|e| Error::Unsupported(format!("cannot hash the shard: {e}")))?;
+        Ok(sha2::Sha256::digest(&bytes)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect())
+    }
+}
+
+/// Tolerance of the energy balance of a merged or shard tally, per photon
+/// (scaled by the roulette's gains and losses, which cancel): the exact
+/// sums close it to the rounding of each chunk's f64 sums.
+pub const MERGE_BALANCE_TOLERANCE: f64 = 1e-9;
 
 /// The context of a bad setting's error; its parameters are the fields of
 /// `McConfig`, `PhotonBudget` (the rule's name for its relative error) and
@@ -533,11 +571,52 @@ struct Job<'a> {
     range: (u64, u64),
 }
 
-/// A worker's scratch and its exact sums per channel (allocated on use).
-struct Worker {
-    sums: Vec<Option<ExactTally>>,
-    chunk: Option<ChunkTally>,
-    scratch: Option<PhotonScratch>,
+/// One thread's scratch: a chunk's f64 tally and a packet's scores
+/// (allocated on first use, kept across rounds).
+struct Scratch {
+    chunk: ChunkTally,
+    photon: PhotonScratch,
+}
+
+/// Bytes per radial bin of a run's tallies: the exact sums of every
+/// channel (two per bin, 32 bytes each) held by the run, by the round being
+/// traced and by the status check (which also converts them to f64), and
+/// each thread's scratch (a chunk's two f64 sums and a packet's one).
+const EXACT_BYTES_PER_BIN: u64 = 3 * 64 + 2 * 16;
+const SCRATCH_BYTES_PER_BIN: u64 = 3 * 8;
+
+/// The worker threads of a run on `bins` radial bins and `channels`
+/// channels: `requested` (or the default count) reduced so that the
+/// tallies fit [`crate::limits::MAX_TALLY_BYTES`] (results never depend on
+/// the thread count); refused when even one thread's do not.
+fn tally_threads(bins: usize, channels: usize, requested: Option<usize>) -> Result<usize> {
+    let wanted = crate::limits::worker_threads(requested)?;
+    let cap = crate::limits::MAX_TALLY_BYTES;
+    let fixed = (bins as u64)
+        .saturating_mul(channels as u64)
+        .saturating_mul(EXACT_BYTES_PER_BIN);
+    let per_thread = (bins as u64).saturating_mul(SCRATCH_BYTES_PER_BIN).max(1);
+    let fit = cap.saturating_sub(fixed) / per_thread;
+    if fit == 0 {
+        return Err(Error::invalid(
+            "radial grid",
+            "bins",
+            bins,
+            format!(
+                "a Monte Carlo run of {channels} channel(s) on {bins} bins needs more than the \
+                 {} MiB its tallies may take: use wider bins or a smaller radius",
+                cap >> 20
+            ),
+        ));
+    }
+    Ok(wanted.min(fit.min(usize::MAX as u64) as usize))
+}
+
+/// Work units of one chunk besides its events: clearing and adding its
+/// per-bin sums costs about one event per bin, so a grid of many bins costs
+/// work even where few photons land.
+fn chunk_overhead(bins: usize) -> u64 {
+    bins as u64
 }
 
 impl Job<'_> {
@@ -545,26 +624,25 @@ impl Job<'_> {
         CHUNK.min(self.cap - k * CHUNK)
     }
 
-    fn trace(&self, w: &mut Worker, c: usize, k: u64) {
-        let (nb, single) = (self.bins.len(), self.set.single_scatter);
-        let t = w.chunk.get_or_insert_with(|| ChunkTally::new(nb, single));
-        t.reset();
-        let sc = w
-            .scratch
-            .get_or_insert_with(|| PhotonScratch::new(nb, single));
+    /// Traces chunk `k` of channel `c` into `s.chunk` within `budget`
+    /// events; false when the chunk needed more (its tally is then unusable).
+    fn trace(&self, s: &mut Scratch, c: usize, k: u64, budget: u64) -> bool {
+        s.chunk.reset();
         let mut rng = chunk_rng(self.cfg.seed, self.cfg.channels[c], k);
+        let set = WalkSettings {
+            chunk_events: budget,
+            ..self.set
+        };
         tracer::trace_photons(
             &self.stacks[c],
             &self.bins,
-            &self.set,
+            &set,
             &mut rng,
             self.photons(k),
-            t,
-            sc,
+            &mut s.chunk,
+            &mut s.photon,
         );
-        w.sums[c]
-            .get_or_insert_with(|| ExactTally::new(nb, single))
-            .add_chunk(t);
+        s.chunk.events <= budget
     }
 
     /// Traces rounds of chunks over all channels at once (any number of
@@ -572,9 +650,25 @@ impl Job<'_> {
     /// between rounds. A fixed run's rounds double (`FIRST_ROUND` chunks,
     /// then as many as traced so far): the sums are the same whatever the
     /// rounds, and the work cap is checked log2(chunks) times.
+    ///
+    /// Work is bounded inside a round too: each chunk of a channel gets an
+    /// equal share of the events the channel has left under `max_work`
+    /// (less its overhead, `chunk_overhead`), and a chunk that needs more
+    /// stops there. The round of that channel is then discarded whole and
+    /// the channel stops on the rounds before (its first round: an error).
+    /// Shares and event counts are functions of the seed, so which rounds
+    /// count does not depend on the threads either. Chunks add their sums
+    /// straight into one exact tally per channel (exact sums do not depend
+    /// on the order), so memory does not grow with the threads beyond their
+    /// scratch.
     fn run(&self, progress: &dyn Progress) -> Result<Vec<ChannelRun>> {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        use std::sync::Mutex;
         let nch = self.stacks.len();
         let (nb, single) = (self.bins.len(), self.set.single_scatter);
+        fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+            m.lock().unwrap_or_else(|e| e.into_inner())
+        }
         let mut runs: Vec<ChannelRun> = (0..nch)
             .map(|_| ChannelRun {
                 tally: ExactTally::new(nb, single),
@@ -590,6 +684,9 @@ impl Job<'_> {
                 Some(rel)
             }
         };
+        let scratch: Vec<Mutex<Option<Scratch>>> = (0..rayon::current_num_threads().max(1))
+            .map(|_| Mutex::new(None))
+            .collect();
         let mut next = vec![self.range.0; nch];
         let mut active = vec![true; nch];
         let mut ratio = vec![f64::INFINITY; nch];
@@ -597,34 +694,72 @@ impl Job<'_> {
         let mut first = true;
         loop {
             let mut units = Vec::new();
+            let mut budget = vec![0u64; nch];
             for c in (0..nch).filter(|&c| active[c]) {
                 let left = self.range.1 - next[c];
                 let len = round_len(next[c] - self.range.0, ratio[c]).min(left);
+                let done = next[c] - self.range.0;
+                let spent = work_of(&runs[c].tally, done, nb);
+                budget[c] = (self.opts.max_work.saturating_sub(spent) / len.max(1))
+                    .saturating_sub(chunk_overhead(nb));
                 units.extend((next[c]..next[c] + len).map(|k| (c, k)));
                 next[c] += len;
             }
             if units.is_empty() {
                 break;
             }
-            let parts = units
-                .par_iter()
-                .fold(
-                    || Worker {
-                        sums: vec![None; nch],
-                        chunk: None,
-                        scratch: None,
-                    },
-                    |mut w, &(c, k)| {
-                        self.trace(&mut w, c, k);
-                        progress.advance(self.photons(k));
-                        w
-                    },
-                )
-                .map(|w| w.sums)
-                .reduce(|| vec![None; nch], add_sums);
-            for (run, part) in runs.iter_mut().zip(parts) {
+            let sums: Vec<Mutex<Option<ExactTally>>> = (0..nch).map(|_| Mutex::new(None)).collect();
+            let over: Vec<AtomicBool> = (0..nch).map(|_| AtomicBool::new(false)).collect();
+            let failed: Mutex<Option<String>> = Mutex::new(None);
+            units.par_iter().for_each(|&(c, k)| {
+                // A channel whose round is already void skips the rest of it.
+                if over[c].load(Ordering::Relaxed) {
+                    return;
+                }
+                let slot = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+                let mut guard = lock(&scratch[slot]);
+                let s = guard.get_or_insert_with(|| Scratch {
+                    chunk: ChunkTally::new(nb, single),
+                    photon: PhotonScratch::new(nb, single),
+                });
+                if !self.trace(s, c, k, budget[c]) {
+                    over[c].store(true, Ordering::Relaxed);
+                    return;
+                }
+                progress.advance(self.photons(k));
+                let added = lock(&sums[c])
+                    .get_or_insert_with(|| ExactTally::new(nb, single))
+                    .add_chunk(&s.chunk);
+                if let Err(e) = added {
+                    lock(&failed)
+                        .get_or_insert(format!("channel {}: {e}", self.cfg.channels[c].name()));
+                }
+            });
+            if let Some(e) = lock(&failed).take() {
+                return Err(Error::Unsupported(e));
+            }
+            for c in 0..nch {
+                if over[c].load(Ordering::Relaxed) {
+                    if runs[c].tally.photons == 0 {
+                        return Err(first_round_over_cap(
+                            self.cfg.channels[c],
+                            units
+                                .iter()
+                                .filter(|u| u.0 == c)
+                                .map(|u| self.photons(u.1))
+                                .sum(),
+                            self.opts.max_work,
+                        ));
+                    }
+                    runs[c].work_capped = true;
+                    active[c] = false;
+                    continue;
+                }
+                let part = sums[c].lock().unwrap_or_else(|e| e.into_inner()).take();
                 if let Some(p) = part {
-                    run.tally.add(&p);
+                    runs[c].tally.add(&p).map_err(|e| {
+                        Error::Unsupported(format!("channel {}: {e}", self.cfg.channels[c].name()))
+                    })?;
                 }
             }
             let tallies: Vec<ExactTally> = runs.iter().map(|r| r.tally.clone()).collect();
@@ -634,6 +769,7 @@ impl Job<'_> {
                 if !active[c] {
                     continue;
                 }
+                let work = work_of(&runs[c].tally, next[c] - self.range.0, nb);
                 if let Some(rel) = target {
                     // No reflectance yet counts as exact only where nothing
                     // can scatter back; a nearly clear medium must go on.
@@ -658,7 +794,7 @@ impl Job<'_> {
                         runs[c].converged = true;
                         runs[c].by_floor = err > rel;
                         active[c] = false;
-                    } else if runs[c].tally.events >= self.opts.max_work {
+                    } else if work >= self.opts.max_work {
                         runs[c].work_capped = true;
                         active[c] = false;
                     }
@@ -674,7 +810,7 @@ impl Job<'_> {
                             self.opts.max_work,
                         )?;
                     }
-                    if t.events >= self.opts.max_work {
+                    if work >= self.opts.max_work {
                         runs[c].work_capped = true;
                         active[c] = false;
                     }
@@ -692,6 +828,30 @@ impl Job<'_> {
     }
 }
 
+/// Work a channel has spent: its events and the overhead of its `chunks`.
+fn work_of(t: &ExactTally, chunks: u64, bins: usize) -> u64 {
+    t.events
+        .saturating_add(chunks.saturating_mul(chunk_overhead(bins)))
+}
+
+/// The refusal of a run whose first round of `photons` photons did not
+/// finish within the work cap: nothing to stop on.
+fn first_round_over_cap(ch: Channel, photons: u64, max_work: u64) -> Error {
+    Error::invalid(
+        CONTEXT,
+        "max_work",
+        max_work,
+        format!(
+            "channel {}: its first {photons} photons needed more than the work cap of \
+             {max_work} events (over {:.0} events per photon): this medium's walks are too long \
+             for the cap (albedo near 1, g near 1, or many bins); raise the cap, or use wider \
+             bins",
+            ch.name(),
+            max_work as f64 / photons.max(1) as f64
+        ),
+    )
+}
+
 /// How far a channel is from the absolute floor of the kernel-factor rule
 /// (<= 1: reached; see `DEFAULT_ABS_FLOOR`) after `photons`; infinite for
 /// other rules or with the floor off.
@@ -706,17 +866,6 @@ fn floor_ratio(budget: &PhotonBudget, floor: f64, s: &Status, photons: u64) -> f
     // Written as an error ~ N^-1/2 so that round_len aims at it too.
     let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
     noise.max(minimum)
-}
-
-fn add_sums(mut a: Vec<Option<ExactTally>>, b: Vec<Option<ExactTally>>) -> Vec<Option<ExactTally>> {
-    for (x, y) in a.iter_mut().zip(b) {
-        match (x.as_mut(), y) {
-            (Some(x), Some(y)) => x.add(&y),
-            (None, y) => *x = y,
-            _ => {}
-        }
-    }
-    a
 }
 
 /// Chunks in the next round: `FIRST_ROUND` to start, then for a target-error
@@ -1062,6 +1211,15 @@ fn channel_warnings(
             "channel {c}: no diffuse reflectance (no scattering or nothing comes back)"
         ));
     }
+    if total > 1.0 {
+        // Unbiased but useless: reflectance is at most the incident light.
+        w.push(format!(
+            "channel {c}: total R_d {total:.4} +- {:.2e} is above 1, more light than came in: \
+             a few packets with boosted weights (long walks that survived the event-count \
+             roulette) dominate the estimate; trace more photons",
+            t.rd.stderr(t.photons)
+        ));
+    }
     if !run.converged && !matches!(cfg.budget, PhotonBudget::Fixed(_)) {
         let max_photons = cfg.budget.max_photons();
         let cap = if run.work_capped {
@@ -1115,98 +1273,73 @@ fn fixed_cap_warning(
 /// Combines shards of one run (profiles written with `McOptions::shard`,
 /// named for errors) into the profile of the single run: bit-identical to it
 /// except `elapsed_s`, which is the sum of the shards'. Refuses parts of
-/// different runs, duplicates, and an incomplete set.
+/// different runs, duplicates, an incomplete set, and shards that fail the
+/// checks of [`ShardMerger::add`].
 pub fn merge_shards(parts: &[(String, Profile)]) -> Result<Profile> {
-    let Some((name0, p0)) = parts.first() else {
-        return Err(Error::Unsupported("no shards to merge".into()));
-    };
-    let mut recs = Vec::with_capacity(parts.len());
+    let mut m = ShardMerger::new();
     for (name, p) in parts {
+        m.add(name, p.clone())?;
+    }
+    m.finish()
+}
+
+/// Merges shards one at a time (a merge holds one shard and the running
+/// sums, never all the shards).
+#[derive(Default)]
+pub struct ShardMerger {
+    /// The first shard (its `extra.shard` dropped), its name and record
+    /// (its tallies moved into `tallies`).
+    first: Option<(String, Profile, ShardRecord)>,
+    tallies: Vec<ExactTally>,
+    seen: std::collections::BTreeMap<u64, String>,
+    elapsed: f64,
+}
+
+impl ShardMerger {
+    pub fn new() -> ShardMerger {
+        ShardMerger::default()
+    }
+
+    /// Adds one shard, named `name` in errors. Refused, naming the shard and
+    /// the field: a profile without a shard record; a record whose content
+    /// hash does not match (changed after it was written); a shard of
+    /// another run (material, channels, seed, grid, photons, settings) or
+    /// one given twice; tallies whose layout, photons or chunks do not fit
+    /// the shard, whose energy balance does not close or whose sums of
+    /// squares are below their sums squared ([`ExactTally::verify`]); sums
+    /// that would overflow.
+    pub fn add(&mut self, name: &str, mut p: Profile) -> Result<()> {
         let v = p.extra.get("shard").ok_or_else(|| {
             Error::format(
                 name,
                 "not a shard: no extra.shard (a complete profile, or not from the Monte Carlo simulator)",
             )
         })?;
-        let r: ShardRecord = serde_json::from_value(v.clone())
+        let mut r = ShardRecord::deserialize(v)
             .map_err(|e| Error::format(name, format!("malformed extra.shard: {e}")))?;
-        recs.push(r);
-    }
-    let r0 = &recs[0];
-    let params = |p: &Profile| {
-        let mut q = p.source.params.clone();
-        if let Some(o) = q.as_object_mut() {
-            o.remove("shard");
-        }
-        q
-    };
-    let params0 = params(p0);
-    let settings = |r: &ShardRecord| {
-        serde_json::to_value((&r.config.channels, &r.options, &r.grid_rule)).unwrap_or_default()
-    };
-    for ((name, p), r) in parts.iter().zip(&recs).skip(1) {
-        let differ = |what: String| {
-            Err(Error::Unsupported(format!(
-                "cannot merge {name} with {name0}: {what}"
-            )))
-        };
-        if p.material != p0.material {
-            return differ(format!(
-                "different materials ('{}' vs '{}', or the same name with other coefficients)",
-                p.material.name, p0.material.name
+        p.extra["shard"] = serde_json::Value::Null;
+        if r.sha256.is_empty() {
+            return Err(Error::format(
+                name,
+                "extra.shard.sha256 is missing: the shard cannot be checked (written by an older \
+                 ssskit, or edited); trace it again",
             ));
         }
-        if p.channels != p0.channels || r.config.channels != r0.config.channels {
-            return differ("different channels".into());
-        }
-        if p.source.seed != p0.source.seed || r.config.seed != r0.config.seed {
-            return differ(format!(
-                "different seeds ({} vs {})",
-                r.config.seed, r0.config.seed
+        if r.content_hash(&p.material, &p.r_edges)? != r.sha256 {
+            return Err(Error::format(
+                name,
+                "extra.shard.sha256 does not match the shard's content: its tallies, settings, \
+                 material or grid were changed after it was written",
             ));
         }
-        if p.r_edges != p0.r_edges {
-            return differ("different radial grids".into());
+        if let Some((name0, p0, r0)) = &self.first {
+            check_same_run(name, &p, &r, name0, p0, r0)?;
         }
-        if r.config.budget != r0.config.budget {
-            return differ(format!(
-                "different photon totals ({} vs {} per channel)",
-                r.config.budget.max_photons(),
-                r0.config.budget.max_photons()
-            ));
-        }
-        if r.n != r0.n {
-            return differ(format!(
-                "split into different numbers of shards ({} vs {})",
-                r.n, r0.n
-            ));
-        }
-        if params(p) != params0 || settings(r) != settings(r0) {
-            let keys: Vec<String> = params0
-                .as_object()
-                .map(|o| {
-                    o.iter()
-                        .filter(|(k, v)| p.source.params.get(k.as_str()) != Some(v))
-                        .map(|(k, _)| k.clone())
-                        .collect()
-                })
-                .unwrap_or_default();
-            return differ(format!(
-                "different simulation settings (source.params: {})",
-                keys.join(", ")
-            ));
-        }
-    }
-    let n = r0.n;
-    let cap = r0.config.budget.max_photons();
-    let chunks = cap.div_ceil(CHUNK);
-    let nb = p0.r_edges.len().saturating_sub(1);
-    let single = r0.options.single_scatter;
-    let mut seen: std::collections::BTreeMap<u64, &str> = Default::default();
-    let mut tallies: Vec<ExactTally> = (0..r0.config.channels.len())
-        .map(|_| ExactTally::new(nb, single))
-        .collect();
-    for ((name, _), r) in parts.iter().zip(&recs) {
+        let n = r.n;
+        let cap = r.config.budget.max_photons();
+        let chunks = cap.div_ceil(CHUNK);
+        let nb = p.r_edges.len().saturating_sub(1);
+        let single = r.options.single_scatter;
         if !matches!(r.config.budget, PhotonBudget::Fixed(_))
             || r.k == 0
             || r.k > n
@@ -1221,14 +1354,14 @@ pub fn merge_shards(parts: &[(String, Profile)]) -> Result<Profile> {
                 ),
             ));
         }
-        if let Some(other) = seen.insert(r.k, name) {
+        if let Some(other) = self.seen.get(&r.k) {
             return Err(Error::Unsupported(format!(
                 "shard {}/{n} given twice ({other} and {name}): shards must not overlap",
                 r.k
             )));
         }
         let want = (r.chunks.1 * CHUNK).min(cap) - r.chunks.0 * CHUNK;
-        if r.tallies.len() != tallies.len()
+        if r.tallies.len() != r.config.channels.len()
             || r.tallies
                 .iter()
                 .any(|t| !t.has_layout(nb, single) || t.photons != want)
@@ -1238,61 +1371,357 @@ pub fn merge_shards(parts: &[(String, Profile)]) -> Result<Profile> {
                 "extra.shard: tallies do not match the channels, grid or photons of the shard",
             ));
         }
-        for (a, t) in tallies.iter_mut().zip(&r.tallies) {
-            a.add(t);
+        for (t, ch) in r.tallies.iter().zip(&r.config.channels) {
+            t.verify(MERGE_BALANCE_TOLERANCE).map_err(|e| {
+                Error::format(name, format!("extra.shard.tallies[{}]: {e}", ch.name()))
+            })?;
         }
+        let tallies = std::mem::take(&mut r.tallies);
+        if self.tallies.is_empty() {
+            self.tallies = (0..tallies.len())
+                .map(|_| ExactTally::new(nb, single))
+                .collect();
+        }
+        for ((a, t), ch) in self
+            .tallies
+            .iter_mut()
+            .zip(&tallies)
+            .zip(&r.config.channels)
+        {
+            a.add(t).map_err(|e| {
+                Error::format(name, format!("extra.shard.tallies[{}]: {e}", ch.name()))
+            })?;
+        }
+        self.seen.insert(r.k, name.to_string());
+        self.elapsed += p.elapsed_s;
+        if self.first.is_none() {
+            self.first = Some((name.to_string(), p, r));
+        }
+        Ok(())
     }
-    if seen.len() as u64 != n {
-        let missing: Vec<String> = (1..=n)
-            .filter(|k| !seen.contains_key(k))
-            .take(10)
-            .map(|k| k.to_string())
+
+    /// The profile of the single run, once every shard was added.
+    pub fn finish(self) -> Result<Profile> {
+        let Some((_, p0, r0)) = self.first else {
+            return Err(Error::Unsupported("no shards to merge".into()));
+        };
+        let n = r0.n;
+        if self.seen.len() as u64 != n {
+            let missing: Vec<String> = (1..=n)
+                .filter(|k| !self.seen.contains_key(k))
+                .take(10)
+                .map(|k| k.to_string())
+                .collect();
+            return Err(Error::Unsupported(format!(
+                "missing shard(s) {}{} of {n}: a merge needs all {n} parts of the run",
+                missing.join(", "),
+                if (n - self.seen.len() as u64) > 10 {
+                    ", ..."
+                } else {
+                    ""
+                }
+            )));
+        }
+        for (t, ch) in self.tallies.iter().zip(&r0.config.channels) {
+            t.verify(MERGE_BALANCE_TOLERANCE).map_err(|e| {
+                Error::Unsupported(format!("the merged tally of channel {}: {e}", ch.name()))
+            })?;
+        }
+        let grid = RadialGrid {
+            edges: p0.r_edges.clone(),
+        };
+        let (status, _) = statuses(&p0.material, &r0.config.channels, &grid, &self.tallies);
+        let runs: Vec<ChannelRun> = self
+            .tallies
+            .into_iter()
+            .zip(status)
+            .map(|(tally, status)| ChannelRun {
+                tally,
+                status,
+                converged: true,
+                work_capped: false,
+                by_floor: false,
+            })
             .collect();
-        return Err(Error::Unsupported(format!(
-            "missing shard(s) {}{} of {n}: a merge needs all {n} parts of the run",
-            missing.join(", "),
-            if (n - seen.len() as u64) > 10 {
-                ", ..."
-            } else {
-                ""
-            }
-        )));
+        let mut p = build_profile(
+            &p0.material,
+            &r0.config,
+            &r0.options,
+            &grid,
+            r0.grid_rule.clone(),
+            &runs,
+            self.elapsed,
+        );
+        // Anything the caller added to the parts' parameters (e.g. the .mci
+        // origin) is kept, as in the single run.
+        p.source.params = shard_params(&p0);
+        Ok(p)
     }
-    let grid = RadialGrid {
-        edges: p0.r_edges.clone(),
+}
+
+/// A shard's `source.params` without its part number.
+fn shard_params(p: &Profile) -> serde_json::Value {
+    let mut q = p.source.params.clone();
+    if let Some(o) = q.as_object_mut() {
+        o.remove("shard");
+    }
+    q
+}
+
+/// Refuses shard `name` unless it is of the run of the first shard `name0`.
+fn check_same_run(
+    name: &str,
+    p: &Profile,
+    r: &ShardRecord,
+    name0: &str,
+    p0: &Profile,
+    r0: &ShardRecord,
+) -> Result<()> {
+    let differ = |what: String| {
+        Err(Error::Unsupported(format!(
+            "cannot merge {name} with {name0}: {what}"
+        )))
     };
-    let (status, _) = statuses(&p0.material, &r0.config.channels, &grid, &tallies);
-    let runs: Vec<ChannelRun> = tallies
-        .into_iter()
-        .zip(status)
-        .map(|(tally, status)| ChannelRun {
-            tally,
-            status,
-            converged: true,
-            work_capped: false,
-            by_floor: false,
-        })
-        .collect();
-    let elapsed: f64 = parts.iter().map(|(_, p)| p.elapsed_s).sum();
-    let mut p = build_profile(
-        &p0.material,
-        &r0.config,
-        &r0.options,
-        &grid,
-        r0.grid_rule.clone(),
-        &runs,
-        elapsed,
-    );
-    // Anything the caller added to the parts' parameters (e.g. the .mci
-    // origin) is kept, as in the single run.
-    p.source.params = params0;
-    Ok(p)
+    let settings = |r: &ShardRecord| {
+        serde_json::to_value((&r.config.channels, &r.options, &r.grid_rule)).unwrap_or_default()
+    };
+    if p.material != p0.material {
+        return differ(format!(
+            "different materials ('{}' vs '{}', or the same name with other coefficients)",
+            p.material.name, p0.material.name
+        ));
+    }
+    if p.channels != p0.channels || r.config.channels != r0.config.channels {
+        return differ("different channels".into());
+    }
+    if p.source.seed != p0.source.seed || r.config.seed != r0.config.seed {
+        return differ(format!(
+            "different seeds ({} vs {})",
+            r.config.seed, r0.config.seed
+        ));
+    }
+    if p.r_edges != p0.r_edges {
+        return differ("different radial grids".into());
+    }
+    if r.config.budget != r0.config.budget {
+        return differ(format!(
+            "different photon totals ({} vs {} per channel)",
+            r.config.budget.max_photons(),
+            r0.config.budget.max_photons()
+        ));
+    }
+    if r.n != r0.n {
+        return differ(format!(
+            "split into different numbers of shards ({} vs {})",
+            r.n, r0.n
+        ));
+    }
+    let (params, params0) = (shard_params(p), shard_params(p0));
+    if params != params0 || settings(r) != settings(r0) {
+        let keys: Vec<String> = params0
+            .as_object()
+            .map(|o| {
+                o.iter()
+                    .filter(|(k, v)| params.get(k.as_str()) != Some(v))
+                    .map(|(k, _)| k.clone())
+                    .collect()
+            })
+            .unwrap_or_default();
+        return differ(format!(
+            "different simulation settings (source.params: {})",
+            keys.join(", ")
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::progress::NoProgress;
+
+    /// Two shards of a small run (channel r, two chunks, one thread).
+    fn shard_pair() -> [Profile; 2] {
+        let m = crate::material::preset("skin1").unwrap();
+        let cfg = McConfig {
+            budget: PhotonBudget::Fixed(2 * CHUNK),
+            seed: 11,
+            threads: Some(1),
+            channels: vec![Channel::R],
+            grid: Some(RadialGrid::uniform(0.2, 4.0).unwrap()),
+        };
+        [1, 2].map(|k| {
+            let opts = McOptions {
+                shard: Some(Shard { k, n: 2 }),
+                ..McOptions::default()
+            };
+            simulate_with(&m, &cfg, &opts, &NoProgress).unwrap()
+        })
+    }
+
+    /// `p` with its shard record edited by `edit`, the content hash
+    /// recomputed when `rehash` (so that the check under test is the one
+    /// that fires, not the hash).
+    fn tampered(p: &Profile, rehash: bool, edit: impl Fn(&mut ShardRecord)) -> Profile {
+        let mut r: ShardRecord = serde_json::from_value(p.extra["shard"].clone()).unwrap();
+        edit(&mut r);
+        if rehash {
+            r.sha256 = r.content_hash(&p.material, &p.r_edges).unwrap();
+        }
+        let mut q = p.clone();
+        q.extra["shard"] = serde_json::to_value(&r).unwrap();
+        q
+    }
+
+    fn merge_error(a: &Profile, b: &Profile) -> String {
+        merge_shards(&[("a.json".into(), a.clone()), ("b.json".into(), b.clone())])
+            .unwrap_err()
+            .to_string()
+    }
+
+    /// Each integrity check of a merge fires on its own, naming the shard
+    /// and the field: the content hash, the energy balance (a doubled
+    /// tally), a negative variance (zeroed sums of squares), bins that do
+    /// not add up to R_d, truncated photons beyond the photons, and counts
+    /// that would overflow (they used to wrap).
+    #[test]
+    fn merge_verifies_each_shard() {
+        let [a, b] = shard_pair();
+        let clean = merge_shards(&[("a".into(), a.clone()), ("b".into(), b.clone())]).unwrap();
+        assert_eq!(clean.source.photons, Some(vec![2 * CHUNK]));
+        let e = merge_error(&a, &tampered(&b, false, |r| r.tallies[0].events += 1));
+        assert!(
+            e.contains("b.json") && e.contains("sha256 does not match"),
+            "{e}"
+        );
+        let e = merge_error(&a, &tampered(&b, false, |r| r.sha256.clear()));
+        assert!(
+            e.contains("b.json") && e.contains("sha256 is missing"),
+            "{e}"
+        );
+        let double = |r: &mut ShardRecord| {
+            let t = &mut r.tallies[0];
+            for x in t.totals.iter_mut().chain(&mut t.rd_bins.sum) {
+                let y = *x;
+                assert!(x.add(&y));
+            }
+        };
+        let e = merge_error(&a, &tampered(&b, true, double));
+        assert!(
+            e.contains("b.json") && e.contains("tallies[r]") && e.contains("energy balance"),
+            "{e}"
+        );
+        let e = merge_error(
+            &a,
+            &tampered(&b, true, |r| {
+                r.tallies[0].totals[2] = Default::default();
+            }),
+        );
+        assert!(e.contains("rd: sum of squares"), "{e}");
+        let e = merge_error(
+            &tampered(&a, true, |r| {
+                let t = &mut r.tallies[0];
+                let i = t.rd_bins.sum.iter().position(|x| x.to_f64() > 0.0).unwrap();
+                t.rd_bins.sum_sq[i] = Default::default();
+            }),
+            &b,
+        );
+        assert!(e.contains("a.json") && e.contains("rd_bins["), "{e}");
+        let e = merge_error(
+            &a,
+            &tampered(&b, true, |r| {
+                let t = &mut r.tallies[0];
+                let i = t.rd_bins.sum.iter().position(|x| x.to_f64() > 0.0).unwrap();
+                t.rd_bins.sum[i] = Default::default();
+                t.rd_bins.sum_sq[i] = Default::default();
+            }),
+        );
+        assert!(e.contains("rd_bins and rd beyond"), "{e}");
+        let e = merge_error(
+            &a,
+            &tampered(&b, true, |r| r.tallies[0].truncated_photons = u64::MAX),
+        );
+        assert!(e.contains("truncated_photons"), "{e}");
+        let big = |r: &mut ShardRecord| r.tallies[0].events = u64::MAX - 1;
+        let e = merge_error(&tampered(&a, true, big), &tampered(&b, true, big));
+        assert!(
+            e.contains("b.json") && e.contains("event count overflows"),
+            "{e}"
+        );
+    }
+
+    /// A round that a chunk cannot finish within its share of the work cap
+    /// is discarded whole: the run keeps its earlier rounds, whatever the
+    /// thread count; a first round that cannot finish is refused.
+    #[test]
+    fn work_is_bounded_inside_a_round_for_any_thread_count() {
+        let m = crate::material::preset("marble").unwrap();
+        let run = |threads: usize, max_work: u64| {
+            let cfg = McConfig {
+                budget: PhotonBudget::TargetError {
+                    rel: 1e-6,
+                    max_photons: 1 << 30,
+                },
+                seed: 5,
+                threads: Some(threads),
+                channels: vec![Channel::G],
+                grid: Some(RadialGrid::uniform(0.5, 20.0).unwrap()),
+            };
+            let opts = McOptions {
+                max_work,
+                ..McOptions::default()
+            };
+            simulate_with(&m, &cfg, &opts, &NoProgress)
+        };
+        // The first round alone (2 chunks) costs E events.
+        let one = |threads| {
+            let cfg = McConfig {
+                budget: PhotonBudget::Fixed(2 * CHUNK),
+                seed: 5,
+                threads: Some(threads),
+                channels: vec![Channel::G],
+                grid: Some(RadialGrid::uniform(0.5, 20.0).unwrap()),
+            };
+            simulate_with(&m, &cfg, &McOptions::default(), &NoProgress).unwrap()
+        };
+        let first = one(1);
+        let e = first.extra["events_per_photon"][0].as_f64().unwrap() * (2 * CHUNK) as f64;
+        // Rounds of 2, 2 and 4 chunks: the third needs 2 E, a cap of 2.5 E
+        // leaves it 0.5 E.
+        let cap = (2.5 * e) as u64;
+        let p1 = run(1, cap).unwrap();
+        let p2 = run(2, cap).unwrap();
+        assert_eq!(p1.source.photons, Some(vec![4 * CHUNK]));
+        assert_eq!(p1.rd, p2.rd, "the stop depends on the threads");
+        assert_eq!(p1.extra["stopped_by"][0], "work-cap");
+        let spent = p1.extra["events_per_photon"][0].as_f64().unwrap() * (4 * CHUNK) as f64;
+        assert!(spent <= cap as f64, "{spent} > {cap}");
+        let e = run(2, (0.5 * e) as u64).unwrap_err().to_string();
+        assert!(
+            e.contains("invalid max_work") && e.contains("first 16384 photons"),
+            "{e}"
+        );
+    }
+
+    /// Tallies that would not fit the memory cap are refused before any
+    /// allocation, and fewer threads are used where only they do not fit.
+    #[test]
+    fn tally_memory_is_capped() {
+        assert_eq!(tally_threads(1000, 3, Some(1)).unwrap(), 1);
+        // 1.5e6 bins of three channels leave room for one thread's scratch.
+        assert_eq!(tally_threads(1_500_000, 3, Some(2)).unwrap(), 1);
+        let bins = crate::limits::MAX_RADIAL_BINS;
+        let t = tally_threads(bins, 3, Some(crate::limits::max_threads())).unwrap();
+        let bytes = bins as u64 * (3 * EXACT_BYTES_PER_BIN + t as u64 * SCRATCH_BYTES_PER_BIN);
+        assert!(
+            t >= 1 && bytes <= crate::limits::MAX_TALLY_BYTES,
+            "{t} threads, {bytes}"
+        );
+        let e = tally_threads(10 * bins, 3, Some(1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bins") && e.contains("MiB"), "{e}");
+    }
 
     #[test]
     fn chunk_streams_differ() {

@@ -312,6 +312,10 @@ pub(crate) struct WalkSettings {
     pub single_scatter: bool,
     /// Weight below which Russian roulette plays (MCML: ROULETTE_THRESHOLD).
     pub roulette_threshold: f64,
+    /// Events the chunk may spend (u64::MAX: no bound): the packet that
+    /// crosses it is abandoned and the chunk's tally then holds more events
+    /// than this, which marks it unfinished (`Job::trace` discards it).
+    pub chunk_events: u64,
 }
 
 /// Where a packet goes at a boundary.
@@ -367,6 +371,14 @@ fn trace_one(
     tally: &mut ChunkTally,
     scratch: &mut PhotonScratch,
 ) {
+    if tally.events > set.chunk_events {
+        return;
+    }
+    // Events this packet may make: the hard cap, or one more than the
+    // chunk has left (crossing the budget marks the chunk).
+    let stop_at = set
+        .max_events
+        .min((set.chunk_events - tally.events).saturating_add(1));
     tally.photons += 1;
     tally.specular += stack.specular;
     let mut p = Packet {
@@ -508,9 +520,11 @@ fn trace_one(
             next_event_roulette = next_event_roulette.saturating_mul(2);
             roulette(&mut p.w, EVENT_ROULETTE_SURVIVAL, rng, tally);
         }
-        if events >= set.max_events && p.w > 0.0 {
-            tally.truncated += p.w;
-            tally.truncated_photons += 1;
+        if events >= stop_at && p.w > 0.0 {
+            if events >= set.max_events {
+                tally.truncated += p.w;
+                tally.truncated_photons += 1;
+            }
             p.w = 0.0;
         }
     }
@@ -647,6 +661,56 @@ mod tests {
         assert!((mz / nf).abs() < 5.0 * (1.0 / 3.0 / nf).sqrt());
         assert!((mx / nf).abs() < 5.0 * (1.0 / 3.0 / nf).sqrt());
         assert!((mz2 / nf - 1.0 / 3.0).abs() < 5.0 * (4.0 / 45.0 / nf).sqrt());
+    }
+
+    /// A chunk's event budget bounds the walk itself: the packet that
+    /// crosses it is abandoned there, and the chunk's tally says so by
+    /// holding exactly one event more than the budget.
+    #[test]
+    fn the_chunk_budget_stops_the_walk() {
+        use rand_core::SeedableRng;
+        let m = crate::material::Material {
+            name: "lossless".into(),
+            eta_above: 1.0,
+            eta_below: 1.0,
+            layers: vec![crate::material::Layer {
+                sigma_a: [0.0; 3],
+                sigma_s: [1.0; 3],
+                g: [0.9; 3],
+                eta: 1.3,
+                thickness: None,
+            }],
+        };
+        let stack = Stack::new(&m, Channel::R);
+        let grid = crate::profile::RadialGrid::uniform(0.1, 10.0).unwrap();
+        let bins = BinIndex::new(&grid);
+        let mut set = WalkSettings {
+            mode: BoundaryMode::Classic,
+            event_roulette: DEFAULT_EVENT_ROULETTE,
+            max_events: u64::MAX,
+            single_scatter: false,
+            roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
+            chunk_events: u64::MAX,
+        };
+        let run = |set: &WalkSettings| {
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
+            let mut t = ChunkTally::new(bins.len(), false);
+            let mut s = PhotonScratch::new(bins.len(), false);
+            trace_photons(&stack, &bins, set, &mut rng, 200, &mut t, &mut s);
+            t
+        };
+        let free = run(&set);
+        assert_eq!(free.photons, 200);
+        assert!(free.events > 20_000, "{} events", free.events);
+        set.chunk_events = 5_000;
+        let bounded = run(&set);
+        assert_eq!(bounded.events, 5_001);
+        assert!(bounded.photons < 200);
+        // A budget the chunk fits in changes nothing.
+        set.chunk_events = free.events;
+        let fits = run(&set);
+        assert_eq!((fits.events, fits.photons), (free.events, 200));
+        assert_eq!(fits.rd, free.rd);
     }
 
     #[test]

@@ -1,0 +1,93 @@
+//! Memory of reading an image, measured by a counting allocator: at most
+//! what `limits.rs` states an image costs (32 bytes per pixel: f64 RGB and
+//! alpha) plus the decoder's own samples, never several copies of the
+//! image. The rule is per pixel, so a 1024 x 1024 image checks what holds
+//! at the 8K cap (`MAX_IMAGE_PIXELS`, 1 GiB in memory).
+
+use ssskit::filter::image::{read_image, write_exr, write_image, PngDepth};
+use ssskit::filter::Image;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+
+static NOW: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+fn grew(by: usize) {
+    let now = NOW.fetch_add(by, Ordering::Relaxed) + by;
+    PEAK.fetch_max(now, Ordering::Relaxed);
+}
+
+// SAFETY: every call is forwarded to the system allocator unchanged; the
+// counters only observe sizes.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        grew(l.size());
+        System.alloc(l)
+    }
+    unsafe fn alloc_zeroed(&self, l: Layout) -> *mut u8 {
+        grew(l.size());
+        System.alloc_zeroed(l)
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        NOW.fetch_sub(l.size(), Ordering::Relaxed);
+        System.dealloc(p, l)
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        if new > l.size() {
+            grew(new - l.size());
+        } else {
+            NOW.fetch_sub(l.size() - new, Ordering::Relaxed);
+        }
+        System.realloc(p, l, new)
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Bytes per pixel a read may peak at: the image (32) and the decoder's
+/// samples (at most 8 for 16-bit RGBA; an f32 EXR's are freed channel by
+/// channel as they are converted, at most one f32 plane beyond the image),
+/// with 4 to spare for buffers and tables.
+const PEAK_BYTES_PER_PIXEL: f64 = 44.0;
+
+/// The peak of allocated bytes above what was allocated before, while `f`
+/// runs; one measurement at a time (the only test of this binary).
+fn peak_of<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    let base = NOW.load(Ordering::Relaxed);
+    PEAK.store(base, Ordering::Relaxed);
+    let out = f();
+    (out, PEAK.load(Ordering::Relaxed) - base)
+}
+
+#[test]
+fn reading_an_image_holds_it_once() {
+    let (w, h) = (1024, 1024);
+    let dir = tempfile::tempdir().unwrap();
+    {
+        let mut img = Image::new(w, h);
+        for c in 0..3 {
+            for (i, v) in img.rgb[c].iter_mut().enumerate() {
+                *v = ((i * (c + 3)) % 97) as f64 / 97.0;
+            }
+        }
+        img.alpha = Some(vec![0.75; w * h]);
+        write_exr(&dir.path().join("i.exr"), &img, None).unwrap();
+        write_image(&dir.path().join("i.png"), &img, PngDepth::Sixteen).unwrap();
+    }
+    for name in ["i.exr", "i.png"] {
+        let ((img, _), peak) = peak_of(|| read_image(&dir.path().join(name), None).unwrap());
+        assert!(img.alpha.is_some());
+        let per_pixel = peak as f64 / (w * h) as f64;
+        eprintln!("{name}: peak {per_pixel:.1} bytes per pixel");
+        assert!(
+            per_pixel <= PEAK_BYTES_PER_PIXEL,
+            "{name}: reading peaked at {per_pixel:.1} bytes per pixel, above \
+             {PEAK_BYTES_PER_PIXEL} (32 for the image itself)"
+        );
+        // The image itself is 32 bytes per pixel: the measure is not vacuous.
+        assert!(per_pixel >= 32.0, "{name}: {per_pixel}");
+    }
+}
