@@ -4,7 +4,7 @@
 //! any thread count and any scheduler, and lets disjoint shards of a run,
 //! traced on different machines, merge into exactly the single run.
 
-use super::tally::{BinSums, ChunkTally, Moments};
+use super::tally::{BinSums, ChunkTally, ExitSums, Moments};
 use serde::{Deserialize, Serialize};
 
 /// A non-negative number hi 2^-64 + lo 2^-128, exact for every f64 in
@@ -144,6 +144,61 @@ impl ExactBins {
     }
 }
 
+/// Exact exit-angle sums (`ExitSums`); empty when not tallied.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ExactExit {
+    pub ra: ExactBins,
+    pub a: ExactBins,
+    pub a_cross: Vec<ExactSum>,
+}
+
+impl ExactExit {
+    pub fn is_empty(&self) -> bool {
+        self.a.sum.is_empty()
+    }
+
+    /// Adds a chunk's sums, taking their layout on first use (every chunk
+    /// of a run has the same).
+    fn add_chunk(&mut self, e: &ExitSums) {
+        if e.is_empty() {
+            return;
+        }
+        if self.is_empty() {
+            self.ra = ExactBins::new(e.ra.sum.len());
+            self.a = ExactBins::new(e.a.sum.len());
+            self.a_cross = vec![ExactSum::default(); e.a_cross.len()];
+        }
+        self.ra.add_chunk(&e.ra);
+        self.a.add_chunk(&e.a);
+        for (s, x) in self.a_cross.iter_mut().zip(&e.a_cross) {
+            s.add_f64(*x);
+        }
+    }
+
+    fn add(&mut self, o: &ExactExit) {
+        if o.is_empty() {
+            return;
+        }
+        if self.is_empty() {
+            *self = o.clone();
+            return;
+        }
+        self.ra.add(&o.ra);
+        self.a.add(&o.a);
+        for (s, x) in self.a_cross.iter_mut().zip(&o.a_cross) {
+            s.add(x);
+        }
+    }
+
+    pub fn to_f64(&self) -> ExitSums {
+        ExitSums {
+            ra: self.ra.to_f64(),
+            a: self.a.to_f64(),
+            a_cross: self.a_cross.iter().map(|x| x.to_f64()).collect(),
+        }
+    }
+}
+
 /// Number of f64 totals of a `ChunkTally` (see `scalars`).
 const SCALARS: usize = 13;
 
@@ -177,6 +232,9 @@ pub struct ExactTally {
     pub totals: Vec<ExactSum>,
     pub rd_bins: ExactBins,
     pub single_bins: ExactBins,
+    /// Exit-angle sums (angle-resolved runs only).
+    #[serde(default, skip_serializing_if = "ExactExit::is_empty")]
+    pub exit: ExactExit,
 }
 
 impl ExactTally {
@@ -208,6 +266,7 @@ impl ExactTally {
         }
         self.rd_bins.add_chunk(&t.rd_bins);
         self.single_bins.add_chunk(&t.single_bins);
+        self.exit.add_chunk(&t.exit);
     }
 
     pub fn add(&mut self, o: &ExactTally) {
@@ -219,6 +278,7 @@ impl ExactTally {
         }
         self.rd_bins.add(&o.rd_bins);
         self.single_bins.add(&o.single_bins);
+        self.exit.add(&o.exit);
     }
 
     /// The totals rounded to f64, as one chunk tally.
@@ -243,6 +303,7 @@ impl ExactTally {
             roulette_gain: v[11],
             truncated: v[12],
             truncated_photons: self.truncated_photons,
+            exit: self.exit.to_f64(),
         }
     }
 }

@@ -578,6 +578,13 @@ fn check_gpu_options(opts: &McOptions, dispatch: GpuDispatch) -> Result<()> {
             "the GPU tracer has no single-scattering tally; use the CPU tracer".into(),
         ));
     }
+    if opts.angular.is_some() {
+        return Err(Error::Unsupported(
+            "the GPU tracer has no angle-resolved tallies (exit-angle bins, oblique \
+             incidence); use the CPU tracer (--backend cpu)"
+                .into(),
+        ));
+    }
     if opts.shard.is_some() {
         return Err(Error::Unsupported(
             "the GPU tracer does not trace shards (its sums are not the CPU's exact chunk \
