@@ -537,3 +537,51 @@ pub fn view_profile(p: &Profile, theta_deg: f64) -> Result<Profile> {
     });
     Ok(v)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ratio's standard error from the five sums equals the delta
+    /// method written out per photon: sqrt(N/(N-1) sum (x_i - R y_i)^2) /
+    /// sum y, R = sum x / sum y.
+    #[test]
+    fn ratio_stderr_is_the_delta_method() {
+        let ys: Vec<f64> = (0..50).map(|i| ((i * 37) % 11) as f64 * 0.1).collect();
+        let xs: Vec<f64> = ys
+            .iter()
+            .enumerate()
+            .map(|(i, y)| if i % 3 == 0 { *y } else { 0.3 * y })
+            .collect();
+        let (sx, sy): (f64, f64) = (xs.iter().sum(), ys.iter().sum());
+        let r = sx / sy;
+        let direct = (50.0 / 49.0
+            * xs.iter()
+                .zip(&ys)
+                .map(|(x, y)| (x - r * y).powi(2))
+                .sum::<f64>())
+        .sqrt()
+            / sy;
+        let sxx = xs.iter().map(|x| x * x).sum();
+        let syy = ys.iter().map(|y| y * y).sum();
+        let sxy = xs.iter().zip(&ys).map(|(x, y)| x * y).sum();
+        let got = ratio_stderr(sx, sxx, sxy, sy, syy, 50);
+        assert!((got - direct).abs() < 1e-14, "{got} vs {direct}");
+    }
+
+    #[test]
+    fn bins_and_shares() {
+        let l = AngleLayout {
+            angle_bins: 9,
+            radial: 0,
+        };
+        assert_eq!(l.angle_bin(1.0), 0);
+        assert_eq!(l.angle_bin(0.0), 8);
+        assert_eq!(l.angle_bin(25f64.to_radians().cos()), 2);
+        assert_eq!(l.angle_bin(9.999f64.to_radians().cos()), 0);
+        assert_eq!(l.angle_bin(10.001f64.to_radians().cos()), 1);
+        let s = lambert_shares(2);
+        assert!((s[0] - 0.5).abs() < 1e-15 && (s[1] - 0.5).abs() < 1e-15);
+        assert_eq!(theta_edges_deg(3), [0.0, 30.0, 60.0, 90.0]);
+    }
+}
