@@ -70,6 +70,11 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("kernel scale", "fov_y_deg", &["--fov-y", "--fov"]),
     ("kernel scale", "sss_width", &["--sss-width"]),
     ("filter setup", "follow_surface", &["--follow-surface"]),
+    (
+        "filter setup",
+        "follow_surface_scene_units",
+        &["--follow-surface-scene-units"],
+    ),
     ("filter setup", "depth", &["--depth"]),
     ("advise", "depth", &["--depth"]),
     ("advise", "height", &["--height"]),

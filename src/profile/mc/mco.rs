@@ -218,7 +218,7 @@ fn write_angular(
                 * (da / 2.0).sin()
                 * t.cos();
             let _ = write!(s, "{} ", c_e(w / scale));
-            if (ir * na + ia + 1) % 5 == 0 {
+            if (ir * na + ia + 1).is_multiple_of(5) {
                 s.push('\n');
             }
         }
