@@ -14,6 +14,8 @@ use ssskit::filter::Image;
 use ssskit::kernel::Kernel2D;
 use ssskit::material::preset;
 use ssskit::profile::{Profile, RadialGrid, RadialInterp};
+use ssskit::report::record::{Record, RecordTable};
+use ssskit::report::table::Table;
 
 mod common;
 use common::half_space::gauss;
@@ -156,15 +158,16 @@ fn the_reference_is_the_blurred_step_sampled_or_averaged() {
     }
 }
 
-/// The reference skin1 profile at the scale of the issue's sphere (0.17
-/// mm per pixel): how much sharper the centre-sampled reference is at the
-/// edge (the pixels either side), and that `reference_kernel_sampled`
-/// builds the averaged kernel one pixel wider.
+/// The reference skin1 profile at 0.17 mm per pixel: how much sharper the
+/// centre-sampled reference is at the edge (the pixels either side), and
+/// that `reference_kernel_sampled` builds the averaged kernel one pixel
+/// wider. The table is the record `docs/records/reference-edge.json`
+/// (docs/filter.md shows it): this test fails when the record differs from
+/// what it computes, and rewrites it under `SSSKIT_BLESS=1`.
 #[test]
 fn edge_pixels_of_the_reference_skin1_profile() {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("profiles/reference/skin1.json");
-    let p = Profile::read(&path).unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let p = Profile::read(&root.join("profiles/reference/skin1.json")).unwrap();
     let mm = 0.17;
     let kc = reference_kernel_sampled(&p, mm, PixelSampling::Centre).unwrap();
     let ka = reference_kernel_sampled(&p, mm, PixelSampling::Average).unwrap();
@@ -173,24 +176,53 @@ fn edge_pixels_of_the_reference_skin1_profile() {
     let width = 2 * ka.size + 8;
     let img = step_image(width);
     let (oc, oa) = (convolve_2d(&img, &kc), convolve_2d(&img, &ka));
+    let mut table = Table::new(&[
+        "channel",
+        "pixel (0: first unlit)",
+        "centre-sampled",
+        "averaged",
+        "centre - averaged",
+        "closed forms: centre, averaged",
+    ]);
     for c in 0..3 {
         let step = Step::new(&p, c);
         for i in [width / 2 - 1, width / 2] {
             let x = (i as f64 + 0.5 - (width / 2) as f64) * mm;
             let (gc, ga) = (oc.rgb[c][width + i], oa.rgb[c][width + i]);
-            eprintln!(
-                "skin1 channel {c}, pixel {}: centre {gc:.5} average {ga:.5} (closed forms {:.5} \
-                 {:.5}): centre - average = {:+.4}",
-                i as i64 - (width / 2) as i64,
-                step.centre(x),
-                step.average(x, mm),
-                gc - ga
+            let (ec, ea) = (step.centre(x), step.average(x, mm));
+            // The reference truncates the profile at 99.9% of R_d (the
+            // closed forms do not).
+            assert!(
+                (ga - ea).abs() < 2e-3 && (gc - ec).abs() < 2e-3,
+                "{gc} {ga}"
             );
-            // The reference truncates the profile at 99.9% of R_d (here
-            // and in the closed forms' normalisation only the tail differs).
-            assert!((ga - step.average(x, mm)).abs() < 2e-3, "{ga}");
-            assert!((gc - step.centre(x)).abs() < 2e-3, "{gc}");
+            table.push(vec![
+                ["r", "g", "b"][c].to_string(),
+                format!("{:+}", i as i64 - (width / 2) as i64),
+                format!("{gc:.4}"),
+                format!("{ga:.4}"),
+                format!("{:+.4}", gc - ga),
+                format!("{ec:.4}, {ea:.4}"),
+            ]);
         }
+    }
+    let path = ssskit::report::record::docs_path("reference-edge");
+    let computed = RecordTable::from(&table);
+    if std::env::var_os("SSSKIT_BLESS").is_some_and(|v| v == "1") {
+        let mut r = Record::new(
+            "SSSKIT_BLESS=1 cargo test --release --test filter_reference_edge",
+            "any machine (deterministic)",
+        );
+        r.tables.insert("edge".into(), computed);
+        r.write(&path).unwrap();
+    } else {
+        let r = Record::read(&path).unwrap();
+        assert_eq!(
+            r.tables.get("edge"),
+            Some(&computed),
+            "{} is stale: rerun with SSSKIT_BLESS=1",
+            path.display()
+        );
     }
 }
 

@@ -110,7 +110,7 @@ pub fn h_iterated(a: f64) -> (Vec<(f64, f64)>, Vec<f64>) {
 }
 
 /// Unpolarised Fresnel reflectance from index 1 into `eta` (or out of it
-/// for `eta` < 1) at cosine `c`; 1 beyond the critical angle (Born and Wolf).
+/// for `eta` < 1) at cosine `c`; 1 beyond the critical angle.
 pub fn fresnel(c: f64, eta: f64) -> f64 {
     let s2 = (1.0 - c * c) / (eta * eta);
     if s2 >= 1.0 {
