@@ -125,34 +125,8 @@ impl Kernel2D {
             None => default_size(profile, extent),
         };
         let cell = 2.0 * extent / size as f64;
-        let mut data: [Vec<f64>; 3] = Default::default();
-        let mut captured = [0.0; 3];
-        for (k, &c) in idx.iter().enumerate() {
-            let interp = RadialInterp::new(profile, c);
-            let mut d = cell_integrals(&interp, size, cell);
-            let sum: f64 = d.iter().sum();
-            let tab = profile.tabulated_total(c);
-            captured[k] = sum / tab;
-            if !(sum > 0.0) || !sum.is_finite() {
-                return Err(Error::Unsupported(format!(
-                    "kernel grid ({size} cells over +-{extent} mm) holds no reflectance of channel '{}'",
-                    profile.channels[c].name()
-                )));
-            }
-            d.iter_mut().for_each(|v| *v /= sum);
-            data[k] = d;
-        }
-        let total_rd = [
-            profile.total_rd[idx[0]],
-            profile.total_rd[idx[1]],
-            profile.total_rd[idx[2]],
-        ];
-        Ok(Kernel2D {
-            size,
-            cell_mm: cell,
-            data,
-            total_rd,
-            captured,
+        normalised(profile, &idx, size, cell, &format!("+-{extent} mm"), |f| {
+            cell_integrals(f, size, cell)
         })
     }
 
@@ -195,30 +169,52 @@ impl Kernel2D {
                 "must be finite and > 0 (mm)",
             ));
         }
-        let mut data: [Vec<f64>; 3] = Default::default();
-        let mut captured = [0.0; 3];
-        for (k, &c) in idx.iter().enumerate() {
-            let interp = RadialInterp::new(profile, c);
-            let mut d = tent_integrals(&interp, size, cell_mm);
-            let sum: f64 = d.iter().sum();
-            captured[k] = sum / profile.tabulated_total(c);
-            if !(sum > 0.0) || !sum.is_finite() {
-                return Err(Error::Unsupported(format!(
-                    "kernel grid ({size} cells of {cell_mm} mm) holds no reflectance of channel '{}'",
-                    profile.channels[c].name()
-                )));
-            }
-            d.iter_mut().for_each(|v| *v /= sum);
-            data[k] = d;
-        }
-        Ok(Kernel2D {
+        let extent = size as f64 * cell_mm / 2.0;
+        normalised(
+            profile,
+            &idx,
             size,
             cell_mm,
-            data,
-            total_rd: idx.map(|c| profile.total_rd[c]),
-            captured,
-        })
+            &format!("+-{extent} mm"),
+            |f| tent_integrals(f, size, cell_mm),
+        )
     }
+}
+
+/// The kernel of `profile`'s channels `idx` (r, g, b) from the integrals
+/// `integrate` gives on a grid of `size` cells of `cell` mm (`what`
+/// describes it in errors): each channel normalised to sum 1, `captured` the
+/// sum over the profile's tabulated total.
+fn normalised(
+    profile: &Profile,
+    idx: &[usize; 3],
+    size: usize,
+    cell: f64,
+    what: &str,
+    integrate: impl Fn(&RadialInterp) -> Vec<f64>,
+) -> Result<Kernel2D> {
+    let mut data: [Vec<f64>; 3] = Default::default();
+    let mut captured = [0.0; 3];
+    for (k, &c) in idx.iter().enumerate() {
+        let mut d = integrate(&RadialInterp::new(profile, c));
+        let sum: f64 = d.iter().sum();
+        captured[k] = sum / profile.tabulated_total(c);
+        if !(sum > 0.0) || !sum.is_finite() {
+            return Err(Error::Unsupported(format!(
+                "kernel grid ({size} cells over {what}) holds no reflectance of channel '{}'",
+                profile.channels[c].name()
+            )));
+        }
+        d.iter_mut().for_each(|v| *v /= sum);
+        data[k] = d;
+    }
+    Ok(Kernel2D {
+        size,
+        cell_mm: cell,
+        data,
+        total_rd: idx.map(|c| profile.total_rd[c]),
+        captured,
+    })
 }
 
 /// Integrals of R_d over a cell of the shifted grid against 1, s, t and
