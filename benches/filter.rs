@@ -210,7 +210,7 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
             sss_width: 0.0025,
         },
         depth: Some(depth),
-        follow_surface: Some(300.0),
+        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
         ..table.clone()
     };
     let mut out = Vec::new();

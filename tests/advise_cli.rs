@@ -131,6 +131,8 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
                 "apply",
                 "--reference",
                 s(&profile),
+                "--reference-sampling",
+                "centre",
                 "--input",
                 s(&input),
                 "--mm-per-pixel",

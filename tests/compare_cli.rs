@@ -150,6 +150,8 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
                 "apply",
                 "--reference",
                 &profile,
+                "--reference-sampling",
+                "centre",
                 "--input",
                 p(&input),
                 "--mm-per-pixel",

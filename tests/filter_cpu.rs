@@ -151,6 +151,8 @@ fn cli_reference_equals_the_library() {
         "apply",
         "--reference",
         p(&prof),
+        "--reference-sampling",
+        "centre",
         "--input",
         p(&input),
         "--out",
@@ -218,7 +220,7 @@ fn constant_stays_constant_and_black_stays_black() {
                         height: h,
                         data: (0..w * h).map(|i| (i % 7) as f64 / 3.0).collect(),
                     }),
-                    follow_surface: Some(300.0),
+                    follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
                     specular: None,
                     jitter: false,
                 },
@@ -249,7 +251,7 @@ fn cpu_results_do_not_depend_on_the_thread_count() {
     let img = noise_image(50, 40, 3, 0.0);
     let k = gaussian_kernel(3, 17);
     let setup = Setup {
-        follow_surface: Some(1.0),
+        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(1.0)),
         depth: Some(step_depth(50, 40)),
         ..plain(taps_for(&k, Factors::Taps, None), 0.2)
     };

@@ -108,7 +108,7 @@ fn flat_and_depth_aware(taps: &[usize], mm: f64, jitter: bool) {
                     sss_width: 0.1,
                 },
                 depth: Some(depth.clone()),
-                follow_surface: Some(300.0),
+                follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
                 ..flat.clone()
             };
             check(
@@ -152,7 +152,7 @@ fn gpu_equals_cpu_with_strength_specular_and_full_factors() {
         scale: Scale::MmPerPixel(0.2),
         depth: Some(depth_with_discontinuities(w, h)),
         strength: Some(strength),
-        follow_surface: Some(2.0),
+        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(2.0)),
         specular: Some(noise_image(w, h, 99, 0.0)),
         jitter: false,
     };

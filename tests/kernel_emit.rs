@@ -266,7 +266,7 @@ fn emitted_wgsl_array_through_the_wgpu_pass_reproduces_the_cpu() {
         },
         depth: Some(depth.clone()),
         strength: None,
-        follow_surface: Some(300.0),
+        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
         specular: None,
         jitter: false,
     };

@@ -8,7 +8,9 @@ use super::args::{
 use anyhow::Context;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
 use ssskit::filter::warnings::scale_warnings;
-use ssskit::filter::{check_kernel_fits, cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use ssskit::filter::{
+    check_kernel_fits, cpu, gpu, taps_for, Factors, FollowSurface, Image, Plane, Scale, Setup,
+};
 use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
 use std::path::{Path, PathBuf};
@@ -26,6 +28,24 @@ impl From<Precision> for cpu::Precision {
         match p {
             Precision::F32 => cpu::Precision::F32,
             Precision::F64 => cpu::Precision::F64,
+        }
+    }
+}
+
+/// Where `--reference` takes the exact convolution in each pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Sampling {
+    /// Averaged over the pixel (a box pixel filter).
+    Average,
+    /// At the pixel centre.
+    Centre,
+}
+
+impl From<Sampling> for cpu::PixelSampling {
+    fn from(s: Sampling) -> cpu::PixelSampling {
+        match s {
+            Sampling::Average => cpu::PixelSampling::Average,
+            Sampling::Centre => cpu::PixelSampling::Centre,
         }
     }
 }
@@ -68,6 +88,13 @@ pub struct Args {
     /// --mm-per-pixel (CPU only, f64).
     #[arg(long, value_name = "PROFILE.json")]
     reference: Option<PathBuf>,
+    /// With --reference: the convolution averaged over each pixel or at its centre [default: average].
+    ///
+    /// average: a box pixel filter, what a camera or a path tracer
+    /// records; centre: the discretisation the kernels' filters share,
+    /// which `compare` and `advise` measure kernels against.
+    #[arg(long, value_enum, value_name = "WHERE")]
+    reference_sampling: Option<Sampling>,
     /// Irradiance image in linear light (.exr) or sRGB (.png).
     #[arg(long, value_name = "IMAGE")]
     input: PathBuf,
@@ -107,11 +134,26 @@ pub struct Args {
     fov_y: FovYArg,
     #[command(flatten)]
     units_per_mm: UnitsPerMmArg,
-    /// Depth-aware lerp toward the centre colour with constant C [default: off].
+    /// Depth-aware lerp toward the centre colour with constant C, in metres [default: off].
     ///
-    /// Freude 2014, eq. 4.12; Jimenez uses 300.
-    #[arg(long, value_name = "C")]
+    /// Freude 2014, eq. 4.12. C is read in metres whatever the scene's unit
+    /// (Jimenez's shader uses 300 for a scene in metres): the rate is
+    /// C x 1e-6 / (--units-per-mm x tan(fov_y / 2)) per scene unit of depth,
+    /// or C x 1e-3 per mm of depth under --mm-per-pixel (depth in mm).
+    #[arg(long, value_name = "C", allow_hyphen_values = true)]
     follow_surface: Option<f64>,
+    /// The lerp of --follow-surface with C in the depth image's own units [default: off].
+    ///
+    /// Rate C x --units-per-mm / tan(fov_y / 2) (C per depth unit under
+    /// --mm-per-pixel): the behaviour of --follow-surface before it was
+    /// unit-safe, equal to it for a scene in metres.
+    #[arg(
+        long,
+        value_name = "C",
+        allow_hyphen_values = true,
+        conflicts_with = "follow_surface"
+    )]
+    follow_surface_scene_units: Option<f64>,
     /// Use the kernel's real-time tap table instead of its full-resolution factors.
     #[arg(long)]
     taps_only: bool,
@@ -135,7 +177,12 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let out_path = args.out.path()?;
-    let need_depth = args.fov_y.fov_y.is_some() || args.follow_surface.is_some();
+    if args.reference_sampling.is_some() && args.reference.is_none() {
+        anyhow::bail!(
+            "--reference-sampling applies to --reference (the exact 2D convolution) only"
+        );
+    }
+    let need_depth = args.fov_y.fov_y.is_some() || follow(&args).is_some();
     let input_depth_channel = match (&args.depth, need_depth, is_exr(&args.input)) {
         (None, true, true) => Some(args.depth_channel.clone().unwrap_or_else(|| "Z".into())),
         _ => None,
@@ -216,7 +263,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         scale,
         depth,
         strength,
-        follow_surface: args.follow_surface,
+        follow_surface: follow(&args),
         specular,
         jitter: args.jitter,
     };
@@ -281,6 +328,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The lerp the two follow-surface flags ask for.
+fn follow(args: &Args) -> Option<FollowSurface> {
+    args.follow_surface.map(FollowSurface::InMetres).or(args
+        .follow_surface_scene_units
+        .map(FollowSurface::InSceneUnits))
+}
+
 fn run_reference(
     args: &Args,
     reference: &Path,
@@ -292,7 +346,7 @@ fn run_reference(
     };
     if args.depth.is_some()
         || args.strength.is_some()
-        || args.follow_surface.is_some()
+        || follow(args).is_some()
         || args.specular.is_some()
         || args.taps_only
         || args.jitter
@@ -306,15 +360,20 @@ fn run_reference(
         anyhow::bail!("--reference runs on the CPU only (use --backend cpu or auto)");
     }
     let profile = Profile::read(reference)?;
-    let k = cpu::reference_kernel(&profile, m)?;
+    let sampling = cpu::PixelSampling::from(args.reference_sampling.unwrap_or(Sampling::Average));
+    let k = cpu::reference_kernel_sampled(&profile, m, sampling)?;
     cpu::check_reference_fits(image.width, image.height, k.size)?;
     eprintln!(
-        "exact 2D kernel: {0}x{0} pixels of {m} mm ({1})",
+        "exact 2D kernel: {0}x{0} pixels of {m} mm ({1}; {2})",
         k.size,
         if k.size > cpu::FFT_ABOVE {
             "FFT"
         } else {
             "direct"
+        },
+        match sampling {
+            cpu::PixelSampling::Average => "averaged over each pixel",
+            cpu::PixelSampling::Centre => "at pixel centres",
         }
     );
     Ok(cpu::convolve_2d(image, &k))

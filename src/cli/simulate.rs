@@ -11,7 +11,8 @@ use anyhow::Context;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::mc::gpu::McGpu;
 use ssskit::profile::mc::{
-    self, mci, BoundaryMode, EnergyBalance, McConfig, McOptions, PhotonBudget, Shard,
+    self, mci, AngularOptions, BoundaryMode, EnergyBalance, McConfig, McOptions, PhotonBudget,
+    Shard,
 };
 use ssskit::profile::{GridSpec, Profile};
 use std::io::Write as _;
@@ -165,10 +166,44 @@ struct Flags {
     csv: CsvArg,
     /// Also write MCML's .mco format [default: not written].
     ///
-    /// InParm, RAT, Rd_r in cm units; one channel, uniform grid; weight
-    /// beyond the grid in the last bin as MCML.
+    /// InParm, RAT, Rd_r in cm units, and Rd_a, Rd_ra with --angle-bins;
+    /// one channel, uniform grid; weight beyond the grid in the last radial
+    /// bin as MCML.
     #[arg(long, value_name = "FILE.mco")]
     mco: Option<PathBuf>,
+    /// Exit-angle bins over [0, 90] degrees [default: the .mci file's na when above 1, else none].
+    ///
+    /// MCML's na: R_d by exit angle (the exit factor pi L / M) and by
+    /// radius and angle (the radiance profile pi L(r, theta)), with
+    /// standard errors, in extra.angular of the profile.
+    #[arg(long, value_name = "NA")]
+    angle_bins: Option<usize>,
+    /// Oblique incidence angles in degrees, comma-separated, e.g. 30,60,80 [default: none].
+    ///
+    /// One more run per angle with the normal run's photon count, for the
+    /// entry factor R_d(theta_in) / R_d(0) (extra.angular.entry).
+    #[arg(
+        long,
+        value_name = "DEG,...",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    incidence: Vec<f64>,
+    /// Also write the profile seen from --view-angle [default: not written].
+    ///
+    /// pi L(r, theta) of the exit-angle bin holding that angle in place of
+    /// R_d(r), ready to fit a kernel from (needs exit-angle bins).
+    #[arg(long, value_name = "FILE.json")]
+    view_profile: Option<PathBuf>,
+    /// View angle from the normal in degrees, for --view-profile.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_hyphen_values = true,
+        requires = "view_profile"
+    )]
+    view_angle: f64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -238,6 +273,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(r) => Some(r.grid.clone()),
         None => None,
     };
+    let angle_bins = args
+        .angle_bins
+        .or(mci_run.as_ref().map(|r| r.angle_bins).filter(|&n| n > 1))
+        .unwrap_or(0);
+    let angular = (angle_bins > 0 || !args.incidence.is_empty()).then(|| AngularOptions {
+        angle_bins,
+        incidence_deg: args.incidence.clone(),
+    });
+    if args.view_profile.is_some() {
+        if angle_bins == 0 {
+            anyhow::bail!(
+                "--view-profile needs exit-angle bins: give --angle-bins NA (e.g. 9 for 10 degrees)"
+            );
+        }
+        if !(args.view_angle.is_finite() && (0.0..=90.0).contains(&args.view_angle)) {
+            anyhow::bail!(
+                "--view-angle: invalid value {}: must be in [0, 90] degrees from the normal",
+                args.view_angle
+            );
+        }
+    }
     let boundary = BoundaryMode::from(args.boundary);
     let cfg = McConfig {
         budget,
@@ -255,6 +311,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         roulette_threshold: args.roulette,
         shard: args.shard,
         abs_floor: args.abs_floor,
+        angular,
     };
     // The default name comes from the material's name, a label: made a
     // plain file name in the working folder.
@@ -278,10 +335,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(mco) = &args.mco {
         ssskit::io::check_extension(mco, &["mco"], "MCML output")?;
     }
+    if let Some(v) = &args.view_profile {
+        ssskit::io::check_extension(v, &["json"], "profile")?;
+    }
     for (flag, path) in [
         ("--out", Some(&out)),
         ("--csv", args.csv.csv.as_ref()),
         ("--mco", args.mco.as_ref()),
+        ("--view-profile", args.view_profile.as_ref()),
     ] {
         if let Some(p) = path {
             ssskit::io::check_output_file(p, flag)?;
@@ -314,6 +375,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .add_with(mco, |w| w.write_all(text.as_bytes()))
             .with_context(|| format!("writing {}", mco.display()))?;
     }
+    if let Some(v) = &args.view_profile {
+        mc::angular::view_profile(&profile, args.view_angle)
+            .context("--view-profile")?
+            .write_into(&mut outputs, v)
+            .with_context(|| format!("writing {}", v.display()))?;
+    }
     outputs.commit()?;
     print_summary(&profile, &out)?;
     Ok(())
@@ -338,6 +405,10 @@ fn open_gpu(backend: Backend, opts: &McOptions) -> anyhow::Result<Option<McGpu>>
         Backend::Auto => {
             if opts.boundary != BoundaryMode::Classic {
                 eprintln!("backend: cpu (auto: the GPU tracer has classic boundaries only)");
+                return Ok(None);
+            }
+            if opts.angular.is_some() {
+                eprintln!("backend: cpu (auto: the GPU tracer has no angle-resolved tallies)");
                 return Ok(None);
             }
             match open() {
@@ -436,8 +507,41 @@ pub(super) fn print_summary(p: &Profile, out: &Path) -> anyhow::Result<()> {
             bal
         )?;
     }
+    if let Some(a) = p.angular()? {
+        print_angular(p, &a)?;
+    }
     for w in p.warnings()? {
         super::errors::warn(&w);
     }
     outln!("wrote {}", out.display())
+}
+
+/// The exit factor along the normal and the entry factors, per channel.
+fn print_angular(p: &Profile, a: &mc::Angular) -> anyhow::Result<()> {
+    if let Some(x) = &a.exit {
+        let hi = a.theta_edges_deg.get(1).copied().unwrap_or(0.0);
+        outln!("exit factor pi L / M, exit angle 0-{hi:.3} degrees:")?;
+        for (i, c) in p.channels.iter().enumerate() {
+            outln!(
+                "{:>2} {:>9.4} +- {:.1e}",
+                c.name(),
+                x.factor[i][0],
+                x.factor_stderr[i][0]
+            )?;
+        }
+    }
+    if let Some(e) = &a.entry {
+        outln!("entry factor R_d(theta_in) / R_d(0):")?;
+        let head: Vec<String> = e.incidence_deg.iter().map(|t| format!("{t:>16}")).collect();
+        outln!("ch {}", head.join(" "))?;
+        for (i, c) in p.channels.iter().enumerate() {
+            let row: Vec<String> = e.factor[i]
+                .iter()
+                .zip(&e.factor_stderr[i])
+                .map(|(f, s)| format!("{f:>7.4} +- {s:<6.1e}"))
+                .collect();
+            outln!("{:>2} {}", c.name(), row.join(" "))?;
+        }
+    }
+    Ok(())
 }

@@ -9,7 +9,10 @@
 //! The entry points of the three CPU paths are re-exported here: callers
 //! name every CPU filter as `filter::cpu::…`.
 
-pub use super::exact::{check_reference_fits, convolve_2d, reference_kernel, FFT_ABOVE};
+pub use super::exact::{
+    check_reference_fits, convolve_2d, reference_kernel, reference_kernel_sampled, PixelSampling,
+    FFT_ABOVE,
+};
 pub use super::screen_space::apply_screen_space;
 use super::separable::apply_separable_in;
 pub use super::separable::{apply_separable, apply_separable_into, PixelKernel, Precision};

@@ -13,14 +13,42 @@ use crate::profile::Profile;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 
+/// Where the exact convolution is taken in each output pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PixelSampling {
+    /// Averaged over the pixel (a box pixel filter, what a camera or a path
+    /// tracer records): [`Kernel2D::pixel_averaged`].
+    Average,
+    /// At the pixel centre ([`Kernel2D::from_profile`]'s cell integrals):
+    /// the discretisation the separable filters' pixel kernels share, which
+    /// the image-space comparison of kernel models uses.
+    Centre,
+}
+
 /// The ground-truth 2D kernel of `profile` with cells the size of one pixel
-/// (`mm_per_pixel`), covering the radius that holds 99.9% of R_d.
+/// (`mm_per_pixel`), covering the radius that holds 99.9% of R_d, sampling
+/// the convolution at the pixel centres ([`PixelSampling::Centre`]).
 pub fn reference_kernel(profile: &Profile, mm_per_pixel: f64) -> Result<Kernel2D> {
+    reference_kernel_sampled(profile, mm_per_pixel, PixelSampling::Centre)
+}
+
+/// [`reference_kernel`] with the convolution taken as `sampling` says; the
+/// averaged kernel is one pixel wider on each side (the tent of the pixel
+/// box reaches one pixel further).
+pub fn reference_kernel_sampled(
+    profile: &Profile,
+    mm_per_pixel: f64,
+    sampling: PixelSampling,
+) -> Result<Kernel2D> {
     super::check_mm_per_pixel(mm_per_pixel)?;
     let radius = (0..profile.channels.len())
         .map(|c| crate::profile::radius_holding(profile, c, 0.999))
         .fold(0.0, f64::max);
     let half = (radius / mm_per_pixel).ceil().max(1.0) as usize;
+    let half = match sampling {
+        PixelSampling::Centre => half,
+        PixelSampling::Average => half + 1,
+    };
     let size = 2 * half + 1;
     if size > crate::kernel::kernel2d::MAX_SIZE {
         return Err(Error::invalid(
@@ -34,13 +62,16 @@ pub fn reference_kernel(profile: &Profile, mm_per_pixel: f64) -> Result<Kernel2D
             ),
         ));
     }
-    Kernel2D::from_profile(
-        profile,
-        &Kernel2DSpec {
-            size: Some(size),
-            extent_mm: Some(size as f64 * mm_per_pixel / 2.0),
-        },
-    )
+    match sampling {
+        PixelSampling::Centre => Kernel2D::from_profile(
+            profile,
+            &Kernel2DSpec {
+                size: Some(size),
+                extent_mm: Some(size as f64 * mm_per_pixel / 2.0),
+            },
+        ),
+        PixelSampling::Average => Kernel2D::pixel_averaged(profile, size, mm_per_pixel),
+    }
 }
 
 /// Kernel sizes above this use the FFT.

@@ -209,9 +209,7 @@ impl Gpu {
             accumulate: 0,
             jitter: setup.jitter as u32,
             step_base: setup.scale.step_base(h) as f32,
-            follow_k: setup
-                .follow_surface
-                .map_or(0.0, |c| setup.scale.follow_factor(c)) as f32,
+            follow_k: setup.follow_surface.map_or(0.0, |f| f.rate(&setup.scale)) as f32,
             _pad0: 0.0,
             _pad1: 0.0,
         };

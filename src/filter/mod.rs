@@ -105,17 +105,76 @@ impl Scale {
         }
     }
 
-    /// Factor k of the depth-aware lerp t = clamp(k |d_centre - d_sample|, 0, 1).
-    /// Freude 2014, eq. 4.12: k = C sss_width / tan(fov_y/2); orthographic: k = C
-    /// (depth in the depth image's units).
-    pub fn follow_factor(&self, c: f64) -> f64 {
-        match *self {
-            Scale::MmPerPixel(_) => c,
-            Scale::Perspective {
-                fov_y_deg,
-                sss_width,
-            } => c * sss_width / Scale::tan_half_fov(fov_y_deg),
+    fn depth_rate(&self, f: FollowSurface) -> f64 {
+        match (*self, f) {
+            // Freude 2014, eq. 4.12 as written: in the depth image's units.
+            (Scale::MmPerPixel(_), FollowSurface::InSceneUnits(c)) => c,
+            (
+                Scale::Perspective {
+                    fov_y_deg,
+                    sss_width,
+                },
+                FollowSurface::InSceneUnits(c),
+            ) => c * sss_width / Scale::tan_half_fov(fov_y_deg),
+            // The same with every length in metres of a scene whose kernel
+            // millimetre is a millimetre: sss_width 0.001 m, and a depth
+            // difference of d scene units is d / sss_width mm.
+            (Scale::MmPerPixel(_), FollowSurface::InMetres(c)) => c * MM_IN_M,
+            (
+                Scale::Perspective {
+                    fov_y_deg,
+                    sss_width,
+                },
+                FollowSurface::InMetres(c),
+            ) => c * MM_IN_M * MM_IN_M / (sss_width * Scale::tan_half_fov(fov_y_deg)),
         }
+    }
+}
+
+/// Metres per millimetre.
+const MM_IN_M: f64 = 0.001;
+
+/// The constant C of the depth-aware lerp toward the centre colour, t =
+/// clamp(k |d_centre - d_sample|, 0, 1) (Freude 2014, eq. 4.12: k = C
+/// sss_width / tan(fov_y / 2); orthographic k = C), and the unit its
+/// lengths are read in. Jimenez's shader (iryoku/separable-sss,
+/// SeparableSSS.h, SSSSBlurPS) writes C = 300 for a scene in metres; since k
+/// multiplies two lengths (sss_width and the depth difference), the same C
+/// in a scene in millimetres lerps a million times faster.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FollowSurface {
+    /// Unit-safe: C applied to lengths in metres, whatever the scene's unit,
+    /// the kernel at its physical size: k = C (0.001)^2 / (sss_width
+    /// tan(fov_y / 2)) per scene unit of depth (sss_width = scene units per
+    /// kernel mm, so a depth difference d is d / sss_width mm); orthographic
+    /// (depth in mm, the unit of the pixel scale) k = 0.001 C per mm. Equal
+    /// to `InSceneUnits` for a scene in metres (sss_width 0.001).
+    InMetres(f64),
+    /// Freude 2014, eq. 4.12 in the depth image's own units: depends on the
+    /// scene's length unit (the behaviour before `InMetres`).
+    InSceneUnits(f64),
+}
+
+impl FollowSurface {
+    /// The constant C.
+    pub fn constant(self) -> f64 {
+        match self {
+            FollowSurface::InMetres(c) | FollowSurface::InSceneUnits(c) => c,
+        }
+    }
+
+    /// The parameter's name in errors.
+    pub fn parameter(self) -> &'static str {
+        match self {
+            FollowSurface::InMetres(_) => "follow_surface",
+            FollowSurface::InSceneUnits(_) => "follow_surface_scene_units",
+        }
+    }
+
+    /// The factor k of t = clamp(k |d_centre - d_sample|, 0, 1) under
+    /// `scale`, per unit of the depth image.
+    pub fn rate(self, scale: &Scale) -> f64 {
+        scale.depth_rate(self)
     }
 }
 
@@ -207,8 +266,8 @@ pub struct Setup {
     pub depth: Option<Plane>,
     /// SSS strength per pixel, multiplies the step (Freude 2014, section 4.4).
     pub strength: Option<Plane>,
-    /// The constant C of Freude 2014, eq. 4.12 (Jimenez uses 300); None: no lerp.
-    pub follow_surface: Option<f64>,
+    /// The depth-aware lerp of Freude 2014, eq. 4.12; None: no lerp.
+    pub follow_surface: Option<FollowSurface>,
     /// Added after the blur.
     pub specular: Option<Image>,
     /// Per-pixel jittered tap offsets against banding ([`jitter_unit`]).
@@ -262,11 +321,12 @@ impl Setup {
                  a depth image or an input EXR with a depth channel",
             ));
         }
-        if let Some(c) = self.follow_surface {
+        if let Some(f) = self.follow_surface {
+            let c = f.constant();
             if !(c >= 0.0 && c.is_finite()) {
                 return Err(Error::invalid(
                     SETUP,
-                    "follow_surface",
+                    f.parameter(),
                     c,
                     "must be finite and >= 0",
                 ));
@@ -558,7 +618,7 @@ mod tests {
         let expected = w / scene_per_pixel;
         assert!((s.step_base(h) / d - expected).abs() < 1e-12 * expected);
         // Freude 2014, eq. 4.12: t = C sss_width |dd| / tan(F/2).
-        let k = s.follow_factor(300.0);
+        let k = FollowSurface::InSceneUnits(300.0).rate(&s);
         assert!((k - 300.0 * w / (fov.to_radians() / 2.0).tan()).abs() < 1e-12);
         assert_eq!(Scale::MmPerPixel(0.25).step_base(h), 4.0);
     }

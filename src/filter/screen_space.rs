@@ -23,7 +23,7 @@ pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
     let (w, h) = (image.width, image.height);
     let steps = setup.steps(w, h);
     let depth = setup.depth.as_ref().map(|d| d.data.as_slice());
-    let follow = setup.follow_surface.map(|c| setup.scale.follow_factor(c));
+    let follow = setup.follow_surface.map(|f| f.rate(&setup.scale));
     let mut out = Image::new(w, h);
     out.alpha = image.alpha.clone();
     for taps in &setup.passes {

@@ -7,7 +7,7 @@
 
 use super::gpu::Gpu;
 use super::signals::{generate, Signal};
-use super::{taps_for, Factors, Plane, Scale, Setup};
+use super::{taps_for, Factors, FollowSurface, Plane, Scale, Setup};
 use crate::error::Result;
 use crate::kernel::KernelFile;
 
@@ -73,7 +73,7 @@ pub fn time_post_process(
         },
         depth: Some(scene_depth(width, height)),
         strength: None,
-        follow_surface: Some(FOLLOW_SURFACE),
+        follow_surface: Some(FollowSurface::InMetres(FOLLOW_SURFACE)),
         specular: None,
         jitter: false,
     };

@@ -161,6 +161,12 @@ impl Profile {
         Ok(v)
     }
 
+    /// The angle-resolved tallies of a simulation (`extra.angular`: exit
+    /// angles, oblique incidence); `None` when it recorded none.
+    pub fn angular(&self) -> Result<Option<mc::Angular>> {
+        self.extra_record("angular", "the angle-resolved tables of `ssskit simulate`")
+    }
+
     /// `extra[key]` read as a `T`; `None` when absent.
     fn extra_record<T: serde::de::DeserializeOwned>(
         &self,

@@ -9,8 +9,13 @@
 //!   millimetres per pixel ([`ImageCase::signal`] builds a test signal).
 //! - [`Exact::new`]`(profile, case)`: the exact 2D convolution of the case
 //!   with the profile's ground-truth kernel at one pixel per cell
-//!   ([`cpu::reference_kernel`], [`cpu::convolve_2d`]). Build it once per
-//!   profile and case; every kernel is evaluated against it.
+//!   ([`cpu::reference_kernel`], [`cpu::convolve_2d`]), sampled at the pixel
+//!   centres: the discretisation the kernels' own pixel kernels share (box
+//!   integrals of their factors), so that the error is the model's and not
+//!   the difference between sampling and averaging over a pixel (`apply
+//!   --reference` averages by default; `--reference-sampling centre` is
+//!   this one). Build it once per profile and case; every kernel is
+//!   evaluated against it.
 //! - [`evaluate`]`(exact, kernel, taps, options) -> KernelImageErrors`: the
 //!   case filtered with the kernel's full-resolution factors and with its tap
 //!   table at each count in `taps` (all ranks, summed passes), and for each

@@ -7,6 +7,8 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+pub mod half_space;
+
 /// Path of the binary under test.
 pub const BIN: &str = env!("CARGO_BIN_EXE_ssskit");
 

@@ -192,7 +192,7 @@ pub fn assert_no_background_bleed(
         },
         depth: Some(step_depth(w, h)),
         strength: None,
-        follow_surface: Some(300.0),
+        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
         specular: None,
         jitter: false,
     };

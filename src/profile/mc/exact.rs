@@ -4,7 +4,7 @@
 //! any thread count and any scheduler, and lets disjoint shards of a run,
 //! traced on different machines, merge into exactly the single run.
 
-use super::tally::{BinSums, ChunkTally, Moments};
+use super::tally::{BinSums, ChunkTally, ExitSums, Moments};
 use serde::{Deserialize, Serialize};
 
 /// A non-negative number hi 2^-64 + lo 2^-128, exact for every f64 in
@@ -163,6 +163,81 @@ impl ExactBins {
     }
 }
 
+/// Exact exit-angle sums (`ExitSums`); empty when not tallied.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ExactExit {
+    pub ra: ExactBins,
+    pub a: ExactBins,
+    pub a_cross: Vec<ExactSum>,
+}
+
+impl ExactExit {
+    pub fn is_empty(&self) -> bool {
+        self.a.sum.is_empty()
+    }
+
+    fn same_layout(&self, ra: usize, a: usize, cross: usize) -> bool {
+        self.ra.sum.len() == ra
+            && self.ra.sum_sq.len() == ra
+            && self.a.sum.len() == a
+            && self.a.sum_sq.len() == a
+            && self.a_cross.len() == cross
+    }
+
+    /// Adds a chunk's sums, taking their layout on first use (every chunk
+    /// of a run has the same).
+    /// False when a sum is not one a tally holds (see `ExactSum::add_f64`)
+    /// or the layouts differ.
+    #[must_use]
+    fn add_chunk(&mut self, e: &ExitSums) -> bool {
+        if e.is_empty() {
+            return true;
+        }
+        if self.is_empty() {
+            self.ra = ExactBins::new(e.ra.sum.len());
+            self.a = ExactBins::new(e.a.sum.len());
+            self.a_cross = vec![ExactSum::default(); e.a_cross.len()];
+        }
+        if !self.same_layout(e.ra.sum.len(), e.a.sum.len(), e.a_cross.len()) {
+            return false;
+        }
+        let mut ok = self.ra.add_chunk(&e.ra);
+        ok &= self.a.add_chunk(&e.a);
+        for (s, x) in self.a_cross.iter_mut().zip(&e.a_cross) {
+            ok &= s.add_f64(*x);
+        }
+        ok
+    }
+
+    #[must_use]
+    fn add(&mut self, o: &ExactExit) -> bool {
+        if o.is_empty() {
+            return true;
+        }
+        if self.is_empty() {
+            *self = o.clone();
+            return true;
+        }
+        if !self.same_layout(o.ra.sum.len(), o.a.sum.len(), o.a_cross.len()) {
+            return false;
+        }
+        let mut ok = self.ra.add(&o.ra);
+        ok &= self.a.add(&o.a);
+        for (s, x) in self.a_cross.iter_mut().zip(&o.a_cross) {
+            ok &= s.add(x);
+        }
+        ok
+    }
+
+    pub fn to_f64(&self) -> ExitSums {
+        ExitSums {
+            ra: self.ra.to_f64(),
+            a: self.a.to_f64(),
+            a_cross: self.a_cross.iter().map(|x| x.to_f64()).collect(),
+        }
+    }
+}
+
 /// Number of f64 totals of a `ChunkTally` (see `scalars`).
 const SCALARS: usize = 13;
 
@@ -196,6 +271,9 @@ pub struct ExactTally {
     pub totals: Vec<ExactSum>,
     pub rd_bins: ExactBins,
     pub single_bins: ExactBins,
+    /// Exit-angle sums (angle-resolved runs only).
+    #[serde(default, skip_serializing_if = "ExactExit::is_empty")]
+    pub exit: ExactExit,
 }
 
 impl ExactTally {
@@ -227,6 +305,7 @@ impl ExactTally {
         }
         ok &= self.rd_bins.add_chunk(&t.rd_bins);
         ok &= self.single_bins.add_chunk(&t.single_bins);
+        ok &= self.exit.add_chunk(&t.exit);
         if !ok {
             return Err("a chunk sum is negative, not finite or beyond 2^64".into());
         }
@@ -243,6 +322,7 @@ impl ExactTally {
         }
         ok &= self.rd_bins.add(&o.rd_bins);
         ok &= self.single_bins.add(&o.single_bins);
+        ok &= self.exit.add(&o.exit);
         if !ok {
             return Err("an exact sum overflows its 192 bits".into());
         }
@@ -321,6 +401,8 @@ impl ExactTally {
         for (label, b) in [
             ("rd_bins", &self.rd_bins),
             ("single_bins", &self.single_bins),
+            ("exit.ra", &self.exit.ra),
+            ("exit.a", &self.exit.a),
         ] {
             for (i, (s, q)) in b.sum.iter().zip(&b.sum_sq).enumerate() {
                 moments(&format!("{label}[{i}]"), s.to_f64(), q.to_f64())?;
@@ -358,6 +440,7 @@ impl ExactTally {
             roulette_gain: v[11],
             truncated: v[12],
             truncated_photons: self.truncated_photons,
+            exit: self.exit.to_f64(),
         }
     }
 }

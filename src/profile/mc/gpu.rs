@@ -586,6 +586,13 @@ fn check_gpu_options(opts: &McOptions, dispatch: GpuDispatch) -> Result<()> {
             "the GPU tracer has no single-scattering tally; use the CPU tracer".into(),
         ));
     }
+    if opts.angular.is_some() {
+        return Err(Error::Unsupported(
+            "the GPU tracer has no angle-resolved tallies (exit-angle bins, oblique \
+             incidence); use the CPU tracer (--backend cpu)"
+                .into(),
+        ));
+    }
     if opts.shard.is_some() {
         return Err(Error::Unsupported(
             "the GPU tracer does not trace shards (its sums are not the CPU's exact chunk \
@@ -776,6 +783,24 @@ pub fn philox4x32_10(ctr: [u32; 4], key: [u32; 2]) -> [u32; 4] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The angle-resolved tallies exist on the CPU only: refused before any
+    /// work, saying so.
+    #[test]
+    fn angular_options_are_refused() {
+        let opts = McOptions {
+            angular: Some(crate::profile::mc::AngularOptions {
+                angle_bins: 9,
+                incidence_deg: vec![],
+            }),
+            ..McOptions::default()
+        };
+        let e = check_gpu_options(&opts, GpuDispatch::for_adapter(false))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no angle-resolved tallies"), "{e}");
+        assert!(check_gpu_options(&McOptions::default(), GpuDispatch::for_adapter(false)).is_ok());
+    }
 
     #[test]
     fn philox_matches_random123_known_answers() {

@@ -16,8 +16,9 @@
 //! ```
 //!
 //! A last layer at least `SEMI_INFINITE_CM` thick (MCML users write 1E8) is
-//! read as semi-infinite. MCML's depth and angle grids (dz, nz, na) are read
-//! and ignored: only the radial tally exists here. Clear layers (mua = mus =
+//! read as semi-infinite. MCML's depth grid (dz, nz) is read and ignored;
+//! its angle grid `na` is kept (`angle_bins`): above 1 it asks for the
+//! exit-angle tallies (Rd_a, Rd_ra). Clear layers (mua = mus =
 //! 0, e.g. glass slides) are not supported and are reported as such.
 
 use crate::error::{Error, Result};
@@ -37,6 +38,8 @@ pub struct McmlRun {
     pub material: Material,
     pub photons: u64,
     pub grid: RadialGrid,
+    /// MCML's `na`: exit-angle bins over [0, 90] degrees.
+    pub angle_bins: usize,
     /// The .mco name MCML would have written (informative).
     pub output_name: String,
     /// The file it came from.
@@ -157,6 +160,10 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
         let dr_line = no;
         let (no, t) = l.next(3, "nz nr na")?;
         let nr: usize = l.num(no, t[1], "nr")?;
+        let angle_bins: usize = l.num(no, t[2], "na")?;
+        if angle_bins == 0 {
+            return Err(Error::invalid(&run_ctx, "na", 0, "must be >= 1"));
+        }
         if nr > MAX_BINS {
             return Err(Error::format(
                 context,
@@ -227,6 +234,7 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
             material,
             photons,
             grid,
+            angle_bins,
             output_name,
             source: context.to_string(),
         });

@@ -1,12 +1,17 @@
 //! MCML's ASCII output (.mco, MCML 1.2 manual, section 6): the input
-//! parameters, the totals (RAT) and Rd_r, so that a run diffs line by line
-//! with an MCML run of the same .mci file. Units are MCML's: cm, cm^-1 and
-//! cm^-2. Only the radial reflectance is tallied here: A_l, A_z, Rd_a, Tt_r,
-//! Tt_a and the 2D arrays are not written.
+//! parameters, the totals (RAT), Rd_r and, when the run tallied exit angles,
+//! Rd_a and Rd_ra, so that a run diffs line by line with an MCML run of the
+//! same .mci file. Units are MCML's: cm, cm^-1, cm^-2 and sr^-1. A_l, A_z,
+//! Tt_r, Tt_a, A_rz and Tt_ra are not tallied here and not written.
 //!
 //! Where it follows MCML rather than the profile JSON: weight that leaves
-//! beyond the grid is added to the last Rd_r bin (MCML's convention); the JSON
-//! keeps it apart (`rd_beyond_rmax`) so that kernels see no spike there.
+//! beyond the grid is added to the last Rd_r bin (MCML's convention, its
+//! RecordR clamps the radius index), and to the last row of Rd_ra; the JSON
+//! keeps it apart (`rd_beyond_rmax`) so that kernels see no spike there. The
+//! angular arrays are scaled as MCML's ScaleRdTt does (mcmlgo.c, MCML
+//! 1.2.2): Rd_a by 2 pi da sin(a) (its approximation of the solid angle)
+//! and Rd_ra by the annulus 2 pi (i + 1/2) dr^2 times 4 pi sin(a) sin(da/2)
+//! cos(a), a at the bin centre.
 
 use crate::error::{Error, Result};
 use crate::profile::Profile;
@@ -93,21 +98,31 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
     let c = p.channels[0].index();
     let m = &p.material;
     let cm = |mm: f64| mm / 10.0;
+    let angular = p.angular()?;
+    let exit = angular
+        .as_ref()
+        .and_then(|a| a.exit.as_ref().map(|x| (a, x)));
+    let na = exit.map_or(1, |(a, _)| a.angle_bins);
     let mut s = String::new();
     let _ = writeln!(s, "A1 \t# Version number of the file format.\n");
+    let (cats, only) = if exit.is_some() {
+        (
+            "InParm, RAT, \n# Rd_r, Rd_a, \n# Rd_ra",
+            "InParm, RAT, Rd_r, Rd_a and Rd_ra",
+        )
+    } else {
+        ("InParm, RAT, Rd_r", "InParm, RAT and Rd_r")
+    };
+    let _ = writeln!(s, "####\n# Data categories include: \n# {cats} \n####\n");
     let _ = writeln!(
         s,
-        "####\n# Data categories include: \n# InParm, RAT, Rd_r \n####\n"
-    );
-    let _ = writeln!(
-        s,
-        "# Written by ssskit: only InParm, RAT and Rd_r; weight beyond the grid is in the last Rd_r bin.\n"
+        "# Written by ssskit: only {only}; weight beyond the grid is in the last radial bin.\n"
     );
     let _ = writeln!(s, "InParm \t\t\t# Input parameters. cm is used.");
     let _ = writeln!(s, "{output_name} \tA\t\t# output file name, ASCII.");
     let _ = writeln!(s, "{photons} \t\t\t# No. of photons");
     let _ = writeln!(s, "{}\t{}\t\t# dz, dr [cm]", c_g(cm(dr)), c_g(cm(dr)));
-    let _ = writeln!(s, "{}\t{}\t{}\t# No. of dz, dr, da.\n", 1, n, 1);
+    let _ = writeln!(s, "{}\t{}\t{}\t# No. of dz, dr, da.\n", 1, n, na);
     let _ = writeln!(s, "{}\t\t\t\t\t# Number of layers", m.layers.len());
     let _ = writeln!(s, "#n\tmua\tmus\tg\td\t# One line for each layer");
     let _ = writeln!(s, "{}\t\t\t\t\t# n for medium above", c_g(m.eta_above));
@@ -148,7 +163,67 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
         let _ = writeln!(s, "{}", c_e(mm2 * 100.0));
     }
     s.push('\n');
+    if let Some((a, x)) = exit {
+        write_angular(&mut s, p, a, x, cm(dr));
+    }
     Ok(s)
+}
+
+/// Rd_a (one value a line) and Rd_ra (five a line, `%12.4E ` each, a line
+/// break after every fifth value counted over the whole array), as MCML's
+/// WriteRd_a and WriteRd_ra, scaled as its ScaleRdTt.
+fn write_angular(
+    s: &mut String,
+    p: &Profile,
+    a: &crate::profile::mc::Angular,
+    x: &crate::profile::mc::angular::ExitTable,
+    dr_cm: f64,
+) {
+    use std::f64::consts::PI;
+    let na = a.angle_bins;
+    let nr = p.r.len();
+    let da = PI / (2.0 * na as f64);
+    let centre = |ia: usize| (ia as f64 + 0.5) * da;
+    let _ = writeln!(s, "Rd_a #Rd[0], [1],..Rd[na-1]. [sr-1]");
+    for ia in 0..na {
+        let _ = writeln!(
+            s,
+            "{}",
+            c_e(x.fraction[0][ia] / (2.0 * PI * da * centre(ia).sin()))
+        );
+    }
+    s.push('\n');
+    let _ = writeln!(
+        s,
+        "# Rd[r][angle]. [1/(cm2sr)].\n# Rd[0][0], [0][1],..[0][na-1]\n\
+         # Rd[1][0], [1][1],..[1][na-1]\n# ...\n# Rd[nr-1][0], [nr-1][1],..[nr-1][na-1]\nRd_ra"
+    );
+    let area_mm2 = |ir: usize| PI * (p.r_edges[ir + 1].powi(2) - p.r_edges[ir].powi(2));
+    for ir in 0..nr {
+        for ia in 0..na {
+            // The part of the incident light in the cell: pi L x area x share.
+            let mut w = x.radiance[0][ir][ia] * area_mm2(ir) * a.lambert_share[ia];
+            if ir + 1 == nr {
+                w += x.beyond_rmax[0][ia];
+            }
+            let t = centre(ia);
+            let scale = 2.0
+                * PI
+                * (ir as f64 + 0.5)
+                * dr_cm
+                * dr_cm
+                * 4.0
+                * PI
+                * t.sin()
+                * (da / 2.0).sin()
+                * t.cos();
+            let _ = write!(s, "{} ", c_e(w / scale));
+            if (ir * na + ia + 1).is_multiple_of(5) {
+                s.push('\n');
+            }
+        }
+    }
+    s.push('\n');
 }
 
 /// Writes `mco_text` atomically.

@@ -12,6 +12,7 @@
 //! the totals so far, and checks its rule between rounds, so the photon
 //! count does not depend on the thread count either.
 
+pub mod angular;
 mod balance;
 mod consumer;
 mod exact;
@@ -21,6 +22,7 @@ pub mod mco;
 mod tally;
 mod tracer;
 
+pub use angular::{Angular, AngularOptions};
 pub use balance::EnergyBalance;
 pub use consumer::{kernel_geometry, KernelGeometry};
 pub use tally::Moments;
@@ -157,6 +159,10 @@ pub struct McOptions {
     /// 0 turns it off.
     #[serde(default)]
     pub abs_floor: f64,
+    /// Angle-resolved tallies (exit angle, oblique incidence); None: the
+    /// default walk, which carries none of their code.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular: Option<AngularOptions>,
 }
 
 impl Default for McOptions {
@@ -170,6 +176,7 @@ impl Default for McOptions {
             roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
             shard: None,
             abs_floor: DEFAULT_ABS_FLOOR,
+            angular: None,
         }
     }
 }
@@ -235,6 +242,9 @@ pub fn simulate_with(
         ),
     };
     grid.check_edges()?;
+    if let Some(a) = &opts.angular {
+        a.validate(grid.len())?;
+    }
     let threads = tally_threads(grid.len(), cfg.channels.len(), cfg.threads)?;
     let pool = crate::limits::thread_pool(threads)?;
     let cap = cfg.budget.max_photons();
@@ -261,6 +271,7 @@ pub fn simulate_with(
             single_scatter: opts.single_scatter,
             roulette_threshold: opts.roulette_threshold,
             chunk_events: u64::MAX,
+            angular: opts.angular.as_ref().and_then(|a| a.layout(grid.len())),
         },
         stacks,
         cap,
@@ -274,6 +285,16 @@ pub fn simulate_with(
     let runs = pool.install(|| job.run(progress));
     progress.finish();
     let runs = runs?;
+    let angular = match opts.angular.as_ref() {
+        None => None,
+        Some(a) => {
+            let photons: Vec<u64> = runs.iter().map(|r| r.tally.photons).collect();
+            let oblique =
+                pool.install(|| angular::trace_incidences(&job, a, &photons, progress))?;
+            let tallies: Vec<ExactTally> = runs.iter().map(|r| r.tally.clone()).collect();
+            Some((a, angular::results(&grid, a, &tallies, &oblique)))
+        }
+    };
     let mut p = build_profile(
         material,
         cfg,
@@ -283,6 +304,10 @@ pub fn simulate_with(
         &runs,
         start.elapsed().as_secs_f64(),
     );
+    if let Some((a, results)) = angular {
+        p.source.params["angular"] = json!(a);
+        p.extra["angular"] = json!(results);
+    }
     if let Some(s) = opts.shard {
         let record = ShardRecord {
             k: s.k,
@@ -401,6 +426,16 @@ fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
             }
         }
         _ => {}
+    }
+    if opts.shard.is_some() && opts.angular.is_some() {
+        return Err(Error::invalid(
+            CONTEXT,
+            "shard",
+            opts.shard
+                .map_or(String::new(), |s| format!("{}/{}", s.k, s.n)),
+            "angle-resolved tallies (exit-angle bins, incidence angles) are not traced in \
+             shards: run them in one piece",
+        ));
     }
     if let Some(s) = opts.shard {
         if !matches!(cfg.budget, PhotonBudget::Fixed(_)) {

@@ -122,6 +122,8 @@ pub struct ChunkTally {
     pub roulette_gain: f64,
     pub truncated: f64,
     pub truncated_photons: u64,
+    /// Exit-angle tallies (empty unless `WalkSettings::angular`).
+    pub exit: ExitSums,
 }
 
 impl ChunkTally {
@@ -137,9 +139,12 @@ impl ChunkTally {
     pub fn reset(&mut self) {
         let rd_bins = std::mem::take(&mut self.rd_bins);
         let single_bins = std::mem::take(&mut self.single_bins);
+        let mut exit = std::mem::take(&mut self.exit);
+        exit.fill_zero();
         *self = ChunkTally {
             rd_bins,
             single_bins,
+            exit,
             ..Default::default()
         };
         for v in [
@@ -159,6 +164,122 @@ impl ChunkTally {
     }
 }
 
+/// How exits are binned by angle: `angle_bins` bins uniform in the polar
+/// angle of the escaping direction in the ambient medium, over [0, 90]
+/// degrees (MCML's `na`, da = pi / (2 na)), crossed with the radial bins
+/// plus one row for exits beyond r_max (`radial` rows in all; 0: no
+/// radius-angle table, only the angle bins).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AngleLayout {
+    pub angle_bins: usize,
+    pub radial: usize,
+}
+
+impl AngleLayout {
+    /// The bin of an exit with cosine `cos_out` (in the ambient medium) in
+    /// [0, 1]: floor(theta / da), the last bin for theta = 90 degrees, as
+    /// MCML's RecordR.
+    #[inline(always)]
+    pub fn angle_bin(&self, cos_out: f64) -> usize {
+        let theta = cos_out.clamp(0.0, 1.0).acos();
+        let k = (theta * (2.0 * self.angle_bins as f64 / std::f64::consts::PI)) as usize;
+        k.min(self.angle_bins - 1)
+    }
+}
+
+/// Sums of the exit-angle tallies: `ra[ir * angle_bins + ia]` (radius row
+/// `ir`, the last row beyond r_max) and `a[ia]` over the whole plane with
+/// `a_cross`, the sum over photons of (weight in bin ia) x (photon's whole
+/// R_d), for the standard error of each bin's share of R_d.
+#[derive(Clone, Debug, Default)]
+pub struct ExitSums {
+    pub ra: BinSums,
+    pub a: BinSums,
+    pub a_cross: Vec<f64>,
+}
+
+impl ExitSums {
+    pub fn new(l: AngleLayout) -> ExitSums {
+        ExitSums {
+            ra: BinSums::new(l.radial * l.angle_bins),
+            a: BinSums::new(l.angle_bins),
+            a_cross: vec![0.0; l.angle_bins],
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.a.sum.is_empty()
+    }
+
+    fn fill_zero(&mut self) {
+        for v in [
+            &mut self.ra.sum,
+            &mut self.ra.sum_sq,
+            &mut self.a.sum,
+            &mut self.a.sum_sq,
+            &mut self.a_cross,
+        ] {
+            v.fill(0.0);
+        }
+    }
+}
+
+/// One packet's exit-angle scores before they are squared (see
+/// `PhotonScratch`).
+#[derive(Clone, Debug, Default)]
+pub struct ExitScratch {
+    ra: Vec<f64>,
+    touched_ra: Vec<u32>,
+    a: Vec<f64>,
+    touched_a: Vec<u32>,
+}
+
+impl ExitScratch {
+    pub fn new(l: AngleLayout) -> ExitScratch {
+        ExitScratch {
+            ra: vec![0.0; l.radial * l.angle_bins],
+            touched_ra: Vec::new(),
+            a: vec![0.0; l.angle_bins],
+            touched_a: Vec::new(),
+        }
+    }
+
+    /// Scores weight `w` leaving through angle bin `ia` at radius row `ir`
+    /// (ignored when the layout has no radius-angle table).
+    #[inline(always)]
+    pub fn score(&mut self, l: AngleLayout, ir: usize, ia: usize, w: f64) {
+        if self.a[ia] == 0.0 {
+            self.touched_a.push(ia as u32);
+        }
+        self.a[ia] += w;
+        if l.radial > 0 {
+            let i = ir.min(l.radial - 1) * l.angle_bins + ia;
+            if self.ra[i] == 0.0 {
+                self.touched_ra.push(i as u32);
+            }
+            self.ra[i] += w;
+        }
+    }
+
+    /// Adds the packet's per-bin totals, their squares and their products
+    /// with the packet's R_d `rd` to `t`.
+    pub fn flush(&mut self, t: &mut ExitSums, rd: f64) {
+        for &i in &self.touched_a {
+            let v = std::mem::take(&mut self.a[i as usize]);
+            t.a.sum[i as usize] += v;
+            t.a.sum_sq[i as usize] += v * v;
+            t.a_cross[i as usize] += v * rd;
+        }
+        self.touched_a.clear();
+        for &i in &self.touched_ra {
+            let v = std::mem::take(&mut self.ra[i as usize]);
+            t.ra.sum[i as usize] += v;
+            t.ra.sum_sq[i as usize] += v * v;
+        }
+        self.touched_ra.clear();
+    }
+}
+
 /// One packet's radial scores before they are squared: a packet may leave
 /// weight in the same bin several times (splitting), and the second moment
 /// must be of its total per bin.
@@ -169,6 +290,8 @@ pub struct PhotonScratch {
     touched_single: Vec<u32>,
     beyond: f64,
     single: f64,
+    /// Exit-angle scores (empty unless the walk tallies them).
+    pub exit: ExitScratch,
 }
 
 impl PhotonScratch {
@@ -180,6 +303,7 @@ impl PhotonScratch {
             touched_single: Vec::new(),
             beyond: 0.0,
             single: 0.0,
+            exit: ExitScratch::default(),
         }
     }
 

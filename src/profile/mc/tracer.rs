@@ -2,7 +2,7 @@
 //! in f64, through a stack of layers between two ambient media.
 //! z points down into the material; the top surface is z = 0.
 
-use super::tally::{BinIndex, ChunkTally, PhotonScratch};
+use super::tally::{AngleLayout, BinIndex, ChunkTally, ExitScratch, ExitSums, PhotonScratch};
 use crate::material::{Channel, Material};
 use crate::profile::fresnel::{fresnel_dielectric, specular_normal};
 use rand_core::RngCore;
@@ -87,8 +87,11 @@ pub(crate) struct Stack {
     layers: Vec<LayerOptics>,
     n_above: f64,
     n_below: f64,
-    /// Fresnel reflectance of the beam at normal entry.
+    /// Fresnel reflectance of the beam at entry (normal incidence unless
+    /// built by `Stack::oblique`).
     pub specular: f64,
+    /// The refracted beam's direction in the first layer, (ux, uz).
+    launch: (f64, f64),
 }
 
 impl Stack {
@@ -123,7 +126,22 @@ impl Stack {
             n_above: m.eta_above,
             n_below: m.eta_below,
             specular: specular_normal(m.eta_above, m.layers[0].eta),
+            launch: (0.0, 1.0),
         }
+    }
+
+    /// The stack lit by a pencil beam at `theta_in` (radians, from the
+    /// normal, in the x-z plane): the unpolarised Fresnel reflectance at
+    /// that angle is reported apart and 1 - R enters along the direction
+    /// Snell's law gives (MCML's launch, Wang et al. 1995, at any angle).
+    pub fn oblique(m: &Material, ch: Channel, theta_in: f64) -> Stack {
+        let mut s = Stack::new(m, ch);
+        let (sin_i, cos_i) = theta_in.sin_cos();
+        let (n_i, n_t) = (s.n_above, s.layers[0].n);
+        s.specular = fresnel_dielectric(cos_i, n_t / n_i);
+        let sin_t = (sin_i * n_i / n_t).min(1.0);
+        s.launch = (sin_t, (1.0 - sin_t * sin_t).max(0.0).sqrt());
+        s
     }
 }
 
@@ -316,6 +334,8 @@ pub(crate) struct WalkSettings {
     /// crosses it is abandoned and the chunk's tally then holds more events
     /// than this, which marks it unfinished (`Job::trace` discards it).
     pub chunk_events: u64,
+    /// Tally exits by angle too (None: the default walk, without the code).
+    pub angular: Option<AngleLayout>,
 }
 
 /// Where a packet goes at a boundary.
@@ -355,14 +375,36 @@ pub(crate) fn trace_photons(
         az: Azimuths::new(),
         log: LogTable::new(),
     };
-    for _ in 0..photons {
-        trace_one(stack, bins, set, &mut local, &tables, tally, scratch);
+    // The angular tally is a separate instance of the walk, so that the
+    // default one carries none of its code.
+    match set.angular {
+        None => {
+            let none = AngleLayout {
+                angle_bins: 0,
+                radial: 0,
+            };
+            for _ in 0..photons {
+                trace_one::<false>(stack, bins, set, &mut local, &tables, tally, scratch, none);
+            }
+        }
+        Some(l) => {
+            if tally.exit.a.sum.len() != l.angle_bins
+                || tally.exit.ra.sum.len() != l.radial * l.angle_bins
+            {
+                tally.exit = ExitSums::new(l);
+                scratch.exit = ExitScratch::new(l);
+            }
+            for _ in 0..photons {
+                trace_one::<true>(stack, bins, set, &mut local, &tables, tally, scratch, l);
+            }
+        }
     }
     *rng = local;
 }
 
 #[inline(always)]
-fn trace_one(
+#[allow(clippy::too_many_arguments)]
+fn trace_one<const ANGULAR: bool>(
     stack: &Stack,
     bins: &BinIndex,
     set: &WalkSettings,
@@ -370,6 +412,7 @@ fn trace_one(
     tables: &Tables,
     tally: &mut ChunkTally,
     scratch: &mut PhotonScratch,
+    angles: AngleLayout,
 ) {
     if tally.events > set.chunk_events {
         return;
@@ -385,9 +428,9 @@ fn trace_one(
         x: 0.0,
         y: 0.0,
         z: 0.0,
-        ux: 0.0,
+        ux: stack.launch.0,
         uy: 0.0,
-        uz: 1.0,
+        uz: stack.launch.1,
         w: 1.0 - stack.specular,
         layer: 0,
         scatters: 0,
@@ -463,6 +506,16 @@ fn trace_one(
                             rd += escaping;
                             let radius = (p.x * p.x + p.y * p.y).sqrt();
                             scratch.score_reflectance(bins, radius, escaping, p.scatters);
+                            if ANGULAR {
+                                // Snell's law gives the exit direction in the
+                                // ambient medium, which MCML bins (RecordR).
+                                let k = n_i / n;
+                                let cos_out = (1.0 - (1.0 - cos_i * cos_i) * k * k).max(0.0).sqrt();
+                                let ir = bins.bin(radius).unwrap_or(bins.len());
+                                scratch
+                                    .exit
+                                    .score(angles, ir, angles.angle_bin(cos_out), escaping);
+                            }
                         } else {
                             tr += escaping;
                         }
@@ -533,6 +586,9 @@ fn trace_one(
     tally.transmittance.add(tr);
     tally.absorbed.add(absorbed);
     scratch.flush(tally, set.single_scatter);
+    if ANGULAR {
+        scratch.exit.flush(&mut tally.exit, rd);
+    }
 }
 
 #[cfg(test)]
@@ -691,6 +747,7 @@ mod tests {
             single_scatter: false,
             roulette_threshold: DEFAULT_ROULETTE_THRESHOLD,
             chunk_events: u64::MAX,
+            angular: None,
         };
         let run = |set: &WalkSettings| {
             let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
