@@ -76,6 +76,12 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),
     ("engine", "scene units per mm", &["--units-per-mm"]),
     ("bench", "frames", &["--frames"]),
+    ("scene render", "spp", &["--spp"]),
+    ("scene render", "target_error", &["--target-error"]),
+    ("scene render", "max_spp", &["--max-spp"]),
+    ("scene render", "max_work", &["--max-work"]),
+    ("scene render", "gbuffer_side", &["--gbuffer-side"]),
+    (mc::CONTEXT, "photons", &["--profile-photons"]),
 ];
 
 /// Where the value is fine but a setting does not suit it: (context,

@@ -18,6 +18,7 @@ mod profile;
 mod profile_source;
 mod profiles;
 mod progress;
+mod scene;
 mod signal;
 mod simulate;
 mod study;
@@ -70,6 +71,8 @@ enum Command {
     Bench(bench::Args),
     /// Kernel models across materials, in kernel and image space (report, CSV, JSON, plots).
     Compare(compare::Args),
+    /// Path-trace a scene (TOML) to an EXR: radiance, its standard error and the G-buffer.
+    Scene(scene::Args),
 }
 
 /// How a value of an enumerated flag is spelled on the command line.
@@ -129,6 +132,7 @@ pub fn main() -> i32 {
         Command::Engine(a) => engine::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Scene(a) => scene::run(a),
     };
     match result.and_then(|()| out::flush()) {
         Ok(()) => 0,

@@ -249,6 +249,56 @@ fn channel_list(ch: &[(String, Vec<f64>)]) -> String {
         .join(", ")
 }
 
+/// Every channel of an EXR file's first layer, by name, with its size
+/// (checked against the caps before the pixels are read).
+pub fn read_exr_channels(path: &Path) -> Result<((usize, usize), Vec<(String, Vec<f64>)>)> {
+    exr_channels(path)
+}
+
+/// Writes named f32 channels of `width` x `height` samples (a scene
+/// render's planes) atomically; refuses what ssskit could not read back.
+pub fn write_exr_channels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: &[(&str, &[f64])],
+) -> Result<()> {
+    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec, WritableImage};
+    crate::limits::check_image_size(&path.display().to_string(), width, height)?;
+    let mut list = SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
+    for (name, v) in channels {
+        if v.len() != width * height {
+            return Err(Error::format(
+                path,
+                format!(
+                    "channel {name} has {} samples for {width}x{height} pixels",
+                    v.len()
+                ),
+            ));
+        }
+        if let Some(i) = v.iter().position(|x| !(x.abs() <= f32::MAX as f64)) {
+            return Err(Error::format(
+                path,
+                format!(
+                    "refusing to write sample {} at pixel ({}, {}) channel {name}: not a finite f32",
+                    v[i],
+                    i % width,
+                    i / width
+                ),
+            ));
+        }
+        let samples = FlatSamples::F32(v.iter().map(|&x| x as f32).collect());
+        list.push(AnyChannel::new(*name, samples));
+    }
+    let exr_image = exr::image::Image::from_channels((width, height), AnyChannels::sort(list));
+    crate::io::write_atomic_with(path, |w| {
+        exr_image
+            .write()
+            .to_buffered(w)
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    })
+}
+
 fn exr_channels(path: &Path) -> Result<Channels> {
     use exr::prelude::{read_all_flat_layers_from_file, Vec2};
     if let Err(e) = std::fs::metadata(path) {
