@@ -224,7 +224,7 @@ impl<'a> ChannelScene<'a> {
     /// sum over the unscattered beam's ways to x of p_HG(cos) E_x e^{-sigma_t
     /// s}, E_x the beam's irradiance (perpendicular to it) where it entered
     /// times the Fresnel transmittance and the beam's compression, s the
-    /// path inside. Through an index-matched boundary the beam goes
+    /// path inside, over eta^2. Through an index-matched boundary the beam goes
     /// straight (any shape); through a refracting one its entry point is
     /// solved for on a sphere or a box face (the scene's validation refuses
     /// other shapes). Light reflected inside before it first scatters is
@@ -242,6 +242,11 @@ impl<'a> ChannelScene<'a> {
                 0.0
             };
         }
+        // The beam's irradiance is power per area inside; radiance over
+        // n^2 is what a boundary keeps (the n^2 law), so the radiance the
+        // camera path carries out is the inside one over eta^2 (paths from
+        // the environment gain eta^2 on the way in and lose it on the way
+        // out).
         let mut sum = 0.0;
         for entry in self.entries(x, toward, k) {
             let shadow = self.outside_transmittance(entry.point + self.eps * entry.normal, toward);
@@ -253,7 +258,7 @@ impl<'a> ChannelScene<'a> {
                     * shadow;
             }
         }
-        sum
+        sum / (eta * eta)
     }
 
     /// Where the refracted beam of a unit-irradiance directional light
@@ -521,6 +526,136 @@ mod tests {
         assert!(refract(d, n, 1.5).is_none());
         // Index-matched: straight on.
         assert!((refract(d, n, 1.0).unwrap() - d).norm() < 1e-15);
+    }
+
+    /// Points inside a ball are reached by at most one refracted ray of a
+    /// collimated beam for 1 < eta <= 2, entering on the point's side of
+    /// the axis: the premise of `sphere_entry`'s bracket. A scan of the
+    /// whole lit half circle, by the 3D refraction.
+    #[test]
+    fn sphere_entry_is_unique() {
+        let toward = V3::new(0.48, 0.6, 0.64);
+        let (u1, _) = frame(toward);
+        for eta in [1.05, 1.3, 1.5, 2.0] {
+            for k in 0..200 {
+                // Points spread over the ball, some near its surface.
+                let f = k as f64 / 200.0;
+                let rr = (0.999 * (f * 7.3).fract()).sqrt();
+                let ang = std::f64::consts::TAU * (f * 13.7).fract();
+                let q = rr * (ang.cos() * toward + ang.sin() * u1);
+                let a = q.dot(&toward);
+                let perp = q - a * toward;
+                let e2 = perp / perp.norm();
+                let cross = |th: f64| {
+                    let p = th.cos() * toward + th.sin() * e2;
+                    let t = refract(-toward, p, 1.0 / eta).unwrap();
+                    (q - p).cross(&t).dot(&toward.cross(&e2))
+                };
+                let n = 20_000;
+                let mut changes = Vec::new();
+                let mut prev = cross(-std::f64::consts::FRAC_PI_2 * 0.999_999);
+                for i in 1..=n {
+                    let th =
+                        std::f64::consts::FRAC_PI_2 * 0.999_999 * (2.0 * i as f64 / n as f64 - 1.0);
+                    let cur = cross(th);
+                    // A root where the ray runs forward to q.
+                    if (cur < 0.0) != (prev < 0.0) {
+                        let p = th.cos() * toward + th.sin() * e2;
+                        let t = refract(-toward, p, 1.0 / eta).unwrap();
+                        if (q - p).dot(&t) > 0.0 {
+                            changes.push(th);
+                        }
+                    }
+                    prev = cur;
+                }
+                assert!(changes.len() <= 1, "eta {eta}, q {q:?}: roots {changes:?}");
+                let found = sphere_entry(q, 1.0, toward, eta);
+                assert_eq!(found.is_some(), changes.len() == 1, "eta {eta}, q {q:?}");
+                if let Some(e) = found {
+                    assert!(changes[0] >= -1e-3, "{changes:?}");
+                    // The refracted ray from the entry runs through q.
+                    assert!((e.point + e.path * e.dir - q).norm() < 1e-9);
+                    assert!((e.normal - e.point).norm() < 1e-15);
+                }
+            }
+        }
+    }
+
+    /// The beam's irradiance at a point inside a ball, against a ray tube
+    /// traced through it: three parallel rays a small triangle apart,
+    /// refracted by the sphere, cut by the plane across the beam at the
+    /// point; the power the triangle carries (times the Fresnel
+    /// transmittance) over the cut's area.
+    #[test]
+    fn sphere_entry_conserves_power_in_a_ray_tube() {
+        use crate::scene::geometry::Shape;
+        let ball = Shape::Sphere {
+            centre: V3::zeros(),
+            radius: 1.0,
+        };
+        let toward = V3::new(0.0, 0.6, 0.8);
+        let (a, b) = frame(toward);
+        for eta in [1.0 + 1e-9, 1.3, 1.7] {
+            for q in [
+                V3::new(0.2, 0.1, 0.3),
+                V3::new(-0.5, 0.3, -0.2),
+                V3::new(0.7, -0.4, 0.1),
+                V3::new(0.05, 0.02, -0.6),
+            ] {
+                let Some(e) = sphere_entry(q, 1.0, toward, eta) else {
+                    panic!("eta {eta}: {q:?} not reached");
+                };
+                let h = 1e-5;
+                // The beam's ray through the entry, and two neighbours.
+                let base = e.point - e.point.dot(&toward) * toward + 3.0 * toward;
+                let cut = |o: V3| -> V3 {
+                    let ray = Ray { o, d: -toward };
+                    let hit = ball.intersect(&ray, 1e9).unwrap();
+                    let p = ray.at(hit.t);
+                    let t = refract(-toward, hit.n, 1.0 / eta).unwrap();
+                    // Where the refracted ray meets the plane through q
+                    // across e.dir.
+                    let s = (q - p).dot(&e.dir) / t.dot(&e.dir);
+                    p + s * t
+                };
+                let (p0, p1, p2) = (cut(base), cut(base + h * a), cut(base + h * b));
+                let area = 0.5 * (p1 - p0).cross(&(p2 - p0)).norm();
+                let cos_i = e.normal.dot(&toward);
+                let tube = (1.0 - fresnel_dielectric(cos_i, eta)) * 0.5 * h * h / area;
+                assert!(
+                    (tube - e.irradiance).abs() < 1e-4 * tube,
+                    "eta {eta}, {q:?}: tube {tube}, entry {}",
+                    e.irradiance
+                );
+            }
+        }
+    }
+
+    /// The planar entry: through the face turned to the light, at the
+    /// point x - s t, compressed by cos_i / cos_t.
+    #[test]
+    fn box_entry_through_the_lit_faces() {
+        let toward = V3::new(0.6, 0.0, 0.8);
+        let x = V3::new(-3.0, -1.0, -0.5);
+        let es = box_entries(x, V3::new(-5.0, -5.0, -5.0), V3::zeros(), toward, 1.5);
+        assert_eq!(es.len(), 1, "{es:?}");
+        let e = es[0];
+        assert!((e.point.z).abs() < 1e-15 && (e.normal - V3::z()).norm() == 0.0);
+        assert!((e.point + e.path * e.dir - x).norm() < 1e-12);
+        let cos_t = (1.0 - (0.6f64 / 1.5).powi(2)).sqrt();
+        let t = 1.0 - fresnel_dielectric(0.8, 1.5);
+        assert!((e.irradiance - t * 0.8 / cos_t).abs() < 1e-12);
+        // Both +x and +z faces see a light along (1, 0, 1)/sqrt(2); a
+        // point near the +x face is reached through both.
+        let diag = V3::new(1.0, 0.0, 1.0).normalize();
+        let es = box_entries(
+            V3::new(-0.1, 0.0, -0.1),
+            V3::repeat(-5.0),
+            V3::zeros(),
+            diag,
+            1.5,
+        );
+        assert_eq!(es.len(), 2);
     }
 
     #[test]
