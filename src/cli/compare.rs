@@ -117,6 +117,24 @@ pub struct Args {
     /// Output folder (created).
     #[arg(long)]
     out: PathBuf,
+    /// A path-traced scene (TOML): every kernel model through the
+    /// screen-space pass on its G-buffer, against the path-traced image
+    /// (with --render; the profile is the render's).
+    #[arg(long, value_name = "SCENE.toml", requires = "render")]
+    scene: Option<PathBuf>,
+    /// The scene's render (`ssskit scene SCENE.toml --out IMG.exr`).
+    #[arg(long, value_name = "IMG.exr", requires = "scene")]
+    render: Option<PathBuf>,
+    /// Depth difference (mm) at which the screen-space pass's depth-aware
+    /// lerp reaches the centre colour [default: the radius holding 99% of
+    /// the profile's R_d].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "scene",
+        allow_negative_numbers = true
+    )]
+    follow_mm: Option<f64>,
 }
 
 fn list(s: &str) -> Vec<String> {
@@ -244,6 +262,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     positive("--mm-per-pixel", a.mm_per_pixel)?;
     between("--size", a.size, 8, 4096)?;
     positive("--pixels-per-degree", a.pixels_per_degree)?;
+    if let (Some(scene), Some(render)) = (&a.scene, &a.render) {
+        return super::scene::compare(super::scene::CompareArgs {
+            scene,
+            render,
+            families,
+            ranks,
+            taps,
+            pixels_per_degree: a.pixels_per_degree,
+            size: a.size,
+            follow_mm: a.follow_mm,
+            plots: !a.no_plots,
+            out: &a.out,
+        });
+    }
     let mut cases = Vec::new();
     let mut signals = Vec::new();
     for &sig in a.signals.iter().flatten() {

@@ -128,6 +128,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         gbuffer_side: a.gbuffer_side,
         max_work: a.max_work,
     };
+    cfg.validate(&scene)?;
     let photons = match a.profile_photons {
         Some(n) => PhotonBudget::Fixed(n),
         None => PhotonBudget::KernelFactor {
@@ -266,4 +267,126 @@ fn read_render(path: &Path) -> anyhow::Result<(Render, String, Vec<Profile>)> {
     let ((w, h), planes) = read_exr_channels(path)?;
     let r = Render::from_planes(w, h, planes, side.info, &path.display().to_string())?;
     Ok((r, side.scene, side.profiles))
+}
+
+/// What `compare --scene` passes on.
+pub(super) struct CompareArgs<'a> {
+    pub scene: &'a Path,
+    pub render: &'a Path,
+    pub families: Vec<String>,
+    pub ranks: Vec<usize>,
+    pub taps: Vec<usize>,
+    pub pixels_per_degree: f64,
+    pub size: usize,
+    pub follow_mm: Option<f64>,
+    pub plots: bool,
+    pub out: &'a Path,
+}
+
+/// `compare --scene`: the screen-space error of every kernel model on the
+/// scene's G-buffer against its path-traced image; writes scene.md,
+/// scene.json, record.json and the contact sheet.
+pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
+    use ssskit::report::record::{machine_line, Record};
+    use ssskit::report::scene_compare::{
+        compare_scene, contact_sheet, dominance, noise_table, region_table, summary_table,
+        SceneConfig,
+    };
+    let scene = Scene::load(a.scene)?;
+    let text = ssskit::io::read_text(a.scene)?;
+    let (r, scene_text, profiles) = read_render(a.render)?;
+    if scene_text != text {
+        bail!(
+            "--render {}: it was rendered from another scene than {} (its record holds that \
+             scene's text): render this one with `ssskit scene {} --out IMG.exr`",
+            a.render.display(),
+            a.scene.display(),
+            a.scene.display()
+        );
+    }
+    let Some(profile) = profiles.first() else {
+        bail!(
+            "--render {}: its record holds no profile",
+            a.render.display()
+        );
+    };
+    std::fs::create_dir_all(a.out).with_context(|| format!("--out {}", a.out.display()))?;
+    let cfg = SceneConfig {
+        families: a.families,
+        ranks: a.ranks,
+        taps: a.taps,
+        options: ssskit::report::evaluate::Options {
+            round_to_f32: true,
+            pixels_per_degree: a.pixels_per_degree,
+        },
+        follow_mm: a.follow_mm,
+        signal_size: a.size,
+        keep_images: a.plots,
+    };
+    let cmp = compare_scene(&scene, &r, profile, &cfg, &Bar::new())?;
+    let (summary, regions, noise) = (summary_table(&cmp), region_table(&cmp), noise_table(&cmp));
+    let head = format!(
+        "Scene {}: {}x{} pixels, {} samples per pixel (r), {:.3} mm per pixel at the object's \
+         median depth; the lerp completes at a depth difference of {:.3} mm (C = {:.4} in the \
+         pass's convention).",
+        a.scene.display(),
+        r.width,
+        r.height,
+        r.info.spp[0],
+        cmp.mm_per_pixel,
+        cmp.follow_mm,
+        cmp.follow_constant
+    );
+    let block = |name: &str, t: &ssskit::report::table::Table| {
+        format!(
+            "<!-- BEGIN compare:{name} -->\n{}<!-- END compare:{name} -->\n",
+            t.markdown()
+        )
+    };
+    let md = format!(
+        "# Screen-space SSS against the path-traced scene\n\n{head}\n\nAll seen pixels: \
+         relative RMS of (pass - path traced) over the 99th-percentile radiance, mean bias, \
+         FLIP; flat-plane errors of the same tap table beside them.\n\n{}\nLargest RMS over the \
+         channels and FLIP by region.\n\n{}\nThe path-traced image's noise by region (the floor \
+         under the RMS).\n\n{}",
+        block("summary", &summary),
+        block("regions", &regions),
+        block("noise", &noise)
+    );
+    ssskit::io::write_atomic(&a.out.join("scene.md"), md.as_bytes())?;
+    let json = serde_json::json!({
+        "scene": a.scene.display().to_string(),
+        "dominance": dominance(&cmp),
+        "mm_per_pixel": cmp.mm_per_pixel,
+        "follow_mm": cmp.follow_mm,
+        "follow_constant": cmp.follow_constant,
+        "noise": cmp.noise,
+        "spp": r.info.spp,
+        "rows": cmp.rows,
+    });
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    ssskit::io::write_atomic(&a.out.join("scene.json"), text.as_bytes())?;
+    let mut rec = Record::new(&super::profile_source::command_line(a.out), &machine_line());
+    rec.tables.insert("summary".into(), (&summary).into());
+    rec.tables.insert("regions".into(), (&regions).into());
+    rec.tables.insert("noise".into(), (&noise).into());
+    rec.data = json;
+    rec.write(&a.out.join("record.json"))?;
+    if a.plots {
+        let name = a.scene.file_name().map_or_else(
+            || a.scene.display().to_string(),
+            |n| n.to_string_lossy().into(),
+        );
+        contact_sheet(&cmp, &name, &a.out.join("contact-sheet.png"))?;
+    }
+    outln!("{head}\n\n{}", summary.markdown())?;
+    if let Some(d) = dominance(&cmp) {
+        outln!("{}", d.sentence())?;
+    }
+    eprintln!(
+        "-> {}/scene.md, scene.json, record.json{}",
+        a.out.display(),
+        if a.plots { ", contact-sheet.png" } else { "" }
+    );
+    Ok(())
 }

@@ -173,7 +173,7 @@ pub fn spectra(cmp: &Comparison, out: &Path) -> Result<()> {
 
 /// Tone mapping of the report (see [`super::evaluate`]): exposure, clamp,
 /// sRGB 8-bit, interleaved.
-fn to_rgb8(img: &Image, exposure: f64) -> Vec<u8> {
+pub(crate) fn to_rgb8(img: &Image, exposure: f64) -> Vec<u8> {
     let mut v = Vec::with_capacity(3 * img.len());
     for i in 0..img.len() {
         for c in 0..3 {

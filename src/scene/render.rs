@@ -256,7 +256,14 @@ pub fn material_profiles(
     Ok(out)
 }
 
-fn validate(cfg: &RenderConfig, rd: &[[f64; 3]], scene: &Scene) -> Result<()> {
+impl RenderConfig {
+    /// Checks the settings against the scene (before any work).
+    pub fn validate(&self, scene: &Scene) -> Result<()> {
+        validate(self, None, scene)
+    }
+}
+
+fn validate(cfg: &RenderConfig, rd: Option<&[[f64; 3]]>, scene: &Scene) -> Result<()> {
     match cfg.budget {
         SampleBudget::Fixed(0) => return Err(Error::invalid(CONTEXT, "spp", 0, "must be >= 1")),
         SampleBudget::TargetError { rel, max_spp } => {
@@ -288,7 +295,7 @@ fn validate(cfg: &RenderConfig, rd: &[[f64; 3]], scene: &Scene) -> Result<()> {
     if cfg.max_work == 0 {
         return Err(Error::invalid(CONTEXT, "max_work", 0, "must be >= 1"));
     }
-    if rd.len() != scene.objects.len() {
+    if let Some(rd) = rd.filter(|rd| rd.len() != scene.objects.len()) {
         return Err(Error::Unsupported(format!(
             "{} total reflectances given for {} objects",
             rd.len(),
@@ -375,7 +382,7 @@ pub fn render(
     progress: &dyn Progress,
 ) -> Result<Render> {
     let start = std::time::Instant::now();
-    validate(cfg, rd, scene)?;
+    validate(cfg, Some(rd), scene)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(cfg.threads.unwrap_or(0))
         .build()
