@@ -308,6 +308,29 @@ pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     g.commit()
 }
 
+/// Decodes a PNG within the caps: its size is checked from the header
+/// before the pixels are read, and the decoder may not allocate more than
+/// [`crate::limits::PNG_DECODE_BYTES`].
+pub fn decode_png(path: &Path) -> Result<image::DynamicImage> {
+    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    let reader = reader
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))?;
+    let (w, h) = reader
+        .into_dimensions()
+        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
+    crate::limits::check_image_size(&path.display().to_string(), w as usize, h as usize)?;
+    let mut reader = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| Error::io(path, e))?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
+    reader.limits(limits);
+    reader
+        .decode()
+        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))
+}
+
 /// Reads a whole text file with the path in any error.
 pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|e| Error::io(path, e))

@@ -228,7 +228,7 @@ pub fn read_plane(path: &Path, channel: Option<&str>) -> Result<Plane> {
                     "channels can only be named in EXR files",
                 ));
             }
-            let img = decode_png(path)?;
+            let img = crate::io::decode_png(path)?;
             let (w, h) = (img.width() as usize, img.height() as usize);
             let raw = img.to_luma16();
             Ok(Plane {
@@ -381,28 +381,8 @@ fn read_exr(path: &Path, depth_channel: Option<&str>) -> Result<(Image, Extras)>
     Ok((image, Extras { depth }))
 }
 
-fn decode_png(path: &Path) -> Result<image::DynamicImage> {
-    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    let reader = reader
-        .with_guessed_format()
-        .map_err(|e| Error::io(path, e))?;
-    let (w, h) = reader
-        .into_dimensions()
-        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
-    crate::limits::check_image_size(&path.display().to_string(), w as usize, h as usize)?;
-    let mut reader = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| Error::io(path, e))?;
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
-    reader.limits(limits);
-    reader
-        .decode()
-        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))
-}
-
 fn read_png(path: &Path) -> Result<Image> {
-    let img = decode_png(path)?;
+    let img = crate::io::decode_png(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     let has_alpha = img.color().has_alpha();
     let sixteen = img.color().bytes_per_pixel() / img.color().channel_count() > 1;
@@ -534,7 +514,7 @@ fn write_png(path: &Path, image: &Image, depth: PngDepth) -> Result<()> {
 
 /// The bit depth a PNG file was stored with (16 when it holds 16-bit samples).
 pub fn png_depth_of(path: &Path) -> Result<PngDepth> {
-    let img = decode_png(path)?;
+    let img = crate::io::decode_png(path)?;
     Ok(
         if img.color().bytes_per_pixel() / img.color().channel_count() > 1 {
             PngDepth::Sixteen

@@ -673,7 +673,10 @@ pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
     );
     let scene = r["data"]["scene"].as_str()?;
     Some(format!(
-        "screen-space model: on the path-traced sphere of {scene} ({at:.3} mm per pixel,          docs/scene.md) the best kernel through the screen-space pass misses by {:.1}% RMS of          the peak and the exact flat kernel by {:.1}%, against this choice's {:.2}% at {} mm per          pixel: {}",
+        "screen-space model: on the path-traced sphere of {scene} ({at:.3} mm per pixel, \
+         docs/scene.md) the best kernel through the screen-space pass misses by {:.1}% RMS of \
+         the peak and the exact flat kernel by {:.1}%, against this choice's {:.2}% at {} mm per \
+         pixel: {}",
         100.0 * best,
         100.0 * exact,
         100.0 * kernel_rms,
@@ -688,4 +691,23 @@ pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
             "the kernel's error dominates".to_string()
         }
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The note reads the committed record of the path-traced sphere and
+    /// says which error is the larger.
+    #[test]
+    fn the_note_says_which_error_dominates() {
+        let small = screen_space_note(1e-4, 0.1).expect("the scene record");
+        assert!(
+            small.contains("screen-space model's own error dominates"),
+            "{small}"
+        );
+        assert!(small.contains("0.01% at 0.1 mm per pixel"), "{small}");
+        let big = screen_space_note(0.9, 0.1).unwrap();
+        assert!(big.contains("the kernel's error dominates"), "{big}");
+    }
 }

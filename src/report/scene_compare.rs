@@ -603,68 +603,34 @@ pub const SCENE_DIFF_SCALE: f64 = 0.1;
 /// model with the lerp (its image above |image - path traced|, white =
 /// [`SCENE_DIFF_SCALE`] of the peak), one exposure for all.
 pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) -> Result<()> {
-    use plotters::prelude::*;
-    super::plot::register_fonts();
-    let tiles: Vec<&(String, Image)> = cmp
-        .images
-        .iter()
-        .filter(|(l, _)| !l.contains('(') || l.ends_with("(depth+follow)"))
-        .collect();
+    use super::kernel_plots::{draw_sheet, to_rgb8, SheetTile};
     let truth = &cmp.truth;
-    let (w, h) = (truth.width, truth.height);
-    let cols = 6usize;
-    let label_h = 22usize;
-    let cell_w = w + 8;
-    let cell_h = 2 * (h + label_h) + 8;
-    let n_tiles = tiles.len() + 1;
-    let rows = n_tiles.div_ceil(cols);
-    let head = 34usize;
-    let (sw, sh) = (cols * cell_w, head + rows * cell_h);
-    crate::limits::check_image_size(&out.display().to_string(), sw, sh)?;
-    let mut buf = vec![255u8; sw * sh * 3];
     let max_rgb: Vec<f64> = (0..truth.len())
         .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
         .collect();
     let exposure = exposure_of(&max_rgb);
     let peak = truth.peak().iter().cloned().fold(0.0f64, f64::max);
-    let blit = |buf: &mut [u8], rgb: &[u8], x0: usize, y0: usize| {
-        for y in 0..h {
-            let dst = ((y0 + y) * sw + x0) * 3;
-            buf[dst..dst + 3 * w].copy_from_slice(&rgb[y * w * 3..(y + 1) * w * 3]);
-        }
-    };
-    let to8 = super::kernel_plots::to_rgb8;
-    let mut labels: Vec<(String, usize, usize)> = Vec::new();
-    blit(&mut buf, &to8(truth, exposure), 4, head + label_h);
-    labels.push(("path traced".into(), 4, head));
-    for (i, (label, img)) in tiles.iter().enumerate() {
-        let t = i + 1;
-        let (x0, y0) = ((t % cols) * cell_w + 4, head + (t / cols) * cell_h);
-        blit(&mut buf, &to8(img, exposure), x0, y0 + label_h);
-        let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * peak));
-        blit(&mut buf, &to8(&d, 1.0), x0, y0 + 2 * label_h + h);
-        labels.push((label.replace(" (depth+follow)", ""), x0, y0));
-        labels.push(("difference".into(), x0, y0 + label_h + h));
-    }
+    let mut tiles = vec![SheetTile {
+        label: "path traced".into(),
+        top: to_rgb8(truth, exposure),
+        bottom: None,
+    }];
+    for (label, img) in cmp
+        .images
+        .iter()
+        .filter(|(l, _)| !l.contains('(') || l.ends_with("(depth+follow)"))
     {
-        let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
-        let e = |e| Error::format(out, format!("plotting failed: {e}"));
-        let font = ("sans-serif", 15).into_font().color(&BLACK);
-        root.draw_text(
-            &format!(
-                "{title}: screen-space pass (depth + follow) above |pass - path traced| (white = \
-                 {}% of the peak)",
-                100.0 * SCENE_DIFF_SCALE
-            ),
-            &font,
-            (6, 8),
-        )
-        .map_err(e)?;
-        for (text, x, y) in &labels {
-            root.draw_text(text, &font, (*x as i32, *y as i32 + 3))
-                .map_err(e)?;
-        }
-        root.present().map_err(e)?;
+        let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * peak));
+        tiles.push(SheetTile {
+            label: label.replace(" (depth+follow)", ""),
+            top: to_rgb8(img, exposure),
+            bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
+        });
     }
-    super::plot::write_png(buf, sw as u32, sh as u32, out)
+    let title = format!(
+        "{title}: screen-space pass (depth + follow) above |pass - path traced| (white = {}% of \
+         the peak)",
+        100.0 * SCENE_DIFF_SCALE
+    );
+    draw_sheet(&tiles, (truth.width, truth.height), &title, out)
 }

@@ -201,13 +201,14 @@ impl Check<'_> {
         Ok(v)
     }
 
-    /// Refuses fields that the object's shape does not use.
-    fn unused(&self, prefix: &str, shape: &str, fields: &[(&str, bool)]) -> Result<()> {
-        match fields.iter().find(|(_, present)| *present) {
+    /// Refuses fields that the object's shape does not use: `given` says
+    /// which fields the object has, `takes` those its shape reads.
+    fn unused(&self, prefix: &str, shape: &str, given: &[(&str, bool)], takes: &[&str]) -> Result<()> {
+        match given.iter().find(|(n, on)| *on && !takes.contains(n)) {
             Some((name, _)) => Err(self.err(
                 &format!("{prefix}.{name}"),
                 "given",
-                format!("a {shape} has no {name}"),
+                format!("a {shape} has no {name}; it takes {}", takes.join(", ")),
             )),
             None => Ok(()),
         }
@@ -453,6 +454,7 @@ fn parse_light(ck: &Check, i: usize, l: RawLight) -> Result<Light> {
                 &p,
                 "directional light",
                 &[("radiance", l.radiance.is_some())],
+                &["toward", "irradiance"],
             )?;
             Ok(Light::Directional {
                 toward: ck.unit_vector(
@@ -473,6 +475,7 @@ fn parse_light(ck: &Check, i: usize, l: RawLight) -> Result<Light> {
                     ("toward", l.toward.is_some()),
                     ("irradiance", l.irradiance.is_some()),
                 ],
+                &["radiance"],
             )?;
             Ok(Light::Environment {
                 radiance: ck.rgb(
@@ -529,42 +532,35 @@ fn parse_object(ck: &Check, i: usize, o: RawObject, unit: Unit, dir: &Path) -> R
     material.validate(&format!("{} {}", ck.context, f("material")))?;
     let name = o.name.clone().unwrap_or_else(|| p.clone());
     let shape_name = ck.need(&f("shape"), o.shape.clone())?;
+    let given = [
+        ("center", o.center.is_some()),
+        ("radius", o.radius.is_some()),
+        ("size", o.size.is_some()),
+        ("height", o.height.is_some()),
+        ("axis", o.axis.is_some()),
+        ("image", o.image.is_some()),
+        ("depth", o.depth.is_some()),
+        ("file", o.file.is_some()),
+        ("scale", o.scale.is_some()),
+        ("translate", o.translate.is_some()),
+    ];
+    let takes: &[&str] = match shape_name.as_str() {
+        "sphere" => &["center", "radius"],
+        "box" => &["center", "size"],
+        "cylinder" => &["center", "radius", "height", "axis"],
+        "heightfield" => &["center", "size", "height", "image", "depth"],
+        "mesh" => &["file", "scale", "translate"],
+        _ => &[],
+    };
+    if !takes.is_empty() {
+        ck.unused(&p, &shape_name, &given, takes)?;
+    }
     let shape = match shape_name.as_str() {
-        "sphere" => {
-            ck.unused(
-                &p,
-                "sphere",
-                &[
-                    ("size", o.size.is_some()),
-                    ("height", o.height.is_some()),
-                    ("axis", o.axis.is_some()),
-                    ("image", o.image.is_some()),
-                    ("depth", o.depth.is_some()),
-                    ("file", o.file.is_some()),
-                    ("scale", o.scale.is_some()),
-                    ("translate", o.translate.is_some()),
-                ],
-            )?;
-            Shape::Sphere {
-                centre: ck.point(&f("center"), ck.need(&f("center"), o.center)?, unit)?,
-                radius: ck.length(&f("radius"), ck.need(&f("radius"), o.radius)?, unit)?,
-            }
-        }
+        "sphere" => Shape::Sphere {
+            centre: ck.point(&f("center"), ck.need(&f("center"), o.center)?, unit)?,
+            radius: ck.length(&f("radius"), ck.need(&f("radius"), o.radius)?, unit)?,
+        },
         "box" => {
-            ck.unused(
-                &p,
-                "box",
-                &[
-                    ("radius", o.radius.is_some()),
-                    ("height", o.height.is_some()),
-                    ("axis", o.axis.is_some()),
-                    ("image", o.image.is_some()),
-                    ("depth", o.depth.is_some()),
-                    ("file", o.file.is_some()),
-                    ("scale", o.scale.is_some()),
-                    ("translate", o.translate.is_some()),
-                ],
-            )?;
             let c = ck.point(&f("center"), ck.need(&f("center"), o.center)?, unit)?;
             let size = ck.need(&f("size"), o.size.clone())?;
             if size.len() != 3 {
@@ -580,18 +576,6 @@ fn parse_object(ck: &Check, i: usize, o: RawObject, unit: Unit, dir: &Path) -> R
             }
         }
         "cylinder" => {
-            ck.unused(
-                &p,
-                "cylinder",
-                &[
-                    ("size", o.size.is_some()),
-                    ("image", o.image.is_some()),
-                    ("depth", o.depth.is_some()),
-                    ("file", o.file.is_some()),
-                    ("scale", o.scale.is_some()),
-                    ("translate", o.translate.is_some()),
-                ],
-            )?;
             let axis = ck.unit_vector(&f("axis"), o.axis.unwrap_or([0.0, 1.0, 0.0]))?;
             let (u, v) = frame(axis);
             Shape::Cylinder {
@@ -605,17 +589,6 @@ fn parse_object(ck: &Check, i: usize, o: RawObject, unit: Unit, dir: &Path) -> R
             }
         }
         "heightfield" => {
-            ck.unused(
-                &p,
-                "heightfield",
-                &[
-                    ("radius", o.radius.is_some()),
-                    ("axis", o.axis.is_some()),
-                    ("file", o.file.is_some()),
-                    ("scale", o.scale.is_some()),
-                    ("translate", o.translate.is_some()),
-                ],
-            )?;
             let c = ck.point(&f("center"), ck.need(&f("center"), o.center)?, unit)?;
             let size = ck.need(&f("size"), o.size.clone())?;
             if size.len() != 2 {
@@ -646,19 +619,6 @@ fn parse_object(ck: &Check, i: usize, o: RawObject, unit: Unit, dir: &Path) -> R
             )?
         }
         "mesh" => {
-            ck.unused(
-                &p,
-                "mesh",
-                &[
-                    ("center", o.center.is_some()),
-                    ("radius", o.radius.is_some()),
-                    ("size", o.size.is_some()),
-                    ("height", o.height.is_some()),
-                    ("axis", o.axis.is_some()),
-                    ("image", o.image.is_some()),
-                    ("depth", o.depth.is_some()),
-                ],
-            )?;
             let scale = ck.positive(&f("scale"), o.scale.unwrap_or(1.0))? * unit.mm();
             let shift = ck.point(&f("translate"), o.translate.unwrap_or([0.0; 3]), unit)?;
             let path = resolve(dir, &ck.need(&f("file"), o.file.clone())?);

@@ -17,7 +17,6 @@ pub struct Heights {
 /// Reads a PNG as raw grey values in [0, 1] (8 or 16 bit; no sRGB
 /// decoding: heights are data, not colours).
 pub fn read_heights(path: &Path) -> Result<Heights> {
-    let what = path.display().to_string();
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -28,26 +27,11 @@ pub fn read_heights(path: &Path) -> Result<Heights> {
             "a heightfield image must be a grey PNG (8 or 16 bit)",
         ));
     }
-    let reader = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| Error::io(path, e))?;
-    let (w, h) = reader
-        .into_dimensions()
-        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
-    crate::limits::check_image_size(&what, w as usize, h as usize)?;
-    let mut reader = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| Error::io(path, e))?;
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
-    reader.limits(limits);
-    let img = reader
-        .decode()
-        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
+    let img = crate::io::decode_png(path)?;
     let grey = img.to_luma16();
     Ok(Heights {
-        nx: w as usize,
-        nz: h as usize,
+        nx: grey.width() as usize,
+        nz: grey.height() as usize,
         h: grey.pixels().map(|p| p.0[0] as f64 / 65535.0).collect(),
     })
 }

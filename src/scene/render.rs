@@ -303,6 +303,30 @@ fn validate(cfg: &RenderConfig, rd: Option<&[[f64; 3]]>, scene: &Scene) -> Resul
         )));
     }
     let pixels = (scene.camera.width * scene.camera.height) as u64;
+    // The G-buffer's rays: per position the camera's, a shadow ray per
+    // directional light, and the environment's visibility rays.
+    let per_position = 1
+        + scene.directional().count() as u64
+        + if scene.environment().iter().any(|&v| v > 0.0) {
+            super::gbuffer::ENV_RAYS as u64
+        } else {
+            0
+        };
+    let rays = pixels
+        .saturating_mul((cfg.gbuffer_side * cfg.gbuffer_side) as u64)
+        .saturating_mul(per_position);
+    if rays > cfg.max_work {
+        return Err(Error::invalid(
+            CONTEXT,
+            "gbuffer_side",
+            cfg.gbuffer_side,
+            format!(
+                "the G-buffer of {pixels} pixels at {0}x{0} positions casts {rays} rays, above \
+                 the work cap of {1} (`max_work`)",
+                cfg.gbuffer_side, cfg.max_work
+            ),
+        ));
+    }
     let least = match cfg.budget {
         SampleBudget::Fixed(n) => n,
         SampleBudget::TargetError { max_spp, .. } => max_spp.min(FIRST_ROUND_SPP),

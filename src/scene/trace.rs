@@ -594,7 +594,7 @@ mod tests {
                     let (p, t) = ray(th);
                     (q - p).cross(&t).dot(&toward.cross(&e2))
                 };
-                let n = 40_000;
+                let n = 20_000;
                 let edge = std::f64::consts::FRAC_PI_2 * (1.0 - 1e-9);
                 let mut roots = Vec::new();
                 let mut prev = cross(-edge);
