@@ -240,7 +240,8 @@ pub fn read_plane(path: &Path, channel: Option<&str>) -> Result<Plane> {
     }
 }
 
-type Channels = ((usize, usize), Vec<(String, Vec<f64>)>);
+/// An EXR file's size (width, height) and its channels, by name.
+pub type Channels = ((usize, usize), Vec<(String, Vec<f64>)>);
 
 fn channel_list(ch: &[(String, Vec<f64>)]) -> String {
     ch.iter()
@@ -251,7 +252,7 @@ fn channel_list(ch: &[(String, Vec<f64>)]) -> String {
 
 /// Every channel of an EXR file's first layer, by name, with its size
 /// (checked against the caps before the pixels are read).
-pub fn read_exr_channels(path: &Path) -> Result<((usize, usize), Vec<(String, Vec<f64>)>)> {
+pub fn read_exr_channels(path: &Path) -> Result<Channels> {
     exr_channels(path)
 }
 

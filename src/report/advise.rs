@@ -706,7 +706,7 @@ mod tests {
             small.contains("screen-space model's own error dominates"),
             "{small}"
         );
-        assert!(small.contains("0.01% at 0.1 mm per pixel"), "{small}");
+        assert!(small.contains("0.01% at 0.100 mm per pixel"), "{small}");
         let big = screen_space_note(0.9, 0.1).unwrap();
         assert!(big.contains("the kernel's error dominates"), "{big}");
     }

@@ -556,7 +556,7 @@ impl Dominance {
             100.0 * self.exact_scene_rms,
             if self.best_scene_rms > self.best_flat_rms {
                 format!(
-                    "The screen-space model's own error dominates, {:.0} times the kernel's.",
+                    "The screen-space model's own error dominates, {:.1} times the kernel's.",
                     self.best_scene_rms / self.best_flat_rms.max(1e-12)
                 )
             } else {

@@ -203,7 +203,13 @@ impl Check<'_> {
 
     /// Refuses fields that the object's shape does not use: `given` says
     /// which fields the object has, `takes` those its shape reads.
-    fn unused(&self, prefix: &str, shape: &str, given: &[(&str, bool)], takes: &[&str]) -> Result<()> {
+    fn unused(
+        &self,
+        prefix: &str,
+        shape: &str,
+        given: &[(&str, bool)],
+        takes: &[&str],
+    ) -> Result<()> {
         match given.iter().find(|(n, on)| *on && !takes.contains(n)) {
             Some((name, _)) => Err(self.err(
                 &format!("{prefix}.{name}"),
@@ -522,7 +528,7 @@ fn parse_object(ck: &Check, i: usize, o: RawObject, unit: Unit, dir: &Path) -> R
         ));
     }
     if let Some(eta) = o.eta {
-        if !(eta >= 1.0 / 3.0 && eta <= 3.0) {
+        if !(1.0 / 3.0..=3.0).contains(&eta) {
             return Err(ck.err(&f("eta"), eta, "must be in [1/3, 3]"));
         }
         material.layers[0].eta = eta;

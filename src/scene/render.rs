@@ -354,6 +354,10 @@ struct Sums {
 }
 
 /// The noise of the target-error rule for one channel after `n` samples.
+/// One round's work on a tile: channel, tile origin, per-pixel (sum,
+/// sum of squares), events and lost paths.
+type TileRound = (usize, (usize, usize), Vec<(f64, f64)>, u64, u64);
+
 fn noise(s: &Sums, n: u64, coverage: &[f64]) -> f64 {
     let nf = n as f64;
     let seen: Vec<usize> = (0..coverage.len()).filter(|&i| coverage[i] > 0.0).collect();
@@ -456,7 +460,7 @@ pub fn render(
         round += 1;
         let total: u64 = (0..3).map(|c| lens[c] * npx as u64).sum();
         progress.start(total, &format!("{} round {round}", scene.origin));
-        let parts: Vec<(usize, (usize, usize), Vec<(f64, f64)>, u64, u64)> = pool.install(|| {
+        let parts: Vec<TileRound> = pool.install(|| {
             units
                 .par_iter()
                 .map(|&(c, (x0, y0))| {
