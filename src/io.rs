@@ -235,11 +235,8 @@ fn stage(
     let dir = folder_of(path);
     sweep_stale_temps(dir);
     let prefix = temp_prefix();
-    let (mut tmp, live) = LiveTemp::create(
-        || temp_builder(&prefix).tempfile_in(dir),
-        |t| t.path(),
-    )
-    .map_err(|e| cannot_write(path, dir, &e))?;
+    let (mut tmp, live) = LiveTemp::create(|| temp_builder(&prefix).tempfile_in(dir), |t| t.path())
+        .map_err(|e| cannot_write(path, dir, &e))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         fill(&mut w).map_err(|e| Error::io(path, e))?;
@@ -432,6 +429,29 @@ pub fn check_output_file(path: &Path, what: &str) -> Result<()> {
         .tempfile_in(dir)
         .map(drop)
         .map_err(|e| cannot_write(path, dir, &e))
+}
+
+/// Decodes a PNG within the caps: its size is checked from the header
+/// before the pixels are read, and the decoder may not allocate more than
+/// [`crate::limits::PNG_DECODE_BYTES`].
+pub fn decode_png(path: &Path) -> Result<image::DynamicImage> {
+    let open = || -> Result<_> {
+        let file = std::io::BufReader::new(open_input(path)?);
+        image::ImageReader::new(file)
+            .with_guessed_format()
+            .map_err(|e| Error::io(path, e))
+    };
+    let (w, h) = open()?
+        .into_dimensions()
+        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
+    crate::limits::check_image_size(&path.display().to_string(), w as usize, h as usize)?;
+    let mut reader = open()?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
+    reader.limits(limits);
+    reader
+        .decode()
+        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))
 }
 
 /// A file name stem made from a label (a material's name): letters and
@@ -652,11 +672,9 @@ impl StagedDir {
         std::fs::create_dir_all(parent).map_err(|e| cannot_write(target, parent, &e))?;
         sweep_stale_temps(parent);
         let prefix = temp_prefix();
-        let (tmp, live) = LiveTemp::create(
-            || temp_builder(&prefix).tempdir_in(parent),
-            |t| t.path(),
-        )
-        .map_err(|e| cannot_write(target, parent, &e))?;
+        let (tmp, live) =
+            LiveTemp::create(|| temp_builder(&prefix).tempdir_in(parent), |t| t.path())
+                .map_err(|e| cannot_write(target, parent, &e))?;
         Ok(StagedDir {
             target: target.to_path_buf(),
             tmp,
@@ -702,11 +720,9 @@ impl StagedDir {
             return Ok(());
         }
         let prefix = temp_prefix();
-        let (aside, aside_live) = LiveTemp::create(
-            || temp_builder(&prefix).tempdir_in(&parent),
-            |t| t.path(),
-        )
-        .map_err(|e| cannot_write(&target, &parent, &e))?;
+        let (aside, aside_live) =
+            LiveTemp::create(|| temp_builder(&prefix).tempdir_in(&parent), |t| t.path())
+                .map_err(|e| cannot_write(&target, &parent, &e))?;
         let aside_path = aside.path().to_path_buf();
         // An empty folder to rename over: rename replaces an empty folder.
         std::fs::rename(&target, &aside_path).map_err(err)?;

@@ -19,5 +19,6 @@ pub mod numerics;
 pub mod profile;
 pub mod progress;
 pub mod report;
+pub mod scene;
 
 pub use error::{Error, Result};

@@ -91,6 +91,28 @@ pub struct Args {
     no_plots: NoPlotsArg,
     #[command(flatten)]
     out_dir: OutDir,
+    /// A path-traced scene (TOML) to score every kernel model on [default: none].
+    ///
+    /// Every kernel model through the screen-space pass on the scene's
+    /// G-buffer, against the path-traced image (with --render; the profile
+    /// is the render's).
+    #[arg(long, value_name = "SCENE.toml", requires = "render")]
+    scene: Option<PathBuf>,
+    /// The scene's render, `ssskit scene SCENE.toml --out IMG.exr` [default: none].
+    #[arg(long, value_name = "IMG.exr", requires = "scene")]
+    render: Option<PathBuf>,
+    /// Depth difference (mm) at which the depth-aware lerp reaches the centre colour [default: the radius holding 99% of R_d].
+    ///
+    /// The screen-space pass's follow-surface constant on the scene, in the
+    /// scene's own length: the lerp reaches the centre colour at this depth
+    /// difference.
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "scene",
+        allow_negative_numbers = true
+    )]
+    follow_mm: Option<f64>,
 }
 
 fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
@@ -195,6 +217,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mm_per_pixel = positive("--mm-per-pixel", a.mm_per_pixel.or_default())?;
     positive("--pixels-per-degree", a.pixels_per_degree)?;
     let size = a.signal_size.signal_size;
+    if let (Some(scene), Some(render)) = (&a.scene, &a.render) {
+        return super::scene::compare(super::scene::CompareArgs {
+            scene,
+            render,
+            families,
+            ranks,
+            taps,
+            pixels_per_degree: a.pixels_per_degree,
+            size: a.signal_size.signal_size,
+            follow_mm: a.follow_mm,
+            plots: !a.no_plots.no_plots,
+            out: a.out_dir.path()?,
+        });
+    }
     let mut cases = Vec::new();
     let mut signals = Vec::new();
     for &sig in a.signals.iter().flatten() {
@@ -229,8 +265,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let out_dir = a.out_dir.path()?;
     // The folder is written aside and swapped in whole at the end.
-    let staged =
-        ssskit::io::StagedDir::new(out_dir).with_context(|| format!("--out-dir {}", out_dir.display()))?;
+    let staged = ssskit::io::StagedDir::new(out_dir)
+        .with_context(|| format!("--out-dir {}", out_dir.display()))?;
     let no_plots = a.no_plots.no_plots;
     let inputs = load_profiles(&a)?;
     let options = Options {

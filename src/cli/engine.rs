@@ -75,7 +75,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .units_per_mm
         .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
     let fit = engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?;
-    outln!("engine: {} (profile {})", fit.engine, profile_path.display())?;
+    outln!(
+        "engine: {} (profile {})",
+        fit.engine,
+        profile_path.display()
+    )?;
     outln!("version: {}", fit.version)?;
     outln!("scene: {} units per mm", scene.units_per_mm)?;
     for (name, v) in &fit.params {

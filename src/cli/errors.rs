@@ -78,6 +78,12 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("engine", "scene units per mm", &["--units-per-mm"]),
     ("engine", "engine version", &["--engine-version"]),
     ("bench", "frames", &["--frames"]),
+    ("scene render", "spp", &["--spp"]),
+    ("scene render", "target_error", &["--target-error"]),
+    ("scene render", "max_spp", &["--max-spp"]),
+    ("scene render", "max_work", &["--max-work"]),
+    ("scene render", "gbuffer_side", &["--gbuffer-side"]),
+    (mc::CONTEXT, "photons", &["--profile-photons"]),
 ];
 
 /// Where the value is fine but a setting does not suit it: (context,

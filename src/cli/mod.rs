@@ -22,6 +22,7 @@ mod profile;
 mod profile_source;
 mod profiles;
 mod progress;
+mod scene;
 mod signal;
 mod simulate;
 mod study;
@@ -96,6 +97,8 @@ enum Command {
     Completions(generate::CompletionsArgs),
     /// Man pages, or the markdown command-line reference (docs/cli.md).
     Man(generate::ManArgs),
+    /// Path-trace a scene (TOML) to an EXR: radiance, its standard error and the G-buffer.
+    Scene(scene::Args),
 }
 
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
@@ -182,6 +185,7 @@ pub fn main() -> i32 {
         Command::Compare(a) => compare::run(a),
         Command::Completions(a) => generate::completions(a),
         Command::Man(a) => generate::man(a),
+        Command::Scene(a) => scene::run(a),
     };
     match result.and_then(|()| out::flush()) {
         Ok(()) => 0,

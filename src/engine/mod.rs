@@ -227,7 +227,9 @@ pub fn fit_version(
     check_scene(scene)?;
     let v = engine.version(version)?;
     match engine {
-        Engine::Unreal | Engine::UnityHdrp | Engine::Blender => fit_burley(engine, v, profile, scene),
+        Engine::Unreal | Engine::UnityHdrp | Engine::Blender => {
+            fit_burley(engine, v, profile, scene)
+        }
         // The separable engines fill their whole answer (`jimenez.rs`).
         Engine::Iryoku => iryoku::fit(profile, scene),
         Engine::Godot => godot::fit(profile, scene),

@@ -230,7 +230,7 @@ pub fn read_plane(path: &Path, channel: Option<&str>) -> Result<Plane> {
                     "channels can only be named in EXR files",
                 ));
             }
-            let img = decode_png(path)?;
+            let img = crate::io::decode_png(path)?;
             let (w, h) = (img.width() as usize, img.height() as usize);
             let raw = img.to_luma16();
             Ok(Plane {
@@ -242,13 +242,64 @@ pub fn read_plane(path: &Path, channel: Option<&str>) -> Result<Plane> {
     }
 }
 
-type Channels = ((usize, usize), Vec<(String, Vec<f64>)>);
+/// An EXR file's size (width, height) and its channels, by name.
+pub type Channels = ((usize, usize), Vec<(String, Vec<f64>)>);
 
 fn channel_list(ch: &[(String, Vec<f64>)]) -> String {
     ch.iter()
         .map(|(n, _)| n.as_str())
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// Every channel of an EXR file's first layer, by name, with its size
+/// (checked against the caps before the pixels are read).
+pub fn read_exr_channels(path: &Path) -> Result<Channels> {
+    exr_channels(path)
+}
+
+/// Writes named f32 channels of `width` x `height` samples (a scene
+/// render's planes) atomically; refuses what ssskit could not read back.
+pub fn write_exr_channels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: &[(&str, &[f64])],
+) -> Result<()> {
+    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec, WritableImage};
+    crate::limits::check_image_size(&path.display().to_string(), width, height)?;
+    let mut list = SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
+    for (name, v) in channels {
+        if v.len() != width * height {
+            return Err(Error::format(
+                path,
+                format!(
+                    "channel {name} has {} samples for {width}x{height} pixels",
+                    v.len()
+                ),
+            ));
+        }
+        if let Some(i) = v.iter().position(|x| !(x.abs() <= f32::MAX as f64)) {
+            return Err(Error::format(
+                path,
+                format!(
+                    "refusing to write sample {} at pixel ({}, {}) channel {name}: not a finite f32",
+                    v[i],
+                    i % width,
+                    i / width
+                ),
+            ));
+        }
+        let samples = FlatSamples::F32(v.iter().map(|&x| x as f32).collect());
+        list.push(AnyChannel::new(*name, samples));
+    }
+    let exr_image = exr::image::Image::from_channels((width, height), AnyChannels::sort(list));
+    crate::io::write_atomic_with(path, |w| {
+        exr_image
+            .write()
+            .to_buffered(w)
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    })
 }
 
 fn exr_channels(path: &Path) -> Result<Channels> {
@@ -381,28 +432,8 @@ fn read_exr(path: &Path, depth_channel: Option<&str>) -> Result<(Image, Extras)>
     Ok((image, Extras { depth }))
 }
 
-fn decode_png(path: &Path) -> Result<image::DynamicImage> {
-    let open = || -> Result<_> {
-        let file = std::io::BufReader::new(crate::io::open_input(path)?);
-        image::ImageReader::new(file)
-            .with_guessed_format()
-            .map_err(|e| Error::io(path, e))
-    };
-    let (w, h) = open()?
-        .into_dimensions()
-        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))?;
-    crate::limits::check_image_size(&path.display().to_string(), w as usize, h as usize)?;
-    let mut reader = open()?;
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(crate::limits::PNG_DECODE_BYTES);
-    reader.limits(limits);
-    reader
-        .decode()
-        .map_err(|e| Error::format(path, format!("unreadable PNG file: {e}")))
-}
-
 fn read_png(path: &Path) -> Result<Image> {
-    let img = decode_png(path)?;
+    let img = crate::io::decode_png(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     let channels = img.color().channel_count() as usize;
     let has_alpha = img.color().has_alpha();
@@ -549,7 +580,7 @@ fn write_png(path: &Path, image: &Image, depth: PngDepth) -> Result<()> {
 
 /// The bit depth a PNG file was stored with (16 when it holds 16-bit samples).
 pub fn png_depth_of(path: &Path) -> Result<PngDepth> {
-    let img = decode_png(path)?;
+    let img = crate::io::decode_png(path)?;
     Ok(
         if img.color().bytes_per_pixel() / img.color().channel_count() > 1 {
             PngDepth::Sixteen

@@ -19,7 +19,7 @@ use serde::Deserialize;
 /// One value for all channels or three, `[r, g, b]`. Deserialised by hand:
 /// an untagged enum would report a 2-value list as "did not match any
 /// variant" at line 1, column 1.
-struct PerChannel([f64; 3]);
+pub(crate) struct PerChannel([f64; 3]);
 
 impl<'de> Deserialize<'de> for PerChannel {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
@@ -57,7 +57,7 @@ impl<'de> Deserialize<'de> for PerChannel {
 }
 
 impl PerChannel {
-    fn rgb(&self) -> [f64; 3] {
+    pub(crate) fn rgb(&self) -> [f64; 3] {
         self.0
     }
 }
@@ -96,7 +96,7 @@ struct RawMaterial {
 
 /// A TOML error as one line naming the line and the field: "line 3, field
 /// sigma_a: invalid length 2, expected one number or ...".
-fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+pub(crate) fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
     let msg = e.message().trim().replace('\n', " ");
     let Some(span) = e.span() else {
         return msg;

@@ -6,6 +6,7 @@ mod file;
 mod presets;
 
 pub use file::parse_material_toml;
+pub(crate) use file::{describe_toml_error, PerChannel};
 pub use presets::{preset, preset_names, PRESETS};
 
 use crate::error::{Error, Result};

@@ -649,5 +649,65 @@ pub fn explain(a: &Advice) -> String {
             e.flip_rgb
         );
     }
+    if let Some(note) = screen_space_note(c.rel_rms, a.mm_per_pixel) {
+        let _ = writeln!(s, "  {note}");
+    }
     s
+}
+
+/// The screen-space model's own error as `compare --scene` measured it on
+/// the path-traced sphere of docs/scene.md (the committed record
+/// docs/records/scene-compare.json, made by scripts/scene-record).
+const SCENE_RECORD: &str = include_str!("../../docs/records/scene-compare.json");
+
+/// Which error dominates: a kernel error `kernel_rms` (flat plane, at
+/// `mm_per_pixel`) against the screen-space model's error on the recorded
+/// scene.
+pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
+    let r: serde_json::Value = serde_json::from_str(SCENE_RECORD).ok()?;
+    let d = &r["data"]["dominance"];
+    let (best, exact, at) = (
+        d["best_scene_rms"].as_f64()?,
+        d["exact_scene_rms"].as_f64()?,
+        d["mm_per_pixel"].as_f64()?,
+    );
+    let scene = r["data"]["scene"].as_str()?;
+    Some(format!(
+        "screen-space model: on the path-traced sphere of {scene} ({at:.3} mm per pixel, \
+         docs/scene.md) the best kernel through the screen-space pass misses by {:.1}% RMS of \
+         the peak and the exact flat kernel by {:.1}%, against this choice's {:.2}% at {} mm per \
+         pixel: {}",
+        100.0 * best,
+        100.0 * exact,
+        100.0 * kernel_rms,
+        super::kernel_report::sig(mm_per_pixel),
+        if best > kernel_rms {
+            format!(
+                "the screen-space model's own error dominates ({:.0}x); a tighter target buys \
+                 nothing visible on lit, curved surfaces",
+                best / kernel_rms.max(1e-12)
+            )
+        } else {
+            "the kernel's error dominates".to_string()
+        }
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The note reads the committed record of the path-traced sphere and
+    /// says which error is the larger.
+    #[test]
+    fn the_note_says_which_error_dominates() {
+        let small = screen_space_note(1e-4, 0.1).expect("the scene record");
+        assert!(
+            small.contains("screen-space model's own error dominates"),
+            "{small}"
+        );
+        assert!(small.contains("0.01% at 0.100 mm per pixel"), "{small}");
+        let big = screen_space_note(0.9, 0.1).unwrap();
+        assert!(big.contains("the kernel's error dominates"), "{big}");
+    }
 }

@@ -198,7 +198,7 @@ impl Exact {
 
 /// 1 / the 99th percentile of the lit pixels (above 1e-6 of the peak); 1
 /// for a black image.
-fn exposure_of(v: &[f64]) -> f64 {
+pub(crate) fn exposure_of(v: &[f64]) -> f64 {
     let peak = v.iter().fold(0.0f64, |m, &x| m.max(x));
     if !(peak > 0.0) {
         return 1.0;
@@ -365,7 +365,7 @@ fn round_f32(img: &Image) -> Image {
 }
 
 /// Exposed linear RGB per pixel -> clamped, sRGB-encoded, 8-bit RGB.
-fn tone_map(img: &Image, exposed: impl Fn(usize) -> [f64; 3]) -> Vec<u8> {
+pub(crate) fn tone_map(img: &Image, exposed: impl Fn(usize) -> [f64; 3]) -> Vec<u8> {
     let mut out = Vec::with_capacity(3 * img.len());
     for i in 0..img.len() {
         for v in exposed(i) {
@@ -377,18 +377,22 @@ fn tone_map(img: &Image, exposed: impl Fn(usize) -> [f64; 3]) -> Vec<u8> {
 }
 
 fn flip_mean(reference: &[u8], test: &[u8], w: usize, h: usize, ppd: f32) -> f64 {
+    let v = flip_map(reference, test, w, h, ppd);
+    v.iter().map(|&x| x as f64).sum::<f64>() / v.len().max(1) as f64
+}
+
+/// The per-pixel LDR-FLIP error of two tone-mapped 8-bit RGB images.
+pub(crate) fn flip_map(reference: &[u8], test: &[u8], w: usize, h: usize, ppd: f32) -> Vec<f32> {
     if reference == test {
         // FLIP of identical images is 0; skip the filters.
-        return 0.0;
+        return vec![0.0; w * h];
     }
-    let (w, h) = (w as u32, h as u32);
     let map = nv_flip::flip(
-        nv_flip::FlipImageRgb8::with_data(w, h, reference),
-        nv_flip::FlipImageRgb8::with_data(w, h, test),
+        nv_flip::FlipImageRgb8::with_data(w as u32, h as u32, reference),
+        nv_flip::FlipImageRgb8::with_data(w as u32, h as u32, test),
         ppd,
     );
-    let v = map.to_vec();
-    v.iter().map(|&x| x as f64).sum::<f64>() / v.len().max(1) as f64
+    map.to_vec()
 }
 
 /// Samples per pixel of a rank-N separable application.

@@ -173,7 +173,7 @@ pub fn spectra(cmp: &Comparison, out: &Path) -> Result<()> {
 
 /// Tone mapping of the report (see [`super::evaluate`]): exposure, clamp,
 /// sRGB 8-bit, interleaved.
-fn to_rgb8(img: &Image, exposure: f64) -> Vec<u8> {
+pub(crate) fn to_rgb8(img: &Image, exposure: f64) -> Vec<u8> {
     let mut v = Vec::with_capacity(3 * img.len());
     for i in 0..img.len() {
         for c in 0..3 {
@@ -210,74 +210,83 @@ pub fn contact_sheet(
         .filter_map(|f| f.kept.get(ci)?.as_ref().map(|i| (f.spec.label.as_str(), i)))
         .collect();
     let (w, h) = (exact.image.width, exact.image.height);
+    let peak = exact.image.peak().iter().cloned().fold(0.0f64, f64::max);
+    let exposure = exact.exposure_rgb;
+    let mut tiles = vec![SheetTile {
+        label: "input".into(),
+        top: to_rgb8(&exact.case.image, exposure),
+        bottom: Some(("exact 2D".into(), to_rgb8(&exact.image, exposure))),
+    }];
+    for (label, img) in &models {
+        let d = false_colour(&exact.image, img, Some(DIFF_SCALE * peak));
+        tiles.push(SheetTile {
+            label: label.to_string(),
+            top: to_rgb8(img, exposure),
+            bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
+        });
+    }
+    let title = format!(
+        "{material}, {} at {} mm/px, {factor}: result (tone mapped) above |result - exact| \
+         (white = {}% of the exact peak)",
+        exact.case.name,
+        exact.case.mm_per_pixel,
+        DIFF_SCALE * 100.0
+    );
+    draw_sheet(&tiles, (w, h), &title, out)
+}
+
+/// One cell of a contact sheet: an 8-bit RGB image of the sheet's tile
+/// size with its label, and optionally a second one below it.
+pub(crate) struct SheetTile {
+    pub label: String,
+    pub top: Vec<u8>,
+    pub bottom: Option<(String, Vec<u8>)>,
+}
+
+/// Draws `tiles` of `w` x `h` pixels six to a row under `title` and
+/// writes the PNG atomically.
+pub(crate) fn draw_sheet(
+    tiles: &[SheetTile],
+    (w, h): (usize, usize),
+    title: &str,
+    out: &Path,
+) -> Result<()> {
+    plot::register_fonts();
     let cols = 6usize;
     let label_h = 22usize;
     let cell_w = w + 8;
     let cell_h = 2 * (h + label_h) + 8;
-    let n_tiles = models.len() + 1;
-    let rows = n_tiles.div_ceil(cols);
+    let rows = tiles.len().div_ceil(cols);
     let head = 34usize;
     let (sw, sh) = (cols * cell_w, head + rows * cell_h);
+    crate::limits::check_image_size(&out.display().to_string(), sw, sh)?;
     let mut buf = vec![255u8; sw * sh * 3];
-    let peak = exact.image.peak().iter().cloned().fold(0.0f64, f64::max);
     let blit = |buf: &mut [u8], rgb: &[u8], x0: usize, y0: usize| {
         for y in 0..h {
             let dst = ((y0 + y) * sw + x0) * 3;
             buf[dst..dst + 3 * w].copy_from_slice(&rgb[y * w * 3..(y + 1) * w * 3]);
         }
     };
-    let exposure = exact.exposure_rgb;
-    let mut labels: Vec<(String, usize, usize)> = Vec::new();
-    // First tile: the input above the exact convolution.
-    blit(
-        &mut buf,
-        &to_rgb8(&exact.case.image, exposure),
-        4,
-        head + label_h,
-    );
-    blit(
-        &mut buf,
-        &to_rgb8(&exact.image, exposure),
-        4,
-        head + 2 * label_h + h,
-    );
-    labels.push(("input".into(), 4, head));
-    labels.push(("exact 2D".into(), 4, head + label_h + h));
-    for (i, (label, img)) in models.iter().enumerate() {
-        let t = i + 1;
+    let mut labels: Vec<(&str, usize, usize)> = Vec::new();
+    for (t, tile) in tiles.iter().enumerate() {
         let (x0, y0) = ((t % cols) * cell_w + 4, head + (t / cols) * cell_h);
-        blit(&mut buf, &to_rgb8(img, exposure), x0, y0 + label_h);
-        let d = false_colour(&exact.image, img, Some(DIFF_SCALE * peak));
-        blit(&mut buf, &to_rgb8(&d, 1.0), x0, y0 + 2 * label_h + h);
-        labels.push((label.to_string(), x0, y0));
-        labels.push(("difference".into(), x0, y0 + label_h + h));
+        blit(&mut buf, &tile.top, x0, y0 + label_h);
+        labels.push((&tile.label, x0, y0));
+        if let Some((label, rgb)) = &tile.bottom {
+            blit(&mut buf, rgb, x0, y0 + 2 * label_h + h);
+            labels.push((label, x0, y0 + label_h + h));
+        }
     }
     {
         let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
         let e = |e| Error::format(out, format!("plotting failed: {e}"));
         let font = ("sans-serif", 15).into_font().color(&BLACK);
-        root.draw_text(
-            &format!(
-                "{material}, {} at {} mm/px, {factor}: result (tone mapped) above |result - exact| \
-                 (white = {}% of the exact peak)",
-                exact.case.name,
-                exact.case.mm_per_pixel,
-                DIFF_SCALE * 100.0
-            ),
-            &font,
-            (6, 8),
-        )
-        .map_err(e)?;
+        root.draw_text(title, &font, (6, 8)).map_err(e)?;
         for (text, x, y) in &labels {
             root.draw_text(text, &font, (*x as i32, *y as i32 + 3))
                 .map_err(e)?;
         }
         root.present().map_err(e)?;
     }
-    let img = image::RgbImage::from_raw(sw as u32, sh as u32, buf)
-        .ok_or_else(|| Error::format(out, "image buffer has the wrong size"))?;
-    let mut png = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .map_err(|e| Error::format(out, format!("PNG encoding failed: {e}")))?;
-    crate::io::write_atomic(out, &png)
+    plot::write_png(buf, sw as u32, sh as u32, out)
 }

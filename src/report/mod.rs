@@ -10,5 +10,6 @@ pub mod pareto;
 pub mod pipeline;
 pub mod plot;
 pub mod record;
+pub mod scene_compare;
 pub mod study;
 pub mod table;

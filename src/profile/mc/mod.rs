@@ -20,7 +20,7 @@ pub mod gpu;
 pub mod mci;
 pub mod mco;
 mod tally;
-mod tracer;
+pub(crate) mod tracer;
 
 pub use angular::{Angular, AngularOptions};
 pub use balance::EnergyBalance;
@@ -551,7 +551,7 @@ pub(crate) fn check_fixed_work(
 }
 
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014): decorrelates stream keys.
-fn splitmix64(mut z: u64) -> u64 {
+pub(crate) fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

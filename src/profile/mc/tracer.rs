@@ -102,22 +102,13 @@ impl Stack {
             .layers
             .iter()
             .map(|l| {
-                let sigma_t = l.sigma_a[c] + l.sigma_s[c];
-                let g = l.g[c];
                 let z_top = z;
                 let z_bottom = l.thickness.map_or(f64::INFINITY, |t| z + t);
                 z = z_bottom;
                 LayerOptics {
                     z_top,
                     z_bottom,
-                    sigma_t,
-                    inv_sigma_t: 1.0 / sigma_t,
-                    albedo: l.sigma_s[c] / sigma_t,
-                    g,
-                    one_minus_g2: 1.0 - g * g,
-                    one_plus_g2: 1.0 + g * g,
-                    inv_2g: if g.abs() < HG_ISOTROPIC { 0.0 } else { 0.5 / g },
-                    n: l.eta,
+                    ..LayerOptics::unbounded(l.sigma_a[c], l.sigma_s[c], l.g[c], l.eta)
                 }
             })
             .collect();
@@ -142,6 +133,39 @@ impl Stack {
         let sin_t = (sin_i * n_i / n_t).min(1.0);
         s.launch = (sin_t, (1.0 - sin_t * sin_t).max(0.0).sqrt());
         s
+    }
+}
+
+impl LayerOptics {
+    /// The constants of a medium filling all space (also the interior of a
+    /// scene's object); `n` is its refractive index.
+    pub(crate) fn unbounded(sigma_a: f64, sigma_s: f64, g: f64, n: f64) -> LayerOptics {
+        let sigma_t = sigma_a + sigma_s;
+        LayerOptics {
+            z_top: f64::NEG_INFINITY,
+            z_bottom: f64::INFINITY,
+            sigma_t,
+            inv_sigma_t: 1.0 / sigma_t,
+            albedo: sigma_s / sigma_t,
+            g,
+            one_minus_g2: 1.0 - g * g,
+            one_plus_g2: 1.0 + g * g,
+            inv_2g: if g.abs() < HG_ISOTROPIC { 0.0 } else { 0.5 / g },
+            n,
+        }
+    }
+
+    pub(crate) fn sigma_t(&self) -> f64 {
+        self.sigma_t
+    }
+
+    /// sigma_s / sigma_t.
+    pub(crate) fn albedo(&self) -> f64 {
+        self.albedo
+    }
+
+    pub(crate) fn g(&self) -> f64 {
+        self.g
     }
 }
 
@@ -213,7 +237,7 @@ fn neg_ln(x: f64, t: &LogTable) -> f64 {
 /// cos(theta) from the Henyey-Greenstein phase function by inversion
 /// (Wang et al. 1995; MCML SpinTheta).
 #[inline(always)]
-fn sample_hg_cos(l: &LayerOptics, xi: f64) -> f64 {
+pub(crate) fn sample_hg_cos(l: &LayerOptics, xi: f64) -> f64 {
     if l.inv_2g == 0.0 {
         return 2.0 * xi - 1.0;
     }

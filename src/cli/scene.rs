@@ -1,0 +1,392 @@
+//! `ssskit scene`: path-traces a scene file to an EXR holding the radiance,
+//! its standard error and the G-buffer a screen-space pass gets; writes the
+//! render's record (settings, noise, the materials' profiles) beside it.
+//! Also the `compare --scene` entry: every kernel model through the
+//! screen-space pass on that G-buffer, against the path-traced image.
+
+use super::out::outln;
+use super::progress::Bar;
+use anyhow::{bail, Context};
+use ssskit::filter::image::{
+    read_exr_channels, write_exr, write_exr_channels, write_image, PngDepth,
+};
+use ssskit::filter::{Image, Plane};
+use ssskit::profile::mc::{self, PhotonBudget};
+use ssskit::profile::Profile;
+use ssskit::scene::{
+    material_profiles, render, Render, RenderConfig, RenderInfo, SampleBudget, Scene,
+    DEFAULT_GBUFFER_SIDE, DEFAULT_MAX_SPP, DEFAULT_MAX_WORK, DEFAULT_SCENE_ERROR,
+};
+use std::path::{Path, PathBuf};
+
+/// Cap on photons per channel of the materials' profiles.
+const PROFILE_MAX_PHOTONS: u64 = 100_000_000;
+
+/// Boxed so that the subcommand enum stays small.
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    flags: Box<Flags>,
+}
+
+#[derive(clap::Args)]
+struct Flags {
+    /// The scene (TOML; see docs/scene.md).
+    #[arg(value_name = "SCENE.toml")]
+    scene: PathBuf,
+    /// Output image: radiance R, G, B; stderr.R/G/B; the G-buffer
+    /// (irradiance.R/G/B = diffuse irradiance / pi x R_d, Z, N.X/Y/Z,
+    /// coverage). The render's record goes to the same name with .json.
+    #[arg(long, value_name = "IMG.exr")]
+    out: PathBuf,
+    /// Samples per pixel and channel (instead of a target error).
+    #[arg(long, conflicts_with = "target_error", value_parser = parse_count)]
+    spp: Option<u64>,
+    /// Trace until the noise (RMS standard error over the pixels that see
+    /// an object, over their 99th-percentile radiance) is below E in every
+    /// channel [default: 0.01].
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    target_error: Option<f64>,
+    /// Cap on samples per pixel of --target-error.
+    #[arg(long, default_value_t = DEFAULT_MAX_SPP, value_parser = parse_count)]
+    max_spp: u64,
+    /// Work cap per channel, in events (scattering events and boundary
+    /// crossings).
+    #[arg(long, default_value_t = DEFAULT_MAX_WORK, value_parser = parse_count)]
+    max_work: u64,
+    /// RNG seed: the same seed gives a bit-identical image.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads (results are identical for any count).
+    #[arg(long, allow_hyphen_values = true)]
+    threads: Option<usize>,
+    /// G-buffer positions per pixel side (box filter).
+    #[arg(long, default_value_t = DEFAULT_GBUFFER_SIDE)]
+    gbuffer_side: usize,
+    /// Photons per channel of each material's profile (Monte Carlo, the
+    /// R_d of the irradiance channels) [default: the kernel-factor rule of
+    /// `simulate`, 0.5%].
+    #[arg(long, value_parser = parse_count)]
+    profile_photons: Option<u64>,
+    /// Also write the G-buffer as `ssskit apply` reads it: R, G, B =
+    /// irradiance / pi x R_d, Z = depth (apply --fov-y F --sss-width W).
+    #[arg(long, value_name = "FILE.exr")]
+    irradiance_out: Option<PathBuf>,
+    /// Also write a tone-mapped PNG of the radiance (the 99th percentile of
+    /// the lit pixels maps to white).
+    #[arg(long, value_name = "FILE.png")]
+    preview: Option<PathBuf>,
+}
+
+fn parse_count(s: &str) -> Result<u64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("not a number: '{s}' (e.g. 4096 or 1e6)"))?;
+    if !(v >= 0.0 && v <= u64::MAX as f64 && v.fract() == 0.0) {
+        return Err(format!("must be a whole number >= 0, got {s}"));
+    }
+    Ok(v as u64)
+}
+
+/// The record written beside an image.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Sidecar {
+    info: RenderInfo,
+    /// The scene file's text: a comparison checks it renders this scene.
+    scene: String,
+    /// The profile behind each object's R_d.
+    profiles: Vec<Profile>,
+}
+
+fn sidecar_path(out: &Path) -> PathBuf {
+    out.with_extension("json")
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let a = *args.flags;
+    ssskit::io::check_extension(&a.out, &["exr"], "image")?;
+    if let Some(p) = &a.irradiance_out {
+        ssskit::io::check_extension(p, &["exr"], "image")?;
+    }
+    if let Some(p) = &a.preview {
+        ssskit::io::check_extension(p, &["png"], "image")?;
+    }
+    let scene = Scene::load(&a.scene)?;
+    let text = ssskit::io::read_text(&a.scene)?;
+    let budget = match (a.spp, a.target_error) {
+        (Some(n), _) => SampleBudget::Fixed(n),
+        (None, e) => SampleBudget::TargetError {
+            rel: e.unwrap_or(DEFAULT_SCENE_ERROR),
+            max_spp: a.max_spp,
+        },
+    };
+    let cfg = RenderConfig {
+        budget,
+        seed: a.seed,
+        threads: a.threads,
+        gbuffer_side: a.gbuffer_side,
+        max_work: a.max_work,
+    };
+    cfg.validate(&scene)?;
+    let photons = match a.profile_photons {
+        Some(n) => PhotonBudget::Fixed(n),
+        None => PhotonBudget::KernelFactor {
+            rel: mc::DEFAULT_KERNEL_ERROR,
+            max_photons: PROFILE_MAX_PHOTONS,
+        },
+    };
+    let profiles = material_profiles(&scene, photons, a.seed, a.threads, &Bar::new())?;
+    let rd: Vec<[f64; 3]> = profiles
+        .iter()
+        .map(|p| [p.total_rd[0], p.total_rd[1], p.total_rd[2]])
+        .collect();
+    let r = render(&scene, &rd, &cfg, &Bar::new())?;
+    write_render(&a.out, &r, &text, &profiles)?;
+    let back = read_render(&a.out)?;
+    if back.0.info != r.info || back.0.width != r.width {
+        bail!(
+            "{}: read back differs from what was written",
+            a.out.display()
+        );
+    }
+    if let Some(p) = &a.irradiance_out {
+        let img = Image {
+            width: r.width,
+            height: r.height,
+            rgb: r.gbuffer.irradiance.clone(),
+            alpha: None,
+        };
+        let depth = Plane {
+            width: r.width,
+            height: r.height,
+            data: r.gbuffer.depth.clone(),
+        };
+        write_exr(p, &img, Some(&depth))?;
+    }
+    if let Some(p) = &a.preview {
+        write_image(p, &preview(&r), PngDepth::Eight)?;
+    }
+    let i = &r.info;
+    outln!(
+        "{}: {}x{} pixels, {} / {} / {} samples per pixel (r/g/b), noise {:.3}% / {:.3}% / {:.3}% \
+         of the 99th-percentile radiance, {:.1} s",
+        a.scene.display(),
+        r.width,
+        r.height,
+        i.spp[0],
+        i.spp[1],
+        i.spp[2],
+        100.0 * i.noise[0],
+        100.0 * i.noise[1],
+        100.0 * i.noise[2],
+        i.seconds
+    )?;
+    for (o, rd) in scene.objects.iter().zip(&i.rd) {
+        outln!(
+            "  {} ({}): R_d = {:.4} / {:.4} / {:.4}",
+            o.name,
+            o.material.name,
+            rd[0],
+            rd[1],
+            rd[2]
+        )?;
+    }
+    if !i.converged {
+        super::errors::warn(&format!(
+            "the render stopped before its target ({}): raise `max_spp` or `max_work`",
+            if i.work_capped {
+                "work cap"
+            } else {
+                "samples per pixel cap"
+            }
+        ));
+    }
+    let lost: u64 = i.lost.iter().sum();
+    if lost > 0 {
+        super::errors::warn(&format!(
+            "{lost} paths ended by round-off at a grazing boundary crossing"
+        ));
+    }
+    eprintln!("-> {}, {}", a.out.display(), sidecar_path(&a.out).display());
+    Ok(())
+}
+
+/// Radiance tone-mapped for a look: the 99th percentile of the seen
+/// pixels' largest channel maps to 1.
+fn preview(r: &Render) -> Image {
+    let mut m: Vec<f64> = (0..r.width * r.height)
+        .filter(|&i| r.gbuffer.coverage[i] > 0.0)
+        .map(|i| (0..3).fold(0.0f64, |a, c| a.max(r.radiance[c][i])))
+        .collect();
+    m.sort_by(f64::total_cmp);
+    let p = m
+        .get(((0.99 * m.len() as f64) as usize).min(m.len().saturating_sub(1)))
+        .copied()
+        .filter(|v| *v > 0.0)
+        .unwrap_or(1.0);
+    Image {
+        width: r.width,
+        height: r.height,
+        rgb: std::array::from_fn(|c| r.radiance[c].iter().map(|v| v / p).collect()),
+        alpha: None,
+    }
+}
+
+fn write_render(out: &Path, r: &Render, scene: &str, profiles: &[Profile]) -> anyhow::Result<()> {
+    write_exr_channels(out, r.width, r.height, &r.planes())?;
+    let side = Sidecar {
+        info: r.info.clone(),
+        scene: scene.to_string(),
+        profiles: profiles.to_vec(),
+    };
+    let text = serde_json::to_string_pretty(&side)? + "\n";
+    ssskit::io::write_atomic(&sidecar_path(out), text.as_bytes())?;
+    Ok(())
+}
+
+/// A render written by `ssskit scene`, with its scene text and profiles.
+fn read_render(path: &Path) -> anyhow::Result<(Render, String, Vec<Profile>)> {
+    let side_path = sidecar_path(path);
+    let text = ssskit::io::read_text(&side_path)
+        .with_context(|| format!("the record of {}", path.display()))?;
+    let side: Sidecar = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: not the record of a scene render (ssskit scene writes it)",
+            side_path.display()
+        )
+    })?;
+    if side.info.schema != ssskit::scene::RENDER_SCHEMA {
+        bail!(
+            "{}: schema '{}', expected '{}'",
+            side_path.display(),
+            side.info.schema,
+            ssskit::scene::RENDER_SCHEMA
+        );
+    }
+    let ((w, h), planes) = read_exr_channels(path)?;
+    let r = Render::from_planes(w, h, planes, side.info, &path.display().to_string())?;
+    Ok((r, side.scene, side.profiles))
+}
+
+/// What `compare --scene` passes on.
+pub(super) struct CompareArgs<'a> {
+    pub scene: &'a Path,
+    pub render: &'a Path,
+    pub families: Vec<String>,
+    pub ranks: Vec<usize>,
+    pub taps: Vec<usize>,
+    pub pixels_per_degree: f64,
+    pub size: usize,
+    pub follow_mm: Option<f64>,
+    pub plots: bool,
+    pub out: &'a Path,
+}
+
+/// `compare --scene`: the screen-space error of every kernel model on the
+/// scene's G-buffer against its path-traced image; writes scene.md,
+/// scene.json, record.json and the contact sheet.
+pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
+    use ssskit::report::record::{machine_line, Record};
+    use ssskit::report::scene_compare::{
+        compare_scene, contact_sheet, dominance, noise_table, region_table, summary_table,
+        SceneConfig,
+    };
+    let scene = Scene::load(a.scene)?;
+    let text = ssskit::io::read_text(a.scene)?;
+    let (r, scene_text, profiles) = read_render(a.render)?;
+    if scene_text != text {
+        bail!(
+            "--render {}: it was rendered from another scene than {} (its record holds that \
+             scene's text): render this one with `ssskit scene {} --out IMG.exr`",
+            a.render.display(),
+            a.scene.display(),
+            a.scene.display()
+        );
+    }
+    let Some(profile) = profiles.first() else {
+        bail!(
+            "--render {}: its record holds no profile",
+            a.render.display()
+        );
+    };
+    std::fs::create_dir_all(a.out).with_context(|| format!("--out {}", a.out.display()))?;
+    let cfg = SceneConfig {
+        families: a.families,
+        ranks: a.ranks,
+        taps: a.taps,
+        options: ssskit::report::evaluate::Options {
+            round_to_f32: true,
+            pixels_per_degree: a.pixels_per_degree,
+        },
+        follow_mm: a.follow_mm,
+        signal_size: a.size,
+        keep_images: a.plots,
+    };
+    let cmp = compare_scene(&scene, &r, profile, &cfg, &Bar::new())?;
+    let (summary, regions, noise) = (summary_table(&cmp), region_table(&cmp), noise_table(&cmp));
+    let head = format!(
+        "Scene {}: {}x{} pixels, {} samples per pixel (r), {:.3} mm per pixel at the object's \
+         median depth; the lerp completes at a depth difference of {:.3} mm (C = {:.4} in the \
+         pass's convention).",
+        a.scene.display(),
+        r.width,
+        r.height,
+        r.info.spp[0],
+        cmp.mm_per_pixel,
+        cmp.follow_mm,
+        cmp.follow_constant
+    );
+    let block = |name: &str, t: &ssskit::report::table::Table| {
+        format!(
+            "<!-- BEGIN compare:{name} -->\n{}<!-- END compare:{name} -->\n",
+            t.markdown()
+        )
+    };
+    let md = format!(
+        "# Screen-space SSS against the path-traced scene\n\n{head}\n\nAll seen pixels: \
+         relative RMS of (pass - path traced) over the 99th-percentile radiance, mean bias, \
+         FLIP; flat-plane errors of the same tap table beside them.\n\n{}\nLargest RMS over the \
+         channels and FLIP by region.\n\n{}\nThe path-traced image's noise by region (the floor \
+         under the RMS).\n\n{}",
+        block("summary", &summary),
+        block("regions", &regions),
+        block("noise", &noise)
+    );
+    ssskit::io::write_atomic(&a.out.join("scene.md"), md.as_bytes())?;
+    let json = serde_json::json!({
+        "scene": a.scene.display().to_string(),
+        "dominance": dominance(&cmp),
+        "mm_per_pixel": cmp.mm_per_pixel,
+        "follow_mm": cmp.follow_mm,
+        "follow_constant": cmp.follow_constant,
+        "noise": cmp.noise,
+        "spp": r.info.spp,
+        "rows": cmp.rows,
+    });
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    ssskit::io::write_atomic(&a.out.join("scene.json"), text.as_bytes())?;
+    let mut rec = Record::new(&super::profile_source::command_line(a.out), &machine_line());
+    rec.tables.insert("summary".into(), (&summary).into());
+    rec.tables.insert("regions".into(), (&regions).into());
+    rec.tables.insert("noise".into(), (&noise).into());
+    rec.data = json;
+    rec.write(&a.out.join("record.json"))?;
+    if a.plots {
+        let name = a.scene.file_name().map_or_else(
+            || a.scene.display().to_string(),
+            |n| n.to_string_lossy().into(),
+        );
+        contact_sheet(&cmp, &name, &a.out.join("contact-sheet.png"))?;
+    }
+    outln!("{head}\n\n{}", summary.markdown())?;
+    if let Some(d) = dominance(&cmp) {
+        outln!("{}", d.sentence())?;
+    }
+    eprintln!(
+        "-> {}/scene.md, scene.json, record.json{}",
+        a.out.display(),
+        if a.plots { ", contact-sheet.png" } else { "" }
+    );
+    Ok(())
+}

@@ -1,0 +1,140 @@
+//! What a renderer's G-buffer hands a screen-space pass, from the scene's
+//! camera: per pixel, box-filtered over `side` x `side` stratified
+//! positions, the coverage (fraction of positions that see an object), the
+//! linear view depth and the normal (means over the covered positions),
+//! and the diffuse irradiance / pi x R_d (mean over all positions, 0 where
+//! nothing is seen).
+//!
+//! Irradiance as a rasteriser computes it: a directional light gives
+//! E max(0, N.L) where the shadow ray towards it meets no object (shadow
+//! maps treat every object as opaque); the environment gives pi L times the
+//! cosine-weighted fraction of the hemisphere no object hides, estimated
+//! with [`ENV_RAYS`] rays per position.
+
+use super::geometry::{frame, Ray, V3};
+use super::trace::uniform;
+use super::Scene;
+use rand_core::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+use rayon::prelude::*;
+
+/// Cosine-distributed visibility rays per position for the environment.
+pub const ENV_RAYS: usize = 16;
+
+/// The G-buffer planes, row-major, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GBuffer {
+    /// Diffuse irradiance / pi x R_d per channel: `ssskit apply`'s input.
+    pub irradiance: [Vec<f64>; 3],
+    /// Linear view depth in scene units; `far` where nothing is seen.
+    pub depth: Vec<f64>,
+    /// World-space unit normal (x, y, z); 0 where nothing is seen.
+    pub normal: [Vec<f64>; 3],
+    /// Fraction of the pixel that sees an object.
+    pub coverage: Vec<f64>,
+}
+
+/// Computes the G-buffer. `rd[k]` is object k's total diffuse reflectance
+/// per channel; `far` (scene units) is the depth written where nothing is
+/// seen; `side` x `side` positions per pixel.
+pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, seed: u64) -> GBuffer {
+    let cam = &scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let eps = 1e-9 * (1.0 + scene.reach());
+    let env = scene.environment();
+    let lights: Vec<(V3, [f64; 3])> = scene.directional().collect();
+    let unit = scene.unit.mm();
+    let per_pixel: Vec<([f64; 3], f64, V3, f64)> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let mut rng =
+                Xoshiro256PlusPlus::seed_from_u64(super::render::sample_key(seed, 3, p as u64, 0));
+            let mut irr = [0.0; 3];
+            let (mut depth, mut normal, mut hits) = (0.0, V3::zeros(), 0usize);
+            for j in 0..side {
+                for i in 0..side {
+                    let px = x as f64 + (i as f64 + 0.5) / side as f64;
+                    let py = y as f64 + (j as f64 + 0.5) / side as f64;
+                    let ray = cam.ray(px, py);
+                    let Some((k, hit)) = scene.nearest(&ray, f64::INFINITY) else {
+                        continue;
+                    };
+                    hits += 1;
+                    let q = ray.at(hit.t);
+                    depth += cam.depth(q) / unit;
+                    normal += hit.n;
+                    let lifted = q + eps * hit.n;
+                    let mut e = [0.0; 3];
+                    for (toward, ir) in &lights {
+                        let cos = hit.n.dot(toward);
+                        if cos > 0.0
+                            && scene
+                                .nearest(
+                                    &Ray {
+                                        o: lifted,
+                                        d: *toward,
+                                    },
+                                    f64::INFINITY,
+                                )
+                                .is_none()
+                        {
+                            for c in 0..3 {
+                                e[c] += ir[c] * cos;
+                            }
+                        }
+                    }
+                    if env.iter().any(|&v| v > 0.0) {
+                        let (u, v) = frame(hit.n);
+                        let mut open = 0usize;
+                        for _ in 0..ENV_RAYS {
+                            let (a, b) = (uniform(&mut rng), uniform(&mut rng));
+                            let (s, c) = (std::f64::consts::TAU * b).sin_cos();
+                            let r = a.sqrt();
+                            let d = r * c * u + r * s * v + (1.0 - a).max(0.0).sqrt() * hit.n;
+                            if scene
+                                .nearest(&Ray { o: lifted, d }, f64::INFINITY)
+                                .is_none()
+                            {
+                                open += 1;
+                            }
+                        }
+                        let f = open as f64 / ENV_RAYS as f64;
+                        for c in 0..3 {
+                            e[c] += std::f64::consts::PI * env[c] * f;
+                        }
+                    }
+                    for c in 0..3 {
+                        irr[c] += e[c] / std::f64::consts::PI * rd[k][c];
+                    }
+                }
+            }
+            let n2 = (side * side) as f64;
+            if hits == 0 {
+                return ([0.0; 3], far, V3::zeros(), 0.0);
+            }
+            let nn = normal.norm();
+            (
+                irr.map(|v| v / n2),
+                depth / hits as f64,
+                if nn > 0.0 { normal / nn } else { V3::zeros() },
+                hits as f64 / n2,
+            )
+        })
+        .collect();
+    let mut g = GBuffer {
+        irradiance: Default::default(),
+        depth: Vec::with_capacity(w * h),
+        normal: Default::default(),
+        coverage: Vec::with_capacity(w * h),
+    };
+    for (irr, d, n, cov) in per_pixel {
+        for c in 0..3 {
+            g.irradiance[c].push(irr[c]);
+            g.normal[c].push(n[c]);
+        }
+        g.depth.push(d);
+        g.coverage.push(cov);
+    }
+    g
+}
