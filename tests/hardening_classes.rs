@@ -367,7 +367,8 @@ fn merge_refuses_tampered_shards() {
     let tally = |v: &mut serde_json::Value| -> serde_json::Value {
         v["extra"]["shard"]["tallies"][0].clone()
     };
-    let cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>)> = vec![
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: Vec<(&str, Edit)> = vec![
         (
             "doubled.json",
             Box::new(move |v| {
