@@ -207,7 +207,7 @@ fn apply_perspective_depth_aware_cpu() {
         "30",
         "--units-per-mm",
         "1",
-        "--follow-surface",
+        "--follow-surface-scene-units",
         "300",
         "--backend",
         "cpu",

@@ -286,7 +286,10 @@ fn extreme_kernels_are_refused_or_give_finite_images() {
     let strategy = (
         decades(-12.0, 12.0),
         -1e3f64..1e3,
-        decades(-150.0, 1.0),
+        // Weights from far below to above what sums to 1: a kernel whose
+        // 2D sum is under 1e-3 is refused (it would turn the image black),
+        // so most cases keep a sum the validation takes.
+        decades(-4.0, 1.0),
         0usize..5,
         decades(-9.0, 30.0),
     );

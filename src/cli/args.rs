@@ -610,7 +610,7 @@ pub struct FovYArg {
 /// `--units-per-mm`.
 #[derive(clap::Args)]
 pub struct UnitsPerMmArg {
-    /// Scene units per millimetre (Jimenez's sssWidth; 0.001: a scene in metres).
+    /// Scene units per millimetre (0.001: a scene in metres; Jimenez's sssWidth).
     #[arg(
         long,
         value_name = "UNITS",

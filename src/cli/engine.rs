@@ -57,7 +57,7 @@ pub struct Args {
     /// Plot the input profile and the engine model's r R_d(r) [default: not written].
     #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
-    /// Scene units per millimetre (0.001: a scene in metres) [default: the
+    /// Scene units per millimetre (0.001: a scene in metres; Jimenez's sssWidth) [default: the
     /// engine's own unit: unreal 0.1 (the cm), the others 0.001 (the metre)].
     #[arg(long, value_name = "UNITS", allow_negative_numbers = true)]
     units_per_mm: Option<f64>,

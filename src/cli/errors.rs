@@ -79,7 +79,7 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("engine", "engine version", &["--engine-version"]),
     ("bench", "frames", &["--frames"]),
     ("scene render", "spp", &["--spp"]),
-    ("scene render", "target_error", &["--target-error"]),
+    ("scene render", "target_error", &["--render-error"]),
     ("scene render", "max_spp", &["--max-spp"]),
     ("scene render", "max_work", &["--max-work"]),
     ("scene render", "gbuffer_side", &["--gbuffer-side"]),

@@ -203,14 +203,22 @@ pub fn main() -> i32 {
 /// subcommand path and argument id; every other argument named in
 /// [`FILE_OUTPUTS`] is a file.
 const FOLDER_OUTPUTS: &[(&[&str], &str)] = &[
-    (&["kernels"], "out"),
-    (&["study"], "out"),
-    (&["compare"], "out"),
+    (&["kernels"], "out_dir"),
+    (&["study"], "out_dir"),
+    (&["compare"], "out_dir"),
     (&["profiles", "compare"], "out_dir"),
 ];
 
 /// Argument ids of output files.
-const FILE_OUTPUTS: &[&str] = &["out", "csv", "mco", "plot"];
+const FILE_OUTPUTS: &[&str] = &[
+    "out",
+    "csv",
+    "mco",
+    "plot",
+    "view_profile",
+    "irradiance_out",
+    "preview",
+];
 
 /// Checks every output file of the running subcommand `path` (arguments
 /// `m`) before the work: its folder exists and takes a file, the path is

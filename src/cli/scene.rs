@@ -4,6 +4,7 @@
 //! Also the `compare --scene` entry: every kernel model through the
 //! screen-space pass on that G-buffer, against the path-traced image.
 
+use super::args::{self, count, OutFile, SeedArg};
 use super::out::outln;
 use super::progress::Bar;
 use anyhow::{bail, Context};
@@ -30,63 +31,60 @@ pub struct Args {
 }
 
 #[derive(clap::Args)]
+#[command(mut_arg("out", |a| args::required()(a).help(
+    "Output file: the image, .exr (radiance R, G, B; stderr.R/G/B; the G-buffer \
+     irradiance.R/G/B = diffuse irradiance / pi x R_d, Z, N.X/Y/Z, coverage); the render's \
+     record goes to the same name with .json"
+)))]
 struct Flags {
     /// The scene (TOML; see docs/scene.md).
     #[arg(value_name = "SCENE.toml")]
     scene: PathBuf,
-    /// Output image: radiance R, G, B; stderr.R/G/B; the G-buffer
-    /// (irradiance.R/G/B = diffuse irradiance / pi x R_d, Z, N.X/Y/Z,
-    /// coverage). The render's record goes to the same name with .json.
-    #[arg(long, value_name = "IMG.exr")]
-    out: PathBuf,
-    /// Samples per pixel and channel (instead of a target error).
-    #[arg(long, conflicts_with = "target_error", value_parser = parse_count)]
+    #[command(flatten)]
+    out: OutFile,
+    /// Samples per pixel and channel [default: as many as --render-error asks].
+    #[arg(long, value_name = "N", conflicts_with = "render_error", value_parser = count::<u64>)]
     spp: Option<u64>,
+    /// Render target: the image's relative noise [default: 0.01].
+    ///
     /// Trace until the noise (RMS standard error over the pixels that see
     /// an object, over their 99th-percentile radiance) is below E in every
-    /// channel [default: 0.01].
+    /// channel, or until --max-spp.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
-    target_error: Option<f64>,
-    /// Cap on samples per pixel of --target-error.
-    #[arg(long, default_value_t = DEFAULT_MAX_SPP, value_parser = parse_count)]
+    render_error: Option<f64>,
+    /// Cap on samples per pixel of --render-error.
+    #[arg(long, value_name = "N", default_value = args::count_text(DEFAULT_MAX_SPP), value_parser = count::<u64>)]
     max_spp: u64,
-    /// Work cap per channel, in events (scattering events and boundary
-    /// crossings).
-    #[arg(long, default_value_t = DEFAULT_MAX_WORK, value_parser = parse_count)]
+    /// Work cap per channel, in events (interactions + boundary hits).
+    ///
+    /// Scattering events and boundary crossings of the render; the
+    /// materials' profiles have their own (`simulate`'s).
+    #[arg(long, value_name = "N", default_value = args::count_text(DEFAULT_MAX_WORK), value_parser = count::<u64>)]
     max_work: u64,
-    /// RNG seed: the same seed gives a bit-identical image.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Worker threads (results are identical for any count).
-    #[arg(long, allow_hyphen_values = true)]
+    #[command(flatten)]
+    seed: SeedArg,
+    /// Worker threads (results are identical for any count) [default: one per core].
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
     threads: Option<usize>,
     /// G-buffer positions per pixel side (box filter).
-    #[arg(long, default_value_t = DEFAULT_GBUFFER_SIDE)]
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_GBUFFER_SIDE, value_parser = count::<usize>)]
     gbuffer_side: usize,
-    /// Photons per channel of each material's profile (Monte Carlo, the
-    /// R_d of the irradiance channels) [default: the kernel-factor rule of
-    /// `simulate`, 0.5%].
-    #[arg(long, value_parser = parse_count)]
+    /// Photons per channel of each material's profile [default: the kernel-factor rule of `simulate`, 0.5%].
+    ///
+    /// Monte Carlo, the R_d of the irradiance channels.
+    #[arg(long, value_name = "N", value_parser = count::<u64>)]
     profile_photons: Option<u64>,
-    /// Also write the G-buffer as `ssskit apply` reads it: R, G, B =
-    /// irradiance / pi x R_d, Z = depth (apply --fov-y F --sss-width W).
+    /// Also write the G-buffer as `ssskit apply` reads it [default: not written].
+    ///
+    /// R, G, B = irradiance / pi x R_d, Z = depth (apply --fov-y F
+    /// --units-per-mm U).
     #[arg(long, value_name = "FILE.exr")]
     irradiance_out: Option<PathBuf>,
-    /// Also write a tone-mapped PNG of the radiance (the 99th percentile of
-    /// the lit pixels maps to white).
+    /// Also write a tone-mapped PNG of the radiance [default: not written].
+    ///
+    /// The 99th percentile of the lit pixels maps to white.
     #[arg(long, value_name = "FILE.png")]
     preview: Option<PathBuf>,
-}
-
-fn parse_count(s: &str) -> Result<u64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("not a number: '{s}' (e.g. 4096 or 1e6)"))?;
-    if !(v >= 0.0 && v <= u64::MAX as f64 && v.fract() == 0.0) {
-        return Err(format!("must be a whole number >= 0, got {s}"));
-    }
-    Ok(v as u64)
 }
 
 /// The record written beside an image.
@@ -105,7 +103,8 @@ fn sidecar_path(out: &Path) -> PathBuf {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let a = *args.flags;
-    ssskit::io::check_extension(&a.out, &["exr"], "image")?;
+    let out = a.out.path()?;
+    ssskit::io::check_extension(out, &["exr"], "image")?;
     if let Some(p) = &a.irradiance_out {
         ssskit::io::check_extension(p, &["exr"], "image")?;
     }
@@ -114,7 +113,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let scene = Scene::load(&a.scene)?;
     let text = ssskit::io::read_text(&a.scene)?;
-    let budget = match (a.spp, a.target_error) {
+    let budget = match (a.spp, a.render_error) {
         (Some(n), _) => SampleBudget::Fixed(n),
         (None, e) => SampleBudget::TargetError {
             rel: e.unwrap_or(DEFAULT_SCENE_ERROR),
@@ -123,7 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let cfg = RenderConfig {
         budget,
-        seed: a.seed,
+        seed: a.seed.seed,
         threads: a.threads,
         gbuffer_side: a.gbuffer_side,
         max_work: a.max_work,
@@ -136,19 +135,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             max_photons: PROFILE_MAX_PHOTONS,
         },
     };
-    let profiles = material_profiles(&scene, photons, a.seed, a.threads, &Bar::new())?;
+    let profiles = material_profiles(&scene, photons, a.seed.seed, a.threads, &Bar::new())?;
     let rd: Vec<[f64; 3]> = profiles
         .iter()
         .map(|p| [p.total_rd[0], p.total_rd[1], p.total_rd[2]])
         .collect();
     let r = render(&scene, &rd, &cfg, &Bar::new())?;
-    write_render(&a.out, &r, &text, &profiles)?;
-    let back = read_render(&a.out)?;
+    write_render(out, &r, &text, &profiles)?;
+    let back = read_render(out)?;
     if back.0.info != r.info || back.0.width != r.width {
-        bail!(
-            "{}: read back differs from what was written",
-            a.out.display()
-        );
+        bail!("{}: read back differs from what was written", out.display());
     }
     if let Some(p) = &a.irradiance_out {
         let img = Image {
@@ -208,7 +204,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "{lost} paths ended by round-off at a grazing boundary crossing"
         ));
     }
-    eprintln!("-> {}, {}", a.out.display(), sidecar_path(&a.out).display());
+    eprintln!("-> {}, {}", out.display(), sidecar_path(out).display());
     Ok(())
 }
 
@@ -310,7 +306,10 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
             a.render.display()
         );
     };
-    std::fs::create_dir_all(a.out).with_context(|| format!("--out {}", a.out.display()))?;
+    // The folder is written aside and swapped in whole at the end.
+    let staged = ssskit::io::StagedDir::new(a.out)
+        .with_context(|| format!("--out-dir {}", a.out.display()))?;
+    let dir = staged.path();
     let cfg = SceneConfig {
         families: a.families,
         ranks: a.ranks,
@@ -353,7 +352,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         block("regions", &regions),
         block("noise", &noise)
     );
-    ssskit::io::write_atomic(&a.out.join("scene.md"), md.as_bytes())?;
+    ssskit::io::write_atomic(&dir.join("scene.md"), md.as_bytes())?;
     let json = serde_json::json!({
         "scene": a.scene.display().to_string(),
         "dominance": dominance(&cmp),
@@ -365,20 +364,21 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         "rows": cmp.rows,
     });
     let text = serde_json::to_string_pretty(&json)? + "\n";
-    ssskit::io::write_atomic(&a.out.join("scene.json"), text.as_bytes())?;
+    ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
     let mut rec = Record::new(&super::profile_source::command_line(a.out), &machine_line());
     rec.tables.insert("summary".into(), (&summary).into());
     rec.tables.insert("regions".into(), (&regions).into());
     rec.tables.insert("noise".into(), (&noise).into());
     rec.data = json;
-    rec.write(&a.out.join("record.json"))?;
+    rec.write(&dir.join("record.json"))?;
     if a.plots {
         let name = a.scene.file_name().map_or_else(
             || a.scene.display().to_string(),
             |n| n.to_string_lossy().into(),
         );
-        contact_sheet(&cmp, &name, &a.out.join("contact-sheet.png"))?;
+        contact_sheet(&cmp, &name, &dir.join("contact-sheet.png"))?;
     }
+    staged.commit()?;
     outln!("{head}\n\n{}", summary.markdown())?;
     if let Some(d) = dominance(&cmp) {
         outln!("{}", d.sentence())?;

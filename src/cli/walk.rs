@@ -463,6 +463,6 @@ fn one_default_seed() {
             seen += 1;
         }
     }
-    // kernels, advise, study, simulate, profiles compare, compare.
-    assert_eq!(seen, 6);
+    // kernels, advise, study, simulate, profiles compare, compare, scene.
+    assert_eq!(seen, 7);
 }
