@@ -156,8 +156,9 @@ fn incidence_rng(seed: u64, ch: Channel, chunk: u64, k: usize) -> Xoshiro256Plus
 /// Traces the oblique runs: for every channel `c` and every incidence but
 /// the normal, `photons[c]` photons (the normal run's). Returns the exact
 /// sums per channel and incidence (the normal one left empty). Work is the
-/// normal run's again per incidence; the sums are order-free, so the result
-/// does not depend on the thread count.
+/// normal run's again per incidence, each run under `max_work` (an error
+/// when a chunk would need more than its share); the sums are order-free,
+/// so the result does not depend on the thread count.
 pub(super) fn trace_incidences(
     job: &Job,
     opts: &AngularOptions,
@@ -197,6 +198,14 @@ pub(super) fn trace_incidences(
     if total == 0 {
         return Ok((0..nch).map(|_| vec![ExactTally::default(); nk]).collect());
     }
+    // Each oblique run is bounded like the normal one: an equal share of
+    // --max-work per chunk, a chunk that needs more stops the whole run.
+    let budget: Vec<u64> = photons
+        .iter()
+        .map(|&n| {
+            (job.opts.max_work / n.div_ceil(CHUNK).max(1)).saturating_sub(super::chunk_overhead(nb))
+        })
+        .collect();
     progress.start(total, "oblique incidence");
     struct Worker {
         sums: std::result::Result<Vec<Option<ExactTally>>, String>,
@@ -237,7 +246,23 @@ pub(super) fn trace_incidences(
                     .scratch
                     .get_or_insert_with(|| PhotonScratch::new(nb, single));
                 let mut rng = incidence_rng(job.cfg.seed, job.cfg.channels[c], chunk, k);
+                let set = WalkSettings {
+                    chunk_events: budget[c],
+                    ..set
+                };
                 tracer::trace_photons(&stacks[c][k], &job.bins, &set, &mut rng, n, t, sc);
+                if t.events > budget[c] {
+                    w.sums = Err(format!(
+                        "channel {}, incidence {} degrees: the oblique run needs more than \
+                         max_work = {} events (the normal run's photons, {}); lower the photons \
+                         or raise max_work",
+                        job.cfg.channels[c].name(),
+                        angles[k],
+                        job.opts.max_work,
+                        photons[c]
+                    ));
+                    return w;
+                }
                 let added = sums[c * nk + k]
                     .get_or_insert_with(|| ExactTally::new(nb, single))
                     .add_chunk(t);
