@@ -603,7 +603,7 @@ fn abel_projection_and_cell_averages_match_a_gaussian_exactly_integrated() {
     let v = 1.0;
     let grid = RadialGrid::uniform(0.01, 9.0).unwrap();
     let g2 = |r: f64| (-r * r / (2.0 * v)).exp() / (2.0 * std::f64::consts::PI * v);
-    let rd = bin_averages(g2, &grid);
+    let rd = bin_averages(g2, &grid.edges);
     let p = profile_with(rd, grid.edges.clone());
     let k = Kernel2D::from_profile(
         &p,

@@ -99,7 +99,7 @@ fn marble_profile_matches_dipole_in_diffusion_regime() {
     // Photons enter with weight 1 - R_sp; the dipole is per entering flux.
     let t_entry = 1.0 - p.specular[0];
     let dipole = Dipole::new(&md, FresnelMode::Fit, t_entry);
-    let dip = bin_averages(|r| dipole.rd(r), &grid);
+    let dip = bin_averages(|r| dipole.rd(r), &grid.edges);
     let areas = grid.areas();
     let err = &p.rd_stderr.as_ref().unwrap()[0];
     let (mut table, mut data) = (Vec::new(), Vec::new());
@@ -221,7 +221,7 @@ fn single_scattering_of_strong_absorber_is_exact() {
     );
     let rd: Vec<f64> = serde_json::from_value(s["rd"].clone()).unwrap();
     let se: Vec<f64> = serde_json::from_value(s["rd_stderr"].clone()).unwrap();
-    let exact = bin_averages(|r| single_scatter_rd(sa, ss, r), &grid);
+    let exact = bin_averages(|r| single_scatter_rd(sa, ss, r), &grid.edges);
     // Bins where the exact profile expects at least 10 scoring packets (each
     // carries the weight albedo): below that the count is Poisson, not
     // Gaussian, and a bin may rightly hold none (zero standard error).

@@ -26,7 +26,7 @@ impl Burley {
     /// Bin averages of channel `c` on `grid`.
     pub fn bins(&self, c: usize, grid: &RadialGrid) -> Vec<f64> {
         let (a, d) = (self.albedo[c], self.d_mm[c]);
-        bin_averages_resolved(|r| normalized_diffusion(a, d, r), grid)
+        bin_averages_resolved(|r| normalized_diffusion(a, d, r), &grid.edges)
     }
 }
 
@@ -54,7 +54,8 @@ pub fn fit_capped(p: &Profile, cap: [f64; 3]) -> Result<Burley> {
         let grid = RadialGrid {
             edges: p.r_edges[..=t.bins].to_vec(),
         };
-        let shape = |d: f64| bin_averages_resolved(|r| normalized_diffusion(1.0, d, r), &grid);
+        let shape =
+            |d: f64| bin_averages_resolved(|r| normalized_diffusion(1.0, d, r), &grid.edges);
         let scored = |d: f64| {
             let s = shape(d);
             let (a, res) = t.scale_of(&s);

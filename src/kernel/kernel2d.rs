@@ -11,6 +11,7 @@
 use crate::error::{Error, Result};
 use crate::material::Channel;
 use crate::numerics::{gauss_legendre, gauss_legendre_sqrt_start};
+use crate::profile::radius::{default_kernel_size, DEFAULT_HOLD};
 use crate::profile::Profile;
 use crate::profile::{radius_holding, RadialInterp};
 use rayon::prelude::*;
@@ -52,9 +53,6 @@ fn profile_context(profile: &Profile) -> String {
 /// Largest kernel accepted (cells per side); 4001^2 cells x 3 channels is
 /// about 384 MB of f64.
 pub const MAX_SIZE: usize = 4001;
-
-/// Fraction of R_d the default extent holds.
-pub const DEFAULT_HOLD: f64 = 0.999;
 
 impl Kernel2D {
     pub fn half(&self) -> usize {
@@ -131,7 +129,7 @@ impl Kernel2D {
                     format!("must be odd and at most {MAX_SIZE}"),
                 ))
             }
-            None => default_size(profile, extent),
+            None => default_kernel_size(profile, extent),
         };
         let cell = 2.0 * extent / size as f64;
         normalised(profile, &idx, size, cell, &format!("+-{extent} mm"), |f| {
@@ -661,19 +659,6 @@ fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
         }
     }
     d
-}
-
-/// Odd size whose cell resolves the narrowest channel's core (the radius
-/// holding 25% of R_d spans at least two cells), between 31 and 401.
-pub fn default_size(p: &Profile, extent: f64) -> usize {
-    let core = (0..p.channels.len())
-        .filter(|&c| p.tabulated_total(c) > 0.0)
-        .map(|c| radius_holding(p, c, 0.25))
-        .fold(f64::INFINITY, f64::min)
-        .max(extent * 1e-4);
-    let n = (2.0 * extent / (core / 2.0)).ceil();
-    let n = if n.is_finite() { n as usize } else { 401 };
-    (n.clamp(31, 401)) | 1
 }
 
 #[cfg(test)]

@@ -269,7 +269,7 @@ impl RadialGrid {
     pub fn areas(&self) -> Vec<f64> {
         self.edges
             .windows(2)
-            .map(|e| std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0]))
+            .map(|e| crate::numerics::annulus_area(e[0], e[1]))
             .collect()
     }
 

@@ -343,7 +343,13 @@ mod tests {
     fn profile() -> Profile {
         let m = crate::material::preset("skin1").unwrap();
         let grid = RadialGrid::uniform(0.05, 4.0).unwrap();
-        crate::kernel::reference::dipole_profile(&m, &grid).unwrap()
+        analytic::profile(
+            &m,
+            analytic::Model::Dipole,
+            &grid,
+            &analytic::Options::default(),
+        )
+        .unwrap()
     }
 
     /// The records a simulation leaves in `extra` read back typed; absent

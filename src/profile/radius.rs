@@ -29,6 +29,24 @@ pub fn radius_holding(p: &Profile, c: usize, fraction: f64) -> f64 {
     radius_reaching(&p.r_edges, amounts, fraction * p.tabulated_total(c))
 }
 
+/// Fraction of R_d the 2D kernel's default extent holds.
+pub const DEFAULT_HOLD: f64 = 0.999;
+
+/// Cells per side of the 2D kernel by default (`kernel::kernel2d`, and the
+/// Monte Carlo rule that sizes photons for it): odd, with a cell that
+/// resolves the narrowest channel's core (the radius holding 25% of R_d
+/// spans at least two cells), between 31 and 401.
+pub fn default_kernel_size(p: &Profile, extent: f64) -> usize {
+    let core = (0..p.channels.len())
+        .filter(|&c| p.tabulated_total(c) > 0.0)
+        .map(|c| radius_holding(p, c, 0.25))
+        .fold(f64::INFINITY, f64::min)
+        .max(extent * 1e-4);
+    let n = (2.0 * extent / (core / 2.0)).ceil();
+    let n = if n.is_finite() { n as usize } else { 401 };
+    (n.clamp(31, 401)) | 1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -340,7 +340,7 @@ fn channel_profile(
     t_entry: f64,
 ) -> Result<(Vec<f64>, f64, serde_json::Value, serde_json::Value)> {
     let cm = ChannelModel::new(model, &medium, fresnel, t_entry)?;
-    let bins = bin_averages_resolved(|r| cm.rd(r), grid);
+    let bins = bin_averages_resolved(|r| cm.rd(r), &grid.edges);
     if let Some((i, v)) = bins
         .iter()
         .enumerate()
@@ -400,7 +400,7 @@ mod tests {
         let grid = RadialGrid::uniform(m.mfp() / 20.0, 5.0 * m.mfp()).unwrap();
         for model in Model::ALL {
             let cm = ChannelModel::new(model, &m, FresnelMode::Fit, 1.0).unwrap();
-            let fast = bin_averages_resolved(|r| cm.rd(r), &grid);
+            let fast = bin_averages_resolved(|r| cm.rd(r), &grid.edges);
             for (i, (e, area)) in grid.edges.windows(2).zip(grid.areas()).enumerate() {
                 let g = |r: f64| cm.rd(r) * 2.0 * std::f64::consts::PI * r;
                 let h = (e[1] - e[0]) / 64.0;

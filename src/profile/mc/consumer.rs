@@ -19,7 +19,7 @@
 //! <w_i> (delta method for the ratio a_m / S). Under splitting the
 //! cross-bin terms of one packet are neglected.
 
-use crate::kernel::kernel2d::{default_size, DEFAULT_HOLD};
+use crate::profile::radius::{default_kernel_size, DEFAULT_HOLD};
 use crate::profile::radius_holding;
 use crate::profile::Profile;
 
@@ -39,7 +39,7 @@ pub fn kernel_geometry(p: &Profile) -> Option<KernelGeometry> {
         .fold(0.0, f64::max);
     (extent > 0.0 && extent.is_finite()).then(|| KernelGeometry {
         extent_mm: extent,
-        size: default_size(p, extent),
+        size: default_kernel_size(p, extent),
     })
 }
 
