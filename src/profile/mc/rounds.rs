@@ -1,0 +1,488 @@
+//! Tracing a run in rounds of chunks: per-chunk RNG streams, the work cap
+//! inside a round, the budget rules checked between rounds, and each
+//! channel's convergence.
+
+use super::*;
+
+/// SplitMix64 finaliser (Steele, Lea & Flood 2014): decorrelates stream keys.
+pub(crate) fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The RNG of chunk `chunk` of channel `ch`: a function of (seed, ch, chunk)
+/// only.
+pub(super) fn chunk_rng(seed: u64, ch: Channel, chunk: u64) -> Xoshiro256PlusPlus {
+    let key = splitmix64(splitmix64(splitmix64(seed) ^ (ch.index() as u64 + 1)) ^ chunk);
+    Xoshiro256PlusPlus::seed_from_u64(key)
+}
+
+/// How a channel's run ended.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Status {
+    /// Relative standard error of total R_d.
+    pub(super) rel_total: f64,
+    /// R_d-weighted mean relative error of the bins inside r99 (`convergence`).
+    pub(super) rel_profile: f64,
+    /// Radius holding 99% of R_d.
+    pub(super) r99: f64,
+    /// Relative L2 standard error of the kernel factor (`consumer`).
+    pub(super) rel_factor: f64,
+    /// Total R_d and its standard error.
+    pub(super) rd: f64,
+    pub(super) rd_stderr: f64,
+}
+
+/// A finished channel: its tally and how the run ended.
+pub(super) struct ChannelRun {
+    pub(super) tally: ExactTally,
+    pub(super) status: Status,
+    pub(super) converged: bool,
+    /// Stopped by `McOptions::max_work` before the target error.
+    pub(super) work_capped: bool,
+    /// Converged by the absolute floor, not the relative target.
+    pub(super) by_floor: bool,
+}
+
+/// One simulation's fixed inputs, shared by the workers.
+pub(super) struct Job<'a> {
+    pub(super) material: &'a Material,
+    pub(super) cfg: &'a McConfig,
+    pub(super) opts: &'a McOptions,
+    pub(super) grid: &'a RadialGrid,
+    pub(super) bins: BinIndex,
+    pub(super) set: WalkSettings,
+    pub(super) stacks: Vec<Stack>,
+    /// Photons per channel at most, and the chunks [a, b) this run may trace.
+    pub(super) cap: u64,
+    pub(super) range: (u64, u64),
+}
+
+/// One thread's scratch: a chunk's f64 tally and a packet's scores
+/// (allocated on first use, kept across rounds).
+pub(super) struct Scratch {
+    pub(super) chunk: ChunkTally,
+    pub(super) photon: PhotonScratch,
+}
+
+/// Bytes per radial bin of a run's tallies: the exact sums of every
+/// channel (two per bin, 32 bytes each) held by the run, by the round being
+/// traced and by the status check (which also converts them to f64), and
+/// each thread's scratch (a chunk's two f64 sums and a packet's one).
+pub(super) const EXACT_BYTES_PER_BIN: u64 = 3 * 64 + 2 * 16;
+pub(super) const SCRATCH_BYTES_PER_BIN: u64 = 3 * 8;
+
+/// The worker threads of a run on `bins` radial bins and `channels`
+/// channels: `requested` (or the default count) reduced so that the
+/// tallies fit [`crate::limits::MAX_TALLY_BYTES`] (results never depend on
+/// the thread count); refused when even one thread's do not.
+pub(super) fn tally_threads(
+    bins: usize,
+    channels: usize,
+    requested: Option<usize>,
+) -> Result<usize> {
+    let wanted = crate::limits::worker_threads(requested)?;
+    let cap = crate::limits::MAX_TALLY_BYTES;
+    let fixed = (bins as u64)
+        .saturating_mul(channels as u64)
+        .saturating_mul(EXACT_BYTES_PER_BIN);
+    let per_thread = (bins as u64).saturating_mul(SCRATCH_BYTES_PER_BIN).max(1);
+    let fit = cap.saturating_sub(fixed) / per_thread;
+    if fit == 0 {
+        return Err(Error::invalid(
+            "radial grid",
+            "bins",
+            bins,
+            format!(
+                "a Monte Carlo run of {channels} channel(s) on {bins} bins needs more than the \
+                 {} MiB its tallies may take: use wider bins or a smaller radius",
+                cap >> 20
+            ),
+        ));
+    }
+    Ok(wanted.min(fit.min(usize::MAX as u64) as usize))
+}
+
+/// Work units of one chunk besides its events: clearing and adding its
+/// per-bin sums costs about one event per bin, so a grid of many bins costs
+/// work even where few photons land.
+pub(super) fn chunk_overhead(bins: usize) -> u64 {
+    bins as u64
+}
+
+impl Job<'_> {
+    pub(super) fn photons(&self, k: u64) -> u64 {
+        CHUNK.min(self.cap - k * CHUNK)
+    }
+
+    /// Traces chunk `k` of channel `c` into `s.chunk` within `budget`
+    /// events; false when the chunk needed more (its tally is then unusable).
+    pub(super) fn trace(&self, s: &mut Scratch, c: usize, k: u64, budget: u64) -> bool {
+        s.chunk.reset();
+        let mut rng = chunk_rng(self.cfg.seed, self.cfg.channels[c], k);
+        let set = WalkSettings {
+            chunk_events: budget,
+            ..self.set
+        };
+        tracer::trace_photons(
+            &self.stacks[c],
+            &self.bins,
+            &set,
+            &mut rng,
+            self.photons(k),
+            &mut s.chunk,
+            &mut s.photon,
+        );
+        s.chunk.events <= budget
+    }
+
+    /// Traces rounds of chunks over all channels at once (any number of
+    /// threads share a round), checking the budget's rule and the work cap
+    /// between rounds. A fixed run's rounds double (`FIRST_ROUND` chunks,
+    /// then as many as traced so far): the sums are the same whatever the
+    /// rounds, and the work cap is checked log2(chunks) times.
+    ///
+    /// Work is bounded inside a round too: each chunk of a channel gets an
+    /// equal share of the events the channel has left under `max_work`
+    /// (less its overhead, `chunk_overhead`), and a chunk that needs more
+    /// stops there. The round of that channel is then discarded whole and
+    /// the channel stops on the rounds before (its first round: an error).
+    /// Shares and event counts are functions of the seed, so which rounds
+    /// count does not depend on the threads either. Chunks add their sums
+    /// straight into one exact tally per channel (exact sums do not depend
+    /// on the order), so memory does not grow with the threads beyond their
+    /// scratch.
+    pub(super) fn run(&self, progress: &dyn Progress) -> Result<Vec<ChannelRun>> {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        use std::sync::Mutex;
+        let nch = self.stacks.len();
+        let (nb, single) = (self.bins.len(), self.set.single_scatter);
+        fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+            m.lock().unwrap_or_else(|e| e.into_inner())
+        }
+        let mut runs: Vec<ChannelRun> = (0..nch)
+            .map(|_| ChannelRun {
+                tally: ExactTally::new(nb, single),
+                status: Status::default(),
+                converged: false,
+                work_capped: false,
+                by_floor: false,
+            })
+            .collect();
+        let target = match self.cfg.budget {
+            PhotonBudget::Fixed(_) => None,
+            PhotonBudget::TargetError { rel, .. } | PhotonBudget::KernelFactor { rel, .. } => {
+                Some(rel)
+            }
+        };
+        let scratch: Vec<Mutex<Option<Scratch>>> = (0..rayon::current_num_threads().max(1))
+            .map(|_| Mutex::new(None))
+            .collect();
+        let mut next = vec![self.range.0; nch];
+        let mut active = vec![true; nch];
+        let mut ratio = vec![f64::INFINITY; nch];
+        let mine = (self.range.1 * CHUNK).min(self.cap) - self.range.0 * CHUNK;
+        let mut first = true;
+        loop {
+            let mut units = Vec::new();
+            let mut budget = vec![0u64; nch];
+            for c in (0..nch).filter(|&c| active[c]) {
+                let left = self.range.1 - next[c];
+                let len = round_len(next[c] - self.range.0, ratio[c]).min(left);
+                let done = next[c] - self.range.0;
+                let spent = work_of(&runs[c].tally, done, nb);
+                budget[c] = (self.opts.max_work.saturating_sub(spent) / len.max(1))
+                    .saturating_sub(chunk_overhead(nb));
+                units.extend((next[c]..next[c] + len).map(|k| (c, k)));
+                next[c] += len;
+            }
+            if units.is_empty() {
+                break;
+            }
+            let sums: Vec<Mutex<Option<ExactTally>>> = (0..nch).map(|_| Mutex::new(None)).collect();
+            let over: Vec<AtomicBool> = (0..nch).map(|_| AtomicBool::new(false)).collect();
+            let failed: Mutex<Option<String>> = Mutex::new(None);
+            units.par_iter().for_each(|&(c, k)| {
+                // A channel whose round is already void skips the rest of it.
+                if over[c].load(Ordering::Relaxed) {
+                    return;
+                }
+                let slot = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+                let mut guard = lock(&scratch[slot]);
+                let s = guard.get_or_insert_with(|| Scratch {
+                    chunk: ChunkTally::new(nb, single),
+                    photon: PhotonScratch::new(nb, single),
+                });
+                if !self.trace(s, c, k, budget[c]) {
+                    over[c].store(true, Ordering::Relaxed);
+                    return;
+                }
+                progress.advance(self.photons(k));
+                let added = lock(&sums[c])
+                    .get_or_insert_with(|| ExactTally::new(nb, single))
+                    .add_chunk(&s.chunk);
+                if let Err(e) = added {
+                    lock(&failed)
+                        .get_or_insert(format!("channel {}: {e}", self.cfg.channels[c].name()));
+                }
+            });
+            if let Some(e) = lock(&failed).take() {
+                return Err(Error::Unsupported(e));
+            }
+            for c in 0..nch {
+                if over[c].load(Ordering::Relaxed) {
+                    if runs[c].tally.photons == 0 {
+                        return Err(first_round_over_cap(
+                            self.cfg.channels[c],
+                            units
+                                .iter()
+                                .filter(|u| u.0 == c)
+                                .map(|u| self.photons(u.1))
+                                .sum(),
+                            self.opts.max_work,
+                        ));
+                    }
+                    runs[c].work_capped = true;
+                    active[c] = false;
+                    continue;
+                }
+                let part = sums[c].lock().unwrap_or_else(|e| e.into_inner()).take();
+                if let Some(p) = part {
+                    runs[c].tally.add(&p).map_err(|e| {
+                        Error::Unsupported(format!("channel {}: {e}", self.cfg.channels[c].name()))
+                    })?;
+                }
+            }
+            let tallies: Vec<ExactTally> = runs.iter().map(|r| r.tally.clone()).collect();
+            let (status, _) = statuses(self.material, &self.cfg.channels, self.grid, &tallies);
+            for c in 0..nch {
+                runs[c].status = status[c];
+                if !active[c] {
+                    continue;
+                }
+                let work = work_of(&runs[c].tally, next[c] - self.range.0, nb);
+                if let Some(rel) = target {
+                    // No reflectance yet counts as exact only where nothing
+                    // can scatter back; a nearly clear medium must go on.
+                    let scatters = self
+                        .material
+                        .layers
+                        .iter()
+                        .any(|l| l.sigma_s[self.cfg.channels[c].index()] > 0.0);
+                    let err = if scatters && runs[c].tally.totals[1].to_f64() == 0.0 {
+                        f64::INFINITY
+                    } else {
+                        rule_error(&self.cfg.budget, &status[c])
+                    };
+                    let floor = floor_ratio(
+                        &self.cfg.budget,
+                        self.opts.abs_floor,
+                        &status[c],
+                        runs[c].tally.photons,
+                    );
+                    ratio[c] = (err / rel).min(floor);
+                    if err <= rel || floor <= 1.0 {
+                        runs[c].converged = true;
+                        runs[c].by_floor = err > rel;
+                        active[c] = false;
+                    } else if work >= self.opts.max_work {
+                        runs[c].work_capped = true;
+                        active[c] = false;
+                    }
+                } else if next[c] < self.range.1 {
+                    let t = &runs[c].tally;
+                    if first {
+                        check_fixed_work(
+                            self.cfg.channels[c],
+                            t.photons,
+                            t.events,
+                            mine,
+                            self.cap,
+                            self.opts.max_work,
+                        )?;
+                    }
+                    if work >= self.opts.max_work {
+                        runs[c].work_capped = true;
+                        active[c] = false;
+                    }
+                }
+                if next[c] >= self.range.1 {
+                    active[c] = false;
+                }
+            }
+            first = false;
+        }
+        if target.is_none() {
+            runs.iter_mut().for_each(|r| r.converged = !r.work_capped);
+        }
+        Ok(runs)
+    }
+}
+
+/// Work a channel has spent: its events and the overhead of its `chunks`.
+pub(super) fn work_of(t: &ExactTally, chunks: u64, bins: usize) -> u64 {
+    t.events
+        .saturating_add(chunks.saturating_mul(chunk_overhead(bins)))
+}
+
+/// The refusal of a run whose first round of `photons` photons did not
+/// finish within the work cap: nothing to stop on.
+pub(super) fn first_round_over_cap(ch: Channel, photons: u64, max_work: u64) -> Error {
+    Error::invalid(
+        CONTEXT,
+        "max_work",
+        max_work,
+        format!(
+            "channel {}: its first {photons} photons needed more than the work cap of \
+             {max_work} events (over {:.0} events per photon): this medium's walks are too long \
+             for the cap (albedo near 1, g near 1, or many bins); raise the cap, or use wider \
+             bins",
+            ch.name(),
+            max_work as f64 / photons.max(1) as f64
+        ),
+    )
+}
+
+/// How far a channel is from the absolute floor of the kernel-factor rule
+/// (<= 1: reached; see `DEFAULT_ABS_FLOOR`) after `photons`; infinite for
+/// other rules or with the floor off.
+pub(super) fn floor_ratio(budget: &PhotonBudget, floor: f64, s: &Status, photons: u64) -> f64 {
+    if !matches!(budget, PhotonBudget::KernelFactor { .. }) || !(floor > 0.0) {
+        return f64::INFINITY;
+    }
+    // Noise in the un-normalised kernel: R_d times the factor's relative
+    // error (nothing back counts as 0 here: the photon minimum covers it).
+    let shape = if s.rd > 0.0 { s.rd * s.rel_factor } else { 0.0 };
+    let noise = s.rd_stderr.max(shape) / floor;
+    // Written as an error ~ N^-1/2 so that round_len aims at it too.
+    let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
+    noise.max(minimum)
+}
+
+/// Chunks in the next round: `FIRST_ROUND` to start, then for a target-error
+/// run what error ~ N^-1/2 predicts is missing (plus 10%), at least one
+/// chunk and at most as many as traced so far (a fixed run, `ratio`
+/// infinite: as many as traced so far). A function of the totals
+/// only, so the photon count does not depend on the thread count.
+pub(super) fn round_len(done: u64, ratio: f64) -> u64 {
+    if done == 0 {
+        return FIRST_ROUND;
+    }
+    if !ratio.is_finite() {
+        return done;
+    }
+    let more = (done as f64 * (1.1 * ratio * ratio - 1.0)).ceil();
+    (more.max(1.0) as u64).min(done)
+}
+
+/// The error a target-error rule compares with its target.
+pub(super) fn rule_error(budget: &PhotonBudget, s: &Status) -> f64 {
+    match budget {
+        PhotonBudget::Fixed(_) => 0.0,
+        PhotonBudget::TargetError { .. } => s.rel_total.max(s.rel_profile),
+        PhotonBudget::KernelFactor { .. } => s.rel_total.max(s.rel_factor),
+    }
+}
+
+/// R_d per bin (mm^-2) of a tally.
+pub(super) fn densities(sum: &[f64], n: u64, areas: &[f64]) -> Vec<f64> {
+    let nf = n.max(1) as f64;
+    sum.iter().zip(areas).map(|(s, a)| s / (nf * a)).collect()
+}
+
+/// The status of every channel and the default kernel grid they imply
+/// (all channels together, as `Kernel2D::from_profile` sees them).
+pub(super) fn statuses(
+    material: &Material,
+    channels: &[Channel],
+    grid: &RadialGrid,
+    tallies: &[ExactTally],
+) -> (Vec<Status>, Option<KernelGeometry>) {
+    let t: Vec<ChunkTally> = tallies.iter().map(ExactTally::to_f64).collect();
+    let areas = grid.areas();
+    let provisional = Profile {
+        schema: PROFILE_SCHEMA.into(),
+        material: material.clone(),
+        units: "mm".into(),
+        source: Source {
+            kind: "monte-carlo".into(),
+            photons: None,
+            seed: None,
+            model: None,
+            params: serde_json::Value::Null,
+        },
+        channels: channels.to_vec(),
+        r_edges: grid.edges.clone(),
+        r: grid.centres(),
+        rd: t
+            .iter()
+            .map(|t| densities(&t.rd_bins.sum, t.photons, &areas))
+            .collect(),
+        rd_stderr: None,
+        total_rd: t.iter().map(|t| t.rd.mean(t.photons)).collect(),
+        total_rd_stderr: None,
+        specular: vec![],
+        transmittance: None,
+        transmittance_stderr: None,
+        absorbed: None,
+        extra: serde_json::Value::Null,
+        elapsed_s: 0.0,
+    };
+    let geometry = kernel_geometry(&provisional);
+    let projection = geometry.map(|g| Projection::new(&grid.edges, &g));
+    let s = t
+        .iter()
+        .map(|t| {
+            let (rel_total, rel_profile, r99) = convergence(t, grid);
+            let rel_factor = projection.as_ref().map_or(0.0, |p| {
+                p.factor_rel_error(&t.rd_bins.sum, &t.rd_bins.sum_sq, t.photons)
+            });
+            Status {
+                rel_total,
+                rel_profile,
+                r99,
+                rel_factor,
+                rd: t.rd.mean(t.photons),
+                rd_stderr: t.rd.stderr(t.photons),
+            }
+        })
+        .collect();
+    (s, geometry)
+}
+
+/// (relative stderr of total R_d, relative stderr of the profile, r99).
+///
+/// The profile error is the R_d-weighted mean relative error of the bins
+/// up to r99, the radius within which the tally holds 99% of the total R_d
+/// (all bins when r_max holds less):
+/// sum_i w_i (s_i / W_i) / sum_i w_i with weights w_i = W_i, i.e.
+/// sum_i s_i / sum_i W_i, where W_i is the reflectance scored in bin i and
+/// s_i its standard error. A zero R_d (nothing comes back) counts as exact.
+pub(super) fn convergence(t: &ChunkTally, grid: &RadialGrid) -> (f64, f64, f64) {
+    let n = t.photons;
+    let total = t.rd.mean(n);
+    if total <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let rel_total = t.rd.stderr(n) / total;
+    let goal = 0.99 * t.rd.sum;
+    let mut acc = 0.0;
+    let mut err = 0.0;
+    for i in 0..grid.len() {
+        let m = Moments {
+            sum: t.rd_bins.sum[i],
+            sum_sq: t.rd_bins.sum_sq[i],
+        };
+        acc += t.rd_bins.sum[i];
+        err += m.stderr(n) * n as f64;
+        if acc >= goal {
+            break;
+        }
+    }
+    let r99 =
+        crate::profile::radius::radius_reaching(&grid.edges, t.rd_bins.sum.iter().copied(), goal);
+    let rel_profile = if acc > 0.0 { err / acc } else { 0.0 };
+    (rel_total, rel_profile, r99)
+}
