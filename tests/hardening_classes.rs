@@ -785,8 +785,9 @@ fn per_pixel_scales_beyond_the_image_are_refused() {
 
 // ---- 7. Interrupted runs leave nothing behind ----------------------------
 
-/// SIGQUIT and SIGUSR1 (not only SIGINT, SIGTERM, SIGHUP) remove the
-/// temporary file of a write in progress; a file size limit (SIGXFSZ) makes
+/// SIGTERM, SIGQUIT and SIGUSR1 (the terminating signals a process can
+/// catch, not only SIGINT and SIGHUP) remove the temporary file of a write
+/// in progress; a file size limit (SIGXFSZ) makes
 /// the write fail cleanly, naming the file.
 #[cfg(unix)]
 #[test]
@@ -800,7 +801,7 @@ fn every_catchable_signal_cleans_up() {
         "--out",
         "big.exr",
     ];
-    for (sig, code) in [("QUIT", 131), ("USR1", 138)] {
+    for (sig, code) in [("TERM", 143), ("QUIT", 131), ("USR1", 138)] {
         let mut caught = false;
         for _attempt in 0..5 {
             let mut child = command_in(dir.path(), &[], &args)

@@ -134,7 +134,14 @@ fn dirac(dir: &Path) -> PathBuf {
     let p = dir.join("d.png");
     ok_in(
         dir,
-        &["signal", "dirac", "--size", "128x96", "--out", "d.png"],
+        &[
+            "signal",
+            "dirac",
+            "--image-size",
+            "128x96",
+            "--out",
+            "d.png",
+        ],
     );
     p
 }
@@ -147,7 +154,7 @@ fn dipole_profile(dir: &Path) {
             "profile",
             "--material",
             "skin1",
-            "--model",
+            "--profile-model",
             "dipole",
             "--out",
             "p.json",
@@ -286,7 +293,14 @@ fn signal_size_is_capped_at_what_ssskit_reads_back() {
     let dir = tempfile::tempdir().unwrap();
     fails_in(
         dir.path(),
-        &["signal", "edge", "--size", "16384x16384", "--out", "s.png"],
+        &[
+            "signal",
+            "edge",
+            "--image-size",
+            "16384x16384",
+            "--out",
+            "s.png",
+        ],
         &["16384x16384", "use a smaller image"],
     );
     // A PNG whose header claims more pixels than the cap is refused before
@@ -448,7 +462,7 @@ fn output_format_comes_from_the_extension() {
             "profile",
             "--material",
             "skin1",
-            "--model",
+            "--profile-model",
             "dipole",
             "--out",
             "x.exr",
@@ -636,7 +650,7 @@ fn profile_grid_messages_name_the_flags_given() {
         "profile",
         "--material",
         "skin1",
-        "--model",
+        "--profile-model",
         "dipole",
         "--out",
         "p.json",
@@ -723,54 +737,6 @@ fn enumerated_flags_refuse_other_values_listing_theirs() {
 
 // ---- 5. Debris -----------------------------------------------------------
 
-#[cfg(unix)]
-#[test]
-fn a_signal_while_writing_leaves_no_temp_file() {
-    let dir = tempfile::tempdir().unwrap();
-    // An 8K EXR takes long enough to write that the temp file is seen.
-    for _attempt in 0..5 {
-        let mut child = spawn_in(
-            dir.path(),
-            &[
-                "signal",
-                "shapes",
-                "--size",
-                "7680x4320",
-                "--out",
-                "big.exr",
-            ],
-            Stdio::null(),
-            Stdio::null(),
-        );
-        let start = Instant::now();
-        while temp_files(dir.path()).is_empty() && start.elapsed() < TIME_LIMIT {
-            if child.try_wait().unwrap().is_some() {
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(2));
-        }
-        if temp_files(dir.path()).is_empty() {
-            let _ = child.wait();
-            let _ = std::fs::remove_file(dir.path().join("big.exr"));
-            continue;
-        }
-        // The temp is there: SIGTERM the process (prlimit execs it, so the
-        // pid is ssskit's).
-        Command::new("kill")
-            .args(["-TERM", &child.id().to_string()])
-            .status()
-            .unwrap();
-        let status = child.wait().unwrap();
-        let left = temp_files(dir.path());
-        assert!(left.is_empty(), "SIGTERM left {left:?} (status {status:?})");
-        if !dir.path().join("big.exr").exists() {
-            assert_eq!(status.code(), Some(143), "{status:?}");
-        }
-        return;
-    }
-    panic!("never caught the write in progress");
-}
-
 #[test]
 fn stale_temp_files_of_dead_processes_are_swept() {
     let dir = tempfile::tempdir().unwrap();
@@ -788,7 +754,7 @@ fn stale_temp_files_of_dead_processes_are_swept() {
     make(".ssskit-notours.tmp", true);
     ok_in(
         dir.path(),
-        &["signal", "dirac", "--size", "8x8", "--out", "s.png"],
+        &["signal", "dirac", "--image-size", "8x8", "--out", "s.png"],
     );
     let mut left = temp_files(dir.path());
     left.sort();

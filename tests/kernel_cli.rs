@@ -319,14 +319,14 @@ fn bad_flags_give_clear_errors() {
             p,
             "--model",
             "jimenez",
-            "--strength",
+            "--jimenez-strength",
             "2,0,0",
             "--grid-size",
             "11",
             "--out",
             o,
         ],
-        &["--strength"],
+        &["--jimenez-strength"],
     );
     fails(
         &[
