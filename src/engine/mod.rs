@@ -124,13 +124,13 @@ pub struct Version {
 pub const IRYOKU_VERSIONS: [Version; 1] = [Version {
     key: "reference",
     aliases: &[],
-    label: "iryoku/separable-sss reference code (SeparableSSS.h)",
+    label: iryoku::VERSION,
 }];
 
 pub const GODOT_VERSIONS: [Version; 1] = [Version {
     key: "4",
     aliases: &[],
-    label: "Godot 4 (Forward+ renderer)",
+    label: godot::VERSION,
 }];
 
 /// The fitted profile's error against the input, per channel, as
