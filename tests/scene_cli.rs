@@ -153,10 +153,16 @@ fn scene_writes_radiance_gbuffer_and_record() {
         "1",
         "--signal-size",
         "32",
+        "--angular-photons",
+        "1e4",
         "--out-dir",
         p(&cmp),
     ]);
     assert!(text.contains("Best kernel model on the scene"), "{text}");
+    assert!(
+        text.contains("With the angular entry and exit factors"),
+        "{text}"
+    );
     let j = read_json(&cmp.join("scene.json"));
     let labels: Vec<String> = j["rows"]
         .as_array()
@@ -175,12 +181,18 @@ fn scene_writes_radiance_gbuffer_and_record() {
         [
             "no-blur baseline",
             "exact-2d baseline",
+            "exact-2d entry",
+            "exact-2d exit",
+            "exact-2d entry+exit",
             "svd1 depth",
             "svd1 depth+follow",
+            "svd1 depth+follow+angular",
             "svd1-renorm depth",
             "svd1-renorm depth+follow",
+            "svd1-renorm depth+follow+angular",
             "preintegrate depth",
             "preintegrate depth+follow",
+            "preintegrate depth+follow+angular",
         ]
     );
     for r in j["rows"].as_array().unwrap() {
@@ -192,8 +204,10 @@ fn scene_writes_radiance_gbuffer_and_record() {
             .collect();
         assert_eq!(regions, ["all", "lit", "unlit", "terminator", "grazing"]);
     }
+    assert_eq!(j["angular"]["entry"].as_array().unwrap().len(), 9);
     let md = std::fs::read_to_string(cmp.join("scene.md")).unwrap();
     assert!(md.contains("<!-- BEGIN compare:summary -->"));
+    assert!(md.contains("<!-- BEGIN compare:angular -->"));
     ssskit::report::record::Record::read(&cmp.join("record.json")).unwrap();
     assert!(cmp.join("contact-sheet.png").exists());
 

@@ -113,6 +113,20 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     follow_mm: Option<f64>,
+    /// Photons per channel and incidence of the scene's angular-factor run (0: none).
+    ///
+    /// One Monte Carlo run of the scene's material per entry node (N.L = 0,
+    /// 1/8, ..., 1) with exit-angle bins: the entry and exit factors applied
+    /// around the pass (rows `entry`, `exit`, `entry+exit` and
+    /// `depth+follow+angular`). Seeded by --seed.
+    #[arg(
+        long,
+        value_name = "N",
+        requires = "scene",
+        default_value = args::count_text(ssskit::kernel::angular::DEFAULT_PHOTONS),
+        value_parser = args::count::<u64>
+    )]
+    angular_photons: u64,
 }
 
 fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
@@ -227,6 +241,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             pixels_per_degree: a.pixels_per_degree,
             size: a.signal_size.signal_size,
             follow_mm: a.follow_mm,
+            angular_photons: a.angular_photons,
+            seed: a.seed.seed,
             plots: !a.no_plots.no_plots,
             out: a.out_dir.path()?,
         });

@@ -275,8 +275,32 @@ pub(super) struct CompareArgs<'a> {
     pub pixels_per_degree: f64,
     pub size: usize,
     pub follow_mm: Option<f64>,
+    /// Photons per channel and incidence of the angular factors (0: none).
+    pub angular_photons: u64,
+    pub seed: u64,
     pub plots: bool,
     pub out: &'a Path,
+}
+
+/// The entry and exit factors of the scene's material from `photons` per
+/// channel and incidence (None for 0, or when the scene's lights leave
+/// nothing for them to weigh: said on stderr).
+fn angular_factors(
+    scene: &Scene,
+    photons: u64,
+    seed: u64,
+) -> anyhow::Result<Option<ssskit::kernel::angular::AngularFactors>> {
+    if photons == 0 {
+        return Ok(None);
+    }
+    if let Some(why) = ssskit::report::scene_compare::angular_obstacle(scene) {
+        super::errors::warn(&format!("{why}: no angular rows"));
+        return Ok(None);
+    }
+    let material = &scene.objects[0].material;
+    let f = ssskit::kernel::angular::simulate_factors(material, photons, seed, None, &Bar::new())
+        .with_context(|| format!("the angular factors of {}", material.name))?;
+    Ok(Some(f))
 }
 
 /// `compare --scene`: the screen-space error of every kernel model on the
@@ -285,8 +309,8 @@ pub(super) struct CompareArgs<'a> {
 pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
     use ssskit::report::record::{machine_line, Record};
     use ssskit::report::scene_compare::{
-        compare_scene, contact_sheet, dominance, noise_table, region_table, summary_table,
-        SceneConfig,
+        angular_table, compare_scene, contact_sheet, dominance, noise_table, region_table,
+        summary_table, SceneConfig,
     };
     let scene = Scene::load(a.scene)?;
     let text = ssskit::io::read_text(a.scene)?;
@@ -321,6 +345,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         follow_mm: a.follow_mm,
         signal_size: a.size,
         keep_images: a.plots,
+        angular: angular_factors(&scene, a.angular_photons, a.seed)?,
     };
     let cmp = compare_scene(&scene, &r, profile, &cfg, &Bar::new())?;
     let (summary, regions, noise) = (summary_table(&cmp), region_table(&cmp), noise_table(&cmp));
@@ -342,12 +367,25 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
             t.markdown()
         )
     };
+    let angular = cmp.angular.as_ref().map(angular_table);
+    let angular_md = match (&angular, &cmp.angular_note) {
+        (Some(t), _) => format!(
+            "\nThe angular factors applied around the pass (rows `entry`, `exit`, `entry+exit` \
+             and `depth+follow+angular`): entry E(N.L) = R_d(theta_in) / R_d(0) multiplies the \
+             irradiance before the blur, exit X(N.V) = pi L / M the result after it; {} photons \
+             per channel and incidence.\n\n{}",
+            cmp.angular.as_ref().map_or(0, |f| f.photons),
+            block("angular", t)
+        ),
+        (None, Some(why)) => format!("\nNo angular rows: {why}.\n"),
+        (None, None) => String::new(),
+    };
     let md = format!(
         "# Screen-space SSS against the path-traced scene\n\n{head}\n\nAll seen pixels: \
          relative RMS of (pass - path traced) over the 99th-percentile radiance, mean bias, \
          FLIP; flat-plane errors of the same tap table beside them.\n\n{}\nLargest RMS over the \
          channels and FLIP by region.\n\n{}\nThe path-traced image's noise by region (the floor \
-         under the RMS).\n\n{}",
+         under the RMS).\n\n{}{angular_md}",
         block("summary", &summary),
         block("regions", &regions),
         block("noise", &noise)
@@ -360,6 +398,8 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         "follow_mm": cmp.follow_mm,
         "follow_constant": cmp.follow_constant,
         "noise": cmp.noise,
+        "angular": cmp.angular,
+        "angular_note": cmp.angular_note,
         "spp": r.info.spp,
         "rows": cmp.rows,
     });
@@ -369,6 +409,9 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
     rec.tables.insert("summary".into(), (&summary).into());
     rec.tables.insert("regions".into(), (&regions).into());
     rec.tables.insert("noise".into(), (&noise).into());
+    if let Some(t) = &angular {
+        rec.tables.insert("angular".into(), t.into());
+    }
     rec.data = json;
     rec.write(&dir.join("record.json"))?;
     if a.plots {

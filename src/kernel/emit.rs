@@ -59,30 +59,38 @@ fn comment(out: &mut String, text: &str) {
 /// accepts. Values below f32's smallest normal round towards 0 as the GPU
 /// would store them.
 fn check_f32(k: &KernelFile) -> Result<()> {
+    let mut values: Vec<(String, f64)> = Vec::new();
     for (p, pass) in k.taps.passes.iter().enumerate() {
-        let values = pass
-            .offsets_mm
-            .iter()
-            .enumerate()
-            .map(|(i, &o)| (format!("taps.passes[{p}].offsets_mm[{i}]"), o))
-            .chain(pass.weights.iter().enumerate().flat_map(|(i, w)| {
-                w.iter()
-                    .enumerate()
-                    .map(move |(c, &v)| (format!("taps.passes[{p}].weights[{i}][{c}]"), v))
-            }));
-        for (field, v) in values {
-            if !(v.abs() <= f32::MAX as f64) {
-                return Err(Error::invalid(
-                    "shader",
-                    field,
-                    v,
-                    format!(
-                        "shader arrays hold f32: values must be finite and at most {:e} in \
-                         magnitude",
-                        f32::MAX
-                    ),
-                ));
+        for (i, &o) in pass.offsets_mm.iter().enumerate() {
+            values.push((format!("taps.passes[{p}].offsets_mm[{i}]"), o));
+        }
+        for (i, w) in pass.weights.iter().enumerate() {
+            for (c, &v) in w.iter().enumerate() {
+                values.push((format!("taps.passes[{p}].weights[{i}][{c}]"), v));
             }
+        }
+    }
+    if let Some(a) = &k.angular {
+        for (name, t) in [("entry", &a.entry), ("exit", &a.exit)] {
+            for (i, w) in t.iter().enumerate() {
+                for (c, &v) in w.iter().enumerate() {
+                    values.push((format!("angular.{name}[{i}][{c}]"), v));
+                }
+            }
+        }
+    }
+    for (field, v) in values {
+        if !(v.abs() <= f32::MAX as f64) {
+            return Err(Error::invalid(
+                "shader",
+                field,
+                v,
+                format!(
+                    "shader arrays hold f32: values must be finite and at most {:e} in \
+                     magnitude",
+                    f32::MAX
+                ),
+            ));
         }
     }
     Ok(())
@@ -190,5 +198,68 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
             ),
         };
     }
+    if let Some(a) = &k.angular {
+        emit_angular(&mut out, a, lang);
+    }
     Ok(out)
+}
+
+/// The angular factor tables and their lookups (linear between the nodes
+/// mu_k = k / (n - 1), clamped: [`super::angular::lookup`]).
+fn emit_angular(out: &mut String, a: &super::angular::AngularFactors, lang: Lang) {
+    let n = a.mu.len();
+    let last = n - 1;
+    comment(
+        out,
+        &format!(
+            "Angular factors, {n} nodes at N.L or N.V = k / {last}: multiply the irradiance by \
+             sss_entry_factor(N.L) before the blur (R_d(theta_in) / R_d(0)) and the blurred \
+             result by sss_exit_factor(N.V) after it (pi L / M, the radiance seen from V \
+             relative to a Lambertian exit)."
+        ),
+    );
+    for (name, table) in [("sss_entry", &a.entry), ("sss_exit", &a.exit)] {
+        let ctor = match lang {
+            Lang::Hlsl => "float3",
+            Lang::Glsl => "vec3",
+            Lang::Wgsl => "vec3<f32>",
+        };
+        let body = table
+            .iter()
+            .map(|v| format!("{ctor}({}, {}, {})", num(v[0]), num(v[1]), num(v[2])))
+            .collect::<Vec<_>>()
+            .join(",\n    ");
+        let _ = match lang {
+            Lang::Hlsl => writeln!(out, "static const float3 {name}[{n}] = {{\n    {body}\n}};"),
+            Lang::Glsl => writeln!(out, "const vec3 {name}[{n}] = vec3[{n}](\n    {body}\n);"),
+            Lang::Wgsl => writeln!(
+                out,
+                "const {name}: array<vec3<f32>, {n}> = array<vec3<f32>, {n}>(\n    {body}\n);"
+            ),
+        };
+        let scale = num(last as f64);
+        let _ = match lang {
+            Lang::Hlsl => writeln!(
+                out,
+                "float3 {name}_factor(float mu) {{\n    float x = saturate(mu) * {scale};\n    \
+                 uint i = min(uint(x), {}u);\n    return lerp({name}[i], {name}[i + 1u], x - \
+                 float(i));\n}}",
+                last - 1
+            ),
+            Lang::Glsl => writeln!(
+                out,
+                "vec3 {name}_factor(float mu) {{\n    float x = clamp(mu, 0.0, 1.0) * {scale};\n    \
+                 uint i = min(uint(x), {}u);\n    return mix({name}[i], {name}[i + 1u], x - \
+                 float(i));\n}}",
+                last - 1
+            ),
+            Lang::Wgsl => writeln!(
+                out,
+                "fn {name}_factor(mu: f32) -> vec3<f32> {{\n    var t = {name};\n    \
+                 let x = clamp(mu, 0.0, 1.0) * {scale};\n    let i = min(u32(x), {}u);\n    \
+                 return mix(t[i], t[i + 1u], x - f32(i));\n}}",
+                last - 1
+            ),
+        };
+    }
 }

@@ -103,6 +103,10 @@ pub struct KernelFile {
     /// Integration notes; recomputed on every write.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub usage: Option<Usage>,
+    /// Entry and exit factors to apply around the blur (N.L before, N.V
+    /// after), when the profile carried the angle-resolved tables.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular: Option<super::angular::AngularFactors>,
 }
 
 impl Pass {
@@ -235,6 +239,9 @@ impl KernelFile {
         }
         if self.model.name.trim().is_empty() {
             return bad("model.name is empty".into());
+        }
+        if let Some(a) = &self.angular {
+            a.validate("angular").or_else(bad)?;
         }
         let m = &self.metrics;
         if let Some(x) = m

@@ -216,6 +216,7 @@ pub fn assemble_with(
             extra,
         },
         usage: None,
+        angular: super::angular::AngularFactors::from_profile(profile)?,
     };
     file.validate("fitted kernel")?;
     Ok(file)

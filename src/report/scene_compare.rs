@@ -42,11 +42,12 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::evaluate::{exposure_of, flip_map, tone_map, ImageCase, Options};
-use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput};
+use super::kernel_compare::{self, Comparison, Config, Factor, Fitted, MaterialInput};
 use super::table::Table;
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
-use crate::filter::{cpu, taps_for, Factors, FollowSurface, Image, Plane, Scale, Setup};
+use crate::filter::{angular, cpu, taps_for, Factors, FollowSurface, Image, Plane, Scale, Setup};
+use crate::kernel::angular::AngularFactors;
 use crate::profile::Profile;
 use crate::progress::Progress;
 use crate::scene::{Projection, Render, Scene};
@@ -77,6 +78,9 @@ pub struct SceneConfig {
     pub signal_size: usize,
     /// Keep every variant's image (contact sheet).
     pub keep_images: bool,
+    /// Entry and exit factors to apply around the pass (extra rows), when
+    /// the scene allows them ([`angular_obstacle`]).
+    pub angular: Option<AngularFactors>,
 }
 
 /// One region's errors.
@@ -133,6 +137,10 @@ pub struct SceneComparison {
     pub follow_constant: f64,
     /// The path-traced image's noise (as the render measured it).
     pub noise: [f64; 3],
+    /// The angular factors the rows used, and why the scene allows none
+    /// ([`angular_obstacle`]).
+    pub angular: Option<AngularFactors>,
+    pub angular_note: Option<String>,
     pub rows: Vec<SceneRow>,
     /// The flat-plane comparison of the same kernels.
     pub flat: Comparison,
@@ -161,30 +169,62 @@ pub fn follow_constant(scene: &Scene, follow_mm: f64) -> f64 {
     per_scene_unit / FollowSurface::InSceneUnits(1.0).rate(&scale_of(scene))
 }
 
-/// Masks of the regions (see the module's definitions), in [`REGIONS`]
-/// order.
-pub fn region_masks(scene: &Scene, render: &Render) -> Vec<Vec<bool>> {
+/// The cosines of each pixel: N.L with the scene's first directional
+/// light (None without one) and N.V with the direction to the camera; 0
+/// where no object is seen.
+pub struct Cosines {
+    pub n_dot_l: Option<Vec<f64>>,
+    pub n_dot_v: Vec<f64>,
+}
+
+/// [`Cosines`] of a render from its G-buffer normals and the scene's
+/// camera and light.
+pub fn cosines(scene: &Scene, render: &Render) -> Cosines {
     let (w, h) = (render.width, render.height);
     let g = &render.gbuffer;
     let light = scene.directional().next().map(|(d, _)| d);
-    let mut masks = vec![vec![false; w * h]; REGIONS.len()];
-    for i in 0..w * h {
-        if !(g.coverage[i] > 0.0) {
+    let normal = |i: usize| crate::scene::V3::new(g.normal[0][i], g.normal[1][i], g.normal[2][i]);
+    let seen = |i: usize| g.coverage[i] > 0.0;
+    let n_dot_v = (0..w * h)
+        .map(|i| {
+            if !seen(i) {
+                return 0.0;
+            }
+            let v = -scene
+                .camera
+                .ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5)
+                .d;
+            normal(i).dot(&v)
+        })
+        .collect();
+    let n_dot_l = light.map(|l| {
+        (0..w * h)
+            .map(|i| if seen(i) { normal(i).dot(&l) } else { 0.0 })
+            .collect()
+    });
+    Cosines { n_dot_l, n_dot_v }
+}
+
+/// Masks of the regions (see the module's definitions), in [`REGIONS`]
+/// order.
+pub fn region_masks(scene: &Scene, render: &Render) -> Vec<Vec<bool>> {
+    masks_of(&cosines(scene, render), &render.gbuffer.coverage)
+}
+
+fn masks_of(cos: &Cosines, coverage: &[f64]) -> Vec<Vec<bool>> {
+    let n = coverage.len();
+    let mut masks = vec![vec![false; n]; REGIONS.len()];
+    for i in 0..n {
+        if !(coverage[i] > 0.0) {
             continue;
         }
-        let n = crate::scene::V3::new(g.normal[0][i], g.normal[1][i], g.normal[2][i]);
-        let v = -scene
-            .camera
-            .ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5)
-            .d;
         masks[0][i] = true;
-        if let Some(l) = light {
-            let nl = n.dot(&l);
+        if let Some(nl) = cos.n_dot_l.as_ref().map(|v| v[i]) {
             masks[1][i] = nl >= TERMINATOR_BAND;
             masks[2][i] = nl <= -TERMINATOR_BAND;
             masks[3][i] = nl.abs() < TERMINATOR_BAND;
         }
-        masks[4][i] = n.dot(&v) < GRAZING_VIEW;
+        masks[4][i] = cos.n_dot_v[i] < GRAZING_VIEW;
     }
     masks
 }
@@ -215,7 +255,27 @@ struct Scorer<'a> {
     ppd: f32,
 }
 
-impl Scorer<'_> {
+impl<'a> Scorer<'a> {
+    fn new(truth: &'a Image, stderr: &'a [Vec<f64>; 3], masks: Vec<Vec<bool>>, ppd: f64) -> Self {
+        let peak = std::array::from_fn(|c| percentile99(&truth.rgb[c], &masks[0]));
+        let max_rgb: Vec<f64> = (0..truth.len())
+            .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
+            .collect();
+        let exposure = exposure_of(&max_rgb);
+        let truth_ldr = tone_map(truth, |i| {
+            std::array::from_fn(|c| truth.rgb[c][i] * exposure)
+        });
+        Scorer {
+            truth,
+            stderr,
+            masks,
+            peak,
+            exposure,
+            truth_ldr,
+            ppd: ppd as f32,
+        }
+    }
+
     fn score(&self, img: &Image) -> Vec<RegionError> {
         let ldr = tone_map(img, |i| {
             std::array::from_fn(|c| img.rgb[c][i] * self.exposure)
@@ -249,15 +309,9 @@ impl Scorer<'_> {
     }
 }
 
-/// Runs the comparison on a rendered scene whose objects share the
-/// material of `profile`.
-pub fn compare_scene(
-    scene: &Scene,
-    render: &Render,
-    profile: &Profile,
-    cfg: &SceneConfig,
-    progress: &dyn Progress,
-) -> Result<SceneComparison> {
+/// Refuses a render that is not of `scene`'s camera, a scene of several
+/// materials (one kernel for the image) and a camera that sees nothing.
+fn check_scene(scene: &Scene, render: &Render) -> Result<()> {
     let (w, h) = (render.width, render.height);
     if (w, h) != (scene.camera.width, scene.camera.height) {
         return Err(Error::Unsupported(format!(
@@ -280,39 +334,179 @@ pub fn compare_scene(
             o.material.name
         )));
     }
-    let g = &render.gbuffer;
-    let seen: Vec<usize> = (0..w * h).filter(|&i| g.coverage[i] > 0.0).collect();
-    if seen.is_empty() {
+    if !render.gbuffer.coverage.iter().any(|&c| c > 0.0) {
         return Err(Error::Unsupported(format!(
             "{}: the camera sees no object",
             scene.origin
         )));
     }
-    let mut depths: Vec<f64> = seen.iter().map(|&i| g.depth[i]).collect();
+    Ok(())
+}
+
+/// Millimetres per pixel at the seen objects' median depth.
+fn median_mm_per_pixel(scene: &Scene, render: &Render) -> f64 {
+    let g = &render.gbuffer;
+    let mut depths: Vec<f64> = (0..g.depth.len())
+        .filter(|&i| g.coverage[i] > 0.0)
+        .map(|i| g.depth[i])
+        .collect();
     depths.sort_by(f64::total_cmp);
-    let median_mm = depths[depths.len() / 2] * scene.unit.mm();
-    let mm_per_pixel = scene.camera.mm_per_pixel_at(median_mm);
-    let follow_mm = match cfg.follow_mm {
-        Some(f) if f > 0.0 && f.is_finite() => f,
-        Some(f) => {
-            return Err(Error::invalid(
-                "scene comparison",
-                "follow_mm",
-                f,
-                "must be finite and > 0",
-            ))
-        }
-        None => (0..profile.channels.len())
+    scene
+        .camera
+        .mm_per_pixel_at(depths[depths.len() / 2] * scene.unit.mm())
+}
+
+/// The lerp's depth difference: the configured one, or the radius holding
+/// 99% of R_d (largest over the channels).
+fn follow_mm_of(cfg: &SceneConfig, profile: &Profile) -> Result<f64> {
+    match cfg.follow_mm {
+        Some(f) if f > 0.0 && f.is_finite() => Ok(f),
+        Some(f) => Err(Error::invalid(
+            "scene comparison",
+            "follow_mm",
+            f,
+            "must be finite and > 0",
+        )),
+        None => Ok((0..profile.channels.len())
             .map(|c| crate::profile::radius_holding(profile, c, 0.99))
-            .fold(0.0, f64::max),
-    };
-    let follow_c = follow_constant(scene, follow_mm);
-    // The flat-plane comparison fits the kernels.
+            .fold(0.0, f64::max)),
+    }
+}
+
+/// Why the angular factors cannot be applied to `scene` (None: they can):
+/// the entry factor weighs one collimated light's N.L, so the G-buffer's
+/// irradiance must come from exactly one directional light.
+pub fn angular_obstacle(scene: &Scene) -> Option<String> {
+    let directional = scene.directional().count();
+    (directional != 1 || scene.lights.len() != 1).then(|| {
+        format!(
+            "{}: the angular factors need one directional light and no other (the scene has {} \
+             light(s), {} directional)",
+            scene.origin,
+            scene.lights.len(),
+            directional
+        )
+    })
+}
+
+/// The path-traced image, the irradiance input and what every variant is
+/// scored with.
+struct Stage<'a> {
+    scene: &'a Scene,
+    cfg: &'a SceneConfig,
+    scorer: Scorer<'a>,
+    irradiance: Image,
+    depth: Plane,
+    cosines: Cosines,
+    /// The factors when the scene allows them.
+    angular: Option<&'a AngularFactors>,
+    rows: Vec<SceneRow>,
+    images: Vec<(String, Image)>,
+}
+
+impl Stage<'_> {
+    fn push(&mut self, label: &str, variant: &str, flat: [Option<f64>; 2], img: Image) {
+        let row = SceneRow {
+            label: label.into(),
+            variant: variant.into(),
+            flat_edge: flat[0],
+            flat_shapes: flat[1],
+            regions: self.scorer.score(&img),
+        };
+        if self.cfg.keep_images {
+            self.images.push((row.name(), img));
+        }
+        self.rows.push(row);
+    }
+
+    /// `blur` of the irradiance, and with an angular factor table: the
+    /// blur of the entry-weighted irradiance, weighted by the exit factor.
+    fn around(&self, f: &AngularFactors, blur: &dyn Fn(&Image) -> Result<Image>) -> Result<Image> {
+        let nl = self.cosines.n_dot_l.as_deref().unwrap_or(&[]);
+        let lit = angular::entry_weighted(&self.irradiance, nl, f)?;
+        angular::exit_weighted(&blur(&lit)?, &self.cosines.n_dot_v, f)
+    }
+
+    /// The baselines: no blur, the exact flat 2D convolution and, with the
+    /// angular factors, the exact convolution with each of them and both.
+    fn baselines(&mut self, profile: &Profile, mm_per_pixel: f64) -> Result<()> {
+        let irr = self.irradiance.clone();
+        self.push("no-blur", "baseline", [None, None], irr);
+        let k = cpu::reference_kernel(profile, mm_per_pixel)?;
+        cpu::check_reference_fits(self.irradiance.width, self.irradiance.height, k.size)?;
+        let exact = |img: &Image| Ok(cpu::convolve_2d(img, &k));
+        let plain = exact(&self.irradiance)?;
+        self.push("exact-2d", "baseline", [None, None], plain.clone());
+        if let Some(f) = self.angular {
+            let nl = self.cosines.n_dot_l.as_deref().unwrap_or(&[]);
+            let entry = exact(&angular::entry_weighted(&self.irradiance, nl, f)?)?;
+            self.push("exact-2d", "entry", [None, None], entry);
+            let exit = angular::exit_weighted(&plain, &self.cosines.n_dot_v, f)?;
+            self.push("exact-2d", "exit", [None, None], exit);
+            let both = self.around(f, &exact)?;
+            self.push("exact-2d", "entry+exit", [None, None], both);
+        }
+        Ok(())
+    }
+
+    /// One fitted model's variants: depth scale, with the lerp, and with
+    /// the lerp inside the angular factors.
+    fn model(&mut self, f: &Fitted, flat: [Option<f64>; 2], follow_c: f64) -> Result<()> {
+        let label = &f.spec.label;
+        let (scale, depth) = (scale_of(self.scene), self.depth.clone());
+        let setup = move |follow: Option<f64>| Setup {
+            passes: taps_for(&f.kernel, Factors::Taps, None),
+            scale,
+            depth: Some(depth.clone()),
+            strength: None,
+            follow_surface: follow.map(FollowSurface::InSceneUnits),
+            specular: None,
+            jitter: false,
+        };
+        let pass = |img: &Image, follow: Option<f64>, variant: &str| {
+            cpu::apply_with(img, &setup(follow), cpu::Precision::F64)
+                .map_err(|e| Error::Unsupported(format!("{label} ({variant}): {e}")))
+        };
+        for (variant, follow) in [("depth", None), ("depth+follow", Some(follow_c))] {
+            let img = pass(&self.irradiance, follow, variant)?;
+            self.push(label, variant, flat, img);
+        }
+        if let Some(a) = self.angular {
+            const VARIANT: &str = "depth+follow+angular";
+            let img = self.around(a, &|i: &Image| pass(i, Some(follow_c), VARIANT))?;
+            self.push(label, VARIANT, flat, img);
+        }
+        Ok(())
+    }
+}
+
+/// The largest flat-plane relative RMS over the channels of `label`'s tap
+/// table (`taps` taps) on `signal`, None unless all three channels have one.
+fn flat_error(flat: &Comparison, label: &str, signal: &str, taps: usize) -> Option<f64> {
+    let three: Vec<f64> = flat
+        .rows
+        .iter()
+        .filter(|r| r.label == label)
+        .filter_map(|r| r.image_error(signal, Factor::Taps(taps)))
+        .map(|e| e.rel_rms)
+        .collect();
+    (three.len() == 3).then(|| three.into_iter().fold(0.0, f64::max))
+}
+
+/// The flat-plane comparison that fits the kernels, on the edge and shapes
+/// signals at the scene's footprint.
+fn flat_comparison(
+    scene: &Scene,
+    profile: &Profile,
+    cfg: &SceneConfig,
+    mm_per_pixel: f64,
+    progress: &dyn Progress,
+) -> Result<Comparison> {
     let cases = [Signal::Edge, Signal::Shapes]
         .into_iter()
         .map(|s| ImageCase::signal(s, cfg.signal_size, mm_per_pixel))
         .collect::<Result<Vec<_>>>()?;
-    let flat = kernel_compare::run(
+    kernel_compare::run(
         &[MaterialInput {
             name: scene.objects[0].material.name.clone(),
             profile: profile.clone(),
@@ -327,114 +521,72 @@ pub fn compare_scene(
             extent_mm: None,
         },
         progress,
-    )?;
+    )
+}
+
+/// Runs the comparison on a rendered scene whose objects share the
+/// material of `profile`.
+pub fn compare_scene(
+    scene: &Scene,
+    render: &Render,
+    profile: &Profile,
+    cfg: &SceneConfig,
+    progress: &dyn Progress,
+) -> Result<SceneComparison> {
+    check_scene(scene, render)?;
+    let (w, h) = (render.width, render.height);
+    let g = &render.gbuffer;
+    let mm_per_pixel = median_mm_per_pixel(scene, render);
+    let follow_mm = follow_mm_of(cfg, profile)?;
+    let follow_c = follow_constant(scene, follow_mm);
+    let flat = flat_comparison(scene, profile, cfg, mm_per_pixel, progress)?;
     let truth = Image {
         width: w,
         height: h,
         rgb: render.radiance.clone(),
         alpha: None,
     };
-    let irradiance = Image {
-        width: w,
-        height: h,
-        rgb: g.irradiance.clone(),
-        alpha: None,
+    let cos = cosines(scene, render);
+    let masks = masks_of(&cos, &g.coverage);
+    let angular_note = angular_obstacle(scene);
+    let mut stage = Stage {
+        scene,
+        cfg,
+        scorer: Scorer::new(&truth, &render.stderr, masks, cfg.options.pixels_per_degree),
+        irradiance: Image {
+            width: w,
+            height: h,
+            rgb: g.irradiance.clone(),
+            alpha: None,
+        },
+        depth: Plane {
+            width: w,
+            height: h,
+            data: g.depth.clone(),
+        },
+        cosines: cos,
+        angular: cfg.angular.as_ref().filter(|_| angular_note.is_none()),
+        rows: Vec::new(),
+        images: Vec::new(),
     };
-    let masks = region_masks(scene, render);
-    let peak = std::array::from_fn(|c| percentile99(&truth.rgb[c], &masks[0]));
-    let max_rgb: Vec<f64> = (0..w * h)
-        .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
-        .collect();
-    let exposure = exposure_of(&max_rgb);
-    let truth_ldr = tone_map(&truth, |i| {
-        std::array::from_fn(|c| truth.rgb[c][i] * exposure)
-    });
-    let scorer = Scorer {
-        truth: &truth,
-        stderr: &render.stderr,
-        masks,
-        peak,
-        exposure,
-        truth_ldr,
-        ppd: cfg.options.pixels_per_degree as f32,
-    };
-    let scale = scale_of(scene);
-    let depth = Plane {
-        width: w,
-        height: h,
-        data: g.depth.clone(),
-    };
-    let mut rows = Vec::new();
-    let mut images = Vec::new();
-    let mut keep = |label: &str, img: Image| {
-        if cfg.keep_images {
-            images.push((label.to_string(), img));
-        }
-    };
-    rows.push(SceneRow {
-        label: "no-blur".into(),
-        variant: "baseline".into(),
-        flat_edge: None,
-        flat_shapes: None,
-        regions: scorer.score(&irradiance),
-    });
-    keep("no-blur", irradiance.clone());
-    let k = cpu::reference_kernel(profile, mm_per_pixel)?;
-    cpu::check_reference_fits(w, h, k.size)?;
-    let exact = cpu::convolve_2d(&irradiance, &k);
-    rows.push(SceneRow {
-        label: "exact-2d".into(),
-        variant: "baseline".into(),
-        flat_edge: None,
-        flat_shapes: None,
-        regions: scorer.score(&exact),
-    });
-    keep("exact-2d", exact);
+    stage.baselines(profile, mm_per_pixel)?;
     let stored = cfg.taps.first().copied().unwrap_or(17);
     for f in &flat.fitted {
         let label = &f.spec.label;
-        let row = flat
-            .rows
-            .iter()
-            .find(|r| &r.label == label)
-            .ok_or_else(|| Error::Unsupported(format!("no flat-plane row for {label}")))?;
-        let flat_err = |signal: &str| -> Option<f64> {
-            let three: Vec<f64> = flat
-                .rows
-                .iter()
-                .filter(|r| r.label == row.label)
-                .filter_map(|r| r.image_error(signal, Factor::Taps(stored)))
-                .map(|e| e.rel_rms)
-                .collect();
-            (three.len() == 3).then(|| three.into_iter().fold(0.0, f64::max))
-        };
-        for (variant, follow) in [("depth", None), ("depth+follow", Some(follow_c))] {
-            let setup = Setup {
-                passes: taps_for(&f.kernel, Factors::Taps, None),
-                scale,
-                depth: Some(depth.clone()),
-                strength: None,
-                follow_surface: follow.map(FollowSurface::InSceneUnits),
-                specular: None,
-                jitter: false,
-            };
-            let img = cpu::apply_with(&irradiance, &setup, cpu::Precision::F64)
-                .map_err(|e| Error::Unsupported(format!("{label} ({variant}): {e}")))?;
-            rows.push(SceneRow {
-                label: label.clone(),
-                variant: variant.into(),
-                flat_edge: flat_err("edge"),
-                flat_shapes: flat_err("shapes"),
-                regions: scorer.score(&img),
-            });
-            keep(&format!("{label} ({variant})"), img);
+        if !flat.rows.iter().any(|r| &r.label == label) {
+            return Err(Error::Unsupported(format!("no flat-plane row for {label}")));
         }
+        let errs = ["edge", "shapes"].map(|s| flat_error(&flat, label, s, stored));
+        stage.model(f, errs, follow_c)?;
     }
+    let (rows, images) = (stage.rows, stage.images);
     Ok(SceneComparison {
         mm_per_pixel,
         follow_mm,
         follow_constant: follow_c,
         noise: render.info.noise,
+        angular: stage.angular.cloned(),
+        angular_note,
         rows,
         flat,
         truth,
@@ -541,6 +693,12 @@ pub struct Dominance {
     pub best_flat_rms: f64,
     pub exact_scene_rms: f64,
     pub mm_per_pixel: f64,
+    /// The best model with the angular factors around the pass, and its
+    /// relative RMS (None without angular rows).
+    #[serde(default)]
+    pub angular_label: Option<String>,
+    #[serde(default)]
+    pub angular_scene_rms: Option<f64>,
 }
 
 impl Dominance {
@@ -562,7 +720,15 @@ impl Dominance {
             } else {
                 "The kernel's error dominates.".to_string()
             }
-        )
+        ) + &match (&self.angular_label, self.angular_scene_rms) {
+            (Some(l), Some(a)) => format!(
+                " With the angular entry and exit factors around the pass: {l} at {:.2}%, {:.2} \
+                 times less than the best without.",
+                100.0 * a,
+                self.best_scene_rms / a.max(1e-12)
+            ),
+            _ => String::new(),
+        }
     }
 }
 
@@ -572,16 +738,19 @@ pub fn dominance(cmp: &SceneComparison) -> Option<Dominance> {
         r.region("all")
             .map(|a| a.rel_rms.iter().cloned().fold(0.0, f64::max))
     };
-    let best = cmp
-        .rows
-        .iter()
-        .filter(|r| r.variant == "depth+follow")
-        .filter_map(|r| Some((r, rms(r)?)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let best_of = |variant: &str| {
+        cmp.rows
+            .iter()
+            .filter(|r| r.variant == variant)
+            .filter_map(|r| Some((r, rms(r)?)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let best = best_of("depth+follow")?;
+    let angular = best_of("depth+follow+angular");
     let exact = cmp
         .rows
         .iter()
-        .find(|r| r.label == "exact-2d")
+        .find(|r| r.label == "exact-2d" && r.variant == "baseline")
         .and_then(rms)?;
     Some(Dominance {
         best_label: best.0.label.clone(),
@@ -593,7 +762,33 @@ pub fn dominance(cmp: &SceneComparison) -> Option<Dominance> {
             .max(best.0.flat_shapes.unwrap_or(0.0)),
         exact_scene_rms: exact,
         mm_per_pixel: cmp.mm_per_pixel,
+        angular_label: angular.map(|a| a.0.label.clone()),
+        angular_scene_rms: angular.map(|a| a.1),
     })
+}
+
+/// The angular factors the comparison applied, per node: entry and exit
+/// factor with their standard errors (r / g / b).
+pub fn angular_table(f: &AngularFactors) -> Table {
+    let mut t = Table::new(&[
+        "cosine",
+        "entry E(N.L) (r / g / b)",
+        "+- (r / g / b)",
+        "exit X(N.V) (r / g / b)",
+        "+- (r / g / b)",
+    ]);
+    let three =
+        |v: [f64; 3], d: usize| format!("{:.d$} / {:.d$} / {:.d$}", v[0], v[1], v[2], d = d);
+    for k in 0..f.mu.len() {
+        t.push(vec![
+            format!("{:.3}", f.mu[k]),
+            three(f.entry[k], 4),
+            three(f.entry_stderr[k], 4),
+            three(f.exit[k], 4),
+            three(f.exit_stderr[k], 4),
+        ]);
+    }
+    t
 }
 
 /// Fraction of the path-traced peak shown as white in difference tiles.
@@ -615,14 +810,17 @@ pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) 
         top: to_rgb8(truth, exposure),
         bottom: None,
     }];
-    for (label, img) in cmp
-        .images
-        .iter()
-        .filter(|(l, _)| !l.contains('(') || l.ends_with("(depth+follow)"))
-    {
+    for (label, img) in cmp.images.iter().filter(|(l, _)| {
+        !l.contains('(')
+            || l.ends_with("(depth+follow)")
+            || l.ends_with("(depth+follow+angular)")
+            || l.ends_with("(entry+exit)")
+    }) {
         let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * peak));
         tiles.push(SheetTile {
-            label: label.replace(" (depth+follow)", ""),
+            label: label
+                .replace(" (depth+follow+angular)", " + angular")
+                .replace(" (depth+follow)", ""),
             top: to_rgb8(img, exposure),
             bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
         });

@@ -74,6 +74,7 @@ fn kernel_file(name: &str, passes: Vec<Pass>, taps: Vec<Pass>, n: usize) -> Kern
             extent_mm: None,
         },
         usage: None,
+        angular: None,
     }
 }
 

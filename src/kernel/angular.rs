@@ -1,0 +1,407 @@
+//! Angular entry and exit factors: the two small tables a screen-space pass
+//! applies around its blur, so that light arriving obliquely and light
+//! seen obliquely are weighted as the medium weights them.
+//!
+//! The blur assumes light that enters along the normal and leaves
+//! Lambertian. A semi-infinite medium does neither: oblique light scatters
+//! nearer the surface and more of it comes back (for isotropic scattering
+//! without a boundary the plane albedo is 1 - sqrt(1 - a) H(mu0),
+//! Chandrasekhar 1960, ch. V), and the light leaving has the angular
+//! distribution H(mu) H(mu0) / (mu + mu0) rather than a constant radiance.
+//! Separably, per channel:
+//!
+//! - **Entry** E(mu_l) = R_d(theta_in) / R_d(0) with mu_l = N.L: the
+//!   irradiance buffer is multiplied by it before the blur (the kernel keeps
+//!   R_d(0) as its colour).
+//! - **Exit** X(mu_v) = pi L(theta_out) / M with mu_v = N.V, for light
+//!   entering along the normal: the blurred exitance is multiplied by it
+//!   after the blur, turning the Lambertian radiance M / pi into what the
+//!   camera sees.
+//!
+//! Both are tabulated at [`NODES`] cosines mu_k = k / (NODES - 1) and read
+//! back by linear interpolation ([`lookup`]), the rule the shader header
+//! implements. The tables come from one angle-resolved Monte Carlo run
+//! (`extra.angular` of a profile, Wang et al. 1995's Rd_a and oblique
+//! launch): the entry node values interpolate the oblique runs linearly in
+//! mu (the run at [`crate::profile::mc::angular::MAX_INCIDENCE_DEG`] stands
+//! for mu = 0, where the irradiance vanishes), the exit node values average
+//! the exit-angle bins over mu_k +- 1 / (2 (NODES - 1)) with the Lambertian
+//! weight 2 mu dmu (a bin straddling an interval counts by the share of its
+//! Lambertian weight inside it). Standard errors follow, the bins and runs
+//! taken as independent.
+
+use crate::error::{Error, Result};
+use crate::material::{Channel, Material};
+use crate::profile::mc::angular::{AngularOptions, MAX_INCIDENCE_DEG};
+use crate::profile::mc::{self, Angular, McConfig, McOptions, PhotonBudget};
+use crate::profile::Profile;
+use crate::progress::Progress;
+use serde::{Deserialize, Serialize};
+
+/// Nodes of each table: cosines 0, 1/8, ..., 1.
+pub const NODES: usize = 9;
+/// Exit-angle bins of the run the tables come from (1 degree each; the
+/// node averages pool them, so finer bins cost no noise).
+pub const EXIT_BINS: usize = 90;
+/// Photons per channel and incidence of [`simulate_factors`]' default run:
+/// standard errors about 0.3-0.7% on the entry nodes and 1-3% on the exit
+/// nodes for skin-like media.
+pub const DEFAULT_PHOTONS: u64 = 200_000;
+
+/// The cosine of node `k`.
+pub fn node_mu(k: usize) -> f64 {
+    k as f64 / (NODES - 1) as f64
+}
+
+/// The oblique incidence angles (degrees) whose runs give the entry nodes,
+/// grazing first; mu = 0 is run at [`MAX_INCIDENCE_DEG`].
+pub fn node_incidences_deg() -> Vec<f64> {
+    (0..NODES - 1)
+        .map(|k| {
+            if k == 0 {
+                MAX_INCIDENCE_DEG
+            } else {
+                node_mu(k).acos().to_degrees()
+            }
+        })
+        .collect()
+}
+
+/// The angle-resolved options of a run that yields both tables.
+pub fn run_options() -> AngularOptions {
+    AngularOptions {
+        angle_bins: EXIT_BINS,
+        incidence_deg: node_incidences_deg(),
+    }
+}
+
+/// The table at `mu` (clamped to [0, 1]), linear between the nodes: what
+/// the shader header's `sss_entry_factor` and `sss_exit_factor` compute.
+pub fn lookup(table: &[[f64; 3]], mu: f64) -> [f64; 3] {
+    let n = table.len();
+    let x = if mu.is_nan() { 0.0 } else { mu.clamp(0.0, 1.0) } * (n - 1) as f64;
+    let i = (x as usize).min(n - 2);
+    let t = x - i as f64;
+    std::array::from_fn(|c| table[i][c] + t * (table[i + 1][c] - table[i][c]))
+}
+
+/// The two tables with their standard errors, `[node][channel]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AngularFactors {
+    /// The node cosines, k / (n - 1).
+    pub mu: Vec<f64>,
+    /// R_d(theta_in) / R_d(0) at N.L = mu.
+    pub entry: Vec<[f64; 3]>,
+    pub entry_stderr: Vec<[f64; 3]>,
+    /// pi L(theta_out) / M at N.V = mu (normal incidence).
+    pub exit: Vec<[f64; 3]>,
+    pub exit_stderr: Vec<[f64; 3]>,
+    /// Photons per channel of each run the tables came from.
+    pub photons: u64,
+}
+
+/// Largest node count a file may carry.
+pub const MAX_NODES: usize = 1024;
+
+impl AngularFactors {
+    /// The entry factor at N.L = `mu`.
+    pub fn entry_at(&self, mu: f64) -> [f64; 3] {
+        lookup(&self.entry, mu)
+    }
+
+    /// The exit factor at N.V = `mu`.
+    pub fn exit_at(&self, mu: f64) -> [f64; 3] {
+        lookup(&self.exit, mu)
+    }
+
+    /// Checks a table read from a file: node count, uniform cosines,
+    /// finite positive factors, finite non-negative errors.
+    pub fn validate(&self, what: &str) -> std::result::Result<(), String> {
+        let n = self.mu.len();
+        if !(2..=MAX_NODES).contains(&n) {
+            return Err(format!(
+                "{what}.mu: {n} nodes; between 2 and {MAX_NODES} expected"
+            ));
+        }
+        for (k, &m) in self.mu.iter().enumerate() {
+            let want = k as f64 / (n - 1) as f64;
+            if !((m - want).abs() <= 1e-9) {
+                return Err(format!(
+                    "{what}.mu[{k}] = {m}: the nodes are k / (n - 1) = {want}"
+                ));
+            }
+        }
+        let tables = [
+            ("entry", &self.entry, true),
+            ("entry_stderr", &self.entry_stderr, false),
+            ("exit", &self.exit, true),
+            ("exit_stderr", &self.exit_stderr, false),
+        ];
+        for (name, t, factor) in tables {
+            if t.len() != n {
+                return Err(format!("{what}.{name}: {} rows for {n} nodes", t.len()));
+            }
+            for (k, row) in t.iter().enumerate() {
+                for (c, &v) in row.iter().enumerate() {
+                    let ok = v.is_finite() && if factor { v > 0.0 } else { v >= 0.0 };
+                    if !ok {
+                        return Err(format!(
+                            "{what}.{name}[{k}][{c}] = {v}: must be finite and {}",
+                            if factor { "> 0" } else { ">= 0" }
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The tables of a profile's angle-resolved record, None when it has
+    /// none or lacks one of the two (an exit table and at least one oblique
+    /// incidence are needed).
+    pub fn from_profile(p: &Profile) -> Result<Option<AngularFactors>> {
+        let Some(a) = p.angular()? else {
+            return Ok(None);
+        };
+        let oblique = a.entry.as_ref().is_some_and(|e| e.incidence_deg.len() > 1);
+        if a.exit.is_none() || !oblique || p.channels != Channel::ALL {
+            return Ok(None);
+        }
+        let photons = a.entry.as_ref().map_or(0, |e| e.photons[0]);
+        let f = from_angular(&a, photons)?;
+        Ok(Some(f))
+    }
+}
+
+/// Builds both tables from an angle-resolved record of the three channels.
+pub fn from_angular(a: &Angular, photons: u64) -> Result<AngularFactors> {
+    let bad = |why: String| Error::Unsupported(format!("angular factors: {why}"));
+    let exit = a
+        .exit
+        .as_ref()
+        .ok_or_else(|| bad("the run has no exit-angle bins".into()))?;
+    let entry = a
+        .entry
+        .as_ref()
+        .ok_or_else(|| bad("the run has no oblique incidence".into()))?;
+    if exit.factor.len() != 3 || entry.factor.len() != 3 {
+        return Err(bad("the tables need the three channels r, g, b".into()));
+    }
+    let mu: Vec<f64> = (0..NODES).map(node_mu).collect();
+    let mut out = AngularFactors {
+        mu: mu.clone(),
+        entry: vec![[0.0; 3]; NODES],
+        entry_stderr: vec![[0.0; 3]; NODES],
+        exit: vec![[0.0; 3]; NODES],
+        exit_stderr: vec![[0.0; 3]; NODES],
+        photons,
+    };
+    for c in 0..3 {
+        let runs: Vec<(f64, f64, f64)> = entry
+            .incidence_deg
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                (
+                    t.to_radians().cos(),
+                    entry.factor[c][i],
+                    entry.factor_stderr[c][i],
+                )
+            })
+            .collect();
+        for (k, &m) in mu.iter().enumerate() {
+            let (v, s) = entry_node(&runs, m);
+            out.entry[k][c] = v;
+            out.entry_stderr[k][c] = s;
+            let (v, s) = exit_node(
+                &a.theta_edges_deg,
+                &exit.factor[c],
+                &exit.factor_stderr[c],
+                m,
+            );
+            out.exit[k][c] = v;
+            out.exit_stderr[k][c] = s;
+        }
+    }
+    out.validate("angular factors").map_err(bad)?;
+    Ok(out)
+}
+
+/// The entry factor at `mu` from `(mu, factor, stderr)` runs: linear in mu
+/// between the two runs around it, the nearest run's value beyond them.
+fn entry_node(runs: &[(f64, f64, f64)], mu: f64) -> (f64, f64) {
+    let mut r = runs.to_vec();
+    r.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let first = r[0];
+    let last = r[r.len() - 1];
+    if mu <= first.0 {
+        return (first.1, first.2);
+    }
+    if mu >= last.0 {
+        return (last.1, last.2);
+    }
+    let j = r.iter().position(|x| x.0 >= mu).unwrap_or(r.len() - 1);
+    let (a, b) = (r[j - 1], r[j]);
+    let t = (mu - a.0) / (b.0 - a.0);
+    (
+        a.1 + t * (b.1 - a.1),
+        ((1.0 - t).powi(2) * a.2 * a.2 + t * t * b.2 * b.2).sqrt(),
+    )
+}
+
+/// The exit factor averaged over the cosines mu +- half a node spacing
+/// (clipped to [0, 1]) with the Lambertian weight 2 mu dmu: each angle bin
+/// counts by the part of its Lambertian share inside the interval.
+fn exit_node(edges_deg: &[f64], factor: &[f64], stderr: &[f64], mu: f64) -> (f64, f64) {
+    let h = 0.5 / (NODES - 1) as f64;
+    let (lo, hi) = ((mu - h).max(0.0), (mu + h).min(1.0));
+    let (mut w_sum, mut v, mut var) = (0.0, 0.0, 0.0);
+    for (b, (f, s)) in factor.iter().zip(stderr).enumerate() {
+        // The bin's cosines, [cos(theta_hi), cos(theta_lo)].
+        let m_lo = edges_deg[b + 1].to_radians().cos().max(0.0);
+        let m_hi = edges_deg[b].to_radians().cos().min(1.0);
+        let (a, z) = (m_lo.max(lo), m_hi.min(hi));
+        if z <= a {
+            continue;
+        }
+        let w = z * z - a * a;
+        w_sum += w;
+        v += w * f;
+        var += w * w * s * s;
+    }
+    if w_sum > 0.0 {
+        (v / w_sum, var.sqrt() / w_sum)
+    } else {
+        (f64::NAN, f64::NAN)
+    }
+}
+
+/// Runs the angle-resolved Monte Carlo for `material` ([`run_options`],
+/// `photons` per channel and incidence) and builds the tables.
+pub fn simulate_factors(
+    material: &Material,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+    progress: &dyn Progress,
+) -> Result<AngularFactors> {
+    let cfg = McConfig {
+        budget: PhotonBudget::Fixed(photons),
+        seed,
+        threads,
+        channels: Channel::ALL.to_vec(),
+        grid: None,
+    };
+    let opts = McOptions {
+        angular: Some(run_options()),
+        ..McOptions::default()
+    };
+    let p = mc::simulate_with(material, &cfg, &opts, progress)?;
+    let a = p.angular()?.ok_or_else(|| {
+        Error::Unsupported("angular factors: the run recorded no angular tables".into())
+    })?;
+    from_angular(&a, photons)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::profile::mc::angular::{lambert_shares, theta_edges_deg, EntryTable, ExitTable};
+
+    fn record(exit: Vec<f64>, incidence: Vec<f64>, entry: Vec<f64>) -> Angular {
+        let n = exit.len();
+        let k = incidence.len();
+        Angular {
+            angle_bins: n,
+            theta_edges_deg: theta_edges_deg(n),
+            lambert_share: lambert_shares(n),
+            exit: Some(ExitTable {
+                fraction: vec![vec![0.0; n]; 3],
+                fraction_stderr: vec![vec![0.0; n]; 3],
+                factor: vec![exit.clone(); 3],
+                factor_stderr: vec![vec![0.01; n]; 3],
+                radiance: vec![],
+                radiance_stderr: vec![],
+                beyond_rmax: vec![vec![0.0; n]; 3],
+            }),
+            entry: Some(EntryTable {
+                incidence_deg: incidence,
+                photons: vec![1000; 3],
+                specular: vec![vec![0.0; k]; 3],
+                total_rd: vec![vec![0.5; k]; 3],
+                total_rd_stderr: vec![vec![0.0; k]; 3],
+                factor: vec![entry; 3],
+                factor_stderr: vec![vec![0.0; k]; 3],
+                energy_balance_minus_1: vec![vec![0.0; k]; 3],
+                exit_factor: vec![],
+                exit_factor_stderr: vec![],
+            }),
+            definitions: serde_json::Value::Null,
+        }
+    }
+
+    #[test]
+    fn a_lambertian_exit_and_a_linear_entry_come_back_exactly() {
+        // Exit factor 1 in every bin; entry factor 2 - mu sampled at three
+        // cosines: the nodes interpolate a linear function exactly.
+        let inc: Vec<f64> = [1.0f64, 0.5, 0.1]
+            .iter()
+            .map(|m| m.acos().to_degrees())
+            .collect();
+        let entry = vec![1.0, 1.5, 1.9];
+        let f = from_angular(&record(vec![1.0; 90], inc, entry), 1000).unwrap();
+        for k in 0..NODES {
+            let m = node_mu(k);
+            for c in 0..3 {
+                assert!((f.exit[k][c] - 1.0).abs() < 1e-12, "{k}: {:?}", f.exit[k]);
+                let want = if m < 0.1 { 1.9 } else { 2.0 - m };
+                assert!((f.entry[k][c] - want).abs() < 1e-9, "{k}: {:?}", f.entry[k]);
+            }
+        }
+        // Node 1 of the exit table pools bins over mu in [1/16, 3/16]: the
+        // errors of independent bins shrink by the pooled weights.
+        assert!(f.exit_stderr[NODES - 1][0] < 0.01 && f.exit_stderr[NODES - 1][0] > 0.001);
+    }
+
+    #[test]
+    fn the_exit_average_weighs_bins_by_their_lambertian_share_inside() {
+        // Two bins, [0, 45] and [45, 90] degrees: cosines [c, 1] and [0, c].
+        let f = from_angular(&record(vec![3.0, 1.0], vec![0.0, 60.0], vec![1.0, 1.2]), 1).unwrap();
+        // Node mu = 0.75 averages [0.6875, 0.8125]: weights c^2 - 0.6875^2
+        // (factor 1) and 0.8125^2 - c^2 (factor 3).
+        let c2 = 0.5;
+        let (w1, w3) = (c2 - 0.6875f64.powi(2), 0.8125f64.powi(2) - c2);
+        let want = (w1 + 3.0 * w3) / (w1 + w3);
+        assert!(
+            (f.exit[6][0] - want).abs() < 1e-12,
+            "{} vs {want}",
+            f.exit[6][0]
+        );
+        assert!((f.exit[0][1] - 1.0).abs() < 1e-12);
+        assert!((f.exit[8][2] - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn lookup_is_linear_between_nodes_and_clamped_outside() {
+        let t: Vec<[f64; 3]> = (0..NODES).map(|k| [k as f64; 3]).collect();
+        assert_eq!(lookup(&t, 0.5), [4.0; 3]);
+        assert!((lookup(&t, 0.5 + 1.0 / 32.0)[1] - 4.25).abs() < 1e-12);
+        assert_eq!(lookup(&t, -3.0), [0.0; 3]);
+        assert_eq!(lookup(&t, 7.0), [8.0; 3]);
+        assert_eq!(lookup(&t, f64::NAN), [0.0; 3]);
+    }
+
+    #[test]
+    fn bad_tables_are_refused_naming_the_field() {
+        let f = from_angular(&record(vec![1.0; 9], vec![0.0, 60.0], vec![1.0, 1.2]), 1).unwrap();
+        let mut g = f.clone();
+        g.exit[3][1] = f64::NAN;
+        assert!(g.validate("k").unwrap_err().contains("k.exit[3][1]"));
+        let mut g = f.clone();
+        g.mu[2] = 0.3;
+        assert!(g.validate("k").unwrap_err().contains("k.mu[2]"));
+        let mut g = f;
+        g.entry.pop();
+        assert!(g.validate("k").unwrap_err().contains("k.entry"));
+    }
+}
