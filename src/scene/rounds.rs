@@ -165,13 +165,13 @@ impl Rounds {
 
     /// Samples per pixel of the next round per channel (0: done).
     pub fn next_lens(&self) -> [u64; 3] {
-        let mut lens = [0u64; 3];
-        for c in 0..3 {
+        std::array::from_fn(|c| {
             if self.active[c] {
-                lens[c] = round_len(self.spp[c], self.ratio[c], self.max_spp - self.spp[c]);
+                round_len(self.spp[c], self.ratio[c], self.max_spp - self.spp[c])
+            } else {
+                0
             }
-        }
-        lens
+        })
     }
 
     /// Adds a round's tiles to the sums, in the order given.
@@ -191,12 +191,12 @@ impl Rounds {
     /// and whether it goes on. A fixed budget whose first round predicts
     /// more events than the work cap is refused.
     pub fn close(&mut self, lens: [u64; 3], coverage: &[f64]) -> Result<()> {
-        for c in 0..3 {
-            if lens[c] == 0 {
+        for (c, &len) in lens.iter().enumerate() {
+            if len == 0 {
                 continue;
             }
             let first = self.spp[c] == 0;
-            self.spp[c] += lens[c];
+            self.spp[c] += len;
             self.noise[c] = noise(&self.sums[c], self.spp[c], coverage);
             match self.target {
                 Some(rel) => {
