@@ -278,3 +278,64 @@ impl Rounds {
         (radiance, stderr)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sums of a round give each pixel's sample mean and the standard
+    /// error of the mean, sqrt(s^2 / n) with the unbiased sample variance
+    /// s^2, computed here from the samples themselves; the noise is that
+    /// error over the covered pixels' peak.
+    #[test]
+    fn rounds_give_the_mean_and_its_standard_error() {
+        let samples = [[1.0, 2.0, 3.0, 4.0], [0.5, 0.5, 0.5, 0.5]];
+        let mut rounds = Rounds::new(2, SampleBudget::Fixed(4), u64::MAX);
+        assert_eq!(rounds.next_lens(), [4; 3]);
+        let values: Vec<(f64, f64)> = samples
+            .iter()
+            .map(|s| (s.iter().sum(), s.iter().map(|v| v * v).sum()))
+            .collect();
+        let parts = (0..3)
+            .map(|c| TileRound {
+                c,
+                origin: (0, 0),
+                values: values.clone(),
+                events: 10,
+                lost: 0,
+            })
+            .collect();
+        rounds.add(parts, (2, 1));
+        rounds.close([4; 3], &[1.0, 0.0]).unwrap();
+        assert!(rounds.converged() && rounds.next_lens() == [0; 3]);
+        let (mean, stderr) = rounds.estimates();
+        for (p, s) in samples.iter().enumerate() {
+            let m = s.iter().sum::<f64>() / 4.0;
+            let var = s.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / 3.0;
+            for c in 0..3 {
+                assert!((mean[c][p] - m).abs() < 1e-15);
+                assert!((stderr[c][p] - (var / 4.0).sqrt()).abs() < 1e-15);
+            }
+        }
+        // Only pixel 0 is covered: its error over its mean.
+        let expect = (5.0f64 / 12.0).sqrt() / 2.5;
+        assert!(
+            (rounds.noise[0] - expect).abs() < 1e-15,
+            "{}",
+            rounds.noise[0]
+        );
+    }
+
+    /// Round lengths: the first round, then what the N^-1/2 law asks
+    /// (plus 10%), never more than doubling, never past the cap.
+    #[test]
+    fn round_lengths_follow_the_error_law() {
+        assert_eq!(round_len(0, f64::INFINITY, 1000), FIRST_ROUND_SPP);
+        assert_eq!(round_len(0, f64::INFINITY, 5), 5);
+        // Noise 1.2 x target after 100: 100 (1.1 x 1.44 - 1) = 58.4 more.
+        assert_eq!(round_len(100, 1.2, 1000), 59);
+        assert_eq!(round_len(100, 3.0, 1000), 100);
+        assert_eq!(round_len(100, 0.5, 1000), 1);
+        assert_eq!(round_len(100, f64::INFINITY, 30), 30);
+    }
+}
