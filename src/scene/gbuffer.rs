@@ -11,7 +11,8 @@
 //! cosine-weighted fraction of the hemisphere no object hides, estimated
 //! with [`ENV_RAYS`] rays per position.
 
-use super::geometry::{frame, Ray, V3};
+use super::frame::cosine_direction;
+use super::geometry::{Ray, V3};
 use super::trace::uniform;
 use super::Scene;
 use rand_core::SeedableRng;
@@ -85,13 +86,10 @@ pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, see
                         }
                     }
                     if env.iter().any(|&v| v > 0.0) {
-                        let (u, v) = frame(hit.n);
                         let mut open = 0usize;
                         for _ in 0..ENV_RAYS {
                             let (a, b) = (uniform(&mut rng), uniform(&mut rng));
-                            let (s, c) = (std::f64::consts::TAU * b).sin_cos();
-                            let r = a.sqrt();
-                            let d = r * c * u + r * s * v + (1.0 - a).max(0.0).sqrt() * hit.n;
+                            let d = cosine_direction(hit.n, a, b);
                             if scene
                                 .nearest(&Ray { o: lifted, d }, f64::INFINITY)
                                 .is_none()

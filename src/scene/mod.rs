@@ -26,12 +26,18 @@
 //! any thread count. A target-error run adds rounds of samples per pixel
 //! whose length depends only on the sums so far.
 
+mod beam;
+mod boundary;
 mod camera;
 mod file;
+mod frame;
 mod gbuffer;
 pub mod geometry;
 mod heightfield;
+mod light;
+mod mesh;
 mod render;
+mod rounds;
 mod trace;
 
 pub use camera::{Camera, Measure, Projection};

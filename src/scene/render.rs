@@ -2,6 +2,7 @@
 //! until the budget's rule holds, rayon over tiles of pixels.
 
 use super::gbuffer::{gbuffer, GBuffer};
+use super::rounds::{trace_tile, Rounds, TileRound, TILE};
 use super::trace::ChannelScene;
 use super::Scene;
 use crate::error::{Error, Result};
@@ -9,8 +10,6 @@ use crate::material::{Channel, Material};
 use crate::profile::mc::{self, splitmix64, McConfig, PhotonBudget};
 use crate::profile::Profile;
 use crate::progress::Progress;
-use rand_core::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -28,10 +27,8 @@ pub const DEFAULT_MAX_WORK: u64 = 20_000_000_000;
 pub const DEFAULT_GBUFFER_SIDE: usize = 4;
 /// Samples per pixel of the first round.
 pub const FIRST_ROUND_SPP: u64 = 16;
-/// Tile side in pixels (one rayon task per tile and channel).
-const TILE: usize = 16;
 /// Context of the render settings' errors.
-const CONTEXT: &str = "scene render";
+pub(super) const CONTEXT: &str = "scene render";
 
 /// How many samples per pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -347,60 +344,6 @@ fn validate(cfg: &RenderConfig, rd: Option<&[[f64; 3]]>, scene: &Scene) -> Resul
     Ok(())
 }
 
-/// Per channel, per pixel: sums of the samples and of their squares.
-struct Sums {
-    sum: Vec<f64>,
-    sum_sq: Vec<f64>,
-}
-
-/// The noise of the target-error rule for one channel after `n` samples.
-/// One round's work on a tile: channel, tile origin, per-pixel (sum,
-/// sum of squares), events and lost paths.
-type TileRound = (usize, (usize, usize), Vec<(f64, f64)>, u64, u64);
-
-fn noise(s: &Sums, n: u64, coverage: &[f64]) -> f64 {
-    let nf = n as f64;
-    let seen: Vec<usize> = (0..coverage.len()).filter(|&i| coverage[i] > 0.0).collect();
-    let pixels: Vec<usize> = if seen.is_empty() {
-        (0..coverage.len()).collect()
-    } else {
-        seen
-    };
-    let mut means: Vec<f64> = pixels.iter().map(|&i| s.sum[i] / nf).collect();
-    let var: f64 = pixels
-        .iter()
-        .map(|&i| {
-            let m = s.sum[i] / nf;
-            if n < 2 {
-                return f64::INFINITY;
-            }
-            ((s.sum_sq[i] / nf - m * m).max(0.0) / (nf - 1.0)).max(0.0)
-        })
-        .sum::<f64>()
-        / pixels.len() as f64;
-    means.sort_by(f64::total_cmp);
-    let peak = means[((0.99 * means.len() as f64).ceil() as usize).clamp(1, means.len()) - 1];
-    if !(peak > 0.0) {
-        // A black image is exact once its samples say so.
-        return if var == 0.0 { 0.0 } else { f64::INFINITY };
-    }
-    var.sqrt() / peak
-}
-
-/// Samples per pixel of the next round, from the totals only: the first
-/// round, then what error ~ N^-1/2 predicts is missing (plus 10%), at
-/// least one and at most as many as done (a fixed budget doubles).
-fn round_len(done: u64, ratio: f64, left: u64) -> u64 {
-    let n = if done == 0 {
-        FIRST_ROUND_SPP
-    } else if !ratio.is_finite() {
-        done
-    } else {
-        ((done as f64 * (1.1 * ratio * ratio - 1.0)).ceil().max(1.0) as u64).min(done)
-    };
-    n.min(left)
-}
-
 /// Renders `scene`. `rd[k]` is object k's total diffuse reflectance per
 /// channel (for the G-buffer's irradiance; see [`material_profiles`]).
 pub fn render(
@@ -422,34 +365,13 @@ pub fn render(
     let far = 2.0 * scene.reach() / scene.unit.mm();
     let g = pool.install(|| gbuffer(scene, rd, far, cfg.gbuffer_side, cfg.seed));
     let channels: Vec<ChannelScene> = (0..3).map(|c| ChannelScene::new(scene, c)).collect();
-    let mut sums: Vec<Sums> = (0..3)
-        .map(|_| Sums {
-            sum: vec![0.0; npx],
-            sum_sq: vec![0.0; npx],
-        })
-        .collect();
-    let (max_spp, target) = match cfg.budget {
-        SampleBudget::Fixed(n) => (n, None),
-        SampleBudget::TargetError { rel, max_spp } => (max_spp, Some(rel)),
-    };
     let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
-    let mut spp = [0u64; 3];
-    let mut events = [0u64; 3];
-    let mut lost = [0u64; 3];
-    let mut ratio = [f64::INFINITY; 3];
-    let mut active = [true; 3];
-    let mut noise_now = [f64::INFINITY; 3];
-    let mut work_capped = false;
+    let mut rounds = Rounds::new(npx, cfg.budget, cfg.max_work);
     let mut round = 0;
     loop {
-        let mut lens = [0u64; 3];
-        for c in 0..3 {
-            if active[c] {
-                lens[c] = round_len(spp[c], ratio[c], max_spp - spp[c]);
-            }
-        }
+        let lens = rounds.next_lens();
         let units: Vec<(usize, (usize, usize))> = (0..3)
             .filter(|&c| lens[c] > 0)
             .flat_map(|c| tiles.iter().map(move |&t| (c, t)))
@@ -460,118 +382,23 @@ pub fn render(
         round += 1;
         let total: u64 = (0..3).map(|c| lens[c] * npx as u64).sum();
         progress.start(total, &format!("{} round {round}", scene.origin));
+        let spp = rounds.spp;
         let parts: Vec<TileRound> = pool.install(|| {
             units
                 .par_iter()
-                .map(|&(c, (x0, y0))| {
-                    let cs = &channels[c];
-                    let mut out = Vec::with_capacity(TILE * TILE);
-                    let (mut ev, mut lo) = (0u64, 0u64);
-                    for y in y0..(y0 + TILE).min(h) {
-                        for x in x0..(x0 + TILE).min(w) {
-                            let p = (y * w + x) as u64;
-                            let (mut s, mut s2) = (0.0, 0.0);
-                            for k in spp[c]..spp[c] + lens[c] {
-                                let mut rng = Xoshiro256PlusPlus::seed_from_u64(sample_key(
-                                    cfg.seed, c as u64, p, k,
-                                ));
-                                let (v, st) = cs.sample(x, y, &mut rng);
-                                s += v;
-                                s2 += v * v;
-                                ev += st.events;
-                                lo += st.lost as u64;
-                            }
-                            out.push((s, s2));
-                        }
-                    }
-                    progress.advance(out.len() as u64 * lens[c]);
-                    (c, (x0, y0), out, ev, lo)
+                .map(|&(c, origin)| {
+                    let run = (spp[c], lens[c]);
+                    let tile = trace_tile(&channels[c], c, origin, run, cfg.seed, (w, h));
+                    progress.advance(tile.values.len() as u64 * lens[c]);
+                    tile
                 })
                 .collect()
         });
         progress.finish();
-        for (c, (x0, y0), vals, ev, lo) in parts {
-            let mut it = vals.into_iter();
-            for y in y0..(y0 + TILE).min(h) {
-                for x in x0..(x0 + TILE).min(w) {
-                    if let Some((s, s2)) = it.next() {
-                        sums[c].sum[y * w + x] += s;
-                        sums[c].sum_sq[y * w + x] += s2;
-                    }
-                }
-            }
-            events[c] += ev;
-            lost[c] += lo;
-        }
-        for c in 0..3 {
-            if lens[c] == 0 {
-                continue;
-            }
-            let first = spp[c] == 0;
-            spp[c] += lens[c];
-            noise_now[c] = noise(&sums[c], spp[c], &g.coverage);
-            match target {
-                Some(rel) => {
-                    ratio[c] = noise_now[c] / rel;
-                    if noise_now[c] <= rel || spp[c] >= max_spp {
-                        active[c] = false;
-                    } else if events[c] >= cfg.max_work {
-                        active[c] = false;
-                        work_capped = true;
-                    }
-                }
-                None => {
-                    if first && spp[c] < max_spp {
-                        let projected = events[c] as f64 / spp[c] as f64 * max_spp as f64;
-                        if projected > cfg.max_work as f64 {
-                            return Err(Error::invalid(
-                                CONTEXT,
-                                "spp",
-                                max_spp,
-                                format!(
-                                    "channel {}: the first {} samples per pixel took {} events: \
-                                     {max_spp} would take about {projected:.2e}, above the work \
-                                     cap of {} events per channel (`max_work`)",
-                                    Channel::ALL[c].name(),
-                                    spp[c],
-                                    events[c],
-                                    cfg.max_work
-                                ),
-                            ));
-                        }
-                    }
-                    if spp[c] >= max_spp {
-                        active[c] = false;
-                    } else if events[c] >= cfg.max_work {
-                        active[c] = false;
-                        work_capped = true;
-                    }
-                }
-            }
-        }
+        rounds.add(parts, (w, h));
+        rounds.close(lens, &g.coverage)?;
     }
-    let mut radiance: [Vec<f64>; 3] = Default::default();
-    let mut stderr: [Vec<f64>; 3] = Default::default();
-    for c in 0..3 {
-        let n = spp[c] as f64;
-        radiance[c] = sums[c].sum.iter().map(|s| s / n).collect();
-        stderr[c] = sums[c]
-            .sum
-            .iter()
-            .zip(&sums[c].sum_sq)
-            .map(|(s, s2)| {
-                if spp[c] < 2 {
-                    return 0.0;
-                }
-                let m = s / n;
-                ((s2 / n - m * m).max(0.0) / (n - 1.0)).sqrt()
-            })
-            .collect();
-    }
-    let converged = match target {
-        Some(rel) => noise_now.iter().all(|&e| e <= rel),
-        None => spp.iter().all(|&n| n == max_spp),
-    };
+    let (radiance, stderr) = rounds.estimates();
     Ok(Render {
         width: w,
         height: h,
@@ -586,12 +413,12 @@ pub fn render(
                 gbuffer_side: cfg.gbuffer_side,
                 max_work: cfg.max_work,
             },
-            spp,
-            noise: noise_now,
-            converged,
-            work_capped,
-            events,
-            lost,
+            spp: rounds.spp,
+            noise: rounds.noise,
+            converged: rounds.converged(),
+            work_capped: rounds.work_capped,
+            events: rounds.events,
+            lost: rounds.lost,
             rd: rd.to_vec(),
             far,
             unit: scene.unit,
