@@ -308,10 +308,8 @@ fn angular_factors(
 /// scene.json, record.json and the contact sheet.
 pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
     use ssskit::report::record::{machine_line, Record};
-    use ssskit::report::scene_compare::{
-        angular_table, compare_scene, contact_sheet, dominance, noise_table, region_table,
-        summary_table, SceneConfig,
-    };
+    use ssskit::report::scene_compare::{compare_scene, dominance, SceneConfig};
+    use ssskit::report::scene_tables::{contact_sheet, named_tables, page};
     let scene = Scene::load(a.scene)?;
     let text = ssskit::io::read_text(a.scene)?;
     let (r, scene_text, profiles) = read_render(a.render)?;
@@ -348,7 +346,6 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         angular: angular_factors(&scene, a.angular_photons, a.seed)?,
     };
     let cmp = compare_scene(&scene, &r, profile, &cfg, &Bar::new())?;
-    let (summary, regions, noise) = (summary_table(&cmp), region_table(&cmp), noise_table(&cmp));
     let head = format!(
         "Scene {}: {}x{} pixels, {} samples per pixel (r), {:.3} mm per pixel at the object's \
          median depth; the lerp completes at a depth difference of {:.3} mm (C = {:.4} in the \
@@ -361,36 +358,8 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         cmp.follow_mm,
         cmp.follow_constant
     );
-    let block = |name: &str, t: &ssskit::report::table::Table| {
-        format!(
-            "<!-- BEGIN compare:{name} -->\n{}<!-- END compare:{name} -->\n",
-            t.markdown()
-        )
-    };
-    let angular = cmp.angular.as_ref().map(angular_table);
-    let angular_md = match (&angular, &cmp.angular_note) {
-        (Some(t), _) => format!(
-            "\nThe angular factors applied around the pass (rows `entry`, `exit`, `entry+exit` \
-             and `depth+follow+angular`): entry E(N.L) = R_d(theta_in) / R_d(0) multiplies the \
-             irradiance before the blur, exit X(N.V) = pi L / M the result after it; {} photons \
-             per channel and incidence.\n\n{}",
-            cmp.angular.as_ref().map_or(0, |f| f.photons),
-            block("angular", t)
-        ),
-        (None, Some(why)) => format!("\nNo angular rows: {why}.\n"),
-        (None, None) => String::new(),
-    };
-    let md = format!(
-        "# Screen-space SSS against the path-traced scene\n\n{head}\n\nAll seen pixels: \
-         relative RMS of (pass - path traced) over the 99th-percentile radiance, mean bias, \
-         FLIP; flat-plane errors of the same tap table beside them.\n\n{}\nLargest RMS over the \
-         channels and FLIP by region.\n\n{}\nThe path-traced image's noise by region (the floor \
-         under the RMS).\n\n{}{angular_md}",
-        block("summary", &summary),
-        block("regions", &regions),
-        block("noise", &noise)
-    );
-    ssskit::io::write_atomic(&dir.join("scene.md"), md.as_bytes())?;
+    let tables = named_tables(&cmp);
+    ssskit::io::write_atomic(&dir.join("scene.md"), page(&cmp, &head).as_bytes())?;
     let json = serde_json::json!({
         "scene": a.scene.display().to_string(),
         "dominance": dominance(&cmp),
@@ -406,11 +375,8 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(&json)? + "\n";
     ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
     let mut rec = Record::new(&super::profile_source::command_line(a.out), &machine_line());
-    rec.tables.insert("summary".into(), (&summary).into());
-    rec.tables.insert("regions".into(), (&regions).into());
-    rec.tables.insert("noise".into(), (&noise).into());
-    if let Some(t) = &angular {
-        rec.tables.insert("angular".into(), t.into());
+    for (name, t) in &tables {
+        rec.tables.insert(name.to_string(), t.into());
     }
     rec.data = json;
     rec.write(&dir.join("record.json"))?;
@@ -422,7 +388,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         contact_sheet(&cmp, &name, &dir.join("contact-sheet.png"))?;
     }
     staged.commit()?;
-    outln!("{head}\n\n{}", summary.markdown())?;
+    outln!("{head}\n\n{}", tables[0].1.markdown())?;
     if let Some(d) = dominance(&cmp) {
         outln!("{}", d.sentence())?;
     }

@@ -11,5 +11,6 @@ pub mod pipeline;
 pub mod plot;
 pub mod record;
 pub mod scene_compare;
+pub mod scene_tables;
 pub mod study;
 pub mod table;

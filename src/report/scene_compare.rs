@@ -43,7 +43,6 @@
 
 use super::evaluate::{exposure_of, flip_map, tone_map, ImageCase, Options};
 use super::kernel_compare::{self, Comparison, Config, Factor, Fitted, MaterialInput};
-use super::table::Table;
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::{angular, cpu, taps_for, Factors, FollowSurface, Image, Plane, Scale, Setup};
@@ -594,92 +593,6 @@ pub fn compare_scene(
     })
 }
 
-fn pct(v: f64) -> String {
-    if v.is_finite() {
-        format!("{:.2}", 100.0 * v)
-    } else {
-        "-".into()
-    }
-}
-
-fn rgb_pct(v: [f64; 3]) -> String {
-    format!("{} / {} / {}", pct(v[0]), pct(v[1]), pct(v[2]))
-}
-
-/// Per row: flat-plane errors beside the scene's, over all seen pixels.
-pub fn summary_table(cmp: &SceneComparison) -> Table {
-    let mut t = Table::new(&[
-        "model",
-        "flat edge %",
-        "flat shapes %",
-        "scene RMS % (r / g / b)",
-        "scene bias % (r / g / b)",
-        "FLIP",
-    ]);
-    for r in &cmp.rows {
-        let all = r.region("all");
-        t.push(vec![
-            r.name(),
-            r.flat_edge.map_or("-".into(), pct),
-            r.flat_shapes.map_or("-".into(), pct),
-            all.map_or("-".into(), |a| rgb_pct(a.rel_rms)),
-            all.map_or("-".into(), |a| rgb_pct(a.bias)),
-            all.map_or("-".into(), |a| format!("{:.3}", a.flip)),
-        ]);
-    }
-    t
-}
-
-/// Per row and region: the largest relative RMS over the channels and the
-/// region's FLIP.
-pub fn region_table(cmp: &SceneComparison) -> Table {
-    let mut head = vec!["model".to_string()];
-    for r in REGIONS {
-        head.push(format!("{r} RMS %"));
-        head.push(format!("{r} FLIP"));
-    }
-    let mut t = Table {
-        header: head,
-        rows: Vec::new(),
-    };
-    for r in &cmp.rows {
-        let mut row = vec![r.name()];
-        for name in REGIONS {
-            match r.region(name) {
-                Some(e) if e.pixels > 0 => {
-                    row.push(pct(e.rel_rms.iter().cloned().fold(0.0, f64::max)));
-                    row.push(format!("{:.3}", e.flip));
-                }
-                _ => {
-                    row.push("-".into());
-                    row.push("-".into());
-                }
-            }
-        }
-        t.push(row);
-    }
-    t
-}
-
-/// The path-traced image's noise per region (the floor under the RMS).
-pub fn noise_table(cmp: &SceneComparison) -> Table {
-    let mut t = Table::new(&["region", "pixels", "noise % (r / g / b)"]);
-    if let Some(r) = cmp.rows.first() {
-        for e in &r.regions {
-            t.push(vec![
-                e.region.clone(),
-                e.pixels.to_string(),
-                if e.pixels > 0 {
-                    rgb_pct(e.noise)
-                } else {
-                    "-".into()
-                },
-            ]);
-        }
-    }
-    t
-}
-
 /// Which error dominates on the scene: the best kernel model's (with the
 /// lerp) screen-space error against the path-traced image, beside its
 /// error on the flat plane at the same footprint (the error `advise`
@@ -765,70 +678,4 @@ pub fn dominance(cmp: &SceneComparison) -> Option<Dominance> {
         angular_label: angular.map(|a| a.0.label.clone()),
         angular_scene_rms: angular.map(|a| a.1),
     })
-}
-
-/// The angular factors the comparison applied, per node: entry and exit
-/// factor with their standard errors (r / g / b).
-pub fn angular_table(f: &AngularFactors) -> Table {
-    let mut t = Table::new(&[
-        "cosine",
-        "entry E(N.L) (r / g / b)",
-        "+- (r / g / b)",
-        "exit X(N.V) (r / g / b)",
-        "+- (r / g / b)",
-    ]);
-    let three =
-        |v: [f64; 3], d: usize| format!("{:.d$} / {:.d$} / {:.d$}", v[0], v[1], v[2], d = d);
-    for k in 0..f.mu.len() {
-        t.push(vec![
-            format!("{:.3}", f.mu[k]),
-            three(f.entry[k], 4),
-            three(f.entry_stderr[k], 4),
-            three(f.exit[k], 4),
-            three(f.exit_stderr[k], 4),
-        ]);
-    }
-    t
-}
-
-/// Fraction of the path-traced peak shown as white in difference tiles.
-pub const SCENE_DIFF_SCALE: f64 = 0.1;
-
-/// A contact sheet: the path-traced image, then the baselines and each
-/// model with the lerp (its image above |image - path traced|, white =
-/// [`SCENE_DIFF_SCALE`] of the peak), one exposure for all.
-pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) -> Result<()> {
-    use super::kernel_plots::{draw_sheet, to_rgb8, SheetTile};
-    let truth = &cmp.truth;
-    let max_rgb: Vec<f64> = (0..truth.len())
-        .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
-        .collect();
-    let exposure = exposure_of(&max_rgb);
-    let peak = truth.peak().iter().cloned().fold(0.0f64, f64::max);
-    let mut tiles = vec![SheetTile {
-        label: "path traced".into(),
-        top: to_rgb8(truth, exposure),
-        bottom: None,
-    }];
-    for (label, img) in cmp.images.iter().filter(|(l, _)| {
-        !l.contains('(')
-            || l.ends_with("(depth+follow)")
-            || l.ends_with("(depth+follow+angular)")
-            || l.ends_with("(entry+exit)")
-    }) {
-        let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * peak));
-        tiles.push(SheetTile {
-            label: label
-                .replace(" (depth+follow+angular)", " + angular")
-                .replace(" (depth+follow)", ""),
-            top: to_rgb8(img, exposure),
-            bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
-        });
-    }
-    let title = format!(
-        "{title}: screen-space pass (depth + follow) above |pass - path traced| (white = {}% of \
-         the peak)",
-        100.0 * SCENE_DIFF_SCALE
-    );
-    draw_sheet(&tiles, (truth.width, truth.height), &title, out)
 }
