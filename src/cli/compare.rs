@@ -15,12 +15,12 @@ use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
 use ssskit::material::{Channel, Material};
-use ssskit::profile::analytic::{self, Options as ProfileOptions};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::profile::Profile;
 use ssskit::report::evaluate::{self, ImageCase, Options, Which};
 use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
-use ssskit::report::{kernel_report, pipeline};
+use ssskit::report::kernel_report;
+use ssskit::report::pipeline::{self, ProfileSource};
 use std::path::PathBuf;
 
 /// `--signals`: a test signal as `signal` spells it, or "none" (also "")
@@ -179,13 +179,10 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
                     };
                     simulate(&m, &cfg, &Bar::new())?
                 }
+                // The pipeline's closed form: all channels, Fresnel fits,
+                // the default grid.
                 Some(pm) => {
-                    let grid = analytic::default_grid(&m, &channels)?;
-                    let opts = ProfileOptions {
-                        fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
-                        channels: channels.clone(),
-                    };
-                    analytic::profile(&m, pm, &grid, &opts)?
+                    pipeline::make_profile(&m, &ProfileSource::Analytic(pm), &Bar::new())?.0
                 }
             };
             Ok(MaterialInput {
