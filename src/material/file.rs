@@ -322,6 +322,37 @@ mod tests {
             .to_string()
     }
 
+    /// The single-layer and the layered form take one list of layer
+    /// fields: an unknown field names every field its table accepts, in
+    /// order, and a file giving any layer field at the top level and
+    /// `[[layer]]` tables is refused.
+    #[test]
+    fn both_forms_take_the_same_layer_fields() {
+        let layer = "`sigma_a`, `sigma_s`, `sigma_s_reduced`, `g`, `eta`, `thickness`";
+        let e = err("unit = \"mm\"\nsigma_z = 1\n");
+        let top =
+            format!("expected one of `name`, `unit`, `eta_above`, `eta_below`, {layer}, `layer`");
+        assert!(e.contains(&top), "{e}");
+        let e = err("unit = \"mm\"\n[[layer]]\nsigma_z = 1\n");
+        assert!(e.contains(&format!("expected one of {layer}")), "{e}");
+        for field in [
+            "sigma_a = 0.1",
+            "sigma_s = 1",
+            "sigma_s_reduced = 1",
+            "g = 0",
+            "eta = 1.3",
+            "thickness = 1",
+        ] {
+            let e = err(&format!(
+                "unit = \"mm\"\n{field}\n[[layer]]\nsigma_a = 0.1\nsigma_s = 1\neta = 1.3\n"
+            ));
+            assert!(
+                e.contains("layer = both") && e.contains("not both"),
+                "{field}: {e}"
+            );
+        }
+    }
+
     #[test]
     fn invalid_inputs_are_named() {
         let base = |extra: &str, sa: &str, g: &str, eta: &str| {
