@@ -4,14 +4,10 @@ use super::args::{self, count, ImageSizeArg, KernelFile};
 use super::out::outln;
 use ssskit::filter::{gpu, timing};
 
-#[derive(clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    what: What,
-}
+pub type Args = args::Group<What>;
 
 #[derive(clap::Subcommand)]
-enum What {
+pub enum What {
     /// GPU time of one frame of the post-process, by timestamp queries.
     ///
     /// GPU timestamps around one frame of the post-process (depth-aware,
@@ -29,7 +25,7 @@ enum What {
         .default_value(format!("{}x{}", timing::DEFAULT_FRAME.0, timing::DEFAULT_FRAME.1))
         .help("Image size in pixels, WIDTHxHEIGHT: the frame")),
 )]
-struct FilterArgs {
+pub struct FilterArgs {
     #[command(flatten)]
     kernel: KernelFile,
     #[command(flatten)]

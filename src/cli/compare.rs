@@ -15,12 +15,12 @@ use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
 use ssskit::material::{Channel, Material};
-use ssskit::profile::analytic::{self, Options as ProfileOptions};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::profile::Profile;
 use ssskit::report::evaluate::{self, ImageCase, Options, Which};
 use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
-use ssskit::report::{kernel_report, pipeline};
+use ssskit::report::kernel_report;
+use ssskit::report::pipeline::{self, ProfileSource};
 use std::path::PathBuf;
 
 /// `--signals`: a test signal as `signal` spells it, or "none" (also "")
@@ -193,13 +193,10 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
                     };
                     simulate(&m, &cfg, &Bar::new())?
                 }
+                // The pipeline's closed form: all channels, Fresnel fits,
+                // the default grid.
                 Some(pm) => {
-                    let grid = analytic::default_grid(&m, &channels)?;
-                    let opts = ProfileOptions {
-                        fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
-                        channels: channels.clone(),
-                    };
-                    analytic::profile(&m, pm, &grid, &opts)?
+                    pipeline::make_profile(&m, &ProfileSource::Analytic(pm), &Bar::new())?.0
                 }
             };
             Ok(MaterialInput {
@@ -332,4 +329,53 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if no_plots { "" } else { ", PNG plots" }
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::{Args as _, FromArgMatches};
+    use ssskit::profile::analytic::{self, Model};
+
+    fn parse(argv: &[&str]) -> Args {
+        let m = Args::augment_args(clap::Command::new("compare"))
+            .try_get_matches_from(argv)
+            .unwrap();
+        Args::from_arg_matches(&m).unwrap()
+    }
+
+    /// `--profile-model` with an analytic model: each material's profile is
+    /// that model's closed form on the default grid, with the Fresnel fits,
+    /// in every channel.
+    #[test]
+    fn analytic_profiles_are_the_closed_forms() {
+        let m = Material::load("skin1").unwrap();
+        let grid = analytic::default_grid(&m, &Channel::ALL).unwrap();
+        let fits = analytic::Options {
+            fresnel: ssskit::profile::fresnel::FresnelMode::Fit,
+            channels: Channel::ALL.to_vec(),
+        };
+        for (flag, model) in [
+            ("dipole", Model::Dipole),
+            ("pbd", Model::Pbd),
+            ("burley", Model::Burley),
+            ("directional-dipole", Model::DirectionalDipole),
+        ] {
+            let a = parse(&[
+                "compare",
+                "--materials",
+                "skin1",
+                "--profile-model",
+                flag,
+                "--out-dir",
+                "out",
+            ]);
+            let got = load_profiles(&a).unwrap();
+            let want = analytic::profile(&m, model, &grid, &fits).unwrap();
+            assert_eq!(got.len(), 1);
+            assert_eq!(got[0].name, "skin1");
+            assert_eq!(got[0].profile.r_edges, want.r_edges, "{flag}");
+            assert_eq!(got[0].profile.rd, want.rd, "{flag}");
+        }
+    }
 }

@@ -1,5 +1,5 @@
 //! Every flag of every subcommand is defined in this folder: a flag that
-//! several subcommands take once, in `args.rs`; the others in the file of
+//! several subcommands take once, in `args/`; the others in the file of
 //! their subcommand, one file per subcommand; each file's `run` calls the
 //! library and prints or writes. `walk.rs` checks the vocabulary.
 

@@ -5,14 +5,10 @@ use ssskit::profile::Profile;
 use ssskit::report::plot;
 use std::path::PathBuf;
 
-#[derive(clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    what: What,
-}
+pub type Args = args::Group<What>;
 
 #[derive(clap::Subcommand)]
-enum What {
+pub enum What {
     /// R_d(r) of profile files, linear and log side by side.
     ///
     /// Linear near the origin and log over the full range side by side
@@ -22,7 +18,7 @@ enum What {
 
 #[derive(clap::Args)]
 #[command(mut_arg("out", |a| args::required()(a).help("Output file: the plot, .png")))]
-struct ProfileArgs {
+pub struct ProfileArgs {
     /// Profile files (JSON) to overlay.
     #[arg(required = true, value_name = "PROFILE.json")]
     files: Vec<PathBuf>,

@@ -13,14 +13,10 @@ use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::report::{compare, plot};
 
-#[derive(clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    what: What,
-}
+pub type Args = args::Group<What>;
 
 #[derive(clap::Subcommand)]
-enum What {
+pub enum What {
     /// Analytic models against a Monte Carlo reference: errors and time.
     ///
     /// Per material and channel: the error of the total, the relative L2
@@ -42,7 +38,7 @@ enum What {
         "Output folder (created): compare.md, compare.csv, compare_<material>.png"
     )),
 )]
-struct CompareArgs {
+pub struct CompareArgs {
     #[command(flatten)]
     materials: MaterialsArg,
     #[command(flatten)]

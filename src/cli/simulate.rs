@@ -11,8 +11,8 @@ use anyhow::Context;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::mc::gpu::McGpu;
 use ssskit::profile::mc::{
-    self, mci, AngularOptions, BoundaryMode, EnergyBalance, McConfig, McOptions, PhotonBudget,
-    Shard,
+    self, mci, mci::McmlRun, AngularOptions, BoundaryMode, EnergyBalance, McConfig, McOptions,
+    PhotonBudget, Shard,
 };
 use ssskit::profile::{GridSpec, Profile};
 use std::io::Write as _;
@@ -208,7 +208,29 @@ struct Flags {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let args = *args.flags;
-    let (material, mci_run) = match (&args.material.material, &args.mci) {
+    let (material, mci_run) = input(&args)?;
+    let (cfg, opts) = settings(&args, &material, mci_run.as_ref())?;
+    let out = out_path(&args, &material);
+    // Fail before the simulation, not after it, on an unwritable destination.
+    check_outputs(&args, &cfg, &out)?;
+    let bar = Bar::new();
+    let mut profile = match open_gpu(args.backend.backend, &opts)? {
+        Some(g) => g.simulate(&material, &cfg, &opts, g.default_dispatch(), &bar)?,
+        None => mc::simulate_with(&material, &cfg, &opts, &bar)?,
+    };
+    if let Some(r) = &mci_run {
+        profile.source.params["mci"] =
+            serde_json::json!({"file": r.source, "run": args.mci_run, "mco_name": r.output_name});
+    }
+    write_outputs(&args, &profile, &out)?;
+    print_summary(&profile, &out)?;
+    Ok(())
+}
+
+/// The material to trace: from --material, or the chosen run of the .mci
+/// file (returned too: its photons, grid and angle bins are defaults).
+fn input(args: &Flags) -> anyhow::Result<(Material, Option<McmlRun>)> {
+    Ok(match (&args.material.material, &args.mci) {
         (_, Some(path)) => {
             let runs = mci::read_mci(path)?;
             let run = runs
@@ -226,18 +248,66 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         (Some(spec), None) => (Material::load(spec)?, None),
         (None, None) => anyhow::bail!("give --material or --mci"),
-    };
-    let channels = match &mci_run {
+    })
+}
+
+/// The run's configuration and tracer options from the flags, the .mci
+/// run filling what they leave.
+fn settings(
+    args: &Flags,
+    material: &Material,
+    mci_run: Option<&McmlRun>,
+) -> anyhow::Result<(McConfig, McOptions)> {
+    let channels = match mci_run {
         // MCML is monochrome: the .mci coefficients fill every channel.
         Some(_) if args.channels.is_default() => vec![Channel::R],
         _ => args.channels.channels()?,
     };
+    let budget = photon_budget(args, mci_run)?;
+    let spec = GridSpec {
+        dr: args.grid.dr,
+        r_max: args.grid.rmax,
+        log_bins: args.log_bins,
+    };
+    // No grid flag: the .mci file's grid, else the tracer's own rule. A
+    // value given completes from the material's rule, as in `profile`.
+    let grid = match mci_run {
+        _ if spec != GridSpec::default() => Some(spec.grid(material, &channels)?),
+        Some(r) => Some(r.grid.clone()),
+        None => None,
+    };
+    let angular = angular_options(args, mci_run)?;
+    let cfg = McConfig {
+        budget,
+        seed: args.seed.seed,
+        threads: args.threads,
+        channels,
+        grid,
+    };
+    let opts = McOptions {
+        boundary: BoundaryMode::from(args.boundary),
+        event_roulette: args.event_roulette,
+        max_events: args.max_events.unwrap_or(mc::DEFAULT_MAX_EVENTS),
+        single_scatter: false,
+        max_work: args.max_work,
+        roulette_threshold: args.roulette,
+        shard: args.shard,
+        abs_floor: args.abs_floor,
+        angular,
+    };
+    Ok((cfg, opts))
+}
+
+/// When the run stops: --photons, else an error target, else the .mci
+/// file's photon count, else the kernel-factor rule. A shard needs a fixed
+/// count.
+fn photon_budget(args: &Flags, mci_run: Option<&McmlRun>) -> anyhow::Result<PhotonBudget> {
     let max_photons = args.max_photons.max_photons;
     let budget = match (
         args.photons.photons,
         args.mc_error.mc_error,
         args.kernel_error,
-        &mci_run,
+        mci_run,
     ) {
         (Some(n), _, _, _) => PhotonBudget::Fixed(n),
         (None, Some(e), _, _) => PhotonBudget::TargetError {
@@ -261,21 +331,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
              and cannot be split"
         );
     }
-    let spec = GridSpec {
-        dr: args.grid.dr,
-        r_max: args.grid.rmax,
-        log_bins: args.log_bins,
-    };
-    // No grid flag: the .mci file's grid, else the tracer's own rule. A
-    // value given completes from the material's rule, as in `profile`.
-    let grid = match &mci_run {
-        _ if spec != GridSpec::default() => Some(spec.grid(&material, &channels)?),
-        Some(r) => Some(r.grid.clone()),
-        None => None,
-    };
+    Ok(budget)
+}
+
+/// The angle-resolved tallies (exit-angle bins, oblique incidences), None
+/// when neither is asked for; --view-profile needs the exit-angle bins.
+fn angular_options(
+    args: &Flags,
+    mci_run: Option<&McmlRun>,
+) -> anyhow::Result<Option<AngularOptions>> {
     let angle_bins = args
         .angle_bins
-        .or(mci_run.as_ref().map(|r| r.angle_bins).filter(|&n| n > 1))
+        .or(mci_run.map(|r| r.angle_bins).filter(|&n| n > 1))
         .unwrap_or(0);
     let angular = (angle_bins > 0 || !args.incidence.is_empty()).then(|| AngularOptions {
         angle_bins,
@@ -294,41 +361,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
-    let boundary = BoundaryMode::from(args.boundary);
-    let cfg = McConfig {
-        budget,
-        seed: args.seed.seed,
-        threads: args.threads,
-        channels,
-        grid,
-    };
-    let opts = McOptions {
-        boundary,
-        event_roulette: args.event_roulette,
-        max_events: args.max_events.unwrap_or(mc::DEFAULT_MAX_EVENTS),
-        single_scatter: false,
-        max_work: args.max_work,
-        roulette_threshold: args.roulette,
-        shard: args.shard,
-        abs_floor: args.abs_floor,
-        angular,
-    };
-    // The default name comes from the material's name, a label: made a
-    // plain file name in the working folder.
-    let out = args.out.out.clone().unwrap_or_else(|| {
+    Ok(angular)
+}
+
+/// --out, else a name from the material's name, a label: made a plain file
+/// name in the working folder.
+fn out_path(args: &Flags, material: &Material) -> PathBuf {
+    args.out.out.clone().unwrap_or_else(|| {
         let stem = material.file_stem();
         PathBuf::from(match args.shard {
             Some(s) => format!("{stem}.shard-{}-of-{}.json", s.k, s.n),
             None => format!("{stem}.json"),
         })
-    });
-    // Fail before the simulation, not after it, on an unwritable destination.
+    })
+}
+
+/// Every output's format and destination, checked before the simulation.
+fn check_outputs(args: &Flags, cfg: &McConfig, out: &Path) -> anyhow::Result<()> {
     if args.mco.is_some() && cfg.channels.len() != 1 {
         anyhow::bail!(
             "--mco: an .mco file holds one wavelength (MCML is monochrome); give --channels r, g or b"
         );
     }
-    ssskit::io::check_extension(&out, &["json"], "profile")?;
+    ssskit::io::check_extension(out, &["json"], "profile")?;
     if let Some(csv) = &args.csv.csv {
         ssskit::io::check_extension(csv, &["csv"], "table")?;
     }
@@ -339,50 +394,45 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ssskit::io::check_extension(v, &["json"], "profile")?;
     }
     for (flag, path) in [
-        ("--out", Some(&out)),
-        ("--csv", args.csv.csv.as_ref()),
-        ("--mco", args.mco.as_ref()),
-        ("--view-profile", args.view_profile.as_ref()),
+        ("--out", Some(out)),
+        ("--csv", args.csv.csv.as_deref()),
+        ("--mco", args.mco.as_deref()),
+        ("--view-profile", args.view_profile.as_deref()),
     ] {
         if let Some(p) = path {
             ssskit::io::check_output_file(p, flag)?;
         }
     }
-    let bar = Bar::new();
-    let mut profile = match open_gpu(args.backend.backend, &opts)? {
-        Some(g) => g.simulate(&material, &cfg, &opts, g.default_dispatch(), &bar)?,
-        None => mc::simulate_with(&material, &cfg, &opts, &bar)?,
-    };
-    if let Some(r) = &mci_run {
-        profile.source.params["mci"] =
-            serde_json::json!({"file": r.source, "run": args.mci_run, "mco_name": r.output_name});
-    }
-    // JSON and CSV are renamed together: concurrent runs never mix them.
+    Ok(())
+}
+
+/// The profile and the outputs asked with it, renamed together:
+/// concurrent runs never mix them.
+fn write_outputs(args: &Flags, profile: &Profile, out: &Path) -> anyhow::Result<()> {
     let mut outputs = ssskit::io::AtomicGroup::new();
     profile
-        .write_into(&mut outputs, &out)
+        .write_into(&mut outputs, out)
         .with_context(|| format!("writing {}", out.display()))?;
     if let Some(csv) = &args.csv.csv {
-        write_csv(&profile, csv, &mut outputs)?;
+        write_csv(profile, csv, &mut outputs)?;
     }
     if let Some(mco) = &args.mco {
         let name = mco
             .file_name()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let text = mc::mco::mco_text(&profile, &name).context("--mco")?;
+        let text = mc::mco::mco_text(profile, &name).context("--mco")?;
         outputs
             .add_with(mco, |w| w.write_all(text.as_bytes()))
             .with_context(|| format!("writing {}", mco.display()))?;
     }
     if let Some(v) = &args.view_profile {
-        mc::angular::view_profile(&profile, args.view_angle)
+        mc::angular::view_profile(profile, args.view_angle)
             .context("--view-profile")?
             .write_into(&mut outputs, v)
             .with_context(|| format!("writing {}", v.display()))?;
     }
     outputs.commit()?;
-    print_summary(&profile, &out)?;
     Ok(())
 }
 

@@ -62,37 +62,61 @@ impl PerChannel {
     }
 }
 
-/// One layer: the top-level fields of a single-layer file or a `[[layer]]`
-/// table.
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct RawLayer {
-    sigma_a: Option<PerChannel>,
-    sigma_s: Option<PerChannel>,
-    sigma_s_reduced: Option<PerChannel>,
-    g: Option<PerChannel>,
-    eta: Option<f64>,
-    thickness: Option<f64>,
+/// Declares the file's two tables with one list of a layer's fields:
+/// `RawLayer` (a `[[layer]]` table) and `RawMaterial` (the file), which
+/// spells them at its top level for a single layer. They are spelled out
+/// rather than flattened from `RawLayer`: serde's flatten buffers the
+/// values and loses their position, so errors would point at line 1,
+/// column 1. The order of the fields is the order an unknown-field error
+/// lists them in.
+macro_rules! raw_tables {
+    (layer { $($field:ident: $ty:ty,)* }) => {
+        /// One layer: the top-level fields of a single-layer file or a
+        /// `[[layer]]` table.
+        #[derive(Deserialize, Default)]
+        #[serde(deny_unknown_fields)]
+        struct RawLayer {
+            $($field: Option<$ty>,)*
+        }
+
+        /// The file.
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct RawMaterial {
+            name: Option<String>,
+            unit: Option<String>,
+            eta_above: Option<f64>,
+            eta_below: Option<f64>,
+            $($field: Option<$ty>,)*
+            layer: Option<Vec<RawLayer>>,
+        }
+
+        impl RawLayer {
+            /// Whether no field is given.
+            fn is_empty(&self) -> bool {
+                true $(&& self.$field.is_none())*
+            }
+        }
+
+        impl RawMaterial {
+            /// The top-level layer fields, taken out as one layer.
+            fn take_top_layer(&mut self) -> RawLayer {
+                RawLayer {
+                    $($field: self.$field.take(),)*
+                }
+            }
+        }
+    };
 }
 
-/// The file. The single-layer fields are spelled out rather than flattened
-/// from `RawLayer`: serde's flatten buffers the values and loses their
-/// position, so errors would point at line 1, column 1.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawMaterial {
-    name: Option<String>,
-    unit: Option<String>,
-    eta_above: Option<f64>,
-    eta_below: Option<f64>,
-    sigma_a: Option<PerChannel>,
-    sigma_s: Option<PerChannel>,
-    sigma_s_reduced: Option<PerChannel>,
-    g: Option<PerChannel>,
-    eta: Option<f64>,
-    thickness: Option<f64>,
-    layer: Option<Vec<RawLayer>>,
-}
+raw_tables!(layer {
+    sigma_a: PerChannel,
+    sigma_s: PerChannel,
+    sigma_s_reduced: PerChannel,
+    g: PerChannel,
+    eta: f64,
+    thickness: f64,
+});
 
 /// A TOML error as one line naming the line and the field: "line 3, field
 /// sigma_a: invalid length 2, expected one number or ...".
@@ -118,48 +142,16 @@ pub(crate) fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
 /// Parses and validates a material file. `context` names the file in errors;
 /// `default_name` is used when the file has no `name`.
 pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Result<Material> {
-    let raw: RawMaterial = toml::from_str(text).map_err(|e| {
+    let mut raw: RawMaterial = toml::from_str(text).map_err(|e| {
         Error::format(
             context,
             format!("malformed material TOML: {}", describe_toml_error(text, &e)),
         )
     })?;
-    let single = RawLayer {
-        sigma_a: raw.sigma_a,
-        sigma_s: raw.sigma_s,
-        sigma_s_reduced: raw.sigma_s_reduced,
-        g: raw.g,
-        eta: raw.eta,
-        thickness: raw.thickness,
-    };
-    let scale = match raw.unit.as_deref() {
-        Some("mm") => 1.0,
-        Some("cm") => 0.1,
-        Some(u) => {
-            return Err(Error::invalid(
-                context,
-                "unit",
-                format!("\"{u}\""),
-                "expected \"mm\" or \"cm\"",
-            ))
-        }
-        None => {
-            return Err(Error::invalid(
-                context,
-                "unit",
-                "missing",
-                "state the unit of the coefficients: unit = \"mm\" or \"cm\"",
-            ))
-        }
-    };
-    let has_single = single.sigma_a.is_some()
-        || single.sigma_s.is_some()
-        || single.sigma_s_reduced.is_some()
-        || single.eta.is_some()
-        || single.g.is_some()
-        || single.thickness.is_some();
-    let raw_layers = match (raw.layer, has_single) {
-        (Some(_), true) => {
+    let single = raw.take_top_layer();
+    let scale = unit_scale(raw.unit.as_deref(), context)?;
+    let raw_layers = match (raw.layer, single.is_empty()) {
+        (Some(_), false) => {
             return Err(Error::invalid(
                 context,
                 "layer",
@@ -167,72 +159,24 @@ pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Res
                 "give either top-level coefficients or [[layer]] tables, not both",
             ))
         }
-        (Some(ls), false) => ls,
+        (Some(ls), true) => ls,
         (None, _) => vec![single],
     };
     let n = raw_layers.len();
-    let mut layers = Vec::with_capacity(n);
-    for (i, rl) in raw_layers.into_iter().enumerate() {
-        let field = |f: &str| {
-            if n == 1 {
-                f.to_string()
-            } else {
-                format!("layer[{i}].{f}")
-            }
-        };
-        let sigma_a = rl
-            .sigma_a
-            .ok_or_else(|| Error::invalid(context, field("sigma_a"), "missing", "required"))?
-            .rgb();
-        let g = rl.g.map(|g| g.rgb()).unwrap_or([0.0; 3]);
-        let sigma_s = match (rl.sigma_s, rl.sigma_s_reduced) {
-            (Some(s), None) => s.rgb(),
-            // sigma_s = sigma_s' / (1 - g); |g| < 1 is checked below, guard here
-            // only against the division itself.
-            (None, Some(r)) => {
-                let r = r.rgb();
-                let mut s = [0.0; 3];
-                for c in 0..3 {
-                    if !(g[c].abs() < 1.0) {
-                        return Err(Error::invalid(
-                            context,
-                            format!("{}[{c}]", field("g")),
-                            g[c],
-                            "anisotropy must satisfy |g| < 1",
-                        ));
-                    }
-                    s[c] = r[c] / (1.0 - g[c]);
+    let layers = raw_layers
+        .into_iter()
+        .enumerate()
+        .map(|(i, rl)| {
+            let field = |f: &str| {
+                if n == 1 {
+                    f.to_string()
+                } else {
+                    format!("layer[{i}].{f}")
                 }
-                s
-            }
-            (Some(_), Some(_)) => {
-                return Err(Error::invalid(
-                    context,
-                    field("sigma_s"),
-                    "both",
-                    "give sigma_s or sigma_s_reduced, not both",
-                ))
-            }
-            (None, None) => {
-                return Err(Error::invalid(
-                    context,
-                    field("sigma_s"),
-                    "missing",
-                    "required (or sigma_s_reduced)",
-                ))
-            }
-        };
-        let eta = rl
-            .eta
-            .ok_or_else(|| Error::invalid(context, field("eta"), "missing", "required"))?;
-        layers.push(Layer {
-            sigma_a: sigma_a.map(|v| v * scale),
-            sigma_s: sigma_s.map(|v| v * scale),
-            g,
-            eta,
-            thickness: rl.thickness.map(|t| t / scale),
-        });
-    }
+            };
+            parse_layer(rl, &field, scale, context)
+        })
+        .collect::<Result<Vec<_>>>()?;
     let m = Material {
         name: raw.name.unwrap_or_else(|| default_name.to_string()),
         eta_above: raw.eta_above.unwrap_or(1.0),
@@ -241,6 +185,96 @@ pub fn parse_material_toml(text: &str, context: &str, default_name: &str) -> Res
     };
     m.validate(context)?;
     Ok(m)
+}
+
+/// Millimetres per unit of the file's lengths: its coefficients are
+/// multiplied by it, its thicknesses divided.
+fn unit_scale(unit: Option<&str>, context: &str) -> Result<f64> {
+    match unit {
+        Some("mm") => Ok(1.0),
+        Some("cm") => Ok(0.1),
+        Some(u) => Err(Error::invalid(
+            context,
+            "unit",
+            format!("\"{u}\""),
+            "expected \"mm\" or \"cm\"",
+        )),
+        None => Err(Error::invalid(
+            context,
+            "unit",
+            "missing",
+            "state the unit of the coefficients: unit = \"mm\" or \"cm\"",
+        )),
+    }
+}
+
+/// One layer in millimetres; `field` names a field of this layer in errors.
+fn parse_layer(
+    rl: RawLayer,
+    field: &dyn Fn(&str) -> String,
+    scale: f64,
+    context: &str,
+) -> Result<Layer> {
+    let sigma_a = rl
+        .sigma_a
+        .ok_or_else(|| Error::invalid(context, field("sigma_a"), "missing", "required"))?
+        .rgb();
+    let g = rl.g.map(|g| g.rgb()).unwrap_or([0.0; 3]);
+    let sigma_s = scattering(rl.sigma_s, rl.sigma_s_reduced, g, field, context)?;
+    let eta = rl
+        .eta
+        .ok_or_else(|| Error::invalid(context, field("eta"), "missing", "required"))?;
+    Ok(Layer {
+        sigma_a: sigma_a.map(|v| v * scale),
+        sigma_s: sigma_s.map(|v| v * scale),
+        g,
+        eta,
+        thickness: rl.thickness.map(|t| t / scale),
+    })
+}
+
+/// The scattering coefficient, given as sigma_s or as sigma_s' = (1 - g)
+/// sigma_s (one of the two).
+fn scattering(
+    sigma_s: Option<PerChannel>,
+    reduced: Option<PerChannel>,
+    g: [f64; 3],
+    field: &dyn Fn(&str) -> String,
+    context: &str,
+) -> Result<[f64; 3]> {
+    match (sigma_s, reduced) {
+        (Some(s), None) => Ok(s.rgb()),
+        // sigma_s = sigma_s' / (1 - g); |g| < 1 is checked by the
+        // validation, guard here only against the division itself.
+        (None, Some(r)) => {
+            let r = r.rgb();
+            let mut s = [0.0; 3];
+            for c in 0..3 {
+                if !(g[c].abs() < 1.0) {
+                    return Err(Error::invalid(
+                        context,
+                        format!("{}[{c}]", field("g")),
+                        g[c],
+                        "anisotropy must satisfy |g| < 1",
+                    ));
+                }
+                s[c] = r[c] / (1.0 - g[c]);
+            }
+            Ok(s)
+        }
+        (Some(_), Some(_)) => Err(Error::invalid(
+            context,
+            field("sigma_s"),
+            "both",
+            "give sigma_s or sigma_s_reduced, not both",
+        )),
+        (None, None) => Err(Error::invalid(
+            context,
+            field("sigma_s"),
+            "missing",
+            "required (or sigma_s_reduced)",
+        )),
+    }
 }
 
 #[cfg(test)]
@@ -286,6 +320,37 @@ mod tests {
         parse_material_toml(t, "bad.toml", "b")
             .unwrap_err()
             .to_string()
+    }
+
+    /// The single-layer and the layered form take one list of layer
+    /// fields: an unknown field names every field its table accepts, in
+    /// order, and a file giving any layer field at the top level and
+    /// `[[layer]]` tables is refused.
+    #[test]
+    fn both_forms_take_the_same_layer_fields() {
+        let layer = "`sigma_a`, `sigma_s`, `sigma_s_reduced`, `g`, `eta`, `thickness`";
+        let e = err("unit = \"mm\"\nsigma_z = 1\n");
+        let top =
+            format!("expected one of `name`, `unit`, `eta_above`, `eta_below`, {layer}, `layer`");
+        assert!(e.contains(&top), "{e}");
+        let e = err("unit = \"mm\"\n[[layer]]\nsigma_z = 1\n");
+        assert!(e.contains(&format!("expected one of {layer}")), "{e}");
+        for field in [
+            "sigma_a = 0.1",
+            "sigma_s = 1",
+            "sigma_s_reduced = 1",
+            "g = 0",
+            "eta = 1.3",
+            "thickness = 1",
+        ] {
+            let e = err(&format!(
+                "unit = \"mm\"\n{field}\n[[layer]]\nsigma_a = 0.1\nsigma_s = 1\neta = 1.3\n"
+            ));
+            assert!(
+                e.contains("layer = both") && e.contains("not both"),
+                "{field}: {e}"
+            );
+        }
     }
 
     #[test]

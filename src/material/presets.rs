@@ -3,58 +3,33 @@
 
 use super::{parse_material_toml, Material};
 
+/// `(name, TOML text)` of presets named by their file in
+/// `profiles/materials/`.
+macro_rules! presets {
+    ($($name:literal),* $(,)?) => {
+        &[$(($name, include_str!(concat!("../../profiles/materials/", $name, ".toml")))),*]
+    };
+}
+
 /// (name, TOML text) of every preset.
-pub const PRESETS: &[(&str, &str)] = &[
-    ("apple", include_str!("../../profiles/materials/apple.toml")),
-    (
-        "chicken1",
-        include_str!("../../profiles/materials/chicken1.toml"),
-    ),
-    (
-        "chicken2",
-        include_str!("../../profiles/materials/chicken2.toml"),
-    ),
-    ("cream", include_str!("../../profiles/materials/cream.toml")),
-    (
-        "ketchup",
-        include_str!("../../profiles/materials/ketchup.toml"),
-    ),
-    (
-        "marble",
-        include_str!("../../profiles/materials/marble.toml"),
-    ),
-    (
-        "potato",
-        include_str!("../../profiles/materials/potato.toml"),
-    ),
-    (
-        "skimmilk",
-        include_str!("../../profiles/materials/skimmilk.toml"),
-    ),
-    ("skin1", include_str!("../../profiles/materials/skin1.toml")),
-    ("skin2", include_str!("../../profiles/materials/skin2.toml")),
-    (
-        "spectralon",
-        include_str!("../../profiles/materials/spectralon.toml"),
-    ),
-    (
-        "wholemilk",
-        include_str!("../../profiles/materials/wholemilk.toml"),
-    ),
-    (
-        "coffee",
-        include_str!("../../profiles/materials/coffee.toml"),
-    ),
-    (
-        "soymilk",
-        include_str!("../../profiles/materials/soymilk.toml"),
-    ),
-    ("wine", include_str!("../../profiles/materials/wine.toml")),
-    ("beer", include_str!("../../profiles/materials/beer.toml")),
-    (
-        "grapefruit",
-        include_str!("../../profiles/materials/grapefruit.toml"),
-    ),
+pub const PRESETS: &[(&str, &str)] = presets![
+    "apple",
+    "chicken1",
+    "chicken2",
+    "cream",
+    "ketchup",
+    "marble",
+    "potato",
+    "skimmilk",
+    "skin1",
+    "skin2",
+    "spectralon",
+    "wholemilk",
+    "coffee",
+    "soymilk",
+    "wine",
+    "beer",
+    "grapefruit",
 ];
 
 pub fn preset_names() -> Vec<&'static str> {

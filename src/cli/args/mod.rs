@@ -16,308 +16,23 @@
 //! print a one-line deprecation note ([`deprecated_spellings`]); messages
 //! name the flag as the user typed it (`errors::set_typed`).
 
-use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+mod deprecated;
+mod settings;
+mod values;
+
+pub use deprecated::{deprecated_spellings, running_command};
+pub use settings::{alias, default, default_enum, help, long_help_opens_with_help, required};
+pub use values::{
+    channel_item, count, count_text, counts_text, flag_value, image_size, name_item, rank_item,
+    rgb, rgb_text, signal_size, taps, value_or,
+};
+
+use clap::builder::PossibleValue;
 use clap::ValueEnum;
 use ssskit::material::Channel;
 use ssskit::profile::mc;
 use ssskit::report::{evaluate, pipeline};
-use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-
-// ---- Parsers -------------------------------------------------------------
-
-// A parser's message is the reason only: the one format of a bad value
-// (`errors::parse_error`) names the flag and the value.
-
-/// A count: an integer, or a whole number in exponent notation (1e6).
-pub fn count<T: TryFrom<u64>>(s: &str) -> Result<T, String> {
-    let t = s.trim();
-    let n = match t.parse::<u64>() {
-        Ok(n) => n,
-        Err(_) => {
-            let v: f64 = t
-                .parse()
-                .map_err(|_| "expected a whole number, e.g. 1000000 or 1e6".to_string())?;
-            if !(v >= 0.0 && v.fract() == 0.0) {
-                return Err("expected a whole number >= 0, e.g. 1000000 or 1e6".into());
-            }
-            // 2^64 is exactly representable; every f64 below it converts exactly.
-            if v >= 18_446_744_073_709_551_616.0 {
-                return Err(format!("beyond the largest count, {}", u64::MAX));
-            }
-            v as u64
-        }
-    };
-    T::try_from(n).map_err(|_| format!("too large (at most {})", max_of::<T>()))
-}
-
-/// The largest `T` a count converts to.
-fn max_of<T: TryFrom<u64>>() -> u64 {
-    // The largest n with T::try_from(n) ok: bisection over u64.
-    let (mut lo, mut hi) = (0u64, u64::MAX);
-    while lo < hi {
-        let mid = lo + (hi - lo).div_ceil(2);
-        if T::try_from(mid).is_ok() {
-            lo = mid;
-        } else {
-            hi = mid - 1;
-        }
-    }
-    lo
-}
-
-/// "WIDTHxHEIGHT", each a [`count`].
-pub fn image_size(s: &str) -> Result<(usize, usize), String> {
-    let bad = || "expected WIDTHxHEIGHT, e.g. 512x256".to_string();
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    Ok((count(w).map_err(|_| bad())?, count(h).map_err(|_| bad())?))
-}
-
-/// "R,G,B": three numbers, one per channel.
-pub fn rgb(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|t| t.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("not three numbers R,G,B ({e})"))?;
-    match v.as_slice() {
-        [r, g, b] => Ok([*r, *g, *b]),
-        _ => Err(format!("{} values, expected three (R,G,B)", v.len())),
-    }
-}
-
-/// "R,G,B" of a default, as [`rgb`] reads it back.
-pub fn rgb_text(v: [f64; 3]) -> String {
-    format!("{},{},{}", v[0], v[1], v[2])
-}
-
-/// A tap count: odd, 1 to 255 (`ssskit::kernel::taps::check_count`).
-pub fn taps(s: &str) -> Result<usize, String> {
-    let n = count::<usize>(s)?;
-    ssskit::kernel::taps::check_count(n).map_err(|e| reason(&e))?;
-    Ok(n)
-}
-
-/// Side of a square test signal, in [`evaluate::SIGNAL_SIZE_RANGE`].
-pub fn signal_size(s: &str) -> Result<usize, String> {
-    let n = count::<usize>(s)?;
-    let r = evaluate::SIGNAL_SIZE_RANGE;
-    if !r.contains(&n) {
-        return Err(format!("must be between {} and {}", r.start(), r.end()));
-    }
-    Ok(n)
-}
-
-/// One item of a rank list, "N" or "N-M", as the library reads it
-/// (`kernel_compare::parse_ranks`); kept as text for that reader.
-pub fn rank_item(s: &str) -> Result<String, String> {
-    ssskit::report::kernel_compare::parse_ranks(s).map_err(|e| reason(&e))?;
-    Ok(s.trim().to_string())
-}
-
-/// One item of a channel list: "r", "g", "b" or letters of them ("rgb"),
-/// as the library reads them (`Channel::parse_list`).
-pub fn channel_item(s: &str) -> Result<String, String> {
-    Channel::parse_list(s).map_err(|e| reason(&e))?;
-    Ok(s.trim().to_string())
-}
-
-/// A name in a list: not empty.
-pub fn name_item(s: &str) -> Result<String, String> {
-    match s.trim() {
-        "" => Err("an empty name (two commas in a row?)".into()),
-        t => Ok(t.to_string()),
-    }
-}
-
-/// The reason of a library error, for a parser's message (clap names the
-/// flag and the value).
-fn reason(e: &ssskit::Error) -> String {
-    match e {
-        ssskit::Error::Invalid { reason, .. } => reason.clone(),
-        e => e.to_string(),
-    }
-}
-
-/// A list item of an enumerated flag: a value of `T` (Some) or the one
-/// extra word `other` (None). The values' own help is dropped: it names
-/// the flags of the subcommand that owns `T`.
-pub fn value_or<T>(other: PossibleValue) -> impl TypedValueParser<Value = Option<T>>
-where
-    T: ValueEnum + Clone + Send + Sync + 'static,
-{
-    let values = T::value_variants()
-        .iter()
-        .filter_map(ValueEnum::to_possible_value)
-        .map(|v| v.help(None::<&'static str>));
-    PossibleValuesParser::new(std::iter::once(other).chain(values))
-        .map(|s| T::from_str(&s, false).ok())
-}
-
-/// How a value of an enumerated flag is spelled on the command line.
-pub fn flag_value<T: ValueEnum>(v: &T) -> String {
-    v.to_possible_value()
-        .map(|p| p.get_name().to_string())
-        .unwrap_or_default()
-}
-
-// ---- Per-subcommand settings of a shared flag ----------------------------
-
-/// `mut_arg(ID, default(v))`: this subcommand's default, shown in its help.
-pub fn default<T: std::fmt::Display>(v: T) -> impl FnOnce(clap::Arg) -> clap::Arg {
-    let s = v.to_string();
-    move |a| a.default_value(s)
-}
-
-/// [`default`] of an enumerated flag.
-pub fn default_enum<T: ValueEnum>(v: T) -> impl FnOnce(clap::Arg) -> clap::Arg {
-    default(flag_value(&v))
-}
-
-/// `mut_arg(ID, help(...))`: this subcommand's one-line help; it keeps the
-/// shared flag's concept (the words before the first ':').
-pub fn help(text: &'static str) -> impl FnOnce(clap::Arg) -> clap::Arg {
-    move |a| a.help(text)
-}
-
-/// `mut_arg(ID, required())`.
-pub fn required() -> impl FnOnce(clap::Arg) -> clap::Arg {
-    |a| a.required(true)
-}
-
-/// `mut_arg(ID, alias("--old"))`: a deprecated spelling, hidden, still
-/// accepted, with a note when used.
-pub fn alias(old: &'static str) -> impl FnOnce(clap::Arg) -> clap::Arg {
-    move |a| a.alias(old.trim_start_matches("--"))
-}
-
-/// The long help (`--help`) of every argument of `cmd` and its
-/// subcommands opens with its one-line help (`-h`): where a subcommand
-/// refines the one-line help of a shared flag, the long help follows.
-pub fn long_help_opens_with_help(cmd: clap::Command) -> clap::Command {
-    cmd.mut_args(|a| {
-        let (Some(short), Some(long)) = (a.get_help(), a.get_long_help()) else {
-            return a;
-        };
-        let (short, long) = (short.to_string(), long.to_string());
-        let rest = long.split_once("\n\n").map_or("", |(_, rest)| rest);
-        let first = long.split_once("\n\n").map_or(long.as_str(), |(f, _)| f);
-        if first.trim_end_matches('.') == short {
-            return a;
-        }
-        let text = if rest.is_empty() {
-            short
-        } else {
-            format!("{short}\n\n{rest}")
-        };
-        a.long_help(text)
-    })
-    .mut_subcommands(long_help_opens_with_help)
-}
-
-/// A count as a person writes it: 1e6, 1.5e9, 20260101, 17.
-pub fn count_text(n: u64) -> String {
-    let zeros = (0..19)
-        .take_while(|&k| n != 0 && n.is_multiple_of(10u64.pow(k + 1)))
-        .count() as u32;
-    if n < 10_000 || zeros < 3 {
-        return n.to_string();
-    }
-    let m = (n / 10u64.pow(zeros)).to_string();
-    let exp = zeros as usize + m.len() - 1;
-    match m.split_at(1) {
-        (d, "") => format!("{d}e{exp}"),
-        (d, frac) => format!("{d}.{frac}e{exp}"),
-    }
-}
-
-/// Counts as a person writes them, comma-separated.
-pub fn counts_text(v: &[u64]) -> String {
-    v.iter()
-        .map(|&n| count_text(n))
-        .collect::<Vec<_>>()
-        .join(",")
-}
-
-// ---- Deprecated spellings --------------------------------------------------
-
-/// A deprecated spelling the user typed: the flag as typed (`--size`), the
-/// flag it stands for (`--signal-size`), and the note to print.
-pub struct Deprecated {
-    pub typed: String,
-    pub canonical: String,
-    pub note: String,
-}
-
-/// The subcommand `argv` runs (walking the subcommand names from the top;
-/// the top-level command has no flag that takes a value, so no value can
-/// be mistaken for a name).
-pub fn running_command(top: &clap::Command, argv: &[OsString]) -> clap::Command {
-    let mut c = top.clone();
-    for a in argv.iter().skip(1) {
-        let Some(a) = a.to_str() else { break };
-        if a.starts_with('-') {
-            continue;
-        }
-        match c.find_subcommand(a) {
-            Some(sub) => c = sub.clone(),
-            None => break,
-        }
-    }
-    c
-}
-
-/// The deprecated spellings among the flags of `argv` for the subcommand
-/// `cmd`: hidden aliases of a flag, and hidden flags (whose help says what
-/// replaces them).
-pub fn deprecated_spellings(cmd: &clap::Command, argv: &[OsString]) -> Vec<Deprecated> {
-    let mut out: Vec<Deprecated> = Vec::new();
-    for a in argv.iter().skip(1) {
-        let Some(a) = a.to_str() else { continue };
-        if a == "--" {
-            break;
-        }
-        let Some(name) = a.strip_prefix("--") else {
-            continue;
-        };
-        let name = name.split_once('=').map_or(name, |(n, _)| n);
-        let typed = format!("--{name}");
-        if out.iter().any(|d| d.typed == typed) {
-            continue;
-        }
-        for arg in cmd.get_arguments() {
-            let Some(long) = arg.get_long() else { continue };
-            let hidden_alias = arg.get_all_aliases().unwrap_or_default().contains(&name)
-                && !arg
-                    .get_visible_aliases()
-                    .unwrap_or_default()
-                    .contains(&name);
-            if hidden_alias {
-                out.push(Deprecated {
-                    note: format!("note: {typed} is deprecated: use --{long}"),
-                    typed: typed.clone(),
-                    canonical: format!("--{long}"),
-                });
-            } else if long == name && arg.is_hide_set() {
-                let why = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
-                out.push(Deprecated {
-                    note: format!("note: {typed} is {}", lower_first(&why)),
-                    typed: typed.clone(),
-                    canonical: typed.clone(),
-                });
-            }
-        }
-    }
-    out
-}
-
-fn lower_first(s: &str) -> String {
-    let mut c = s.chars();
-    match c.next() {
-        Some(f) => f.to_lowercase().chain(c).collect(),
-        None => String::new(),
-    }
-}
 
 // ---- Shared enumerations ---------------------------------------------------
 
@@ -392,6 +107,15 @@ pub struct BackendArg {
     /// CPU, so auto leaves it out (--backend gpu forces it).
     #[arg(long, value_enum, value_name = "WHERE", required = false)]
     pub backend: Backend,
+}
+
+// The arguments of a subcommand that only groups others (`ssskit plot
+// profile`); `W` lists them. A plain comment: a doc comment here would
+// become the help of every such group.
+#[derive(clap::Args)]
+pub struct Group<W: clap::Subcommand> {
+    #[command(subcommand)]
+    pub what: W,
 }
 
 // ---- Inputs ------------------------------------------------------------------
@@ -702,9 +426,7 @@ pub struct OutFile {
 impl OutFile {
     /// The path where the subcommand requires one (clap has checked).
     pub fn path(&self) -> anyhow::Result<&Path> {
-        self.out
-            .as_deref()
-            .ok_or_else(|| anyhow::anyhow!("give --out FILE"))
+        given(&self.out, "--out FILE")
     }
 }
 
@@ -719,10 +441,15 @@ pub struct OutDir {
 impl OutDir {
     /// The folder where the subcommand requires one (clap has checked).
     pub fn path(&self) -> anyhow::Result<&Path> {
-        self.out_dir
-            .as_deref()
-            .ok_or_else(|| anyhow::anyhow!("give --out-dir DIR"))
+        given(&self.out_dir, "--out-dir DIR")
     }
+}
+
+/// The path of an output flag a subcommand requires (clap has checked; the
+/// error names `flag` with its value name, should it ever be reached).
+fn given<'a>(path: &'a Option<PathBuf>, flag: &str) -> anyhow::Result<&'a Path> {
+    path.as_deref()
+        .ok_or_else(|| anyhow::anyhow!("give {flag}"))
 }
 
 /// `--csv`.
@@ -770,63 +497,5 @@ pub fn report() -> impl FnMut(clap::Arg) -> clap::Arg {
         "signal_size" => a.alias("size"),
         "out_dir" => a.alias("out"),
         _ => a,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn counts_take_exponent_notation() {
-        assert_eq!(count::<u64>("1000000"), Ok(1_000_000));
-        assert_eq!(count::<u64>("1e6"), Ok(1_000_000));
-        assert_eq!(count::<u64>(" 2.5e3 "), Ok(2500));
-        assert_eq!(count::<usize>("17"), Ok(17));
-        assert_eq!(count::<u32>("1e9"), Ok(1_000_000_000));
-        assert_eq!(
-            count::<u32>("1e10").unwrap_err(),
-            "too large (at most 4294967295)"
-        );
-        assert!(count::<u64>("1.5").unwrap_err().contains("whole number"));
-        assert!(count::<u64>("-1").unwrap_err().contains(">= 0"));
-        assert!(count::<u64>("abc").unwrap_err().contains("whole number"));
-        assert!(count::<u64>("1e20").unwrap_err().contains("largest count"));
-        assert_eq!(count::<u64>("18446744073709551615"), Ok(u64::MAX));
-        assert_eq!(image_size("1e3x20"), Ok((1000, 20)));
-        assert!(image_size("40by20").is_err());
-    }
-
-    #[test]
-    fn counts_are_written_as_they_are_read() {
-        for (n, text) in [
-            (17, "17"),
-            (1000, "1000"),
-            (10_000, "1e4"),
-            (300_000, "3e5"),
-            (2_000_000, "2e6"),
-            (1_500_000_000, "1.5e9"),
-            (20_260_101, "20260101"),
-            (20_260_000, "2.026e7"),
-            (u64::MAX, "18446744073709551615"),
-        ] {
-            assert_eq!(count_text(n), text);
-            assert_eq!(count::<u64>(text), Ok(n));
-        }
-    }
-
-    #[test]
-    fn list_items_are_read_by_the_library() {
-        assert!(taps("17").is_ok() && taps("1e1").is_err() && taps("257").is_err());
-        assert!(rank_item("1-3").is_ok() && rank_item("3-1").is_err());
-        assert!(channel_item("rg").is_ok() && channel_item("x").is_err());
-        assert!(name_item(" ").is_err());
-        assert_eq!(rgb("1, 2,3"), Ok([1.0, 2.0, 3.0]));
-        assert_eq!(rgb(&rgb_text([0.48, 0.41, 0.28])), Ok([0.48, 0.41, 0.28]));
-        let r = evaluate::SIGNAL_SIZE_RANGE;
-        assert!(signal_size(&r.start().to_string()).is_ok());
-        assert!(signal_size(&(r.start() - 1).to_string()).is_err());
-        assert!(signal_size(&r.end().to_string()).is_ok());
-        assert!(signal_size(&(r.end() + 1).to_string()).is_err());
     }
 }

@@ -1,0 +1,231 @@
+//! A folder of outputs written under a temporary name and swapped in as a
+//! whole ([`StagedDir`]).
+
+use super::atomic::{cannot_write, folder_of, write_atomic, FolderLock};
+use super::temps::{sweep_stale_temps, temp_builder, temp_prefix, LiveTemp};
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// The marker file of a folder [`StagedDir`] wrote: a folder holding it is
+/// one ssskit may replace as a whole.
+pub const OUTPUT_MARKER: &str = ".ssskit-output";
+
+/// A folder of outputs written under a temporary name next to its
+/// destination (`.ssskit-<pid>-<random>.tmp`, removed on a signal or a
+/// failure) and swapped in as a whole by [`StagedDir::commit`]: an
+/// interrupted run leaves the previous folder as it was, never a mix of two
+/// runs. The destination must be absent, empty, or a folder an earlier run
+/// wrote (it holds [`OUTPUT_MARKER`]): a folder of other files is refused
+/// before any work, since it would be replaced.
+pub struct StagedDir {
+    target: PathBuf,
+    tmp: tempfile::TempDir,
+    _live: LiveTemp,
+}
+
+impl StagedDir {
+    /// Checks the destination and creates the staging folder (and the
+    /// destination's parent folders): everything that can fail about the
+    /// place fails here, before the work.
+    pub fn new(target: &Path) -> Result<StagedDir> {
+        use std::path::Component;
+        let bad = |msg: &str| Error::io(target, std::io::Error::other(msg.to_string()));
+        if !matches!(target.components().next_back(), Some(Component::Normal(_))) {
+            return Err(bad(
+                "give the outputs a folder of their own (a name, not '.', '..' or '/'): it is \
+                 replaced as a whole",
+            ));
+        }
+        let inside = std::env::current_dir()
+            .and_then(|cwd| cwd.canonicalize())
+            .ok()
+            .zip(target.canonicalize().ok())
+            .is_some_and(|(cwd, t)| cwd.starts_with(t));
+        if inside {
+            return Err(bad(
+                "the working folder is inside it, and the outputs replace it as a whole: give \
+                 another folder",
+            ));
+        }
+        check_replaceable(target)?;
+        let parent = folder_of(target);
+        std::fs::create_dir_all(parent).map_err(|e| cannot_write(target, parent, &e))?;
+        sweep_stale_temps(parent);
+        let prefix = temp_prefix();
+        let (tmp, live) =
+            LiveTemp::create(|| temp_builder(&prefix).tempdir_in(parent), |t| t.path())
+                .map_err(|e| cannot_write(target, parent, &e))?;
+        Ok(StagedDir {
+            target: target.to_path_buf(),
+            tmp,
+            _live: live,
+        })
+    }
+
+    /// Where the outputs are written until the commit.
+    pub fn path(&self) -> &Path {
+        self.tmp.path()
+    }
+
+    /// The destination.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// Marks the staged folder as ssskit's and swaps it in for the
+    /// destination (atomically where the system can exchange two names;
+    /// otherwise the old folder is moved aside first and restored if the
+    /// second rename fails); the old folder is then removed.
+    pub fn commit(self) -> Result<()> {
+        let StagedDir { target, tmp, _live } = self;
+        write_atomic(
+            &tmp.path().join(OUTPUT_MARKER),
+            b"ssskit output folder: the next run writing here replaces it as a whole\n",
+        )?;
+        let parent = folder_of(&target).to_path_buf();
+        let _lock = FolderLock::new(&parent)?;
+        // Checked again under the lock: files may have appeared since.
+        check_replaceable(&target)?;
+        let staged = tmp.path().to_path_buf();
+        let err = |e: std::io::Error| Error::io(&target, e);
+        if std::fs::symlink_metadata(&target).is_err() {
+            std::fs::rename(&staged, &target).map_err(err)?;
+            // The staged path is gone; the TempDir must not remove the result.
+            let _ = tmp.keep();
+            return Ok(());
+        }
+        if exchange(&staged, &target).is_ok() {
+            // `staged` now holds the old folder: TempDir removes it.
+            drop(tmp);
+            return Ok(());
+        }
+        let prefix = temp_prefix();
+        let (aside, aside_live) =
+            LiveTemp::create(|| temp_builder(&prefix).tempdir_in(&parent), |t| t.path())
+                .map_err(|e| cannot_write(&target, &parent, &e))?;
+        let aside_path = aside.path().to_path_buf();
+        // An empty folder to rename over: rename replaces an empty folder.
+        std::fs::rename(&target, &aside_path).map_err(err)?;
+        if let Err(e) = std::fs::rename(&staged, &target) {
+            let _ = std::fs::rename(&aside_path, &target);
+            let _ = aside.keep();
+            return Err(err(e));
+        }
+        let _ = tmp.keep();
+        drop(aside);
+        drop(aside_live);
+        Ok(())
+    }
+}
+
+/// Refuses a destination folder that is a file, or a folder of files that
+/// no ssskit run wrote.
+fn check_replaceable(target: &Path) -> Result<()> {
+    let bad = |msg: String| Error::io(target, std::io::Error::other(msg));
+    let meta = match std::fs::symlink_metadata(target) {
+        Ok(m) => m,
+        Err(_) => return Ok(()),
+    };
+    if !meta.is_dir() {
+        return Err(bad(
+            "exists and is not a folder: give a new folder for the outputs".into(),
+        ));
+    }
+    let entries = std::fs::read_dir(target).map_err(|e| Error::io(target, e))?;
+    let mut first_other = None;
+    let mut ours = false;
+    for e in entries.flatten() {
+        let name = e.file_name();
+        if name == OUTPUT_MARKER {
+            ours = true;
+        } else if first_other.is_none() {
+            first_other = Some(name.to_string_lossy().into_owned());
+        }
+    }
+    match (ours, first_other) {
+        (true, _) | (false, None) => Ok(()),
+        (false, Some(f)) => Err(bad(format!(
+            "the folder holds files no ssskit run wrote (e.g. '{f}'); the outputs replace the \
+             folder as a whole: give a new or empty folder"
+        ))),
+    }
+}
+
+/// Exchanges two paths atomically (Linux renameat2 RENAME_EXCHANGE).
+#[cfg(any(target_os = "linux", target_os = "android"))]
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = |p: &Path| {
+        std::ffi::CString::new(p.as_os_str().as_bytes())
+            .map_err(|_| std::io::Error::from(std::io::ErrorKind::InvalidInput))
+    };
+    let (a, b) = (c(a)?, c(b)?);
+    // SAFETY: two NUL-terminated paths that live across the call.
+    let r = unsafe {
+        libc::renameat2(
+            libc::AT_FDCWD,
+            a.as_ptr(),
+            libc::AT_FDCWD,
+            b.as_ptr(),
+            libc::RENAME_EXCHANGE,
+        )
+    };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error())
+    }
+}
+
+#[cfg(not(any(target_os = "linux", target_os = "android")))]
+fn exchange(_a: &Path, _b: &Path) -> std::io::Result<()> {
+    Err(std::io::Error::from(std::io::ErrorKind::Unsupported))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn staged_folders_replace_only_their_own_kind() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        let s = StagedDir::new(&out).unwrap();
+        write_atomic(&s.path().join("a.txt"), b"1").unwrap();
+        assert!(!out.exists(), "nothing is in place before the commit");
+        s.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(out.join("a.txt")).unwrap(), "1");
+        assert!(out.join(OUTPUT_MARKER).exists());
+        // A second run replaces the folder as a whole: a.txt goes.
+        let s = StagedDir::new(&out).unwrap();
+        write_atomic(&s.path().join("b.txt"), b"2").unwrap();
+        s.commit().unwrap();
+        assert!(!out.join("a.txt").exists() && out.join("b.txt").exists());
+        // A failed run (dropped before the commit) leaves the last one.
+        let s = StagedDir::new(&out).unwrap();
+        write_atomic(&s.path().join("c.txt"), b"3").unwrap();
+        drop(s);
+        assert!(out.join("b.txt").exists() && !out.join("c.txt").exists());
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(names.len(), 1, "staging folders left behind");
+        // Someone else's folder, or a file, is refused before any work.
+        let theirs = dir.path().join("theirs");
+        std::fs::create_dir(&theirs).unwrap();
+        std::fs::write(theirs.join("notes.txt"), "keep").unwrap();
+        let e = StagedDir::new(&theirs).err().unwrap().to_string();
+        assert!(
+            e.contains("notes.txt") && e.contains("new or empty folder"),
+            "{e}"
+        );
+        let e = StagedDir::new(&theirs.join("notes.txt"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("not a folder"), "{e}");
+        // An empty folder is taken.
+        let empty = dir.path().join("empty");
+        std::fs::create_dir(&empty).unwrap();
+        StagedDir::new(&empty).unwrap().commit().unwrap();
+        assert!(empty.join(OUTPUT_MARKER).exists());
+    }
+}
