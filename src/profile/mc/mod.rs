@@ -69,16 +69,7 @@ pub fn simulate_with(
     let start = std::time::Instant::now();
     material.validate(&format!("material '{}'", material.name))?;
     validate_config(cfg, opts)?;
-    let (grid, grid_rule) = match &cfg.grid {
-        Some(g) => (g.clone(), json!({"rule": "given"})),
-        // The kernel rule's consumer needs the core resolved and the tail
-        // integrated, not every tail bin exact: geometric bins.
-        None => RadialGrid::for_material_rule(
-            material,
-            &cfg.channels,
-            matches!(cfg.budget, PhotonBudget::KernelFactor { .. }),
-        ),
-    };
+    let (grid, grid_rule) = run_grid(material, cfg);
     grid.check_edges()?;
     if let Some(a) = &opts.angular {
         a.validate(grid.len())?;

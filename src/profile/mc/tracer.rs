@@ -170,7 +170,7 @@ impl LayerOptics {
 }
 
 /// Below this |g| the HG inversion loses precision: sample isotropically.
-const HG_ISOTROPIC: f64 = 1e-6;
+pub(crate) const HG_ISOTROPIC: f64 = 1e-6;
 
 /// Uniform in [0, 1) with 53 random bits.
 #[inline(always)]
