@@ -163,11 +163,19 @@ mod tests {
             assert_eq!(got.to_bits(), want.to_bits(), "{name}: {got} vs {want}");
         }
         assert_eq!(module.constants.len(), u.len() + f.len());
-        // The values the shader spelled out before they came from Rust.
-        assert_eq!((1.0 / TALLY_RESOLUTION) as f32, 16777216.0);
-        assert_eq!(ROULETTE_CHANCE as f32, 0.1f32);
-        assert_eq!(std::f64::consts::TAU as f32, 6.283185307179586f32);
-        assert_eq!(HG_ISOTROPIC as f32, 1e-6f32);
+        // The literals the shader spelled out before the values came from
+        // Rust, as WGSL read them (an abstract float, f64, rounded to f32).
+        let before = [
+            ("FIX", "16777216.0"),
+            ("ROULETTE_CHANCE", "0.1"),
+            ("PI2", "6.283185307179586"),
+            ("HG_ISOTROPIC", "1e-6"),
+        ];
+        for (name, literal) in before {
+            let old = literal.parse::<f64>().unwrap() as f32;
+            let now = f.iter().find(|c| c.0 == name).unwrap().1;
+            assert_eq!(now.to_bits(), old.to_bits(), "{name}");
+        }
     }
 
     /// Every constant of the header is used by a shader and declared by
