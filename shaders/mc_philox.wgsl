@@ -3,7 +3,7 @@
 // known-answer check mc_kat.wgsl. The host prepends mul_wide
 // (wide_mul.wgsl) and the constants PHILOX_M0, PHILOX_M1 (round
 // multipliers) and PHILOX_W0, PHILOX_W1 (key increments) from the CPU twin
-// in src/profile/mc/gpu.rs, so both use one definition.
+// in src/profile/mc/gpu/philox.rs, so both use one definition.
 
 fn philox_round(c: vec4<u32>, k: vec2<u32>) -> vec4<u32> {
     let p0 = mul_wide(PHILOX_M0, c.x);

@@ -8,19 +8,20 @@
 // values in fixed point (2^-24), so the totals do not depend on which
 // invocation traced which packet nor in what order they were added.
 
-// The host prepends the structs Params and Layer and the constants of the
-// tally layout (T_RD .. BINS, WORKGROUP), defined with their descriptions in
-// src/profile/mc/gpu.rs.
+// The host prepends the structs Params and Layer and a header of constants
+// whose one definition is in Rust, with their descriptions
+// (src/profile/mc/gpu/shader.rs): the tally layout (T_RD .. BINS,
+// SUM_WORDS, MOMENT_WORDS), WORKGROUP, FIX (the fixed point 2^24 of the
+// tallies and of the 24-bit uniforms), ROULETTE_CHANCE (Russian roulette's
+// survival chance), PI2 (2 pi) and HG_ISOTROPIC (the |g| below which the
+// phase function is sampled isotropically). This file declares no constant
+// of its own.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> layers: array<Layer>;
 @group(0) @binding(2) var<storage, read> edges: array<f32>;
-// Tally words (see src/profile/mc/gpu.rs for the layout).
+// Tally words (see src/profile/mc/gpu/sums.rs for the layout).
 @group(0) @binding(3) var<storage, read_write> acc: array<atomic<u32>>;
-
-const FIX: f32 = 16777216.0;   // 2^24
-const ROULETTE_CHANCE: f32 = 0.1;
-const PI2: f32 = 6.283185307179586;
 
 // mul_wide (wide_mul.wgsl) and philox4x32_10 (mc_philox.wgsl) are prepended
 // by the host.
@@ -305,7 +306,7 @@ fn trace_one(lo: u32, hi: u32) {
             let kept = w * l.albedo;
             absorbed += w - kept;
             w = kept;
-            if (abs(l.g) < 1e-6) {
+            if (abs(l.g) < HG_ISOTROPIC) {
                 let c = 2.0 * rand01() - 1.0;
                 let sn = sqrt(max(1.0 - c * c, 0.0));
                 let phi = PI2 * rand01();
@@ -345,10 +346,10 @@ fn trace_one(lo: u32, hi: u32) {
         a_rd = add64(a_rd, q_rd);
         a_rd_sq = add_sq(a_rd_sq, q_rd);
         if (escape_r < params.r_max) {
-            let b = BINS + 5u * bin_of(escape_r);
+            let b = BINS + MOMENT_WORDS * bin_of(escape_r);
             let sq = mul_wide(q_rd, q_rd);
             acc_add64(b, q_rd, 0u);
-            acc_add96(b + 2u, sq.x, sq.y, 0u);
+            acc_add96(b + SUM_WORDS, sq.x, sq.y, 0u);
         } else {
             a_beyond = add64(a_beyond, q_rd);
         }
@@ -386,11 +387,11 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>) {
         trace_one(lo, params.base_hi + select(0u, 1u, lo < i));
     }
     acc_add64(T_RD, a_rd.x, a_rd.y);
-    acc_add96(T_RD + 2u, a_rd_sq.x, a_rd_sq.y, a_rd_sq.z);
+    acc_add96(T_RD + SUM_WORDS, a_rd_sq.x, a_rd_sq.y, a_rd_sq.z);
     acc_add64(T_TR, a_tr.x, a_tr.y);
-    acc_add96(T_TR + 2u, a_tr_sq.x, a_tr_sq.y, a_tr_sq.z);
+    acc_add96(T_TR + SUM_WORDS, a_tr_sq.x, a_tr_sq.y, a_tr_sq.z);
     acc_add64(T_ABS, a_abs.x, a_abs.y);
-    acc_add96(T_ABS + 2u, a_abs_sq.x, a_abs_sq.y, a_abs_sq.z);
+    acc_add96(T_ABS + SUM_WORDS, a_abs_sq.x, a_abs_sq.y, a_abs_sq.z);
     acc_add64(T_BEYOND, a_beyond.x, a_beyond.y);
     acc_add64(T_LOSS, a_loss.x, a_loss.y);
     acc_add64(T_GAIN, a_gain.x, a_gain.y);

@@ -23,18 +23,15 @@
 //! for the entry factor.
 
 use super::exact::ExactTally;
-use super::tally::{AngleLayout, ChunkTally, Moments, PhotonScratch};
-use super::tracer::{self, Stack, WalkSettings};
-use super::{splitmix64, Job, CHUNK, CONTEXT};
+use super::tally::{AngleLayout, ChunkTally, Moments};
+use super::CONTEXT;
 use crate::error::{Error, Result};
-use crate::material::Channel;
 use crate::profile::{Profile, RadialGrid};
-use crate::progress::Progress;
-use rand_core::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
+
+mod incidence;
+pub(super) use incidence::trace_incidences;
 
 /// Most exit-angle bins (0.1 degree).
 pub const MAX_ANGLE_BINS: usize = 900;
@@ -146,148 +143,6 @@ pub fn lambert_shares(angle_bins: usize) -> Vec<f64> {
     (0..angle_bins).map(|j| s2(j + 1) - s2(j)).collect()
 }
 
-/// The RNG of chunk `chunk` of the oblique run `k` (>= 1) of channel `ch`:
-/// the normal run's key hashed once more with k, so its streams are its own.
-fn incidence_rng(seed: u64, ch: Channel, chunk: u64, k: usize) -> Xoshiro256PlusPlus {
-    let key = splitmix64(splitmix64(splitmix64(seed) ^ (ch.index() as u64 + 1)) ^ chunk);
-    Xoshiro256PlusPlus::seed_from_u64(splitmix64(key ^ splitmix64(k as u64)))
-}
-
-/// Traces the oblique runs: for every channel `c` and every incidence but
-/// the normal, `photons[c]` photons (the normal run's). Returns the exact
-/// sums per channel and incidence (the normal one left empty). Work is the
-/// normal run's again per incidence, each run under `max_work` (an error
-/// when a chunk would need more than its share); the sums are order-free,
-/// so the result does not depend on the thread count.
-pub(super) fn trace_incidences(
-    job: &Job,
-    opts: &AngularOptions,
-    photons: &[u64],
-    progress: &dyn Progress,
-) -> Result<Vec<Vec<ExactTally>>> {
-    let angles = opts.incidences();
-    let nk = angles.len();
-    let nch = job.stacks.len();
-    let nb = job.bins.len();
-    let single = job.set.single_scatter;
-    let set = WalkSettings {
-        angular: (opts.angle_bins > 0).then_some(AngleLayout {
-            angle_bins: opts.angle_bins,
-            radial: 0,
-        }),
-        ..job.set
-    };
-    let stacks: Vec<Vec<Stack>> = job
-        .cfg
-        .channels
-        .iter()
-        .map(|&ch| {
-            angles
-                .iter()
-                .map(|t| Stack::oblique(job.material, ch, t.to_radians()))
-                .collect()
-        })
-        .collect();
-    let mut units = Vec::new();
-    for (c, &n) in photons.iter().enumerate() {
-        for k in 1..nk {
-            units.extend((0..n.div_ceil(CHUNK)).map(|chunk| (c, k, chunk)));
-        }
-    }
-    let total: u64 = photons.iter().sum::<u64>() * (nk as u64 - 1);
-    if total == 0 {
-        return Ok((0..nch).map(|_| vec![ExactTally::default(); nk]).collect());
-    }
-    // Each oblique run is bounded like the normal one: an equal share of
-    // --max-work per chunk, a chunk that needs more stops the whole run.
-    let budget: Vec<u64> = photons
-        .iter()
-        .map(|&n| {
-            (job.opts.max_work / n.div_ceil(CHUNK).max(1)).saturating_sub(super::chunk_overhead(nb))
-        })
-        .collect();
-    progress.start(total, "oblique incidence");
-    struct Worker {
-        sums: std::result::Result<Vec<Option<ExactTally>>, String>,
-        chunk: Option<ChunkTally>,
-        scratch: Option<PhotonScratch>,
-    }
-    // Exact sums: the order chunks are added in does not change them.
-    fn add_sums(
-        a: std::result::Result<Vec<Option<ExactTally>>, String>,
-        b: std::result::Result<Vec<Option<ExactTally>>, String>,
-    ) -> std::result::Result<Vec<Option<ExactTally>>, String> {
-        let (mut a, b) = (a?, b?);
-        for (x, y) in a.iter_mut().zip(b) {
-            match (x.as_mut(), y) {
-                (Some(x), Some(y)) => x.add(&y)?,
-                (None, y) => *x = y,
-                _ => {}
-            }
-        }
-        Ok(a)
-    }
-    let sums = units
-        .par_iter()
-        .fold(
-            || Worker {
-                sums: Ok(vec![None; nch * nk]),
-                chunk: None,
-                scratch: None,
-            },
-            |mut w, &(c, k, chunk)| {
-                let Ok(sums) = w.sums.as_mut() else {
-                    return w;
-                };
-                let n = CHUNK.min(photons[c] - chunk * CHUNK);
-                let t = w.chunk.get_or_insert_with(|| ChunkTally::new(nb, single));
-                t.reset();
-                let sc = w
-                    .scratch
-                    .get_or_insert_with(|| PhotonScratch::new(nb, single));
-                let mut rng = incidence_rng(job.cfg.seed, job.cfg.channels[c], chunk, k);
-                let set = WalkSettings {
-                    chunk_events: budget[c],
-                    ..set
-                };
-                tracer::trace_photons(&stacks[c][k], &job.bins, &set, &mut rng, n, t, sc);
-                if t.events > budget[c] {
-                    w.sums = Err(format!(
-                        "channel {}, incidence {} degrees: the oblique run needs more than \
-                         max_work = {} events (the normal run's photons, {}); lower the photons \
-                         or raise max_work",
-                        job.cfg.channels[c].name(),
-                        angles[k],
-                        job.opts.max_work,
-                        photons[c]
-                    ));
-                    return w;
-                }
-                let added = sums[c * nk + k]
-                    .get_or_insert_with(|| ExactTally::new(nb, single))
-                    .add_chunk(t);
-                if let Err(e) = added {
-                    w.sums = Err(format!(
-                        "channel {}, incidence {} degrees: {e}",
-                        job.cfg.channels[c].name(),
-                        angles[k]
-                    ));
-                }
-                progress.advance(n);
-                w
-            },
-        )
-        .map(|w| w.sums)
-        .reduce(|| Ok(vec![None; nch * nk]), add_sums);
-    progress.finish();
-    let sums = sums.map_err(Error::Unsupported)?;
-    let mut out: Vec<Vec<ExactTally>> = (0..nch).map(|_| Vec::with_capacity(nk)).collect();
-    for (i, s) in sums.into_iter().enumerate() {
-        out[i / nk].push(s.unwrap_or_default());
-    }
-    Ok(out)
-}
-
 /// The exit table of one run, normal incidence.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ExitTable {
@@ -391,117 +246,9 @@ pub(super) fn results(
 ) -> Angular {
     let na = opts.angle_bins;
     let shares = lambert_shares(na);
-    let areas = grid.areas();
-    let nb = grid.len();
     let ts: Vec<ChunkTally> = main.iter().map(ExactTally::to_f64).collect();
-    let exit = (na > 0).then(|| {
-        let mut x = ExitTable {
-            fraction: vec![],
-            fraction_stderr: vec![],
-            factor: vec![],
-            factor_stderr: vec![],
-            radiance: vec![],
-            radiance_stderr: vec![],
-            beyond_rmax: vec![],
-        };
-        for t in &ts {
-            let [f, fe, k, ke] = exit_columns(t, &shares);
-            x.fraction.push(f);
-            x.fraction_stderr.push(fe);
-            x.factor.push(k);
-            x.factor_stderr.push(ke);
-            let n = t.photons;
-            let cell = |ir: usize, ia: usize| Moments {
-                sum: t.exit.ra.sum[ir * na + ia],
-                sum_sq: t.exit.ra.sum_sq[ir * na + ia],
-            };
-            // pi L = pi W / (N area pi share): the projected solid angle of
-            // a bin is pi x its Lambertian share.
-            let (v, e): (Vec<Vec<f64>>, Vec<Vec<f64>>) = (0..nb)
-                .map(|ir| {
-                    (0..na)
-                        .map(|ia| {
-                            let m = cell(ir, ia);
-                            let d = areas[ir] * shares[ia];
-                            (m.mean(n) / d, m.stderr(n) / d)
-                        })
-                        .unzip()
-                })
-                .unzip();
-            x.radiance.push(v);
-            x.radiance_stderr.push(e);
-            x.beyond_rmax
-                .push((0..na).map(|ia| cell(nb, ia).mean(n)).collect());
-        }
-        x
-    });
-    let entry = (opts.incidences().len() > 1).then(|| {
-        let angles = opts.incidences();
-        let mut e = EntryTable {
-            incidence_deg: angles.clone(),
-            photons: ts.iter().map(|t| t.photons).collect(),
-            specular: vec![],
-            total_rd: vec![],
-            total_rd_stderr: vec![],
-            factor: vec![],
-            factor_stderr: vec![],
-            energy_balance_minus_1: vec![],
-            exit_factor: vec![],
-            exit_factor_stderr: vec![],
-        };
-        for (c, t0) in ts.iter().enumerate() {
-            let runs: Vec<ChunkTally> = std::iter::once(t0.clone())
-                .chain(oblique[c].iter().skip(1).map(ExactTally::to_f64))
-                .collect();
-            let rd0 = t0.rd.mean(t0.photons);
-            let rel0 = if rd0 > 0.0 {
-                t0.rd.stderr(t0.photons) / rd0
-            } else {
-                0.0
-            };
-            let mut row = [vec![], vec![], vec![], vec![], vec![], vec![]];
-            let (mut xf, mut xe) = (vec![], vec![]);
-            for (k, t) in runs.iter().enumerate() {
-                let n = t.photons;
-                let nf = n.max(1) as f64;
-                let rd = t.rd.mean(n);
-                let se = t.rd.stderr(n);
-                let (f, fe) = if k == 0 {
-                    (1.0, 0.0)
-                } else if rd0 > 0.0 {
-                    let rel = if rd > 0.0 { se / rd } else { 0.0 };
-                    (rd / rd0, rd / rd0 * rel.hypot(rel0))
-                } else {
-                    (0.0, 0.0)
-                };
-                let balance = (t.specular + t.rd.sum + t.transmittance.sum + t.absorbed.sum
-                    - 1.0 * nf
-                    + t.residual())
-                    / nf;
-                row[0].push(t.specular / nf);
-                row[1].push(rd);
-                row[2].push(se);
-                row[3].push(f);
-                row[4].push(fe);
-                row[5].push(balance);
-                if na > 0 {
-                    let [_, _, k, ke] = exit_columns(t, &shares);
-                    xf.push(k);
-                    xe.push(ke);
-                }
-            }
-            let [s, r, rs, f, fe, b] = row;
-            e.specular.push(s);
-            e.total_rd.push(r);
-            e.total_rd_stderr.push(rs);
-            e.factor.push(f);
-            e.factor_stderr.push(fe);
-            e.energy_balance_minus_1.push(b);
-            e.exit_factor.push(xf);
-            e.exit_factor_stderr.push(xe);
-        }
-        e
-    });
+    let exit = (na > 0).then(|| exit_table(grid, &ts, &shares));
+    let entry = (opts.incidences().len() > 1).then(|| entry_table(opts, &ts, oblique, &shares));
     Angular {
         angle_bins: na,
         theta_edges_deg: if na > 0 { theta_edges_deg(na) } else { vec![] },
@@ -523,6 +270,138 @@ pub(super) fn results(
                        as independent runs (entry)",
         }),
     }
+}
+
+/// The exit table of the normal runs `ts` (per channel), on `shares.len()`
+/// angle bins.
+fn exit_table(grid: &RadialGrid, ts: &[ChunkTally], shares: &[f64]) -> ExitTable {
+    let mut x = ExitTable {
+        fraction: vec![],
+        fraction_stderr: vec![],
+        factor: vec![],
+        factor_stderr: vec![],
+        radiance: vec![],
+        radiance_stderr: vec![],
+        beyond_rmax: vec![],
+    };
+    let areas = grid.areas();
+    let (na, nb) = (shares.len(), grid.len());
+    for t in ts {
+        let [f, fe, k, ke] = exit_columns(t, shares);
+        x.fraction.push(f);
+        x.fraction_stderr.push(fe);
+        x.factor.push(k);
+        x.factor_stderr.push(ke);
+        let n = t.photons;
+        let cell = |ir: usize, ia: usize| Moments {
+            sum: t.exit.ra.sum[ir * na + ia],
+            sum_sq: t.exit.ra.sum_sq[ir * na + ia],
+        };
+        // pi L = pi W / (N area pi share): the projected solid angle of
+        // a bin is pi x its Lambertian share.
+        let (v, e): (Vec<Vec<f64>>, Vec<Vec<f64>>) = (0..nb)
+            .map(|ir| {
+                (0..na)
+                    .map(|ia| {
+                        let m = cell(ir, ia);
+                        let d = areas[ir] * shares[ia];
+                        (m.mean(n) / d, m.stderr(n) / d)
+                    })
+                    .unzip()
+            })
+            .unzip();
+        x.radiance.push(v);
+        x.radiance_stderr.push(e);
+        x.beyond_rmax
+            .push((0..na).map(|ia| cell(nb, ia).mean(n)).collect());
+    }
+    x
+}
+
+/// The entry table: per channel, the normal run `ts[c]` and the oblique
+/// ones `oblique[c]` (its first, the normal, unused).
+fn entry_table(
+    opts: &AngularOptions,
+    ts: &[ChunkTally],
+    oblique: &[Vec<ExactTally>],
+    shares: &[f64],
+) -> EntryTable {
+    let mut e = EntryTable {
+        incidence_deg: opts.incidences(),
+        photons: ts.iter().map(|t| t.photons).collect(),
+        specular: vec![],
+        total_rd: vec![],
+        total_rd_stderr: vec![],
+        factor: vec![],
+        factor_stderr: vec![],
+        energy_balance_minus_1: vec![],
+        exit_factor: vec![],
+        exit_factor_stderr: vec![],
+    };
+    for (c, t0) in ts.iter().enumerate() {
+        let runs: Vec<ChunkTally> = std::iter::once(t0.clone())
+            .chain(oblique[c].iter().skip(1).map(ExactTally::to_f64))
+            .collect();
+        let ([s, r, rs, f, fe, b], xf, xe) = entry_rows(&runs, shares);
+        e.specular.push(s);
+        e.total_rd.push(r);
+        e.total_rd_stderr.push(rs);
+        e.factor.push(f);
+        e.factor_stderr.push(fe);
+        e.energy_balance_minus_1.push(b);
+        e.exit_factor.push(xf);
+        e.exit_factor_stderr.push(xe);
+    }
+    e
+}
+
+/// One channel's entry rows over its incidence runs (the normal first):
+/// specular, R_d, its stderr, the entry factor, its stderr and the energy
+/// balance - 1 per incidence, and the exit factors with their stderrs
+/// (empty without exit bins).
+#[allow(clippy::type_complexity)]
+fn entry_rows(
+    runs: &[ChunkTally],
+    shares: &[f64],
+) -> ([Vec<f64>; 6], Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let t0 = &runs[0];
+    let rd0 = t0.rd.mean(t0.photons);
+    let rel0 = if rd0 > 0.0 {
+        t0.rd.stderr(t0.photons) / rd0
+    } else {
+        0.0
+    };
+    let mut row = [vec![], vec![], vec![], vec![], vec![], vec![]];
+    let (mut xf, mut xe) = (vec![], vec![]);
+    for (k, t) in runs.iter().enumerate() {
+        let n = t.photons;
+        let nf = n.max(1) as f64;
+        let rd = t.rd.mean(n);
+        let se = t.rd.stderr(n);
+        let (f, fe) = if k == 0 {
+            (1.0, 0.0)
+        } else if rd0 > 0.0 {
+            let rel = if rd > 0.0 { se / rd } else { 0.0 };
+            (rd / rd0, rd / rd0 * rel.hypot(rel0))
+        } else {
+            (0.0, 0.0)
+        };
+        let balance = (t.specular + t.rd.sum + t.transmittance.sum + t.absorbed.sum - 1.0 * nf
+            + t.residual())
+            / nf;
+        row[0].push(t.specular / nf);
+        row[1].push(rd);
+        row[2].push(se);
+        row[3].push(f);
+        row[4].push(fe);
+        row[5].push(balance);
+        if !shares.is_empty() {
+            let [_, _, k, ke] = exit_columns(t, shares);
+            xf.push(k);
+            xe.push(ke);
+        }
+    }
+    (row, xf, xe)
 }
 
 /// The profile seen from `theta_deg` (0: along the normal): R_d replaced by

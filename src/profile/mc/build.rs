@@ -20,61 +20,18 @@ pub(super) fn build_profile(
     let per = |f: &dyn Fn(&ChunkTally) -> f64| -> Vec<f64> { ts.iter().map(f).collect() };
     let per_run =
         |f: &dyn Fn(&Status) -> f64| -> Vec<f64> { runs.iter().map(|r| f(&r.status)).collect() };
-    let density = |sums: &tally::BinSums, n: u64| -> (Vec<f64>, Vec<f64>) {
-        if sums.sum.is_empty() {
-            return (vec![], vec![]);
-        }
-        (0..grid.len())
-            .map(|i| {
-                let m = Moments {
-                    sum: sums.sum[i],
-                    sum_sq: sums.sum_sq[i],
-                };
-                // Wang et al. 1995: R_d(r_i) = W_i / (N area_i).
-                (m.mean(n) / areas[i], m.stderr(n) / areas[i])
-            })
-            .unzip()
-    };
     let mut rd = Vec::new();
     let mut rd_err = Vec::new();
     let mut single = Vec::new();
     let mut warnings: Vec<String> = Vec::new();
     let mut balance = serde_json::Map::new();
     for ((t, run), ch) in ts.iter().zip(runs).zip(&cfg.channels) {
-        let n = t.photons;
-        let (v, e) = density(&t.rd_bins, n);
+        let (v, e) = bin_density(&t.rd_bins, t.photons, &areas);
         rd.push(v);
         rd_err.push(e);
-        let nf = n as f64;
-        let parts = [
-            t.specular,
-            t.rd.sum,
-            t.transmittance.sum,
-            t.absorbed.sum,
-            t.residual(),
-        ];
-        let sum: f64 = parts.iter().sum::<f64>() / nf;
-        let b = EnergyBalance {
-            specular: t.specular / nf,
-            rd: t.rd.sum / nf,
-            transmittance: t.transmittance.sum / nf,
-            absorbed: t.absorbed.sum / nf,
-            roulette_loss: t.roulette_loss / nf,
-            roulette_gain: t.roulette_gain / nf,
-            truncated: t.truncated / nf,
-            sum,
-            sum_minus_1: sum - 1.0,
-        };
-        balance.insert(ch.name().into(), json!(b));
+        balance.insert(ch.name().into(), json!(energy_balance(t)));
         if opts.single_scatter {
-            let (v, e) = density(&t.single_bins, n);
-            single.push(json!({
-                "channel": ch.name(),
-                "total": t.single.mean(n),
-                "total_stderr": t.single.stderr(n),
-                "rd": v,
-                "rd_stderr": e,
-            }));
+            single.push(single_scatter_record(t, *ch, &areas));
         }
         warnings.extend(channel_warnings(t, run, *ch, opts, cfg));
         warnings.extend(fixed_cap_warning(t, run, *ch, opts, cfg));
@@ -87,6 +44,107 @@ pub(super) fn build_profile(
         .layers
         .last()
         .is_some_and(|l| l.thickness.is_some());
+    let mut extra = json!({
+        "energy_balance": balance,
+        "rd_beyond_rmax": per(&|t| t.rd_beyond / t.photons as f64),
+        "rel_error_total_rd": per_run(&|s| s.rel_total),
+        "rel_error_profile": per_run(&|s| s.rel_profile),
+        "rel_error_kernel_factor": per_run(&|s| s.rel_factor),
+        "kernel_grid": geometry.map(|g| json!({"extent_mm": g.extent_mm, "size": g.size})),
+        "r99_mm": per_run(&|s| s.r99),
+        "converged": runs.iter().map(|r| r.converged).collect::<Vec<_>>(),
+        "stopped_by": runs.iter().map(|r| stop_reason(cfg, r)).collect::<Vec<_>>(),
+        "events_per_photon": per(&|t| t.events as f64 / t.photons as f64),
+        "truncated_photons": ts.iter().map(|t| t.truncated_photons).collect::<Vec<_>>(),
+        "warnings": warnings,
+    });
+    if opts.single_scatter {
+        extra["single_scatter"] = json!(single);
+    }
+    Profile {
+        schema: PROFILE_SCHEMA.into(),
+        material: material.clone(),
+        units: "mm".into(),
+        source: Source {
+            kind: "monte-carlo".into(),
+            photons: Some(photons),
+            seed: Some(cfg.seed),
+            model: Some("mcml".into()),
+            params: run_params(cfg, opts, grid_rule),
+        },
+        channels: cfg.channels.clone(),
+        r_edges: grid.edges.clone(),
+        r: grid.centres(),
+        rd,
+        rd_stderr: Some(rd_err),
+        total_rd: per(&|t| t.rd.mean(t.photons)),
+        total_rd_stderr: Some(per(&|t| t.rd.stderr(t.photons))),
+        specular: per(&|t| t.specular / t.photons as f64),
+        transmittance: Some(per(&|t| t.transmittance.mean(t.photons))),
+        transmittance_stderr: finite.then(|| per(&|t| t.transmittance.stderr(t.photons))),
+        absorbed: Some(per(&|t| t.absorbed.mean(t.photons))),
+        extra,
+        elapsed_s,
+    }
+}
+
+/// Per bin of `n` photons' sums: R_d(r_i) = W_i / (N area_i) (Wang et al.
+/// 1995) and its standard error; empty for a tally that was not kept.
+fn bin_density(sums: &tally::BinSums, n: u64, areas: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    if sums.sum.is_empty() {
+        return (vec![], vec![]);
+    }
+    (0..areas.len())
+        .map(|i| {
+            let m = Moments {
+                sum: sums.sum[i],
+                sum_sq: sums.sum_sq[i],
+            };
+            (m.mean(n) / areas[i], m.stderr(n) / areas[i])
+        })
+        .unzip()
+}
+
+/// Where a channel's launched light went, per photon.
+fn energy_balance(t: &ChunkTally) -> EnergyBalance {
+    let nf = t.photons as f64;
+    let parts = [
+        t.specular,
+        t.rd.sum,
+        t.transmittance.sum,
+        t.absorbed.sum,
+        t.residual(),
+    ];
+    let sum: f64 = parts.iter().sum::<f64>() / nf;
+    EnergyBalance {
+        specular: t.specular / nf,
+        rd: t.rd.sum / nf,
+        transmittance: t.transmittance.sum / nf,
+        absorbed: t.absorbed.sum / nf,
+        roulette_loss: t.roulette_loss / nf,
+        roulette_gain: t.roulette_gain / nf,
+        truncated: t.truncated / nf,
+        sum,
+        sum_minus_1: sum - 1.0,
+    }
+}
+
+/// The single-scattering part of a channel's R_d: total and profile.
+fn single_scatter_record(t: &ChunkTally, ch: Channel, areas: &[f64]) -> serde_json::Value {
+    let n = t.photons;
+    let (v, e) = bin_density(&t.single_bins, n, areas);
+    json!({
+        "channel": ch.name(),
+        "total": t.single.mean(n),
+        "total_stderr": t.single.stderr(n),
+        "rd": v,
+        "rd_stderr": e,
+    })
+}
+
+/// The budget of a run as recorded: its rule, targets, caps and what the
+/// target error means.
+fn budget_record(cfg: &McConfig, opts: &McOptions) -> serde_json::Value {
     let definition = match cfg.budget {
         PhotonBudget::Fixed(_) => "",
         PhotonBudget::TargetError { .. } => {
@@ -120,58 +178,22 @@ pub(super) fn build_profile(
                            least 3 / floor photons; 0 = off",
         });
     }
-    let mut extra = json!({
-        "energy_balance": balance,
-        "rd_beyond_rmax": per(&|t| t.rd_beyond / t.photons as f64),
-        "rel_error_total_rd": per_run(&|s| s.rel_total),
-        "rel_error_profile": per_run(&|s| s.rel_profile),
-        "rel_error_kernel_factor": per_run(&|s| s.rel_factor),
-        "kernel_grid": geometry.map(|g| json!({"extent_mm": g.extent_mm, "size": g.size})),
-        "r99_mm": per_run(&|s| s.r99),
-        "converged": runs.iter().map(|r| r.converged).collect::<Vec<_>>(),
-        "stopped_by": runs.iter().map(|r| stop_reason(cfg, r)).collect::<Vec<_>>(),
-        "events_per_photon": per(&|t| t.events as f64 / t.photons as f64),
-        "truncated_photons": ts.iter().map(|t| t.truncated_photons).collect::<Vec<_>>(),
-        "warnings": warnings,
-    });
-    if opts.single_scatter {
-        extra["single_scatter"] = json!(single);
-    }
-    Profile {
-        schema: PROFILE_SCHEMA.into(),
-        material: material.clone(),
-        units: "mm".into(),
-        source: Source {
-            kind: "monte-carlo".into(),
-            photons: Some(photons),
-            seed: Some(cfg.seed),
-            model: Some("mcml".into()),
-            params: json!({
-                "boundary": opts.boundary.name(),
-                "budget": budget,
-                "max_events": opts.max_events,
-                "event_roulette": {"start": opts.event_roulette, "survival_per_doubling": EVENT_ROULETTE_SURVIVAL},
-                "roulette": {"threshold": opts.roulette_threshold, "survival": ROULETTE_CHANCE},
-                "chunk": CHUNK,
-                "rng": "xoshiro256++ per (seed, channel, chunk), SplitMix64-hashed",
-                "sums": "exact fixed-point accumulation of chunk sums (order-free)",
-                "grid": grid_rule,
-            }),
-        },
-        channels: cfg.channels.clone(),
-        r_edges: grid.edges.clone(),
-        r: grid.centres(),
-        rd,
-        rd_stderr: Some(rd_err),
-        total_rd: per(&|t| t.rd.mean(t.photons)),
-        total_rd_stderr: Some(per(&|t| t.rd.stderr(t.photons))),
-        specular: per(&|t| t.specular / t.photons as f64),
-        transmittance: Some(per(&|t| t.transmittance.mean(t.photons))),
-        transmittance_stderr: finite.then(|| per(&|t| t.transmittance.stderr(t.photons))),
-        absorbed: Some(per(&|t| t.absorbed.mean(t.photons))),
-        extra,
-        elapsed_s,
-    }
+    budget
+}
+
+/// The tracer's settings as `source.params` records them.
+fn run_params(cfg: &McConfig, opts: &McOptions, grid_rule: serde_json::Value) -> serde_json::Value {
+    json!({
+        "boundary": opts.boundary.name(),
+        "budget": budget_record(cfg, opts),
+        "max_events": opts.max_events,
+        "event_roulette": {"start": opts.event_roulette, "survival_per_doubling": EVENT_ROULETTE_SURVIVAL},
+        "roulette": {"threshold": opts.roulette_threshold, "survival": ROULETTE_CHANCE},
+        "chunk": CHUNK,
+        "rng": "xoshiro256++ per (seed, channel, chunk), SplitMix64-hashed",
+        "sums": "exact fixed-point accumulation of chunk sums (order-free)",
+        "grid": grid_rule,
+    })
 }
 
 /// Why a channel's run ended: "photons" (fixed budget or photon cap),

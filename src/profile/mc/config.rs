@@ -179,6 +179,21 @@ pub const DEFAULT_MAX_EVENTS: u64 = u64::MAX;
 /// `McOptions`.
 pub const CONTEXT: &str = "Monte Carlo";
 
+/// The radial grid of a run and how it was chosen: the given one, or the
+/// budget rule's default for the material (the kernel rule's consumer needs
+/// the core resolved and the tail integrated, not every tail bin exact:
+/// geometric bins). Both tracers use it.
+pub(super) fn run_grid(material: &Material, cfg: &McConfig) -> (RadialGrid, serde_json::Value) {
+    match &cfg.grid {
+        Some(g) => (g.clone(), json!({"rule": "given"})),
+        None => RadialGrid::for_material_rule(
+            material,
+            &cfg.channels,
+            matches!(cfg.budget, PhotonBudget::KernelFactor { .. }),
+        ),
+    }
+}
+
 pub(super) fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     match cfg.budget {
         PhotonBudget::Fixed(n) if n == 0 => {

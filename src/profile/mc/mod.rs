@@ -69,16 +69,7 @@ pub fn simulate_with(
     let start = std::time::Instant::now();
     material.validate(&format!("material '{}'", material.name))?;
     validate_config(cfg, opts)?;
-    let (grid, grid_rule) = match &cfg.grid {
-        Some(g) => (g.clone(), json!({"rule": "given"})),
-        // The kernel rule's consumer needs the core resolved and the tail
-        // integrated, not every tail bin exact: geometric bins.
-        None => RadialGrid::for_material_rule(
-            material,
-            &cfg.channels,
-            matches!(cfg.budget, PhotonBudget::KernelFactor { .. }),
-        ),
-    };
+    let (grid, grid_rule) = run_grid(material, cfg);
     grid.check_edges()?;
     if let Some(a) = &opts.angular {
         a.validate(grid.len())?;
@@ -115,9 +106,8 @@ pub fn simulate_with(
         cap,
         range,
     };
-    let photons_in = |a: u64, b: u64| (b * CHUNK).min(cap).saturating_sub(a * CHUNK);
     progress.start(
-        photons_in(range.0, range.1).saturating_mul(cfg.channels.len() as u64),
+        photons_in(cap, range).saturating_mul(cfg.channels.len() as u64),
         &format!("{} photons", material.name),
     );
     let runs = pool.install(|| job.run(progress));
@@ -147,41 +137,76 @@ pub fn simulate_with(
         p.extra["angular"] = json!(results);
     }
     if let Some(s) = opts.shard {
-        let record = ShardRecord {
-            k: s.k,
-            n: s.n,
-            chunks: range,
-            config: McConfig {
-                threads: None,
-                ..cfg.clone()
-            },
-            options: McOptions {
-                shard: None,
-                ..opts.clone()
-            },
+        let shard = ShardRun {
+            shard: s,
+            range,
+            grid: &grid,
             grid_rule,
-            tallies: runs.into_iter().map(|r| r.tally).collect(),
-            sha256: String::new(),
         };
-        let record = ShardRecord {
-            sha256: record.content_hash(material, &grid.edges)?,
-            ..record
-        };
-        p.source.params["shard"] = json!({"k": s.k, "n": s.n});
-        if let Some(w) = p.extra["warnings"].as_array_mut() {
-            w.push(json!(format!(
-                "partial profile: shard {} of {} ({} of {} photons per channel); merge all {} shards for the run",
-                s.k,
-                s.n,
-                photons_in(range.0, range.1),
-                cap,
-                s.n
-            )));
-        }
-        p.extra["shard"] = serde_json::to_value(&record)
-            .map_err(|e| Error::Unsupported(format!("cannot record the shard: {e}")))?;
+        record_shard(&mut p, material, cfg, opts, shard, runs)?;
     }
     Ok(p)
+}
+
+/// Photons of chunks [a, b) of a run of `cap` photons per channel.
+fn photons_in(cap: u64, (a, b): (u64, u64)) -> u64 {
+    (b * CHUNK).min(cap).saturating_sub(a * CHUNK)
+}
+
+/// The shard a run traced: its chunks and grid.
+struct ShardRun<'a> {
+    shard: Shard,
+    range: (u64, u64),
+    grid: &'a RadialGrid,
+    grid_rule: serde_json::Value,
+}
+
+/// Records a shard's exact tallies in its partial profile (`extra.shard`,
+/// hashed for the merge) and warns that the profile is partial.
+fn record_shard(
+    p: &mut Profile,
+    material: &Material,
+    cfg: &McConfig,
+    opts: &McOptions,
+    run: ShardRun,
+    runs: Vec<ChannelRun>,
+) -> Result<()> {
+    let (s, range) = (run.shard, run.range);
+    let record = ShardRecord {
+        k: s.k,
+        n: s.n,
+        chunks: range,
+        config: McConfig {
+            threads: None,
+            ..cfg.clone()
+        },
+        options: McOptions {
+            shard: None,
+            ..opts.clone()
+        },
+        grid_rule: run.grid_rule,
+        tallies: runs.into_iter().map(|r| r.tally).collect(),
+        sha256: String::new(),
+    };
+    let record = ShardRecord {
+        sha256: record.content_hash(material, &run.grid.edges)?,
+        ..record
+    };
+    p.source.params["shard"] = json!({"k": s.k, "n": s.n});
+    let cap = cfg.budget.max_photons();
+    if let Some(w) = p.extra["warnings"].as_array_mut() {
+        w.push(json!(format!(
+            "partial profile: shard {} of {} ({} of {} photons per channel); merge all {} shards for the run",
+            s.k,
+            s.n,
+            photons_in(cap, range),
+            cap,
+            s.n
+        )));
+    }
+    p.extra["shard"] = serde_json::to_value(&record)
+        .map_err(|e| Error::Unsupported(format!("cannot record the shard: {e}")))?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -3,6 +3,8 @@
 //! channel's convergence.
 
 use super::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014): decorrelates stream keys.
 pub(crate) fn splitmix64(mut z: u64) -> u64 {
@@ -15,8 +17,13 @@ pub(crate) fn splitmix64(mut z: u64) -> u64 {
 /// The RNG of chunk `chunk` of channel `ch`: a function of (seed, ch, chunk)
 /// only.
 pub(super) fn chunk_rng(seed: u64, ch: Channel, chunk: u64) -> Xoshiro256PlusPlus {
-    let key = splitmix64(splitmix64(splitmix64(seed) ^ (ch.index() as u64 + 1)) ^ chunk);
-    Xoshiro256PlusPlus::seed_from_u64(key)
+    Xoshiro256PlusPlus::seed_from_u64(chunk_key(seed, ch, chunk))
+}
+
+/// The stream key of chunk `chunk` of channel `ch`, hashed from (seed, ch,
+/// chunk) (also the root of the oblique runs' keys).
+pub(super) fn chunk_key(seed: u64, ch: Channel, chunk: u64) -> u64 {
+    splitmix64(splitmix64(splitmix64(seed) ^ (ch.index() as u64 + 1)) ^ chunk)
 }
 
 /// How a channel's run ended.
@@ -155,13 +162,8 @@ impl Job<'_> {
     /// on the order), so memory does not grow with the threads beyond their
     /// scratch.
     pub(super) fn run(&self, progress: &dyn Progress) -> Result<Vec<ChannelRun>> {
-        use std::sync::atomic::{AtomicBool, Ordering};
-        use std::sync::Mutex;
         let nch = self.stacks.len();
         let (nb, single) = (self.bins.len(), self.set.single_scatter);
-        fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-            m.lock().unwrap_or_else(|e| e.into_inner())
-        }
         let mut runs: Vec<ChannelRun> = (0..nch)
             .map(|_| ChannelRun {
                 tally: ExactTally::new(nb, single),
@@ -171,154 +173,265 @@ impl Job<'_> {
                 by_floor: false,
             })
             .collect();
-        let target = match self.cfg.budget {
-            PhotonBudget::Fixed(_) => None,
-            PhotonBudget::TargetError { rel, .. } | PhotonBudget::KernelFactor { rel, .. } => {
-                Some(rel)
-            }
-        };
         let scratch: Vec<Mutex<Option<Scratch>>> = (0..rayon::current_num_threads().max(1))
             .map(|_| Mutex::new(None))
             .collect();
-        let mut next = vec![self.range.0; nch];
-        let mut active = vec![true; nch];
-        let mut ratio = vec![f64::INFINITY; nch];
-        let mine = (self.range.1 * CHUNK).min(self.cap) - self.range.0 * CHUNK;
-        let mut first = true;
+        let mut state = RoundState {
+            next: vec![self.range.0; nch],
+            active: vec![true; nch],
+            ratio: vec![f64::INFINITY; nch],
+            first: true,
+        };
         loop {
-            let mut units = Vec::new();
-            let mut budget = vec![0u64; nch];
-            for c in (0..nch).filter(|&c| active[c]) {
-                let left = self.range.1 - next[c];
-                let len = round_len(next[c] - self.range.0, ratio[c]).min(left);
-                let done = next[c] - self.range.0;
-                let spent = work_of(&runs[c].tally, done, nb);
-                budget[c] = (self.opts.max_work.saturating_sub(spent) / len.max(1))
-                    .saturating_sub(chunk_overhead(nb));
-                units.extend((next[c]..next[c] + len).map(|k| (c, k)));
-                next[c] += len;
-            }
-            if units.is_empty() {
+            let round = self.plan_round(&mut state, &runs);
+            if round.units.is_empty() {
                 break;
             }
-            let sums: Vec<Mutex<Option<ExactTally>>> = (0..nch).map(|_| Mutex::new(None)).collect();
-            let over: Vec<AtomicBool> = (0..nch).map(|_| AtomicBool::new(false)).collect();
-            let failed: Mutex<Option<String>> = Mutex::new(None);
-            units.par_iter().for_each(|&(c, k)| {
-                // A channel whose round is already void skips the rest of it.
-                if over[c].load(Ordering::Relaxed) {
-                    return;
-                }
-                let slot = rayon::current_thread_index().unwrap_or(0) % scratch.len();
-                let mut guard = lock(&scratch[slot]);
-                let s = guard.get_or_insert_with(|| Scratch {
-                    chunk: ChunkTally::new(nb, single),
-                    photon: PhotonScratch::new(nb, single),
-                });
-                if !self.trace(s, c, k, budget[c]) {
-                    over[c].store(true, Ordering::Relaxed);
-                    return;
-                }
-                progress.advance(self.photons(k));
-                let added = lock(&sums[c])
-                    .get_or_insert_with(|| ExactTally::new(nb, single))
-                    .add_chunk(&s.chunk);
-                if let Err(e) = added {
-                    lock(&failed)
-                        .get_or_insert(format!("channel {}: {e}", self.cfg.channels[c].name()));
-                }
-            });
-            if let Some(e) = lock(&failed).take() {
-                return Err(Error::Unsupported(e));
-            }
-            for c in 0..nch {
-                if over[c].load(Ordering::Relaxed) {
-                    if runs[c].tally.photons == 0 {
-                        return Err(first_round_over_cap(
-                            self.cfg.channels[c],
-                            units
-                                .iter()
-                                .filter(|u| u.0 == c)
-                                .map(|u| self.photons(u.1))
-                                .sum(),
-                            self.opts.max_work,
-                        ));
-                    }
-                    runs[c].work_capped = true;
-                    active[c] = false;
-                    continue;
-                }
-                let part = sums[c].lock().unwrap_or_else(|e| e.into_inner()).take();
-                if let Some(p) = part {
-                    runs[c].tally.add(&p).map_err(|e| {
-                        Error::Unsupported(format!("channel {}: {e}", self.cfg.channels[c].name()))
-                    })?;
-                }
-            }
-            let tallies: Vec<ExactTally> = runs.iter().map(|r| r.tally.clone()).collect();
-            let (status, _) = statuses(self.material, &self.cfg.channels, self.grid, &tallies);
-            for c in 0..nch {
-                runs[c].status = status[c];
-                if !active[c] {
-                    continue;
-                }
-                let work = work_of(&runs[c].tally, next[c] - self.range.0, nb);
-                if let Some(rel) = target {
-                    // No reflectance yet counts as exact only where nothing
-                    // can scatter back; a nearly clear medium must go on.
-                    let scatters = self
-                        .material
-                        .layers
-                        .iter()
-                        .any(|l| l.sigma_s[self.cfg.channels[c].index()] > 0.0);
-                    let err = if scatters && runs[c].tally.totals[1].to_f64() == 0.0 {
-                        f64::INFINITY
-                    } else {
-                        rule_error(&self.cfg.budget, &status[c])
-                    };
-                    let floor = floor_ratio(
-                        &self.cfg.budget,
-                        self.opts.abs_floor,
-                        &status[c],
-                        runs[c].tally.photons,
-                    );
-                    ratio[c] = (err / rel).min(floor);
-                    if err <= rel || floor <= 1.0 {
-                        runs[c].converged = true;
-                        runs[c].by_floor = err > rel;
-                        active[c] = false;
-                    } else if work >= self.opts.max_work {
-                        runs[c].work_capped = true;
-                        active[c] = false;
-                    }
-                } else if next[c] < self.range.1 {
-                    let t = &runs[c].tally;
-                    if first {
-                        check_fixed_work(
-                            self.cfg.channels[c],
-                            t.photons,
-                            t.events,
-                            mine,
-                            self.cap,
-                            self.opts.max_work,
-                        )?;
-                    }
-                    if work >= self.opts.max_work {
-                        runs[c].work_capped = true;
-                        active[c] = false;
-                    }
-                }
-                if next[c] >= self.range.1 {
-                    active[c] = false;
-                }
-            }
-            first = false;
+            let traced = self.trace_round(&round, &scratch, progress);
+            self.add_round(&round, traced, &mut runs, &mut state.active)?;
+            self.check_rounds_rule(&mut runs, &mut state)?;
+            state.first = false;
         }
-        if target.is_none() {
+        if self.target().is_none() {
             runs.iter_mut().for_each(|r| r.converged = !r.work_capped);
         }
         Ok(runs)
     }
+
+    /// The target error of the budget's rule (None: a fixed run).
+    fn target(&self) -> Option<f64> {
+        match self.cfg.budget {
+            PhotonBudget::Fixed(_) => None,
+            PhotonBudget::TargetError { rel, .. } | PhotonBudget::KernelFactor { rel, .. } => {
+                Some(rel)
+            }
+        }
+    }
+
+    /// The next round of every active channel (`round_len` chunks from
+    /// where it stands) and each chunk's share of the events the channel has
+    /// left.
+    fn plan_round(&self, state: &mut RoundState, runs: &[ChannelRun]) -> Round {
+        let nch = self.stacks.len();
+        let nb = self.bins.len();
+        let mut units = Vec::new();
+        let mut budget = vec![0u64; nch];
+        for c in (0..nch).filter(|&c| state.active[c]) {
+            let next = state.next[c];
+            let left = self.range.1 - next;
+            let len = round_len(next - self.range.0, state.ratio[c]).min(left);
+            let done = next - self.range.0;
+            let spent = work_of(&runs[c].tally, done, nb);
+            budget[c] = (self.opts.max_work.saturating_sub(spent) / len.max(1))
+                .saturating_sub(chunk_overhead(nb));
+            units.extend((next..next + len).map(|k| (c, k)));
+            state.next[c] += len;
+        }
+        Round { units, budget }
+    }
+
+    /// Traces a round's chunks on the pool, each channel's into one exact
+    /// sum; a chunk over its share voids its channel's round.
+    fn trace_round(
+        &self,
+        round: &Round,
+        scratch: &[Mutex<Option<Scratch>>],
+        progress: &dyn Progress,
+    ) -> RoundSums {
+        let nch = self.stacks.len();
+        let (nb, single) = (self.bins.len(), self.set.single_scatter);
+        let out = RoundSums {
+            sums: (0..nch).map(|_| Mutex::new(None)).collect(),
+            over: (0..nch).map(|_| AtomicBool::new(false)).collect(),
+            failed: Mutex::new(None),
+        };
+        round.units.par_iter().for_each(|&(c, k)| {
+            // A channel whose round is already void skips the rest of it.
+            if out.over[c].load(Ordering::Relaxed) {
+                return;
+            }
+            let slot = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+            let mut guard = lock(&scratch[slot]);
+            let s = guard.get_or_insert_with(|| Scratch {
+                chunk: ChunkTally::new(nb, single),
+                photon: PhotonScratch::new(nb, single),
+            });
+            if !self.trace(s, c, k, round.budget[c]) {
+                out.over[c].store(true, Ordering::Relaxed);
+                return;
+            }
+            progress.advance(self.photons(k));
+            let added = lock(&out.sums[c])
+                .get_or_insert_with(|| ExactTally::new(nb, single))
+                .add_chunk(&s.chunk);
+            if let Err(e) = added {
+                lock(&out.failed)
+                    .get_or_insert(format!("channel {}: {e}", self.cfg.channels[c].name()));
+            }
+        });
+        out
+    }
+
+    /// Adds a round's sums to the channels' tallies; a channel whose round
+    /// went over its work stops on the rounds before (an error on its
+    /// first).
+    fn add_round(
+        &self,
+        round: &Round,
+        traced: RoundSums,
+        runs: &mut [ChannelRun],
+        active: &mut [bool],
+    ) -> Result<()> {
+        if let Some(e) = lock(&traced.failed).take() {
+            return Err(Error::Unsupported(e));
+        }
+        for (c, run) in runs.iter_mut().enumerate() {
+            if traced.over[c].load(Ordering::Relaxed) {
+                if run.tally.photons == 0 {
+                    return Err(first_round_over_cap(
+                        self.cfg.channels[c],
+                        round
+                            .units
+                            .iter()
+                            .filter(|u| u.0 == c)
+                            .map(|u| self.photons(u.1))
+                            .sum(),
+                        self.opts.max_work,
+                    ));
+                }
+                run.work_capped = true;
+                active[c] = false;
+                continue;
+            }
+            if let Some(p) = lock(&traced.sums[c]).take() {
+                run.tally.add(&p).map_err(|e| {
+                    Error::Unsupported(format!("channel {}: {e}", self.cfg.channels[c].name()))
+                })?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The budget's rule after a round: every channel's status, and which
+    /// channels converged, ran out of work or of chunks.
+    fn check_rounds_rule(&self, runs: &mut [ChannelRun], state: &mut RoundState) -> Result<()> {
+        let nb = self.bins.len();
+        let tallies: Vec<ExactTally> = runs.iter().map(|r| r.tally.clone()).collect();
+        let (status, _) = statuses(self.material, &self.cfg.channels, self.grid, &tallies);
+        for (c, run) in runs.iter_mut().enumerate() {
+            run.status = status[c];
+            if !state.active[c] {
+                continue;
+            }
+            let work = work_of(&run.tally, state.next[c] - self.range.0, nb);
+            let go_on = match self.target() {
+                Some(rel) => self.check_target(c, run, rel, work, &mut state.ratio[c]),
+                None if state.next[c] < self.range.1 => {
+                    self.check_fixed(c, run, work, state.first)?
+                }
+                None => true,
+            };
+            state.active[c] = go_on && state.next[c] < self.range.1;
+        }
+        Ok(())
+    }
+
+    /// A target-error channel after a round: converged (by its relative
+    /// target or the absolute floor), out of work, or going on (false when
+    /// it stops). Sets `ratio`, how far it is from its target.
+    fn check_target(
+        &self,
+        c: usize,
+        run: &mut ChannelRun,
+        rel: f64,
+        work: u64,
+        ratio: &mut f64,
+    ) -> bool {
+        // No reflectance yet counts as exact only where nothing can scatter
+        // back; a nearly clear medium must go on.
+        let scatters = self
+            .material
+            .layers
+            .iter()
+            .any(|l| l.sigma_s[self.cfg.channels[c].index()] > 0.0);
+        let err = if scatters && run.tally.totals[1].to_f64() == 0.0 {
+            f64::INFINITY
+        } else {
+            rule_error(&self.cfg.budget, &run.status)
+        };
+        let floor = floor_ratio(
+            &self.cfg.budget,
+            self.opts.abs_floor,
+            &run.status,
+            run.tally.photons,
+        );
+        *ratio = (err / rel).min(floor);
+        if err <= rel || floor <= 1.0 {
+            run.converged = true;
+            run.by_floor = err > rel;
+            false
+        } else if work >= self.opts.max_work {
+            run.work_capped = true;
+            false
+        } else {
+            true
+        }
+    }
+
+    /// A fixed channel with chunks left after a round: its projected work
+    /// checked after the first round, then stopped at the work cap (false
+    /// when it stops).
+    fn check_fixed(&self, c: usize, run: &mut ChannelRun, work: u64, first: bool) -> Result<bool> {
+        if first {
+            let t = &run.tally;
+            let mine = (self.range.1 * CHUNK).min(self.cap) - self.range.0 * CHUNK;
+            check_fixed_work(
+                self.cfg.channels[c],
+                t.photons,
+                t.events,
+                mine,
+                self.cap,
+                self.opts.max_work,
+            )?;
+        }
+        if work >= self.opts.max_work {
+            run.work_capped = true;
+            return Ok(false);
+        }
+        Ok(true)
+    }
+}
+
+/// Where each channel of a run stands between rounds.
+struct RoundState {
+    /// The next chunk of each channel.
+    next: Vec<u64>,
+    /// Channels still tracing.
+    active: Vec<bool>,
+    /// How far each channel is from its target (`round_len`).
+    ratio: Vec<f64>,
+    /// The first round is being checked.
+    first: bool,
+}
+
+/// One round: the (channel, chunk) units to trace and each channel's event
+/// share per chunk.
+struct Round {
+    units: Vec<(usize, u64)>,
+    budget: Vec<u64>,
+}
+
+/// What a round traced: each channel's exact sum, whether its round went
+/// over its work, and the first sum that did not fit.
+struct RoundSums {
+    sums: Vec<Mutex<Option<ExactTally>>>,
+    over: Vec<AtomicBool>,
+    failed: Mutex<Option<String>>,
+}
+
+/// Locks `m`, also after a holder panicked.
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Work a channel has spent: its events and the overhead of its `chunks`.

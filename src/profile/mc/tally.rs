@@ -93,6 +93,13 @@ pub struct BinSums {
 }
 
 impl BinSums {
+    /// Adds one packet's total `v` in bin `i` and its square.
+    #[inline(always)]
+    fn add_square(&mut self, i: usize, v: f64) {
+        self.sum[i] += v;
+        self.sum_sq[i] += v * v;
+    }
+
     fn new(n: usize) -> BinSums {
         BinSums {
             sum: vec![0.0; n],
@@ -248,35 +255,23 @@ impl ExitScratch {
     /// (ignored when the layout has no radius-angle table).
     #[inline(always)]
     pub fn score(&mut self, l: AngleLayout, ir: usize, ia: usize, w: f64) {
-        if self.a[ia] == 0.0 {
-            self.touched_a.push(ia as u32);
-        }
-        self.a[ia] += w;
+        add_sparse(&mut self.a, &mut self.touched_a, ia, w);
         if l.radial > 0 {
             let i = ir.min(l.radial - 1) * l.angle_bins + ia;
-            if self.ra[i] == 0.0 {
-                self.touched_ra.push(i as u32);
-            }
-            self.ra[i] += w;
+            add_sparse(&mut self.ra, &mut self.touched_ra, i, w);
         }
     }
 
     /// Adds the packet's per-bin totals, their squares and their products
     /// with the packet's R_d `rd` to `t`.
     pub fn flush(&mut self, t: &mut ExitSums, rd: f64) {
-        for &i in &self.touched_a {
-            let v = std::mem::take(&mut self.a[i as usize]);
-            t.a.sum[i as usize] += v;
-            t.a.sum_sq[i as usize] += v * v;
-            t.a_cross[i as usize] += v * rd;
-        }
-        self.touched_a.clear();
-        for &i in &self.touched_ra {
-            let v = std::mem::take(&mut self.ra[i as usize]);
-            t.ra.sum[i as usize] += v;
-            t.ra.sum_sq[i as usize] += v * v;
-        }
-        self.touched_ra.clear();
+        drain_sparse(&mut self.a, &mut self.touched_a, |i, v| {
+            t.a.add_square(i, v);
+            t.a_cross[i] += v * rd;
+        });
+        drain_sparse(&mut self.ra, &mut self.touched_ra, |i, v| {
+            t.ra.add_square(i, v)
+        });
     }
 }
 
@@ -311,44 +306,51 @@ impl PhotonScratch {
     pub fn score_reflectance(&mut self, bins: &BinIndex, r: f64, w: f64, scatters: u32) {
         let bin = bins.bin(r);
         match bin {
-            Some(i) => {
-                if self.cur[i] == 0.0 {
-                    self.touched.push(i as u32);
-                }
-                self.cur[i] += w;
-            }
+            Some(i) => add_sparse(&mut self.cur, &mut self.touched, i, w),
             None => self.beyond += w,
         }
         if scatters == 1 && !self.cur_single.is_empty() {
             self.single += w;
             if let Some(i) = bin {
-                if self.cur_single[i] == 0.0 {
-                    self.touched_single.push(i as u32);
-                }
-                self.cur_single[i] += w;
+                add_sparse(&mut self.cur_single, &mut self.touched_single, i, w);
             }
         }
     }
 
     /// Adds the packet's per-bin totals and their squares to the tally.
     pub fn flush(&mut self, t: &mut ChunkTally, single_scatter: bool) {
-        for &i in &self.touched {
-            let v = std::mem::take(&mut self.cur[i as usize]);
-            t.rd_bins.sum[i as usize] += v;
-            t.rd_bins.sum_sq[i as usize] += v * v;
-        }
-        self.touched.clear();
+        drain_sparse(&mut self.cur, &mut self.touched, |i, v| {
+            t.rd_bins.add_square(i, v)
+        });
         t.rd_beyond += std::mem::take(&mut self.beyond);
         if single_scatter {
-            for &i in &self.touched_single {
-                let v = std::mem::take(&mut self.cur_single[i as usize]);
-                t.single_bins.sum[i as usize] += v;
-                t.single_bins.sum_sq[i as usize] += v * v;
-            }
-            self.touched_single.clear();
+            drain_sparse(&mut self.cur_single, &mut self.touched_single, |i, v| {
+                t.single_bins.add_square(i, v)
+            });
             t.single.add(std::mem::take(&mut self.single));
         }
     }
+}
+
+/// Adds `w` to entry `i` of a packet's sparse scores `v`, noting in
+/// `touched` each entry it makes nonzero, so that the flush visits only
+/// those.
+#[inline(always)]
+fn add_sparse(v: &mut [f64], touched: &mut Vec<u32>, i: usize, w: f64) {
+    if v[i] == 0.0 {
+        touched.push(i as u32);
+    }
+    v[i] += w;
+}
+
+/// Hands each touched entry of `v` (the packet's total there) to `add`,
+/// leaving `v` zero and `touched` empty for the next packet.
+#[inline(always)]
+fn drain_sparse(v: &mut [f64], touched: &mut Vec<u32>, mut add: impl FnMut(usize, f64)) {
+    for &i in touched.iter() {
+        add(i as usize, std::mem::take(&mut v[i as usize]));
+    }
+    touched.clear();
 }
 
 #[cfg(test)]
