@@ -32,11 +32,8 @@ use crate::profile::mc::{
 use rand_core::RngCore;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-/// Uniform in [0, 1) with 53 random bits.
-#[inline(always)]
-pub(crate) fn uniform(rng: &mut Xoshiro256PlusPlus) -> f64 {
-    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-}
+/// Uniform in [0, 1) with 53 random bits: the Monte Carlo tracer's draw.
+pub(crate) use crate::profile::mc::tracer::uniform;
 
 /// What one path did.
 #[derive(Clone, Copy, Debug, Default)]
