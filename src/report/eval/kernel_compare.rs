@@ -498,6 +498,43 @@ pub fn grouped(rows: &[Row]) -> Vec<(&str, &str, [&Row; 3])> {
         .collect()
 }
 
+/// The three channel rows of (material, label).
+pub(crate) fn find<'a>(rows: &'a [Row], material: &str, label: &str) -> Option<[&'a Row; 3]> {
+    grouped(rows)
+        .into_iter()
+        .find(|(m, l, _)| *m == material && *l == label)
+        .map(|x| x.2)
+}
+
+/// Relative RMS of `signal`/`factor` per channel for (material, label).
+pub(crate) fn image_rms(
+    rows: &[Row],
+    material: &str,
+    label: &str,
+    signal: &str,
+    f: Factor,
+) -> Option<[f64; 3]> {
+    let r = find(rows, material, label)?;
+    Some([
+        r[0].image_error(signal, f)?.rel_rms,
+        r[1].image_error(signal, f)?.rel_rms,
+        r[2].image_error(signal, f)?.rel_rms,
+    ])
+}
+
+/// N Gaussians renormalised (as the SSSS renderer normalises every kernel)
+/// when the comparison has them, else as fitted.
+pub(crate) fn gaussians_rms(
+    rows: &[Row],
+    material: &str,
+    n: usize,
+    signal: &str,
+    f: Factor,
+) -> Option<[f64; 3]> {
+    image_rms(rows, material, &format!("gaussians{n}-renorm"), signal, f)
+        .or_else(|| image_rms(rows, material, &format!("gaussians{n}"), signal, f))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
