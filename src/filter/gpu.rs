@@ -253,7 +253,10 @@ impl Gpu {
         Ok(Frame {
             groups,
             acc,
-            workgroups: ((w as u32).div_ceil(8), (h as u32).div_ceil(8)),
+            workgroups: (
+                (w as u32).div_ceil(WORKGROUP_SIDE),
+                (h as u32).div_ceil(WORKGROUP_SIDE),
+            ),
         })
     }
 
@@ -290,16 +293,30 @@ impl Gpu {
     }
 }
 
+/// Side of the square workgroup of sss_pass.wgsl, in pixels.
+const WORKGROUP_SIDE: u32 = 8;
+
+/// The constants sss_pass.wgsl shares with this file and the CPU twin
+/// ([`super::jitter`]), prepended to it as WGSL `const`s: the shader names
+/// them and never spells their values.
+fn shared_constants() -> [(&'static str, u32); 7] {
+    use super::jitter::{GOLDEN_U32, IGN_FRACTION, IGN_WHOLE, IGN_X, IGN_Y, JITTER_BITS};
+    [
+        ("IGN_X", IGN_X),
+        ("IGN_Y", IGN_Y),
+        ("IGN_WHOLE", IGN_WHOLE),
+        ("IGN_FRACTION", IGN_FRACTION),
+        ("GOLDEN_U32", GOLDEN_U32),
+        ("JITTER_BITS", JITTER_BITS),
+        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+    ]
+}
+
 /// The WGSL of the pass: sss_pass.wgsl after the definitions it shares with
-/// this file and the CPU twin (the noise constants, the wide product, the
-/// uniform block).
+/// this file and the CPU twin (the noise constants, the workgroup size, the
+/// wide product, the uniform block).
 fn shader_source() -> String {
-    let consts = wgsl_u32_consts(&[
-        ("IGN_X", super::IGN_X),
-        ("IGN_Y", super::IGN_Y),
-        ("IGN_FRACTION", super::IGN_FRACTION),
-        ("GOLDEN_U32", super::GOLDEN_U32),
-    ]);
+    let consts = wgsl_u32_consts(&shared_constants());
     [&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER].join("\n")
 }
 
@@ -317,5 +334,42 @@ mod tests {
     #[test]
     fn the_assembled_shader_is_valid_wgsl() {
         crate::gpu::tests::assert_valid_wgsl(&super::shader_source(), "sss_pass");
+    }
+
+    /// Every constant the pass shares with Rust is named in the shader,
+    /// not declared there, and its value (or the jitter's scale
+    /// 2^JITTER_BITS) never appears as a literal: a constant changed on
+    /// one side only cannot go unnoticed.
+    #[test]
+    fn the_shader_spells_no_shared_constant() {
+        let code: String = super::SHADER
+            .lines()
+            .map(|l| l.split("//").next().unwrap_or(""))
+            .collect::<Vec<_>>()
+            .join("\n");
+        let tokens: Vec<&str> = code
+            .split(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+            .filter(|t| !t.is_empty())
+            .collect();
+        let consts = super::shared_constants();
+        let scale = 1u64 << super::super::jitter::JITTER_BITS;
+        let mut values: Vec<u64> = consts.iter().map(|&(_, v)| v as u64).collect();
+        values.push(scale);
+        for &(name, _) in &consts {
+            assert!(tokens.contains(&name), "sss_pass.wgsl does not use {name}");
+            assert!(
+                !code.contains(&format!("const {name}")),
+                "sss_pass.wgsl declares {name} itself"
+            );
+        }
+        for v in values {
+            for t in &tokens {
+                let digits = t.trim_end_matches(['u', 'i']).trim_end_matches(".0");
+                assert!(
+                    digits != v.to_string(),
+                    "sss_pass.wgsl spells the shared value {v} as '{t}'"
+                );
+            }
+        }
     }
 }

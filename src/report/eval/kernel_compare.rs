@@ -457,21 +457,9 @@ fn rows_of(f: &Fitted) -> Vec<Row> {
         .collect()
 }
 
-/// Which image-space error a table shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Factor {
-    Full,
-    Taps(usize),
-}
-
-impl Factor {
-    pub fn describe(&self) -> String {
-        match self {
-            Factor::Full => "full-resolution factors".into(),
-            Factor::Taps(n) => format!("{n}-tap table"),
-        }
-    }
-}
+/// Which image-space error a table shows: the one enum of the full
+/// factors or an N-tap table ([`evaluate::Which`]).
+pub use super::evaluate::Which as Factor;
 
 impl Row {
     /// The image-space errors of `signal` with `factor`, if evaluated.
@@ -554,21 +542,9 @@ mod tests {
         let all: Vec<String> = FAMILIES.iter().map(|s| s.to_string()).collect();
         let s = model_specs(&all, &[1, 2], "skin1").unwrap();
         let labels: Vec<&str> = s.iter().map(|m| m.label.as_str()).collect();
-        for l in [
-            "svd1",
-            "svd1-renorm",
-            "svd2",
-            "svd2-renorm",
-            "preintegrate",
-            "guided-k1",
-            "guided-k1.55-b50",
-            "manual",
-            "manual-fit",
-            "gaussians1",
-            "gaussians2",
-            "deon-skin",
-            "jimenez",
-        ] {
+        // The rank-1 models the claims read, and the rank-2 and fixed ones.
+        let more = ["svd2", "svd2-renorm", "gaussians2", "deon-skin"];
+        for l in super::super::claims::RANK1.into_iter().chain(more) {
             assert_eq!(labels.iter().filter(|x| **x == l).count(), 1, "{l}");
         }
         assert_eq!(

@@ -2,8 +2,8 @@
 //! configuration, labelled, the Pareto front (no other point is both
 //! cheaper and more accurate) joined by a line.
 
-use super::plot::{plot_err, register_fonts, write_png, PALETTE};
-use crate::error::{Error, Result};
+use super::plot::{plot_err, render_grid, Area, PALETTE};
+use crate::error::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -61,91 +61,75 @@ fn decade_range(v: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 
 /// Draws `panels` on a grid with `cols` columns into a PNG.
 pub fn render(panels: &[ParetoPanel], cols: usize, title: &str, out: &Path) -> Result<()> {
-    register_fonts();
-    if panels.is_empty() {
-        return Err(Error::Unsupported("nothing to plot".into()));
-    }
-    let cols = cols.clamp(1, panels.len());
-    let rows = panels.len().div_ceil(cols);
-    let (pw, ph) = (720u32, 500u32);
-    let (w, h) = (pw * cols as u32, ph * rows as u32 + 40);
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    {
-        let e = |e| plot_err(out, e);
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(e)?;
-        let (top, body) = root.split_vertically(40);
-        top.draw_text(
-            title,
-            &("sans-serif", 22).into_font().color(&BLACK),
-            (12, 10),
-        )
+    render_grid(panels, cols, (720, 500), title, out, |panel, area| {
+        draw_panel(panel, area, out)
+    })
+}
+
+/// One panel: every series' points, labelled, and its Pareto front.
+fn draw_panel(panel: &ParetoPanel, area: &Area, out: &Path) -> Result<()> {
+    let e = |e| plot_err(out, e);
+    let all = || panel.series.iter().flat_map(|s| s.points.iter());
+    let (Some(xr), Some(yr)) = (
+        decade_range(all().map(|p| p.cost)),
+        decade_range(all().map(|p| p.error)),
+    ) else {
+        return Ok(());
+    };
+    let mut chart = ChartBuilder::on(area)
+        .caption(&panel.title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d((xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())
         .map_err(e)?;
-        for (panel, area) in panels.iter().zip(body.split_evenly((rows, cols)).iter()) {
-            let all = || panel.series.iter().flat_map(|s| s.points.iter());
-            let (Some(xr), Some(yr)) = (
-                decade_range(all().map(|p| p.cost)),
-                decade_range(all().map(|p| p.error)),
-            ) else {
-                continue;
-            };
-            let mut chart = ChartBuilder::on(area)
-                .caption(&panel.title, ("sans-serif", 18))
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(70)
-                .build_cartesian_2d((xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())
-                .map_err(e)?;
-            chart
-                .configure_mesh()
-                .x_desc(&panel.x_label)
-                .y_desc(&panel.y_label)
-                .x_label_formatter(&|v| format!("{v:.1e}"))
-                .y_label_formatter(&|v| format!("{v:.1e}"))
-                .label_style(("sans-serif", 13))
-                .draw()
-                .map_err(e)?;
-            for (si, s) in panel.series.iter().enumerate() {
-                let color = PALETTE[si % PALETTE.len()];
-                let pts: Vec<&Point> = s
-                    .points
-                    .iter()
-                    .filter(|p| p.cost > 0.0 && p.error > 0.0 && p.error.is_finite())
-                    .collect();
-                let owned: Vec<Point> = pts.iter().map(|p| (*p).clone()).collect();
-                let line: Vec<(f64, f64)> = front(&owned)
-                    .into_iter()
-                    .map(|i| (owned[i].cost, owned[i].error))
-                    .collect();
-                chart
-                    .draw_series(LineSeries::new(line, color.stroke_width(1)))
-                    .map_err(e)?
-                    .label(&s.name)
-                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
-                chart
-                    .draw_series(pts.iter().map(|p| {
-                        EmptyElement::at((p.cost, p.error))
-                            + Circle::new((0, 0), 4, color.filled())
-                            + Text::new(
-                                p.label.clone(),
-                                (6, -12),
-                                ("sans-serif", 11).into_font().color(&color),
-                            )
-                    }))
-                    .map_err(e)?;
-            }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.4))
-                .label_font(("sans-serif", 13))
-                .draw()
-                .map_err(e)?;
-        }
-        root.present().map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc(&panel.x_label)
+        .y_desc(&panel.y_label)
+        .x_label_formatter(&|v| format!("{v:.1e}"))
+        .y_label_formatter(&|v| format!("{v:.1e}"))
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(e)?;
+    for (si, s) in panel.series.iter().enumerate() {
+        let color = PALETTE[si % PALETTE.len()];
+        let pts: Vec<&Point> = s
+            .points
+            .iter()
+            .filter(|p| p.cost > 0.0 && p.error > 0.0 && p.error.is_finite())
+            .collect();
+        let owned: Vec<Point> = pts.iter().map(|p| (*p).clone()).collect();
+        let line: Vec<(f64, f64)> = front(&owned)
+            .into_iter()
+            .map(|i| (owned[i].cost, owned[i].error))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(line, color.stroke_width(1)))
+            .map_err(e)?
+            .label(&s.name)
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+        chart
+            .draw_series(pts.iter().map(|p| {
+                EmptyElement::at((p.cost, p.error))
+                    + Circle::new((0, 0), 4, color.filled())
+                    + Text::new(
+                        p.label.clone(),
+                        (6, -12),
+                        ("sans-serif", 11).into_font().color(&color),
+                    )
+            }))
+            .map_err(e)?;
     }
-    write_png(buf, w, h, out)
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(e)?;
+    Ok(())
 }
 
 #[cfg(test)]
