@@ -336,13 +336,12 @@ mod tests {
         crate::gpu::tests::assert_valid_wgsl(&super::shader_source(), "sss_pass");
     }
 
-    /// Every constant the pass shares with Rust is named in the shader,
-    /// not declared there, and its value (or the jitter's scale
-    /// 2^JITTER_BITS) never appears as a literal: a constant changed on
-    /// one side only cannot go unnoticed.
-    #[test]
-    fn the_shader_spells_no_shared_constant() {
-        let code: String = super::SHADER
+    /// What is wrong with `shader` (sss_pass.wgsl's text) against the
+    /// constants it shares with Rust: a constant not used, declared in the
+    /// shader itself, or its value (or the jitter's scale 2^JITTER_BITS)
+    /// spelled as a literal.
+    fn spelled_shared_constants(shader: &str) -> Vec<String> {
+        let code: String = shader
             .lines()
             .map(|l| l.split("//").next().unwrap_or(""))
             .collect::<Vec<_>>()
@@ -352,24 +351,49 @@ mod tests {
             .filter(|t| !t.is_empty())
             .collect();
         let consts = super::shared_constants();
-        let scale = 1u64 << super::super::jitter::JITTER_BITS;
         let mut values: Vec<u64> = consts.iter().map(|&(_, v)| v as u64).collect();
-        values.push(scale);
+        values.push(1u64 << super::super::jitter::JITTER_BITS);
+        let mut bad = Vec::new();
         for &(name, _) in &consts {
-            assert!(tokens.contains(&name), "sss_pass.wgsl does not use {name}");
-            assert!(
-                !code.contains(&format!("const {name}")),
-                "sss_pass.wgsl declares {name} itself"
-            );
-        }
-        for v in values {
-            for t in &tokens {
-                let digits = t.trim_end_matches(['u', 'i']).trim_end_matches(".0");
-                assert!(
-                    digits != v.to_string(),
-                    "sss_pass.wgsl spells the shared value {v} as '{t}'"
-                );
+            if !tokens.contains(&name) {
+                bad.push(format!("{name} not used"));
             }
+            if code.contains(&format!("const {name}")) {
+                bad.push(format!("{name} declared in the shader"));
+            }
+        }
+        for t in &tokens {
+            let digits = t.trim_end_matches(['u', 'i']).trim_end_matches(".0");
+            if values.iter().any(|v| digits == v.to_string()) {
+                bad.push(format!("the shared value '{t}' spelled out"));
+            }
+        }
+        bad
+    }
+
+    /// sss_pass.wgsl names every constant it shares with Rust and spells
+    /// none of their values, so a constant changed on one side only cannot
+    /// go unnoticed; the check itself catches a value written back in.
+    #[test]
+    fn the_shader_spells_no_shared_constant() {
+        assert_eq!(
+            spelled_shared_constants(super::SHADER),
+            Vec::<String>::new()
+        );
+        for (from, to) in [
+            ("IGN_WHOLE * inner", "52u * inner"),
+            ("f32(1u << JITTER_BITS)", "16777216.0"),
+            (
+                "@workgroup_size(WORKGROUP_SIDE, WORKGROUP_SIDE, 1)",
+                "@workgroup_size(8, 8, 1)",
+            ),
+        ] {
+            assert!(super::SHADER.contains(from), "{from}");
+            let mutated = super::SHADER.replace(from, to);
+            assert!(
+                !spelled_shared_constants(&mutated).is_empty(),
+                "{to} passed"
+            );
         }
     }
 }

@@ -16,5 +16,6 @@ pub use present::{kernel_plots, kernel_report, pareto, plot, record, table};
 /// ([`present::profile_tables`]).
 pub mod compare {
     pub use super::eval::profile_compare::*;
+    pub use super::present::number::{short, time};
     pub use super::present::profile_tables::*;
 }

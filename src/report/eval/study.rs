@@ -325,7 +325,7 @@ impl<'a> Bench<'a> {
             ranks: vec![1, 2, 3],
             cases: self.cases.clone(),
             taps: vec![17],
-            options: self.options.clone(),
+            options: self.options,
             keep: None,
             extent_mm: None,
         };

@@ -15,13 +15,19 @@ pub fn sig(v: f64) -> String {
     }
 }
 
+/// A percentage with one decimal, signed ("+1.2%") or not ("1.2%");
+/// "inf" when not finite.
+fn percent(x: f64, signed: bool) -> String {
+    match (x.is_finite(), signed) {
+        (false, _) => "inf".into(),
+        (true, true) => format!("{:+.1}%", 100.0 * x),
+        (true, false) => format!("{:.1}%", 100.0 * x),
+    }
+}
+
 /// A signed percentage, "+1.2%"; "inf" when not finite.
 pub fn pct(x: f64) -> String {
-    if x.is_finite() {
-        format!("{:+.1}%", 100.0 * x)
-    } else {
-        "inf".into()
-    }
+    percent(x, true)
 }
 
 /// Four decimals, or three significant digits in exponent form below 1e-3.
@@ -35,11 +41,7 @@ pub fn num(x: f64) -> String {
 
 /// A percentage, "1.2%"; "inf" when not finite.
 pub fn pct_abs(x: f64) -> String {
-    if x.is_finite() {
-        format!("{:.1}%", 100.0 * x)
-    } else {
-        "inf".into()
-    }
+    percent(x, false)
 }
 
 /// Seconds as "372 µs", "1.5 ms", "2.07 s".

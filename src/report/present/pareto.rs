@@ -2,7 +2,7 @@
 //! configuration, labelled, the Pareto front (no other point is both
 //! cheaper and more accurate) joined by a line.
 
-use super::plot::{plot_err, render_grid, Area, PALETTE};
+use super::plot::{draw_legend, plot_err, render_grid, Area, PALETTE};
 use crate::error::Result;
 use plotters::prelude::*;
 use std::path::Path;
@@ -121,15 +121,7 @@ fn draw_panel(panel: &ParetoPanel, area: &Area, out: &Path) -> Result<()> {
             }))
             .map_err(e)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    draw_legend(&mut chart, 13, out)
 }
 
 #[cfg(test)]

@@ -196,6 +196,22 @@ where
         .map_err(|e| plot_err(out, e))
 }
 
+/// The legend of every plot, upper right, labels of `font_px` pixels.
+pub fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    font_px: i32,
+    out: &Path,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", font_px))
+        .draw()
+        .map_err(|e| plot_err(out, e))
+}
+
 /// Dash and gap lengths of dashed curves, pixels (short enough that the
 /// 20-pixel legend sample shows two dashes).
 const DASH: u32 = 6;
@@ -269,15 +285,7 @@ where
                 });
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font(("sans-serif", 14))
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    draw_legend(chart, 14, out)
 }
 
 /// Freude 2014, figure 6.1 layout for one or more profiles: one row per channel,
