@@ -253,7 +253,10 @@ impl Gpu {
         Ok(Frame {
             groups,
             acc,
-            workgroups: ((w as u32).div_ceil(8), (h as u32).div_ceil(8)),
+            workgroups: (
+                (w as u32).div_ceil(WORKGROUP_SIDE),
+                (h as u32).div_ceil(WORKGROUP_SIDE),
+            ),
         })
     }
 
@@ -290,16 +293,30 @@ impl Gpu {
     }
 }
 
+/// Side of the square workgroup of sss_pass.wgsl, in pixels.
+const WORKGROUP_SIDE: u32 = 8;
+
+/// The constants sss_pass.wgsl shares with this file and the CPU twin
+/// ([`super::jitter`]), prepended to it as WGSL `const`s: the shader names
+/// them and never spells their values.
+fn shared_constants() -> [(&'static str, u32); 7] {
+    use super::jitter::{GOLDEN_U32, IGN_FRACTION, IGN_WHOLE, IGN_X, IGN_Y, JITTER_BITS};
+    [
+        ("IGN_X", IGN_X),
+        ("IGN_Y", IGN_Y),
+        ("IGN_WHOLE", IGN_WHOLE),
+        ("IGN_FRACTION", IGN_FRACTION),
+        ("GOLDEN_U32", GOLDEN_U32),
+        ("JITTER_BITS", JITTER_BITS),
+        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+    ]
+}
+
 /// The WGSL of the pass: sss_pass.wgsl after the definitions it shares with
-/// this file and the CPU twin (the noise constants, the wide product, the
-/// uniform block).
+/// this file and the CPU twin (the noise constants, the workgroup size, the
+/// wide product, the uniform block).
 fn shader_source() -> String {
-    let consts = wgsl_u32_consts(&[
-        ("IGN_X", super::IGN_X),
-        ("IGN_Y", super::IGN_Y),
-        ("IGN_FRACTION", super::IGN_FRACTION),
-        ("GOLDEN_U32", super::GOLDEN_U32),
-    ]);
+    let consts = wgsl_u32_consts(&shared_constants());
     [&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER].join("\n")
 }
 
@@ -317,5 +334,66 @@ mod tests {
     #[test]
     fn the_assembled_shader_is_valid_wgsl() {
         crate::gpu::tests::assert_valid_wgsl(&super::shader_source(), "sss_pass");
+    }
+
+    /// What is wrong with `shader` (sss_pass.wgsl's text) against the
+    /// constants it shares with Rust: a constant not used, declared in the
+    /// shader itself, or its value (or the jitter's scale 2^JITTER_BITS)
+    /// spelled as a literal.
+    fn spelled_shared_constants(shader: &str) -> Vec<String> {
+        let code: String = shader
+            .lines()
+            .map(|l| l.split("//").next().unwrap_or(""))
+            .collect::<Vec<_>>()
+            .join("\n");
+        let tokens: Vec<&str> = code
+            .split(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+            .filter(|t| !t.is_empty())
+            .collect();
+        let consts = super::shared_constants();
+        let mut values: Vec<u64> = consts.iter().map(|&(_, v)| v as u64).collect();
+        values.push(1u64 << super::super::jitter::JITTER_BITS);
+        let mut bad = Vec::new();
+        for &(name, _) in &consts {
+            if !tokens.contains(&name) {
+                bad.push(format!("{name} not used"));
+            }
+            if code.contains(&format!("const {name}")) {
+                bad.push(format!("{name} declared in the shader"));
+            }
+        }
+        for t in &tokens {
+            let digits = t.trim_end_matches(['u', 'i']).trim_end_matches(".0");
+            if values.iter().any(|v| digits == v.to_string()) {
+                bad.push(format!("the shared value '{t}' spelled out"));
+            }
+        }
+        bad
+    }
+
+    /// sss_pass.wgsl names every constant it shares with Rust and spells
+    /// none of their values, so a constant changed on one side only cannot
+    /// go unnoticed; the check itself catches a value written back in.
+    #[test]
+    fn the_shader_spells_no_shared_constant() {
+        assert_eq!(
+            spelled_shared_constants(super::SHADER),
+            Vec::<String>::new()
+        );
+        for (from, to) in [
+            ("IGN_WHOLE * inner", "52u * inner"),
+            ("f32(1u << JITTER_BITS)", "16777216.0"),
+            (
+                "@workgroup_size(WORKGROUP_SIDE, WORKGROUP_SIDE, 1)",
+                "@workgroup_size(8, 8, 1)",
+            ),
+        ] {
+            assert!(super::SHADER.contains(from), "{from}");
+            let mutated = super::SHADER.replace(from, to);
+            assert!(
+                !spelled_shared_constants(&mutated).is_empty(),
+                "{to} passed"
+            );
+        }
     }
 }

@@ -24,6 +24,7 @@ pub mod diff;
 pub mod exact;
 pub mod gpu;
 pub mod image;
+pub mod jitter;
 pub mod screen_space;
 pub mod separable;
 pub mod signals;
@@ -33,6 +34,7 @@ pub mod warnings;
 use crate::error::{Error, Result};
 use crate::kernel::{KernelFile, Pass};
 pub use image::{Image, Plane};
+pub use jitter::{ign_fixed, jitter_unit, GOLDEN_U32, IGN_FRACTION, IGN_X, IGN_Y};
 
 /// Clamp-to-edge on whole pixels: index `i` of a row or column of `n`
 /// pixels moved to the nearest border pixel.
@@ -208,40 +210,6 @@ impl Taps {
             })
             .collect()
     }
-}
-
-/// Interleaved gradient noise (Jimenez 2014, "Next Generation Post
-/// Processing in Call of Duty: Advanced Warfare"): fract(52.9829189
-/// fract(0.06711056 x + 0.00583715 y)), evaluated in 32-bit fixed point
-/// (the constants times 2^32) so that the WGSL twin gets the same bits as
-/// this f64 path: float fract of a value near 100 would differ by 1e-3
-/// between f32 and f64.
-pub const IGN_X: u32 = 288_237_660;
-pub const IGN_Y: u32 = 25_070_368;
-/// The fractional part 0.9829189 of 52.9829189, times 2^32.
-pub const IGN_FRACTION: u32 = 4_221_604_530;
-/// 2^32 / golden ratio: consecutive taps get well-spread noise values
-/// (additive recurrence), not one shift shared by every tap.
-pub const GOLDEN_U32: u32 = 2_654_435_769;
-
-/// The high 32 bits of a 32 x 32 bit product.
-fn mul_high(a: u32, b: u32) -> u32 {
-    ((a as u64 * b as u64) >> 32) as u32
-}
-
-/// Interleaved gradient noise at pixel (x, y) in 32-bit fixed point.
-pub fn ign_fixed(x: u32, y: u32) -> u32 {
-    let inner = IGN_X.wrapping_mul(x).wrapping_add(IGN_Y.wrapping_mul(y));
-    52u32
-        .wrapping_mul(inner)
-        .wrapping_add(mul_high(IGN_FRACTION, inner))
-}
-
-/// The jitter in [0, 1) of tap `tap` in pass `axis` (0 horizontal, 1
-/// vertical) at pixel (x, y): 24 bits, exact in f32 and f64.
-pub fn jitter_unit(x: u32, y: u32, tap: u32, axis: u32) -> f64 {
-    let n = ign_fixed(x, y).wrapping_add((2 * tap + axis).wrapping_mul(GOLDEN_U32));
-    (n >> 8) as f64 / 16_777_216.0
 }
 
 impl From<&Pass> for Taps {

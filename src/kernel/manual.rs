@@ -21,48 +21,23 @@ pub struct ManualParams {
     pub sqrt_tau_far: [f64; 3],
 }
 
+/// Parameters from w, sqrt(tau_n) and sqrt(tau_f) per channel (mm).
+const fn params(w: f64, sqrt_tau_near: [f64; 3], sqrt_tau_far: [f64; 3]) -> ManualParams {
+    ManualParams {
+        w,
+        sqrt_tau_near,
+        sqrt_tau_far,
+    }
+}
+
 /// Freude 2014, table A.1.
+#[rustfmt::skip]
 pub const PRESETS: [(&str, ManualParams); 5] = [
-    (
-        "apple",
-        ManualParams {
-            w: 0.368,
-            sqrt_tau_near: [0.0495, 0.0455, 0.0372],
-            sqrt_tau_far: [1.1, 1.08, 0.926],
-        },
-    ),
-    (
-        "ketchup",
-        ManualParams {
-            w: 0.665,
-            sqrt_tau_near: [0.0907, 0.0331, 0.0331],
-            sqrt_tau_far: [1.5, 0.118, 0.0966],
-        },
-    ),
-    (
-        "marble",
-        ManualParams {
-            w: 0.234,
-            sqrt_tau_near: [0.0371, 0.0207, 0.015],
-            sqrt_tau_far: [0.663, 0.616, 0.558],
-        },
-    ),
-    (
-        "skin1",
-        ManualParams {
-            w: 0.533,
-            sqrt_tau_near: [0.429, 0.211, 0.03],
-            sqrt_tau_far: [1.15, 0.69, 0.471],
-        },
-    ),
-    (
-        "wholemilk",
-        ManualParams {
-            w: 0.407,
-            sqrt_tau_near: [0.0846, 0.0846, 0.0583],
-            sqrt_tau_far: [1.5, 1.39, 1.17],
-        },
-    ),
+    ("apple", params(0.368, [0.0495, 0.0455, 0.0372], [1.1, 1.08, 0.926])),
+    ("ketchup", params(0.665, [0.0907, 0.0331, 0.0331], [1.5, 0.118, 0.0966])),
+    ("marble", params(0.234, [0.0371, 0.0207, 0.015], [0.663, 0.616, 0.558])),
+    ("skin1", params(0.533, [0.429, 0.211, 0.03], [1.15, 0.69, 0.471])),
+    ("wholemilk", params(0.407, [0.0846, 0.0846, 0.0583], [1.5, 1.39, 1.17])),
 ];
 
 pub fn preset(name: &str) -> Result<ManualParams> {

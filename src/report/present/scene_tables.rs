@@ -5,8 +5,8 @@
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use super::evaluate::exposure_of;
-use super::scene_compare::{dominance, SceneComparison, REGIONS};
+use crate::report::eval::evaluate::exposure_of;
+use crate::report::eval::scene_compare::{dominance, SceneComparison, REGIONS};
 use super::table::Table;
 use crate::error::Result;
 use crate::kernel::angular::AngularFactors;

@@ -40,7 +40,7 @@ use crate::filter::signals::Signal;
 use crate::filter::warnings::{scale_warnings, ScaleWarning};
 use crate::filter::{cpu, diff, resample_to_pixels, Image, Scale, Setup, Taps};
 use crate::kernel::model::{assemble_with, fit_model};
-use crate::kernel::taps::{auto_extent, factor_radius_holding, hold_for_taps, tap_table_with};
+use crate::kernel::taps::{auto_extent, factor_radius_holding, tap_table_with};
 use crate::kernel::{Factors, Kernel2D, Kernel2DSpec, KernelFile};
 use crate::profile::Profile;
 use crate::progress::Progress;
@@ -281,7 +281,7 @@ impl Advice {
     }
 }
 
-fn meets(c: &Candidate, target: f64) -> bool {
+pub(crate) fn meets(c: &Candidate, target: f64) -> bool {
     c.rel_rms <= target
 }
 
@@ -404,8 +404,8 @@ fn rel_rms(exact: &Exact, exact_f32: &Image, passes: Vec<Taps>) -> Result<f64> {
         .fold(0.0, f64::max))
 }
 
-/// Searches every candidate for `profile` at `cfg`'s scale.
-pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Result<Advice> {
+/// `cfg`'s target and lists are usable.
+fn validate(cfg: &Config) -> Result<()> {
     Scale::MmPerPixel(cfg.mm_per_pixel).validate()?;
     if !(cfg.target > 0.0 && cfg.target.is_finite()) {
         return Err(Error::invalid(
@@ -420,8 +420,12 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
             "advise needs at least one signal and one tap count".into(),
         ));
     }
-    let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
-    let specs = candidate_models(&cfg.families, &profile.material.name)?;
+    Ok(())
+}
+
+/// The test images of `cfg`: each signal, the checker once per cell size
+/// of [`CHECKER_PX`].
+fn test_cases(cfg: &Config) -> Result<Vec<ImageCase>> {
     let mut cases: Vec<ImageCase> = Vec::new();
     for &s in &cfg.signals {
         if s != Signal::Checker {
@@ -436,113 +440,192 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
             });
         }
     }
-    let exact: Vec<Exact> = cases
-        .par_iter()
-        .map(|c| Exact::new(profile, c))
-        .collect::<Result<_>>()?;
-    let exact_f32: Vec<Image> = exact
-        .iter()
-        .map(|e| {
-            let mut i = e.image.clone();
-            for p in i.rgb.iter_mut() {
-                p.iter_mut().for_each(|v| *v = *v as f32 as f64);
-            }
-            i
-        })
-        .collect();
-    // The finest detail first: it fails most candidates soonest.
-    let mut signal_order: Vec<usize> = (0..exact.len()).collect();
-    signal_order.sort_by_key(|&i| {
-        CHECKER_PX
-            .iter()
-            .position(|px| exact[i].case.name == format!("checker{px}px"))
-            .unwrap_or(CHECKER_PX.len())
-    });
-    progress.start(specs.len() as u64, "kernel models");
-    let search = |stop_over_target: bool| -> Result<Vec<Candidate>> {
-        let per_model: Vec<Vec<Candidate>> = specs
+    Ok(cases)
+}
+
+/// The exact convolutions the candidates are measured against, in the
+/// order they are filtered.
+struct References {
+    exact: Vec<Exact>,
+    /// `exact`'s images rounded to f32 as [`evaluate::errors`] does.
+    exact_f32: Vec<Image>,
+    /// Indices into `exact`, the finest checker first.
+    order: Vec<usize>,
+}
+
+impl References {
+    fn new(profile: &Profile, cases: &[ImageCase]) -> Result<References> {
+        let exact: Vec<Exact> = cases
             .par_iter()
-            .map(|spec| {
-                let fitted = fit_model(&truth, profile, &spec.model)
-                    .map_err(|e| Error::Unsupported(format!("{}: {e}", spec.label)))?;
-                let f = fitted.factors.clone();
-                let file = assemble_with(profile, &truth, &spec.model, fitted, 17, None)?;
-                let mut out = Vec::new();
-                for l in layouts(&truth, &f, cfg)? {
-                    let mut per_signal = BTreeMap::new();
-                    let mut worst: f64 = 0.0;
-                    for &i in &signal_order {
-                        let (e, ef) = (&exact[i], &exact_f32[i]);
-                        let v = rel_rms(e, ef, l.passes.clone())?;
-                        worst = worst.max(v);
-                        per_signal.insert(e.case.name.clone(), v);
-                        if stop_over_target && worst > cfg.target {
-                            break;
-                        }
-                    }
-                    let per_pass = l.passes.iter().map(|t| t.offsets_mm.len()).sum::<usize>();
-                    out.push(Candidate {
-                        label: spec.label.clone(),
-                        model: file.model.name.clone(),
-                        params: file.model.params.clone(),
-                        rank: f.len(),
-                        taps: l.taps,
-                        extent_rule: l.rule,
-                        extent_mm: l.extent_mm,
-                        cost: 2 * per_pass,
-                        rel_rms: worst,
-                        per_signal,
-                    });
+            .map(|c| Exact::new(profile, c))
+            .collect::<Result<_>>()?;
+        let exact_f32: Vec<Image> = exact
+            .iter()
+            .map(|e| {
+                let mut i = e.image.clone();
+                for p in i.rgb.iter_mut() {
+                    p.iter_mut().for_each(|v| *v = *v as f32 as f64);
                 }
-                if stop_over_target {
-                    progress.advance(1);
-                }
-                Ok(out)
+                i
             })
+            .collect();
+        // The finest detail first: it fails most candidates soonest.
+        let mut order: Vec<usize> = (0..exact.len()).collect();
+        order.sort_by_key(|&i| {
+            CHECKER_PX
+                .iter()
+                .position(|px| exact[i].case.name == format!("checker{px}px"))
+                .unwrap_or(CHECKER_PX.len())
+        });
+        Ok(References {
+            exact,
+            exact_f32,
+            order,
+        })
+    }
+}
+
+/// What one search runs over.
+struct Search<'a> {
+    profile: &'a Profile,
+    truth: Kernel2D,
+    specs: Vec<ModelSpec>,
+    refs: References,
+    cfg: &'a Config,
+    progress: &'a dyn Progress,
+}
+
+impl Search<'_> {
+    /// Every layout of one model variant, filtered on the signals in order
+    /// (stopping at the first over the target when `stop_over_target`).
+    fn model_candidates(&self, spec: &ModelSpec, stop_over_target: bool) -> Result<Vec<Candidate>> {
+        let fitted = fit_model(&self.truth, self.profile, &spec.model)
+            .map_err(|e| Error::Unsupported(format!("{}: {e}", spec.label)))?;
+        let f = fitted.factors.clone();
+        let file = assemble_with(self.profile, &self.truth, &spec.model, fitted, 17, None)?;
+        let mut out = Vec::new();
+        for l in layouts(&self.truth, &f, self.cfg)? {
+            let mut per_signal = BTreeMap::new();
+            let mut worst: f64 = 0.0;
+            for &i in &self.refs.order {
+                let (e, ef) = (&self.refs.exact[i], &self.refs.exact_f32[i]);
+                let v = rel_rms(e, ef, l.passes.clone())?;
+                worst = worst.max(v);
+                per_signal.insert(e.case.name.clone(), v);
+                if stop_over_target && worst > self.cfg.target {
+                    break;
+                }
+            }
+            let per_pass = l.passes.iter().map(|t| t.offsets_mm.len()).sum::<usize>();
+            out.push(Candidate {
+                label: spec.label.clone(),
+                model: file.model.name.clone(),
+                params: file.model.params.clone(),
+                rank: f.len(),
+                taps: l.taps,
+                extent_rule: l.rule,
+                extent_mm: l.extent_mm,
+                cost: 2 * per_pass,
+                rel_rms: worst,
+                per_signal,
+            });
+        }
+        if stop_over_target {
+            self.progress.advance(1);
+        }
+        Ok(out)
+    }
+
+    /// Every candidate of every model variant.
+    fn candidates(&self, stop_over_target: bool) -> Result<Vec<Candidate>> {
+        let per_model: Vec<Vec<Candidate>> = self
+            .specs
+            .par_iter()
+            .map(|spec| self.model_candidates(spec, stop_over_target))
             .collect::<Result<_>>()?;
         Ok(per_model.into_iter().flatten().collect())
+    }
+
+    /// The kernel file of candidate `c` (its tap table as chosen, the
+    /// default table for full factors) and the passes it runs.
+    fn chosen_kernel(&self, c: &Candidate) -> Result<(KernelFile, Vec<Taps>)> {
+        let spec = self
+            .specs
+            .iter()
+            .find(|s| s.label == c.label)
+            .ok_or_else(|| Error::Unsupported(format!("lost model {}", c.label)))?;
+        let fitted = fit_model(&self.truth, self.profile, &spec.model)?;
+        let factors = fitted.factors.clone();
+        let (count, extent) = match c.taps {
+            Some(n) => (n, Some(c.extent_mm)),
+            None => (crate::kernel::taps::DEFAULT_TAPS, None),
+        };
+        let kernel = assemble_with(
+            self.profile,
+            &self.truth,
+            &spec.model,
+            fitted,
+            count,
+            extent,
+        )?;
+        let passes = match c.taps {
+            Some(_) => kernel.taps.passes.iter().map(Taps::from).collect(),
+            None => full_passes(&self.truth, &factors, self.cfg.mm_per_pixel),
+        };
+        Ok((kernel, passes))
+    }
+
+    /// The errors of `passes` on every signal, with FLIP and timing.
+    fn predict(&self, passes: &[Taps], cost: usize) -> Result<BTreeMap<String, ImageErrors>> {
+        let mut predicted = BTreeMap::new();
+        for e in &self.refs.exact {
+            let (img, secs) = evaluate::filter(&e.case, passes.to_vec())?;
+            let mut errs = evaluate::errors(e, &img, &self.cfg.options)?;
+            errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
+            errs.samples_per_pixel = cost;
+            predicted.insert(e.case.name.clone(), errs);
+        }
+        Ok(predicted)
+    }
+}
+
+/// Radius holding 99% of the ground truth's 1D projection, mm.
+fn kernel_radius(truth: &Kernel2D) -> f64 {
+    factor_radius_holding(
+        truth,
+        &vec![std::array::from_fn(|ch| {
+            crate::kernel::preintegrate::grid_projection(truth, ch)
+        })],
+        0.99,
+    )
+}
+
+/// Searches every candidate for `profile` at `cfg`'s scale.
+pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Result<Advice> {
+    validate(cfg)?;
+    let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
+    let search = Search {
+        profile,
+        specs: candidate_models(&cfg.families, &profile.material.name)?,
+        refs: References::new(profile, &test_cases(cfg)?)?,
+        truth,
+        cfg,
+        progress,
     };
-    let mut candidates = search(true)?;
+    progress.start(search.specs.len() as u64, "kernel models");
+    let mut candidates = search.candidates(true)?;
     if !candidates.iter().any(|c| meets(c, cfg.target)) {
         // None meets the target: the most accurate is chosen, on every
         // signal.
-        candidates = search(false)?;
+        candidates = search.candidates(false)?;
     }
     progress.finish();
     candidates.sort_by(|a, b| order(a, b, cfg.target));
     let chosen = 0;
     let c = candidates[chosen].clone();
-    let spec = specs
-        .iter()
-        .find(|s| s.label == c.label)
-        .ok_or_else(|| Error::Unsupported(format!("lost model {}", c.label)))?;
-    let fitted = fit_model(&truth, profile, &spec.model)?;
-    let factors = fitted.factors.clone();
-    let (count, extent) = match c.taps {
-        Some(n) => (n, Some(c.extent_mm)),
-        None => (crate::kernel::taps::DEFAULT_TAPS, None),
-    };
-    let kernel = assemble_with(profile, &truth, &spec.model, fitted, count, extent)?;
-    let passes = match c.taps {
-        Some(_) => kernel.taps.passes.iter().map(Taps::from).collect(),
-        None => full_passes(&truth, &factors, cfg.mm_per_pixel),
-    };
-    let mut predicted = BTreeMap::new();
-    for e in &exact {
-        let (img, secs) = evaluate::filter(&e.case, passes.clone())?;
-        let mut errs = evaluate::errors(e, &img, &cfg.options)?;
-        errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
-        errs.samples_per_pixel = c.cost;
-        predicted.insert(e.case.name.clone(), errs);
-    }
+    let (kernel, passes) = search.chosen_kernel(&c)?;
+    let predicted = search.predict(&passes, c.cost)?;
     let warnings = scale_warnings(&passes, 1.0 / cfg.mm_per_pixel, c.taps.is_some());
-    let kernel_radius_mm = factor_radius_holding(
-        &truth,
-        &vec![std::array::from_fn(|ch| {
-            crate::kernel::preintegrate::grid_projection(&truth, ch)
-        })],
-        0.99,
-    );
     Ok(Advice {
         mm_per_pixel: cfg.mm_per_pixel,
         taps: cfg.taps.clone(),
@@ -553,161 +636,8 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
         kernel,
         predicted,
         warnings,
-        kernel_radius_mm,
+        kernel_radius_mm: kernel_radius(&search.truth),
     })
 }
 
-/// The rule behind the automatic extent, for the record.
-pub fn extent_rule_text(taps: usize) -> String {
-    format!(
-        "radius holding {:.2}% of the factor's mass (1 - 0.7 N^-1.2 at N = {taps})",
-        100.0 * hold_for_taps(taps)
-    )
-}
-
-/// Why: the answer, then per model variant its cheapest configuration that
-/// meets the target (or its most accurate), with cost and error.
-pub fn explain(a: &Advice) -> String {
-    use std::fmt::Write as _;
-    let c = a.chosen();
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{} at {} mm per pixel (kernel radius holding 99%: {:.3} mm = {:.1} px), target {:.2}% \
-         relative RMS:",
-        a.kernel.material.as_ref().map_or("?", |m| m.name.as_str()),
-        super::kernel_report::sig(a.mm_per_pixel),
-        a.kernel_radius_mm,
-        a.kernel_radius_mm / a.mm_per_pixel,
-        100.0 * a.target
-    );
-    let _ = writeln!(
-        s,
-        "  {}: {}, {} samples per pixel, error {:.3}%{}",
-        if a.meets_target {
-            "cheapest meeting it"
-        } else {
-            "NONE meets it; most accurate"
-        },
-        c.describe(),
-        c.cost,
-        100.0 * c.rel_rms,
-        match c.taps {
-            Some(n) if Some(ExtentRule::Auto) == c.extent_rule =>
-                format!("; extent = {}", extent_rule_text(n)),
-            _ => String::new(),
-        }
-    );
-    let signals: Vec<&String> = c.per_signal.keys().collect();
-    let _ = write!(
-        s,
-        "\n  {:<18} {:>7} {:>6} {:>5} {:>10}",
-        "model", "taps", "rank", "cost", "extent mm"
-    );
-    for sig in &signals {
-        let _ = write!(s, " {:>9}", format!("{sig} %"));
-    }
-    let _ = writeln!(s, " {:>6}", "meets");
-    for b in a.best_per_model() {
-        let _ = write!(
-            s,
-            "  {:<18} {:>7} {:>6} {:>5} {:>10.3}",
-            b.label,
-            b.taps.map_or("full".into(), |n| n.to_string()),
-            b.rank,
-            b.cost,
-            b.extent_mm
-        );
-        for sig in &signals {
-            match b.per_signal.get(*sig) {
-                Some(v) => {
-                    let _ = write!(s, " {:>9.3}", 100.0 * v);
-                }
-                // Not filtered: over the target on an earlier signal.
-                None => {
-                    let _ = write!(s, " {:>9}", "-");
-                }
-            }
-        }
-        let _ = writeln!(s, " {:>6}", if meets(b, a.target) { "yes" } else { "no" });
-    }
-    let _ = writeln!(
-        s,
-        "  ({} configurations evaluated: every model x taps {:?} x 3 extents, plus full factors \
-         up to {} px; cost = 2 x rank x taps samples per pixel)",
-        a.candidates.len(),
-        a.taps,
-        FULL_MAX_PIXELS
-    );
-    for (sig, e) in &a.predicted {
-        let _ = writeln!(
-            s,
-            "  predicted on {sig}: relative RMS {:.3}% / {:.3}% / {:.3}% (r/g/b), FLIP {:.4}",
-            100.0 * e.rel_rms[0],
-            100.0 * e.rel_rms[1],
-            100.0 * e.rel_rms[2],
-            e.flip_rgb
-        );
-    }
-    if let Some(note) = screen_space_note(c.rel_rms, a.mm_per_pixel) {
-        let _ = writeln!(s, "  {note}");
-    }
-    s
-}
-
-/// The screen-space model's own error as `compare --scene` measured it on
-/// the path-traced sphere of docs/scene.md (the committed record
-/// docs/records/scene-compare.json, made by scripts/scene-record).
-const SCENE_RECORD: &str = include_str!("../../docs/records/scene-compare.json");
-
-/// Which error dominates: a kernel error `kernel_rms` (flat plane, at
-/// `mm_per_pixel`) against the screen-space model's error on the recorded
-/// scene.
-pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
-    let r: serde_json::Value = serde_json::from_str(SCENE_RECORD).ok()?;
-    let d = &r["data"]["dominance"];
-    let (best, exact, at) = (
-        d["best_scene_rms"].as_f64()?,
-        d["exact_scene_rms"].as_f64()?,
-        d["mm_per_pixel"].as_f64()?,
-    );
-    let scene = r["data"]["scene"].as_str()?;
-    Some(format!(
-        "screen-space model: on the path-traced sphere of {scene} ({at:.3} mm per pixel, \
-         docs/scene.md) the best kernel through the screen-space pass misses by {:.1}% RMS of \
-         the peak and the exact flat kernel by {:.1}%, against this choice's {:.2}% at {} mm per \
-         pixel: {}",
-        100.0 * best,
-        100.0 * exact,
-        100.0 * kernel_rms,
-        super::kernel_report::sig(mm_per_pixel),
-        if best > kernel_rms {
-            format!(
-                "the screen-space model's own error dominates ({:.0}x); a tighter target buys \
-                 nothing visible on lit, curved surfaces",
-                best / kernel_rms.max(1e-12)
-            )
-        } else {
-            "the kernel's error dominates".to_string()
-        }
-    ))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The note reads the committed record of the path-traced sphere and
-    /// says which error is the larger.
-    #[test]
-    fn the_note_says_which_error_dominates() {
-        let small = screen_space_note(1e-4, 0.1).expect("the scene record");
-        assert!(
-            small.contains("screen-space model's own error dominates"),
-            "{small}"
-        );
-        assert!(small.contains("0.01% at 0.100 mm per pixel"), "{small}");
-        let big = screen_space_note(0.9, 0.1).unwrap();
-        assert!(big.contains("the kernel's error dominates"), "{big}");
-    }
-}
+pub use crate::report::present::advice_text::{explain, extent_rule_text, screen_space_note};

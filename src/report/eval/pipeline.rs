@@ -7,8 +7,6 @@
 use super::advise::{self, Advice};
 use super::evaluate::{ImageCase, Options, Which};
 use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row, FAMILIES};
-use super::kernel_report::{self, ReportContext};
-use super::{kernel_plots, plot};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::io::{file_stem, join_inside};
@@ -17,8 +15,10 @@ use crate::kernel::KernelFile;
 use crate::material::{Channel, Material};
 use crate::profile::analytic::{self, Model as AnalyticModel};
 use crate::profile::mc::{self, McConfig, McOptions, PhotonBudget};
-use crate::profile::Profile;
+use crate::profile::{Profile, RadialGrid};
 use crate::progress::Progress;
+use crate::report::kernel_report::{self, ReportContext};
+use crate::report::{kernel_plots, plot};
 use std::path::Path;
 use std::time::Instant;
 
@@ -33,6 +33,8 @@ pub enum ProfileSource {
         max_photons: u64,
         seed: u64,
     },
+    /// Monte Carlo with a fixed photon count per channel (tracer defaults).
+    Photons { photons: u64, seed: u64 },
     /// A closed-form model on the default radial grid.
     Analytic(AnalyticModel),
 }
@@ -67,6 +69,9 @@ impl ProfileSource {
                  per channel, seed {seed})",
                 100.0 * rel_error
             ),
+            ProfileSource::Photons { photons, seed } => {
+                format!("Monte Carlo, {photons} photons per channel (seed {seed})")
+            }
             ProfileSource::Analytic(m) => format!("analytic {} (closed form)", m.name()),
         }
     }
@@ -78,32 +83,51 @@ pub fn make_profile(
     source: &ProfileSource,
     progress: &dyn Progress,
 ) -> Result<(Profile, f64)> {
+    make_profile_on(material, source, None, progress)
+}
+
+/// [`make_profile`] on `grid` (None: Monte Carlo's own grid, the analytic
+/// models' default grid).
+pub fn make_profile_on(
+    material: &Material,
+    source: &ProfileSource,
+    grid: Option<&RadialGrid>,
+    progress: &dyn Progress,
+) -> Result<(Profile, f64)> {
     let t0 = Instant::now();
     let channels = Channel::ALL.to_vec();
+    let mc_config = |budget: PhotonBudget, seed: u64| McConfig {
+        budget,
+        seed,
+        threads: None,
+        channels: channels.clone(),
+        grid: grid.cloned(),
+    };
     let p = match *source {
         ProfileSource::MonteCarlo {
             rel_error,
             max_photons,
             seed,
         } => {
-            let cfg = McConfig {
-                budget: PhotonBudget::TargetError {
-                    rel: rel_error,
-                    max_photons,
-                },
-                seed,
-                threads: None,
-                channels,
-                grid: None,
+            let budget = PhotonBudget::TargetError {
+                rel: rel_error,
+                max_photons,
             };
             let opts = McOptions {
                 max_work: MC_MAX_WORK,
                 ..McOptions::default()
             };
-            mc::simulate_with(material, &cfg, &opts, progress)?
+            mc::simulate_with(material, &mc_config(budget, seed), &opts, progress)?
+        }
+        ProfileSource::Photons { photons, seed } => {
+            let cfg = mc_config(PhotonBudget::Fixed(photons), seed);
+            mc::simulate(material, &cfg, progress)?
         }
         ProfileSource::Analytic(m) => {
-            let grid = analytic::default_grid(material, &channels)?;
+            let grid = match grid {
+                Some(g) => g.clone(),
+                None => analytic::default_grid(material, &channels)?,
+            };
             analytic::profile(
                 material,
                 m,

@@ -10,7 +10,7 @@ use plotters::style::FontStyle;
 use std::path::Path;
 use std::sync::Once;
 
-static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
 /// Registers DejaVu Sans as "sans-serif" (idempotent).
@@ -62,13 +62,31 @@ pub fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
 /// Draws `panels` on a grid with `cols` columns and writes a PNG.
 pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<()> {
     crate::io::check_extension(out, &["png"], "plot")?;
+    render_grid(panels, cols, (640, 440), title, out, |panel, area| {
+        draw_panel(panel, area, out)
+    })
+}
+
+/// A drawing area of one panel.
+pub type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// The page of every plot: `title` over a grid of `cols` columns of panels
+/// of `size` pixels, each drawn by `draw`, written as a PNG to `out`.
+pub fn render_grid<T>(
+    panels: &[T],
+    cols: usize,
+    size: (u32, u32),
+    title: &str,
+    out: &Path,
+    mut draw: impl FnMut(&T, &Area) -> Result<()>,
+) -> Result<()> {
     register_fonts();
     if panels.is_empty() {
         return Err(Error::Unsupported("nothing to plot".into()));
     }
     let cols = cols.clamp(1, panels.len());
     let rows = panels.len().div_ceil(cols);
-    let (pw, ph) = (640u32, 440u32);
+    let (pw, ph) = size;
     let (w, h) = (pw * cols as u32, ph * rows as u32 + 40);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     {
@@ -83,7 +101,7 @@ pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<
         .map_err(|e| plot_err(out, e))?;
         let areas = body.split_evenly((rows, cols));
         for (panel, area) in panels.iter().zip(areas.iter()) {
-            draw_panel(panel, area, out)?;
+            draw(panel, area)?;
         }
         root.present().map_err(|e| plot_err(out, e))?;
     }
@@ -146,30 +164,52 @@ fn draw_panel<DB: DrawingBackend>(
         let mut chart = chart_builder
             .build_cartesian_2d(x_range, (lo..y_max * 2.0).log_scale())
             .map_err(e)?;
-        chart
-            .configure_mesh()
-            .x_desc(&panel.x_label)
-            .y_desc(&panel.y_label)
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .label_style(("sans-serif", 14))
-            .draw()
-            .map_err(e)?;
+        draw_mesh(&mut chart, panel, &|v| format!("{v:.0e}"), out)?;
         draw_curves(&mut chart, panel, lo, out)?;
     } else {
         let mut chart = chart_builder
             .build_cartesian_2d(x_range, 0.0..y_max * 1.05)
             .map_err(e)?;
-        chart
-            .configure_mesh()
-            .x_desc(&panel.x_label)
-            .y_desc(&panel.y_label)
-            .y_label_formatter(&|v| format!("{v:.3}"))
-            .label_style(("sans-serif", 14))
-            .draw()
-            .map_err(e)?;
+        draw_mesh(&mut chart, panel, &|v| format!("{v:.3}"), out)?;
         draw_curves(&mut chart, panel, f64::NEG_INFINITY, out)?;
     }
     Ok(())
+}
+
+/// The axes of a profile panel, the y labels written by `y_format`.
+fn draw_mesh<'a, DB: DrawingBackend + 'a, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, Y>>,
+    panel: &Panel,
+    y_format: &dyn Fn(&f64) -> String,
+    out: &Path,
+) -> Result<()>
+where
+    Y: Ranged<ValueType = f64> + plotters::coord::ranged1d::ValueFormatter<f64>,
+{
+    chart
+        .configure_mesh()
+        .x_desc(&panel.x_label)
+        .y_desc(&panel.y_label)
+        .y_label_formatter(y_format)
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(|e| plot_err(out, e))
+}
+
+/// The legend of every plot, upper right, labels of `font_px` pixels.
+pub fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    font_px: i32,
+    out: &Path,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", font_px))
+        .draw()
+        .map_err(|e| plot_err(out, e))
 }
 
 /// Dash and gap lengths of dashed curves, pixels (short enough that the
@@ -245,15 +285,7 @@ where
                 });
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font(("sans-serif", 14))
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    draw_legend(chart, 14, out)
 }
 
 /// Freude 2014, figure 6.1 layout for one or more profiles: one row per channel,

@@ -235,11 +235,22 @@ pub struct KernelImageErrors {
     pub taps: BTreeMap<usize, ImageErrors>,
 }
 
-/// Which factors to run.
+/// Which factors of a kernel run: the full-resolution factors or an N-tap
+/// table (also which image-space error a table shows,
+/// `kernel_compare::Factor`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Which {
     Full,
     Taps(usize),
+}
+
+impl Which {
+    pub fn describe(&self) -> String {
+        match self {
+            Which::Full => "full-resolution factors".into(),
+            Which::Taps(n) => format!("{n}-tap table"),
+        }
+    }
 }
 
 /// The passes of `kernel` for `which`: the stored tap table when its count

@@ -1,0 +1,13 @@
+//! Evaluation and decision: how far a kernel lands from the exact
+//! convolution, model comparisons in kernel and image space, the thesis's
+//! claims checked on them, the configuration to ship, the speed/accuracy
+//! study and the one-call pipeline.
+
+pub mod advise;
+pub mod claims;
+pub mod evaluate;
+pub mod kernel_compare;
+pub mod pipeline;
+pub mod profile_compare;
+pub mod scene_compare;
+pub mod study;

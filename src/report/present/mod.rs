@@ -1,0 +1,15 @@
+//! Presentation: markdown/CSV tables, PNG plots, the written reports of the
+//! comparisons and the advice, recorded measurements and number formats.
+//! Nothing here measures; it shows what [`super::eval`] measured.
+
+pub mod advice_text;
+pub mod kernel_plots;
+pub mod kernel_report;
+pub mod number;
+pub mod pareto;
+pub mod plot;
+pub mod profile_tables;
+pub mod record;
+pub mod scene_tables;
+pub mod study_report;
+pub mod table;
