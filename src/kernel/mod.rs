@@ -2,11 +2,8 @@
 //! separable models fitted to it (Freude 2014, ch. 5 and the baselines of ch. 4), the
 //! kernel file format with real-time tap tables, metrics and shader export.
 
-<<<<<<< HEAD
 pub mod angular;
-=======
 pub mod cell_integrals;
->>>>>>> r-report
 pub mod emit;
 pub mod format;
 pub mod gaussians;
