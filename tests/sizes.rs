@@ -57,7 +57,10 @@ fn starts_fn(line: &str) -> Option<String> {
     while k < words.len() {
         let w = words[k];
         let qualifier = w.starts_with("pub")
-            || matches!(w, "const" | "async" | "unsafe" | "extern" | "\"C\"" | "default");
+            || matches!(
+                w,
+                "const" | "async" | "unsafe" | "extern" | "\"C\"" | "default"
+            );
         if w == "fn" {
             return words
                 .get(k + 1)

@@ -224,9 +224,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::bail!("give --kernel K.json or --reference PROFILE.json");
     };
     let kernel = KernelFile::read(kernel_path)?;
+    let depth = load_depth(&args, extras.depth)?;
+    let setup = setup_of(&args, &kernel, kernel_path, scale, depth, &image)?;
+    let out = filter(&args, &image, &setup)?;
+    write_image(out_path, &out, png_depth)?;
+    eprintln!(
+        "{} pass(es) of {} taps, {:.3} s -> {}",
+        setup.passes.len(),
+        setup
+            .passes
+            .iter()
+            .map(|t| t.offsets_mm.len())
+            .max()
+            .unwrap_or(0),
+        start.elapsed().as_secs_f64(),
+        out_path.display()
+    );
+    Ok(())
+}
+
+/// The depth plane (--depth, else the input's own), its non-finite values
+/// refused or, with --sanitize, set to the farthest finite depth.
+fn load_depth(args: &Args, own: Option<Plane>) -> anyhow::Result<Option<Plane>> {
     let mut depth = match &args.depth {
         Some(p) => Some(read_plane(p, args.depth_channel.as_deref())?),
-        None => extras.depth,
+        None => own,
     };
     if let Some(d) = depth.as_mut() {
         let fill = d
@@ -237,6 +259,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let fill = if fill.is_finite() { fill } else { 1.0 };
         report_sanitized("depth", d.check_finite("depth", args.sanitize, fill)?);
     }
+    Ok(depth)
+}
+
+/// The pass's settings: the kernel's taps (the full factors resampled to
+/// pixels under a uniform scale unless --taps-only), the scale and the
+/// per-pixel planes; checked against the image, with the scale warnings.
+fn setup_of(
+    args: &Args,
+    kernel: &KernelFile,
+    kernel_path: &Path,
+    scale: Scale,
+    depth: Option<Plane>,
+    image: &Image,
+) -> anyhow::Result<Setup> {
     let strength = load_plane(args.strength.as_deref(), args.sanitize, "strength")?;
     let specular = match &args.specular {
         Some(p) => {
@@ -256,18 +292,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Scale::MmPerPixel(m) if strength.is_none() => Some(m),
         _ => None,
     };
-    check_kernel_fits(&kernel, factors, uniform, image.width, image.height)
+    check_kernel_fits(kernel, factors, uniform, image.width, image.height)
         .with_context(|| format!("applying {}", kernel_path.display()))?;
     let setup = Setup {
-        passes: taps_for(&kernel, factors, uniform),
+        passes: taps_for(kernel, factors, uniform),
         scale,
         depth,
         strength,
-        follow_surface: follow(&args),
+        follow_surface: follow(args),
         specular,
         jitter: args.jitter,
     };
-    setup.validate(&image)?;
+    setup.validate(image)?;
     let largest_step = setup
         .steps(image.width, image.height)
         .into_iter()
@@ -276,27 +312,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for w in scale_warnings(&setup.passes, largest_step, sampled) {
         super::errors::warn(&w.to_string());
     }
+    Ok(setup)
+}
 
+/// Runs the pass on the backend --backend names (auto: a hardware GPU,
+/// else the CPU), saying which on stderr.
+fn filter(args: &Args, image: &Image, setup: &Setup) -> anyhow::Result<Image> {
     let precision = cpu::Precision::from(args.precision);
     let cpu_path = if setup.is_uniform() {
         format!("fixed kernels, {precision:?}").to_lowercase()
     } else {
         "per-pixel, f64".into()
     };
-    let out = match args.backend.backend {
+    Ok(match args.backend.backend {
         Backend::Cpu => {
             eprintln!("backend: cpu ({cpu_path})");
-            cpu::apply_with(&image, &setup, precision)?
+            cpu::apply_with(image, setup, precision)?
         }
         Backend::Gpu => {
             let g = gpu::Gpu::new()?;
             eprintln!("backend: gpu, adapter {}", g.describe());
-            g.apply(&image, &setup)?
+            g.apply(image, setup)?
         }
         Backend::Auto => match gpu::Gpu::new() {
             Ok(g) if !g.is_software() => {
                 eprintln!("backend: gpu (auto), adapter {}", g.describe());
-                g.apply(&image, &setup)?
+                g.apply(image, setup)?
             }
             Ok(g) => {
                 eprintln!(
@@ -304,28 +345,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                      rasteriser, slower than the CPU path; --backend gpu forces it)",
                     g.describe()
                 );
-                cpu::apply_with(&image, &setup, precision)?
+                cpu::apply_with(image, setup, precision)?
             }
             Err(e) => {
                 eprintln!("backend: cpu ({cpu_path}; auto: {e})");
-                cpu::apply_with(&image, &setup, precision)?
+                cpu::apply_with(image, setup, precision)?
             }
         },
-    };
-    write_image(out_path, &out, png_depth)?;
-    eprintln!(
-        "{} pass(es) of {} taps, {:.3} s -> {}",
-        setup.passes.len(),
-        setup
-            .passes
-            .iter()
-            .map(|t| t.offsets_mm.len())
-            .max()
-            .unwrap_or(0),
-        start.elapsed().as_secs_f64(),
-        out_path.display()
-    );
-    Ok(())
+    })
 }
 
 /// The lerp the two follow-surface flags ask for.

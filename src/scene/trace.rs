@@ -29,7 +29,6 @@ use crate::profile::mc::tracer::{sample_hg_cos, LayerOptics};
 use crate::profile::mc::{
     DEFAULT_EVENT_ROULETTE, DEFAULT_ROULETTE_THRESHOLD, EVENT_ROULETTE_SURVIVAL, ROULETTE_CHANCE,
 };
-use rand_core::RngCore;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// Uniform in [0, 1) with 53 random bits: the Monte Carlo tracer's draw.

@@ -6,8 +6,8 @@ use super::tally::{AngleLayout, BinIndex, ChunkTally, ExitScratch, ExitSums, Pho
 use crate::material::{Channel, Material};
 use crate::profile::fresnel::{fresnel_dielectric, specular_normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
-pub(crate) use sampling::{sample_hg_cos, uniform};
 use sampling::{optical_depth, sample_azimuth, sample_sphere, Azimuths, LogTable, Tables};
+pub(crate) use sampling::{sample_hg_cos, uniform};
 
 mod boundary;
 mod sampling;

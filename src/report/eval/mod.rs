@@ -10,4 +10,5 @@ pub mod kernel_compare;
 pub mod pipeline;
 pub mod profile_compare;
 pub mod scene_compare;
+pub mod scene_score;
 pub mod study;

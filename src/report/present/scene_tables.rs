@@ -5,11 +5,11 @@
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use crate::report::eval::evaluate::exposure_of;
-use crate::report::eval::scene_compare::{dominance, SceneComparison, REGIONS};
 use super::table::Table;
 use crate::error::Result;
 use crate::kernel::angular::AngularFactors;
+use crate::report::eval::evaluate::exposure_of;
+use crate::report::eval::scene_compare::{dominance, SceneComparison, REGIONS};
 
 fn pct(v: f64) -> String {
     if v.is_finite() {
@@ -96,7 +96,6 @@ pub fn noise_table(cmp: &SceneComparison) -> Table {
     }
     t
 }
-
 
 /// The angular factors the comparison applied, per node: entry and exit
 /// factor with their standard errors (r / g / b).

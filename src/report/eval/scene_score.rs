@@ -1,0 +1,175 @@
+//! Scoring an image against the path-traced truth of a scene, by region:
+//! the pixels' cosines with the light and the view, the regions they
+//! define (see [`super::scene_compare`]'s definitions) and the per-region
+//! relative RMS, bias, noise floor and FLIP.
+
+// Colour loops index several [_; 3] arrays by channel at once.
+#![allow(clippy::needless_range_loop)]
+
+use super::evaluate::{exposure_of, flip_map, tone_map};
+use crate::filter::Image;
+use crate::scene::{Render, Scene};
+use serde::{Deserialize, Serialize};
+
+/// Half-width of the terminator band in N.L.
+pub const TERMINATOR_BAND: f64 = 0.2;
+/// N.V below which a pixel is seen at a grazing angle.
+pub const GRAZING_VIEW: f64 = 0.3;
+/// The regions, in table order.
+pub const REGIONS: [&str; 5] = ["all", "lit", "unlit", "terminator", "grazing"];
+
+/// One region's errors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RegionError {
+    pub region: String,
+    pub pixels: usize,
+    pub rel_rms: [f64; 3],
+    pub bias: [f64; 3],
+    pub noise: [f64; 3],
+    pub flip: f64,
+}
+
+/// The cosines of each pixel: N.L with the scene's first directional
+/// light (None without one) and N.V with the direction to the camera; 0
+/// where no object is seen.
+pub struct Cosines {
+    pub n_dot_l: Option<Vec<f64>>,
+    pub n_dot_v: Vec<f64>,
+}
+
+/// [`Cosines`] of a render from its G-buffer normals and the scene's
+/// camera and light.
+pub fn cosines(scene: &Scene, render: &Render) -> Cosines {
+    let (w, h) = (render.width, render.height);
+    let g = &render.gbuffer;
+    let light = scene.directional().next().map(|(d, _)| d);
+    let normal = |i: usize| crate::scene::V3::new(g.normal[0][i], g.normal[1][i], g.normal[2][i]);
+    let seen = |i: usize| g.coverage[i] > 0.0;
+    let n_dot_v = (0..w * h)
+        .map(|i| {
+            if !seen(i) {
+                return 0.0;
+            }
+            let v = -scene
+                .camera
+                .ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5)
+                .d;
+            normal(i).dot(&v)
+        })
+        .collect();
+    let n_dot_l = light.map(|l| {
+        (0..w * h)
+            .map(|i| if seen(i) { normal(i).dot(&l) } else { 0.0 })
+            .collect()
+    });
+    Cosines { n_dot_l, n_dot_v }
+}
+
+/// Masks of the regions (see the module's definitions), in [`REGIONS`]
+/// order.
+pub fn region_masks(scene: &Scene, render: &Render) -> Vec<Vec<bool>> {
+    masks_of(&cosines(scene, render), &render.gbuffer.coverage)
+}
+
+pub(super) fn masks_of(cos: &Cosines, coverage: &[f64]) -> Vec<Vec<bool>> {
+    let n = coverage.len();
+    let mut masks = vec![vec![false; n]; REGIONS.len()];
+    for i in 0..n {
+        if !(coverage[i] > 0.0) {
+            continue;
+        }
+        masks[0][i] = true;
+        if let Some(nl) = cos.n_dot_l.as_ref().map(|v| v[i]) {
+            masks[1][i] = nl >= TERMINATOR_BAND;
+            masks[2][i] = nl <= -TERMINATOR_BAND;
+            masks[3][i] = nl.abs() < TERMINATOR_BAND;
+        }
+        masks[4][i] = cos.n_dot_v[i] < GRAZING_VIEW;
+    }
+    masks
+}
+
+/// The 99th percentile of `v` over `mask` (0 when empty).
+fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
+    let mut x: Vec<f64> = v
+        .iter()
+        .zip(mask)
+        .filter(|(_, &m)| m)
+        .map(|(&a, _)| a)
+        .collect();
+    if x.is_empty() {
+        return 0.0;
+    }
+    x.sort_by(f64::total_cmp);
+    x[((0.99 * x.len() as f64).ceil() as usize).clamp(1, x.len()) - 1]
+}
+
+/// Scores images against one path-traced truth.
+pub(super) struct Scorer<'a> {
+    truth: &'a Image,
+    stderr: &'a [Vec<f64>; 3],
+    masks: Vec<Vec<bool>>,
+    peak: [f64; 3],
+    exposure: f64,
+    truth_ldr: Vec<u8>,
+    ppd: f32,
+}
+
+impl<'a> Scorer<'a> {
+    pub(super) fn new(
+        truth: &'a Image,
+        stderr: &'a [Vec<f64>; 3],
+        masks: Vec<Vec<bool>>,
+        ppd: f64,
+    ) -> Self {
+        let peak = std::array::from_fn(|c| percentile99(&truth.rgb[c], &masks[0]));
+        let max_rgb: Vec<f64> = (0..truth.len())
+            .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
+            .collect();
+        let exposure = exposure_of(&max_rgb);
+        let truth_ldr = tone_map(truth, |i| {
+            std::array::from_fn(|c| truth.rgb[c][i] * exposure)
+        });
+        Scorer {
+            truth,
+            stderr,
+            masks,
+            peak,
+            exposure,
+            truth_ldr,
+            ppd: ppd as f32,
+        }
+    }
+
+    pub(super) fn score(&self, img: &Image) -> Vec<RegionError> {
+        let ldr = tone_map(img, |i| {
+            std::array::from_fn(|c| img.rgb[c][i] * self.exposure)
+        });
+        let map = flip_map(&self.truth_ldr, &ldr, img.width, img.height, self.ppd);
+        REGIONS
+            .iter()
+            .zip(&self.masks)
+            .map(|(name, mask)| {
+                let idx: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
+                let n = idx.len().max(1) as f64;
+                let per = |f: &dyn Fn(usize, usize) -> f64| -> [f64; 3] {
+                    std::array::from_fn(|c| idx.iter().map(|&i| f(c, i)).sum::<f64>() / n)
+                };
+                let sq = per(&|c, i| (img.rgb[c][i] - self.truth.rgb[c][i]).powi(2));
+                let diff = per(&|c, i| img.rgb[c][i] - self.truth.rgb[c][i]);
+                let mean = per(&|c, i| self.truth.rgb[c][i]);
+                let var = per(&|c, i| self.stderr[c][i].powi(2));
+                let empty = idx.is_empty();
+                let nan_if = |v: f64| if empty { f64::NAN } else { v };
+                RegionError {
+                    region: name.to_string(),
+                    pixels: idx.len(),
+                    rel_rms: std::array::from_fn(|c| nan_if(sq[c].sqrt() / self.peak[c])),
+                    bias: std::array::from_fn(|c| nan_if(diff[c] / mean[c])),
+                    noise: std::array::from_fn(|c| nan_if(var[c].sqrt() / self.peak[c])),
+                    flip: nan_if(idx.iter().map(|&i| map[i] as f64).sum::<f64>() / n),
+                }
+            })
+            .collect()
+    }
+}
