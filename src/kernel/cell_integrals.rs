@@ -160,12 +160,7 @@ pub(super) fn tent_integrals(interp: &RadialInterp, size: usize, p: f64) -> Vec<
     // Shifted cells [a, a+1] x [b, b+1] (in cells) for 0 <= a, b < half:
     // together the square the tents of the entries up to `half` reach.
     let n = half;
-    let bin_width = interp
-        .nodes()
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(f64::INFINITY, f64::min)
-        .max(p * 1e-3);
+    let bin_width = narrowest_bin(interp, p);
     let octant: Vec<(usize, usize, CellMoments)> = (0..n)
         .into_par_iter()
         .flat_map_iter(|a| {
@@ -293,15 +288,22 @@ fn centre_cell_integral(interp: &RadialInterp, a: f64) -> f64 {
 }
 
 /// Integrals of the reconstruction over each cell (octant, then mirrored).
-pub(super) fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
-    let half = size / 2;
-    // Narrowest bin: the resolution the supersampling must follow.
-    let bin_width = interp
+/// The narrowest spacing of the profile's nodes, the resolution the
+/// supersampling must follow, but at least 1e-3 of the `cell` (a degenerate
+/// grid does not ask for unbounded work).
+fn narrowest_bin(interp: &RadialInterp, cell: f64) -> f64 {
+    interp
         .nodes()
         .windows(2)
         .map(|w| w[1] - w[0])
         .fold(f64::INFINITY, f64::min)
-        .max(cell * 1e-3);
+        .max(cell * 1e-3)
+}
+
+pub(super) fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
+    let half = size / 2;
+    // Narrowest bin: the resolution the supersampling must follow.
+    let bin_width = narrowest_bin(interp, cell);
     // Octant 0 <= dy <= dx <= half.
     let octant: Vec<(usize, usize, f64)> = (0..=half)
         .into_par_iter()
