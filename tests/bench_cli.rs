@@ -55,7 +55,7 @@ fn timestamps_give_one_time_per_frame() {
 
 fn plain_setup(k: &KernelFile) -> ssskit::filter::Setup {
     ssskit::filter::Setup {
-        passes: ssskit::filter::taps_for(k, ssskit::filter::Factors::Taps, None),
+        passes: ssskit::filter::taps_for(k, ssskit::filter::Which::stored(k), None).unwrap(),
         scale: ssskit::filter::Scale::MmPerPixel(0.1),
         depth: None,
         strength: None,

@@ -4,7 +4,7 @@
 mod filter_support;
 use filter_support::*;
 use ssskit::filter::signals::{generate, Signal};
-use ssskit::filter::{cpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use ssskit::filter::{cpu, taps_for, Image, Plane, Scale, Setup, Which};
 use ssskit::kernel::Kernel2D;
 
 fn plain(passes: Vec<ssskit::filter::Taps>, mm: f64) -> Setup {
@@ -91,7 +91,7 @@ fn preintegration_equals_exact_2d_on_the_edge() {
     let exact = cpu::convolve_2d(&edge, &k);
     let full = cpu::apply(
         &edge,
-        &plain(taps_for(&kernel, Factors::Full, Some(mm)), mm),
+        &plain(taps_for(&kernel, Which::Full, Some(mm)).unwrap(), mm),
     )
     .unwrap();
     let e = max_rel(&exact, &full);
@@ -103,7 +103,7 @@ fn preintegration_equals_exact_2d_on_the_edge() {
         e < 1e-9,
         "separable pre-integration vs exact 2D on the edge: {e:e}"
     );
-    let tap_passes = taps_for(&kernel, Factors::Taps, None);
+    let tap_passes = taps_for(&kernel, Which::stored(&kernel), None).unwrap();
     assert_eq!(tap_passes[0].offsets_mm.len(), 17);
     let taps = cpu::apply(&edge, &plain(tap_passes.clone(), mm)).unwrap();
     let shader = jimenez_blur(&edge, &tap_passes, mm);
@@ -121,7 +121,7 @@ fn preintegration_equals_exact_2d_on_the_edge() {
     let exact = cpu::convolve_2d(&shapes, &k);
     let sep = cpu::apply(
         &shapes,
-        &plain(taps_for(&kernel, Factors::Full, Some(mm)), mm),
+        &plain(taps_for(&kernel, Which::Full, Some(mm)).unwrap(), mm),
     )
     .unwrap();
     assert!(max_rel(&exact, &sep) > 1e-3);
@@ -205,11 +205,11 @@ fn constant_stays_constant_and_black_stays_black() {
     let (w, h) = (30, 22);
     for rank in [1, 3] {
         let k = gaussian_kernel(rank, 17);
-        for factors in [Factors::Taps, Factors::Full] {
+        for factors in [Which::stored(&k), Which::Full] {
             let setups = [
-                plain(taps_for(&k, factors, Some(0.2)), 0.2),
+                plain(taps_for(&k, factors, Some(0.2)).unwrap(), 0.2),
                 Setup {
-                    passes: taps_for(&k, factors, None),
+                    passes: taps_for(&k, factors, None).unwrap(),
                     scale: Scale::Perspective {
                         fov_y_deg: 30.0,
                         sss_width: 0.05,
@@ -253,7 +253,7 @@ fn cpu_results_do_not_depend_on_the_thread_count() {
     let setup = Setup {
         follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(1.0)),
         depth: Some(step_depth(50, 40)),
-        ..plain(taps_for(&k, Factors::Taps, None), 0.2)
+        ..plain(taps_for(&k, Which::stored(&k), None).unwrap(), 0.2)
     };
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -312,7 +312,7 @@ fn cli_precision_f32_is_within_round_off_of_f64_which_is_the_library_result() {
     assert_eq!(default.rgb, f32_cli.rgb, "the default is f32");
 
     let (image, _) = read_image(&input, None).unwrap();
-    let setup = plain(taps_for(&kernel, Factors::Full, Some(mm)), mm);
+    let setup = plain(taps_for(&kernel, Which::Full, Some(mm)).unwrap(), mm);
     let lib = cpu::apply(&image, &setup).unwrap();
     for c in 0..3 {
         for (a, b) in lib.rgb[c].iter().zip(&f64_cli.rgb[c]) {

@@ -8,7 +8,7 @@
 mod filter_support;
 use filter_support::*;
 use ssskit::filter::image::PngDepth;
-use ssskit::filter::{cpu, taps_for, Factors, FollowSurface, Image, Plane, Scale, Setup};
+use ssskit::filter::{cpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which};
 
 /// A bright disc on a dimmer wall, the disc nearer: `depth_m` in metres,
 /// given in scene units of `unit_m` metres each.
@@ -40,7 +40,7 @@ fn scene(unit_m: f64) -> (Image, Plane) {
 fn setup(unit_m: f64, depth: Plane, follow: FollowSurface) -> Setup {
     let k = gaussian_kernel(2, 17);
     Setup {
-        passes: taps_for(&k, Factors::Taps, None),
+        passes: taps_for(&k, Which::stored(&k), None).unwrap(),
         scale: Scale::Perspective {
             fov_y_deg: 30.0,
             // A kernel millimetre is a millimetre of the scene.

@@ -5,7 +5,7 @@
 
 mod filter_support;
 use filter_support::*;
-use ssskit::filter::{cpu, gpu, taps_for, Factors, Image, Plane, Scale, Setup};
+use ssskit::filter::{cpu, gpu, taps_for, Image, Plane, Scale, Setup, Which};
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
@@ -88,7 +88,7 @@ fn flat_and_depth_aware(taps: &[usize], mm: f64, jitter: bool) {
         for rank in [1, 3] {
             let k = gaussian_kernel(rank, n);
             let flat = Setup {
-                passes: taps_for(&k, Factors::Taps, None),
+                passes: taps_for(&k, Which::stored(&k), None).unwrap(),
                 scale: Scale::MmPerPixel(mm),
                 depth: None,
                 strength: None,
@@ -148,7 +148,7 @@ fn gpu_equals_cpu_with_strength_specular_and_full_factors() {
             .collect(),
     };
     let setup = Setup {
-        passes: taps_for(&k, Factors::Full, None),
+        passes: taps_for(&k, Which::Full, None).unwrap(),
         scale: Scale::MmPerPixel(0.2),
         depth: Some(depth_with_discontinuities(w, h)),
         strength: Some(strength),

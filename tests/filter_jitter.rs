@@ -5,17 +5,17 @@
 
 mod filter_support;
 use filter_support::*;
-use ssskit::filter::{cpu, jitter_unit, taps_for, Factors, Image, Scale, Setup};
+use ssskit::filter::{cpu, jitter_unit, taps_for, Image, Scale, Setup, Which};
 
 /// 9 taps, kernel +-2 mm at 0.02 mm per pixel: +-100 pixels, tap gaps up
 /// to 44 pixels.
 const MM: f64 = 0.02;
 
-fn setup(factors: Factors, jitter: bool) -> Setup {
+fn setup(factors: Which, jitter: bool) -> Setup {
     let k = gaussian_kernel(1, 9);
-    let uniform = (factors == Factors::Full).then_some(MM);
+    let uniform = (factors == Which::Full).then_some(MM);
     Setup {
-        passes: taps_for(&k, factors, uniform),
+        passes: taps_for(&k, factors, uniform).unwrap(),
         scale: Scale::MmPerPixel(MM),
         depth: None,
         strength: None,
@@ -74,8 +74,8 @@ fn jitter_keeps_the_mean() {
             }
         }
     }
-    let plain = cpu::apply(&img, &setup(Factors::Taps, false)).unwrap();
-    let jittered = cpu::apply(&img, &setup(Factors::Taps, true)).unwrap();
+    let plain = cpu::apply(&img, &setup(Which::Taps(9), false)).unwrap();
+    let jittered = cpu::apply(&img, &setup(Which::Taps(9), true)).unwrap();
     let k = gaussian_kernel(1, 9);
     for c in 0..3 {
         let s: f64 = k.taps.passes[0].weights.iter().map(|w| w[c]).sum();
@@ -105,9 +105,9 @@ fn jitter_removes_the_banding_of_few_taps_on_a_large_kernel() {
             }
         }
     }
-    let reference = cpu::apply(&edge, &setup(Factors::Full, false)).unwrap();
-    let plain = cpu::apply(&edge, &setup(Factors::Taps, false)).unwrap();
-    let jittered = cpu::apply(&edge, &setup(Factors::Taps, true)).unwrap();
+    let reference = cpu::apply(&edge, &setup(Which::Full, false)).unwrap();
+    let plain = cpu::apply(&edge, &setup(Which::Taps(9), false)).unwrap();
+    let jittered = cpu::apply(&edge, &setup(Which::Taps(9), true)).unwrap();
     let row_mean = |img: &Image, c: usize, x: usize| -> f64 {
         (0..h).map(|y| img.rgb[c][y * w + x]).sum::<f64>() / h as f64
     };
@@ -192,7 +192,7 @@ fn cli_jitter_changes_the_image_and_the_reference_refuses_it() {
     let library = cpu::apply(
         &img,
         &Setup {
-            passes: taps_for(&kernel, Factors::Taps, None),
+            passes: taps_for(&kernel, Which::stored(&kernel), None).unwrap(),
             scale: Scale::MmPerPixel(0.1),
             depth: None,
             strength: None,

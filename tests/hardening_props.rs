@@ -4,7 +4,7 @@
 
 use proptest::prelude::*;
 use ssskit::filter::image::{read_image, write_image, PngDepth};
-use ssskit::filter::{check_kernel_fits, cpu, taps_for, Factors, Image, Scale, Setup};
+use ssskit::filter::{check_kernel_fits, cpu, taps_for, Image, Scale, Setup, Which};
 use ssskit::kernel::{fit_kernel_file, Kernel2DSpec, KernelFile, Model as KernelModel, Pass};
 use ssskit::material::{Layer, Material};
 use ssskit::profile::analytic::{self, Model, Options};
@@ -79,9 +79,9 @@ fn image(w: usize, h: usize, values: &[f64]) -> Image {
 
 /// Applies `k` the way `ssskit apply` does; returns the image or the error.
 fn apply(k: &KernelFile, img: &Image, mm: f64) -> ssskit::Result<Image> {
-    check_kernel_fits(k, Factors::Full, Some(mm), img.width, img.height)?;
+    check_kernel_fits(k, Which::Full, Some(mm), img.width, img.height)?;
     let setup = Setup {
-        passes: taps_for(k, Factors::Full, Some(mm)),
+        passes: taps_for(k, Which::Full, Some(mm)).unwrap(),
         scale: Scale::MmPerPixel(mm),
         depth: None,
         strength: None,

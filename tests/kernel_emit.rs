@@ -8,7 +8,7 @@
 mod filter_support;
 use filter_support::*;
 use naga::{Expression, Literal};
-use ssskit::filter::{cpu, gpu, taps_for, Factors, Scale, Setup, Taps};
+use ssskit::filter::{cpu, gpu, taps_for, Scale, Setup, Taps, Which};
 use ssskit::kernel::emit::{emit, Lang};
 use ssskit::kernel::KernelFile;
 use std::path::Path;
@@ -271,7 +271,10 @@ fn emitted_wgsl_array_through_the_wgpu_pass_reproduces_the_cpu() {
         jitter: false,
     };
     let from_wgsl = g.apply(&image, &setup(passes)).unwrap();
-    let cpu = cpu::apply_screen_space(&image, &setup(taps_for(&k, Factors::Taps, None)));
+    let cpu = cpu::apply_screen_space(
+        &image,
+        &setup(taps_for(&k, Which::stored(&k), None).unwrap()),
+    );
     let e = max_rel(&cpu, &from_wgsl);
     eprintln!("emitted WGSL on the GPU vs the kernel file on the CPU: {e:.2e} of the peak");
     assert!(e < 1e-4, "{e}");

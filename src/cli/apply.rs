@@ -9,7 +9,7 @@ use anyhow::Context;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
 use ssskit::filter::warnings::scale_warnings;
 use ssskit::filter::{
-    check_kernel_fits, cpu, gpu, taps_for, Factors, FollowSurface, Image, Plane, Scale, Setup,
+    check_kernel_fits, cpu, gpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which,
 };
 use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
@@ -284,9 +284,9 @@ fn setup_of(
         None => None,
     };
     let factors = if args.taps_only {
-        Factors::Taps
+        Which::stored(kernel)
     } else {
-        Factors::Full
+        Which::Full
     };
     let uniform = match scale {
         Scale::MmPerPixel(m) if strength.is_none() => Some(m),
@@ -295,7 +295,7 @@ fn setup_of(
     check_kernel_fits(kernel, factors, uniform, image.width, image.height)
         .with_context(|| format!("applying {}", kernel_path.display()))?;
     let setup = Setup {
-        passes: taps_for(kernel, factors, uniform),
+        passes: taps_for(kernel, factors, uniform)?,
         scale,
         depth,
         strength,
@@ -308,7 +308,7 @@ fn setup_of(
         .steps(image.width, image.height)
         .into_iter()
         .fold(0.0, f64::max);
-    let sampled = factors == Factors::Taps || uniform.is_none();
+    let sampled = factors != Which::Full || uniform.is_none();
     for w in scale_warnings(&setup.passes, largest_step, sampled) {
         super::errors::warn(&w.to_string());
     }

@@ -7,7 +7,7 @@
 
 use super::gpu::Gpu;
 use super::signals::{generate, Signal};
-use super::{taps_for, Factors, FollowSurface, Plane, Scale, Setup};
+use super::{taps_for, FollowSurface, Plane, Scale, Setup, Which};
 use crate::error::Result;
 use crate::kernel::KernelFile;
 
@@ -66,7 +66,7 @@ pub fn time_post_process(
 ) -> Result<Timing> {
     let image = generate(Signal::Shapes, width, height, 16)?;
     let setup = Setup {
-        passes: taps_for(kernel, Factors::Taps, None),
+        passes: taps_for(kernel, Which::stored(kernel), None)?,
         scale: Scale::Perspective {
             fov_y_deg: FOV_Y_DEG,
             sss_width: SSS_WIDTH,

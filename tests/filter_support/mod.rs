@@ -2,7 +2,7 @@
 //! profiles, images, scenes, and the binary.
 #![allow(dead_code)]
 
-use ssskit::filter::{taps_for, Factors, Image, Plane, Scale, Setup};
+use ssskit::filter::{taps_for, Image, Plane, Scale, Setup, Which};
 use ssskit::kernel::{Kernel2D, KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
 use ssskit::material::preset;
 use ssskit::profile::{Profile, RadialGrid};
@@ -186,7 +186,7 @@ pub fn assert_no_background_bleed(
     }
     let k = gaussian_kernel(rank, taps);
     let mut setup = Setup {
-        passes: taps_for(&k, Factors::Taps, None),
+        passes: taps_for(&k, Which::stored(&k), None).unwrap(),
         scale: Scale::Perspective {
             fov_y_deg: 40.0,
             sss_width: 0.1,

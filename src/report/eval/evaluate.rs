@@ -72,7 +72,8 @@
 use crate::error::{Error, Result};
 use crate::filter::image::linear_to_srgb;
 use crate::filter::signals::{generate, Signal};
-use crate::filter::{cpu, diff, taps_for, Factors, Image, Scale, Setup, Taps};
+pub use crate::filter::Which;
+use crate::filter::{cpu, diff, taps_for, Image, Scale, Setup, Taps};
 use crate::kernel::{Kernel2D, KernelFile};
 use crate::profile::Profile;
 use serde::{Deserialize, Serialize};
@@ -235,80 +236,10 @@ pub struct KernelImageErrors {
     pub taps: BTreeMap<usize, ImageErrors>,
 }
 
-/// Which factors of a kernel run: the full-resolution factors or an N-tap
-/// table (also which image-space error a table shows,
-/// `kernel_compare::Factor`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Which {
-    Full,
-    Taps(usize),
-}
-
-impl Which {
-    pub fn describe(&self) -> String {
-        match self {
-            Which::Full => "full-resolution factors".into(),
-            Which::Taps(n) => format!("{n}-tap table"),
-        }
-    }
-}
-
-/// The passes of `kernel` for `which`: the stored tap table when its count
-/// matches, else a table rebuilt from the full factors.
+/// The passes of `kernel` for `which` ([`taps_for`]: the full factors
+/// resampled to `mm_per_pixel`, the stored table, or one rebuilt).
 pub fn tap_passes(kernel: &KernelFile, which: Which, mm_per_pixel: f64) -> Result<Vec<Taps>> {
-    match which {
-        Which::Full => Ok(taps_for(kernel, Factors::Full, Some(mm_per_pixel))),
-        Which::Taps(n) if n == kernel.taps.count => Ok(taps_for(kernel, Factors::Taps, None)),
-        Which::Taps(n) => {
-            let (k, f) = grid_of(kernel)?;
-            let table = crate::kernel::taps::tap_table(&k, &f, n)?;
-            Ok(table.passes.iter().map(Taps::from).collect())
-        }
-    }
-}
-
-/// The kernel file's full factors on their grid, as the fit produced them,
-/// and the model's own 2D kernel on that grid (the tap table reads only the
-/// grid's geometry).
-fn grid_of(kernel: &KernelFile) -> Result<(Kernel2D, crate::kernel::Factors)> {
-    let first = &kernel.passes[0].offsets_mm;
-    let size = first.len();
-    let uniform = kernel.passes.iter().all(|p| p.offsets_mm == *first)
-        && size % 2 == 1
-        && size >= 3
-        && first[size / 2] == 0.0;
-    let cell = if size >= 3 {
-        (first[size - 1] - first[0]) / (size - 1) as f64
-    } else {
-        0.0
-    };
-    let even = uniform
-        && first
-            .windows(2)
-            .all(|w| ((w[1] - w[0]) - cell).abs() <= 1e-9 * cell);
-    if !even {
-        return Err(Error::Unsupported(format!(
-            "kernel '{}': its factors are not on an odd uniform grid centred on 0, so no \
-             other tap count can be built from them (use its stored {} taps)",
-            kernel.model.name, kernel.taps.count
-        )));
-    }
-    let factors: crate::kernel::Factors = kernel
-        .passes
-        .iter()
-        .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).collect()))
-        .collect();
-    let data = std::array::from_fn(|c| crate::kernel::metrics::reconstruct(&factors, size, c));
-    Ok((
-        Kernel2D {
-            size,
-            cell_mm: cell,
-            data,
-            total_rd: kernel.total_rd,
-            captured: [1.0; 3],
-        },
-        factors,
-    ))
+    taps_for(kernel, which, Some(mm_per_pixel))
 }
 
 /// `case` filtered with `passes` (f64 fixed-kernel path) and the wall time.

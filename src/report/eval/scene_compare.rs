@@ -49,7 +49,7 @@ pub use super::scene_score::{
 use super::scene_score::{masks_of, Scorer};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
-use crate::filter::{angular, cpu, taps_for, Factors, FollowSurface, Image, Plane, Scale, Setup};
+use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which};
 use crate::kernel::angular::AngularFactors;
 use crate::profile::Profile;
 use crate::progress::Progress;
@@ -300,7 +300,7 @@ impl Stage<'_> {
         let label = &f.spec.label;
         let (scale, depth) = (scale_of(self.scene), self.depth.clone());
         let setup = move |follow: Option<f64>| Setup {
-            passes: taps_for(&f.kernel, Factors::Taps, None),
+            passes: taps_for(&f.kernel, Which::stored(&f.kernel), None)?,
             scale,
             depth: Some(depth.clone()),
             strength: None,
