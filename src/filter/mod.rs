@@ -464,7 +464,9 @@ pub fn taps_for(
 /// The kernel file's full factors on their grid, as the fit produced them,
 /// and the model's own 2D kernel on that grid (the tap table reads only the
 /// grid's geometry).
-fn grid_of(kernel: &KernelFile) -> Result<(crate::kernel::Kernel2D, crate::kernel::Factors)> {
+pub(crate) fn grid_of(
+    kernel: &KernelFile,
+) -> Result<(crate::kernel::Kernel2D, crate::kernel::Factors)> {
     let first = &kernel.passes[0].offsets_mm;
     let size = first.len();
     let uniform = kernel.passes.iter().all(|p| p.offsets_mm == *first)

@@ -299,8 +299,9 @@ impl Stage<'_> {
     fn model(&mut self, f: &Fitted, flat: [Option<f64>; 2], follow_c: f64) -> Result<()> {
         let label = &f.spec.label;
         let (scale, depth) = (scale_of(self.scene), self.depth.clone());
+        let passes = taps_for(&f.kernel, Which::stored(&f.kernel), None)?;
         let setup = move |follow: Option<f64>| Setup {
-            passes: taps_for(&f.kernel, Which::stored(&f.kernel), None)?,
+            passes: passes.clone(),
             scale,
             depth: Some(depth.clone()),
             strength: None,
