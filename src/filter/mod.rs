@@ -30,11 +30,13 @@ pub mod separable;
 pub mod signals;
 pub mod timing;
 pub mod warnings;
+pub(crate) mod which;
 
 use crate::error::{Error, Result};
 use crate::kernel::{KernelFile, Pass};
 pub use image::{Image, Plane};
 pub use jitter::{ign_fixed, jitter_unit, GOLDEN_U32, IGN_FRACTION, IGN_X, IGN_Y};
+pub use which::{taps_for, Which};
 
 /// Clamp-to-edge on whole pixels: index `i` of a row or column of `n`
 /// pixels moved to the nearest border pixel.
@@ -403,108 +405,6 @@ impl Setup {
             })
             .collect()
     }
-}
-
-/// Which factors of a kernel file a pass runs: the full-resolution factors
-/// or an N-tap table (the stored one when N is its count, else one rebuilt
-/// from the full factors); also which image-space error a table shows
-/// (`kernel_compare::Factor`). The one such choice in the crate.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Which {
-    Full,
-    Taps(usize),
-}
-
-impl Which {
-    /// The kernel file's own tap table.
-    pub fn stored(kernel: &KernelFile) -> Which {
-        Which::Taps(kernel.taps.count)
-    }
-
-    pub fn describe(&self) -> String {
-        match self {
-            Which::Full => "full-resolution factors".into(),
-            Which::Taps(n) => format!("{n}-tap table"),
-        }
-    }
-}
-
-/// The taps to run for `which` of `kernel`. Full-resolution factors under
-/// a uniform orthographic scale are resampled to whole pixels (each
-/// sample's weight is spread over its cell and integrated over each pixel,
-/// which preserves the sum); otherwise their samples are used as taps. A
-/// tap count other than the stored table's is built from the full factors
-/// ([`crate::kernel::taps::tap_table`]), which needs them on an odd uniform
-/// grid centred on 0.
-pub fn taps_for(
-    kernel: &KernelFile,
-    which: Which,
-    uniform_mm_per_pixel: Option<f64>,
-) -> Result<Vec<Taps>> {
-    Ok(match which {
-        Which::Taps(n) if n == kernel.taps.count => {
-            kernel.taps.passes.iter().map(Taps::from).collect()
-        }
-        Which::Taps(n) => {
-            let (k, f) = grid_of(kernel)?;
-            let table = crate::kernel::taps::tap_table(&k, &f, n)?;
-            table.passes.iter().map(Taps::from).collect()
-        }
-        Which::Full => kernel
-            .passes
-            .iter()
-            .map(|p| match uniform_mm_per_pixel {
-                Some(m) => resample_to_pixels(&Taps::from(p), m),
-                None => Taps::from(p),
-            })
-            .collect(),
-    })
-}
-
-/// The kernel file's full factors on their grid, as the fit produced them,
-/// and the model's own 2D kernel on that grid (the tap table reads only the
-/// grid's geometry).
-pub(crate) fn grid_of(
-    kernel: &KernelFile,
-) -> Result<(crate::kernel::Kernel2D, crate::kernel::Factors)> {
-    let first = &kernel.passes[0].offsets_mm;
-    let size = first.len();
-    let uniform = kernel.passes.iter().all(|p| p.offsets_mm == *first)
-        && size % 2 == 1
-        && size >= 3
-        && first[size / 2] == 0.0;
-    let cell = if size >= 3 {
-        (first[size - 1] - first[0]) / (size - 1) as f64
-    } else {
-        0.0
-    };
-    let even = uniform
-        && first
-            .windows(2)
-            .all(|w| ((w[1] - w[0]) - cell).abs() <= 1e-9 * cell);
-    if !even {
-        return Err(Error::Unsupported(format!(
-            "kernel '{}': its factors are not on an odd uniform grid centred on 0, so no \
-             other tap count can be built from them (use its stored {} taps)",
-            kernel.model.name, kernel.taps.count
-        )));
-    }
-    let factors: crate::kernel::Factors = kernel
-        .passes
-        .iter()
-        .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).collect()))
-        .collect();
-    let data = std::array::from_fn(|c| crate::kernel::metrics::reconstruct(&factors, size, c));
-    Ok((
-        crate::kernel::Kernel2D {
-            size,
-            cell_mm: cell,
-            data,
-            total_rd: kernel.total_rd,
-            captured: [1.0; 3],
-        },
-        factors,
-    ))
 }
 
 /// Pixels a 1D factor sampled at `offsets_mm` covers at `mm` per pixel,

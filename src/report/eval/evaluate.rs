@@ -488,7 +488,7 @@ mod tests {
             },
             mm,
         );
-        let (grid, f) = crate::filter::grid_of(&k).unwrap();
+        let (grid, f) = crate::filter::which::grid_of(&k).unwrap();
         let rebuilt = crate::kernel::taps::tap_table(&grid, &f, 17).unwrap();
         for (a, b) in rebuilt.passes.iter().zip(&k.taps.passes) {
             for (x, y) in a.offsets_mm.iter().zip(&b.offsets_mm) {
