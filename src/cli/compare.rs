@@ -14,8 +14,7 @@ use super::signal::Kind as SignalArg;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
-use ssskit::material::{Channel, Material};
-use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
+use ssskit::material::Material;
 use ssskit::profile::Profile;
 use ssskit::report::evaluate::{self, ImageCase, Options, Which};
 use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
@@ -173,7 +172,6 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
         Some(v) => v.to_vec(),
         None => MaterialsArg::half_space_presets(),
     };
-    let channels = Channel::ALL.to_vec();
     let photons = a.photons.photons.unwrap_or(kernel_compare::MC_PHOTONS);
     if model.analytic().is_none() && photons == 0 {
         return Err(invalid("--photons", 0, "must be > 0"));
@@ -182,23 +180,13 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
         .into_iter()
         .map(|n| -> anyhow::Result<MaterialInput> {
             let m = Material::load(&n).with_context(|| format!("material '{n}'"))?;
-            let profile = match model.analytic() {
-                None => {
-                    let cfg = McConfig {
-                        budget: PhotonBudget::Fixed(photons),
-                        seed: a.seed.seed,
-                        threads: None,
-                        channels: channels.clone(),
-                        grid: None,
-                    };
-                    simulate(&m, &cfg, &Bar::new())?
-                }
-                // The pipeline's closed form: all channels, Fresnel fits,
-                // the default grid.
-                Some(pm) => {
-                    pipeline::make_profile(&m, &ProfileSource::Analytic(pm), &Bar::new())?.0
-                }
+            // The pipeline's builder: all channels, the tracer's work cap,
+            // the analytic models' Fresnel fits and default grid.
+            let source = match model.analytic() {
+                None => ProfileSource::photons(photons, a.seed.seed),
+                Some(pm) => ProfileSource::analytic(pm),
             };
+            let profile = pipeline::make_profile(&m, &source, &Bar::new())?.0;
             Ok(MaterialInput {
                 name: m.name.clone(),
                 profile,
@@ -335,6 +323,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use clap::{Args as _, FromArgMatches};
+    use ssskit::material::Channel;
     use ssskit::profile::analytic::{self, Model};
 
     fn parse(argv: &[&str]) -> Args {
@@ -377,5 +366,39 @@ mod tests {
             assert_eq!(got[0].profile.r_edges, want.r_edges, "{flag}");
             assert_eq!(got[0].profile.rd, want.rd, "{flag}");
         }
+    }
+
+    /// `--profile-model mc`: the tracer's profile with the given photons
+    /// and seed in every channel, as `simulate` makes it.
+    #[test]
+    fn monte_carlo_profiles_use_the_given_photons_and_seed() {
+        use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
+        let a = parse(&[
+            "compare",
+            "--materials",
+            "skin1",
+            "--profile-model",
+            "mc",
+            "--photons",
+            "3000",
+            "--seed",
+            "11",
+            "--out-dir",
+            "out",
+        ]);
+        let got = load_profiles(&a).unwrap();
+        let cfg = McConfig {
+            budget: PhotonBudget::Fixed(3000),
+            seed: 11,
+            threads: None,
+            channels: Channel::ALL.to_vec(),
+            grid: None,
+        };
+        let m = Material::load("skin1").unwrap();
+        let want = simulate(&m, &cfg, &ssskit::progress::NoProgress).unwrap();
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].profile.source.photons, Some(vec![3000; 3]));
+        assert_eq!(got[0].profile.rd, want.rd);
+        assert_eq!(got[0].profile.total_rd, want.total_rd);
     }
 }

@@ -15,7 +15,7 @@ impl ProfileSourceArgs {
             .profile_model
             .ok_or_else(|| anyhow::anyhow!("give --profile-model"))?;
         Ok(match model.analytic() {
-            Some(m) => ProfileSource::Analytic(m),
+            Some(m) => ProfileSource::analytic(m),
             None => {
                 let rel = self
                     .mc_error
@@ -27,11 +27,7 @@ impl ProfileSourceArgs {
                 if self.max_photons.max_photons == 0 {
                     return Err(invalid("--max-photons", 0, "must be > 0"));
                 }
-                ProfileSource::MonteCarlo {
-                    rel_error: rel,
-                    max_photons: self.max_photons.max_photons,
-                    seed: self.seed.seed,
-                }
+                ProfileSource::target_error(rel, self.max_photons.max_photons, self.seed.seed)
             }
         })
     }

@@ -9,8 +9,9 @@ use super::errors::invalid;
 use super::out::out;
 use super::progress::Bar;
 use ssskit::material::{Channel, Material};
-use ssskit::profile::analytic::{self, Model, Options};
-use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
+use ssskit::profile::analytic::{self, Model};
+use ssskit::profile::mc::{self, PhotonBudget};
+use ssskit::profile::source::{make_profile_on, ProfileSource};
 use ssskit::report::{compare, plot};
 
 pub type Args = args::Group<What>;
@@ -95,26 +96,24 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     let out_dir = a.out_dir.path()?;
     std::fs::create_dir_all(out_dir)
         .map_err(|e| anyhow::anyhow!("--out-dir {}: {e}", out_dir.display()))?;
-    let options = Options {
-        fresnel: a.fresnel.fresnel.into(),
-        channels: Channel::ALL.to_vec(),
+    let fresnel = a.fresnel.fresnel.into();
+    // The reference runs to its own budget under the tracer's default work
+    // cap (a reference is not held to the pipeline's minute).
+    let reference_source = ProfileSource::MonteCarlo {
+        budget,
+        seed: a.seed.seed,
+        max_work: mc::DEFAULT_MAX_WORK,
     };
     let mut rows = Vec::new();
     for mat in &materials {
-        let grid = analytic::default_grid(mat, &options.channels)?;
-        let cfg = McConfig {
-            budget: budget.clone(),
-            seed: a.seed.seed,
-            threads: None,
-            channels: options.channels.clone(),
-            grid: Some(grid.clone()),
-        };
-        let reference = simulate(mat, &cfg, &Bar::new())?;
+        let grid = analytic::default_grid(mat, &Channel::ALL)?;
+        let (reference, _) = make_profile_on(mat, &reference_source, Some(&grid), &Bar::new())?;
         let mut models = Vec::new();
         for model in Model::ALL {
             // A model that cannot run here (e.g. the Fresnel fits outside
             // their range) is reported and left out, not fatal for the table.
-            match timed_profile(mat, model, &grid, &options) {
+            let source = ProfileSource::Analytic { model, fresnel };
+            match timed_profile(mat, &source, &grid) {
                 Ok((p, secs)) => {
                     rows.extend(compare::compare(&p, &reference, secs)?);
                     models.push(p);
@@ -155,14 +154,13 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
 /// passed so that microsecond models are timed well.
 fn timed_profile(
     mat: &Material,
-    model: Model,
+    source: &ProfileSource,
     grid: &ssskit::profile::RadialGrid,
-    options: &Options,
 ) -> anyhow::Result<(ssskit::profile::Profile, f64)> {
     let start = std::time::Instant::now();
     let mut runs = 0u32;
     loop {
-        let p = analytic::profile(mat, model, grid, options)?;
+        let (p, _) = make_profile_on(mat, source, Some(grid), &ssskit::progress::NoProgress)?;
         runs += 1;
         let el = start.elapsed().as_secs_f64();
         if el > 0.05 || runs >= 1000 {

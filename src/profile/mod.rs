@@ -10,11 +10,13 @@ pub mod interp;
 pub mod mc;
 pub mod metrics;
 pub mod radius;
+pub mod source;
 
 pub use grid::RadialGrid;
 pub use grid_spec::GridSpec;
 pub use interp::RadialInterp;
 pub use radius::radius_holding;
+pub use source::{make_profile, make_profile_on, ProfileSource};
 
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};

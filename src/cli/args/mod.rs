@@ -47,7 +47,7 @@ pub enum Backend {
     Auto,
 }
 
-/// How a profile is made from a material (`ssskit::report::pipeline::ProfileSource`).
+/// How a profile is made from a material (`ssskit::profile::ProfileSource`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ProfileModel {
     /// Monte Carlo photon tracing (the simulate tracer).
@@ -300,8 +300,10 @@ pub fn profile_source(model: ProfileModel) -> impl FnMut(clap::Arg) -> clap::Arg
             .conflicts_with_all(["material", "profile_model"])
             .help("Reflectance profile file (ssskit.profile/1 JSON): read, not made"),
         "profile_model" => default_enum(model)(a),
-        "mc_error" => default(pipeline::MC_REL_ERROR)(a),
-        "max_photons" => default(count_text(pipeline::MC_MAX_PHOTONS))(a).alias("mc-photons"),
+        "mc_error" => default(ssskit::profile::source::MC_REL_ERROR)(a),
+        "max_photons" => {
+            default(count_text(ssskit::profile::source::MC_MAX_PHOTONS))(a).alias("mc-photons")
+        }
         _ => a,
     }
 }

@@ -12,135 +12,16 @@ use crate::filter::signals::Signal;
 use crate::io::{file_stem, join_inside};
 use crate::kernel::emit::{emit, Lang};
 use crate::kernel::KernelFile;
-use crate::material::{Channel, Material};
-use crate::profile::analytic::{self, Model as AnalyticModel};
-use crate::profile::mc::{self, McConfig, McOptions, PhotonBudget};
-use crate::profile::{Profile, RadialGrid};
+use crate::profile::Profile;
 use crate::progress::Progress;
 use crate::report::kernel_report::{self, ReportContext};
 use crate::report::{kernel_plots, plot};
 use std::path::Path;
-use std::time::Instant;
 
-/// Where the profile comes from.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ProfileSource {
-    /// Monte Carlo until the relative standard error of the total and of
-    /// the profile inside r99 is under `rel_error` in every channel, or
-    /// `max_photons` per channel, or [`MC_MAX_WORK`] events per channel.
-    MonteCarlo {
-        rel_error: f64,
-        max_photons: u64,
-        seed: u64,
-    },
-    /// Monte Carlo with a fixed photon count per channel (tracer defaults).
-    Photons { photons: u64, seed: u64 },
-    /// A closed-form model on the default radial grid.
-    Analytic(AnalyticModel),
-}
-
-/// Default Monte Carlo accuracy of the pipeline: 2% relative standard error,
-/// enough for the kernels (the tap tables' own image error is larger).
-pub const MC_REL_ERROR: f64 = 0.02;
-/// Photon cap per channel of the pipeline's Monte Carlo.
-pub const MC_MAX_PHOTONS: u64 = 2_000_000;
-/// Event cap per channel (about 4 s of one core at 2.5e7 events/s): keeps
-/// slow media (albedo near 1) inside the pipeline's minute.
-pub const MC_MAX_WORK: u64 = 100_000_000;
-pub const MC_SEED: u64 = mc::DEFAULT_SEED;
-
-impl ProfileSource {
-    pub fn monte_carlo() -> ProfileSource {
-        ProfileSource::MonteCarlo {
-            rel_error: MC_REL_ERROR,
-            max_photons: MC_MAX_PHOTONS,
-            seed: MC_SEED,
-        }
-    }
-
-    pub fn describe(&self) -> String {
-        match self {
-            ProfileSource::MonteCarlo {
-                rel_error,
-                max_photons,
-                seed,
-            } => format!(
-                "Monte Carlo to {:.1}% relative standard error (at most {max_photons} photons \
-                 per channel, seed {seed})",
-                100.0 * rel_error
-            ),
-            ProfileSource::Photons { photons, seed } => {
-                format!("Monte Carlo, {photons} photons per channel (seed {seed})")
-            }
-            ProfileSource::Analytic(m) => format!("analytic {} (closed form)", m.name()),
-        }
-    }
-}
-
-/// The profile of `material` from `source`, and the seconds it took.
-pub fn make_profile(
-    material: &Material,
-    source: &ProfileSource,
-    progress: &dyn Progress,
-) -> Result<(Profile, f64)> {
-    make_profile_on(material, source, None, progress)
-}
-
-/// [`make_profile`] on `grid` (None: Monte Carlo's own grid, the analytic
-/// models' default grid).
-pub fn make_profile_on(
-    material: &Material,
-    source: &ProfileSource,
-    grid: Option<&RadialGrid>,
-    progress: &dyn Progress,
-) -> Result<(Profile, f64)> {
-    let t0 = Instant::now();
-    let channels = Channel::ALL.to_vec();
-    let mc_config = |budget: PhotonBudget, seed: u64| McConfig {
-        budget,
-        seed,
-        threads: None,
-        channels: channels.clone(),
-        grid: grid.cloned(),
-    };
-    let p = match *source {
-        ProfileSource::MonteCarlo {
-            rel_error,
-            max_photons,
-            seed,
-        } => {
-            let budget = PhotonBudget::TargetError {
-                rel: rel_error,
-                max_photons,
-            };
-            let opts = McOptions {
-                max_work: MC_MAX_WORK,
-                ..McOptions::default()
-            };
-            mc::simulate_with(material, &mc_config(budget, seed), &opts, progress)?
-        }
-        ProfileSource::Photons { photons, seed } => {
-            let cfg = mc_config(PhotonBudget::Fixed(photons), seed);
-            mc::simulate(material, &cfg, progress)?
-        }
-        ProfileSource::Analytic(m) => {
-            let grid = match grid {
-                Some(g) => g.clone(),
-                None => analytic::default_grid(material, &channels)?,
-            };
-            analytic::profile(
-                material,
-                m,
-                &grid,
-                &analytic::Options {
-                    channels,
-                    ..analytic::Options::default()
-                },
-            )?
-        }
-    };
-    Ok((p, t0.elapsed().as_secs_f64()))
-}
+pub use crate::profile::source::{
+    make_profile, make_profile_on, ProfileSource, MC_MAX_PHOTONS, MC_MAX_WORK, MC_REL_ERROR,
+    MC_SEED,
+};
 
 /// Settings of the pipeline.
 #[derive(Clone, Debug)]

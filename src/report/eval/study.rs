@@ -175,10 +175,7 @@ impl<'a> Bench<'a> {
         let mut entries = Vec::new();
         let mut last = None;
         for &n in &s.photons {
-            let source = ProfileSource::Photons {
-                photons: n,
-                seed: s.seed,
-            };
+            let source = ProfileSource::photons(n, s.seed);
             let (p, secs) =
                 make_profile_on(&self.reference.material, &source, Some(&grid), &NoProgress)?;
             let rows = profile_compare::compare(&p, self.reference, secs)?;
@@ -213,7 +210,7 @@ impl<'a> Bench<'a> {
                 AnalyticModel::Dipole,
                 AnalyticModel::Burley,
             ] {
-                let source = ProfileSource::Analytic(m);
+                let source = ProfileSource::analytic(m);
                 let (profile, seconds) =
                     make_profile_on(material, &source, Some(&grid), &NoProgress)?;
                 sources.push(Made {

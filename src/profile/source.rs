@@ -1,0 +1,206 @@
+//! The one way a command makes a profile from a material: Monte Carlo to a
+//! budget or a closed-form model, on a given grid or the method's own.
+//! `advise`, `kernels`, `study`, `compare` and `profiles compare` all call
+//! [`make_profile_on`], so their seeds, budgets, work caps and Fresnel terms
+//! are stated once here (`simulate` and `profile` expose every option of
+//! their method and call it directly).
+
+use crate::error::Result;
+use crate::material::{Channel, Material};
+use crate::profile::analytic::{self, Model as AnalyticModel};
+use crate::profile::fresnel::FresnelMode;
+use crate::profile::mc::{self, McConfig, McOptions, PhotonBudget};
+use crate::profile::{Profile, RadialGrid};
+use crate::progress::Progress;
+use std::time::Instant;
+
+/// Where the profile comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ProfileSource {
+    /// Monte Carlo in every channel to `budget`, stopping at `max_work`
+    /// events per channel (a fixed count above it is refused up front).
+    MonteCarlo {
+        budget: PhotonBudget,
+        seed: u64,
+        max_work: u64,
+    },
+    /// A closed-form model, with its Fresnel terms.
+    Analytic {
+        model: AnalyticModel,
+        fresnel: FresnelMode,
+    },
+}
+
+/// Default Monte Carlo accuracy of the pipeline: 2% relative standard error,
+/// enough for the kernels (the tap tables' own image error is larger).
+pub const MC_REL_ERROR: f64 = 0.02;
+/// Photon cap per channel of the pipeline's Monte Carlo.
+pub const MC_MAX_PHOTONS: u64 = 2_000_000;
+/// Event cap per channel of the pipeline's target-error runs (about 4 s of
+/// one core at 2.5e7 events/s): keeps slow media (albedo near 1) inside the
+/// pipeline's minute.
+pub const MC_MAX_WORK: u64 = 100_000_000;
+pub const MC_SEED: u64 = mc::DEFAULT_SEED;
+
+impl ProfileSource {
+    /// The pipeline's Monte Carlo: [`MC_REL_ERROR`], at most
+    /// [`MC_MAX_PHOTONS`] photons and [`MC_MAX_WORK`] events per channel.
+    pub fn monte_carlo() -> ProfileSource {
+        ProfileSource::target_error(MC_REL_ERROR, MC_MAX_PHOTONS, MC_SEED)
+    }
+
+    /// Monte Carlo to `rel_error` with the pipeline's work cap.
+    pub fn target_error(rel_error: f64, max_photons: u64, seed: u64) -> ProfileSource {
+        ProfileSource::MonteCarlo {
+            budget: PhotonBudget::TargetError {
+                rel: rel_error,
+                max_photons,
+            },
+            seed,
+            max_work: MC_MAX_WORK,
+        }
+    }
+
+    /// Monte Carlo with `photons` per channel, under the tracer's default
+    /// work cap.
+    pub fn photons(photons: u64, seed: u64) -> ProfileSource {
+        ProfileSource::MonteCarlo {
+            budget: PhotonBudget::Fixed(photons),
+            seed,
+            max_work: mc::DEFAULT_MAX_WORK,
+        }
+    }
+
+    /// A closed-form model with the fitted Fresnel moments.
+    pub fn analytic(model: AnalyticModel) -> ProfileSource {
+        ProfileSource::Analytic {
+            model,
+            fresnel: FresnelMode::Fit,
+        }
+    }
+
+    pub fn describe(&self) -> String {
+        match self {
+            ProfileSource::MonteCarlo { budget, seed, .. } => match *budget {
+                PhotonBudget::Fixed(n) => {
+                    format!("Monte Carlo, {n} photons per channel (seed {seed})")
+                }
+                PhotonBudget::TargetError { rel, max_photons }
+                | PhotonBudget::KernelFactor { rel, max_photons } => format!(
+                    "Monte Carlo to {:.1}% relative standard error (at most {max_photons} \
+                     photons per channel, seed {seed})",
+                    100.0 * rel
+                ),
+            },
+            ProfileSource::Analytic { model, fresnel } => match fresnel {
+                FresnelMode::Fit => format!("analytic {} (closed form)", model.name()),
+                FresnelMode::Exact => format!(
+                    "analytic {} (closed form, exact Fresnel moments)",
+                    model.name()
+                ),
+            },
+        }
+    }
+}
+
+/// The profile of `material` from `source` in every channel, and the
+/// seconds it took.
+pub fn make_profile(
+    material: &Material,
+    source: &ProfileSource,
+    progress: &dyn Progress,
+) -> Result<(Profile, f64)> {
+    make_profile_on(material, source, None, progress)
+}
+
+/// [`make_profile`] on `grid` (None: Monte Carlo's own grid, the analytic
+/// models' default grid).
+pub fn make_profile_on(
+    material: &Material,
+    source: &ProfileSource,
+    grid: Option<&RadialGrid>,
+    progress: &dyn Progress,
+) -> Result<(Profile, f64)> {
+    let t0 = Instant::now();
+    let channels = Channel::ALL.to_vec();
+    let p = match source {
+        ProfileSource::MonteCarlo {
+            budget,
+            seed,
+            max_work,
+        } => {
+            let cfg = McConfig {
+                budget: budget.clone(),
+                seed: *seed,
+                threads: None,
+                channels,
+                grid: grid.cloned(),
+            };
+            let opts = McOptions {
+                max_work: *max_work,
+                ..McOptions::default()
+            };
+            mc::simulate_with(material, &cfg, &opts, progress)?
+        }
+        ProfileSource::Analytic { model, fresnel } => {
+            let grid = match grid {
+                Some(g) => g.clone(),
+                None => analytic::default_grid(material, &channels)?,
+            };
+            let options = analytic::Options {
+                fresnel: *fresnel,
+                channels,
+            };
+            analytic::profile(material, *model, &grid, &options)?
+        }
+    };
+    Ok((p, t0.elapsed().as_secs_f64()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::NoProgress;
+
+    /// Each source runs the method it names with the settings it states:
+    /// the profile's own provenance says so.
+    #[test]
+    fn each_source_makes_the_profile_it_describes() {
+        let m = Material::load("skin1").unwrap();
+        let (p, _) = make_profile(&m, &ProfileSource::photons(2000, 7), &NoProgress).unwrap();
+        assert_eq!(p.source.kind, "monte-carlo");
+        assert_eq!(p.source.seed, Some(7));
+        assert_eq!(p.source.photons, Some(vec![2000; 3]));
+        assert_eq!(p.channels, Channel::ALL.to_vec());
+
+        let exact = ProfileSource::Analytic {
+            model: AnalyticModel::Dipole,
+            fresnel: FresnelMode::Exact,
+        };
+        let fit = ProfileSource::analytic(AnalyticModel::Dipole);
+        let (pe, _) = make_profile(&m, &exact, &NoProgress).unwrap();
+        let (pf, _) = make_profile(&m, &fit, &NoProgress).unwrap();
+        assert_eq!(pe.source.model.as_deref(), Some("dipole"));
+        // skin1 has eta 1.4: the exact and fitted Fresnel moments differ,
+        // so the source's Fresnel mode must reach the model.
+        assert_ne!(pe.total_rd, pf.total_rd);
+        assert!(exact.describe().contains("exact"));
+
+        let grid = RadialGrid::uniform(0.05, 4.0).unwrap();
+        let (pg, _) = make_profile_on(&m, &fit, Some(&grid), &NoProgress).unwrap();
+        assert_eq!(pg.r_edges, grid.edges);
+    }
+
+    /// A fixed count over the source's work cap is refused before tracing.
+    #[test]
+    fn a_fixed_count_over_the_work_cap_is_refused() {
+        let m = Material::load("skin1").unwrap();
+        let s = ProfileSource::MonteCarlo {
+            budget: PhotonBudget::Fixed(1_000_000),
+            seed: 1,
+            max_work: 1000,
+        };
+        let e = make_profile(&m, &s, &NoProgress).unwrap_err().to_string();
+        assert!(e.contains("max_work"), "{e}");
+    }
+}
