@@ -8,6 +8,7 @@ use super::kernel2d::multiplicity;
 use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
+use crate::numerics::nelder_mead;
 use serde_json::json;
 
 /// Gaussians in a sum by default: four, the sum of the reference kernels
@@ -328,79 +329,6 @@ pub fn fit_gaussians(k: &Kernel2D, count: usize) -> Result<(Factors, serde_json:
         f,
         json!({"count": count, "variances_mm2": v3, "weights": w3}),
     ))
-}
-
-/// Plain Nelder-Mead (adaptive to dimension is not needed here: <= 12 dims),
-/// coordinates clamped into `bounds`.
-pub fn nelder_mead(
-    f: impl Fn(&[f64]) -> f64,
-    x0: &[f64],
-    step: f64,
-    bounds: (f64, f64),
-    max_evals: usize,
-) -> Vec<f64> {
-    let d = x0.len();
-    let clamp = |x: &mut Vec<f64>| x.iter_mut().for_each(|v| *v = v.clamp(bounds.0, bounds.1));
-    let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(d + 1);
-    simplex.push((x0.to_vec(), f(x0)));
-    for i in 0..d {
-        let mut x = x0.to_vec();
-        x[i] += step;
-        clamp(&mut x);
-        let fx = f(&x);
-        simplex.push((x, fx));
-    }
-    let mut evals = d + 1;
-    while evals < max_evals {
-        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let (fb, fw) = (simplex[0].1, simplex[d].1);
-        if (fw - fb).abs() <= 1e-13 * fb.abs().max(1e-300) {
-            break;
-        }
-        let centroid: Vec<f64> = (0..d)
-            .map(|j| simplex[..d].iter().map(|s| s.0[j]).sum::<f64>() / d as f64)
-            .collect();
-        let point = |t: f64| -> Vec<f64> {
-            let mut x: Vec<f64> = (0..d)
-                .map(|j| centroid[j] + t * (simplex[d].0[j] - centroid[j]))
-                .collect();
-            clamp(&mut x);
-            x
-        };
-        let xr = point(-1.0);
-        let fr = f(&xr);
-        evals += 1;
-        if fr < simplex[0].1 {
-            let xe = point(-2.0);
-            let fe = f(&xe);
-            evals += 1;
-            simplex[d] = if fe < fr { (xe, fe) } else { (xr, fr) };
-        } else if fr < simplex[d - 1].1 {
-            simplex[d] = (xr, fr);
-        } else {
-            let xc = if fr < simplex[d].1 {
-                point(-0.5)
-            } else {
-                point(0.5)
-            };
-            let fc = f(&xc);
-            evals += 1;
-            if fc < simplex[d].1.min(fr) {
-                simplex[d] = (xc, fc);
-            } else {
-                let best = simplex[0].0.clone();
-                for s in simplex.iter_mut().skip(1) {
-                    for (x, b) in s.0.iter_mut().zip(&best) {
-                        *x = b + 0.5 * (*x - b);
-                    }
-                    s.1 = f(&s.0);
-                    evals += 1;
-                }
-            }
-        }
-    }
-    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-    simplex.swap_remove(0).0
 }
 
 #[cfg(test)]

@@ -31,7 +31,7 @@ use clap::builder::PossibleValue;
 use clap::ValueEnum;
 use ssskit::material::Channel;
 use ssskit::profile::mc;
-use ssskit::report::{evaluate, pipeline};
+use ssskit::report::evaluate;
 use std::path::{Path, PathBuf};
 
 // ---- Shared enumerations ---------------------------------------------------
