@@ -151,10 +151,10 @@ pub fn bisect(f: impl Fn(f64) -> f64, lo: f64, hi: f64, iterations: usize) -> f6
 /// bounds. Tried with a clamped cost and a penalty outside the box, its
 /// simplex stops where the kernel fits' misfit (written up to the constant
 /// ||R||^2, so it resolves only about sqrt(eps) of the kernel's norm) no
-/// longer changes: on a one-cell kernel the manual fit ended 8e-9 from the
-/// exact delta, which this projection reaches; on the committed kernels its
-/// fits matched these to 5 digits except one Gaussian mixture (a different
-/// local minimum).
+/// longer changes, short of the exact delta that this projection reaches on
+/// a one-cell kernel (the size-1 case of
+/// `degenerate_profiles_give_errors_or_results_never_panics` in
+/// tests/kernel_models.rs fails with it).
 pub fn nelder_mead(
     f: impl Fn(&[f64]) -> f64,
     x0: &[f64],
