@@ -3,8 +3,10 @@
 //! in layer 0. The table is read from DEVELOPERS.md, and every module that
 //! `src/lib.rs` declares must be in it.
 
+mod common;
+
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -28,18 +30,6 @@ fn layers() -> BTreeMap<String, u32> {
         }
     }
     out
-}
-
-/// Every .rs file under `dir`.
-fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            sources(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
 }
 
 /// The modules each `crate::NAME` of `code` names, with their line numbers;
@@ -104,8 +94,7 @@ fn no_module_imports_a_higher_layer() {
             "module {m} is in no layer of DEVELOPERS.md"
         );
     }
-    let mut paths = Vec::new();
-    sources(&Path::new(REPO).join("src"), &mut paths);
+    let paths = common::rust_sources(&Path::new(REPO).join("src"));
     let mut files = Vec::new();
     for p in paths {
         let rel = p.strip_prefix(REPO).unwrap().to_string_lossy().into_owned();

@@ -3,22 +3,13 @@
 //! over [`MAX_FN_LINES`] from its `fn` line to its closing brace. The
 //! scanner is checked on strings, characters, comments and nested bodies.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
 const MAX_FILE_LINES: usize = 650;
 const MAX_FN_LINES: usize = 120;
-
-fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            sources(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-}
 
 /// The braces of `line` outside string and character literals and `//`
 /// comments, as +1 / -1, with the string state carried across lines.
@@ -122,9 +113,7 @@ fn the_scanner_counts_bodies_not_braces_in_text() {
 
 #[test]
 fn no_source_file_or_function_is_longer_than_the_limits() {
-    let mut files = Vec::new();
-    sources(&Path::new(REPO).join("src"), &mut files);
-    files.sort();
+    let files = common::rust_sources(&Path::new(REPO).join("src"));
     assert!(files.len() > 50, "{} files", files.len());
     let mut over = Vec::new();
     let mut counted = 0;

@@ -66,9 +66,7 @@ pub fn taps_for(
 /// The kernel file's full factors on their grid, as the fit produced them,
 /// and the model's own 2D kernel on that grid (the tap table reads only the
 /// grid's geometry).
-pub(crate) fn grid_of(
-    kernel: &KernelFile,
-) -> Result<(crate::kernel::Kernel2D, crate::kernel::Factors)> {
+fn grid_of(kernel: &KernelFile) -> Result<(crate::kernel::Kernel2D, crate::kernel::Factors)> {
     let first = &kernel.passes[0].offsets_mm;
     let size = first.len();
     let uniform = kernel.passes.iter().all(|p| p.offsets_mm == *first)
@@ -107,4 +105,42 @@ pub(crate) fn grid_of(
         },
         factors,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::{fit_kernel_file, Kernel2DSpec, Model};
+
+    /// The factors and grid read back from a kernel file rebuild its stored
+    /// tap table exactly: what `taps_for` does for another tap count starts
+    /// from the fit's own factors.
+    #[test]
+    fn a_rebuilt_tap_table_equals_the_fitted_one() {
+        let m = crate::material::preset("skin1").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.01, 8.0).unwrap();
+        let p = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let spec = Kernel2DSpec {
+            size: Some(41),
+            extent_mm: None,
+        };
+        let model = Model::Svd {
+            rank: 2,
+            renormalize: false,
+        };
+        let k = fit_kernel_file(&p, &spec, &model, 17).unwrap();
+        let (grid, f) = grid_of(&k).unwrap();
+        let rebuilt = crate::kernel::taps::tap_table(&grid, &f, 17).unwrap();
+        assert_eq!(rebuilt.passes.len(), k.taps.passes.len());
+        for (a, b) in rebuilt.passes.iter().zip(&k.taps.passes) {
+            for (x, y) in a.offsets_mm.iter().zip(&b.offsets_mm) {
+                assert!((x - y).abs() < 1e-12);
+            }
+            for (x, y) in a.weights.iter().zip(&b.weights) {
+                for c in 0..3 {
+                    assert!((x[c] - y[c]).abs() < 1e-12 * y[c].abs().max(1e-300));
+                }
+            }
+        }
+    }
 }

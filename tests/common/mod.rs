@@ -343,3 +343,22 @@ pub mod measured {
         }
     }
 }
+
+/// Every .rs file under `dir`, recursively (the source scanners of
+/// tests/layers.rs and tests/sizes.rs).
+pub fn rust_sources(dir: &Path) -> Vec<std::path::PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                walk(&p, out);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push(p);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(dir, &mut out);
+    out.sort();
+    out
+}

@@ -477,32 +477,6 @@ mod tests {
     }
 
     #[test]
-    fn a_rebuilt_tap_table_equals_the_fitted_one() {
-        let p = profile();
-        let mm = scale(&p);
-        let k = kernel(
-            &p,
-            Model::Svd {
-                rank: 2,
-                renormalize: false,
-            },
-            mm,
-        );
-        let (grid, f) = crate::filter::which::grid_of(&k).unwrap();
-        let rebuilt = crate::kernel::taps::tap_table(&grid, &f, 17).unwrap();
-        for (a, b) in rebuilt.passes.iter().zip(&k.taps.passes) {
-            for (x, y) in a.offsets_mm.iter().zip(&b.offsets_mm) {
-                assert!((x - y).abs() < 1e-12);
-            }
-            for (x, y) in a.weights.iter().zip(&b.weights) {
-                for c in 0..3 {
-                    assert!((x[c] - y[c]).abs() < 1e-12 * y[c].abs().max(1e-300));
-                }
-            }
-        }
-    }
-
-    #[test]
     fn flip_sees_a_blur_and_rms_matches_its_definition() {
         let p = profile();
         let mm = scale(&p);

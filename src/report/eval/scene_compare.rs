@@ -283,12 +283,13 @@ impl Stage<'_> {
         let plain = exact(&self.irradiance)?;
         self.push("exact-2d", "baseline", [None, None], plain.clone());
         if let Some(f) = self.angular {
+            // `around` with the entry blur kept: one convolution each.
             let nl = self.cosines.n_dot_l.as_deref().unwrap_or(&[]);
             let entry = exact(&angular::entry_weighted(&self.irradiance, nl, f)?)?;
+            let both = angular::exit_weighted(&entry, &self.cosines.n_dot_v, f)?;
             self.push("exact-2d", "entry", [None, None], entry);
             let exit = angular::exit_weighted(&plain, &self.cosines.n_dot_v, f)?;
             self.push("exact-2d", "exit", [None, None], exit);
-            let both = self.around(f, &exact)?;
             self.push("exact-2d", "entry+exit", [None, None], both);
         }
         Ok(())
