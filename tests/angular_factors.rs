@@ -181,6 +181,28 @@ fn the_glsl_and_hlsl_headers_carry_the_tables() {
     assert!(!emit(&plain, Lang::Hlsl).unwrap().contains("sss_entry"));
 }
 
+/// `simulate` of skin1 (3000 photons, `extra` flags) to `DIR/PROFILE.json`,
+/// then `fit --model svd` of it to `DIR/KERNEL.json`.
+fn simulate_and_fit(dir: &std::path::Path, profile: &str, kernel: &str, extra: &[&str]) {
+    let (pj, kj) = (
+        dir.join(format!("{profile}.json")),
+        dir.join(format!("{kernel}.json")),
+    );
+    let mut args = vec!["simulate", "--material", "skin1", "--photons", "3000"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", p(&pj)]);
+    ok(&args);
+    ok(&[
+        "fit",
+        "--profile",
+        p(&pj),
+        "--model",
+        "svd",
+        "--out",
+        p(&kj),
+    ]);
+}
+
 /// `simulate` with exit bins and oblique incidences, then `fit`: the kernel
 /// file carries the tables the profile's record gives, reads back, and a
 /// corrupted table is refused naming its field.
@@ -188,28 +210,12 @@ fn the_glsl_and_hlsl_headers_carry_the_tables() {
 fn fit_carries_the_tables_of_an_angular_profile() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&[
-        "simulate",
-        "--material",
-        "skin1",
-        "--photons",
-        "3000",
-        "--angle-bins",
-        "30",
-        "--incidence",
-        "30,60,80",
-        "--out",
-        p(&d.join("p.json")),
-    ]);
-    ok(&[
-        "fit",
-        "--profile",
-        p(&d.join("p.json")),
-        "--model",
-        "svd",
-        "--out",
-        p(&d.join("k.json")),
-    ]);
+    simulate_and_fit(
+        d,
+        "p",
+        "k",
+        &["--angle-bins", "30", "--incidence", "30,60,80"],
+    );
     let prof = ssskit::profile::Profile::read(&d.join("p.json")).unwrap();
     let want = AngularFactors::from_profile(&prof).unwrap().unwrap();
     let k = read_json(&d.join("k.json"));
@@ -232,24 +238,7 @@ fn fit_carries_the_tables_of_an_angular_profile() {
         &["angular.exit[2][1]"],
     );
     // A profile without the tables gives a kernel without them.
-    ok(&[
-        "simulate",
-        "--material",
-        "skin1",
-        "--photons",
-        "3000",
-        "--out",
-        p(&d.join("q.json")),
-    ]);
-    ok(&[
-        "fit",
-        "--profile",
-        p(&d.join("q.json")),
-        "--model",
-        "svd",
-        "--out",
-        p(&d.join("l.json")),
-    ]);
+    simulate_and_fit(d, "q", "l", &[]);
     assert!(read_json(&d.join("l.json")).get("angular").is_none());
 }
 
@@ -268,33 +257,21 @@ fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
         .unwrap()
         .replace("size = [192, 192]", "size = [48, 48]");
     std::fs::write(d.join("s.toml"), &scene).unwrap();
-    ok(&[
-        "scene",
-        p(&d.join("s.toml")),
-        "--out",
-        p(&d.join("s.exr")),
-        "--spp",
-        "64",
-        "--profile-photons",
-        "1e5",
-    ]);
+    let (toml, exr) = (d.join("s.toml"), d.join("s.exr"));
+    common::render_scene(&toml, &exr, "64", "1e5", &[]);
     let cmp = d.join("cmp");
-    ok(&[
-        "compare",
-        "--scene",
-        p(&d.join("s.toml")),
-        "--render",
-        p(&d.join("s.exr")),
-        "--models",
-        "preintegrate,jimenez",
-        "--signal-size",
-        "32",
-        "--angular-photons",
-        "2e4",
-        "--no-plots",
-        "--out-dir",
-        p(&cmp),
-    ]);
+    common::compare_scene(
+        &toml,
+        &exr,
+        &cmp,
+        &[
+            "--models",
+            "preintegrate,jimenez",
+            "--angular-photons",
+            "2e4",
+            "--no-plots",
+        ],
+    );
     let j = read_json(&cmp.join("scene.json"));
     let rows = j["rows"].as_array().unwrap();
     let region = |label: &str, variant: &str, name: &str| -> serde_json::Value {
@@ -375,30 +352,14 @@ fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
         "[[light]]\ntype = \"environment\"\nradiance = 0.1\n[[object]]",
     );
     std::fs::write(d.join("e.toml"), &lit).unwrap();
-    ok(&[
-        "scene",
-        p(&d.join("e.toml")),
-        "--out",
-        p(&d.join("e.exr")),
-        "--spp",
-        "4",
-        "--profile-photons",
-        "1e4",
-    ]);
-    let (_, err) = common::ok_both(&[
-        "compare",
-        "--scene",
-        p(&d.join("e.toml")),
-        "--render",
-        p(&d.join("e.exr")),
-        "--models",
-        "preintegrate",
-        "--signal-size",
-        "32",
-        "--no-plots",
-        "--out-dir",
-        p(&d.join("cmp-e")),
-    ]);
+    let (toml, exr) = (d.join("e.toml"), d.join("e.exr"));
+    common::render_scene(&toml, &exr, "4", "1e4", &[]);
+    let (_, err) = common::compare_scene(
+        &toml,
+        &exr,
+        &d.join("cmp-e"),
+        &["--models", "preintegrate", "--no-plots"],
+    );
     assert!(err.contains("one directional light and no other"), "{err}");
     let j = read_json(&d.join("cmp-e").join("scene.json"));
     assert!(j["angular"].is_null());

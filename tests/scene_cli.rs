@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{fails_with, ok, p, read_json};
+use common::{fails_with, p, read_json};
 use ssskit::filter::image::{read_exr_channels, read_image};
 use ssskit::progress::NoProgress;
 use ssskit::scene::{parse_scene_toml, render, RenderConfig, SampleBudget};
@@ -65,20 +65,19 @@ fn scene_writes_radiance_gbuffer_and_record() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("s.toml"), SPHERE).unwrap();
-    let out = ok(&[
-        "scene",
-        p(&d.join("s.toml")),
-        "--out",
-        p(&d.join("s.exr")),
-        "--spp",
+    let (toml, exr) = (d.join("s.toml"), d.join("s.exr"));
+    let out = common::render_scene(
+        &toml,
+        &exr,
         "8",
-        "--profile-photons",
         "20000",
-        "--irradiance-out",
-        p(&d.join("irr.exr")),
-        "--preview",
-        p(&d.join("s.png")),
-    ]);
+        &[
+            "--irradiance-out",
+            p(&d.join("irr.exr")),
+            "--preview",
+            p(&d.join("s.png")),
+        ],
+    );
     assert!(
         out.contains("16x12 pixels, 8 / 8 / 8 samples per pixel"),
         "{out}"
@@ -141,23 +140,19 @@ fn scene_writes_radiance_gbuffer_and_record() {
 
     // compare --scene on it: every model, both variants, the baselines.
     let cmp = d.join("cmp");
-    let text = ok(&[
-        "compare",
-        "--scene",
-        p(&d.join("s.toml")),
-        "--render",
-        p(&d.join("s.exr")),
-        "--models",
-        "svd,preintegrate",
-        "--ranks",
-        "1",
-        "--signal-size",
-        "32",
-        "--angular-photons",
-        "1e4",
-        "--out-dir",
-        p(&cmp),
-    ]);
+    let (text, _) = common::compare_scene(
+        &toml,
+        &exr,
+        &cmp,
+        &[
+            "--models",
+            "svd,preintegrate",
+            "--ranks",
+            "1",
+            "--angular-photons",
+            "1e4",
+        ],
+    );
     assert!(text.contains("Best kernel model on the scene"), "{text}");
     assert!(
         text.contains("With the angular entry and exit factors"),

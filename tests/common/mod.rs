@@ -362,3 +362,39 @@ pub fn rust_sources(dir: &Path) -> Vec<std::path::PathBuf> {
     out.sort();
     out
 }
+
+/// `ssskit scene TOML --out EXR --spp SPP --profile-photons N EXTRA...`,
+/// which must succeed; its stdout.
+pub fn render_scene(toml: &Path, exr: &Path, spp: &str, photons: &str, extra: &[&str]) -> String {
+    let mut args = vec![
+        "scene",
+        p(toml),
+        "--out",
+        p(exr),
+        "--spp",
+        spp,
+        "--profile-photons",
+        photons,
+    ];
+    args.extend_from_slice(extra);
+    ok(&args)
+}
+
+/// `ssskit compare --scene TOML --render EXR --signal-size 32 --out-dir OUT
+/// EXTRA...` (the small signals the tests use), which must succeed; its
+/// stdout and stderr.
+pub fn compare_scene(toml: &Path, exr: &Path, out: &Path, extra: &[&str]) -> (String, String) {
+    let mut args = vec![
+        "compare",
+        "--scene",
+        p(toml),
+        "--render",
+        p(exr),
+        "--signal-size",
+        "32",
+        "--out-dir",
+        p(out),
+    ];
+    args.extend_from_slice(extra);
+    ok_both(&args)
+}
