@@ -143,15 +143,21 @@ pub fn make_profile_on(
             mc::simulate_with(material, &cfg, &opts, progress)?
         }
         ProfileSource::Analytic { model, fresnel } => {
+            // The caller's grid is borrowed: `profiles compare` calls this
+            // in its timing loop, which should time the model, not a copy.
+            let default;
             let grid = match grid {
-                Some(g) => g.clone(),
-                None => analytic::default_grid(material, &channels)?,
+                Some(g) => g,
+                None => {
+                    default = analytic::default_grid(material, &channels)?;
+                    &default
+                }
             };
             let options = analytic::Options {
                 fresnel: *fresnel,
                 channels,
             };
-            analytic::profile(material, *model, &grid, &options)?
+            analytic::profile(material, *model, grid, &options)?
         }
     };
     Ok((p, t0.elapsed().as_secs_f64()))
