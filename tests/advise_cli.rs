@@ -453,5 +453,17 @@ fn study_measures_the_trade_of_every_knob() {
     };
     assert!(rel("17 taps, auto extent") < rel("17 taps, full extent"));
     assert!(section("rank").len() == 12);
+    // `seconds` is the filter's wall time in seconds: the cost (mean ms
+    // per megapixel over the two 48x48 signals) times their megapixels
+    // over 1000, to rounding.
+    let megapixels = 2.0 * 48.0 * 48.0 / 1e6;
+    for e in section("rank") {
+        let (ms, secs) = (e["cost"].as_f64().unwrap(), e["seconds"].as_f64().unwrap());
+        assert_eq!(e["cost_unit"], "ms/megapixel");
+        assert!(
+            (secs - ms * megapixels / 1e3).abs() <= 1e-9 * secs,
+            "{e:?}: seconds is not the wall time in seconds"
+        );
+    }
     assert!(out.join("pareto.png").is_file() && out.join("study.md").is_file());
 }

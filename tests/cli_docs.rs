@@ -20,7 +20,7 @@ const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 fn docs_cli_md_is_what_the_binary_prints() {
     let fresh = common::ok(&["man", "--format", "markdown"]);
     let path = Path::new(ROOT).join("docs/cli.md");
-    if std::env::var_os("SSSKIT_BLESS").is_some() {
+    if common::bless() {
         std::fs::write(&path, &fresh).unwrap();
     }
     let committed = std::fs::read_to_string(&path).unwrap_or_default();

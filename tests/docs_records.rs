@@ -34,7 +34,7 @@ fn fresh_block(name: &str, file: &Path) -> String {
 
 #[test]
 fn recorded_tables_match_their_records() {
-    let bless = std::env::var_os("SSSKIT_BLESS").is_some_and(|v| v == "1");
+    let bless = common::bless();
     let mut stale = Vec::new();
     let mut checked = 0;
     for f in common::doc_markdown_files() {

@@ -208,7 +208,7 @@ fn edge_pixels_of_the_reference_skin1_profile() {
     }
     let path = ssskit::report::record::docs_path("reference-edge");
     let computed = RecordTable::from(&table);
-    if std::env::var_os("SSSKIT_BLESS").is_some_and(|v| v == "1") {
+    if common::bless() {
         let mut r = Record::new(
             "SSSKIT_BLESS=1 cargo test --release --test filter_reference_edge",
             "any machine (deterministic)",

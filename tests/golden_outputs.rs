@@ -42,10 +42,6 @@ fn diff_dir() -> PathBuf {
     d
 }
 
-fn blessing() -> bool {
-    std::env::var("SSSKIT_BLESS").is_ok_and(|v| v == "1")
-}
-
 /// CPU filtering in f64, stored as f32 EXR: the same arithmetic gives the
 /// same bits; 1e-6 of the peak leaves room for another libm or FMA
 /// contraction and is far below anything a reader of the image could see.
@@ -137,7 +133,7 @@ fn apply_case(name: &str, golden: &str, signal: &str, flags: &[&str], threshold:
     if dev <= threshold {
         return;
     }
-    if blessing() {
+    if common::bless() {
         std::fs::copy(&out, &want_path).unwrap();
         eprintln!("blessed {}", want_path.display());
         return;
@@ -304,7 +300,7 @@ fn simulate_fixed_seed() {
         if diffs.is_empty() {
             continue;
         }
-        if blessing() && threads == "1" {
+        if common::bless() && threads == "1" {
             std::fs::copy(&out, &golden).unwrap();
             eprintln!("blessed {}", golden.display());
             continue;

@@ -46,10 +46,6 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn blessing() -> bool {
-    std::env::var("SSSKIT_BLESS").is_ok_and(|v| !v.is_empty() && v != "0")
-}
-
 /// "1,2,3" from a JSON array of three numbers.
 fn triple(v: &Value) -> Option<String> {
     let a = v.as_array()?;
@@ -292,7 +288,7 @@ fn check(kernel_path: &Path, out_dir: &Path) -> Result<f64, String> {
     compare("", &want, &got, tol, 0.0, &mut worst, &mut diffs);
     if diffs.is_empty() {
         Ok(worst)
-    } else if blessing() {
+    } else if common::bless() {
         // Only kernels that changed are rewritten (timings alone do not
         // count), through a temporary file next to the committed one.
         let tmp = kernel_path.with_extension("json.bless");

@@ -9,6 +9,20 @@ use std::process::{Command, Output};
 
 pub mod half_space;
 
+/// The one bless switch of the suite: `SSSKIT_BLESS=1` rewrites goldens,
+/// records and generated docs; unset, empty or `0` checks them. Any other
+/// value is a typo that would otherwise check (or bless) silently, so it
+/// fails the test that reads it.
+pub fn bless() -> bool {
+    match std::env::var("SSSKIT_BLESS") {
+        Err(std::env::VarError::NotPresent) => false,
+        Ok(v) if v.is_empty() || v == "0" => false,
+        Ok(v) if v == "1" => true,
+        Ok(v) => panic!("SSSKIT_BLESS={v:?}: use 1 to bless, 0 or unset to check"),
+        Err(e) => panic!("SSSKIT_BLESS: {e}"),
+    }
+}
+
 /// Path of the binary under test.
 pub const BIN: &str = env!("CARGO_BIN_EXE_ssskit");
 
@@ -311,7 +325,7 @@ pub mod measured {
         if diffs.is_empty() {
             return;
         }
-        if std::env::var("SSSKIT_BLESS").is_ok_and(|v| v == "1") {
+        if super::bless() {
             let mut r = Record::new(
                 &format!("SSSKIT_BLESS=1 cargo test --release --test {test}"),
                 MACHINE,
