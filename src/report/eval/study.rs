@@ -9,11 +9,16 @@
 //!    reference's kernel grid against the reference's (kernel RMS), and the
 //!    pre-integrated kernel of each profile filtered and compared with the
 //!    exact convolution by the reference profile.
-//! 3. Taps (5..33) vs image error, with the tap extent chosen for the count
-//!    and with the kernel's full extent.
+//! 3. Taps (5..33) of the pre-integrated kernel vs image error, with the
+//!    tap extent chosen for the count and with the kernel's full extent.
 //! 4. SVD rank (renormalised, Freude 2014 eq. 5.12) vs image error vs
-//!    filter time.
-//! 5. Kernel model vs kernel and image error vs fit time.
+//!    samples per pixel (the CPU filter time in the table).
+//! 5. Kernel model vs kernel and image error vs samples per pixel (the fit
+//!    time, offline and irrelevant to shipping, in the table).
+//!
+//! Every entry filtered with separable passes records its kernel model,
+//! its one-dimensional passes (2 per separable term) and its samples per
+//! pixel: the cost a renderer pays each frame.
 //!
 //! Image errors: the largest relative RMS over channels (as `ssskit diff`)
 //! and the colour FLIP, on the edge and shapes signals at one scale
@@ -78,7 +83,33 @@ pub struct Entry {
     pub rel_rms: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub flip: Option<f64>,
+    /// The kernel model the images were filtered with.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    /// One-dimensional passes (2 per separable term) and samples per
+    /// pixel of the filter: what a renderer pays per frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub passes: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_per_pixel: Option<usize>,
+    /// CPU filter time on this machine (table only, not a plotted cost).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ms_per_megapixel: Option<f64>,
+    /// Wall time of the section's work for this entry, seconds.
     pub seconds: f64,
+}
+
+/// The cost columns of an entry filtered with separable passes.
+fn filtered(
+    model: &str,
+    errs: &[ImageErrors],
+    terms: usize,
+) -> (Option<String>, Option<usize>, Option<usize>) {
+    (
+        Some(model.to_string()),
+        Some(2 * terms),
+        errs.iter().map(|e| e.samples_per_pixel).max(),
+    )
 }
 
 /// Everything the study measured.
@@ -187,6 +218,10 @@ impl<'a> Bench<'a> {
                 profile_or_kernel_error: Some(max_l2(&rows)),
                 rel_rms: None,
                 flip: None,
+                model: None,
+                passes: None,
+                samples_per_pixel: None,
+                ms_per_megapixel: None,
                 seconds: secs,
             });
             last = Some(Made {
@@ -229,6 +264,8 @@ impl<'a> Bench<'a> {
             let kf = crate::kernel::fit_kernel_file(&made.profile, &self.spec, &PREINTEGRATE, 17)?;
             let errs: Vec<ImageErrors> = self.eval(&kf, &[])?.into_iter().map(|e| e.full).collect();
             let (rel, flip) = worst(&errs);
+            let (model, passes, samples_per_pixel) =
+                filtered("preintegrate", &errs, kf.taps.passes.len());
             entries.push(Entry {
                 section: "profile_model".into(),
                 config: made.name.clone(),
@@ -237,6 +274,10 @@ impl<'a> Bench<'a> {
                 profile_or_kernel_error: Some(krms),
                 rel_rms: Some(rel),
                 flip: Some(flip),
+                model,
+                passes,
+                samples_per_pixel,
+                ms_per_megapixel: None,
                 seconds: made.seconds,
             });
         }
@@ -262,6 +303,8 @@ impl<'a> Bench<'a> {
                     errs.push(evaluate::errors(e, &img, &self.options)?);
                 }
                 let (rel, flip) = worst(&errs);
+                let (model, passes, samples_per_pixel) =
+                    filtered("preintegrate", &errs, table.passes.len());
                 entries.push(Entry {
                     section: "taps".into(),
                     config: format!(
@@ -273,6 +316,10 @@ impl<'a> Bench<'a> {
                     profile_or_kernel_error: None,
                     rel_rms: Some(rel),
                     flip: Some(flip),
+                    model,
+                    passes,
+                    samples_per_pixel,
+                    ms_per_megapixel: None,
                     seconds: secs,
                 });
             }
@@ -307,14 +354,20 @@ impl<'a> Bench<'a> {
                     .zip(&self.exact)
                     .map(|(e, x)| 1e-3 * e.ms_per_megapixel * x.case.image.len() as f64 / 1e6)
                     .sum();
+                let (model, passes, samples_per_pixel) =
+                    filtered(&format!("svd{r}-renorm"), &errs, kf.taps.passes.len());
                 entries.push(Entry {
                     section: "rank".into(),
                     config: format!("svd rank {r} renormalised, {label}"),
-                    cost: ms,
-                    cost_unit: "ms/megapixel".into(),
+                    cost: samples_per_pixel.unwrap_or(0) as f64,
+                    cost_unit: "samples/pixel".into(),
                     profile_or_kernel_error: Some(max3(&kf.metrics.kernel_rms)),
                     rel_rms: Some(rel),
                     flip: Some(flip),
+                    model,
+                    passes,
+                    samples_per_pixel,
+                    ms_per_megapixel: Some(ms),
                     seconds: secs,
                 });
             }
@@ -322,7 +375,8 @@ impl<'a> Bench<'a> {
         Ok(entries)
     }
 
-    /// 5. Kernel models of the comparison at 17 taps vs fit time.
+    /// 5. Kernel models of the comparison at 17 taps: image error against
+    ///    samples per pixel (fit time in the table only).
     fn kernel_models(&self) -> Result<Vec<Entry>> {
         let cfg = CompareConfig {
             families: FAMILIES.iter().map(|f| f.to_string()).collect(),
@@ -343,14 +397,20 @@ impl<'a> Bench<'a> {
             let errs: Vec<ImageErrors> = f.images.iter().map(|e| e.taps[&17].clone()).collect();
             let (rel, flip) = worst(&errs);
             let secs = f.kernel.metrics.fit_seconds;
+            let (model, passes, samples_per_pixel) =
+                filtered(&f.spec.label, &errs, f.kernel.taps.passes.len());
             entries.push(Entry {
                 section: "kernel_model".into(),
                 config: f.spec.label.clone(),
-                cost: secs.max(1e-6),
-                cost_unit: "s (fit)".into(),
+                cost: samples_per_pixel.unwrap_or(0) as f64,
+                cost_unit: "samples/pixel".into(),
                 profile_or_kernel_error: Some(max3(&f.kernel.metrics.kernel_rms)),
                 rel_rms: Some(rel),
                 flip: Some(flip),
+                model,
+                passes,
+                samples_per_pixel,
+                ms_per_megapixel: None,
                 seconds: secs,
             });
         }

@@ -5,6 +5,7 @@
 pub mod advice_text;
 pub mod kernel_plots;
 pub mod kernel_report;
+pub mod layout;
 pub mod number;
 pub mod pareto;
 pub mod plot;

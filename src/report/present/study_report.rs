@@ -14,27 +14,44 @@ pub fn table(study: &Study) -> Table {
     let mut t = Table::new(&[
         "section",
         "configuration",
+        "kernel model",
+        "passes",
+        "samples/pixel",
         "cost",
         "cost unit",
         "profile or kernel error",
         "image rel. RMS",
         "image FLIP",
+        "CPU ms/megapixel",
+        "seconds",
     ]);
+    let count = |v: Option<usize>| v.map_or("-".to_string(), |n| n.to_string());
     for e in &study.entries {
         t.push(vec![
             e.section.clone(),
             e.config.clone(),
+            e.model.clone().unwrap_or_else(|| "-".into()),
+            count(e.passes),
+            count(e.samples_per_pixel),
             sig(e.cost),
             e.cost_unit.clone(),
             sig_or_dash(e.profile_or_kernel_error),
             sig_or_dash(e.rel_rms),
             sig_or_dash(e.flip),
+            sig_or_dash(e.ms_per_megapixel),
+            sig(e.seconds),
         ]);
     }
     t
 }
 
-fn series(study: &Study, section: &str, name: &str, err: impl Fn(&Entry) -> Option<f64>) -> Series {
+fn series(
+    study: &Study,
+    section: &str,
+    name: &str,
+    err: impl Fn(&Entry) -> Option<f64>,
+    label: impl Fn(&Entry) -> String,
+) -> Series {
     Series {
         name: name.into(),
         points: study
@@ -45,75 +62,112 @@ fn series(study: &Study, section: &str, name: &str, err: impl Fn(&Entry) -> Opti
                 Some(Point {
                     cost: e.cost,
                     error: err(e)?,
-                    label: e.config.clone(),
+                    label: label(e),
+                    passes: e.passes,
                 })
             })
             .collect(),
     }
 }
 
-/// The Pareto panels, one per section.
+/// The part of a configuration before its first comma ("17 taps" of "17
+/// taps, auto extent (+-2.1 mm)").
+fn head(e: &Entry) -> String {
+    e.config.split(',').next().unwrap_or("").to_string()
+}
+
+/// The Pareto panels: one quantity per y axis, image error against what a
+/// renderer pays per frame (samples per pixel, marker = passes) wherever
+/// kernels are compared.
 pub fn panels(study: &Study) -> Vec<ParetoPanel> {
     let m = &study.material;
-    let split = |section: &str, key: &str, name: &str| Series {
-        name: name.into(),
-        points: series(study, section, name, |e| e.rel_rms)
-            .points
-            .into_iter()
-            .filter(|p| p.label.contains(key))
-            .map(|p| Point {
-                label: p.label.split(',').next().unwrap_or("").to_string(),
-                ..p
-            })
-            .collect(),
-    };
     // A section split in two series by a key of the configuration.
-    let two_way = |what: &str, x_label: &str, section: &str, keys: [(&str, &str); 2]| ParetoPanel {
-        title: format!("{m}: {what}"),
-        x_label: x_label.into(),
-        y_label: "image rel. RMS".into(),
-        series: keys.iter().map(|(k, n)| split(section, k, n)).collect(),
+    let split = |section: &str, key: &str, name: &str, label: &dyn Fn(&Entry) -> String| {
+        let mut s = series(study, section, name, |e| e.rel_rms, label);
+        let keep: Vec<bool> = study
+            .entries
+            .iter()
+            .filter(|e| e.section == section && e.rel_rms.is_some())
+            .map(|e| e.config.contains(key))
+            .collect();
+        let mut k = keep.iter();
+        s.points.retain(|_| *k.next().unwrap_or(&false));
+        s
     };
+    let rank = |e: &Entry| {
+        e.model
+            .as_deref()
+            .and_then(|m| m.strip_prefix("svd"))
+            .and_then(|m| m.split('-').next())
+            .map_or_else(|| head(e), |r| format!("rank {r}"))
+    };
+    let spp = "samples per pixel";
     vec![
         ParetoPanel {
             title: format!("{m}: Monte Carlo photons"),
             x_label: "simulation time (s)".into(),
             y_label: "profile rel. L2 error".into(),
-            series: vec![series(study, "photons", "Monte Carlo", |e| {
-                e.profile_or_kernel_error
-            })],
+            series: vec![series(
+                study,
+                "photons",
+                "Monte Carlo",
+                |e| e.profile_or_kernel_error,
+                |e| e.config.replace(" photons", ""),
+            )],
         },
         ParetoPanel {
-            title: format!("{m}: profile model"),
-            x_label: "profile time (s)".into(),
-            y_label: "error".into(),
+            title: format!("{m}: taps (pre-integration)"),
+            x_label: spp.into(),
+            y_label: "image rel. RMS".into(),
             series: vec![
-                series(study, "profile_model", "kernel RMS", |e| {
-                    e.profile_or_kernel_error
-                }),
-                series(study, "profile_model", "image rel. RMS", |e| e.rel_rms),
+                split("taps", "auto extent", "extent chosen for the count", &head),
+                split("taps", "full extent", "full kernel extent", &head),
             ],
         },
-        two_way(
-            "taps (pre-integration)",
-            "samples per pixel",
-            "taps",
-            [
-                ("auto extent", "extent chosen for the count"),
-                ("full extent", "full kernel extent"),
+        ParetoPanel {
+            title: format!("{m}: profile model, kernel error"),
+            x_label: "profile time (s)".into(),
+            y_label: "kernel RMS".into(),
+            series: vec![series(
+                study,
+                "profile_model",
+                "profile models",
+                |e| e.profile_or_kernel_error,
+                |e| e.config.clone(),
+            )],
+        },
+        ParetoPanel {
+            title: format!("{m}: profile model, image error (preintegrate, 17 taps)"),
+            x_label: "profile time (s)".into(),
+            y_label: "image rel. RMS".into(),
+            series: vec![series(
+                study,
+                "profile_model",
+                "profile models",
+                |e| e.rel_rms,
+                |e| e.config.clone(),
+            )],
+        },
+        ParetoPanel {
+            title: format!("{m}: SVD rank (renormalised)"),
+            x_label: spp.into(),
+            y_label: "image rel. RMS".into(),
+            series: vec![
+                split("rank", "full", "full factors", &rank),
+                split("rank", "17 taps", "17 taps", &rank),
             ],
-        ),
-        two_way(
-            "SVD rank (renormalised)",
-            "filter time (ms per megapixel, CPU)",
-            "rank",
-            [("full", "full factors"), ("17 taps", "17 taps")],
-        ),
+        },
         ParetoPanel {
             title: format!("{m}: kernel model (17 taps)"),
-            x_label: "fit time (s)".into(),
+            x_label: spp.into(),
             y_label: "image rel. RMS".into(),
-            series: vec![series(study, "kernel_model", "models", |e| e.rel_rms)],
+            series: vec![series(
+                study,
+                "kernel_model",
+                "models",
+                |e| e.rel_rms,
+                |e| e.config.clone(),
+            )],
         },
     ]
 }
