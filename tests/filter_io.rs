@@ -336,6 +336,19 @@ fn diff_reports_json_and_writes_a_false_colour_image() {
     // The changed pixel is the hottest (white), the others black.
     assert_eq!(img.get_pixel(7, 0).0, [255, 255, 255]);
     assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+    // Below the image, in the same file, its colour bar: a row that runs
+    // the heat ramp from black through yellow (the ramp's stop at 3/4 is
+    // sRGB (1, 0.85, 0): full red, green within 3% of it, no blue).
+    assert!(img.height() > 12, "no room for a colour bar");
+    let yellow = |p: &[u8; 3]| p[0] == 255 && (210..=224).contains(&p[1]) && p[2] < 8;
+    let ramp_row = (12..img.height()).find(|&y| {
+        let row: Vec<[u8; 3]> = (0..img.width()).map(|x| img.get_pixel(x, y).0).collect();
+        row.contains(&[0, 0, 0]) && row.iter().any(yellow)
+    });
+    assert!(
+        ramp_row.is_some(),
+        "no colour bar below the difference image"
+    );
 }
 
 #[test]

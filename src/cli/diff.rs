@@ -2,15 +2,16 @@
 
 use super::args::{self, JsonArg, OutFile};
 use super::out::outln;
-use ssskit::filter::diff::{abs_difference, compare, false_colour};
+use ssskit::filter::diff::{abs_difference, compare};
 use ssskit::filter::image::{read_image, write_image, PngDepth};
+use ssskit::report::present::diff_png::write_diff_png;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 #[command(mut_arg(
     "out",
     args::help(
-        "Output file: the difference image, .png in false colour, .exr per channel \
+        "Output file: the difference image, .png in false colour with its colour bar, .exr per channel \
      [default: not written]"
     )
 ))]
@@ -58,12 +59,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .extension()
             .and_then(|e| e.to_str())
             .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        let img = if is_exr {
-            abs_difference(&a, &b)
+        if is_exr {
+            write_image(out, &abs_difference(&a, &b), PngDepth::Eight)?;
         } else {
-            false_colour(&a, &b, args.scale)
-        };
-        write_image(out, &img, PngDepth::Eight)?;
+            write_diff_png(&a, &b, args.scale, out)?;
+        }
     }
     Ok(())
 }

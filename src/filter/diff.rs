@@ -53,7 +53,7 @@ pub fn compare(a: &Image, b: &Image) -> Result<DiffStats> {
 
 /// A colour ramp black - purple - red - yellow - white, for t in [0, 1],
 /// as sRGB-encoded values.
-fn heat(t: f64) -> [f64; 3] {
+pub fn heat(t: f64) -> [f64; 3] {
     const STOPS: [[f64; 3]; 5] = [
         [0.0, 0.0, 0.0],
         [0.35, 0.05, 0.55],
@@ -75,10 +75,8 @@ fn heat(t: f64) -> [f64; 3] {
 /// normalised by `scale` (default: the largest difference in the image).
 /// Returned in linear light so a PNG written from it shows the ramp exactly.
 pub fn false_colour(a: &Image, b: &Image, scale: Option<f64>) -> Image {
-    let d: Vec<f64> = (0..a.len())
-        .map(|i| (0..3).fold(0.0f64, |m, c| m.max((a.rgb[c][i] - b.rgb[c][i]).abs())))
-        .collect();
-    let s = scale.unwrap_or_else(|| d.iter().fold(0.0f64, |m, &v| m.max(v)));
+    let d = largest_per_pixel(a, b);
+    let s = ramp_top(a, b, scale);
     let mut out = Image::new(a.width, a.height);
     for (i, v) in d.iter().enumerate() {
         let col = heat(if s > 0.0 { v / s } else { 0.0 });
@@ -87,6 +85,19 @@ pub fn false_colour(a: &Image, b: &Image, scale: Option<f64>) -> Image {
         }
     }
     out
+}
+
+/// The largest per-channel |A - B| of each pixel.
+fn largest_per_pixel(a: &Image, b: &Image) -> Vec<f64> {
+    (0..a.len())
+        .map(|i| (0..3).fold(0.0f64, |m, c| m.max((a.rgb[c][i] - b.rgb[c][i]).abs())))
+        .collect()
+}
+
+/// The top of [`false_colour`]'s ramp: `scale`, or the largest difference
+/// in the image.
+pub fn ramp_top(a: &Image, b: &Image, scale: Option<f64>) -> f64 {
+    scale.unwrap_or_else(|| largest_per_pixel(a, b).into_iter().fold(0.0f64, f64::max))
 }
 
 /// |A - B| per channel (for EXR output).

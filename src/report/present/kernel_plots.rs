@@ -7,6 +7,7 @@
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
+use super::colour_bar::{self, ColourBar};
 use super::kernel_report::RANK1;
 use super::plot::{self, Curve, Panel, PALETTE};
 use crate::error::{Error, Result};
@@ -226,13 +227,15 @@ pub fn contact_sheet(
         });
     }
     let title = format!(
-        "{material}, {} at {} mm/px, {factor}: result (tone mapped) above |result - exact| \
-         (white = {}% of the exact peak)",
-        exact.case.name,
-        exact.case.mm_per_pixel,
-        DIFF_SCALE * 100.0
+        "{material}, {} at {} mm/px, {factor}: result (tone mapped) above |result - exact|",
+        exact.case.name, exact.case.mm_per_pixel,
     );
-    draw_sheet(&tiles, (w, h), &title, out)
+    let bar = ColourBar {
+        white: 100.0 * DIFF_SCALE,
+        unit: "% of the exact peak".into(),
+        quantity: "difference tiles: |result - exact|, largest channel".into(),
+    };
+    draw_sheet(&tiles, (w, h), &title, Some(&bar), out)
 }
 
 /// One cell of a contact sheet: an 8-bit RGB image of the sheet's tile
@@ -243,12 +246,14 @@ pub(crate) struct SheetTile {
     pub bottom: Option<(String, Vec<u8>)>,
 }
 
-/// Draws `tiles` of `w` x `h` pixels six to a row under `title` and
-/// writes the PNG atomically.
+/// Draws `tiles` of `w` x `h` pixels six to a row under `title`, with the
+/// colour bar of its difference tiles below them, and writes the PNG
+/// atomically.
 pub(crate) fn draw_sheet(
     tiles: &[SheetTile],
     (w, h): (usize, usize),
     title: &str,
+    bar: Option<&ColourBar>,
     out: &Path,
 ) -> Result<()> {
     plot::register_fonts();
@@ -258,7 +263,9 @@ pub(crate) fn draw_sheet(
     let cell_h = 2 * (h + label_h) + 8;
     let rows = tiles.len().div_ceil(cols);
     let head = 34usize;
-    let (sw, sh) = (cols * cell_w, head + rows * cell_h);
+    let bar_h = if bar.is_some() { colour_bar::HEIGHT } else { 0 };
+    let sw = cols * cell_w;
+    let sh = head + rows * cell_h + bar_h;
     crate::limits::check_image_size(&out.display().to_string(), sw, sh)?;
     let mut buf = vec![255u8; sw * sh * 3];
     let blit = |buf: &mut [u8], rgb: &[u8], x0: usize, y0: usize| {
@@ -277,6 +284,11 @@ pub(crate) fn draw_sheet(
             labels.push((label, x0, y0 + label_h + h));
         }
     }
+    let bar_texts = match bar {
+        Some(b) => colour_bar::paint(b, &mut buf, sw, (4, head + rows * cell_h + 2)),
+        None => vec![],
+    };
+    colour_bar::draw_texts(&mut buf, (sw, sh), &bar_texts, 13, out)?;
     {
         let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
         let e = |e| Error::format(out, format!("plotting failed: {e}"));

@@ -3,6 +3,8 @@
 //! Nothing here measures; it shows what [`super::eval`] measured.
 
 pub mod advice_text;
+pub mod colour_bar;
+pub mod diff_png;
 pub mod kernel_plots;
 pub mod kernel_report;
 pub mod layout;

@@ -206,10 +206,11 @@ pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) 
             bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
         });
     }
-    let title = format!(
-        "{title}: screen-space pass (depth + follow) above |pass - path traced| (white = {}% of \
-         the peak)",
-        100.0 * SCENE_DIFF_SCALE
-    );
-    draw_sheet(&tiles, (truth.width, truth.height), &title, out)
+    let title = format!("{title}: screen-space pass (depth + follow) above |pass - path traced|");
+    let bar = super::colour_bar::ColourBar {
+        white: 100.0 * SCENE_DIFF_SCALE,
+        unit: "% of the path-traced peak".into(),
+        quantity: "difference tiles: |pass - path traced|, largest channel".into(),
+    };
+    draw_sheet(&tiles, (truth.width, truth.height), &title, Some(&bar), out)
 }
