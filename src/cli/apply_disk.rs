@@ -5,6 +5,7 @@ use super::Args;
 use crate::cli::args::Backend;
 use anyhow::{bail, Context};
 use ssskit::filter::disk::{apply_disk, DiskSetup};
+use ssskit::filter::disk_gpu::DiskGpu;
 use ssskit::filter::{Image, Setup};
 use ssskit::kernel::disk::DiskKernelFile;
 use std::path::Path;
@@ -22,14 +23,33 @@ pub fn run(args: &Args, path: &Path, view: Setup, image: &Image) -> anyhow::Resu
     setup
         .validate(image)
         .with_context(|| format!("applying {}", path.display()))?;
+    let n = kernel.samples_per_pixel();
+    let cpu = |why: &str| -> anyhow::Result<Image> {
+        eprintln!("backend: cpu (disk, f64{why}), {n} samples per pixel");
+        Ok(apply_disk(image, &setup)?)
+    };
     match args.backend.backend {
-        Backend::Gpu => bail!("--backend gpu: the disk pass runs on the CPU only for now"),
-        Backend::Cpu | Backend::Auto => {
+        Backend::Cpu => cpu(""),
+        Backend::Gpu => {
+            let g = DiskGpu::new()?;
             eprintln!(
-                "backend: cpu (disk, f64), {} samples per pixel",
-                kernel.samples_per_pixel()
+                "backend: gpu (disk), adapter {}, {n} samples per pixel",
+                g.describe()
             );
-            Ok(apply_disk(image, &setup)?)
+            Ok(g.apply(image, &setup)?)
         }
+        Backend::Auto => match ssskit::gpu::GpuContext::open() {
+            Ok(ctx) if !ctx.is_software() => {
+                drop(ctx);
+                let g = DiskGpu::new()?;
+                eprintln!("backend: gpu (auto, disk), adapter {}", g.describe());
+                Ok(g.apply(image, &setup)?)
+            }
+            Ok(ctx) => cpu(&format!(
+                "; auto: the only adapter, {}, is a software rasteriser",
+                ctx.describe()
+            )),
+            Err(e) => cpu(&format!("; auto: {e}")),
+        },
     }
 }

@@ -23,6 +23,7 @@ pub mod cpu;
 pub mod diff;
 pub mod disk;
 pub mod disk_error;
+pub mod disk_gpu;
 pub mod exact;
 pub mod gpu;
 pub mod image;
