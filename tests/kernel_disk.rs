@@ -77,12 +77,12 @@ fn radii_follow_the_profile_cdf_within_the_stratified_bound() {
     for n in [16, 128, 1024] {
         // Per-channel radii: each channel's set against its own CDF.
         let k = fit_disk(&p, n, RadiusPdf::PerChannel).unwrap();
-        for c in 0..3 {
+        for (c, &decay) in DECAY.iter().enumerate() {
             let radii: Vec<f64> = k.samples[c * n..(c + 1) * n]
                 .iter()
                 .map(|s| s.radius_mm)
                 .collect();
-            let d = ks(&radii, |r| exp_cdf(DECAY[c], r, r_max));
+            let d = ks(&radii, |r| exp_cdf(decay, r, r_max));
             // Stratified samples at u = (i + 1/2) / N lie half a stratum
             // from the empirical CDF's steps: D = 1 / (2N) for exact
             // inversion.
@@ -225,7 +225,8 @@ fn files_round_trip_and_bad_ones_are_refused() {
     let back = DiskKernelFile::read(&path).unwrap();
     assert_eq!(back.samples, k.samples);
     assert!(ssskit::kernel::disk::is_disk_file(&path));
-    let breaks: [(&str, fn(&mut DiskKernelFile)); 5] = [
+    type Break = (&'static str, fn(&mut DiskKernelFile));
+    let breaks: [Break; 5] = [
         ("weight", |k| k.samples[3].weight[1] = -0.1),
         ("angle", |k| k.samples[2].angle = 7.0),
         ("radius", |k| k.samples[0].radius_mm = f64::NAN),
@@ -252,26 +253,6 @@ fn the_pdf_inverts_its_own_cdf() {
         for u in [1e-4, 0.1, 0.5, 0.9, 0.9999] {
             let r = pdf.invert(mix, u);
             assert!((pdf.cdf(mix, r) - u).abs() < 1e-12, "{mix:?} {u}");
-        }
-    }
-}
-
-#[test]
-#[ignore]
-fn explore() {
-    let mm = 0.1;
-    let p = exp_profile(2.0);
-    let img = generate(Signal::Edge, 48, 48, 8).unwrap();
-    let reference = full_reference(&p, &img, mm).unwrap();
-    for n in [16, 64, 1024] {
-        for radii in [RadiusPdf::Mean, RadiusPdf::Widest, RadiusPdf::PerChannel] {
-            let k = fit_disk(&p, n, radii).unwrap();
-            let setup = DiskSetup::new(&k, view(mm), 0, 1);
-            for kk in [1, 2, 4, 8] {
-                let e = disk_error(&img, &setup, &reference, 64, kk.max(1))
-                    .unwrap_or_else(|_| disk_error(&img, &setup, &reference, 64, 2).unwrap());
-                println!("N {n} {radii:?} K {kk}: bias {:.2e} {:.2e} {:.2e} noise {:.2e} {:.2e} {:.2e} after {:.2e} {:.2e} {:.2e}", e.bias[0], e.bias[1], e.bias[2], e.noise[0], e.noise[1], e.noise[2], e.noise_after[0], e.noise_after[1], e.noise_after[2]);
-            }
         }
     }
 }

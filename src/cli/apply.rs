@@ -173,12 +173,12 @@ pub struct Args {
     /// PNG output bit depth [default: the input PNG's, else 8].
     #[arg(long, value_enum, value_name = "BITS")]
     png_bits: Option<PngBits>,
-    /// Disk kernels: frames accumulated, each with its own rotation (plain mean).
+    /// Frames: with a disk kernel, rotations accumulated (plain mean), 1 to 4096.
     ///
     /// A static camera's temporal accumulation: frame k turns the samples
     /// by its own per-pixel angle (--frame-seed + k), and the output is the
-    /// mean of the frames. 1 to 4096.
-    #[arg(long, value_name = "K", default_value_t = 1, value_parser = count::<u32>)]
+    /// mean of the frames. Separable kernels take 1 (the same every frame).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = count::<u32>)]
     frames: u32,
     /// Disk kernels: index of the first frame, which picks its rotation.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = count::<u32>)]

@@ -52,7 +52,11 @@ pub fn disk_error(
     rotations: u32,
     frames: u32,
 ) -> Result<DiskError> {
-    if frames == 0 || rotations > MAX_FRAMES || rotations % frames != 0 || rotations / frames < 2 {
+    if frames == 0
+        || rotations > MAX_FRAMES
+        || !rotations.is_multiple_of(frames)
+        || rotations / frames < 2
+    {
         return Err(Error::invalid(
             "disk error",
             "rotations",

@@ -314,8 +314,8 @@ pub fn fit_disk(profile: &Profile, n: usize, radii: RadiusPdf) -> Result<DiskKer
     let raw_weight_sum: [f64; 3] =
         std::array::from_fn(|c| samples.iter().map(|s| s.weight[c]).sum());
     for s in &mut samples {
-        for c in 0..3 {
-            s.weight[c] /= raw_weight_sum[c];
+        for (w, sum) in s.weight.iter_mut().zip(raw_weight_sum) {
+            *w /= sum;
         }
     }
     let idx = rgb_indices(profile)?;
