@@ -2,7 +2,7 @@
 //! to an image on the CPU or with wgpu.
 
 use super::args::{
-    self, Backend, BackendArg, FovYArg, KernelFile as KernelFileArg, MmPerPixelArg, OutFile,
+    self, count, Backend, BackendArg, FovYArg, KernelFile as KernelFileArg, MmPerPixelArg, OutFile,
     UnitsPerMmArg,
 };
 use anyhow::Context;
@@ -173,7 +173,20 @@ pub struct Args {
     /// PNG output bit depth [default: the input PNG's, else 8].
     #[arg(long, value_enum, value_name = "BITS")]
     png_bits: Option<PngBits>,
+    /// Frames: with a disk kernel, rotations accumulated (plain mean), 1 to 4096.
+    ///
+    /// A static camera's temporal accumulation: frame k turns the samples
+    /// by its own per-pixel angle (--frame-seed + k), and the output is the
+    /// mean of the frames. Separable kernels take 1 (the same every frame).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = count::<u32>)]
+    frames: u32,
+    /// Disk kernels: index of the first frame, which picks its rotation.
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = count::<u32>)]
+    frame_seed: u32,
 }
+
+#[path = "apply_disk.rs"]
+mod disk;
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let out_path = args.out.path()?;
@@ -223,8 +236,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let Some(kernel_path) = &args.kernel.kernel else {
         anyhow::bail!("give --kernel K.json or --reference PROFILE.json");
     };
-    let kernel = KernelFile::read(kernel_path)?;
     let depth = load_depth(&args, extras.depth)?;
+    if ssskit::kernel::disk::is_disk_file(kernel_path) {
+        let view = view_of(&args, scale, depth, &image)?;
+        let out = disk::run(&args, kernel_path, view, &image)?;
+        write_image(out_path, &out, png_depth)?;
+        eprintln!(
+            "disk pass, {} frame(s): {:.3} s -> {}",
+            args.frames,
+            start.elapsed().as_secs_f64(),
+            out_path.display()
+        );
+        return Ok(());
+    }
+    if args.frames != 1 {
+        anyhow::bail!(
+            "--frames accumulates the rotations of a disk kernel; {} is separable (the same \
+             every frame)",
+            kernel_path.display()
+        );
+    }
+    let kernel = KernelFile::read(kernel_path)?;
     let setup = setup_of(&args, &kernel, kernel_path, scale, depth, &image)?;
     let out = filter(&args, &image, &setup)?;
     write_image(out_path, &out, png_depth)?;
@@ -273,35 +305,21 @@ fn setup_of(
     depth: Option<Plane>,
     image: &Image,
 ) -> anyhow::Result<Setup> {
-    let strength = load_plane(args.strength.as_deref(), args.sanitize, "strength")?;
-    let specular = match &args.specular {
-        Some(p) => {
-            let (mut s, _) = read_image(p, None)?;
-            let what = p.display().to_string();
-            report_sanitized(&what, s.check_finite(&what, args.sanitize)?);
-            Some(s)
-        }
-        None => None,
-    };
+    let view = view_of(args, scale, depth, image)?;
     let factors = if args.taps_only {
         Which::stored(kernel)
     } else {
         Which::Full
     };
     let uniform = match scale {
-        Scale::MmPerPixel(m) if strength.is_none() => Some(m),
+        Scale::MmPerPixel(m) if view.strength.is_none() => Some(m),
         _ => None,
     };
     check_kernel_fits(kernel, factors, uniform, image.width, image.height)
         .with_context(|| format!("applying {}", kernel_path.display()))?;
     let setup = Setup {
         passes: taps_for(kernel, factors, uniform)?,
-        scale,
-        depth,
-        strength,
-        follow_surface: follow(args),
-        specular,
-        jitter: args.jitter,
+        ..view
     };
     setup.validate(image)?;
     let largest_step = setup
@@ -313,6 +331,37 @@ fn setup_of(
         super::errors::warn(&w.to_string());
     }
     Ok(setup)
+}
+
+/// What any kernel's pass shares: the scale and the per-pixel planes, no
+/// passes yet; checked against the image.
+fn view_of(
+    args: &Args,
+    scale: Scale,
+    depth: Option<Plane>,
+    image: &Image,
+) -> anyhow::Result<Setup> {
+    let strength = load_plane(args.strength.as_deref(), args.sanitize, "strength")?;
+    let specular = match &args.specular {
+        Some(p) => {
+            let (mut s, _) = read_image(p, None)?;
+            let what = p.display().to_string();
+            report_sanitized(&what, s.check_finite(&what, args.sanitize)?);
+            Some(s)
+        }
+        None => None,
+    };
+    let view = Setup {
+        passes: Vec::new(),
+        scale,
+        depth,
+        strength,
+        follow_surface: follow(args),
+        specular,
+        jitter: args.jitter,
+    };
+    view.validate_view(image)?;
+    Ok(view)
 }
 
 /// Runs the pass on the backend --backend names (auto: a hardware GPU,

@@ -36,7 +36,7 @@ pub struct FilterArgs {
     /// Deprecated: use --image-size WxH.
     #[arg(long, hide = true, conflicts_with = "image_size", value_parser = count::<usize>)]
     height: Option<usize>,
-    /// Frames timed after one warm-up frame (at most 1000).
+    /// Frames: timed after one warm-up frame (at most 1000).
     ///
     /// 2 on a software rasteriser, which only checks that the path runs.
     #[arg(long, value_name = "N", default_value_t = timing::DEFAULT_FRAMES, value_parser = count::<u32>)]

@@ -6,6 +6,7 @@ use super::args::{
 use super::out::out;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
+use ssskit::kernel::disk::is_disk_file;
 use ssskit::kernel::emit::{emit, Lang};
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
@@ -28,6 +29,8 @@ pub enum ModelArg {
     Gaussians,
     /// Jimenez's skin model (Freude 2014, eq. 4.8): --jimenez-width, --jimenez-strength, --jimenez-falloff.
     Jimenez,
+    /// Importance-sampled disk (not separable): --samples, --radii.
+    Disk,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -167,6 +170,17 @@ pub struct ModelOpts {
     /// jimenez: falloff f per channel, "R,G,B".
     #[arg(long, value_name = "R,G,B", alias = "falloff", default_value = args::rgb_text(JimenezParams::default().falloff), value_parser = args::rgb)]
     jimenez_falloff: [f64; 3],
+    /// disk: samples per pixel (per channel with --radii per-channel), 4 to 1024.
+    #[arg(long, value_name = "N", default_value_t = 32, value_parser = count::<usize>)]
+    samples: usize,
+    /// disk: the density the radii are drawn from.
+    ///
+    /// widest: one set from the widest channel (the engines' choice, the
+    /// least noise in the worst channel, measured in docs/kernels.md);
+    /// mean: one set from the mean of the channels' kernels, weights below
+    /// 3; per-channel: N radii per channel, 3 N fetches.
+    #[arg(long, value_enum, value_name = "PDF", default_value_t = super::fit_disk::RadiiArg::Widest)]
+    radii: super::fit_disk::RadiiArg,
 }
 
 fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
@@ -224,11 +238,25 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
             strength: a.opts.jimenez_strength,
             falloff: a.opts.jimenez_falloff,
         }),
+        ModelArg::Disk => bail!("disk kernels are fitted by fit_disk"),
     })
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let lang = a.emit.map(Lang::from);
+    if matches!(a.model, Some(ModelArg::Disk))
+        || a.kernel.kernel.as_deref().is_some_and(is_disk_file)
+    {
+        let disk = super::fit_disk::Disk {
+            profile: a.profile.profile.as_deref(),
+            kernel: a.kernel.kernel.as_deref(),
+            out: a.out.out.as_deref(),
+            samples: a.opts.samples,
+            radii: a.opts.radii,
+            quiet: a.quiet,
+        };
+        return super::fit_disk::run(&disk, lang);
+    }
     let kernel = if let Some(path) = &a.kernel.kernel {
         KernelFile::read(path)?
     } else {

@@ -41,3 +41,20 @@ pub fn jitter_unit(x: u32, y: u32, tap: u32, axis: u32) -> f64 {
     let n = ign_fixed(x, y).wrapping_add((2 * tap + axis).wrapping_mul(GOLDEN_U32));
     (n >> (32 - JITTER_BITS)) as f64 / (1u32 << JITTER_BITS) as f64
 }
+
+/// 2^32 (sqrt 2 - 1): the per-frame step of a disk kernel's rotation. Not
+/// the golden ratio: a step of 1 / golden ratio turn is minus the golden
+/// angle of the spiral the samples sit on, so it carries sample i onto the
+/// angle of sample i - 1 and consecutive frames repeat nearly the same
+/// estimate; sqrt 2 - 1 (continued fraction [0; 2, 2, 2, ...]) spreads the
+/// frames as evenly without that coincidence.
+pub const SILVER_U32: u32 = 1_779_033_704;
+
+/// The per-pixel rotation of a disk kernel in turns, [0, 1): interleaved
+/// gradient noise at (x, y) plus `frame` steps of [`SILVER_U32`],
+/// [`JITTER_BITS`] bits, exact in f32 and f64. `frame` already holds the
+/// seed (seed + frame index, wrapping).
+pub fn rotation_unit(x: u32, y: u32, frame: u32) -> f64 {
+    let n = ign_fixed(x, y).wrapping_add(frame.wrapping_mul(SILVER_U32));
+    (n >> (32 - JITTER_BITS)) as f64 / (1u32 << JITTER_BITS) as f64
+}

@@ -21,6 +21,9 @@
 pub mod angular;
 pub mod cpu;
 pub mod diff;
+pub mod disk;
+pub mod disk_error;
+pub mod disk_gpu;
 pub mod exact;
 pub mod gpu;
 pub mod image;
@@ -35,7 +38,9 @@ pub(crate) mod which;
 use crate::error::{Error, Result};
 use crate::kernel::{KernelFile, Pass};
 pub use image::{Image, Plane};
-pub use jitter::{ign_fixed, jitter_unit, GOLDEN_U32, IGN_FRACTION, IGN_X, IGN_Y};
+pub use jitter::{
+    ign_fixed, jitter_unit, rotation_unit, GOLDEN_U32, IGN_FRACTION, IGN_X, IGN_Y, SILVER_U32,
+};
 pub use which::{taps_for, Which};
 
 /// Clamp-to-edge on whole pixels: index `i` of a row or column of `n`
@@ -134,6 +139,14 @@ impl Scale {
             ) => c * MM_IN_M * MM_IN_M / (sss_width * Scale::tan_half_fov(fov_y_deg)),
         }
     }
+}
+
+/// The weight of the centre colour in the depth-aware lerp at a sample of
+/// depth `d_sample` (Freude 2014, eq. 4.12), `rate` from
+/// [`FollowSurface::rate`]: shared by the separable and the disk pass.
+#[inline]
+pub(crate) fn follow_t(rate: f64, d_centre: f64, d_sample: f64) -> f64 {
+    (rate * (d_centre - d_sample).abs()).clamp(0.0, 1.0)
 }
 
 /// Metres per millimetre.
@@ -248,12 +261,20 @@ pub struct Setup {
 impl Setup {
     /// Checks sizes and values against the image.
     pub fn validate(&self, image: &Image) -> Result<()> {
+        self.validate_view(image)?;
+        if self.passes.is_empty() {
+            return Err(Error::Unsupported("the kernel has no passes".into()));
+        }
+        self.check_work(image)
+    }
+
+    /// Checks what any kernel shares with `image` (scale, depth, strength,
+    /// follow-surface, specular), not the passes: the disk pass
+    /// (`disk::DiskSetup`) reuses it.
+    pub fn validate_view(&self, image: &Image) -> Result<()> {
         self.scale.validate()?;
         if image.is_empty() {
             return Err(Error::Unsupported("the input image has no pixels".into()));
-        }
-        if self.passes.is_empty() {
-            return Err(Error::Unsupported("the kernel has no passes".into()));
         }
         if let Some(d) = &self.depth {
             image::check_same_size("the depth image", d.width, d.height, image)?;
@@ -317,7 +338,7 @@ impl Setup {
         if let Some(s) = &self.specular {
             image::check_same_size("the specular image", s.width, s.height, image)?;
         }
-        self.check_work(image)
+        Ok(())
     }
 
     /// The caps of [`crate::limits`] on these passes over `image`: under a

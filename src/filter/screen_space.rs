@@ -118,7 +118,7 @@ impl PassCtx<'_> {
             if let (Some(k), Some(d)) = (self.follow, self.depth) {
                 let od = d[a] * (1.0 - f) + d[b] * f;
                 // Freude 2014, eq. 4.12: lerp toward the centre colour by depth difference.
-                let t = (k * (d[centre] - od).abs()).clamp(0.0, 1.0);
+                let t = super::follow_t(k, d[centre], od);
                 for c in 0..3 {
                     o[c] = o[c] * (1.0 - t) + centre_colour[c] * t;
                 }

@@ -30,7 +30,7 @@ impl std::str::FromStr for Lang {
     }
 }
 
-fn num(x: f64) -> String {
+pub(crate) fn num(x: f64) -> String {
     let s = format!("{:.9e}", x as f32);
     // Shader languages accept exponent notation; keep a decimal point.
     if s.contains('.') {
@@ -41,7 +41,7 @@ fn num(x: f64) -> String {
 }
 
 /// Wraps `text` into `//` comment lines of about 90 columns.
-fn comment(out: &mut String, text: &str) {
+pub(crate) fn comment(out: &mut String, text: &str) {
     let mut line = String::from("//");
     for word in text.split_whitespace() {
         if line.len() + word.len() > 90 && line.len() > 2 {

@@ -276,7 +276,7 @@ pub fn rgb_indices(profile: &Profile) -> Result<[usize; 3]> {
 
 /// Rejects what a profile file's own validation may let through when the
 /// profile was built in memory: NaN, negative or all-zero channels.
-fn check_profile_values(profile: &Profile, idx: &[usize; 3]) -> Result<()> {
+pub(crate) fn check_profile_values(profile: &Profile, idx: &[usize; 3]) -> Result<()> {
     let n = profile.r.len();
     if n == 0 || profile.r_edges.len() != n + 1 {
         return Err(Error::Unsupported(format!(

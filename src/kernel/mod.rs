@@ -4,6 +4,8 @@
 
 pub mod angular;
 pub mod cell_integrals;
+pub mod disk;
+pub mod disk_emit;
 pub mod emit;
 pub mod format;
 pub mod gaussians;

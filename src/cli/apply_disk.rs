@@ -1,0 +1,55 @@
+//! `ssskit apply` with a disk kernel (`ssskit.disk/1`): the disk pass over
+//! --frames rotations, on the CPU (f64) or with wgpu.
+
+use super::Args;
+use crate::cli::args::Backend;
+use anyhow::{bail, Context};
+use ssskit::filter::disk::{apply_disk, DiskSetup};
+use ssskit::filter::disk_gpu::DiskGpu;
+use ssskit::filter::{Image, Setup};
+use ssskit::kernel::disk::DiskKernelFile;
+use std::path::Path;
+
+pub fn run(args: &Args, path: &Path, view: Setup, image: &Image) -> anyhow::Result<Image> {
+    if args.taps_only || args.jitter {
+        bail!(
+            "--taps-only and --jitter apply to separable kernels; {} is a disk kernel (its \
+             samples are its table, turned per pixel and frame)",
+            path.display()
+        );
+    }
+    let kernel = DiskKernelFile::read(path)?;
+    let setup = DiskSetup::new(&kernel, view, args.frame_seed, args.frames);
+    setup
+        .validate(image)
+        .with_context(|| format!("applying {}", path.display()))?;
+    let n = kernel.samples_per_pixel();
+    let cpu = |why: &str| -> anyhow::Result<Image> {
+        eprintln!("backend: cpu (disk, f64{why}), {n} samples per pixel");
+        Ok(apply_disk(image, &setup)?)
+    };
+    match args.backend.backend {
+        Backend::Cpu => cpu(""),
+        Backend::Gpu => {
+            let g = DiskGpu::new()?;
+            eprintln!(
+                "backend: gpu (disk), adapter {}, {n} samples per pixel",
+                g.describe()
+            );
+            Ok(g.apply(image, &setup)?)
+        }
+        Backend::Auto => match ssskit::gpu::GpuContext::open() {
+            Ok(ctx) if !ctx.is_software() => {
+                drop(ctx);
+                let g = DiskGpu::new()?;
+                eprintln!("backend: gpu (auto, disk), adapter {}", g.describe());
+                Ok(g.apply(image, &setup)?)
+            }
+            Ok(ctx) => cpu(&format!(
+                "; auto: the only adapter, {}, is a software rasteriser",
+                ctx.describe()
+            )),
+            Err(e) => cpu(&format!("; auto: {e}")),
+        },
+    }
+}

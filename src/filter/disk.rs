@@ -1,0 +1,240 @@
+//! The disk pass in f64, the CPU reference of shaders/disk.wgsl: per pixel,
+//! the samples of a disk kernel (`kernel::disk`) turned by the pixel's
+//! rotation ([`rotation_unit`]: interleaved gradient noise, Jimenez 2014,
+//! plus a step of sqrt 2 - 1 turn per frame), scaled by the pixel's step in pixels
+//! per mm (the separable pass's [`Setup::steps`]: strength, perspective
+//! depth, Freude 2014, eq. 4.11), fetched bilinearly with clamped
+//! positions, lerped toward the centre colour by depth difference
+//! (Freude 2014, eq. 4.12, [`super::follow_t`]) and summed with their
+//! weights. `frames` rotations are averaged (the plain mean a temporal
+//! filter converges to under a static camera). Rayon over rows; each
+//! output pixel is computed by one thread (deterministic).
+//!
+//! Bilinear fetches at positions spread uniformly over the plane sample the
+//! image convolved with the tent of the pixel box, so the expected estimate
+//! is the exact convolution averaged over each pixel
+//! (`exact::PixelSampling::Average`), the oracle of the tests.
+
+use super::{rotation_unit, Image, Setup};
+use crate::error::{Error, Result};
+use crate::kernel::disk::DiskKernelFile;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Most frames one filtering may accumulate: a temporal filter's history
+/// is a few dozen frames; 4096 leaves room for measuring the mean over
+/// rotations, and the work cap bounds the product with the image anyway.
+pub const MAX_FRAMES: u32 = 4096;
+
+/// One sample as the pass uses it: unrotated position in mm, RGB weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiskTap {
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub weight: [f64; 3],
+}
+
+/// Everything the disk pass needs besides the image.
+#[derive(Clone, Debug)]
+pub struct DiskSetup {
+    pub taps: Vec<DiskTap>,
+    /// Scale, depth, strength, follow-surface and specular as for the
+    /// separable pass; its `passes` and `jitter` are not used.
+    pub view: Setup,
+    /// Added to the frame index before the rotation (wrapping).
+    pub seed: u32,
+    /// Rotations averaged, frames seed, seed + 1, ...
+    pub frames: u32,
+}
+
+impl DiskSetup {
+    /// The taps of `kernel` under `view`.
+    pub fn new(kernel: &DiskKernelFile, view: Setup, seed: u32, frames: u32) -> DiskSetup {
+        let taps = kernel
+            .samples
+            .iter()
+            .map(|s| DiskTap {
+                x_mm: s.radius_mm * s.angle.cos(),
+                y_mm: s.radius_mm * s.angle.sin(),
+                weight: s.weight,
+            })
+            .collect();
+        DiskSetup {
+            taps,
+            view,
+            seed,
+            frames,
+        }
+    }
+
+    /// The same pass over other frames.
+    pub fn with_frames(&self, seed: u32, frames: u32) -> DiskSetup {
+        DiskSetup {
+            seed,
+            frames,
+            ..self.clone()
+        }
+    }
+
+    pub fn validate(&self, image: &Image) -> Result<()> {
+        self.view.validate_view(image)?;
+        if self.taps.is_empty() {
+            return Err(Error::Unsupported("the disk kernel has no samples".into()));
+        }
+        if !(1..=MAX_FRAMES).contains(&self.frames) {
+            return Err(Error::invalid(
+                "disk pass",
+                "frames",
+                self.frames,
+                format!("must be in 1..={MAX_FRAMES}"),
+            ));
+        }
+        let widest = self
+            .view
+            .steps(image.width, image.height)
+            .into_iter()
+            .fold(0.0, f64::max);
+        if !widest.is_finite() {
+            return Err(Error::Unsupported(
+                "the per-pixel kernel scale overflows (a huge strength, a tiny depth or a tiny \
+                 pixel footprint): check the strength and depth images and the scale"
+                    .into(),
+            ));
+        }
+        // Four fetches of three channels per sample, pixel and frame.
+        let work = 12.0 * image.len() as f64 * self.taps.len() as f64 * self.frames as f64;
+        if !(work <= crate::limits::MAX_FILTER_WORK) {
+            return Err(Error::Unsupported(format!(
+                "applying {} disk samples over {} frame(s) to a {}x{} image would take {work:.2e} \
+                 multiply-adds, above the cap of {:.0e}: use fewer samples or frames, or a \
+                 smaller image",
+                self.taps.len(),
+                self.frames,
+                image.width,
+                image.height,
+                crate::limits::MAX_FILTER_WORK
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The disk pass over `setup.frames` rotations (their mean), the specular
+/// image added after.
+pub fn apply_disk(image: &Image, setup: &DiskSetup) -> Result<Image> {
+    setup.validate(image)?;
+    let mut out = Pass::new(image, setup).run(setup.seed, setup.frames);
+    if let Some(s) = &setup.view.specular {
+        for c in 0..3 {
+            out.rgb[c]
+                .iter_mut()
+                .zip(&s.rgb[c])
+                .for_each(|(o, v)| *o += v);
+        }
+    }
+    Ok(out)
+}
+
+/// The diffuse result of each frame `seed + k`, k < `frames`, apart (no
+/// specular): what the error measures of `disk_error` average.
+pub fn disk_frames(image: &Image, setup: &DiskSetup) -> Result<Vec<Image>> {
+    setup.validate(image)?;
+    let pass = Pass::new(image, setup);
+    Ok((0..setup.frames)
+        .map(|k| pass.run(setup.seed.wrapping_add(k), 1))
+        .collect())
+}
+
+struct Pass<'a> {
+    image: &'a Image,
+    setup: &'a DiskSetup,
+    steps: Vec<f64>,
+    depth: Option<&'a [f64]>,
+    follow: Option<f64>,
+}
+
+impl<'a> Pass<'a> {
+    fn new(image: &'a Image, setup: &'a DiskSetup) -> Pass<'a> {
+        let v = &setup.view;
+        Pass {
+            image,
+            setup,
+            steps: v.steps(image.width, image.height),
+            depth: v.depth.as_ref().map(|d| d.data.as_slice()),
+            follow: v.follow_surface.map(|f| f.rate(&v.scale)),
+        }
+    }
+
+    fn run(&self, first: u32, frames: u32) -> Image {
+        let (w, h) = (self.image.width, self.image.height);
+        let mut out = Image::new(w, h);
+        out.alpha = self.image.alpha.clone();
+        let [r, g, b] = &mut out.rgb;
+        r.par_chunks_mut(w)
+            .zip(g.par_chunks_mut(w))
+            .zip(b.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(y, ((r, g), b))| {
+                for x in 0..w {
+                    let v = self.pixel(x, y, first, frames);
+                    (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
+                }
+            });
+        out
+    }
+
+    /// The four pixels around (px, py), already clamped to the image, and
+    /// their bilinear weights.
+    #[inline]
+    fn corners(&self, px: f64, py: f64) -> ([usize; 4], [f64; 4]) {
+        let (w, h) = (self.image.width, self.image.height);
+        // px, py >= 0: truncation is floor.
+        let (x0, y0) = (px as usize, py as usize);
+        let (fx, fy) = (px - x0 as f64, py - y0 as f64);
+        let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+        (
+            [y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1],
+            [
+                (1.0 - fx) * (1.0 - fy),
+                fx * (1.0 - fy),
+                (1.0 - fx) * fy,
+                fx * fy,
+            ],
+        )
+    }
+
+    fn pixel(&self, x: usize, y: usize, first: u32, frames: u32) -> [f64; 3] {
+        let (w, h) = (self.image.width, self.image.height);
+        let centre = y * w + x;
+        let step = self.steps[centre];
+        let rgb = &self.image.rgb;
+        let centre_colour = [rgb[0][centre], rgb[1][centre], rgb[2][centre]];
+        let mut acc = [0.0; 3];
+        for f in 0..frames {
+            let turn = rotation_unit(x as u32, y as u32, first.wrapping_add(f));
+            let (sin, cos) = (2.0 * PI * turn).sin_cos();
+            for t in &self.setup.taps {
+                let dx = step * (t.x_mm * cos - t.y_mm * sin);
+                let dy = step * (t.x_mm * sin + t.y_mm * cos);
+                let px = (x as f64 + dx).clamp(0.0, (w - 1) as f64);
+                let py = (y as f64 + dy).clamp(0.0, (h - 1) as f64);
+                let (idx, wt) = self.corners(px, py);
+                let mut o = [0.0; 3];
+                for c in 0..3 {
+                    o[c] = (0..4).map(|k| rgb[c][idx[k]] * wt[k]).sum();
+                }
+                if let (Some(k), Some(d)) = (self.follow, self.depth) {
+                    let ds: f64 = (0..4).map(|k| d[idx[k]] * wt[k]).sum();
+                    let t = super::follow_t(k, d[centre], ds);
+                    for c in 0..3 {
+                        o[c] = o[c] * (1.0 - t) + centre_colour[c] * t;
+                    }
+                }
+                for c in 0..3 {
+                    acc[c] += t.weight[c] * o[c];
+                }
+            }
+        }
+        acc.map(|v| v / frames as f64)
+    }
+}

@@ -1,0 +1,211 @@
+//! The error of a disk kernel as a user sees it, against the exact 2D
+//! convolution: the bias (the mean over many rotations, what a converged
+//! temporal filter shows) and the noise (the spread of single frames about
+//! that mean), also after K accumulated frames. Accumulation is a plain
+//! mean, linear in the frames, so it leaves the bias as it is and only
+//! lowers the noise. All relative to the reference's peak per channel, as
+//! [`super::diff::DiffStats::rms_rel`].
+//!
+//! [`score_disk`] is the whole measure from a profile, for the advice and
+//! the comparisons: cost (samples per pixel), bias, noise.
+
+use super::disk::{disk_frames, DiskSetup, MAX_FRAMES};
+use super::exact::convolve_2d;
+use super::{Image, Scale, Setup};
+use crate::error::{Error, Result};
+use crate::kernel::disk::{fit_disk, RadiusPdf};
+use crate::kernel::Kernel2D;
+use crate::profile::radius::DEFAULT_HOLD;
+use crate::profile::Profile;
+use serde::Serialize;
+
+/// Bias and noise of a disk pass, per channel, relative to the
+/// reference's peak.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DiskError {
+    /// Fetches per pixel and frame.
+    pub samples_per_pixel: usize,
+    /// Rotations the mean (the bias) is taken over.
+    pub rotations: u32,
+    /// Frames accumulated for `noise_after`.
+    pub frames: u32,
+    /// RMS over pixels of (mean over `rotations` frames - reference).
+    pub bias: [f64; 3],
+    /// The standard error of the mean over `rotations` frames, the part of
+    /// `bias` its own noise may account for: by batch means,
+    /// noise_after / sqrt(rotations / frames) (consecutive frames are not
+    /// independent; blocks of `frames` nearly are).
+    pub bias_noise_floor: [f64; 3],
+    /// RMS over pixels and frames of (one frame - the mean), unbiased
+    /// (divided by rotations - 1).
+    pub noise: [f64; 3],
+    /// The same for means of `frames` consecutive frames.
+    pub noise_after: [f64; 3],
+}
+
+/// Measures `setup` (its `seed`; its `frames` is ignored) on `image`
+/// against `reference` over `rotations` frames, in windows of `frames`.
+pub fn disk_error(
+    image: &Image,
+    setup: &DiskSetup,
+    reference: &Image,
+    rotations: u32,
+    frames: u32,
+) -> Result<DiskError> {
+    if frames == 0
+        || rotations > MAX_FRAMES
+        || !rotations.is_multiple_of(frames)
+        || rotations / frames < 2
+    {
+        return Err(Error::invalid(
+            "disk error",
+            "rotations",
+            rotations,
+            format!(
+                "must be a multiple of frames ({frames}), at least twice it and at most \
+                 {MAX_FRAMES}"
+            ),
+        ));
+    }
+    super::image::check_same_size("the reference", reference.width, reference.height, image)?;
+    let n = image.len();
+    let mut sum = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    let mut sumsq = sum.clone();
+    let mut win = sum.clone();
+    let (mut wsum, mut wsumsq) = (sum.clone(), sum.clone());
+    // Frame by frame: memory of a few images whatever the rotations.
+    for k in 0..rotations {
+        let f = &disk_frames(image, &setup.with_frames(setup.seed.wrapping_add(k), 1))?[0];
+        for c in 0..3 {
+            for (i, &v) in f.rgb[c].iter().enumerate() {
+                sum[c][i] += v;
+                sumsq[c][i] += v * v;
+                win[c][i] += v;
+            }
+        }
+        if (k + 1) % frames == 0 {
+            for c in 0..3 {
+                for i in 0..n {
+                    let m = win[c][i] / frames as f64;
+                    wsum[c][i] += m;
+                    wsumsq[c][i] += m * m;
+                    win[c][i] = 0.0;
+                }
+            }
+        }
+    }
+    let peak = reference.peak();
+    let windows = (rotations / frames) as f64;
+    let m = rotations as f64;
+    let rel =
+        |c: usize, sq: f64| (sq / n as f64).sqrt() / if peak[c] > 0.0 { peak[c] } else { 1.0 };
+    let spread = |s: &[f64], s2: &[f64], count: f64| -> f64 {
+        s.iter()
+            .zip(s2)
+            .map(|(a, b)| ((b - a * a / count) / (count - 1.0)).max(0.0))
+            .sum()
+    };
+    let bias: [f64; 3] = std::array::from_fn(|c| {
+        rel(
+            c,
+            sum[c]
+                .iter()
+                .zip(&reference.rgb[c])
+                .map(|(s, r)| (s / m - r).powi(2))
+                .sum(),
+        )
+    });
+    let noise: [f64; 3] = std::array::from_fn(|c| rel(c, spread(&sum[c], &sumsq[c], m)));
+    let noise_after: [f64; 3] =
+        std::array::from_fn(|c| rel(c, spread(&wsum[c], &wsumsq[c], windows)));
+    Ok(DiskError {
+        samples_per_pixel: setup.taps.len(),
+        rotations,
+        frames,
+        bias,
+        bias_noise_floor: noise_after.map(|v| v / windows.sqrt()),
+        noise,
+        noise_after,
+    })
+}
+
+/// The disk kernel of `profile` with `samples` per channel (radii from
+/// `radii`) applied to `signal` at `mm_per_pixel`, measured against the
+/// exact convolution averaged over each pixel (the expectation of the
+/// pass's bilinear fetches) over `rotations` frames, noise also after
+/// `frames`: what the advice weighs against a separable kernel of the same
+/// cost (samples per pixel). Both see the profile cut at the radius that
+/// holds [`DEFAULT_HOLD`] of every channel (the extent of the exact
+/// reference of `apply --reference`), so that the bias is the sampling's
+/// alone.
+pub fn score_disk(
+    profile: &Profile,
+    samples: usize,
+    radii: RadiusPdf,
+    signal: &Image,
+    mm_per_pixel: f64,
+    rotations: u32,
+    frames: u32,
+) -> Result<DiskError> {
+    super::check_mm_per_pixel(mm_per_pixel)?;
+    let radius = (0..profile.channels.len())
+        .map(|c| crate::profile::radius_holding(profile, c, DEFAULT_HOLD))
+        .fold(0.0, f64::max);
+    let cut = truncated(profile, radius);
+    let kernel = fit_disk(&cut, samples, radii)?;
+    let reference = full_reference(&cut, signal, mm_per_pixel)?;
+    let setup = DiskSetup::new(&kernel, view(mm_per_pixel), 0, 1);
+    disk_error(signal, &setup, &reference, rotations, frames)
+}
+
+/// `signal` convolved with the whole of `profile`'s kernel averaged over
+/// each pixel: a grid that covers the profile's last edge, so nothing the
+/// disk samples is outside it.
+pub fn full_reference(profile: &Profile, signal: &Image, mm_per_pixel: f64) -> Result<Image> {
+    let r_max = profile.r_edges.last().copied().unwrap_or(0.0);
+    let half = (r_max / mm_per_pixel).ceil() + 1.0;
+    let size = 2.0 * half + 1.0;
+    if !(size <= crate::kernel::kernel2d::MAX_SIZE as f64) {
+        return Err(Error::invalid(
+            "disk error",
+            "mm_per_pixel",
+            mm_per_pixel,
+            format!(
+                "the reference over the profile's {r_max} mm would be {size} pixels wide, at                  most {}: use a coarser scale",
+                crate::kernel::kernel2d::MAX_SIZE
+            ),
+        ));
+    }
+    let k = Kernel2D::pixel_averaged(profile, size as usize, mm_per_pixel)?;
+    super::exact::check_reference_fits(signal.width, signal.height, k.size)?;
+    Ok(convolve_2d(signal, &k))
+}
+
+/// `profile` without the bins beyond `radius` (the bin holding it kept).
+pub fn truncated(profile: &Profile, radius: f64) -> Profile {
+    let n = profile.r_edges[1..]
+        .iter()
+        .position(|&e| e >= radius)
+        .map_or(profile.r.len(), |i| i + 1);
+    let mut p = profile.clone();
+    p.r.truncate(n);
+    p.r_edges.truncate(n + 1);
+    p.rd.iter_mut().for_each(|v| v.truncate(n));
+    if let Some(e) = p.rd_stderr.as_mut() {
+        e.iter_mut().for_each(|v| v.truncate(n));
+    }
+    p
+}
+
+/// A plain orthographic view: no depth, strength, lerp or specular.
+pub fn view(mm_per_pixel: f64) -> Setup {
+    Setup {
+        passes: Vec::new(),
+        scale: Scale::MmPerPixel(mm_per_pixel),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+        jitter: false,
+    }
+}

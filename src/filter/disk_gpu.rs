@@ -1,0 +1,216 @@
+//! The wgpu disk pass: shaders/disk.wgsl runs every frame of a
+//! [`DiskSetup`] in one dispatch, adding the mean to the output, which
+//! starts as the specular image. f32 throughout; checked against
+//! [`super::disk::apply_disk`] (f64) within [`disk_f32_tolerance`].
+
+use super::disk::DiskSetup;
+use super::Image;
+use crate::error::{Error, Result};
+use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+
+const SHADER: &str = include_str!("../../shaders/disk.wgsl");
+
+/// Largest difference between the f32 pass and the f64 reference for the
+/// same rotation seed, relative to the image's peak, on a `width` x
+/// `height` image with `samples` samples: a sample position is the
+/// coordinate (below the longer side L) plus an offset, rounded a few
+/// times in f32 (4 ulps, 4 L 2^-23 pixel; sin and cos of the rotation err
+/// by less than that at radii below L), which moves a bilinear fetch by
+/// that fraction of the largest step between neighbouring pixels (at most
+/// the peak); summing the samples in f32 adds 4 x 2^-23 of the peak per
+/// sample.
+pub fn disk_f32_tolerance(width: usize, height: usize, samples: usize) -> f64 {
+    let ulp = (2.0f64).powi(-23);
+    4.0 * ulp * (width.max(height) + samples) as f64
+}
+
+wgsl_struct! {
+    /// The uniform block of the disk pass.
+    struct DiskParams {
+        width: u32,
+        height: u32,
+        nsamples: u32,
+        /// 0: orthographic step, 1: perspective step divided by depth
+        /// (Freude 2014, eq. 4.11).
+        perspective: u32,
+        /// 1: lerp toward the centre colour by depth difference (Freude
+        /// 2014, eq. 4.12).
+        follow: u32,
+        /// The first frame's index (seed), and the frames averaged.
+        first_frame: u32,
+        frames: u32,
+        _pad_u: u32,
+        /// Pixels per kernel mm before strength and depth.
+        step_base: f32,
+        /// k of t = clamp(k |d_centre - d_sample|, 0, 1).
+        follow_k: f32,
+        _pad0: f32,
+        _pad1: f32,
+    }
+}
+
+/// Side of the square workgroup of disk.wgsl, in pixels.
+const WORKGROUP_SIDE: u32 = 8;
+
+/// A device with the disk pipeline compiled.
+pub struct DiskGpu {
+    ctx: GpuContext,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl DiskGpu {
+    pub fn new() -> Result<DiskGpu> {
+        let ctx = GpuContext::open()?;
+        let pipeline = ctx.compute_pipeline("disk", &shader_source(), "main")?;
+        Ok(DiskGpu { ctx, pipeline })
+    }
+
+    /// "name (backend, device type, driver)".
+    pub fn describe(&self) -> String {
+        self.ctx.describe()
+    }
+
+    /// Runs `setup` on `image`: the mean over its frames plus the specular
+    /// image.
+    pub fn apply(&self, image: &Image, setup: &DiskSetup) -> Result<Image> {
+        setup.validate(image)?;
+        let (w, h) = (image.width, image.height);
+        let n = w * h;
+        let limit = self.ctx.device.limits().max_storage_buffer_binding_size as usize;
+        if n * 16 > limit {
+            return Err(Error::Unsupported(format!(
+                "a {w}x{h} image needs {} bytes per buffer; this adapter binds at most {limit}",
+                n * 16
+            )));
+        }
+        let rgba = |img: &Image| -> Vec<[f32; 4]> {
+            (0..n)
+                .map(|i| std::array::from_fn(|c| if c < 3 { img.rgb[c][i] as f32 } else { 1.0 }))
+                .collect()
+        };
+        let v = &setup.view;
+        let scalar = |p: Option<&super::Plane>| -> Vec<f32> {
+            p.map_or_else(
+                || vec![1.0; n],
+                |p| p.data.iter().map(|&x| x as f32).collect(),
+            )
+        };
+        let points: Vec<[f32; 2]> = setup
+            .taps
+            .iter()
+            .map(|t| [t.x_mm as f32, t.y_mm as f32])
+            .collect();
+        let weights: Vec<[f32; 4]> = setup
+            .taps
+            .iter()
+            .map(|t| {
+                [
+                    t.weight[0] as f32,
+                    t.weight[1] as f32,
+                    t.weight[2] as f32,
+                    0.0,
+                ]
+            })
+            .collect();
+        let start = match &v.specular {
+            Some(s) => rgba(s),
+            None => vec![[0.0; 4]; n],
+        };
+        let params = DiskParams {
+            width: w as u32,
+            height: h as u32,
+            nsamples: setup.taps.len() as u32,
+            perspective: matches!(v.scale, super::Scale::Perspective { .. }) as u32,
+            follow: v.follow_surface.is_some() as u32,
+            first_frame: setup.seed,
+            frames: setup.frames,
+            _pad_u: 0,
+            step_base: v.scale.step_base(h) as f32,
+            follow_k: v.follow_surface.map_or(0.0, |f| f.rate(&v.scale)) as f32,
+            _pad0: 0.0,
+            _pad1: 0.0,
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let c = &self.ctx;
+        let buffers = [
+            c.buffer(
+                "params",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            ),
+            c.buffer("image", bytemuck::cast_slice(&rgba(image)), storage),
+            c.buffer(
+                "depth",
+                bytemuck::cast_slice(&scalar(v.depth.as_ref())),
+                storage,
+            ),
+            c.buffer(
+                "strength",
+                bytemuck::cast_slice(&scalar(v.strength.as_ref())),
+                storage,
+            ),
+            c.buffer("points", bytemuck::cast_slice(&points), storage),
+            c.buffer("weights", bytemuck::cast_slice(&weights), storage),
+            c.buffer(
+                "output",
+                bytemuck::cast_slice(&start),
+                storage | wgpu::BufferUsages::COPY_SRC,
+            ),
+        ];
+        let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();
+        let group = c.bind_group(&self.pipeline, &refs);
+        let mut encoder = c
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("disk"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(
+                (w as u32).div_ceil(WORKGROUP_SIDE),
+                (h as u32).div_ceil(WORKGROUP_SIDE),
+                1,
+            );
+        }
+        let data: Vec<[f32; 4]> = c.read_back(encoder, &buffers[6], (n * 16) as u64)?;
+        let mut out = Image::new(w, h);
+        out.alpha = image.alpha.clone();
+        for (i, px) in data.iter().enumerate() {
+            for ch in 0..3 {
+                out.rgb[ch][i] = px[ch] as f64;
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The constants disk.wgsl shares with this file and the CPU twin
+/// ([`super::jitter`]).
+fn shared_constants() -> [(&'static str, u32); 7] {
+    use super::jitter::{IGN_FRACTION, IGN_WHOLE, IGN_X, IGN_Y, JITTER_BITS, SILVER_U32};
+    [
+        ("IGN_X", IGN_X),
+        ("IGN_Y", IGN_Y),
+        ("IGN_WHOLE", IGN_WHOLE),
+        ("IGN_FRACTION", IGN_FRACTION),
+        ("SILVER_U32", SILVER_U32),
+        ("JITTER_BITS", JITTER_BITS),
+        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+    ]
+}
+
+fn shader_source() -> String {
+    let consts = wgsl_u32_consts(&shared_constants());
+    [&consts, WGSL_WIDE_MUL, DiskParams::WGSL, SHADER].join("\n")
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_assembled_shader_is_valid_wgsl() {
+        crate::gpu::tests::assert_valid_wgsl(&super::shader_source(), "disk");
+    }
+}

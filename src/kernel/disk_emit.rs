@@ -1,0 +1,102 @@
+//! Shader constant arrays of a disk kernel: each sample's unrotated
+//! position in mm (x, y) = radius (cos angle, sin angle), so that a shader
+//! turns the whole pattern by one 2x2 rotation per pixel instead of a cosine
+//! per sample, and its RGB weight; a header says how to rotate, scale and
+//! sum them.
+
+use super::disk::DiskKernelFile;
+use super::emit::{comment, num, Lang};
+use crate::error::{Error, Result};
+use std::fmt::Write;
+
+/// The arrays `sss_disk_points` (float2, mm) and `sss_disk_weights`
+/// (float3) of `k` in `lang`, with `sss_disk_count`.
+pub fn emit_disk(k: &DiskKernelFile, lang: Lang) -> Result<String> {
+    let n = k.samples.len();
+    // Validated radii are at most 1e6 mm and weights finite: the f32 cast
+    // keeps them finite except for weights beyond f32 (refused here).
+    if let Some((i, s)) = k
+        .samples
+        .iter()
+        .enumerate()
+        .find(|(_, s)| s.weight.iter().any(|w| !(w.abs() <= f32::MAX as f64)))
+    {
+        return Err(Error::invalid(
+            "shader",
+            format!("samples[{i}].weight"),
+            format!("{:?}", s.weight),
+            "shader arrays hold f32: weights must be at most f32::MAX",
+        ));
+    }
+    let usage = k.usage();
+    let mut out = String::new();
+    let rgb = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
+    comment(
+        &mut out,
+        &format!(
+            "ssskit disk kernel ({}), {n} samples per pixel, radii from the {} pdf \
+             (importance-sampled R_d, stratified inverse CDF, golden-angle spiral).",
+            k.material.as_ref().map(|m| m.name.as_str()).unwrap_or("?"),
+            k.model.params["radii"].as_str().unwrap_or("?"),
+        ),
+    );
+    comment(
+        &mut out,
+        "Layout: sss_disk_points[i] = radius_mm x (cos angle, sin angle), millimetres on the \
+         surface before the per-pixel rotation; sss_disk_weights[i] = RGB weight \
+         (dimensionless, R_d / pdf).",
+    );
+    comment(&mut out, &format!("Rotation: {}.", usage.rotation));
+    comment(&mut out, &format!("Pixels: {}.", usage.pixels_per_mm));
+    comment(&mut out, &format!("Weights: {}.", usage.weights));
+    comment(&mut out, &format!("Depth: {}.", usage.depth));
+    comment(
+        &mut out,
+        &format!("total_rd = {}: {}.", rgb(k.total_rd), usage.total_rd),
+    );
+    let (f2, f3, decl_n) = match lang {
+        Lang::Hlsl => (
+            "float2",
+            "float3",
+            format!("static const uint sss_disk_count = {n}u;"),
+        ),
+        Lang::Glsl => ("vec2", "vec3", format!("const uint sss_disk_count = {n}u;")),
+        Lang::Wgsl => (
+            "vec2<f32>",
+            "vec3<f32>",
+            format!("const sss_disk_count: u32 = {n}u;"),
+        ),
+    };
+    let _ = writeln!(out, "{decl_n}");
+    let points: Vec<String> = k
+        .samples
+        .iter()
+        .map(|s| {
+            let (x, y) = (s.radius_mm * s.angle.cos(), s.radius_mm * s.angle.sin());
+            format!("{f2}({}, {})", num(x), num(y))
+        })
+        .collect();
+    let weights: Vec<String> = k
+        .samples
+        .iter()
+        .map(|s| {
+            let w = s.weight;
+            format!("{f3}({}, {}, {})", num(w[0]), num(w[1]), num(w[2]))
+        })
+        .collect();
+    for (name, ty, items) in [
+        ("sss_disk_points", f2, points),
+        ("sss_disk_weights", f3, weights),
+    ] {
+        let body = items.join(",\n    ");
+        let _ = match lang {
+            Lang::Hlsl => writeln!(out, "static const {ty} {name}[{n}] = {{\n    {body}\n}};"),
+            Lang::Glsl => writeln!(out, "const {ty} {name}[{n}] = {ty}[{n}](\n    {body}\n);"),
+            Lang::Wgsl => writeln!(
+                out,
+                "const {name}: array<{ty}, {n}> = array<{ty}, {n}>(\n    {body}\n);"
+            ),
+        };
+    }
+    Ok(out)
+}

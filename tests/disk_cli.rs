@@ -1,0 +1,245 @@
+//! `ssskit fit --model disk` and `ssskit apply` with a disk kernel through
+//! the binary: the sample table, its shader arrays (parsed and validated
+//! by naga, wgpu's shader compiler, in WGSL and GLSL; HLSL mapped to GLSL's
+//! types, as tests/kernel_emit.rs does), the validated sample count, and
+//! `apply --frames` equal to the library's disk pass.
+
+mod common;
+
+use common::{fails_with, ok, read_json};
+use naga::{Expression, Literal};
+use ssskit::filter::disk::{apply_disk, DiskSetup};
+use ssskit::filter::disk_error::view;
+use ssskit::filter::image::read_image;
+use ssskit::kernel::disk::DiskKernelFile;
+use std::path::Path;
+
+const SKIN: &str = "profiles/reference/skin1.json";
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn validate(m: &naga::Module, what: &str) {
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(m)
+    .unwrap_or_else(|e| panic!("{what}: naga validation failed: {e:?}"));
+}
+
+/// A GLSL fragment shader that reads every point and weight.
+fn glsl_shader(arrays: &str) -> String {
+    format!(
+        "#version 450\n{arrays}\nlayout(location = 0) out vec4 o;\nvoid main() {{\n    \
+         vec3 s = vec3(0.0);\n    for (uint i = 0u; i < sss_disk_count; i++) {{ s += \
+         sss_disk_weights[i] * sss_disk_points[i].x; }}\n    o = vec4(s, 1.0);\n}}\n"
+    )
+}
+
+fn parse_glsl(src: &str, what: &str) -> naga::Module {
+    let mut front = naga::front::glsl::Frontend::default();
+    let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
+    front
+        .parse(&options, src)
+        .unwrap_or_else(|e| panic!("{what}: GLSL parse failed: {e:?}\n{src}"))
+}
+
+/// The vectors of the WGSL constant `name`.
+fn wgsl_array(module: &naga::Module, name: &str) -> Vec<Vec<f32>> {
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("constant {name} not in the module"));
+    let e = &module.global_expressions;
+    let scalar = |h| match e[h] {
+        Expression::Literal(Literal::F32(v)) => v,
+        ref x => panic!("not an f32 literal: {x:?}"),
+    };
+    let Expression::Compose { ref components, .. } = e[c.init] else {
+        panic!("{name} is not an array constructor");
+    };
+    components
+        .iter()
+        .map(|&v| match e[v] {
+            Expression::Compose { ref components, .. } => {
+                components.iter().map(|&x| scalar(x)).collect()
+            }
+            ref x => panic!("not a vector: {x:?}"),
+        })
+        .collect()
+}
+
+#[test]
+fn fit_writes_the_sample_table_and_shader_arrays_that_naga_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = dir.path().join("disk.json");
+    let wgsl = ok(&[
+        "fit",
+        "--profile",
+        SKIN,
+        "--model",
+        "disk",
+        "--samples",
+        "32",
+        "--out",
+        s(&k),
+        "--emit",
+        "wgsl",
+    ]);
+    let j = read_json(&k);
+    assert_eq!(j["schema"], "ssskit.disk/1");
+    let samples = j["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 32);
+    for key in ["radius_mm", "angle", "weight"] {
+        assert!(samples[0].get(key).is_some(), "{key}");
+    }
+    assert!(j["usage"]["rotation"]
+        .as_str()
+        .unwrap()
+        .contains("Jimenez 2014"));
+    let file = DiskKernelFile::read(&k).unwrap();
+    // WGSL: parses, validates, and holds the file's numbers in f32.
+    let src = format!(
+        "{wgsl}\n@group(0) @binding(0) var<storage, read_write> o: array<vec4<f32>>;\n\
+         @compute @workgroup_size(1)\nfn main() {{\n    var p = sss_disk_points;\n    \
+         var w = sss_disk_weights;\n    for (var i = 0u; i < sss_disk_count; i++) {{ o[i] = \
+         vec4<f32>(w[i], p[i].x + p[i].y); }}\n}}\n"
+    );
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("WGSL: {}", e.emit_to_string(&src)));
+    validate(&module, "wgsl");
+    let points = wgsl_array(&module, "sss_disk_points");
+    let weights = wgsl_array(&module, "sss_disk_weights");
+    assert_eq!((points.len(), weights.len()), (32, 32));
+    for (i, smp) in file.samples.iter().enumerate() {
+        let (x, y) = (
+            smp.radius_mm * smp.angle.cos(),
+            smp.radius_mm * smp.angle.sin(),
+        );
+        assert_eq!(points[i], vec![x as f32, y as f32], "point {i}");
+        let w: Vec<f32> = smp.weight.iter().map(|&v| v as f32).collect();
+        assert_eq!(weights[i], w, "weight {i}");
+    }
+    // GLSL, and HLSL mapped to GLSL's types, from the file read back.
+    let glsl = ok(&["fit", "--kernel", s(&k), "--emit", "glsl", "--quiet"]);
+    validate(&parse_glsl(&glsl_shader(&glsl), "glsl"), "glsl");
+    let hlsl = ok(&["fit", "--kernel", s(&k), "--emit", "hlsl", "--quiet"]);
+    assert!(hlsl.contains("static const float2 sss_disk_points[32]"));
+    let mapped = hlsl
+        .replace("static const float2", "const vec2")
+        .replace("static const float3", "const vec3")
+        .replace("static const uint", "const uint")
+        .replace("float2(", "vec2(")
+        .replace("float3(", "vec3(")
+        .replace("[32] = {", "[32] = vec2[32](")
+        .replace("};", ");");
+    // The weights' array constructor is vec3's.
+    let mapped = match mapped.split_once("const vec3 sss_disk_weights[32] = vec2[32](") {
+        Some((a, b)) => format!("{a}const vec3 sss_disk_weights[32] = vec3[32]({b}"),
+        None => mapped,
+    };
+    validate(&parse_glsl(&glsl_shader(&mapped), "hlsl"), "hlsl");
+}
+
+#[test]
+fn the_sample_count_is_validated() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = dir.path().join("disk.json");
+    for n in ["3", "1025"] {
+        fails_with(
+            &[
+                "fit",
+                "--profile",
+                SKIN,
+                "--model",
+                "disk",
+                "--samples",
+                n,
+                "--out",
+                s(&k),
+            ],
+            &["samples", n],
+        );
+    }
+    assert!(!k.exists());
+}
+
+#[test]
+fn apply_accumulates_frames_as_the_library_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
+    ok(&[
+        "fit",
+        "--profile",
+        SKIN,
+        "--model",
+        "disk",
+        "--samples",
+        "16",
+        "--out",
+        s(&k),
+    ]);
+    ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
+    ok(&[
+        "apply",
+        "--kernel",
+        s(&k),
+        "--input",
+        s(&img),
+        "--out",
+        s(&out),
+        "--mm-per-pixel",
+        "0.1",
+        "--frames",
+        "4",
+        "--frame-seed",
+        "9",
+        "--backend",
+        "cpu",
+    ]);
+    let (input, _) = read_image(&img, None).unwrap();
+    let (got, _) = read_image(&out, None).unwrap();
+    let kernel = DiskKernelFile::read(&k).unwrap();
+    let want = apply_disk(&input, &DiskSetup::new(&kernel, view(0.1), 9, 4)).unwrap();
+    for c in 0..3 {
+        for (a, b) in got.rgb[c].iter().zip(&want.rgb[c]) {
+            // EXR stores f32.
+            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
+        }
+    }
+    fails_with(
+        &[
+            "apply",
+            "--kernel",
+            s(&k),
+            "--input",
+            s(&img),
+            "--out",
+            s(&out),
+            "--mm-per-pixel",
+            "0.1",
+            "--frames",
+            "0",
+        ],
+        &["frames", "0"],
+    );
+    fails_with(
+        &[
+            "apply",
+            "--kernel",
+            s(&k),
+            "--input",
+            s(&img),
+            "--out",
+            s(&out),
+            "--mm-per-pixel",
+            "0.1",
+            "--jitter",
+        ],
+        &["--jitter", "disk kernel"],
+    );
+}
