@@ -636,8 +636,8 @@ fn advise_record_for_the_docs() {
         args.extend(extra);
         let (out, _) = ok(&args);
         let a: Value = serde_json::from_str(&out).unwrap();
-        let command =
-            format!("`ssskit {}`", args[..args.len() - 1].join(" ")).replace(" --json", "");
+        let shown: Vec<&str> = args.iter().copied().filter(|a| *a != "--json").collect();
+        let command = format!("`ssskit {}`", shown.join(" "));
         let pct = |v: &Value| format!("{:.2}", 100.0 * v.as_f64().unwrap());
         let w = &a["worst_case"];
         rows.push(vec![
