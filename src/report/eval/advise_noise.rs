@@ -10,9 +10,9 @@
 //! uncertainty is the standard deviation of those replicate scores. Each
 //! bin is drawn log-normal with the bin's relative standard error
 //! (`R_d exp(s z - s^2 / 2)`, z standard normal, s = se / R_d): its mean
-//! is R_d, its standard deviation se to first order in s, and it stays
-//! >= 0 as a reflectance must (a normal draw would make the far tail's
-//! bins negative, which no profile holds).
+//! is R_d, its standard deviation se to first order in s, and it is
+//! never negative, as a reflectance must be (a normal draw would make the
+//! far tail's bins negative, which no profile holds).
 //!
 //! Only the reference is drawn: the candidate is a fixed kernel (the one
 //! that would ship, fitted once to the measured profile), and the question

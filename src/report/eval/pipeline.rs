@@ -238,7 +238,7 @@ pub fn run(
     write_kernel(&advice.kernel, dir, "recommended", true, &mut files)?;
     // The advice and why, where the comparison is read.
     let mut md = std::fs::read_to_string(dir.join("report.md"))
-        .map_err(|e| Error::format(&dir.join("report.md"), e.to_string()))?;
+        .map_err(|e| Error::format(dir.join("report.md"), e.to_string()))?;
     md.push_str(&format!(
         "\n## What to ship (recommended.json, advice.json)\n\n```text\n{}```\n",
         advise::explain(&advice)
