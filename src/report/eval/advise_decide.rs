@@ -231,6 +231,8 @@ mod tests {
         };
         assert!(t.allows(2, 17, 34));
         assert!(!t.allows(2, 21, 42));
+        // Over on taps alone (19 > 17; 38 samples within 40).
+        assert!(!t.allows(2, 19, 38));
         assert!(!t.allows(4, 11, 44));
         assert!(Budget::UNBOUNDED.allows(12, 255, 100_000));
     }
