@@ -187,7 +187,8 @@ fn truncated_arrays_are_refused() {
 #[test]
 fn header_explains_units_pixels_depth_passes_and_sums() {
     let k = kernel("skin1-svd3");
-    let h = emit(&k, Lang::Hlsl).unwrap();
+    // The header's sentences as one line each (comments wrap at 96 columns).
+    let h = emit(&k, Lang::Hlsl).unwrap().replace("\n//   ", " ");
     for needle in [
         "millimetres",
         "pixels_per_mm = sss_width * viewport_height_px / (2 * tan(fov_y / 2) * depth)",
@@ -195,9 +196,32 @@ fn header_explains_units_pixels_depth_passes_and_sums() {
         "summed, never chained",
         "signed float target",
         "total_rd",
-        "Pass 2: tap weight sum per channel",
+        "Term 2: tap weight sum per channel",
+        "3 separable term(s) = 6 one-dimensional passes",
     ] {
         assert!(h.contains(needle), "header lacks '{needle}':\n{h}");
+    }
+    // One word for one thing: sss_passes counts one-dimensional passes
+    // (two per separable term), as advise, kernels and apply do.
+    for (lang, terms, passes) in [
+        (
+            Lang::Hlsl,
+            "static const uint sss_terms = 3u;",
+            "static const uint sss_passes = 6u;",
+        ),
+        (
+            Lang::Glsl,
+            "const uint sss_terms = 3u;",
+            "const uint sss_passes = 6u;",
+        ),
+        (
+            Lang::Wgsl,
+            "const sss_terms: u32 = 3u;",
+            "const sss_passes: u32 = 6u;",
+        ),
+    ] {
+        let src = emit(&k, lang).unwrap();
+        assert!(src.contains(terms) && src.contains(passes), "{src}");
     }
     let u = k.usage();
     assert_eq!(u.pass_weight_sums.len(), 3);

@@ -2,8 +2,8 @@
 //! image-space error at a pixel scale.
 
 use super::args::{
-    self, count, FovYArg, ImageErrorArg, JsonArg, MmPerPixelArg, ModelsArg, OutFile, ProfileModel,
-    ProfileSourceArgs, SignalSizeArg, UnitsPerMmArg,
+    self, count, BudgetArgs, FovYArg, ImageErrorArg, JsonArg, MmPerPixelArg, ModelsArg, OutFile,
+    ProfileModel, ProfileSourceArgs, SignalSizeArg, UnitsPerMmArg,
 };
 use super::out::{out, outln};
 use anyhow::bail;
@@ -22,7 +22,7 @@ struct ViewArgs {
 }
 
 #[derive(clap::Args)]
-#[command(mut_args(args::profile_source(ProfileModel::Pbd)))]
+#[command(mut_args(args::profile_source(ProfileModel::Mc)))]
 #[command(
     mut_arg("mm_per_pixel", |a| a
         .conflicts_with_all(["fov_y", "view_depth", "image_height"])
@@ -51,6 +51,8 @@ pub struct Args {
     #[command(flatten)]
     target: ImageErrorArg,
     #[command(flatten)]
+    budget: BudgetArgs,
+    #[command(flatten)]
     signal_size: SignalSizeArg,
     #[command(flatten)]
     models: ModelsArg,
@@ -78,6 +80,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         _ => bail!("give --mm-per-pixel, or --fov-y with --view-depth and --image-height"),
     };
     let mm = view.mm_per_pixel()?;
+    let target = a.target.fraction()?;
     let (profile, source) = a.profile.load()?;
     eprintln!(
         "{}: profile {source}; scale {} mm per pixel{}",
@@ -96,8 +99,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ViewScale::MmPerPixel(_) => String::new(),
         }
     );
-    let mut cfg = advise::Config::new(mm, a.target.image_error);
+    let mut cfg = advise::Config::new(mm, target);
     cfg.size = a.signal_size.signal_size;
+    cfg.budget = a.budget.budget();
     cfg.families = a.models.families();
     let advice = advise::advise(&profile, &cfg, &super::progress::Bar::new())?;
     let out = a.out.out.as_ref();

@@ -261,7 +261,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = filter(&args, &image, &setup)?;
     write_image(out_path, &out, png_depth)?;
     eprintln!(
-        "{} pass(es) of {} taps, {:.3} s -> {}",
+        "{} one-dimensional passes ({} separable term(s)) of up to {} taps, {:.3} s -> {}",
+        2 * setup.passes.len(),
         setup.passes.len(),
         setup
             .passes

@@ -72,6 +72,8 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("advise", "depth", &["--view-depth"]),
     ("advise", "height", &["--image-height"]),
     ("advise", "target error", &["--image-error"]),
+    ("advise", "max_passes", &["--max-passes"]),
+    ("advise", "max_samples", &["--max-samples"]),
     ("compare", "model", &["--models"]),
     ("compare", "ranks", &["--ranks"]),
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),

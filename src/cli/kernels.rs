@@ -1,7 +1,9 @@
 //! `ssskit kernels`: the main job in one command. Profile, every kernel
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
-use super::args::{self, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs, TapsArg};
+use super::args::{
+    self, BudgetArgs, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs, TapsArg,
+};
 use super::out::out;
 use super::profile_source::command_line;
 use ssskit::report::pipeline::{self, Settings};
@@ -21,12 +23,15 @@ pub struct Args {
     taps: TapsArg,
     #[command(flatten)]
     target: ImageErrorArg,
+    #[command(flatten)]
+    budget: BudgetArgs,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let mm_per_pixel =
         super::errors::positive("--mm-per-pixel", a.report.mm_per_pixel.or_default())?;
     ssskit::kernel::taps::check_count(a.taps.taps)?;
+    let target = a.target.fraction()?;
     let out_dir = a.report.out_dir.path()?;
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(out_dir)?;
@@ -36,7 +41,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let settings = Settings {
         mm_per_pixel,
         taps: a.taps.taps,
-        target: a.target.image_error,
+        target,
+        budget: a.budget.budget(),
         size: a.report.signal_size.signal_size,
         plots: !a.report.no_plots.no_plots,
     };

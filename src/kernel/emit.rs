@@ -107,11 +107,13 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
     comment(
         &mut out,
         &format!(
-            "ssskit kernel: model {} ({}), {} taps per pass, {} pass(es).",
+            "ssskit kernel: model {} ({}), {} taps per pass, {} separable term(s) = {} \
+             one-dimensional passes (sss_terms, sss_passes).",
             k.model.name,
             k.material.as_ref().map(|m| m.name.as_str()).unwrap_or("?"),
             n,
             k.taps.passes.len(),
+            2 * k.taps.passes.len(),
         ),
     );
     comment(
@@ -121,7 +123,15 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
     );
     comment(&mut out, &format!("Pixels: {}.", usage.pixels_per_mm));
     comment(&mut out, &format!("Depth: {}.", usage.depth));
-    comment(&mut out, &format!("Passes: {}.", usage.passes));
+    // The kernel file names its per-term tables `taps.passes`: a term p
+    // here is one of them, run as two one-dimensional passes.
+    comment(
+        &mut out,
+        &format!(
+            "Terms (sss_kernel_p; the kernel file's taps.passes[p]): {}.",
+            usage.passes
+        ),
+    );
     comment(
         &mut out,
         &format!("total_rd = {}: {}.", rgb(k.total_rd), usage.total_rd),
@@ -129,7 +139,7 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
     for (p, s) in usage.pass_weight_sums.iter().enumerate() {
         comment(
             &mut out,
-            &format!("Pass {p}: tap weight sum per channel {}.", rgb(*s)),
+            &format!("Term {p}: tap weight sum per channel {}.", rgb(*s)),
         );
     }
     comment(
@@ -147,18 +157,21 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
     let _ = match lang {
         Lang::Hlsl => writeln!(
             out,
-            "static const uint sss_taps = {n}u;\nstatic const uint sss_passes = {}u;",
-            k.taps.passes.len()
+            "static const uint sss_taps = {n}u;\nstatic const uint sss_terms = {}u;\nstatic const uint sss_passes = {}u;",
+            k.taps.passes.len(),
+            2 * k.taps.passes.len()
         ),
         Lang::Glsl => writeln!(
             out,
-            "const uint sss_taps = {n}u;\nconst uint sss_passes = {}u;",
-            k.taps.passes.len()
+            "const uint sss_taps = {n}u;\nconst uint sss_terms = {}u;\nconst uint sss_passes = {}u;",
+            k.taps.passes.len(),
+            2 * k.taps.passes.len()
         ),
         Lang::Wgsl => writeln!(
             out,
-            "const sss_taps: u32 = {n}u;\nconst sss_passes: u32 = {}u;",
-            k.taps.passes.len()
+            "const sss_taps: u32 = {n}u;\nconst sss_terms: u32 = {}u;\nconst sss_passes: u32 = {}u;",
+            k.taps.passes.len(),
+            2 * k.taps.passes.len()
         ),
     };
     for (p, pass) in k.taps.passes.iter().enumerate() {

@@ -142,6 +142,17 @@ impl Material {
     /// exists (or ends in .toml).
     pub fn load(spec: &str) -> Result<Material> {
         let path = Path::new(spec);
+        // A folder is never a material: a preset's name resolves to the
+        // preset even where a folder of that name (an output folder named
+        // after the material, say) sits in the working directory.
+        if path.is_dir() {
+            return preset(spec).ok_or_else(|| {
+                Error::Unsupported(format!(
+                    "'{spec}' is a folder, not a material TOML file or preset (presets: {})",
+                    preset_names().join(", ")
+                ))
+            });
+        }
         if path.exists() || spec.ends_with(".toml") {
             let text = crate::io::read_text_capped(
                 path,

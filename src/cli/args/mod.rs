@@ -378,6 +378,82 @@ pub struct ImageErrorArg {
     pub image_error: f64,
 }
 
+impl ImageErrorArg {
+    /// The target as a fraction; 1 or more is refused (a percent typed
+    /// where a fraction is meant: `--image-error 5` means 5%, not 500%).
+    pub fn fraction(&self) -> anyhow::Result<f64> {
+        let e = self.image_error;
+        if e >= 1.0 && e.is_finite() {
+            return Err(super::errors::invalid(
+                "--image-error",
+                e,
+                &format!("a fraction, not a percent: for {e}% give {}", e / 100.0),
+            ));
+        }
+        if !(e > 0.0 && e.is_finite()) {
+            return Err(super::errors::invalid(
+                "--image-error",
+                e,
+                "must be > 0 (a fraction: 0.05 is 5%)",
+            ));
+        }
+        Ok(e)
+    }
+}
+
+/// A cost limit: a count, or none (no limit).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limit(pub Option<usize>);
+
+impl std::fmt::Display for Limit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(n) => write!(f, "{n}"),
+            None => write!(f, "none"),
+        }
+    }
+}
+
+/// A [`Limit`]: `none` (or 0) lifts it, else a count.
+pub fn limit(s: &str) -> Result<Limit, String> {
+    if s.trim().eq_ignore_ascii_case("none") {
+        return Ok(Limit(None));
+    }
+    let n: usize = count(s).map_err(|e| format!("{e}, or none for no limit"))?;
+    Ok(Limit((n > 0).then_some(n)))
+}
+
+/// `--max-passes`, `--max-samples`, `--max-taps`: what a recommended kernel
+/// may cost (`ssskit::report::advise::Budget`).
+#[derive(clap::Args)]
+pub struct BudgetArgs {
+    /// Budget: one-dimensional passes at most (rank r runs 2r); none: any.
+    ///
+    /// A separable kernel of r terms runs a horizontal and a vertical pass
+    /// per term, 2r one-dimensional passes. The default, 2, is one rank-1
+    /// pair, what every engine in `ssskit engine` runs. none (or 0) lifts
+    /// the limit; the search then tries ranks 1 to 3.
+    #[arg(long, value_name = "N", value_parser = limit,
+          default_value_t = Limit(Some(ssskit::report::advise::DEFAULT_MAX_PASSES)))]
+    pub max_passes: Limit,
+    /// Budget: samples per pixel at most, over all passes; none: any.
+    #[arg(long, value_name = "N", value_parser = limit, default_value_t = Limit(None))]
+    pub max_samples: Limit,
+    /// Budget: taps per pass at most (full factors: pixels spanned); none: any.
+    #[arg(long, value_name = "N", value_parser = limit, default_value_t = Limit(None))]
+    pub max_taps: Limit,
+}
+
+impl BudgetArgs {
+    pub fn budget(&self) -> ssskit::report::advise::Budget {
+        ssskit::report::advise::Budget {
+            max_passes: self.max_passes.0,
+            max_samples: self.max_samples.0,
+            max_taps: self.max_taps.0,
+        }
+    }
+}
+
 /// `--models`.
 #[derive(clap::Args)]
 pub struct ModelsArg {

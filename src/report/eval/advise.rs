@@ -20,11 +20,19 @@
 //! can hold, from the finest (a 2-pixel cell, period 4 pixels; 1-pixel
 //! cells are what the renderer's own sampling averages away) to the coarse.
 //! The cells are fixed in pixels (detail at the screen's resolution), not
-//! in mm. A candidate is filtered on the finest checker first and not on
-//! the remaining signals once it is over the target (it cannot be chosen);
-//! when no candidate meets the target every one is filtered on every
-//! signal and the most accurate is chosen. FLIP is reported for the chosen
-//! configuration.
+//! in mm. FLIP is reported for the chosen configuration.
+//!
+//! Only candidates within the [`Budget`] (passes, samples, taps) are
+//! filtered; the decision respects the Monte Carlo noise of the profile
+//! ([`super::advise_noise`], [`super::advise_decide`]). Each model's
+//! layouts are filtered cheapest first, each on the signals in order (the
+//! finest checker first) up to its first missed signal; the first layout
+//! that misses none is the model's answer (its costlier layouts cannot be
+//! chosen). Where none does, the model's most accurate layout is found by
+//! branch and bound: a partial worst case is a lower bound on the whole,
+//! layouts are completed in order of it, and the search stops when the
+//! next bound lies past the best complete worst case by more than a tie.
+//! Every row shown (each model's winner) is filtered on every signal.
 //!
 //! Candidates: the kernel models of the comparison (SVD at ranks 1-3 raw and
 //! renormalised, pre-integration, guided, manual, sums of 2-3 Gaussians)
@@ -33,18 +41,20 @@
 //! holding 95% and 99.9% of the factor's mass; and the full factors when
 //! they cover at most [`FULL_MAX_PIXELS`] pixels.
 
-use super::evaluate::{self, Exact, ImageCase, ImageErrors, Options};
+use super::advise_decide::{choose, Cost};
+pub use super::advise_decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};
+use super::advise_noise::{Reference, BOOTSTRAP_SEED};
+use super::advise_search::Search;
+use super::evaluate::{ImageCase, ImageErrors, Options};
 use super::kernel_compare::{model_specs, ModelSpec};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::warnings::{scale_warnings, ScaleWarning};
-use crate::filter::{cpu, diff, resample_to_pixels, Image, Scale, Setup, Taps};
-use crate::kernel::model::{assemble_with, fit_model};
-use crate::kernel::taps::{auto_extent, factor_radius_holding, tap_table_with};
-use crate::kernel::{Factors, Kernel2D, Kernel2DSpec, KernelFile};
+use crate::filter::Scale;
+use crate::kernel::taps::factor_radius_holding;
+use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile};
 use crate::profile::Profile;
 use crate::progress::Progress;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -139,6 +149,8 @@ pub struct Config {
     /// Model families (see [`FAMILIES`]).
     pub families: Vec<String>,
     pub options: Options,
+    /// What a candidate may cost.
+    pub budget: Budget,
 }
 
 impl Config {
@@ -151,6 +163,7 @@ impl Config {
             taps: TAP_COUNTS.to_vec(),
             families: FAMILIES.iter().map(|s| s.to_string()).collect(),
             options: Options::default(),
+            budget: Budget::default(),
         }
     }
 }
@@ -165,20 +178,36 @@ pub struct Candidate {
     pub params: serde_json::Value,
     /// Separable terms (SVD rank, Gaussian count, 1 otherwise).
     pub rank: usize,
+    /// One-dimensional passes: 2 x rank (a horizontal and a vertical pass
+    /// per term).
+    pub passes: usize,
     /// Taps per pass; None: full factors resampled to pixels.
     pub taps: Option<usize>,
+    /// The most taps one pass reads (the pixels full factors span).
+    pub taps_per_pass: usize,
     pub extent_rule: Option<ExtentRule>,
     /// Half-width the taps span, mm.
     pub extent_mm: f64,
-    /// 1D samples per pixel: 2 x rank x taps per pass.
+    /// 1D samples per pixel: the taps of every pass.
     pub cost: usize,
-    /// Largest relative RMS over channels and the chosen-on signals.
-    pub rel_rms: f64,
-    /// Per signal, the largest relative RMS over channels. A candidate
-    /// over the target on one signal is not filtered on the signals after
-    /// it (finest checker first): those are missing, and `rel_rms` is then
-    /// a lower bound.
-    pub per_signal: BTreeMap<String, f64>,
+    /// Whether a weight is negative: the tap table then needs a signed
+    /// float target format.
+    pub signed: bool,
+    /// The scores and the decision on them.
+    #[serde(flatten)]
+    pub verdict: Verdict,
+}
+
+impl Cost for Candidate {
+    fn samples(&self) -> usize {
+        self.cost
+    }
+    fn passes(&self) -> usize {
+        self.passes
+    }
+    fn verdict(&self) -> &Verdict {
+        &self.verdict
+    }
 }
 
 impl Candidate {
@@ -197,6 +226,28 @@ impl Candidate {
             self.label, self.extent_mm
         )
     }
+
+    /// The render target the tap weights need.
+    pub fn target_format(&self) -> &'static str {
+        if self.signed {
+            "signed float"
+        } else {
+            "unsigned"
+        }
+    }
+}
+
+/// Where none meets the target within the budget: what would make one.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Remedy {
+    /// The loosest target the best within the budget meets (its deciding
+    /// score less the noise margin).
+    pub target_met_by_best: f64,
+    /// The cheapest candidate outside the budget that meets the target
+    /// (None: none does, or the budget is already unbounded).
+    pub outside_budget: Option<Candidate>,
+    /// Whether candidates outside the budget were searched.
+    pub searched_outside: bool,
 }
 
 /// The answer.
@@ -206,11 +257,18 @@ pub struct Advice {
     /// Tap counts searched.
     pub taps: Vec<usize>,
     pub target: f64,
-    /// Every configuration evaluated, cheapest first.
+    pub budget: Budget,
+    /// Layouts left out for the budget.
+    pub out_of_budget: usize,
+    /// Replicate profiles of the score uncertainty (0: analytic profile).
+    pub replicates: usize,
+    /// Every configuration evaluated within the budget.
     pub candidates: Vec<Candidate>,
     /// Index into `candidates`.
     pub chosen: usize,
     pub meets_target: bool,
+    /// Where none meets the target: what would.
+    pub remedy: Option<Remedy>,
     /// The chosen kernel, its tap table as chosen (the stored 17-tap table
     /// when full factors were chosen).
     pub kernel: KernelFile,
@@ -226,24 +284,28 @@ impl Advice {
         &self.candidates[self.chosen]
     }
 
-    /// Per model variant, its cheapest configuration meeting the target
-    /// (or, when none does, its most accurate on the signals filtered
-    /// before it went over the target), cheapest first.
+    /// Per model variant its winner by the rule of the whole search (the
+    /// cheapest meeting the target, else the most accurate, ties to the
+    /// cheaper), cheapest first; each filtered on every signal.
     pub fn best_per_model(&self) -> Vec<&Candidate> {
-        let mut by: BTreeMap<&str, &Candidate> = BTreeMap::new();
+        let mut by: BTreeMap<&str, Vec<&Candidate>> = BTreeMap::new();
         for c in &self.candidates {
-            let e = by.entry(&c.label).or_insert(c);
-            if better(c, e, self.target) {
-                *e = c;
-            }
+            by.entry(&c.label).or_default().push(c);
         }
-        let mut v: Vec<&Candidate> = by.into_values().collect();
-        v.sort_by(|a, b| order(a, b, self.target));
+        let mut v: Vec<&Candidate> = by
+            .into_values()
+            .filter_map(|cs| {
+                let owned: Vec<Candidate> = cs.iter().map(|c| (*c).clone()).collect();
+                choose(&owned).map(|i| cs[i])
+            })
+            .collect();
+        v.sort_by(|a, b| a.cost_order(b).then(a.label.cmp(&b.label)));
         v
     }
 
-    /// The JSON answer: model, params, taps, rank, extent, scale, predicted
-    /// errors (largest over channels and signals), and why.
+    /// The JSON answer: model, params, taps, rank, passes, extent, scale,
+    /// budget, predicted errors (largest over channels and signals), the
+    /// worst case with its uncertainty and deciding signal, and why.
     pub fn to_json(&self) -> serde_json::Value {
         let c = self.chosen();
         let flip = self
@@ -262,12 +324,28 @@ impl Advice {
             "params": c.params,
             "taps": c.taps,
             "rank": c.rank,
+            "passes": c.passes,
+            "taps_per_pass": c.taps_per_pass,
+            "target_format": c.target_format(),
             "extent_mm": c.extent_mm,
             "extent_rule": c.extent_rule,
             "mm_per_pixel": self.mm_per_pixel,
             "cost_samples_per_pixel": c.cost,
             "target_rel_rms": self.target,
             "meets_target": self.meets_target,
+            "budget": self.budget,
+            "worst_case": {
+                "rel_rms": c.verdict.rel_rms,
+                "sigma": c.verdict.rel_rms_sigma,
+                "signal": c.verdict.worst_signal,
+                "deciding_signal": c.verdict.deciding_signal,
+            },
+            "noise": {
+                "k": NOISE_K,
+                "replicates": self.replicates,
+                "seed": BOOTSTRAP_SEED,
+            },
+            "remedy": self.remedy,
             "predicted": {
                 "rel_rms": rel,
                 "flip": flip,
@@ -279,27 +357,6 @@ impl Advice {
             "candidates": self.best_per_model(),
         })
     }
-}
-
-pub(crate) fn meets(c: &Candidate, target: f64) -> bool {
-    c.rel_rms <= target
-}
-
-/// Meeting the target first, then cheaper, then more accurate.
-fn order(a: &Candidate, b: &Candidate, target: f64) -> std::cmp::Ordering {
-    meets(b, target)
-        .cmp(&meets(a, target))
-        .then(if meets(a, target) {
-            a.cost.cmp(&b.cost)
-        } else {
-            std::cmp::Ordering::Equal
-        })
-        .then(a.rel_rms.total_cmp(&b.rel_rms))
-        .then(a.cost.cmp(&b.cost))
-}
-
-fn better(a: &Candidate, b: &Candidate, target: f64) -> bool {
-    order(a, b, target) == std::cmp::Ordering::Less
 }
 
 /// The model families advise tries by default: every family of the
@@ -318,101 +375,15 @@ pub fn candidate_models(families: &[String], material: &str) -> Result<Vec<Model
         .collect())
 }
 
-fn full_passes(k: &Kernel2D, f: &Factors, mm: f64) -> Vec<Taps> {
-    let offsets = k.offsets();
-    f.iter()
-        .map(|t| {
-            resample_to_pixels(
-                &Taps {
-                    offsets_mm: offsets.clone(),
-                    weights: (0..k.size).map(|i| [t[0][i], t[1][i], t[2][i]]).collect(),
-                },
-                mm,
-            )
-        })
-        .collect()
-}
-
-/// One tap layout of one model.
-struct Layout {
-    taps: Option<usize>,
-    rule: Option<ExtentRule>,
-    extent_mm: f64,
-    passes: Vec<Taps>,
-}
-
-fn layouts(k: &Kernel2D, f: &Factors, cfg: &Config) -> Result<Vec<Layout>> {
-    let mut out = Vec::new();
-    for &n in &cfg.taps {
-        let mut seen: Vec<f64> = Vec::new();
-        let rules = [
-            (ExtentRule::Auto, auto_extent(k, f, n)),
-            (ExtentRule::Hold(0.95), factor_radius_holding(k, f, 0.95)),
-            (ExtentRule::Hold(0.999), factor_radius_holding(k, f, 0.999)),
-        ];
-        // A single tap sits at 0 whatever the extent.
-        for (rule, e) in rules.into_iter().take(if n == 1 { 1 } else { 3 }) {
-            if seen.iter().any(|s| (s - e).abs() <= 1e-9 * e) {
-                continue;
-            }
-            seen.push(e);
-            let t = tap_table_with(k, f, n, Some(e))?;
-            out.push(Layout {
-                taps: Some(n),
-                rule: Some(rule),
-                extent_mm: e,
-                passes: t.passes.iter().map(Taps::from).collect(),
-            });
-        }
-    }
-    let full = full_passes(k, f, cfg.mm_per_pixel);
-    if full[0].offsets_mm.len() <= FULL_MAX_PIXELS {
-        out.push(Layout {
-            taps: None,
-            rule: None,
-            extent_mm: k.extent_mm(),
-            passes: full,
-        });
-    }
-    Ok(out)
-}
-
-/// Largest relative RMS over channels of `passes` on `exact`'s case (the
-/// images rounded to f32 as [`evaluate::errors`] does). The search filters
-/// with the per-pixel algorithm, whose work grows with the taps, not with
-/// the span in pixels as the fixed-kernel path's does; both give the same
-/// image (`PixelKernel::from_taps`), up to the order of the sums.
-fn rel_rms(exact: &Exact, exact_f32: &Image, passes: Vec<Taps>) -> Result<f64> {
-    let setup = Setup {
-        passes,
-        scale: Scale::MmPerPixel(exact.case.mm_per_pixel),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
-    setup.validate(&exact.case.image)?;
-    let mut f = cpu::apply_screen_space(&exact.case.image, &setup);
-    for p in f.rgb.iter_mut() {
-        p.iter_mut().for_each(|v| *v = *v as f32 as f64);
-    }
-    Ok(diff::compare(exact_f32, &f)?
-        .rms_rel
-        .iter()
-        .cloned()
-        .fold(0.0, f64::max))
-}
-
-/// `cfg`'s target and lists are usable.
+/// `cfg`'s target, lists and budget are usable.
 fn validate(cfg: &Config) -> Result<()> {
     Scale::MmPerPixel(cfg.mm_per_pixel).validate()?;
-    if !(cfg.target > 0.0 && cfg.target.is_finite()) {
+    if !(cfg.target > 0.0 && cfg.target < 1.0) {
         return Err(Error::invalid(
             "advise",
             "target error",
             cfg.target,
-            "must be finite and > 0 (a fraction: 0.02 is 2%)",
+            "must be in (0, 1): a fraction, 0.05 is 5%",
         ));
     }
     if cfg.signals.is_empty() || cfg.taps.is_empty() {
@@ -420,11 +391,26 @@ fn validate(cfg: &Config) -> Result<()> {
             "advise needs at least one signal and one tap count".into(),
         ));
     }
+    // The cheapest kernel there is: one term, one tap, two passes.
+    for (field, v) in [
+        ("max_passes", cfg.budget.max_passes),
+        ("max_samples", cfg.budget.max_samples),
+    ] {
+        if v.is_some_and(|v| v < 2) {
+            return Err(Error::invalid(
+                "advise",
+                field,
+                v.unwrap_or(0),
+                "must be >= 2: a separable kernel runs a horizontal and a vertical pass",
+            ));
+        }
+    }
     Ok(())
 }
 
 /// The test images of `cfg`: each signal, the checker once per cell size
-/// of [`CHECKER_PX`].
+/// of [`CHECKER_PX`]; the finest checker first (it fails most candidates
+/// soonest).
 fn test_cases(cfg: &Config) -> Result<Vec<ImageCase>> {
     let mut cases: Vec<ImageCase> = Vec::new();
     for &s in &cfg.signals {
@@ -440,153 +426,13 @@ fn test_cases(cfg: &Config) -> Result<Vec<ImageCase>> {
             });
         }
     }
+    cases.sort_by_key(|c| {
+        CHECKER_PX
+            .iter()
+            .position(|px| c.name == format!("checker{px}px"))
+            .unwrap_or(CHECKER_PX.len())
+    });
     Ok(cases)
-}
-
-/// The exact convolutions the candidates are measured against, in the
-/// order they are filtered.
-struct References {
-    exact: Vec<Exact>,
-    /// `exact`'s images rounded to f32 as [`evaluate::errors`] does.
-    exact_f32: Vec<Image>,
-    /// Indices into `exact`, the finest checker first.
-    order: Vec<usize>,
-}
-
-impl References {
-    fn new(profile: &Profile, cases: &[ImageCase]) -> Result<References> {
-        let exact: Vec<Exact> = cases
-            .par_iter()
-            .map(|c| Exact::new(profile, c))
-            .collect::<Result<_>>()?;
-        let exact_f32: Vec<Image> = exact
-            .iter()
-            .map(|e| {
-                let mut i = e.image.clone();
-                for p in i.rgb.iter_mut() {
-                    p.iter_mut().for_each(|v| *v = *v as f32 as f64);
-                }
-                i
-            })
-            .collect();
-        // The finest detail first: it fails most candidates soonest.
-        let mut order: Vec<usize> = (0..exact.len()).collect();
-        order.sort_by_key(|&i| {
-            CHECKER_PX
-                .iter()
-                .position(|px| exact[i].case.name == format!("checker{px}px"))
-                .unwrap_or(CHECKER_PX.len())
-        });
-        Ok(References {
-            exact,
-            exact_f32,
-            order,
-        })
-    }
-}
-
-/// What one search runs over.
-struct Search<'a> {
-    profile: &'a Profile,
-    truth: Kernel2D,
-    specs: Vec<ModelSpec>,
-    refs: References,
-    cfg: &'a Config,
-    progress: &'a dyn Progress,
-}
-
-impl Search<'_> {
-    /// Every layout of one model variant, filtered on the signals in order
-    /// (stopping at the first over the target when `stop_over_target`).
-    fn model_candidates(&self, spec: &ModelSpec, stop_over_target: bool) -> Result<Vec<Candidate>> {
-        let fitted = fit_model(&self.truth, self.profile, &spec.model)
-            .map_err(|e| Error::Unsupported(format!("{}: {e}", spec.label)))?;
-        let f = fitted.factors.clone();
-        let file = assemble_with(self.profile, &self.truth, &spec.model, fitted, 17, None)?;
-        let mut out = Vec::new();
-        for l in layouts(&self.truth, &f, self.cfg)? {
-            let mut per_signal = BTreeMap::new();
-            let mut worst: f64 = 0.0;
-            for &i in &self.refs.order {
-                let (e, ef) = (&self.refs.exact[i], &self.refs.exact_f32[i]);
-                let v = rel_rms(e, ef, l.passes.clone())?;
-                worst = worst.max(v);
-                per_signal.insert(e.case.name.clone(), v);
-                if stop_over_target && worst > self.cfg.target {
-                    break;
-                }
-            }
-            let per_pass = l.passes.iter().map(|t| t.offsets_mm.len()).sum::<usize>();
-            out.push(Candidate {
-                label: spec.label.clone(),
-                model: file.model.name.clone(),
-                params: file.model.params.clone(),
-                rank: f.len(),
-                taps: l.taps,
-                extent_rule: l.rule,
-                extent_mm: l.extent_mm,
-                cost: 2 * per_pass,
-                rel_rms: worst,
-                per_signal,
-            });
-        }
-        if stop_over_target {
-            self.progress.advance(1);
-        }
-        Ok(out)
-    }
-
-    /// Every candidate of every model variant.
-    fn candidates(&self, stop_over_target: bool) -> Result<Vec<Candidate>> {
-        let per_model: Vec<Vec<Candidate>> = self
-            .specs
-            .par_iter()
-            .map(|spec| self.model_candidates(spec, stop_over_target))
-            .collect::<Result<_>>()?;
-        Ok(per_model.into_iter().flatten().collect())
-    }
-
-    /// The kernel file of candidate `c` (its tap table as chosen, the
-    /// default table for full factors) and the passes it runs.
-    fn chosen_kernel(&self, c: &Candidate) -> Result<(KernelFile, Vec<Taps>)> {
-        let spec = self
-            .specs
-            .iter()
-            .find(|s| s.label == c.label)
-            .ok_or_else(|| Error::Unsupported(format!("lost model {}", c.label)))?;
-        let fitted = fit_model(&self.truth, self.profile, &spec.model)?;
-        let factors = fitted.factors.clone();
-        let (count, extent) = match c.taps {
-            Some(n) => (n, Some(c.extent_mm)),
-            None => (crate::kernel::taps::DEFAULT_TAPS, None),
-        };
-        let kernel = assemble_with(
-            self.profile,
-            &self.truth,
-            &spec.model,
-            fitted,
-            count,
-            extent,
-        )?;
-        let passes = match c.taps {
-            Some(_) => kernel.taps.passes.iter().map(Taps::from).collect(),
-            None => full_passes(&self.truth, &factors, self.cfg.mm_per_pixel),
-        };
-        Ok((kernel, passes))
-    }
-
-    /// The errors of `passes` on every signal, with FLIP and timing.
-    fn predict(&self, passes: &[Taps], cost: usize) -> Result<BTreeMap<String, ImageErrors>> {
-        let mut predicted = BTreeMap::new();
-        for e in &self.refs.exact {
-            let (img, secs) = evaluate::filter(&e.case, passes.to_vec())?;
-            let mut errs = evaluate::errors(e, &img, &self.cfg.options)?;
-            errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
-            errs.samples_per_pixel = cost;
-            predicted.insert(e.case.name.clone(), errs);
-        }
-        Ok(predicted)
-    }
 }
 
 /// Radius holding 99% of the ground truth's 1D projection, mm.
@@ -600,29 +446,40 @@ fn kernel_radius(truth: &Kernel2D) -> f64 {
     )
 }
 
-/// Searches every candidate for `profile` at `cfg`'s scale.
+/// Searches every candidate within `cfg`'s budget for `profile` at its
+/// scale.
 pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Result<Advice> {
     validate(cfg)?;
     let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
+    let refs = Reference::all(profile, &test_cases(cfg)?)?;
     let search = Search {
         profile,
         specs: candidate_models(&cfg.families, &profile.material.name)?,
-        refs: References::new(profile, &test_cases(cfg)?)?,
+        refs,
         truth,
         cfg,
         progress,
+        fits: Default::default(),
     };
     progress.start(search.specs.len() as u64, "kernel models");
-    let mut candidates = search.candidates(true)?;
-    if !candidates.iter().any(|c| meets(c, cfg.target)) {
-        // None meets the target: the most accurate is chosen, on every
-        // signal.
-        candidates = search.candidates(false)?;
-    }
+    let budget = cfg.budget;
+    let (candidates, out_of_budget) =
+        search.candidates(&|p, t, s| budget.allows(p, t, s), false)?;
     progress.finish();
-    candidates.sort_by(|a, b| order(a, b, cfg.target));
-    let chosen = 0;
+    let chosen = choose(&candidates).ok_or_else(|| {
+        Error::invalid(
+            "advise",
+            "budget",
+            budget.describe(),
+            "no kernel model fits it: allow more passes, samples or taps",
+        )
+    })?;
     let c = candidates[chosen].clone();
+    let remedy = if c.verdict.meets {
+        None
+    } else {
+        Some(search.remedy(&c)?)
+    };
     let (kernel, passes) = search.chosen_kernel(&c)?;
     let predicted = search.predict(&passes, c.cost)?;
     let warnings = scale_warnings(&passes, 1.0 / cfg.mm_per_pixel, c.taps.is_some());
@@ -630,7 +487,11 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
         mm_per_pixel: cfg.mm_per_pixel,
         taps: cfg.taps.clone(),
         target: cfg.target,
-        meets_target: meets(&c, cfg.target),
+        budget,
+        out_of_budget,
+        replicates: search.refs.first().map_or(0, |r| r.replicates.len()),
+        meets_target: c.verdict.meets,
+        remedy,
         candidates,
         chosen,
         kernel,
@@ -640,4 +501,6 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
     })
 }
 
-pub use crate::report::present::advice_text::{explain, extent_rule_text, screen_space_note};
+pub use crate::report::present::advice_text::{
+    explain, extent_rule_text, remedy_text, screen_space_note,
+};

@@ -180,20 +180,29 @@ impl Exact {
         }
         let t0 = Instant::now();
         let k: Kernel2D = cpu::reference_kernel(profile, case.mm_per_pixel)?;
-        let image = cpu::convolve_2d(&case.image, &k);
+        let mut e = Exact::with_kernel(case, &k);
+        e.seconds = t0.elapsed().as_secs_f64();
+        Ok(e)
+    }
+
+    /// [`Exact::new`] with the reference kernel made already (one kernel
+    /// serves every case at its scale).
+    pub fn with_kernel(case: &ImageCase, k: &Kernel2D) -> Exact {
+        let t0 = Instant::now();
+        let image = cpu::convolve_2d(&case.image, k);
         let seconds = t0.elapsed().as_secs_f64();
         let exposure = std::array::from_fn(|c| exposure_of(&image.rgb[c]));
         let max_rgb: Vec<f64> = (0..image.len())
             .map(|i| (0..3).fold(0.0f64, |m, c| m.max(image.rgb[c][i])))
             .collect();
-        Ok(Exact {
+        Exact {
             case: case.clone(),
             exposure,
             exposure_rgb: exposure_of(&max_rgb),
             kernel_size: k.size,
             image,
             seconds,
-        })
+        }
     }
 }
 

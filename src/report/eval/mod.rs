@@ -4,6 +4,9 @@
 //! study and the one-call pipeline.
 
 pub mod advise;
+pub mod advise_decide;
+pub mod advise_noise;
+pub mod advise_search;
 pub mod claims;
 pub mod evaluate;
 pub mod kernel_compare;

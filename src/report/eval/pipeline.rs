@@ -31,6 +31,8 @@ pub struct Settings {
     pub taps: usize,
     /// Target relative RMS of the recommendation.
     pub target: f64,
+    /// What the recommendation may cost.
+    pub budget: advise::Budget,
     /// Side of the test signals, pixels.
     pub size: usize,
     pub plots: bool,
@@ -231,8 +233,17 @@ pub fn run(
     }
     let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
     acfg.size = settings.size;
+    acfg.budget = settings.budget;
     let advice = advise::advise(profile, &acfg, &crate::progress::NoProgress)?;
     write_kernel(&advice.kernel, dir, "recommended", true, &mut files)?;
+    // The advice and why, where the comparison is read.
+    let mut md = std::fs::read_to_string(dir.join("report.md"))
+        .map_err(|e| Error::format(dir.join("report.md"), e.to_string()))?;
+    md.push_str(&format!(
+        "\n## What to ship (recommended.json, advice.json)\n\n```text\n{}```\n",
+        advise::explain(&advice)
+    ));
+    crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
     crate::io::write_json_atomic(&dir.join("advice.json"), &advice.to_json())?;
     let _: serde_json::Value = crate::io::read_json(&dir.join("advice.json"))?;
     files.push("advice.json".into());
@@ -259,15 +270,28 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
     let rel = |e: &super::evaluate::ImageErrors| e.rel_rms.iter().cloned().fold(0.0, f64::max);
     let _ = writeln!(
         s,
-        "ship: {} ({} samples per pixel){}",
+        "ship: {} ({} passes x {} taps = {} samples per pixel, {} target)",
         c.describe(),
+        c.passes,
+        c.taps_per_pass,
         c.cost,
-        if a.meets_target {
-            ""
-        } else {
-            " - no candidate meets the target; the most accurate shown"
-        },
+        c.target_format()
     );
+    let _ = writeln!(
+        s,
+        "  worst case {:.2}% +- {:.2}% on {}, deciding signal {}; target {:.1}% {} within the \
+         budget ({})",
+        100.0 * c.verdict.rel_rms,
+        100.0 * c.verdict.rel_rms_sigma,
+        c.verdict.worst_signal,
+        c.verdict.deciding_signal,
+        100.0 * a.target,
+        if a.meets_target { "met" } else { "NOT met" },
+        a.budget.describe()
+    );
+    if let Some(r) = &a.remedy {
+        let _ = writeln!(s, "  {}", advise::remedy_text(r));
+    }
     for (sig, e) in &a.predicted {
         let _ = writeln!(
             s,
@@ -276,12 +300,6 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
             e.flip_rgb
         );
     }
-    let _ = writeln!(
-        s,
-        "  target {:.1}% on every signal: {}",
-        100.0 * a.target,
-        if a.meets_target { "met" } else { "NOT met" }
-    );
     for w in &a.warnings {
         let _ = writeln!(s, "  warning: {w}");
     }

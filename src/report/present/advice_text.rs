@@ -5,7 +5,10 @@
 
 use super::number::sig;
 use crate::kernel::taps::hold_for_taps;
-use crate::report::eval::advise::{meets, Advice, ExtentRule, FULL_MAX_PIXELS};
+use crate::report::eval::advise::{
+    Advice, Candidate, ExtentRule, Remedy, FULL_MAX_PIXELS, NOISE_K,
+};
+use crate::report::eval::advise_decide::tie;
 
 /// The rule behind the automatic extent, for the record.
 pub fn extent_rule_text(taps: usize) -> String {
@@ -15,8 +18,54 @@ pub fn extent_rule_text(taps: usize) -> String {
     )
 }
 
-/// Why: the answer, then per model variant its cheapest configuration that
-/// meets the target (or its most accurate), with cost and error.
+/// "2 passes x 11 taps = 22 samples per pixel, unsigned target".
+fn cost_text(c: &Candidate) -> String {
+    format!(
+        "{} passes x {} taps = {} samples per pixel, {} target",
+        c.passes,
+        c.taps_per_pass,
+        c.cost,
+        c.target_format()
+    )
+}
+
+/// "5.050% +- 0.040% on checker2px".
+fn worst_text(c: &Candidate) -> String {
+    format!(
+        "{:.3}% +- {:.3}% on {}",
+        100.0 * c.verdict.rel_rms,
+        100.0 * c.verdict.rel_rms_sigma,
+        c.verdict.worst_signal
+    )
+}
+
+/// Why a row is not the chosen one (or that it is).
+fn why(b: &Candidate, chosen: &Candidate, a: &Advice) -> String {
+    let v = &b.verdict;
+    if std::ptr::eq(b, chosen) {
+        return "chosen".into();
+    }
+    if v.meets {
+        return "meets it, costs more".into();
+    }
+    let miss = format!(
+        "misses on {}: {:.3}% - {NOISE_K} sd > {:.2}%",
+        v.deciding_signal,
+        100.0 * v.per_signal[&v.deciding_signal],
+        100.0 * a.target
+    );
+    if a.meets_target {
+        miss
+    } else if tie(v, &chosen.verdict) {
+        format!("{miss}; ties the chosen (within {NOISE_K} sd), costs more")
+    } else {
+        format!("{miss}; less accurate than the chosen")
+    }
+}
+
+/// Why: the answer with its cost, worst case and deciding signal, what
+/// would make it meet the target where it does not, then per model variant
+/// its winner on every signal, cheapest first, and why each lost.
 pub fn explain(a: &Advice) -> String {
     use std::fmt::Write as _;
     let c = a.chosen();
@@ -24,7 +73,7 @@ pub fn explain(a: &Advice) -> String {
     let _ = writeln!(
         s,
         "{} at {} mm per pixel (kernel radius holding 99%: {:.3} mm = {:.1} px), target {:.2}% \
-         relative RMS:",
+         relative RMS",
         a.kernel.material.as_ref().map_or("?", |m| m.name.as_str()),
         sig(a.mm_per_pixel),
         a.kernel_radius_mm,
@@ -33,62 +82,50 @@ pub fn explain(a: &Advice) -> String {
     );
     let _ = writeln!(
         s,
-        "  {}: {}, {} samples per pixel, error {:.3}%{}",
+        "  budget: {} ({} layouts outside it not tried)",
+        a.budget.describe(),
+        a.out_of_budget
+    );
+    let _ = writeln!(
+        s,
+        "  {}",
+        if a.replicates > 0 {
+            format!(
+                "score uncertainty (+-): standard deviation over {} replicate profiles drawn \
+                 from the profile's Monte Carlo standard errors; a signal is missed only by \
+                 more than {NOISE_K} of them",
+                a.replicates
+            )
+        } else {
+            "score uncertainty: none (the profile has no standard errors)".to_string()
+        }
+    );
+    let _ = writeln!(
+        s,
+        "  {}: {}; {}{}",
         if a.meets_target {
             "cheapest meeting it"
         } else {
-            "NONE meets it; most accurate"
+            "none meets it within the budget; most accurate"
         },
         c.describe(),
-        c.cost,
-        100.0 * c.rel_rms,
+        cost_text(c),
         match c.taps {
             Some(n) if Some(ExtentRule::Auto) == c.extent_rule =>
                 format!("; extent = {}", extent_rule_text(n)),
             _ => String::new(),
         }
     );
-    let signals: Vec<&String> = c.per_signal.keys().collect();
-    let _ = write!(
-        s,
-        "\n  {:<18} {:>7} {:>6} {:>5} {:>10}",
-        "model", "taps", "rank", "cost", "extent mm"
-    );
-    for sig in &signals {
-        let _ = write!(s, " {:>9}", format!("{sig} %"));
-    }
-    let _ = writeln!(s, " {:>6}", "meets");
-    for b in a.best_per_model() {
-        let _ = write!(
-            s,
-            "  {:<18} {:>7} {:>6} {:>5} {:>10.3}",
-            b.label,
-            b.taps.map_or("full".into(), |n| n.to_string()),
-            b.rank,
-            b.cost,
-            b.extent_mm
-        );
-        for sig in &signals {
-            match b.per_signal.get(*sig) {
-                Some(v) => {
-                    let _ = write!(s, " {:>9.3}", 100.0 * v);
-                }
-                // Not filtered: over the target on an earlier signal.
-                None => {
-                    let _ = write!(s, " {:>9}", "-");
-                }
-            }
-        }
-        let _ = writeln!(s, " {:>6}", if meets(b, a.target) { "yes" } else { "no" });
-    }
     let _ = writeln!(
         s,
-        "  ({} configurations evaluated: every model x taps {:?} x 3 extents, plus full factors \
-         up to {} px; cost = 2 x rank x taps samples per pixel)",
-        a.candidates.len(),
-        a.taps,
-        FULL_MAX_PIXELS
+        "    worst case {}; deciding signal {}",
+        worst_text(c),
+        c.verdict.deciding_signal
     );
+    if let Some(r) = &a.remedy {
+        let _ = writeln!(s, "    {}", remedy_text(r));
+    }
+    table(&mut s, a, c);
     for (sig, e) in &a.predicted {
         let _ = writeln!(
             s,
@@ -99,10 +136,92 @@ pub fn explain(a: &Advice) -> String {
             e.flip_rgb
         );
     }
-    if let Some(note) = screen_space_note(c.rel_rms, a.mm_per_pixel) {
+    if let Some(note) = screen_space_note(c.verdict.rel_rms, a.mm_per_pixel) {
         let _ = writeln!(s, "  {note}");
     }
     s
+}
+
+/// What would make the best within the budget meet: a looser target (its
+/// deciding score less the margin), or the cheapest candidate outside the
+/// budget that meets it.
+pub fn remedy_text(r: &Remedy) -> String {
+    let target = format!(
+        "it meets a target of {:.2}% or looser",
+        100.0 * r.target_met_by_best
+    );
+    match (&r.outside_budget, r.searched_outside) {
+        (Some(o), _) => format!(
+            "to meet it: {target}; or a budget of {} passes, {} samples per pixel, {} taps per \
+             pass buys {} ({}, worst case {})",
+            o.passes,
+            o.cost,
+            o.taps_per_pass,
+            o.describe(),
+            cost_text(o),
+            worst_text(o)
+        ),
+        (None, true) => format!("to meet it: {target}; no kernel outside the budget meets it"),
+        (None, false) => format!("to meet it: {target}"),
+    }
+}
+
+/// The table: per model variant its winner on every signal, cheapest first.
+fn table(s: &mut String, a: &Advice, c: &Candidate) {
+    use std::fmt::Write as _;
+    let signals: Vec<&String> = c.verdict.per_signal.keys().collect();
+    let _ = write!(
+        s,
+        "\n  {:<18} {:>6} {:>5} {:>7} {:>7} {:>9}",
+        "model", "passes", "taps", "samples", "format", "extent mm"
+    );
+    for sig in &signals {
+        let _ = write!(s, " {:>10}", format!("{sig} %"));
+    }
+    let _ = writeln!(s, " {:>16}  why", "worst % +- sd");
+    for b in a.best_per_model() {
+        let _ = write!(
+            s,
+            "  {:<18} {:>6} {:>5} {:>7} {:>7} {:>9.3}",
+            b.label,
+            b.passes,
+            b.taps
+                .map_or(format!("{}*", b.taps_per_pass), |n| n.to_string()),
+            b.cost,
+            if b.signed { "signed" } else { "unsigned" },
+            b.extent_mm
+        );
+        for sig in &signals {
+            match b.verdict.per_signal.get(*sig) {
+                Some(v) => {
+                    let _ = write!(s, " {:>10.3}", 100.0 * v);
+                }
+                None => {
+                    let _ = write!(s, " {:>10}", "-");
+                }
+            }
+        }
+        let _ = writeln!(
+            s,
+            " {:>16}  {}",
+            format!(
+                "{:.3} +- {:.3}",
+                100.0 * b.verdict.rel_rms,
+                100.0 * b.verdict.rel_rms_sigma
+            ),
+            why(b, c, a)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  ({} configurations filtered: every model x taps {:?} x 3 extents, plus full factors \
+         (taps*: pixels spanned) up to {} px, within the budget; passes = 2 x separable terms; \
+         each model stops at its cheapest layout meeting the target; format: the render target \
+         the weights need, signed float where one is negative)",
+        a.candidates.len(),
+        a.taps,
+        FULL_MAX_PIXELS
+    );
 }
 
 /// The screen-space model's own error as `compare --scene` measured it on
@@ -133,7 +252,7 @@ pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
         sig(mm_per_pixel),
         if best > kernel_rms {
             format!(
-                "the screen-space model's own error dominates ({:.0}x); a tighter target buys \
+                "the screen-space model's own error dominates ({:.1}x); a tighter target buys \
                  nothing visible on lit, curved surfaces",
                 best / kernel_rms.max(1e-12)
             )

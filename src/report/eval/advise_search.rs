@@ -1,0 +1,347 @@
+//! advise's search: the tap layouts of each kernel model within a budget,
+//! filtered on the test images cheapest first, and the kernel file of the
+//! one chosen ([`super::advise`] says where each model and layout stops).
+
+use super::advise::{Candidate, Config, ExtentRule, Remedy, FULL_MAX_PIXELS};
+use super::advise_decide::{choose, Budget, Verdict, NOISE_K};
+use super::advise_noise::Reference;
+use super::evaluate::{self, ImageErrors};
+use super::kernel_compare::ModelSpec;
+use crate::error::{Error, Result};
+use crate::filter::{resample_to_pixels, Taps};
+use crate::kernel::model::{assemble_with, fit_model, Fitted};
+use crate::kernel::taps::{auto_extent, factor_radius_holding, tap_table_with};
+use crate::kernel::{Factors, Kernel2D, KernelFile};
+use crate::profile::Profile;
+use crate::progress::Progress;
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+
+fn full_passes(k: &Kernel2D, f: &Factors, mm: f64) -> Vec<Taps> {
+    let offsets = k.offsets();
+    f.iter()
+        .map(|t| {
+            resample_to_pixels(
+                &Taps {
+                    offsets_mm: offsets.clone(),
+                    weights: (0..k.size).map(|i| [t[0][i], t[1][i], t[2][i]]).collect(),
+                },
+                mm,
+            )
+        })
+        .collect()
+}
+
+/// One tap layout of one model.
+struct Layout {
+    taps: Option<usize>,
+    rule: Option<ExtentRule>,
+    extent_mm: f64,
+    passes: Vec<Taps>,
+}
+
+impl Layout {
+    /// (one-dimensional passes, taps of the widest pass, samples per pixel):
+    /// each separable term runs a horizontal and a vertical pass.
+    fn cost(&self) -> (usize, usize, usize) {
+        let per_term = self.passes.iter().map(|t| t.offsets_mm.len());
+        (
+            2 * self.passes.len(),
+            per_term.clone().max().unwrap_or(0),
+            2 * per_term.sum::<usize>(),
+        )
+    }
+}
+
+fn layouts(k: &Kernel2D, f: &Factors, cfg: &Config) -> Result<Vec<Layout>> {
+    let mut out = Vec::new();
+    for &n in &cfg.taps {
+        let mut seen: Vec<f64> = Vec::new();
+        let rules = [
+            (ExtentRule::Auto, auto_extent(k, f, n)),
+            (ExtentRule::Hold(0.95), factor_radius_holding(k, f, 0.95)),
+            (ExtentRule::Hold(0.999), factor_radius_holding(k, f, 0.999)),
+        ];
+        // A single tap sits at 0 whatever the extent.
+        for (rule, e) in rules.into_iter().take(if n == 1 { 1 } else { 3 }) {
+            if seen.iter().any(|s| (s - e).abs() <= 1e-9 * e) {
+                continue;
+            }
+            seen.push(e);
+            let t = tap_table_with(k, f, n, Some(e))?;
+            out.push(Layout {
+                taps: Some(n),
+                rule: Some(rule),
+                extent_mm: e,
+                passes: t.passes.iter().map(Taps::from).collect(),
+            });
+        }
+    }
+    let full = full_passes(k, f, cfg.mm_per_pixel);
+    if full[0].offsets_mm.len() <= FULL_MAX_PIXELS {
+        out.push(Layout {
+            taps: None,
+            rule: None,
+            extent_mm: k.extent_mm(),
+            passes: full,
+        });
+    }
+    Ok(out)
+}
+
+/// What one search runs over.
+pub(super) struct Search<'a> {
+    pub profile: &'a Profile,
+    pub truth: Kernel2D,
+    pub specs: Vec<ModelSpec>,
+    pub refs: Vec<Reference>,
+    pub cfg: &'a Config,
+    pub progress: &'a dyn Progress,
+    /// Each model's fit, made once (the search outside the budget and the
+    /// chosen kernel reuse it: a guided fit takes seconds).
+    pub fits: std::sync::Mutex<BTreeMap<String, Fitted>>,
+}
+
+/// A score on one test image: (signal, relative RMS, standard deviation).
+type Scored = (String, f64, f64);
+
+impl Search<'_> {
+    /// `spec` fitted to the truth, from the cache when it was before.
+    fn fitted(&self, spec: &ModelSpec) -> Result<Fitted> {
+        let copy = |f: &Fitted| Fitted {
+            factors: f.factors.clone(),
+            params: f.params.clone(),
+            extra: f.extra.clone(),
+            seconds: f.seconds,
+        };
+        let cache = |f: &Fitted| -> Result<()> {
+            self.fits
+                .lock()
+                .map_err(|_| Error::Unsupported("advise: a fit panicked".into()))?
+                .insert(spec.label.clone(), copy(f));
+            Ok(())
+        };
+        if let Some(f) = self
+            .fits
+            .lock()
+            .map_err(|_| Error::Unsupported("advise: a fit panicked".into()))?
+            .get(&spec.label)
+        {
+            return Ok(copy(f));
+        }
+        let f = fit_model(&self.truth, self.profile, &spec.model)
+            .map_err(|e| Error::Unsupported(format!("{}: {e}", spec.label)))?;
+        cache(&f)?;
+        Ok(f)
+    }
+
+    /// The layouts of one model variant that `fits` allows, filtered
+    /// cheapest first (module doc: where each stops).
+    fn model_candidates(
+        &self,
+        spec: &ModelSpec,
+        fits: &(dyn Fn(usize, usize, usize) -> bool + Sync),
+        only_meeting: bool,
+    ) -> Result<(Vec<Candidate>, usize)> {
+        let fitted = self.fitted(spec)?;
+        let f = fitted.factors.clone();
+        let file = assemble_with(self.profile, &self.truth, &spec.model, fitted, 17, None)?;
+        let all = layouts(&self.truth, &f, self.cfg)?;
+        let total = all.len();
+        let mut kept: Vec<Layout> = all
+            .into_iter()
+            .filter(|l| {
+                let (p, t, s) = l.cost();
+                fits(p, t, s)
+            })
+            .collect();
+        let skipped = total - kept.len();
+        kept.sort_by_key(|l| {
+            let (p, _, s) = l.cost();
+            (s, p)
+        });
+        let target = self.cfg.target;
+        // Phase 1, cheapest first: each layout stops at its first missed
+        // signal; the first that misses none is the model's answer.
+        let mut scored: Vec<(Layout, Vec<Scored>)> = Vec::new();
+        for l in kept {
+            let mut scores = Vec::new();
+            self.extend(&l, &mut scores, |v| v.failed(target))?;
+            let meets = Verdict::new(&scores, target, scores.len() == self.refs.len()).meets;
+            scored.push((l, scores));
+            if meets {
+                return self.finish(spec, &f, &file, scored, skipped);
+            }
+        }
+        if !only_meeting {
+            // Phase 2, none meets: the most accurate, by branch and bound.
+            // A partial worst case is a lower bound on the whole one, so
+            // layouts are completed in order of it until the next bound is
+            // past the best complete worst case by more than a tie.
+            let mut order: Vec<usize> = (0..scored.len()).collect();
+            let bound = |s: &[Scored]| Verdict::new(s, target, false);
+            order.sort_by(|&i, &j| {
+                bound(&scored[i].1)
+                    .rel_rms
+                    .total_cmp(&bound(&scored[j].1).rel_rms)
+            });
+            let mut best: Option<Verdict> = None;
+            for i in order {
+                let lb = bound(&scored[i].1);
+                if let Some(b) = &best {
+                    if lb.rel_rms > b.rel_rms + NOISE_K * b.rel_rms_sigma.hypot(lb.rel_rms_sigma) {
+                        break;
+                    }
+                }
+                let (l, scores) = &mut scored[i];
+                self.extend(l, scores, |_| false)?;
+                let v = Verdict::new(scores, target, true);
+                if best.as_ref().is_none_or(|b| v.rel_rms < b.rel_rms) {
+                    best = Some(v);
+                }
+            }
+        }
+        self.finish(spec, &f, &file, scored, skipped)
+    }
+
+    /// Scores `l` on the references `scores` lacks, in order, until `stop`
+    /// says so on the scores so far.
+    fn extend(
+        &self,
+        l: &Layout,
+        scores: &mut Vec<Scored>,
+        stop: impl Fn(&Verdict) -> bool,
+    ) -> Result<()> {
+        while let Some(r) = self.refs.get(scores.len()) {
+            let s = r.score(l.passes.clone())?;
+            scores.push((r.exact.case.name.clone(), s.rel_rms, s.sigma));
+            if stop(&Verdict::new(scores, self.cfg.target, false)) {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// The candidates of one model's scored layouts.
+    fn finish(
+        &self,
+        spec: &ModelSpec,
+        f: &Factors,
+        file: &KernelFile,
+        scored: Vec<(Layout, Vec<Scored>)>,
+        skipped: usize,
+    ) -> Result<(Vec<Candidate>, usize)> {
+        let out = scored
+            .into_iter()
+            .map(|(l, scores)| {
+                let (passes, taps_per_pass, cost) = l.cost();
+                Candidate {
+                    label: spec.label.clone(),
+                    model: file.model.name.clone(),
+                    params: file.model.params.clone(),
+                    rank: f.len(),
+                    passes,
+                    taps: l.taps,
+                    taps_per_pass,
+                    extent_rule: l.rule,
+                    extent_mm: l.extent_mm,
+                    cost,
+                    signed: l
+                        .passes
+                        .iter()
+                        .flat_map(|t| &t.weights)
+                        .flatten()
+                        .any(|&w| w < 0.0),
+                    verdict: Verdict::new(
+                        &scores,
+                        self.cfg.target,
+                        scores.len() == self.refs.len(),
+                    ),
+                }
+            })
+            .collect();
+        self.progress.advance(1);
+        Ok((out, skipped))
+    }
+
+    /// Every candidate `fits` allows of every model variant, and how many
+    /// layouts it left out; with `only_meeting` a layout stops at its first
+    /// missed signal (only one that meets the target is wanted).
+    pub fn candidates(
+        &self,
+        fits: &(dyn Fn(usize, usize, usize) -> bool + Sync),
+        only_meeting: bool,
+    ) -> Result<(Vec<Candidate>, usize)> {
+        let per_model: Vec<(Vec<Candidate>, usize)> = self
+            .specs
+            .par_iter()
+            .map(|spec| self.model_candidates(spec, fits, only_meeting))
+            .collect::<Result<_>>()?;
+        let skipped = per_model.iter().map(|(_, s)| s).sum();
+        Ok((
+            per_model.into_iter().flat_map(|(c, _)| c).collect(),
+            skipped,
+        ))
+    }
+
+    /// The kernel file of candidate `c` (its tap table as chosen, the
+    /// default table for full factors) and the passes it runs.
+    pub fn chosen_kernel(&self, c: &Candidate) -> Result<(KernelFile, Vec<Taps>)> {
+        let spec = self
+            .specs
+            .iter()
+            .find(|s| s.label == c.label)
+            .ok_or_else(|| Error::Unsupported(format!("lost model {}", c.label)))?;
+        let fitted = self.fitted(spec)?;
+        let factors = fitted.factors.clone();
+        let (count, extent) = match c.taps {
+            Some(n) => (n, Some(c.extent_mm)),
+            None => (crate::kernel::taps::DEFAULT_TAPS, None),
+        };
+        let kernel = assemble_with(
+            self.profile,
+            &self.truth,
+            &spec.model,
+            fitted,
+            count,
+            extent,
+        )?;
+        let passes = match c.taps {
+            Some(_) => kernel.taps.passes.iter().map(Taps::from).collect(),
+            None => full_passes(&self.truth, &factors, self.cfg.mm_per_pixel),
+        };
+        Ok((kernel, passes))
+    }
+
+    /// The errors of `passes` on every signal, with FLIP and timing.
+    pub fn predict(&self, passes: &[Taps], cost: usize) -> Result<BTreeMap<String, ImageErrors>> {
+        let mut predicted = BTreeMap::new();
+        for r in &self.refs {
+            let e = &r.exact;
+            let (img, secs) = evaluate::filter(&e.case, passes.to_vec())?;
+            let mut errs = evaluate::errors(e, &img, &self.cfg.options)?;
+            errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
+            errs.samples_per_pixel = cost;
+            predicted.insert(e.case.name.clone(), errs);
+        }
+        Ok(predicted)
+    }
+
+    /// Where the best within the budget misses: the target it meets, and
+    /// the cheapest outside the budget that meets the target.
+    pub fn remedy(&self, best: &Candidate) -> Result<Remedy> {
+        let budget = self.cfg.budget;
+        let searched_outside = budget != Budget::UNBOUNDED;
+        let outside = if searched_outside {
+            let (c, _) = self.candidates(&|p, t, s| !budget.allows(p, t, s), true)?;
+            choose(&c).map(|i| c[i].clone()).filter(|c| c.verdict.meets)
+        } else {
+            None
+        };
+        Ok(Remedy {
+            target_met_by_best: best.verdict.decided_at,
+            outside_budget: outside,
+            searched_outside,
+        })
+    }
+}
