@@ -78,29 +78,34 @@ fn assert_device(path: &Path, (major, minor): (u32, u32), what: &str) {
     );
 }
 
-/// A reader of the named pipe at `path`, returning what it read; opened in
-/// a thread since opening a pipe waits for the other end.
-fn reader(path: &Path) -> std::thread::JoinHandle<Vec<u8>> {
-    let path = path.to_path_buf();
+/// A reader of the named pipe at `path`, returning what it read once
+/// `done` is set and no writer is left. It opens without waiting (a pipe
+/// opened for reading would wait for a writer, forever if the run replaced
+/// the pipe instead of opening it) and polls.
+fn reader(
+    path: &Path,
+    done: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> std::thread::JoinHandle<Vec<u8>> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .unwrap();
     std::thread::spawn(move || {
         use std::io::Read;
         let mut bytes = Vec::new();
-        std::fs::File::open(&path)
-            .unwrap()
-            .read_to_end(&mut bytes)
-            .unwrap();
-        bytes
+        let mut buf = vec![0u8; 1 << 16];
+        loop {
+            match file.read(&mut buf) {
+                Ok(0) if done.load(std::sync::atomic::Ordering::SeqCst) => return bytes,
+                Ok(n) => bytes.extend_from_slice(&buf[..n]),
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                Err(e) => panic!("reading the pipe: {e}"),
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
     })
-}
-
-/// Lets a reader still waiting to open `path` go (the run never opened
-/// it): a writer that opens and closes.
-fn release(path: &Path) {
-    use std::os::unix::fs::OpenOptionsExt;
-    let _ = std::fs::OpenOptions::new()
-        .write(true)
-        .custom_flags(libc::O_NONBLOCK)
-        .open(path);
 }
 
 /// The outputs of every kind: a command with `@` where the output goes,
@@ -231,7 +236,10 @@ fn device_nodes_at_output_paths_are_written_in_place() {
     ];
     assert_fails(&run_in(d, &args), &args, &["full.json", "No space left"]);
     assert_device(&full, FULL_DEV, "engine --out full");
-    // Standard output as a file: the JSON arrives in the pipe.
+    // Standard output as a file (`/dev/stdout` is such a link; this one is
+    // in the test's folder, so that a broken build replaces only it): the
+    // JSON arrives in the pipe.
+    std::os::unix::fs::symlink("/proc/self/fd/1", d.join("stdout")).unwrap();
     let args = [
         "engine",
         "--profile",
@@ -239,10 +247,14 @@ fn device_nodes_at_output_paths_are_written_in_place() {
         "--engine",
         "unreal",
         "--out",
-        "/dev/stdout",
+        "stdout",
     ];
     let (out, _) = assert_ok(&run_in(d, &args), &args);
     assert!(out.contains("\"engine\""), "{out}");
+    assert!(std::fs::symlink_metadata(d.join("stdout"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
 }
 
 /// Every kind of file output written into a named pipe it finds at its
@@ -254,10 +266,11 @@ fn named_pipes_at_output_paths_are_written_in_place() {
     for (i, (args, ext, magic)) in cases(d).into_iter().enumerate() {
         let fifo = d.join(format!("fifo{i}.{ext}"));
         make_fifo(&fifo);
-        let got = reader(&fifo);
+        let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let got = reader(&fifo, done.clone());
         let args = with_output(&args, &fifo);
         let o = run_args(d, &args);
-        release(&fifo);
+        done.store(true, std::sync::atomic::Ordering::SeqCst);
         let bytes = got.join().unwrap();
         assert_ok(&o, &[]);
         let what = args.join(" ");
@@ -463,52 +476,56 @@ fn outputs_never_replace_inputs_or_each_other() {
 }
 
 /// Two runs writing the same `--out` at once leave the image and the
-/// record of one of them: scenes of two sizes, so a mix shows.
+/// record of one of them: two scenes that differ in their light only (so
+/// the runs take the same time and race), each image known from a run of
+/// its own (the same seed gives the same pixels).
 #[test]
 fn concurrent_renders_leave_one_runs_pair() {
-    // Rounds of two racing runs: the mix the issue saw came 1 in 5 tries.
-    const ROUNDS: usize = 8;
+    // Rounds of two racing runs: the mix the issue saw came 1 in 5 tries,
+    // and the old code (image and record committed one after the other)
+    // failed by round 7 in three runs of three.
+    const ROUNDS: usize = 16;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("a.toml"), SPHERE).unwrap();
-    std::fs::write(d.join("b.toml"), SPHERE.replace("[16, 12]", "[12, 8]")).unwrap();
+    std::fs::write(
+        d.join("b.toml"),
+        SPHERE.replace("irradiance = 2", "irradiance = 3"),
+    )
+    .unwrap();
+    let render = |toml: &str, out: &str| {
+        common::bin()
+            .current_dir(d)
+            .args(["scene", toml, "--out", out, "--spp", "2"])
+            .args(["--profile-photons", "2000", "--seed", "7"])
+            .output_async()
+    };
+    let planes = |exr: &str| ssskit::filter::image::read_exr_channels(&d.join(exr)).unwrap();
+    for (toml, exr) in [("a.toml", "a.exr"), ("b.toml", "b.exr")] {
+        assert!(render(toml, exr)
+            .wait_with_output()
+            .unwrap()
+            .status
+            .success());
+    }
+    let (alone_a, alone_b) = (planes("a.exr"), planes("b.exr"));
+    assert!(alone_a != alone_b, "the two scenes render alike");
     for round in 0..ROUNDS {
-        let a = common::bin()
-            .current_dir(d)
-            .args([
-                "scene",
-                "a.toml",
-                "--out",
-                "r.exr",
-                "--spp",
-                "2",
-                "--profile-photons",
-                "2000",
-            ])
-            .output_async();
-        let b = common::bin()
-            .current_dir(d)
-            .args([
-                "scene",
-                "b.toml",
-                "--out",
-                "r.exr",
-                "--spp",
-                "2",
-                "--profile-photons",
-                "2000",
-            ])
-            .output_async();
+        let (a, b) = (render("a.toml", "r.exr"), render("b.toml", "r.exr"));
         let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
         for o in [&a, &b] {
             assert!(o.status.success(), "round {round}: {}", common::stderr(o));
         }
-        let ((w, h), _) = ssskit::filter::image::read_exr_channels(&d.join("r.exr")).unwrap();
         let record = common::read_json(&d.join("r.json"));
         let scene = record["scene"].as_str().unwrap();
+        let expected = if scene.contains("irradiance = 3") {
+            &alone_b
+        } else {
+            &alone_a
+        };
         assert!(
-            scene.contains(&format!("size = [{w}, {h}]")),
-            "round {round}: a {w}x{h} image with the record of another run"
+            planes("r.exr") == *expected,
+            "round {round}: the image of one run with the record of the other"
         );
     }
 }
@@ -524,4 +541,70 @@ impl Async for std::process::Command {
             .spawn()
             .unwrap()
     }
+}
+
+// ---- 4. Results that are always readable ----------------------------------
+
+/// True when `text` holds a run of more digits than any message needs.
+fn has_long_number(text: &str) -> bool {
+    // More digits than a u64 (20) and the shortened form of any f64 (17).
+    const TOO_MANY: usize = 24;
+    text.split(|c: char| !c.is_ascii_digit())
+        .any(|run| run.len() > TOO_MANY)
+}
+
+/// One sample per pixel (whose noise is undefined) and a light the f32
+/// image cannot hold are refused before the render, with short numbers; a
+/// render of two samples states its noise and is read back.
+#[test]
+fn renders_are_readable_or_refused_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), SPHERE).unwrap();
+    std::fs::write(
+        d.join("hot.toml"),
+        SPHERE.replace("irradiance = 2", "irradiance = 1e308"),
+    )
+    .unwrap();
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["scene", "s.toml", "--out", "r.exr", "--spp", "1"],
+            &["--spp", "must be >= 2"],
+        ),
+        (
+            &["scene", "s.toml", "--out", "r.exr", "--max-spp", "1"],
+            &["--max-spp", "must be >= 2"],
+        ),
+        (
+            &["scene", "hot.toml", "--out", "r.exr", "--spp", "2"],
+            &["irradiance", "1e308", "at most 1e30"],
+        ),
+    ];
+    for (args, needles) in cases {
+        let t = std::time::Instant::now();
+        let e = assert_fails(&run_in(d, args), args, needles);
+        assert!(!has_long_number(&e), "{e}");
+        assert!(
+            t.elapsed().as_secs() < 5,
+            "{args:?}: refused after the work"
+        );
+        assert!(!d.join("r.exr").exists() && !d.join("r.json").exists());
+    }
+    let args = [
+        "scene",
+        "s.toml",
+        "--out",
+        "r.exr",
+        "--spp",
+        "2",
+        "--profile-photons",
+        "2000",
+    ];
+    assert_ok(&run_in(d, &args), &args);
+    let record = common::read_json(&d.join("r.json"));
+    let noise = record["info"]["noise"].as_array().unwrap();
+    assert!(
+        noise.iter().all(|v| v.as_f64().is_some_and(f64::is_finite)),
+        "{noise:?}"
+    );
 }
