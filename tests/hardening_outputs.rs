@@ -120,7 +120,7 @@ fn cases(d: &Path) -> Vec<(Vec<String>, &'static str, &'static [u8])> {
     let c = |s: &str| s.split(' ').map(str::to_string).collect::<Vec<_>>();
     vec![
         (
-            c(&format!("simulate --material skin1 --photons 1000 --out @")),
+            c("simulate --material skin1 --photons 1000 --out @"),
             "json",
             b"{",
         ),

@@ -30,9 +30,12 @@ pub(super) const FILE_OUTPUTS: &[&str] = &[
     "preview",
 ];
 
+/// The path of a file written beside an output, from the output's path.
+type Derive = fn(&Path) -> PathBuf;
+
 /// Files a subcommand writes beside an output argument, by subcommand path,
 /// argument id and the derived path: the scene render's record.
-const DERIVED_OUTPUTS: &[(&[&str], &str, fn(&Path) -> PathBuf)] =
+const DERIVED_OUTPUTS: &[(&[&str], &str, Derive)] =
     &[(&["scene"], "out", |p| p.with_extension("json"))];
 
 /// One argument's path, with the flag that gave it.
