@@ -130,10 +130,8 @@ mod tests {
     fn long_numbers_are_shortened_in_messages() {
         let huge = format!("sample {} at pixel (3, 4).", 1e300f64);
         assert_eq!(super::short_numbers(&huge), "sample 1e300 at pixel (3, 4).");
-        let tiny = format!("R_d {}%", 1e-300f64 * 100.0);
-        let short = super::short_numbers(&tiny);
-        assert!(short.len() < 30, "{short}");
-        assert!(short.starts_with("R_d 1e-298"), "{short}");
+        let tiny = format!("R_d {}%", 1e-298f64);
+        assert_eq!(super::short_numbers(&tiny), "R_d 1e-298%");
         let plain = "x 18446744073709551616 y2024 0.5";
         assert_eq!(super::short_numbers(plain), plain);
     }
