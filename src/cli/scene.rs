@@ -244,8 +244,16 @@ fn write_render(out: &Path, r: &Render, scene: &str, profiles: &[Profile]) -> an
     let (Some(exr), Some(record)) = (group.staged_path(0), group.staged_path(1)) else {
         bail!("{}: not staged as files", out.display());
     };
-    let back = read_render_from(exr, record)
-        .with_context(|| format!("{}: reading back what was written", out.display()))?;
+    // Messages name the outputs, not their temporary names.
+    let back = read_render_from(exr, record).map_err(|e| {
+        let text = format!("{e:#}")
+            .replace(&exr.display().to_string(), &out.display().to_string())
+            .replace(
+                &record.display().to_string(),
+                &sidecar_path(out).display().to_string(),
+            );
+        anyhow::anyhow!("{}: reading back what was written: {text}", out.display())
+    })?;
     if back.0.info != r.info || back.0.width != r.width {
         bail!("{}: read back differs from what was written", out.display());
     }
