@@ -52,6 +52,48 @@ fn short_number(s: String) -> String {
     }
 }
 
+/// Digits a number may have in a message before it is shown in
+/// scientific notation: more than any count or id ssskit prints (u64 has
+/// 20), far fewer than the 300 of a finite f64 near its largest.
+const MAX_MESSAGE_DIGITS: usize = 24;
+
+/// `text` with every number of more than [`MAX_MESSAGE_DIGITS`] digits (a
+/// huge or tiny f64 printed by Display: 1e300 has 301) rewritten in
+/// scientific notation; the one pass every message printed goes through.
+pub fn short_numbers(text: &str) -> String {
+    let b = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < b.len() {
+        let starts = b[i].is_ascii_digit() && (i == 0 || !b[i - 1].is_ascii_alphanumeric());
+        if !starts {
+            let ch = text[i..].chars().next().unwrap_or(' ');
+            out.push(ch);
+            i += ch.len_utf8().max(1);
+            continue;
+        }
+        let mut j = i;
+        let mut dot = false;
+        while j < b.len() && (b[j].is_ascii_digit() || (b[j] == b'.' && !dot)) {
+            dot |= b[j] == b'.';
+            j += 1;
+        }
+        let token = &text[i..j];
+        let digits = token.bytes().filter(u8::is_ascii_digit).count();
+        match token.trim_end_matches('.').parse::<f64>() {
+            Ok(v) if digits > MAX_MESSAGE_DIGITS => {
+                out.push_str(&format!("{v:e}"));
+                if token.ends_with('.') {
+                    out.push('.');
+                }
+            }
+            _ => out.push_str(token),
+        }
+        i = j;
+    }
+    out
+}
+
 impl Error {
     pub fn invalid(
         context: impl Into<String>,
@@ -79,5 +121,18 @@ impl Error {
             path: path.into(),
             source,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn long_numbers_are_shortened_in_messages() {
+        let huge = format!("sample {} at pixel (3, 4).", 1e300f64);
+        assert_eq!(super::short_numbers(&huge), "sample 1e300 at pixel (3, 4).");
+        let tiny = format!("R_d {}%", 1e-298f64);
+        assert_eq!(super::short_numbers(&tiny), "R_d 1e-298%");
+        let plain = "x 18446744073709551616 y2024 0.5";
+        assert_eq!(super::short_numbers(plain), plain);
     }
 }

@@ -446,7 +446,7 @@ fn bad_scene_files_name_the_field() {
             "--spp",
             "0",
         ],
-        &["--spp", "must be >= 1"],
+        &["--spp", "must be >= 2"],
     );
     fails_with(
         &["scene", p(&d.join("s.toml")), "--out", p(&d.join("x.png"))],

@@ -64,6 +64,9 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    if let Some(out) = &a.out.out {
+        ssskit::io::check_extension(out, &["json"], "engine parameters")?;
+    }
     let e = Engine::from(a.engine);
     let profile_path = a
         .profile

@@ -112,7 +112,7 @@ pub fn set_typed(pairs: Vec<(String, String)>) {
 /// typed (a whole flag only: `--out` is not a part of `--out-dir`).
 pub fn as_typed(text: &str) -> String {
     let pairs = TYPED.get().map(Vec::as_slice).unwrap_or_default();
-    with_spellings(text, pairs)
+    with_spellings(&ssskit::error::short_numbers(text), pairs)
 }
 
 fn with_spellings(text: &str, pairs: &[(String, String)]) -> String {

@@ -279,8 +279,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .with_context(|| format!("fitting a kernel to {}", pp.display()))?;
         if let Some(out) = &a.out.out {
             k.write(out)?;
-            // Read back what was written: the file must load as is.
-            KernelFile::read(out)?;
+            // Read back what was written: the file must load as is (a
+            // device or a pipe, written in place, has nothing to read back).
+            if !ssskit::io::writes_in_place(out) {
+                KernelFile::read(out)?;
+            }
         }
         if !a.quiet {
             summary(&k);

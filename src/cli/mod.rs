@@ -18,6 +18,7 @@ mod kernels;
 mod materials;
 mod merge;
 mod out;
+mod outputs;
 mod plot;
 mod profile;
 mod profile_source;
@@ -200,53 +201,14 @@ pub fn main() -> i32 {
     }
 }
 
-/// Outputs that are folders (created, staged and swapped as a whole), by
-/// subcommand path and argument id; every other argument named in
-/// [`FILE_OUTPUTS`] is a file.
-const FOLDER_OUTPUTS: &[(&[&str], &str)] = &[
-    (&["kernels"], "out_dir"),
-    (&["study"], "out_dir"),
-    (&["compare"], "out_dir"),
-    (&["profiles", "compare"], "out_dir"),
-];
-
-/// Argument ids of output files.
-const FILE_OUTPUTS: &[&str] = &[
-    "out",
-    "csv",
-    "mco",
-    "plot",
-    "view_profile",
-    "irradiance_out",
-    "preview",
-];
-
-/// Checks every output file of the running subcommand `path` (arguments
-/// `m`) before the work: its folder exists and takes a file, the path is
-/// not a folder.
+/// Checks every output of the running subcommand `path` (arguments `m`)
+/// before the work, by the rules of [`outputs`].
 fn check_output_files(path: &[String], m: &clap::ArgMatches) -> anyhow::Result<()> {
     let path: Vec<&str> = path.iter().map(String::as_str).collect();
-    let Some(command) = subcommand(&path) else {
-        return Ok(());
-    };
-    for id in FILE_OUTPUTS {
-        if FOLDER_OUTPUTS
-            .iter()
-            .any(|(p, i)| *p == path.as_slice() && i == id)
-        {
-            continue;
-        }
-        let Ok(Some(file)) = m.try_get_one::<std::path::PathBuf>(id) else {
-            continue;
-        };
-        let flag = command
-            .get_arguments()
-            .find(|a| a.get_id() == id)
-            .and_then(|a| a.get_long())
-            .map_or_else(|| id.to_string(), |l| format!("--{l}"));
-        ssskit::io::check_output_file(file, &flag)?;
+    match subcommand(&path) {
+        Some(command) => outputs::check(&path, &command, m),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// The whole command line interface, built (help subcommands and all).
@@ -296,6 +258,7 @@ mod tests {
     /// path-valued `out`-like argument is in one of them.
     #[test]
     fn output_tables_name_real_arguments() {
+        use outputs::{FILE_OUTPUTS, FOLDER_OUTPUTS};
         for (path, id) in FOLDER_OUTPUTS {
             let c = subcommand(path).unwrap_or_else(|| panic!("{path:?}"));
             assert!(c.get_arguments().any(|a| a.get_id() == id), "{path:?} {id}");

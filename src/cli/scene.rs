@@ -18,6 +18,7 @@ use ssskit::scene::{
     material_profiles, render, Render, RenderConfig, RenderInfo, SampleBudget, Scene,
     DEFAULT_GBUFFER_SIDE, DEFAULT_MAX_SPP, DEFAULT_MAX_WORK, DEFAULT_SCENE_ERROR,
 };
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Cap on photons per channel of the materials' profiles.
@@ -111,6 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(p) = &a.preview {
         ssskit::io::check_extension(p, &["png"], "image")?;
     }
+    check_record_replaceable(out)?;
     let scene = Scene::load(&a.scene)?;
     let text = ssskit::io::read_text(&a.scene)?;
     let budget = match (a.spp, a.render_error) {
@@ -142,10 +144,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .collect();
     let r = render(&scene, &rd, &cfg, &Bar::new())?;
     write_render(out, &r, &text, &profiles)?;
-    let back = read_render(out)?;
-    if back.0.info != r.info || back.0.width != r.width {
-        bail!("{}: read back differs from what was written", out.display());
-    }
     if let Some(p) = &a.irradiance_out {
         let img = Image {
             width: r.width,
@@ -229,22 +227,85 @@ fn preview(r: &Render) -> Image {
     }
 }
 
+/// The image and its record, committed as one: two runs writing the same
+/// `--out` at once leave the pair of one of them.
 fn write_render(out: &Path, r: &Render, scene: &str, profiles: &[Profile]) -> anyhow::Result<()> {
-    write_exr_channels(out, r.width, r.height, &r.planes())?;
+    let mut group = ssskit::io::AtomicGroup::new();
+    write_exr_channels(&mut group, out, r.width, r.height, &r.planes())?;
     let side = Sidecar {
         info: r.info.clone(),
         scene: scene.to_string(),
         profiles: profiles.to_vec(),
     };
     let text = serde_json::to_string_pretty(&side)? + "\n";
-    ssskit::io::write_atomic(&sidecar_path(out), text.as_bytes())?;
+    group.add_with(&sidecar_path(out), |w| w.write_all(text.as_bytes()))?;
+    // Read back before the commit, from the staged files: the pair must
+    // load as is.
+    let (Some(exr), Some(record)) = (group.staged_path(0), group.staged_path(1)) else {
+        bail!("{}: not staged as files", out.display());
+    };
+    // Messages name the outputs, not their temporary names.
+    let back = read_render_from(exr, record).map_err(|e| {
+        let text = format!("{e:#}")
+            .replace(&exr.display().to_string(), &out.display().to_string())
+            .replace(
+                &record.display().to_string(),
+                &sidecar_path(out).display().to_string(),
+            );
+        anyhow::anyhow!("{}: reading back what was written: {text}", out.display())
+    })?;
+    if back.0.info != r.info || back.0.width != r.width {
+        bail!("{}: read back differs from what was written", out.display());
+    }
+    check_record_replaceable(out)?;
+    group.commit()?;
+    Ok(())
+}
+
+/// Refuses a render's `--out` whose record (`<out>.json`) could not be
+/// written beside it or would replace a file that is not such a record (a
+/// scene file, a profile, anything else): checked before the work and again
+/// before the commit. A device or a pipe takes neither: the render is read
+/// back, with its record, after it is written.
+fn check_record_replaceable(out: &Path) -> anyhow::Result<()> {
+    let side = sidecar_path(out);
+    for p in [out, side.as_path()] {
+        if ssskit::io::writes_in_place(p) {
+            bail!(
+                "{}: a device or a named pipe; a render is written with its record beside it \
+                 and read back: give a file name",
+                p.display()
+            );
+        }
+    }
+    if std::fs::symlink_metadata(&side).is_err() {
+        return Ok(());
+    }
+    let schema = ssskit::io::read_json::<serde_json::Value>(&side)
+        .ok()
+        .and_then(|v| v.pointer("/info/schema")?.as_str().map(str::to_string));
+    if schema.as_deref() != Some(ssskit::scene::RENDER_SCHEMA) {
+        bail!(
+            "{}: the render's record would replace it, and it is not a render's record (no \
+             info.schema '{}'): give another --out, or move the file",
+            side.display(),
+            ssskit::scene::RENDER_SCHEMA
+        );
+    }
     Ok(())
 }
 
 /// A render written by `ssskit scene`, with its scene text and profiles.
 fn read_render(path: &Path) -> anyhow::Result<(Render, String, Vec<Profile>)> {
-    let side_path = sidecar_path(path);
-    let text = ssskit::io::read_text(&side_path)
+    read_render_from(path, &sidecar_path(path))
+}
+
+/// A render from its image at `path` and its record at `side_path`.
+fn read_render_from(
+    path: &Path,
+    side_path: &Path,
+) -> anyhow::Result<(Render, String, Vec<Profile>)> {
+    let text = ssskit::io::read_text(side_path)
         .with_context(|| format!("the record of {}", path.display()))?;
     let side: Sidecar = serde_json::from_str(&text).with_context(|| {
         format!(

@@ -258,9 +258,11 @@ pub fn read_exr_channels(path: &Path) -> Result<Channels> {
     exr_channels(path)
 }
 
-/// Writes named f32 channels of `width` x `height` samples (a scene
-/// render's planes) atomically; refuses what ssskit could not read back.
+/// Stages named f32 channels of `width` x `height` samples (a scene
+/// render's planes) in `group`, committed with the files that belong with
+/// them; refuses what ssskit could not read back.
 pub fn write_exr_channels(
+    group: &mut crate::io::AtomicGroup,
     path: &Path,
     width: usize,
     height: usize,
@@ -294,7 +296,7 @@ pub fn write_exr_channels(
         list.push(AnyChannel::new(*name, samples));
     }
     let exr_image = exr::image::Image::from_channels((width, height), AnyChannels::sort(list));
-    crate::io::write_atomic_with(path, |w| {
+    group.add_with(path, |w| {
         exr_image
             .write()
             .to_buffered(w)

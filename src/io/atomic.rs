@@ -1,18 +1,22 @@
 //! Atomic file writes: a file is written to a temporary name in its
 //! folder, synced, then renamed over the target; an [`AtomicGroup`] renames
 //! the files of one run together under exclusive locks on their folders.
+//! What sits at the path decides first ([`destination`]): a device or a
+//! named pipe is written in place, never renamed over.
 
+use super::dest::{destination, write_in_place, Destination};
 use super::temps::{sweep_stale_temps, temp_builder, temp_prefix, LiveTemp};
 use crate::error::{Error, Result};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// A file written to its temporary name, synced, waiting to be renamed.
+/// A file written to its temporary name, synced, waiting to be renamed
+/// over `path` (the regular file to replace); or, `tmp` None, an output
+/// already written in place into a device or a pipe.
 struct Staged {
     path: PathBuf,
-    tmp: tempfile::NamedTempFile,
-    _live: LiveTemp,
+    tmp: Option<(tempfile::NamedTempFile, LiveTemp)>,
 }
 
 pub(super) fn folder_of(path: &Path) -> &Path {
@@ -44,6 +48,17 @@ fn stage(
     path: &Path,
     fill: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> std::io::Result<()>,
 ) -> Result<Staged> {
+    let path = match destination(path)? {
+        Destination::InPlace => {
+            write_in_place(path, fill)?;
+            return Ok(Staged {
+                path: path.to_path_buf(),
+                tmp: None,
+            });
+        }
+        Destination::Replace(real) => real,
+    };
+    let path = path.as_path();
     let dir = folder_of(path);
     sweep_stale_temps(dir);
     let prefix = temp_prefix();
@@ -58,14 +73,26 @@ fn stage(
     set_default_permissions(tmp.as_file(), path)?;
     Ok(Staged {
         path: path.to_path_buf(),
-        tmp,
-        _live: live,
+        tmp: Some((tmp, live)),
     })
 }
 
 impl Staged {
     fn persist(self) -> Result<()> {
-        let Staged { path, tmp, _live } = self;
+        let Staged { path, tmp } = self;
+        let Some((tmp, _live)) = tmp else {
+            return Ok(());
+        };
+        // Looked at again just before the rename: a device or a pipe that
+        // appeared at the path since the staging is never renamed over.
+        if destination(&path)? != Destination::Replace(path.clone()) {
+            return Err(Error::io(
+                &path,
+                std::io::Error::other(
+                    "became a device, a pipe or a link while the output was written: not replaced",
+                ),
+            ));
+        }
         tmp.persist(&path).map_err(|e| Error::io(&path, e.error))?;
         Ok(())
     }
@@ -114,6 +141,13 @@ impl AtomicGroup {
         let text = serde_json::to_string_pretty(value)
             .map_err(|e| Error::format(path, format!("cannot serialise: {e}")))?;
         self.add_with(path, |w| w.write_all(text.as_bytes()))
+    }
+
+    /// Where the `i`-th output added is staged until the commit (None for
+    /// one written in place, or no such output): what a run reads back is
+    /// its own, whatever a concurrent run commits meanwhile.
+    pub fn staged_path(&self, i: usize) -> Option<&Path> {
+        self.staged.get(i)?.tmp.as_ref().map(|(t, _)| t.path())
     }
 
     /// Renames every staged file into place under the folders' locks.

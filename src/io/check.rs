@@ -2,6 +2,7 @@
 //! format, and the folder takes a new file.
 
 use super::atomic::{cannot_write, folder_of};
+use super::dest::{destination, Destination};
 use super::temps::{temp_builder, temp_prefix};
 use crate::error::{Error, Result};
 use std::path::Path;
@@ -9,13 +10,18 @@ use std::path::Path;
 /// Refuses an output path whose extension is not one of `allowed` (lower
 /// case, without the dot): the format written is the one the name says, so
 /// that ssskit and other tools read back what they expect. `what` names the
-/// output in the error ("unknown image type").
+/// output in the error ("unknown image type"). A device or a named pipe
+/// (`/dev/stdout`) needs no extension where only one format is allowed:
+/// the format is not in doubt.
 pub fn check_extension(path: &Path, allowed: &[&str], what: &str) -> Result<()> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     if ext.as_deref().is_some_and(|e| allowed.contains(&e)) {
+        return Ok(());
+    }
+    if allowed.len() == 1 && matches!(destination(path), Ok(Destination::InPlace)) {
         return Ok(());
     }
     let list: Vec<String> = allowed.iter().map(|e| format!(".{e}")).collect();
@@ -31,15 +37,24 @@ pub fn check_extension(path: &Path, allowed: &[&str], what: &str) -> Result<()> 
 /// Checks, before any work, that a file can be written at `path`: its
 /// folder exists, is a folder and takes a new file (a temporary one is
 /// created and removed: the only honest test of a permission), and `path`
-/// is not a folder itself. `what` names the output ("--out", "profile").
+/// is not a folder itself, nor anything else ssskit would not write to (a
+/// socket, a link to nothing: see [`destination`]). A device or a named
+/// pipe is written in place, so its folder is not probed. `what` names the
+/// output ("--out", "profile").
 pub fn check_output_file(path: &Path, what: &str) -> Result<()> {
     let named = |msg: String| Error::io(path, std::io::Error::other(format!("{what}: {msg}")));
     if path.as_os_str().is_empty() {
         return Err(named("an empty path names no file".into()));
     }
-    if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
-        return Err(named("is a folder: give a file name".into()));
-    }
+    let inner = |e: Error| match e {
+        Error::Io { source, .. } => named(source.to_string()),
+        e => e,
+    };
+    let real = match destination(path).map_err(inner)? {
+        Destination::InPlace => return Ok(()),
+        Destination::Replace(real) => real,
+    };
+    let path = real.as_path();
     let dir = folder_of(path);
     match std::fs::metadata(dir) {
         Ok(m) if m.is_dir() => {}

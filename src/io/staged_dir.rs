@@ -143,12 +143,40 @@ fn check_replaceable(target: &Path) -> Result<()> {
         }
     }
     match (ours, first_other) {
-        (true, _) | (false, None) => Ok(()),
+        (true, _) => no_special_files(target, 0),
+        (false, None) => Ok(()),
         (false, Some(f)) => Err(bad(format!(
             "the folder holds files no ssskit run wrote (e.g. '{f}'); the outputs replace the \
              folder as a whole: give a new or empty folder"
         ))),
     }
+}
+
+/// Refuses a folder to be replaced that holds a device, a named pipe or a
+/// socket anywhere below it (no ssskit run writes one; someone put it
+/// there, and the swap would remove it).
+fn no_special_files(dir: &Path, depth: usize) -> Result<()> {
+    // Folders ssskit writes are at most two deep (`kernels/`); deeper ones
+    // are looked at a little further, then trusted.
+    const MAX_DEPTH: usize = 8;
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    for e in entries.flatten() {
+        let Ok(ft) = e.file_type() else { continue };
+        if ft.is_dir() {
+            if depth < MAX_DEPTH {
+                no_special_files(&e.path(), depth + 1)?;
+            }
+        } else if !ft.is_file() && !ft.is_symlink() {
+            return Err(Error::io(
+                e.path(),
+                std::io::Error::other(
+                    "a device, named pipe or socket in an output folder that would be replaced \
+                     as a whole: move it, or give another folder",
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Exchanges two paths atomically (Linux renameat2 RENAME_EXCHANGE).

@@ -28,6 +28,10 @@ pub const DEFAULT_GBUFFER_SIDE: usize = 4;
 /// Samples per pixel of the first round.
 pub const FIRST_ROUND_SPP: u64 = 16;
 /// Context of the render settings' errors.
+/// The fewest samples per pixel a render takes: its noise (every render
+/// states one, and its record is read back only with one) is estimated
+/// from the spread of each pixel's samples, undefined for one.
+pub const MIN_SPP: u64 = 2;
 pub(super) const CONTEXT: &str = "scene render";
 
 /// How many samples per pixel.
@@ -261,8 +265,19 @@ impl RenderConfig {
 }
 
 fn validate(cfg: &RenderConfig, rd: Option<&[[f64; 3]]>, scene: &Scene) -> Result<()> {
+    let too_few = |field: &str, n: u64| {
+        Error::invalid(
+            CONTEXT,
+            field,
+            n,
+            format!(
+                "must be >= {MIN_SPP}: the noise the render states is the spread between a \
+                 pixel's samples, which one sample does not have"
+            ),
+        )
+    };
     match cfg.budget {
-        SampleBudget::Fixed(0) => return Err(Error::invalid(CONTEXT, "spp", 0, "must be >= 1")),
+        SampleBudget::Fixed(n) if n < MIN_SPP => return Err(too_few("spp", n)),
         SampleBudget::TargetError { rel, max_spp } => {
             if !(rel > 0.0 && rel < 1.0) {
                 return Err(Error::invalid(
@@ -272,8 +287,8 @@ fn validate(cfg: &RenderConfig, rd: Option<&[[f64; 3]]>, scene: &Scene) -> Resul
                     "must be in (0, 1), e.g. 0.01",
                 ));
             }
-            if max_spp == 0 {
-                return Err(Error::invalid(CONTEXT, "max_spp", 0, "must be >= 1"));
+            if max_spp < MIN_SPP {
+                return Err(too_few("max_spp", max_spp));
             }
         }
         _ => {}

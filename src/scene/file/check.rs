@@ -8,6 +8,13 @@ use crate::error::{Error, Result};
 use crate::material::PerChannel;
 use crate::scene::{Unit, V3};
 
+/// The largest light a scene may give (an irradiance, or an environment's
+/// radiance): far above any physical light, and far enough below f32's
+/// largest value (3.4e38, the EXR's samples) that the sum of the lights,
+/// the environment's pi L and a radiance that is irradiance x R_d / pi stay
+/// finite; a light above it is refused with the scene, before the render.
+pub const MAX_LIGHT: f64 = 1e30;
+
 /// Field checks of one scene file.
 pub(super) struct Check<'a> {
     pub(super) context: &'a str,
@@ -98,6 +105,17 @@ impl Check<'_> {
         for (c, x) in v.iter().enumerate() {
             if !(x.is_finite() && *x >= 0.0) {
                 return Err(self.err(&format!("{field}[{c}]"), x, "must be finite and >= 0"));
+            }
+            if *x > MAX_LIGHT {
+                return Err(self.err(
+                    &format!("{field}[{c}]"),
+                    x,
+                    format!(
+                        "must be at most {MAX_LIGHT:e}: the render is stored as f32 (largest \
+                         {:e}), which a brighter light overflows",
+                        f32::MAX
+                    ),
+                ));
             }
         }
         Ok(v)

@@ -10,27 +10,18 @@ use std::path::Path;
 /// Reads an OBJ file's triangles (faces fan-triangulated, all groups
 /// merged), refusing more than [`MAX_TRIANGLES`] before allocating them.
 pub(super) fn read_obj(path: &Path) -> Result<(Vec<V3>, Vec<[usize; 3]>)> {
-    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-    // An OBJ face line takes at least 8 bytes ("f 1 2 3\n"): the file's
-    // length bounds its triangles before the parser allocates them.
-    if meta.len() > 64 * MAX_TRIANGLES as u64 {
-        return Err(Error::format(
-            path,
-            format!(
-                "{} bytes: meshes are limited to {MAX_TRIANGLES} triangles (files of at most {} \
-                 bytes)",
-                meta.len(),
-                64 * MAX_TRIANGLES
-            ),
-        ));
-    }
+    let text = obj_text(path)?;
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _) = tobj::load_obj(path, &opts)
+    // Material libraries (`mtllib`) are never opened: ssskit takes the
+    // medium from the scene file, and a library may name any file (a
+    // device, a pipe, one outside the scene's folder, a huge one).
+    let no_materials = |_: &Path| -> tobj::MTLLoadResult { Ok((Vec::new(), Default::default())) };
+    let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, no_materials)
         .map_err(|e| Error::format(path, format!("unreadable OBJ file: {e}")))?;
     let mut positions = Vec::new();
     let mut tris = Vec::new();
@@ -82,4 +73,97 @@ pub(super) fn read_obj(path: &Path) -> Result<(Vec<V3>, Vec<[usize; 3]>)> {
         .collect();
     let tris = tris.into_iter().map(|t| t.map(|i| remap[i])).collect();
     Ok((unique, tris))
+}
+
+/// The text of an OBJ file: a regular file only (a pipe could block, a
+/// device never end), read through the bounded reader; a byte-order mark
+/// and bytes that are not UTF-8 are refused with their line.
+fn obj_text(path: &Path) -> Result<String> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.is_dir() {
+        return Err(Error::format(path, "a folder, not an OBJ file"));
+    }
+    if !meta.is_file() {
+        return Err(Error::format(
+            path,
+            "not a regular file (a device or a named pipe): meshes are read from files",
+        ));
+    }
+    // An OBJ face line takes at least 8 bytes ("f 1 2 3\n"): a cap of 64
+    // bytes per triangle bounds the parser's allocations.
+    let max = 64 * MAX_TRIANGLES as u64;
+    let bytes = crate::io::read_bytes_capped(path, max, "mesh (OBJ)")?;
+    if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
+        return Err(Error::format(
+            path,
+            "line 1: a byte-order mark (U+FEFF) opens the file: save it as UTF-8 without one",
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
+        Error::format(
+            path,
+            format!("line {line}: bytes that are not UTF-8 text (byte {at})"),
+        )
+    })
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+
+    const CUBE: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+        f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+    fn fifo(path: &Path) {
+        let c = std::ffi::CString::new(path.to_str().unwrap()).unwrap();
+        // SAFETY: a NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    }
+
+    /// `mtllib` lines are parsed past, never opened: pipes with no writer
+    /// (which an open would wait on forever), one beside the mesh and one
+    /// in another folder, and a device.
+    #[test]
+    fn material_libraries_are_never_opened() {
+        let (dir, other) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        let d = dir.path();
+        fifo(&d.join("m.mtl"));
+        let outside = other.path().join("o.mtl");
+        fifo(&outside);
+        let obj = d.join("c.obj");
+        let libs = format!(
+            "mtllib m.mtl\nmtllib {}\nmtllib /dev/zero\n",
+            outside.display()
+        );
+        std::fs::write(&obj, format!("{libs}usemtl x\n{CUBE}")).unwrap();
+        let (v, f) = read_obj(&obj).unwrap();
+        assert_eq!((v.len(), f.len()), (8, 12));
+    }
+
+    /// A pipe, a device and a folder as the mesh are refused at once; a
+    /// byte-order mark and bad bytes are named with their line.
+    #[test]
+    fn only_regular_utf8_files_are_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        fifo(&d.join("p.obj"));
+        for (p, needle) in [
+            (d.join("p.obj"), "not a regular file"),
+            (std::path::PathBuf::from("/dev/zero"), "not a regular file"),
+            (d.to_path_buf(), "a folder"),
+        ] {
+            let e = read_obj(&p).unwrap_err().to_string();
+            assert!(e.contains(needle), "{e}");
+        }
+        let bom = d.join("bom.obj");
+        std::fs::write(&bom, format!("\u{feff}{CUBE}")).unwrap();
+        let e = read_obj(&bom).unwrap_err().to_string();
+        assert!(e.contains("line 1") && e.contains("byte-order mark"), "{e}");
+        let bad = d.join("bad.obj");
+        std::fs::write(&bad, [CUBE.as_bytes(), b"v 0 0 \xff\n"].concat()).unwrap();
+        let e = read_obj(&bad).unwrap_err().to_string();
+        assert!(e.contains("line 15") && e.contains("not UTF-8"), "{e}");
+    }
 }
