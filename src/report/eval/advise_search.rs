@@ -2,9 +2,9 @@
 //! filtered on the test images cheapest first, and the kernel file of the
 //! one chosen ([`super::advise`] says where each model and layout stops).
 
-use super::advise::{Candidate, Config, ExtentRule, Remedy, FULL_MAX_PIXELS};
 use super::advise_decide::{choose, Budget, Verdict, NOISE_K};
 use super::advise_noise::Reference;
+use super::advise_types::{Candidate, Config, ExtentRule, Remedy, FULL_MAX_PIXELS};
 use super::evaluate::{self, ImageErrors};
 use super::kernel_compare::ModelSpec;
 use crate::error::{Error, Result};

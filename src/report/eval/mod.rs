@@ -7,6 +7,7 @@ pub mod advise;
 pub mod advise_decide;
 pub mod advise_noise;
 pub mod advise_search;
+pub mod advise_types;
 pub mod claims;
 pub mod evaluate;
 pub mod kernel_compare;
