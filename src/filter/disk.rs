@@ -15,10 +15,10 @@
 //! is the exact convolution averaged over each pixel
 //! (`exact::PixelSampling::Average`), the oracle of the tests.
 
+use super::image::par_planes;
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
 use crate::kernel::disk::DiskKernelFile;
-use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Most frames one filtering may accumulate: a temporal filter's history
@@ -167,20 +167,12 @@ impl<'a> Pass<'a> {
 
     fn run(&self, first: u32, frames: u32) -> Image {
         let (w, h) = (self.image.width, self.image.height);
-        let mut out = Image::new(w, h);
-        out.alpha = self.image.alpha.clone();
-        let [r, g, b] = &mut out.rgb;
-        r.par_chunks_mut(w)
-            .zip(g.par_chunks_mut(w))
-            .zip(b.par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(y, ((r, g), b))| {
-                for x in 0..w {
-                    let v = self.pixel(x, y, first, frames);
-                    (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
-                }
-            });
-        out
+        Image {
+            width: w,
+            height: h,
+            rgb: par_planes(w, h, |x, y| self.pixel(x, y, first, frames)),
+            alpha: self.image.alpha.clone(),
+        }
     }
 
     /// The four pixels around (px, py), already clamped to the image, and

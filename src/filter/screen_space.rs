@@ -6,8 +6,8 @@
 //! 2014, eq. 4.12; Jimenez et al. 2009). Rayon over rows; each output pixel
 //! is computed by one thread (deterministic).
 
+use super::image::par_planes;
 use super::{Image, Setup, Taps};
-use rayon::prelude::*;
 
 /// The direction of a 1D pass; the jitter of a tap differs between the two.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,20 +59,7 @@ struct PassCtx<'a> {
 
 impl PassCtx<'_> {
     fn run(&self, src: &[Vec<f64>; 3], axis: Axis) -> [Vec<f64>; 3] {
-        let (w, h) = (self.w, self.h);
-        let mut out: [Vec<f64>; 3] = [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]];
-        let [r, g, b] = &mut out;
-        r.par_chunks_mut(w)
-            .zip(g.par_chunks_mut(w))
-            .zip(b.par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(y, ((r, g), b))| {
-                for x in 0..w {
-                    let v = self.pixel(src, axis, x, y);
-                    (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
-                }
-            });
-        out
+        par_planes(self.w, self.h, |x, y| self.pixel(src, axis, x, y))
     }
 
     fn pixel(&self, src: &[Vec<f64>; 3], axis: Axis, x: usize, y: usize) -> [f64; 3] {
