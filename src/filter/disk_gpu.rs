@@ -4,8 +4,9 @@
 //! [`super::disk::apply_disk`] (f64) within [`disk_f32_tolerance`].
 
 use super::disk::DiskSetup;
+use super::gpu::{check_binding, ign_constants, plane_or_ones, rgba};
 use super::Image;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/disk.wgsl");
@@ -76,25 +77,9 @@ impl DiskGpu {
         setup.validate(image)?;
         let (w, h) = (image.width, image.height);
         let n = w * h;
-        let limit = self.ctx.device.limits().max_storage_buffer_binding_size as usize;
-        if n * 16 > limit {
-            return Err(Error::Unsupported(format!(
-                "a {w}x{h} image needs {} bytes per buffer; this adapter binds at most {limit}",
-                n * 16
-            )));
-        }
-        let rgba = |img: &Image| -> Vec<[f32; 4]> {
-            (0..n)
-                .map(|i| std::array::from_fn(|c| if c < 3 { img.rgb[c][i] as f32 } else { 1.0 }))
-                .collect()
-        };
+        check_binding(&self.ctx, w, h)?;
         let v = &setup.view;
-        let scalar = |p: Option<&super::Plane>| -> Vec<f32> {
-            p.map_or_else(
-                || vec![1.0; n],
-                |p| p.data.iter().map(|&x| x as f32).collect(),
-            )
-        };
+        let scalar = |p: Option<&super::Plane>| plane_or_ones(p, n);
         let points: Vec<[f32; 2]> = setup
             .taps
             .iter()
@@ -189,17 +174,13 @@ impl DiskGpu {
 
 /// The constants disk.wgsl shares with this file and the CPU twin
 /// ([`super::jitter`]).
-fn shared_constants() -> [(&'static str, u32); 7] {
-    use super::jitter::{IGN_FRACTION, IGN_WHOLE, IGN_X, IGN_Y, JITTER_BITS, SILVER_U32};
-    [
-        ("IGN_X", IGN_X),
-        ("IGN_Y", IGN_Y),
-        ("IGN_WHOLE", IGN_WHOLE),
-        ("IGN_FRACTION", IGN_FRACTION),
-        ("SILVER_U32", SILVER_U32),
-        ("JITTER_BITS", JITTER_BITS),
+fn shared_constants() -> Vec<(&'static str, u32)> {
+    let mut c = ign_constants().to_vec();
+    c.extend([
+        ("SILVER_U32", super::jitter::SILVER_U32),
         ("WORKGROUP_SIDE", WORKGROUP_SIDE),
-    ]
+    ]);
+    c
 }
 
 fn shader_source() -> String {

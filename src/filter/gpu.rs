@@ -145,31 +145,8 @@ impl Gpu {
         setup.validate(image)?;
         let (w, h) = (image.width, image.height);
         let n = w * h;
-        let limit = self.ctx.device.limits().max_storage_buffer_binding_size as usize;
-        if n * 16 > limit {
-            return Err(Error::Unsupported(format!(
-                "a {w}x{h} image needs {} bytes per buffer; this adapter binds at most {limit}",
-                n * 16
-            )));
-        }
-        let rgba = |img: &Image| -> Vec<[f32; 4]> {
-            (0..n)
-                .map(|i| {
-                    [
-                        img.rgb[0][i] as f32,
-                        img.rgb[1][i] as f32,
-                        img.rgb[2][i] as f32,
-                        1.0,
-                    ]
-                })
-                .collect()
-        };
-        let scalar = |p: Option<&super::Plane>| -> Vec<f32> {
-            p.map_or_else(
-                || vec![1.0; n],
-                |p| p.data.iter().map(|&v| v as f32).collect(),
-            )
-        };
+        check_binding(&self.ctx, w, h)?;
+        let scalar = |p: Option<&super::Plane>| plane_or_ones(p, n);
         let storage = wgpu::BufferUsages::STORAGE;
         let src = self
             .ctx
@@ -299,17 +276,62 @@ const WORKGROUP_SIDE: u32 = 8;
 /// The constants sss_pass.wgsl shares with this file and the CPU twin
 /// ([`super::jitter`]), prepended to it as WGSL `const`s: the shader names
 /// them and never spells their values.
-fn shared_constants() -> [(&'static str, u32); 7] {
-    use super::jitter::{GOLDEN_U32, IGN_FRACTION, IGN_WHOLE, IGN_X, IGN_Y, JITTER_BITS};
+fn shared_constants() -> Vec<(&'static str, u32)> {
+    let mut c = ign_constants().to_vec();
+    c.extend([
+        ("GOLDEN_U32", super::jitter::GOLDEN_U32),
+        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+    ]);
+    c
+}
+
+/// The interleaved gradient noise's fixed-point constants, shared by the
+/// separable and the disk pass's shaders with their CPU twin
+/// ([`super::jitter`]).
+pub(super) fn ign_constants() -> [(&'static str, u32); 5] {
+    use super::jitter::{IGN_FRACTION, IGN_WHOLE, IGN_X, IGN_Y, JITTER_BITS};
     [
         ("IGN_X", IGN_X),
         ("IGN_Y", IGN_Y),
         ("IGN_WHOLE", IGN_WHOLE),
         ("IGN_FRACTION", IGN_FRACTION),
-        ("GOLDEN_U32", GOLDEN_U32),
         ("JITTER_BITS", JITTER_BITS),
-        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
     ]
+}
+
+/// Refuses a `w` x `h` image whose RGBA f32 buffer is larger than the
+/// adapter binds.
+pub(super) fn check_binding(ctx: &GpuContext, w: usize, h: usize) -> Result<()> {
+    let bytes = w * h * 16;
+    let limit = ctx.device.limits().max_storage_buffer_binding_size as usize;
+    if bytes > limit {
+        return Err(Error::Unsupported(format!(
+            "a {w}x{h} image needs {bytes} bytes per buffer; this adapter binds at most {limit}"
+        )));
+    }
+    Ok(())
+}
+
+/// The image as the shaders read it: RGBA f32, alpha 1.
+pub(super) fn rgba(img: &Image) -> Vec<[f32; 4]> {
+    (0..img.len())
+        .map(|i| {
+            [
+                img.rgb[0][i] as f32,
+                img.rgb[1][i] as f32,
+                img.rgb[2][i] as f32,
+                1.0,
+            ]
+        })
+        .collect()
+}
+
+/// A per-pixel plane (depth, strength) in f32, or ones where there is none.
+pub(super) fn plane_or_ones(p: Option<&super::Plane>, n: usize) -> Vec<f32> {
+    p.map_or_else(
+        || vec![1.0; n],
+        |p| p.data.iter().map(|&v| v as f32).collect(),
+    )
 }
 
 /// The WGSL of the pass: sss_pass.wgsl after the definitions it shares with
