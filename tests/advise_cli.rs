@@ -156,8 +156,8 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
                 "--out",
                 s(&blurred),
             ];
-            if a["taps"].is_u64() {
-                args.push("--taps-only");
+            if !a["taps"].is_u64() {
+                args.push("--full-factors");
             }
             ok(&args);
             let held_out = diff_rel(&exact, &blurred);
@@ -347,8 +347,8 @@ fn apply_warns_about_the_kernel_at_the_pixel_scale() {
             "--out",
             s(&o_exr),
         ];
-        if taps_only {
-            args.push("--taps-only");
+        if !taps_only {
+            args.push("--full-factors");
         }
         ok(&args).1
     };

@@ -163,7 +163,7 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
             ]);
             for label in ["svd1", "svd1-renorm", "preintegrate", "jimenez"] {
                 let kernel = out.join("kernels").join(format!("{material}-{label}.json"));
-                for (factor, extra) in [("full", None), ("17", Some("--taps-only"))] {
+                for (factor, extra) in [("full", Some("--full-factors")), ("17", None)] {
                     let filtered = dir.path().join("k.exr");
                     let mut args = vec![
                         "apply",

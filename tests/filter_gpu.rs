@@ -191,7 +191,6 @@ fn apply_dirac(dir: &Path, backend: &[&str]) -> (std::process::Output, PathBuf) 
         p(&out),
         "--mm-per-pixel",
         "0.2",
-        "--taps-only",
     ];
     args.extend_from_slice(backend);
     (run(&args), out)

@@ -172,7 +172,6 @@ fn cli_jitter_changes_the_image_and_the_reference_refuses_it() {
             p(out),
             "--mm-per-pixel",
             "0.1",
-            "--taps-only",
             "--backend",
             "cpu",
         ];

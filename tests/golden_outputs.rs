@@ -172,24 +172,25 @@ const CPU_ORTHO: [&str; 6] = [
 
 #[test]
 fn apply_full_factors_cpu() {
+    let mut flags = CPU_ORTHO.to_vec();
+    flags.push("--full-factors");
     apply_case(
         "apply_full_factors_cpu",
         "shapes-full",
         "shapes",
-        &CPU_ORTHO,
+        &flags,
         CPU_F64,
     );
 }
 
 #[test]
 fn apply_tap_table_cpu() {
-    let mut flags = CPU_ORTHO.to_vec();
-    flags.push("--taps-only");
+    // The tap table is apply's default: no flag.
     apply_case(
         "apply_tap_table_cpu",
         "shapes-taps",
         "shapes",
-        &flags,
+        &CPU_ORTHO,
         CPU_F64,
     );
 }
@@ -205,6 +206,7 @@ fn apply_perspective_depth_aware_cpu() {
         "1",
         "--follow-surface-scene-units",
         "300",
+        "--full-factors",
         "--backend",
         "cpu",
     ];
@@ -221,7 +223,13 @@ fn apply_perspective_depth_aware_cpu() {
 #[test]
 fn apply_full_factors_gpu() {
     ssskit::gpu::use_software_vulkan_if_unset();
-    let flags = ["--mm-per-pixel", "0.1", "--backend", "gpu"];
+    let flags = [
+        "--mm-per-pixel",
+        "0.1",
+        "--full-factors",
+        "--backend",
+        "gpu",
+    ];
     apply_case(
         "apply_full_factors_gpu",
         "shapes-full",

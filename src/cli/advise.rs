@@ -7,6 +7,7 @@ use super::args::{
 };
 use super::out::{out, outln};
 use anyhow::bail;
+use std::path::PathBuf;
 use ssskit::report::advise::{self, ViewScale, FAMILIES};
 use ssskit::report::kernel_report::sig;
 
@@ -26,7 +27,7 @@ struct ViewArgs {
 #[command(
     mut_arg("mm_per_pixel", |a| a
         .conflicts_with_all(["fov_y", "view_depth", "image_height"])
-        .required_unless_present("fov_y")
+        .required_unless_present_any(["fov_y", "scene"])
         .help("Scale: surface millimetres per pixel (orthographic) [default: none: give it or --fov-y]")),
     mut_arg("fov_y", |a| a.requires_all(["view_depth", "image_height"]).alias("fov")),
     mut_arg("view_depth", args::alias("--depth")),
@@ -60,12 +61,39 @@ pub struct Args {
     json: JsonArg,
     #[command(flatten)]
     out: OutFile,
+    /// A path-traced scene (TOML) to check the advice on [default: none].
+    ///
+    /// Each model's answer within the budget and the chosen one run
+    /// through the screen-space pass on the scene's G-buffer (scaled by
+    /// depth, depth-aware) against its path-traced image (--render): the
+    /// chosen kernel's scene error beside the best's, with the uncertainty
+    /// the render's noise gives the difference. The seen object must be of
+    /// the advised material (the same preset, eta included). Without
+    /// --material or --profile the profile is the render's own (its first
+    /// object's); the scale is the scene's unless --mm-per-pixel is given.
+    #[arg(long, value_name = "SCENE.toml", requires = "render")]
+    scene: Option<PathBuf>,
+    /// The scene's render, `ssskit scene SCENE.toml --out IMG.exr` [default: none].
+    #[arg(long, value_name = "IMG.exr", requires = "scene")]
+    render: Option<PathBuf>,
 }
+
+/// Relative difference between a given scale and the scene's beyond which
+/// the two are refused as different views (1%: well above the rounding of
+/// a scale typed from the scene file).
+const SCALE_AGREEMENT: f64 = 0.01;
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let units_per_mm = a.units_per_mm.units_per_mm;
+    let scene = match (&a.scene, &a.render) {
+        (Some(s), Some(r)) => Some(super::scene::scene_and_render(s, r)?),
+        _ => None,
+    };
+    let scene_mm = scene
+        .as_ref()
+        .map(|(s, r, _)| ssskit::report::scene_compare::median_mm_per_pixel(s, r));
     let view = match (
-        a.mm_per_pixel.mm_per_pixel,
+        a.mm_per_pixel.mm_per_pixel.or(scene_mm),
         a.fov_y.fov_y,
         a.view.view_depth,
         a.view.image_height,
@@ -80,8 +108,26 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         _ => bail!("give --mm-per-pixel, or --fov-y with --view-depth and --image-height"),
     };
     let mm = view.mm_per_pixel()?;
+    if let Some(m) = scene_mm {
+        if (mm - m).abs() > SCALE_AGREEMENT * m {
+            bail!(
+                "--scene: the scene is seen at {} mm per pixel (its median depth), the advice \
+                 asked for {}: drop the scale flags to take the scene's",
+                sig(m),
+                sig(mm)
+            );
+        }
+    }
     let target = a.target.fraction()?;
-    let (profile, source) = a.profile.load()?;
+    let (profile, source) = match &scene {
+        // The render's own profile of the scene's first object: the
+        // material it was rendered with, to its Monte Carlo error.
+        Some((_, _, profiles)) if !a.profile.given() => match profiles.first() {
+            Some(p) => (p.clone(), "the render's (its first object's)".to_string()),
+            None => bail!("--render: its record holds no profile: give --material"),
+        },
+        _ => a.profile.load()?,
+    };
     eprintln!(
         "{}: profile {source}; scale {} mm per pixel{}",
         profile.material.name,
@@ -103,7 +149,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     cfg.size = a.signal_size.signal_size;
     cfg.budget = a.budget.budget();
     cfg.families = a.models.families();
-    let advice = advise::advise(&profile, &cfg, &super::progress::Bar::new())?;
+    let advice = advise::advise_on_scene(
+        &profile,
+        &cfg,
+        scene.as_ref().map(|(s, r, _)| (s, r)),
+        &super::progress::Bar::new(),
+    )?;
     let out = a.out.out.as_ref();
     if let Some(out) = out {
         advice.kernel.write(out)?;

@@ -154,8 +154,18 @@ pub struct Args {
         conflicts_with = "follow_surface"
     )]
     follow_surface_scene_units: Option<f64>,
-    /// Use the kernel's real-time tap table instead of its full-resolution factors.
+    /// Apply the fit's full-resolution factors instead of the tap table.
+    ///
+    /// By default `apply` runs the kernel file's real-time tap table
+    /// (`taps.passes`): what an engine runs and what `compare` and
+    /// `advise` score, so `apply` + `diff` agrees with them. The full
+    /// factors are the fit before tap placement (resampled to whole pixels
+    /// under a uniform scale).
     #[arg(long)]
+    full_factors: bool,
+    /// The tap table, the default since the tap table is what an engine
+    /// runs; kept so that older scripts still run.
+    #[arg(long, hide = true, conflicts_with = "full_factors")]
     taps_only: bool,
     /// Jitter each tap per pixel inside the interval it stands for.
     ///
@@ -295,8 +305,9 @@ fn load_depth(args: &Args, own: Option<Plane>) -> anyhow::Result<Option<Plane>> 
     Ok(depth)
 }
 
-/// The pass's settings: the kernel's taps (the full factors resampled to
-/// pixels under a uniform scale unless --taps-only), the scale and the
+/// The pass's settings: the kernel's taps (its real-time tap table, or with
+/// --full-factors the full factors resampled to pixels under a uniform
+/// scale), the scale and the
 /// per-pixel planes; checked against the image, with the scale warnings.
 fn setup_of(
     args: &Args,
@@ -307,11 +318,20 @@ fn setup_of(
     image: &Image,
 ) -> anyhow::Result<Setup> {
     let view = view_of(args, scale, depth, image)?;
-    let factors = if args.taps_only {
-        Which::stored(kernel)
-    } else {
+    let factors = if args.full_factors {
         Which::Full
+    } else {
+        Which::stored(kernel)
     };
+    eprintln!(
+        "taps: the {}{}",
+        factors.describe(),
+        if args.full_factors {
+            " (--full-factors)"
+        } else {
+            ", what an engine runs (--full-factors for the fit's full resolution)"
+        }
+    );
     let uniform = match scale {
         Scale::MmPerPixel(m) if view.strength.is_none() => Some(m),
         _ => None,
@@ -426,11 +446,12 @@ fn run_reference(
         || follow(args).is_some()
         || args.specular.is_some()
         || args.taps_only
+        || args.full_factors
         || args.jitter
     {
         anyhow::bail!(
             "--reference is the plain exact 2D convolution: it takes no --depth, --strength, \
-             --follow-surface, --specular, --taps-only or --jitter"
+             --follow-surface, --specular, --full-factors or --jitter"
         );
     }
     if args.backend.backend == Backend::Gpu {

@@ -11,9 +11,9 @@ use ssskit::kernel::disk::DiskKernelFile;
 use std::path::Path;
 
 pub fn run(args: &Args, path: &Path, view: Setup, image: &Image) -> anyhow::Result<Image> {
-    if args.taps_only || args.jitter {
+    if args.taps_only || args.full_factors || args.jitter {
         bail!(
-            "--taps-only and --jitter apply to separable kernels; {} is a disk kernel (its \
+            "--full-factors and --jitter apply to separable kernels; {} is a disk kernel (its \
              samples are its table, turned per pixel and frame)",
             path.display()
         );

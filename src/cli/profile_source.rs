@@ -32,6 +32,11 @@ impl ProfileSourceArgs {
         })
     }
 
+    /// Whether --profile or --material was given.
+    pub fn given(&self) -> bool {
+        self.profile.profile.is_some() || self.material.material.is_some()
+    }
+
     /// The profile and a sentence saying where it came from.
     pub fn load(&self) -> anyhow::Result<(Profile, String)> {
         if let Some(p) = &self.profile.profile {

@@ -295,6 +295,28 @@ fn check_record_replaceable(out: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A scene and its render (`ssskit scene SCENE --out IMG`), refused when
+/// the render's record holds another scene's text; with the render's
+/// profiles.
+pub(super) fn scene_and_render(
+    scene: &Path,
+    render: &Path,
+) -> anyhow::Result<(Scene, Render, Vec<Profile>)> {
+    let loaded = Scene::load(scene)?;
+    let text = ssskit::io::read_text(scene)?;
+    let (r, scene_text, profiles) = read_render(render)?;
+    if scene_text != text {
+        bail!(
+            "--render {}: it was rendered from another scene than {} (its record holds that \
+             scene's text): render this one with `ssskit scene {} --out IMG.exr`",
+            render.display(),
+            scene.display(),
+            scene.display()
+        );
+    }
+    Ok((loaded, r, profiles))
+}
+
 /// A render written by `ssskit scene`, with its scene text and profiles.
 fn read_render(path: &Path) -> anyhow::Result<(Render, String, Vec<Profile>)> {
     read_render_from(path, &sidecar_path(path))
@@ -371,18 +393,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
     use ssskit::report::record::{machine_line, Record};
     use ssskit::report::scene_compare::{compare_scene, dominance, SceneConfig};
     use ssskit::report::scene_tables::{contact_sheet, named_tables, page};
-    let scene = Scene::load(a.scene)?;
-    let text = ssskit::io::read_text(a.scene)?;
-    let (r, scene_text, profiles) = read_render(a.render)?;
-    if scene_text != text {
-        bail!(
-            "--render {}: it was rendered from another scene than {} (its record holds that \
-             scene's text): render this one with `ssskit scene {} --out IMG.exr`",
-            a.render.display(),
-            a.scene.display(),
-            a.scene.display()
-        );
-    }
+    let (scene, r, profiles) = scene_and_render(a.scene, a.render)?;
     let Some(profile) = profiles.first() else {
         bail!(
             "--render {}: its record holds no profile",

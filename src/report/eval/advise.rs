@@ -44,6 +44,7 @@
 use super::advise_decide::{choose, Cost};
 pub use super::advise_decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};
 use super::advise_noise::{Reference, BOOTSTRAP_SEED};
+use super::advise_scene::{check_on_scene, SceneCandidate, SceneCheck};
 use super::advise_search::Search;
 use super::evaluate::{ImageCase, ImageErrors};
 use super::kernel_compare::{model_specs, ModelSpec};
@@ -55,6 +56,7 @@ use crate::kernel::taps::factor_radius_holding;
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile};
 use crate::profile::Profile;
 use crate::progress::Progress;
+use crate::scene::{Render, Scene};
 use serde_json::json;
 use std::collections::BTreeMap;
 
@@ -90,6 +92,9 @@ pub struct Advice {
     pub warnings: Vec<ScaleWarning>,
     /// Kernel radius holding 99% of the ground truth's 1D projection, mm.
     pub kernel_radius_mm: f64,
+    /// With a path-traced scene: each model's answer run on it, the chosen
+    /// one beside the best ([`advise_on_scene`]).
+    pub scene: Option<SceneCheck>,
 }
 
 impl Advice {
@@ -101,19 +106,10 @@ impl Advice {
     /// cheapest meeting the target, else the most accurate, ties to the
     /// cheaper), cheapest first; each filtered on every signal.
     pub fn best_per_model(&self) -> Vec<&Candidate> {
-        let mut by: BTreeMap<&str, Vec<&Candidate>> = BTreeMap::new();
-        for c in &self.candidates {
-            by.entry(&c.label).or_default().push(c);
-        }
-        let mut v: Vec<&Candidate> = by
-            .into_values()
-            .filter_map(|cs| {
-                let owned: Vec<Candidate> = cs.iter().map(|c| (*c).clone()).collect();
-                choose(&owned).map(|i| cs[i])
-            })
-            .collect();
-        v.sort_by(|a, b| a.cost_order(b).then(a.label.cmp(&b.label)));
-        v
+        best_per_model(&self.candidates)
+            .into_iter()
+            .map(|i| &self.candidates[i])
+            .collect()
     }
 
     /// The JSON answer: model, params, taps, rank, passes, extent, scale,
@@ -168,8 +164,30 @@ impl Advice {
             "kernel_radius_px": self.kernel_radius_mm / self.mm_per_pixel,
             "warnings": self.warnings,
             "candidates": self.best_per_model(),
+            "scene": self.scene,
         })
     }
+}
+
+/// Per model variant the index of its winner by the rule of the whole
+/// search, cheapest first ([`Advice::best_per_model`]).
+fn best_per_model(candidates: &[Candidate]) -> Vec<usize> {
+    let mut by: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+    for (i, c) in candidates.iter().enumerate() {
+        by.entry(&c.label).or_default().push(i);
+    }
+    let mut v: Vec<usize> = by
+        .into_values()
+        .filter_map(|is| {
+            let owned: Vec<Candidate> = is.iter().map(|&i| candidates[i].clone()).collect();
+            choose(&owned).map(|k| is[k])
+        })
+        .collect();
+    v.sort_by(|&a, &b| {
+        let (a, b) = (&candidates[a], &candidates[b]);
+        a.cost_order(b).then(a.label.cmp(&b.label))
+    });
+    v
 }
 
 /// The model variants of `families` at ranks 1-3. Left out: a single
@@ -258,6 +276,18 @@ fn kernel_radius(truth: &Kernel2D) -> f64 {
 /// Searches every candidate within `cfg`'s budget for `profile` at its
 /// scale.
 pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Result<Advice> {
+    advise_on_scene(profile, cfg, None, progress)
+}
+
+/// [`advise`], and with a path-traced scene and its render, each model's
+/// answer within the budget (and the chosen configuration) run through the
+/// screen-space pass on it ([`super::advise_scene`]).
+pub fn advise_on_scene(
+    profile: &Profile,
+    cfg: &Config,
+    scene: Option<(&Scene, &Render)>,
+    progress: &dyn Progress,
+) -> Result<Advice> {
     validate(cfg)?;
     let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
     let refs = Reference::all(profile, &test_cases(cfg)?)?;
@@ -292,6 +322,10 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
     let (kernel, passes) = search.chosen_kernel(&c)?;
     let predicted = search.predict(&passes, c.cost)?;
     let warnings = scale_warnings(&passes, 1.0 / cfg.mm_per_pixel, c.taps.is_some());
+    let scene = match scene {
+        Some((scene, render)) => Some(scene_check(&search, &candidates, chosen, scene, render)?),
+        None => None,
+    };
     Ok(Advice {
         mm_per_pixel: cfg.mm_per_pixel,
         taps: cfg.taps.clone(),
@@ -307,7 +341,37 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
         predicted,
         warnings,
         kernel_radius_mm: kernel_radius(&search.truth),
+        scene,
     })
+}
+
+/// Each model's answer and the chosen configuration on the scene.
+fn scene_check(
+    search: &Search,
+    candidates: &[Candidate],
+    chosen: usize,
+    scene: &Scene,
+    render: &Render,
+) -> Result<SceneCheck> {
+    let mut rows = best_per_model(candidates);
+    if !rows.contains(&chosen) {
+        rows.push(chosen);
+    }
+    let run = rows
+        .iter()
+        .map(|&i| {
+            let c = &candidates[i];
+            let (_, taps) = search.chosen_kernel(c)?;
+            Ok(SceneCandidate {
+                configuration: c.describe(),
+                passes: c.passes,
+                samples_per_pixel: c.cost,
+                taps,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let at = rows.iter().position(|&i| i == chosen).unwrap_or(0);
+    check_on_scene(scene, render, search.profile, &run, at)
 }
 
 pub use crate::report::present::advice_text::{

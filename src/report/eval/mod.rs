@@ -6,6 +6,7 @@
 pub mod advise;
 pub mod advise_decide;
 pub mod advise_noise;
+pub mod advise_scene;
 pub mod advise_search;
 pub mod advise_types;
 pub mod claims;

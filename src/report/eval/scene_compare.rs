@@ -189,7 +189,7 @@ fn check_scene(scene: &Scene, render: &Render) -> Result<()> {
 }
 
 /// Millimetres per pixel at the seen objects' median depth.
-fn median_mm_per_pixel(scene: &Scene, render: &Render) -> f64 {
+pub fn median_mm_per_pixel(scene: &Scene, render: &Render) -> f64 {
     let g = &render.gbuffer;
     let mut depths: Vec<f64> = (0..g.depth.len())
         .filter(|&i| g.coverage[i] > 0.0)
@@ -212,10 +212,17 @@ fn follow_mm_of(cfg: &SceneConfig, profile: &Profile) -> Result<f64> {
             f,
             "must be finite and > 0",
         )),
-        None => Ok((0..profile.channels.len())
-            .map(|c| crate::profile::radius_holding(profile, c, 0.99))
-            .fold(0.0, f64::max)),
+        None => Ok(kernel_reach_mm(profile)),
     }
+}
+
+/// The radius holding 99% of the profile's R_d, the largest over the
+/// channels: the kernel's reach, where the depth-aware lerp completes by
+/// default.
+pub fn kernel_reach_mm(profile: &Profile) -> f64 {
+    (0..profile.channels.len())
+        .map(|c| crate::profile::radius_holding(profile, c, 0.99))
+        .fold(0.0, f64::max)
 }
 
 /// Why the angular factors cannot be applied to `scene` (None: they can):
@@ -299,19 +306,10 @@ impl Stage<'_> {
     /// the lerp inside the angular factors.
     fn model(&mut self, f: &Fitted, flat: [Option<f64>; 2], follow_c: f64) -> Result<()> {
         let label = &f.spec.label;
-        let (scale, depth) = (scale_of(self.scene), self.depth.clone());
         let passes = taps_for(&f.kernel, Which::stored(&f.kernel), None)?;
-        let setup = move |follow: Option<f64>| Setup {
-            passes: passes.clone(),
-            scale,
-            depth: Some(depth.clone()),
-            strength: None,
-            follow_surface: follow.map(FollowSurface::InSceneUnits),
-            specular: None,
-            jitter: false,
-        };
-        let pass = |img: &Image, follow: Option<f64>, variant: &str| {
-            cpu::apply_with(img, &setup(follow), cpu::Precision::F64)
+        let (scene, depth) = (self.scene, self.depth.clone());
+        let pass = move |img: &Image, follow: Option<f64>, variant: &str| {
+            screen_space_pass(scene, &depth, &passes, img, follow)
                 .map_err(|e| Error::Unsupported(format!("{label} ({variant}): {e}")))
         };
         for (variant, follow) in [("depth", None), ("depth+follow", Some(follow_c))] {
@@ -325,6 +323,29 @@ impl Stage<'_> {
         }
         Ok(())
     }
+}
+
+/// The screen-space pass of `passes` over `img` on the scene's camera: the
+/// scale per pixel from `depth` (Freude 2014, eq. 4.11) and, with
+/// `follow` (the constant C of [`follow_constant`]), the depth-aware lerp
+/// (Freude 2014, eq. 4.12); on the CPU in f64.
+pub fn screen_space_pass(
+    scene: &Scene,
+    depth: &Plane,
+    passes: &[crate::filter::Taps],
+    img: &Image,
+    follow: Option<f64>,
+) -> Result<Image> {
+    let setup = Setup {
+        passes: passes.to_vec(),
+        scale: scale_of(scene),
+        depth: Some(depth.clone()),
+        strength: None,
+        follow_surface: follow.map(FollowSurface::InSceneUnits),
+        specular: None,
+        jitter: false,
+    };
+    cpu::apply_with(img, &setup, cpu::Precision::F64)
 }
 
 /// The largest flat-plane relative RMS over the channels of `label`'s tap

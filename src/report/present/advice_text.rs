@@ -139,6 +139,27 @@ pub fn explain(a: &Advice) -> String {
     if let Some(note) = screen_space_note(c.verdict.rel_rms, a.mm_per_pixel) {
         let _ = writeln!(s, "  {note}");
     }
+    if let Some(sc) = &a.scene {
+        let _ = writeln!(s, "\n  {}", sc.sentence());
+        for (i, r) in sc.rows.iter().enumerate() {
+            let mark = match (i == sc.chosen, i == sc.best) {
+                (true, true) => "chosen, best",
+                (true, false) => "chosen",
+                (false, true) => "best",
+                _ => "",
+            };
+            let _ = writeln!(
+                s,
+                "    {:<52} {:>2} passes {:>4} spp  {:>6.2} / {:>6.2} / {:>6.2}%  {mark}",
+                r.configuration,
+                r.passes,
+                r.samples_per_pixel,
+                100.0 * r.rel_rms[0],
+                100.0 * r.rel_rms[1],
+                100.0 * r.rel_rms[2]
+            );
+        }
+    }
     s
 }
 

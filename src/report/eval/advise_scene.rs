@@ -1,0 +1,306 @@
+//! The advice checked beyond the flat plane: each kernel model's answer
+//! within the budget run through the screen-space pass on a path-traced
+//! scene's G-buffer, against the path-traced image, so the user sees what
+//! the chosen kernel gives on a scene next to the best the budget allows.
+//!
+//! # Definitions
+//!
+//! - Pixels scored: those whose centre ray meets an object of the advised
+//!   material and that the G-buffer covers (occluders of another material
+//!   may cast shadows into the image but not be seen in it).
+//! - The pass: each configuration's own taps (as `advise` scored them),
+//!   scaled per pixel by the depth (Freude 2014, eq. 4.11), with the
+//!   depth-aware lerp (Freude 2014, eq. 4.12) completing at the kernel's
+//!   reach ([`kernel_reach_mm`]): the `depth+follow` variant of
+//!   `compare --scene`.
+//! - Error per channel: RMS of (pass - path traced) over the scored pixels
+//!   divided by the 99th percentile of the path-traced radiance there
+//!   (`compare --scene`'s relative RMS); a configuration's scene error is
+//!   its worst channel.
+//! - Uncertainty of a difference: the path-traced image t carries a
+//!   per-pixel standard error s. For two passes a and b, RMS_a^2 - RMS_b^2
+//!   = mean((a - b)(a + b - 2t)), whose standard deviation from t's noise
+//!   is 2 sqrt(sum (a - b)^2 s^2) / N; divided by RMS_a + RMS_b it is that
+//!   of RMS_a - RMS_b. The noise common to both scores cancels, so two
+//!   kernels are told apart far below the render's own noise.
+//! - Verdict: the chosen configuration is "within" the best within the
+//!   budget when its scene error exceeds the best one's by at most
+//!   [`NOISE_K`] of those standard deviations (the margin of the flat-plane
+//!   decision, [`super::advise_decide`]).
+
+use super::advise_decide::NOISE_K;
+use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
+use super::scene_compare::screen_space_pass;
+use crate::error::{Error, Result};
+use crate::filter::{Image, Plane, Taps};
+use crate::profile::Profile;
+use crate::scene::{Render, Scene};
+use serde::{Deserialize, Serialize};
+
+/// One configuration run on the scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneRow {
+    /// The configuration (`Candidate::describe`).
+    pub configuration: String,
+    pub passes: usize,
+    pub samples_per_pixel: usize,
+    /// Relative RMS per channel against the path-traced image.
+    pub rel_rms: [f64; 3],
+    /// The worst channel's.
+    pub worst: f64,
+}
+
+/// The advice on a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneCheck {
+    /// The scene's origin (its file).
+    pub scene: String,
+    /// Millimetres per pixel at the seen object's median depth.
+    pub mm_per_pixel: f64,
+    pub pixels: usize,
+    /// The render's noise per channel (RMS standard error over its peak).
+    pub noise: [f64; 3],
+    /// Where the depth-aware lerp completes, mm.
+    pub follow_mm: f64,
+    /// The unblurred irradiance's errors, for scale.
+    pub no_blur: [f64; 3],
+    /// Each model's answer within the budget, and the chosen one.
+    pub rows: Vec<SceneRow>,
+    pub chosen: usize,
+    /// The row with the lowest scene error.
+    pub best: usize,
+    /// Chosen's scene error less the best's.
+    pub gap: f64,
+    /// The standard deviation of that gap from the render's noise.
+    pub gap_sigma: f64,
+    /// gap <= NOISE_K x gap_sigma.
+    pub within: bool,
+}
+
+impl SceneCheck {
+    /// One line: the chosen configuration's scene error, the best's, the
+    /// gap with its uncertainty.
+    pub fn sentence(&self) -> String {
+        let (c, b) = (&self.rows[self.chosen], &self.rows[self.best]);
+        let pct = |v: [f64; 3]| {
+            v.map(|x| format!("{:.2}", 100.0 * x))
+                .join(" / ")
+        };
+        let verdict = if self.chosen == self.best {
+            "the best within the budget".to_string()
+        } else {
+            format!(
+                "{} the best within the budget, {} at {}% (gap {:.3} +- {:.3} points, {} {NOISE_K} \
+                 sigma)",
+                if self.within { "within noise of" } else { "WORSE than" },
+                b.configuration,
+                pct(b.rel_rms),
+                100.0 * self.gap,
+                100.0 * self.gap_sigma,
+                if self.within { "inside" } else { "beyond" },
+            )
+        };
+        format!(
+            "on the scene {} ({:.3} mm per pixel, {} pixels, render noise {}%): {} gives {}% RMS \
+             (r / g / b; unblurred {}%), {verdict}",
+            self.scene,
+            self.mm_per_pixel,
+            self.pixels,
+            pct(self.noise),
+            c.configuration,
+            pct(c.rel_rms),
+            pct(self.no_blur),
+        )
+    }
+}
+
+/// A configuration to run: its description, cost and taps.
+pub struct SceneCandidate {
+    pub configuration: String,
+    pub passes: usize,
+    pub samples_per_pixel: usize,
+    pub taps: Vec<Taps>,
+}
+
+/// Which object each pixel's centre ray meets first (None: nothing).
+fn seen_objects(scene: &Scene) -> Vec<Option<usize>> {
+    let cam = &scene.camera;
+    let mut seen = Vec::with_capacity(cam.width * cam.height);
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let ray = cam.ray(x as f64 + 0.5, y as f64 + 0.5);
+            seen.push(scene.nearest(&ray, f64::INFINITY).map(|(i, _)| i));
+        }
+    }
+    seen
+}
+
+/// The pixels to score: covered, and their centre ray meets an object of
+/// `profile`'s material; refuses a scene whose seen objects are of another
+/// material, or whose render is not of its camera.
+fn scored_pixels(scene: &Scene, render: &Render, profile: &Profile) -> Result<Vec<usize>> {
+    if (render.width, render.height) != (scene.camera.width, scene.camera.height) {
+        return Err(Error::Unsupported(format!(
+            "the render is {}x{} but the scene's camera is {}x{}",
+            render.width, render.height, scene.camera.width, scene.camera.height
+        )));
+    }
+    let mut pixels = Vec::new();
+    for (i, o) in seen_objects(scene).into_iter().enumerate() {
+        let Some(o) = o else { continue };
+        let object = &scene.objects[o];
+        if object.material.name != profile.material.name {
+            return Err(Error::Unsupported(format!(
+                "{}: the camera sees {} ({}), but the advice is for {}: one kernel for the \
+                 image, so every seen object must be of the advised material (occluders of \
+                 another material may stay out of view)",
+                scene.origin, object.name, object.material.name, profile.material.name
+            )));
+        }
+        if render.gbuffer.coverage[i] > 0.0 {
+            pixels.push(i);
+        }
+    }
+    if pixels.is_empty() {
+        return Err(Error::Unsupported(format!(
+            "{}: the camera sees no object of {}",
+            scene.origin, profile.material.name
+        )));
+    }
+    Ok(pixels)
+}
+
+/// The 99th percentile of `v` over `pixels`.
+fn peak(v: &[f64], pixels: &[usize]) -> f64 {
+    let mut x: Vec<f64> = pixels.iter().map(|&i| v[i]).collect();
+    x.sort_by(f64::total_cmp);
+    x[((0.99 * x.len() as f64).ceil() as usize).clamp(1, x.len()) - 1]
+}
+
+/// What each pass is scored against.
+struct Truth<'a> {
+    radiance: &'a [Vec<f64>; 3],
+    stderr: &'a [Vec<f64>; 3],
+    pixels: Vec<usize>,
+    peak: [f64; 3],
+}
+
+impl Truth<'_> {
+    fn rel_rms(&self, img: &Image) -> [f64; 3] {
+        let n = self.pixels.len() as f64;
+        std::array::from_fn(|c| {
+            let sq: f64 = self
+                .pixels
+                .iter()
+                .map(|&i| (img.rgb[c][i] - self.radiance[c][i]).powi(2))
+                .sum();
+            (sq / n).sqrt() / self.peak[c]
+        })
+    }
+
+    /// The standard deviation of RMS_a - RMS_b on channel `c` from the
+    /// truth's noise (module docs).
+    fn gap_sigma(&self, a: &Image, b: &Image, rms: [f64; 2], c: usize) -> f64 {
+        let n = self.pixels.len() as f64;
+        let var: f64 = self
+            .pixels
+            .iter()
+            .map(|&i| ((a.rgb[c][i] - b.rgb[c][i]) * self.stderr[c][i]).powi(2))
+            .sum();
+        let sum = rms[0] + rms[1];
+        if sum > 0.0 {
+            2.0 * var.sqrt() / n / self.peak[c].powi(2) / sum
+        } else {
+            0.0
+        }
+    }
+}
+
+fn worst(v: [f64; 3]) -> (usize, f64) {
+    (0..3).fold((0, f64::NEG_INFINITY), |(bi, b), c| {
+        if v[c] > b {
+            (c, v[c])
+        } else {
+            (bi, b)
+        }
+    })
+}
+
+/// Runs `candidates` on the scene (`chosen` indexes them) and compares the
+/// chosen one with the best.
+pub fn check_on_scene(
+    scene: &Scene,
+    render: &Render,
+    profile: &Profile,
+    candidates: &[SceneCandidate],
+    chosen: usize,
+) -> Result<SceneCheck> {
+    if chosen >= candidates.len() {
+        return Err(Error::Unsupported("scene check: no chosen configuration".into()));
+    }
+    let pixels = scored_pixels(scene, render, profile)?;
+    let truth = Truth {
+        radiance: &render.radiance,
+        stderr: &render.stderr,
+        peak: std::array::from_fn(|c| peak(&render.radiance[c], &pixels)),
+        pixels,
+    };
+    if truth.peak.iter().any(|&p| !(p > 0.0)) {
+        return Err(Error::Unsupported(format!(
+            "{}: the path-traced image is black where the object is seen",
+            scene.origin
+        )));
+    }
+    let (w, h) = (render.width, render.height);
+    let irradiance = Image {
+        width: w,
+        height: h,
+        rgb: render.gbuffer.irradiance.clone(),
+        alpha: None,
+    };
+    let depth = Plane {
+        width: w,
+        height: h,
+        data: render.gbuffer.depth.clone(),
+    };
+    let follow_mm = kernel_reach_mm(profile);
+    let follow_c = follow_constant(scene, follow_mm);
+    let mut images = Vec::with_capacity(candidates.len());
+    let mut rows = Vec::with_capacity(candidates.len());
+    for c in candidates {
+        let img = screen_space_pass(scene, &depth, &c.taps, &irradiance, Some(follow_c))
+            .map_err(|e| Error::Unsupported(format!("{} on the scene: {e}", c.configuration)))?;
+        let rel_rms = truth.rel_rms(&img);
+        rows.push(SceneRow {
+            configuration: c.configuration.clone(),
+            passes: c.passes,
+            samples_per_pixel: c.samples_per_pixel,
+            rel_rms,
+            worst: worst(rel_rms).1,
+        });
+        images.push(img);
+    }
+    let best = (0..rows.len())
+        .min_by(|&a, &b| rows[a].worst.total_cmp(&rows[b].worst))
+        .unwrap_or(chosen);
+    let gap = rows[chosen].worst - rows[best].worst;
+    // The gap's channel is the chosen one's worst; its uncertainty that of
+    // the difference on that channel.
+    let (wc, _) = worst(rows[chosen].rel_rms);
+    let rms = [rows[chosen].rel_rms[wc], rows[best].rel_rms[wc]];
+    let gap_sigma = truth.gap_sigma(&images[chosen], &images[best], rms, wc);
+    Ok(SceneCheck {
+        scene: scene.origin.clone(),
+        mm_per_pixel: median_mm_per_pixel(scene, render),
+        pixels: truth.pixels.len(),
+        noise: render.info.noise,
+        follow_mm,
+        no_blur: truth.rel_rms(&irradiance),
+        rows,
+        chosen,
+        best,
+        gap,
+        gap_sigma,
+        within: gap <= NOISE_K * gap_sigma,
+    })
+}
