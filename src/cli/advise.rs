@@ -7,9 +7,9 @@ use super::args::{
 };
 use super::out::{out, outln};
 use anyhow::bail;
-use std::path::PathBuf;
 use ssskit::report::advise::{self, ViewScale, FAMILIES};
 use ssskit::report::kernel_report::sig;
+use std::path::PathBuf;
 
 /// The perspective scale's own flags (with --fov-y and --units-per-mm).
 #[derive(clap::Args)]

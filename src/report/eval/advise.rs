@@ -371,7 +371,13 @@ fn scene_check(
         })
         .collect::<Result<Vec<_>>>()?;
     let at = rows.iter().position(|&i| i == chosen).unwrap_or(0);
-    check_on_scene(scene, render, search.profile, &run, at)
+    let c = &candidates[chosen];
+    let accepted = if c.verdict.meets {
+        search.cfg.target
+    } else {
+        c.verdict.rel_rms
+    };
+    check_on_scene(scene, render, search.profile, &run, at, accepted)
 }
 
 pub use crate::report::present::advice_text::{

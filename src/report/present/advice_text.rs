@@ -148,15 +148,24 @@ pub fn explain(a: &Advice) -> String {
                 (false, true) => "best",
                 _ => "",
             };
+            let pct = |v: [f64; 3]| {
+                format!(
+                    "{:>6.2} / {:>6.2} / {:>6.2}%",
+                    100.0 * v[0],
+                    100.0 * v[1],
+                    100.0 * v[2]
+                )
+            };
+            let with = r
+                .rel_rms_with_factors
+                .map_or(String::new(), |v| format!("  with factors {}", pct(v)));
             let _ = writeln!(
                 s,
-                "    {:<52} {:>2} passes {:>4} spp  {:>6.2} / {:>6.2} / {:>6.2}%  {mark}",
+                "    {:<52} {:>2} passes {:>4} spp  {}{with}  {mark}",
                 r.configuration,
                 r.passes,
                 r.samples_per_pixel,
-                100.0 * r.rel_rms[0],
-                100.0 * r.rel_rms[1],
-                100.0 * r.rel_rms[2]
+                pct(r.rel_rms)
             );
         }
     }
