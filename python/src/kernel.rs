@@ -282,17 +282,17 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
                 )),
             }
         }
-        "gaussians" => {
-            match a.preset.as_deref() {
-                None => Model::Gaussians {
-                    count: a.count.unwrap_or(ssskit::kernel::gaussians::DEFAULT_COUNT),
-                },
-                Some(p) if p.eq_ignore_ascii_case("deon-skin") => Model::DeonSkin,
-                Some(p) => return Err(bad(format!(
+        "gaussians" => match a.preset.as_deref() {
+            None => Model::Gaussians {
+                count: a.count.unwrap_or(ssskit::kernel::gaussians::DEFAULT_COUNT),
+            },
+            Some(p) if p.eq_ignore_ascii_case("deon-skin") => Model::DeonSkin,
+            Some(p) => {
+                return Err(bad(format!(
                     "gaussians: preset {p} is a preset of model manual (gaussians has deon-skin)"
-                ))),
+                )))
             }
-        }
+        },
         "jimenez" => {
             let d = JimenezParams::default();
             Model::Jimenez(JimenezParams {

@@ -14,6 +14,7 @@ mod image;
 mod kernel;
 mod material;
 mod profile;
+mod report;
 
 /// How often a long call, waiting without the GIL, looks for Ctrl-C: a
 /// twentieth of a second is below what a person notices, and the wake-ups
@@ -148,5 +149,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     profile::register(m)?;
     kernel::register(m)?;
     image::register(m)?;
+    report::register(m)?;
     Ok(())
 }

@@ -18,7 +18,9 @@ from ._native import (  # noqa: F401
     Material,
     Profile,
     __version__,
+    advise,
     apply,
+    compare,
     engine_params,
     fit,
     load,
@@ -31,12 +33,26 @@ from ._native import (  # noqa: F401
     write_image,
 )
 
+
+
+def to_frame(rows):
+    """A list of dicts (``compare``'s rows, ``advise``'s candidates) as a
+    pandas DataFrame; pandas is optional and needed only here."""
+    try:
+        import pandas
+    except ImportError as e:
+        raise ImportError("ssskit.to_frame needs pandas (pip install pandas); the rows are plain dicts") from e
+    return pandas.DataFrame(rows)
+
+
 __all__ = [
     "MODELS",
     "Kernel",
     "Material",
     "Profile",
+    "advise",
     "apply",
+    "compare",
     "engine_params",
     "fit",
     "load",
@@ -46,5 +62,6 @@ __all__ = [
     "read_image",
     "reference",
     "simulate",
+    "to_frame",
     "write_image",
 ]
