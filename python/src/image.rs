@@ -209,7 +209,6 @@ fn scale_of(mm_per_pixel: Option<f64>, fov_y: Option<f64>, units_per_mm: f64) ->
 #[pyo3(signature = (kernel, irradiance, mm_per_pixel=None, *, fov_y=None,
     units_per_mm=ssskit::engine::Scene::default().units_per_mm, depth=None, specular=None,
     follow_surface=None, taps_only=false, jitter=false, precision="f32", backend="cpu"))]
-#[allow(clippy::too_many_arguments)]
 fn apply<'py>(
     py: Python<'py>,
     kernel: &Bound<'py, PyKernel>,

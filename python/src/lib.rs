@@ -3,6 +3,9 @@
 //! or filtering lives here; every computation is a call of the library the
 //! CLI makes for the same flags.
 
+// A Python function's keyword arguments are the Rust function's parameters.
+#![allow(clippy::too_many_arguments)]
+
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use ssskit::progress::Progress;

@@ -154,7 +154,6 @@ fn budget(
 #[pyo3(signature = (material, *, photons=None, mc_error=None, kernel_error=None,
     max_photons=mc::DEFAULT_MAX_PHOTONS, seed=mc::DEFAULT_SEED, threads=None, channels="rgb",
     dr=None, rmax=None, log_bins=false))]
-#[allow(clippy::too_many_arguments)]
 fn simulate(
     py: Python<'_>,
     material: &Bound<'_, PyAny>,

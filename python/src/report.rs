@@ -64,7 +64,6 @@ fn inputs(obj: &Bound<'_, PyAny>) -> PyResult<Vec<MaterialInput>> {
 #[pyo3(signature = (profiles, *, models=None, ranks="1-3", taps=vec![ssskit::kernel::taps::DEFAULT_TAPS],
     signals=vec!["edge".to_string(), "shapes".to_string()], mm_per_pixel=evaluate::DEFAULT_MM_PER_PIXEL,
     signal_size=evaluate::DEFAULT_SIGNAL_SIZE, extent=None, pixels_per_degree=None))]
-#[allow(clippy::too_many_arguments)]
 fn compare<'py>(
     py: Python<'py>,
     profiles: &Bound<'py, PyAny>,
@@ -113,7 +112,6 @@ fn compare<'py>(
     max_passes=Some(advise::DEFAULT_MAX_PASSES), max_samples=None, max_taps=None,
     signal_size=evaluate::DEFAULT_SIGNAL_SIZE))]
 #[pyo3(name = "advise")]
-#[allow(clippy::too_many_arguments)]
 fn advise_kernel<'py>(
     py: Python<'py>,
     profile: &Bound<'py, PyAny>,

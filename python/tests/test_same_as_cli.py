@@ -15,6 +15,9 @@ PHOTONS = 20000
 SEED = 7
 # The image scale of the filter tests: skin1's kernel spans a few dozen pixels.
 MM_PER_PIXEL = 0.05
+# The GPU pass against the CPU one, relative to the peak: the bound of
+# docs/filter.md's tolerance table for GPU (f32) vs CPU.
+GPU_TOLERANCE = 1e-4
 # Fields that hold wall-clock times, the only ones allowed to differ.
 TIMINGS = [("elapsed_s",), ("metrics", "fit_seconds"), ("metrics", "extra", "kernel_build_seconds")]
 
@@ -153,3 +156,17 @@ def test_float64_in_float64_out(mc_files):
     # The same samples in either dtype: the f32 output is the f64 one
     # rounded once, as the EXR writer rounds.
     assert same_bits(out64.astype(np.float32), out32)
+
+
+def test_gpu_backend_equals_the_cli_gpu_backend(mc_files, tmp_path, cli):
+    """The wgpu pass (lavapipe where there is no GPU): the same device code
+    from both sides, so the same f32 bits."""
+    img = irradiance(4, shape=(32, 40))
+    ssskit.write_image(tmp_path / "in.exr", img)
+    cli("apply", "--kernel", mc_files / "pre.json", "--input", tmp_path / "in.exr", "--out", tmp_path / "out.exr",
+        "--mm-per-pixel", MM_PER_PIXEL, "--backend", "gpu")
+    mine = ssskit.apply(ssskit.load(mc_files / "pre.json"), img, MM_PER_PIXEL, backend="gpu")
+    assert same_bits(mine, ssskit.read_image(tmp_path / "out.exr"))
+    # The GPU works in f32: close to the CPU's result, not equal to it.
+    cpu = ssskit.apply(ssskit.load(mc_files / "pre.json"), img, MM_PER_PIXEL)
+    assert np.abs(mine - cpu).max() < GPU_TOLERANCE * np.abs(cpu).max()
