@@ -12,10 +12,11 @@ import pytest
 
 import ssskit
 
-# A Python loop counts millions of times a second; while the calls below
-# run (a second or more) a thread that gets the GIL counts far beyond this,
-# and one that never gets it counts (almost) nothing.
-MIN_SPINS = 10_000
+# The longest pause another Python thread may see while a call runs: a
+# thread that gets the GIL (and one of 2 busy cores) runs every few
+# milliseconds; one that never gets it pauses for the whole call, which
+# lasts at least twice this (checked).
+MAX_PAUSE_S = 0.25
 # Photons of the run that Ctrl-C stops: about 5 s of tracing on 2 cores
 # (1e6 take 1.8 s), so stopping in time is distinguishable from finishing.
 INTERRUPTED_PHOTONS = 3_000_000
@@ -26,37 +27,43 @@ INTERRUPT_AFTER_S = 0.3
 INTERRUPT_DEADLINE_S = 1.5
 
 
-def spins_during(call):
-    """How often another Python thread counted while `call` ran."""
-    count = [0]
+def longest_pause_during(call):
+    """The longest time another Python thread went without running while
+    `call` ran, and how long the call took."""
+    stamps = []
     stop = threading.Event()
 
     def spin():
         while not stop.is_set():
-            count[0] += 1
+            stamps.append(time.perf_counter())
+            time.sleep(0)
 
     t = threading.Thread(target=spin)
     t.start()
     time.sleep(0.05)
-    before = count[0]
     try:
+        t0 = time.perf_counter()
         call()
-        during = count[0] - before
+        t1 = time.perf_counter()
     finally:
         stop.set()
         t.join()
-    return during
+    inside = [s for s in stamps if t0 <= s <= t1]
+    gaps = np.diff([t0, *inside, t1])
+    return gaps.max(), t1 - t0
 
 
 def test_simulate_releases_the_gil():
-    assert spins_during(lambda: ssskit.simulate("skin1", photons=500_000, seed=1)) > MIN_SPINS
+    pause, took = longest_pause_during(lambda: ssskit.simulate("skin1", photons=500_000, seed=1))
+    assert took > 2 * MAX_PAUSE_S and pause < MAX_PAUSE_S
 
 
 def test_apply_releases_the_gil():
     k = ssskit.fit(ssskit.profile("skin1", "pbd"), "svd", rank=2)
     img = np.ones((1080, 1920, 3), np.float32)
-    # At 0.5 mm per pixel the pass takes about 0.4 s on 2 cores.
-    assert spins_during(lambda: ssskit.apply(k, img, mm_per_pixel=0.5)) > MIN_SPINS
+    # At 0.25 mm per pixel the pass takes about a second on 2 cores.
+    pause, took = longest_pause_during(lambda: ssskit.apply(k, img, mm_per_pixel=0.25))
+    assert took > 2 * MAX_PAUSE_S and pause < MAX_PAUSE_S
 
 
 def test_ctrl_c_stops_simulate_with_keyboard_interrupt():
