@@ -24,6 +24,10 @@ mod report;
 /// cost nothing measurable (the result is delivered at once, not polled).
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
+/// The stack of the thread a long call runs on: a process's main thread's
+/// (8 MiB on Linux), where the CLI runs the same code.
+const WORK_STACK: usize = 8 << 20;
+
 /// A library error as the Python exception a caller expects: files that
 /// cannot be read or written are `OSError` (`FileNotFoundError` when
 /// missing), everything else (bad parameters, NaN pixels, malformed files)
@@ -61,11 +65,15 @@ pub(crate) fn interruptible<T: Send>(
     let cancel_ref = &cancel;
     std::thread::scope(|s| {
         let (tx, rx) = mpsc::channel::<()>();
-        let handle = s.spawn(move || {
-            let r = work(cancel_ref);
-            let _ = tx.send(());
-            r
-        });
+        let handle = std::thread::Builder::new()
+            .name("ssskit".into())
+            .stack_size(WORK_STACK)
+            .spawn_scoped(s, move || {
+                let r = work(cancel_ref);
+                let _ = tx.send(());
+                r
+            })
+            .map_err(|e| PyRuntimeError::new_err(format!("ssskit: cannot start a thread: {e}")))?;
         // The receiver is not Sync; the closures given to `detach` must be Send.
         let rx = std::sync::Mutex::new(rx);
         let wait = |timeout: Duration| {

@@ -182,3 +182,38 @@ def test_perspective_with_depth_equals_the_cli(mc_files, tmp_path, cli, backend)
     # the bound docs/filter.md gives.
     assert not same_bits(mine, other)
     assert np.abs(mine - other).max() < GPU_TOLERANCE * np.abs(other).max()
+
+
+TWO_LAYERS_TOML = """name = "two"
+unit = "mm"
+[[layer]]
+sigma_a = [0.1, 0.2, 0.3]
+sigma_s = [5.0, 4.0, 3.0]
+g = 0.8
+eta = 1.4
+thickness = 0.3
+[[layer]]
+sigma_a = [0.03, 0.05, 0.2]
+sigma_s = [1.0, 1.2, 1.5]
+g = 0.0
+eta = 1.4
+"""
+
+
+def test_materials_from_coefficients_equal_the_files(tmp_path, cli):
+    (tmp_path / "two.toml").write_text(TWO_LAYERS_TOML)
+    two = ssskit.Material.layered(
+        [
+            dict(sigma_a=[0.1, 0.2, 0.3], sigma_s=[5.0, 4.0, 3.0], g=0.8, eta=1.4, thickness=0.3),
+            dict(sigma_a=[0.03, 0.05, 0.2], sigma_s=[1.0, 1.2, 1.5], g=0.0, eta=1.4),
+        ],
+        name="two",
+    )
+    assert two == ssskit.material(tmp_path / "two.toml")
+    cli("simulate", "--material", tmp_path / "two.toml", "--photons", 5000, "--seed", SEED, "--out", tmp_path / "cli.json")
+    ssskit.simulate(two, photons=5000, seed=SEED).save(tmp_path / "py.json")
+    assert without_timings((tmp_path / "py.json").read_text()) == without_timings((tmp_path / "cli.json").read_text())
+    skin = ssskit.material("skin1")
+    mine = ssskit.Material(skin.sigma_a, skin.sigma_s, 0.0, 1.3, name="skin1")
+    assert mine == skin and mine.albedo.tolist() == skin.albedo.tolist()
+    assert [m.name for m in ssskit.materials()][:3] == ["apple", "chicken1", "chicken2"]
