@@ -17,9 +17,10 @@ import ssskit
 # milliseconds; one that never gets it pauses for the whole call, which
 # lasts at least twice this (checked).
 MAX_PAUSE_S = 0.25
-# Photons of the run that Ctrl-C stops: about 5 s of tracing on 2 cores
-# (1e6 take 1.8 s), so stopping in time is distinguishable from finishing.
-INTERRUPTED_PHOTONS = 3_000_000
+# Photons of the run that Ctrl-C stops: about 18 s of tracing on 2 busy
+# cores (1e6 take 1.8 s), several times the deadline below on a machine
+# many times faster, so stopping in time is distinguishable from finishing.
+INTERRUPTED_PHOTONS = 10_000_000
 # When the SIGINT is sent, and by when the call must have raised: the
 # Monte Carlo rounds look at the cancel flag before every chunk (a few
 # milliseconds of work) and the binding polls for signals every 50 ms.
