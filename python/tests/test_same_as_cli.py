@@ -217,3 +217,11 @@ def test_materials_from_coefficients_equal_the_files(tmp_path, cli):
     mine = ssskit.Material(skin.sigma_a, skin.sigma_s, 0.0, 1.3, name="skin1")
     assert mine == skin and mine.albedo.tolist() == skin.albedo.tolist()
     assert [m.name for m in ssskit.materials()][:3] == ["apple", "chicken1", "chicken2"]
+
+
+@pytest.mark.parametrize("engine", ["unreal", "blender"])
+def test_engine_params_equal_the_cli(mc_files, tmp_path, cli, engine):
+    cli("engine", "--profile", mc_files / "p.json", "--engine", engine, "--out", tmp_path / "e.json")
+    mine = ssskit.engine_params(ssskit.load(mc_files / "p.json"), engine)
+    assert mine == json.loads((tmp_path / "e.json").read_text())
+    assert mine["params"]
