@@ -17,6 +17,11 @@ import ssskit
 # milliseconds; one that never gets it pauses for the whole call, which
 # lasts at least twice this (checked).
 MAX_PAUSE_S = 0.25
+# The calls watched: about 3 s each on 2 busy cores (1e6 photons take
+# 1.8 s; 1080p at 0.15 mm a pixel, rank 2, 3 s), well above twice
+# MAX_PAUSE_S even on a machine a few times faster.
+GIL_PHOTONS = 1_500_000
+GIL_MM_PER_PIXEL = 0.15
 # Photons of the run that Ctrl-C stops: about 18 s of tracing on 2 busy
 # cores (1e6 take 1.8 s), several times the deadline below on a machine
 # many times faster, so stopping in time is distinguishable from finishing.
@@ -55,15 +60,14 @@ def longest_pause_during(call):
 
 
 def test_simulate_releases_the_gil():
-    pause, took = longest_pause_during(lambda: ssskit.simulate("skin1", photons=500_000, seed=1))
+    pause, took = longest_pause_during(lambda: ssskit.simulate("skin1", photons=GIL_PHOTONS, seed=1))
     assert took > 2 * MAX_PAUSE_S and pause < MAX_PAUSE_S
 
 
 def test_apply_releases_the_gil():
     k = ssskit.fit(ssskit.profile("skin1", "pbd"), "svd", rank=2)
     img = np.ones((1080, 1920, 3), np.float32)
-    # At 0.25 mm per pixel the pass takes about a second on 2 cores.
-    pause, took = longest_pause_during(lambda: ssskit.apply(k, img, mm_per_pixel=0.25))
+    pause, took = longest_pause_during(lambda: ssskit.apply(k, img, mm_per_pixel=GIL_MM_PER_PIXEL))
     assert took > 2 * MAX_PAUSE_S and pause < MAX_PAUSE_S
 
 
