@@ -9,7 +9,16 @@ pub trait Progress: Sync {
     fn advance(&self, _n: u64) {}
     /// Work is over.
     fn finish(&self) {}
+    /// Whether the caller asked the work to stop (Ctrl-C in the Python
+    /// binding); the Monte Carlo rounds check it before each chunk and
+    /// then fail with [`INTERRUPTED`].
+    fn cancelled(&self) -> bool {
+        false
+    }
 }
+
+/// The message of work stopped because [`Progress::cancelled`] said so.
+pub const INTERRUPTED: &str = "interrupted by the caller";
 
 /// Discards all progress.
 pub struct NoProgress;

@@ -16,8 +16,9 @@ use std::path::{Path, PathBuf};
 /// Everything in the repository that is text a reader may meet (the
 /// presets' comments and the committed profiles' and kernels' recorded
 /// rules included).
-const ROOTS: [&str; 12] = [
+const ROOTS: [&str; 13] = [
     "src",
+    "python",
     "tests",
     "docs",
     "scripts",

@@ -7,10 +7,8 @@ use super::args::{
 };
 use anyhow::Context;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
-use ssskit::filter::warnings::scale_warnings;
-use ssskit::filter::{
-    check_kernel_fits, cpu, gpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which,
-};
+use ssskit::filter::kernel_setup::kernel_setup;
+use ssskit::filter::{cpu, gpu, FollowSurface, Image, Plane, Scale, Setup};
 use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
 use std::path::{Path, PathBuf};
@@ -305,10 +303,10 @@ fn load_depth(args: &Args, own: Option<Plane>) -> anyhow::Result<Option<Plane>> 
     Ok(depth)
 }
 
-/// The pass's settings: the kernel's taps (its real-time tap table, or with
-/// --full-factors the full factors resampled to pixels under a uniform
-/// scale), the scale and the
-/// per-pixel planes; checked against the image, with the scale warnings.
+/// The pass's settings (`filter::kernel_setup::kernel_setup`: the
+/// kernel's real-time tap table, or with --full-factors the full factors
+/// resampled to pixels under a uniform scale), checked against the image;
+/// prints the scale warnings.
 fn setup_of(
     args: &Args,
     kernel: &KernelFile,
@@ -318,37 +316,20 @@ fn setup_of(
     image: &Image,
 ) -> anyhow::Result<Setup> {
     let view = view_of(args, scale, depth, image)?;
-    let factors = if args.full_factors {
-        Which::Full
-    } else {
-        Which::stored(kernel)
-    };
     eprintln!(
-        "taps: the {}{}",
-        factors.describe(),
+        "taps: the {}",
         if args.full_factors {
-            " (--full-factors)"
+            "full-resolution factors (--full-factors)".to_string()
         } else {
-            ", what an engine runs (--full-factors for the fit's full resolution)"
+            format!(
+                "{}-tap table, what an engine runs (--full-factors for the fit's full resolution)",
+                kernel.taps.count
+            )
         }
     );
-    let uniform = match scale {
-        Scale::MmPerPixel(m) if view.strength.is_none() => Some(m),
-        _ => None,
-    };
-    check_kernel_fits(kernel, factors, uniform, image.width, image.height)
+    let (setup, warnings) = kernel_setup(kernel, args.full_factors, view, image)
         .with_context(|| format!("applying {}", kernel_path.display()))?;
-    let setup = Setup {
-        passes: taps_for(kernel, factors, uniform)?,
-        ..view
-    };
-    setup.validate(image)?;
-    let largest_step = setup
-        .steps(image.width, image.height)
-        .into_iter()
-        .fold(0.0, f64::max);
-    let sampled = factors != Which::Full || uniform.is_none();
-    for w in scale_warnings(&setup.passes, largest_step, sampled) {
+    for w in warnings {
         super::errors::warn(&w.to_string());
     }
     Ok(setup)

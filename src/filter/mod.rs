@@ -28,6 +28,7 @@ pub mod exact;
 pub mod gpu;
 pub mod image;
 pub mod jitter;
+pub mod kernel_setup;
 pub mod screen_space;
 pub mod separable;
 pub mod signals;

@@ -250,6 +250,10 @@ impl Job<'_> {
             if out.over[c].load(Ordering::Relaxed) {
                 return;
             }
+            if progress.cancelled() {
+                lock(&out.failed).get_or_insert(crate::progress::INTERRUPTED.into());
+                return;
+            }
             let slot = rayon::current_thread_index().unwrap_or(0) % scratch.len();
             let mut guard = lock(&scratch[slot]);
             let s = guard.get_or_insert_with(|| Scratch {

@@ -1,0 +1,357 @@
+//! Images as numpy arrays: (H, W, 3) or (H, W, 4) float32 or float64 in
+//! linear light, converted once to the library's planar f64 `Image` and
+//! once back; `apply` (separable kernels, CPU or wgpu) and `reference` (the
+//! exact 2D convolution).
+
+use crate::kernel::{profile_of, PyKernel};
+use crate::{interruptible, path_of, to_py};
+use numpy::ndarray::Array3;
+use numpy::{Element, IntoPyArray, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use ssskit::filter::cpu::{self, PixelSampling, Precision};
+use ssskit::filter::image::{
+    read_image as lib_read_image, write_image as lib_write_image, PngDepth,
+};
+use ssskit::filter::kernel_setup::kernel_setup;
+use ssskit::filter::{gpu, FollowSurface, Image, Plane, Scale, Setup};
+
+/// The dtype of the arrays that come in: the output has the input's.
+#[derive(Clone, Copy, PartialEq)]
+enum Dtype {
+    F32,
+    F64,
+}
+
+/// An array argument checked for what the library needs: an ndarray of
+/// `ndim` dimensions (the last of 3 or 4 samples for an image), float32 or
+/// float64, C-contiguous, within the image caps; before anything is
+/// allocated.
+fn checked<'py>(
+    obj: &Bound<'py, PyAny>,
+    what: &str,
+    image: bool,
+) -> PyResult<(Bound<'py, PyUntypedArray>, Dtype)> {
+    let expect = if image {
+        "a numpy array of shape (H, W, 3) or (H, W, 4)"
+    } else {
+        "a numpy array of shape (H, W)"
+    };
+    let arr = obj
+        .cast::<PyUntypedArray>()
+        .map_err(|_| {
+            PyTypeError::new_err(format!("{what}: expected {expect}, float32 or float64"))
+        })?
+        .clone();
+    let shape = arr.shape().to_vec();
+    let ok = if image {
+        shape.len() == 3 && (shape[2] == 3 || shape[2] == 4)
+    } else {
+        shape.len() == 2
+    };
+    if !ok {
+        return Err(PyValueError::new_err(format!(
+            "{what}: expected {expect}, got shape {shape:?}"
+        )));
+    }
+    let dtype = if arr.cast::<numpy::PyArrayDyn<f32>>().is_ok() {
+        Dtype::F32
+    } else if arr.cast::<numpy::PyArrayDyn<f64>>().is_ok() {
+        Dtype::F64
+    } else {
+        return Err(PyTypeError::new_err(format!(
+            "{what}: expected float32 or float64 samples, got {}",
+            arr.dtype()
+        )));
+    };
+    if !arr.is_c_contiguous() {
+        return Err(PyValueError::new_err(format!(
+            "{what}: the array is not C-contiguous (a slice or a transpose): pass np.ascontiguousarray(...)"
+        )));
+    }
+    ssskit::limits::check_image_size(what, shape[1], shape[0]).map_err(to_py)?;
+    Ok((arr, dtype))
+}
+
+/// The samples of a checked array, read in place (no copy).
+fn with_samples<R>(
+    arr: &Bound<'_, PyUntypedArray>,
+    dtype: Dtype,
+    f: impl FnOnce(Samples<'_>) -> R,
+) -> PyResult<R> {
+    fn slice<'a, T: Element>(r: &'a numpy::PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
+        r.as_slice()
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+    Ok(match dtype {
+        Dtype::F32 => {
+            let r = arr.cast::<numpy::PyArrayDyn<f32>>()?.try_readonly()?;
+            f(Samples::F32(slice(&r)?))
+        }
+        Dtype::F64 => {
+            let r = arr.cast::<numpy::PyArrayDyn<f64>>()?.try_readonly()?;
+            f(Samples::F64(slice(&r)?))
+        }
+    })
+}
+
+enum Samples<'a> {
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+}
+
+impl Samples<'_> {
+    fn get(&self, i: usize) -> f64 {
+        match self {
+            Samples::F32(s) => f64::from(s[i]),
+            Samples::F64(s) => s[i],
+        }
+    }
+}
+
+/// An (H, W, 3|4) array as the library's planar image, NaN and infinite
+/// samples refused with the CLI's message.
+fn image_of(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<(Image, Dtype)> {
+    let (arr, dtype) = checked(obj, what, true)?;
+    let shape = arr.shape().to_vec();
+    let (h, w, c) = (shape[0], shape[1], shape[2]);
+    let mut image = with_samples(&arr, dtype, |s| {
+        let plane = |k: usize| (0..w * h).map(|i| s.get(i * c + k)).collect::<Vec<f64>>();
+        Image {
+            width: w,
+            height: h,
+            rgb: [plane(0), plane(1), plane(2)],
+            alpha: (c == 4).then(|| plane(3)),
+        }
+    })?;
+    image.check_finite(what, false).map_err(to_py)?;
+    Ok((image, dtype))
+}
+
+/// An (H, W) array as a plane (depth), NaN and infinite values refused.
+fn plane_of(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Plane> {
+    let (arr, dtype) = checked(obj, what, false)?;
+    let shape = arr.shape().to_vec();
+    let data = with_samples(&arr, dtype, |s| {
+        (0..shape[0] * shape[1]).map(|i| s.get(i)).collect()
+    })?;
+    let mut plane = Plane {
+        width: shape[1],
+        height: shape[0],
+        data,
+    };
+    plane.check_finite(what, false, 0.0).map_err(to_py)?;
+    Ok(plane)
+}
+
+/// The library's image as an (H, W, 3|4) array of `dtype`, interleaved
+/// once into a buffer numpy then owns.
+fn array_of<'py>(py: Python<'py>, image: &Image, dtype: Dtype) -> PyResult<Bound<'py, PyAny>> {
+    let c = if image.alpha.is_some() { 4 } else { 3 };
+    let planes: Vec<&[f64]> = image
+        .rgb
+        .iter()
+        .map(Vec::as_slice)
+        .chain(image.alpha.as_deref())
+        .collect();
+    let shape = (image.height, image.width, c);
+    let bad = |e: numpy::ndarray::ShapeError| PyValueError::new_err(e.to_string());
+    Ok(match dtype {
+        Dtype::F32 => {
+            let v: Vec<f32> = (0..image.len() * c)
+                .map(|i| planes[i % c][i / c] as f32)
+                .collect();
+            Array3::from_shape_vec(shape, v)
+                .map_err(bad)?
+                .into_pyarray(py)
+                .into_any()
+        }
+        Dtype::F64 => {
+            let v: Vec<f64> = (0..image.len() * c).map(|i| planes[i % c][i / c]).collect();
+            Array3::from_shape_vec(shape, v)
+                .map_err(bad)?
+                .into_pyarray(py)
+                .into_any()
+        }
+    })
+}
+
+/// The scale `ssskit apply` takes from --mm-per-pixel or --fov-y.
+fn scale_of(mm_per_pixel: Option<f64>, fov_y: Option<f64>, units_per_mm: f64) -> PyResult<Scale> {
+    let scale = match (mm_per_pixel, fov_y) {
+        (Some(m), None) => Scale::MmPerPixel(m),
+        (None, Some(f)) => Scale::Perspective {
+            fov_y_deg: f,
+            sss_width: units_per_mm,
+        },
+        _ => {
+            return Err(PyValueError::new_err(
+                "give exactly one of mm_per_pixel and fov_y",
+            ))
+        }
+    };
+    scale.validate().map_err(to_py)?;
+    Ok(scale)
+}
+
+/// Applies a separable kernel to an irradiance array (`ssskit apply`).
+///
+/// irradiance: (H, W, 3) or (H, W, 4) float32 or float64, linear light,
+/// C-contiguous; alpha is carried through. Scale: mm_per_pixel
+/// (orthographic) or fov_y in degrees with a depth (H, W) array and
+/// units_per_mm. specular: an array like irradiance added after the blur;
+/// follow_surface: the depth-aware lerp constant C in metres. full_factors:
+/// the fit's full-resolution factors instead of the real-time tap table
+/// (the default, as the CLI's: what an engine runs). precision: "f32"
+/// or "f64" (CPU fixed-kernel path); backend: "cpu" or "gpu" (wgpu).
+/// Returns an array of the input's shape and dtype; on the CPU, equal to
+/// the CLI's output bit for bit. Releases the GIL.
+#[pyfunction]
+#[pyo3(signature = (kernel, irradiance, mm_per_pixel=None, *, fov_y=None,
+    units_per_mm=ssskit::engine::Scene::default().units_per_mm, depth=None, specular=None,
+    follow_surface=None, full_factors=false, jitter=false, precision="f32", backend="cpu"))]
+fn apply<'py>(
+    py: Python<'py>,
+    kernel: &Bound<'py, PyKernel>,
+    irradiance: &Bound<'py, PyAny>,
+    mm_per_pixel: Option<f64>,
+    fov_y: Option<f64>,
+    units_per_mm: f64,
+    depth: Option<&Bound<'py, PyAny>>,
+    specular: Option<&Bound<'py, PyAny>>,
+    follow_surface: Option<f64>,
+    full_factors: bool,
+    jitter: bool,
+    precision: &str,
+    backend: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let precision = match precision {
+        "f32" => Precision::F32,
+        "f64" => Precision::F64,
+        p => {
+            return Err(PyValueError::new_err(format!(
+                "precision: invalid value '{p}': expected f32 or f64"
+            )))
+        }
+    };
+    let gpu_backend = match backend {
+        "cpu" => false,
+        "gpu" => true,
+        b => {
+            return Err(PyValueError::new_err(format!(
+                "backend: invalid value '{b}': expected cpu or gpu"
+            )))
+        }
+    };
+    let scale = scale_of(mm_per_pixel, fov_y, units_per_mm)?;
+    let (image, dtype) = image_of(irradiance, "irradiance")?;
+    let depth = depth.map(|d| plane_of(d, "depth")).transpose()?;
+    let specular = specular
+        .map(|s| image_of(s, "specular").map(|x| x.0))
+        .transpose()?;
+    let view = Setup {
+        passes: Vec::new(),
+        scale,
+        depth,
+        strength: None,
+        follow_surface: follow_surface.map(FollowSurface::InMetres),
+        specular,
+        jitter,
+    };
+    let kernel = &kernel.get().inner;
+    let (setup, warnings) = kernel_setup(kernel, full_factors, view, &image).map_err(to_py)?;
+    if !warnings.is_empty() {
+        let warn = py.import("warnings")?;
+        for w in warnings {
+            warn.call_method1("warn", (w.to_string(),))?;
+        }
+    }
+    let out = interruptible(py, |_| {
+        if gpu_backend {
+            gpu::Gpu::new()?.apply(&image, &setup)
+        } else {
+            cpu::apply_with(&image, &setup, precision)
+        }
+    })?;
+    array_of(py, &out, dtype)
+}
+
+/// The exact 2D convolution of an irradiance array with the profile's full
+/// 2D kernel (`ssskit apply --reference`, CPU, f64): sampling "average"
+/// (over each pixel) or "centre".
+#[pyfunction]
+#[pyo3(signature = (profile, irradiance, mm_per_pixel, *, sampling="average"))]
+fn reference<'py>(
+    py: Python<'py>,
+    profile: &Bound<'py, PyAny>,
+    irradiance: &Bound<'py, PyAny>,
+    mm_per_pixel: f64,
+    sampling: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let sampling = match sampling {
+        "average" => PixelSampling::Average,
+        "centre" | "center" => PixelSampling::Centre,
+        s => {
+            return Err(PyValueError::new_err(format!(
+                "sampling: invalid value '{s}': expected average or centre"
+            )))
+        }
+    };
+    let profile = profile_of(profile)?;
+    Scale::MmPerPixel(mm_per_pixel).validate().map_err(to_py)?;
+    let (image, dtype) = image_of(irradiance, "irradiance")?;
+    let out = interruptible(py, |_| {
+        let k = cpu::reference_kernel_sampled(&profile, mm_per_pixel, sampling)?;
+        cpu::check_reference_fits(image.width, image.height, k.size)?;
+        Ok(cpu::convolve_2d(&image, &k))
+    })?;
+    array_of(py, &out, dtype)
+}
+
+/// Reads an image file as the CLI does (.exr as stored, .png sRGB decoded
+/// to linear): an (H, W, 3|4) array of dtype "float32" or "float64".
+#[pyfunction]
+#[pyo3(signature = (path, dtype="float32"))]
+fn read_image<'py>(
+    py: Python<'py>,
+    path: &Bound<'py, PyAny>,
+    dtype: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let dtype = match dtype {
+        "float32" => Dtype::F32,
+        "float64" => Dtype::F64,
+        d => {
+            return Err(PyValueError::new_err(format!(
+                "dtype: invalid value '{d}': expected float32 or float64"
+            )))
+        }
+    };
+    let (image, _) = lib_read_image(&path_of(path)?, None).map_err(to_py)?;
+    array_of(py, &image, dtype)
+}
+
+/// Writes an (H, W, 3|4) array as the CLI writes its outputs: .exr (32-bit
+/// float) or .png (sRGB, png_bits 8 or 16), atomically.
+#[pyfunction]
+#[pyo3(signature = (path, image, *, png_bits=8))]
+fn write_image(path: &Bound<'_, PyAny>, image: &Bound<'_, PyAny>, png_bits: u32) -> PyResult<()> {
+    let depth = match png_bits {
+        8 => PngDepth::Eight,
+        16 => PngDepth::Sixteen,
+        b => {
+            return Err(PyValueError::new_err(format!(
+                "png_bits: invalid value {b}: expected 8 or 16"
+            )))
+        }
+    };
+    let (image, _) = image_of(image, "image")?;
+    lib_write_image(&path_of(path)?, &image, depth).map_err(to_py)
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(apply, m)?)?;
+    m.add_function(wrap_pyfunction!(reference, m)?)?;
+    m.add_function(wrap_pyfunction!(read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(write_image, m)?)?;
+    Ok(())
+}

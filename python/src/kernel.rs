@@ -1,0 +1,385 @@
+//! Kernels: `fit` for every separable model the CLI fits, the tap table
+//! and factors as arrays, shader emission, the engines' parameters.
+
+use crate::material::{rgb, PyMaterial};
+use crate::profile::PyProfile;
+use crate::{interruptible, json_to_py, path_of, pretty_json, to_py};
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use ssskit::engine::{self, Engine, Scene};
+use ssskit::kernel::emit::{emit, Lang};
+use ssskit::kernel::guided::GuidedParams;
+use ssskit::kernel::jimenez::JimenezParams;
+use ssskit::kernel::manual::ManualParams;
+use ssskit::kernel::preintegrate::PreMethod;
+use ssskit::kernel::{fit_kernel_file_with, Kernel2DSpec, KernelFile, Model, Pass};
+use ssskit::profile::Profile;
+
+/// A separable screen-space kernel (ssskit.kernel/1): per separable term
+/// (pass) its 1D factor on the kernel grid and its real-time tap table.
+#[pyclass(module = "ssskit", name = "Kernel", frozen)]
+pub struct PyKernel {
+    pub inner: KernelFile,
+}
+
+/// A pass as a dict of arrays: offsets_mm (n,) and weights (n, 3).
+fn pass_dict<'py>(py: Python<'py>, p: &Pass) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("offsets_mm", PyArray1::from_slice(py, &p.offsets_mm))?;
+    let w: Vec<Vec<f64>> = p.weights.iter().map(|w| w.to_vec()).collect();
+    let w = if w.is_empty() {
+        PyArray2::zeros(py, [0, 3], false)
+    } else {
+        PyArray2::from_vec2(py, &w).map_err(|e| PyValueError::new_err(e.to_string()))?
+    };
+    d.set_item("weights", w)?;
+    Ok(d)
+}
+
+#[pymethods]
+impl PyKernel {
+    /// The model's name ("svd", "preintegrate", ...).
+    #[getter]
+    fn model(&self) -> &str {
+        &self.inner.model.name
+    }
+    /// The model's parameters.
+    #[getter]
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.inner.model.params)
+    }
+    /// The full-resolution factors: one dict per pass, offsets_mm (n,) and
+    /// weights (n, 3) on the kernel grid.
+    #[getter]
+    fn passes<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner.passes.iter().map(|p| pass_dict(py, p)).collect()
+    }
+    /// The real-time tap table: one dict per pass, offsets_mm (taps,) and
+    /// weights (taps, 3).
+    #[getter]
+    fn taps<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner
+            .taps
+            .passes
+            .iter()
+            .map(|p| pass_dict(py, p))
+            .collect()
+    }
+    /// Taps per pass of the tap table.
+    #[getter]
+    fn tap_count(&self) -> usize {
+        self.inner.taps.count
+    }
+    /// Total diffuse reflectance (r, g, b) the kernel integrates to.
+    #[getter]
+    fn total_rd<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.total_rd)
+    }
+    /// The fit's metrics (kernel_rms, norm1_error, asymmetry, ...).
+    #[getter]
+    fn metrics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let v = serde_json::to_value(&self.inner.metrics)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        json_to_py(py, &v)
+    }
+    #[getter]
+    fn material(&self) -> Option<PyMaterial> {
+        self.inner.material.clone().map(|m| PyMaterial { inner: m })
+    }
+    /// The tap table as a shader constant array: lang "hlsl", "glsl" or
+    /// "wgsl" (`ssskit fit --emit LANG`).
+    fn emit(&self, lang: &str) -> PyResult<String> {
+        let lang = match lang.to_ascii_lowercase().as_str() {
+            "hlsl" => Lang::Hlsl,
+            "glsl" => Lang::Glsl,
+            "wgsl" => Lang::Wgsl,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "emit: invalid language '{other}': expected hlsl, glsl or wgsl"
+                )))
+            }
+        };
+        emit(&self.inner, lang).map_err(to_py)
+    }
+    /// Writes the kernel file (JSON), as `ssskit fit --out` does.
+    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.inner.write(&path_of(path)?).map_err(to_py)
+    }
+    /// The kernel file's text.
+    fn to_json(&self) -> PyResult<String> {
+        pretty_json(&self.inner)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "ssskit.Kernel('{}', {} pass(es), {} taps)",
+            self.inner.model.name,
+            self.inner.passes.len(),
+            self.inner.taps.count
+        )
+    }
+}
+
+/// A profile argument: a `Profile`, or the path of a profile file.
+pub(crate) fn profile_of(obj: &Bound<'_, PyAny>) -> PyResult<Profile> {
+    if let Ok(p) = obj.cast::<PyProfile>() {
+        return Ok(p.get().inner.clone());
+    }
+    if obj.extract::<std::path::PathBuf>().is_ok() {
+        return Profile::read(&path_of(obj)?).map_err(to_py);
+    }
+    Err(PyTypeError::new_err(
+        "profile: expected an ssskit.Profile or the path of a profile file",
+    ))
+}
+
+/// The model's parameters as `fit` takes them (the flags of `ssskit fit`).
+#[derive(Default)]
+struct ModelArgs {
+    rank: Option<usize>,
+    renormalize: Option<bool>,
+    method: Option<String>,
+    k: Option<f64>,
+    b: Option<f64>,
+    max_iters: Option<u64>,
+    w: Option<f64>,
+    near: Option<Py<PyAny>>,
+    far: Option<Py<PyAny>>,
+    preset: Option<String>,
+    manual_fit: Option<bool>,
+    count: Option<usize>,
+    jimenez_width: Option<f64>,
+    jimenez_strength: Option<Py<PyAny>>,
+    jimenez_falloff: Option<Py<PyAny>>,
+}
+
+/// The keyword arguments `fit` passes on to the model.
+const MODEL_KEYS: [&str; 15] = [
+    "rank",
+    "renormalize",
+    "method",
+    "k",
+    "b",
+    "max_iters",
+    "w",
+    "near",
+    "far",
+    "preset",
+    "manual_fit",
+    "count",
+    "jimenez_width",
+    "jimenez_strength",
+    "jimenez_falloff",
+];
+
+impl ModelArgs {
+    fn from_kwargs(d: Option<&Bound<'_, PyDict>>) -> PyResult<ModelArgs> {
+        let Some(d) = d else {
+            return Ok(ModelArgs::default());
+        };
+        for key in d.keys() {
+            let key: String = key.extract()?;
+            if !MODEL_KEYS.contains(&key.as_str()) {
+                return Err(PyTypeError::new_err(format!(
+                    "fit() got an unexpected keyword argument '{key}'"
+                )));
+            }
+        }
+        fn get<'py, T: pyo3::conversion::FromPyObjectOwned<'py>>(
+            d: &Bound<'py, PyDict>,
+            key: &str,
+        ) -> PyResult<Option<T>> {
+            match d.get_item(key)? {
+                Some(v) if !v.is_none() => Ok(Some(v.extract::<T>().map_err(|e| {
+                    let e: PyErr = e.into();
+                    PyTypeError::new_err(format!("{key}: {e}"))
+                })?)),
+                _ => Ok(None),
+            }
+        }
+        Ok(ModelArgs {
+            rank: get(d, "rank")?,
+            renormalize: get(d, "renormalize")?,
+            method: get(d, "method")?,
+            k: get(d, "k")?,
+            b: get(d, "b")?,
+            max_iters: get(d, "max_iters")?,
+            w: get(d, "w")?,
+            near: get(d, "near")?,
+            far: get(d, "far")?,
+            preset: get(d, "preset")?,
+            manual_fit: get(d, "manual_fit")?,
+            count: get(d, "count")?,
+            jimenez_width: get(d, "jimenez_width")?,
+            jimenez_strength: get(d, "jimenez_strength")?,
+            jimenez_falloff: get(d, "jimenez_falloff")?,
+        })
+    }
+}
+
+fn bad(msg: impl Into<String>) -> PyErr {
+    PyValueError::new_err(msg.into())
+}
+
+fn rgb_opt(py: Python<'_>, v: &Option<Py<PyAny>>, what: &str) -> PyResult<Option<[f64; 3]>> {
+    v.as_ref().map(|o| rgb(o.bind(py), what)).transpose()
+}
+
+/// The model `ssskit fit --model NAME` builds from the same parameters,
+/// with its messages.
+fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
+    Ok(match name {
+        "svd" => Model::Svd {
+            rank: a.rank.unwrap_or(1),
+            renormalize: a.renormalize.unwrap_or(false),
+        },
+        "preintegrate" => Model::Preintegrate {
+            method: match a.method.as_deref().unwrap_or("abel") {
+                "abel" => PreMethod::Abel,
+                "grid" => PreMethod::Grid,
+                m => {
+                    return Err(bad(format!(
+                        "method: invalid value '{m}': expected abel or grid"
+                    )))
+                }
+            },
+        },
+        "guided" => {
+            let d = GuidedParams::default();
+            Model::Guided(GuidedParams {
+                k: a.k.unwrap_or(d.k),
+                b: a.b.unwrap_or(d.b),
+                max_iters: a.max_iters.unwrap_or(d.max_iters),
+            })
+        }
+        "manual" => {
+            let near = rgb_opt(py, &a.near, "near")?;
+            let far = rgb_opt(py, &a.far, "far")?;
+            let explicit = a.w.is_some() || near.is_some() || far.is_some();
+            match (a.preset.as_deref(), a.manual_fit.unwrap_or(false), explicit) {
+                (Some(p), false, false) if p.eq_ignore_ascii_case("deon-skin") => {
+                    return Err(bad(
+                        "manual: preset deon-skin is a preset of model gaussians",
+                    ))
+                }
+                (Some(p), false, false) => Model::ManualPreset(p.to_ascii_lowercase()),
+                (None, true, false) => Model::ManualFit,
+                (None, false, true) => match (a.w, near, far) {
+                    (Some(w), Some(n), Some(f)) => Model::Manual(ManualParams {
+                        w,
+                        sqrt_tau_near: n,
+                        sqrt_tau_far: f,
+                    }),
+                    _ => {
+                        return Err(bad(
+                            "manual: give all of w, near and far (or preset / manual_fit)",
+                        ))
+                    }
+                },
+                _ => return Err(bad(
+                    "manual: give exactly one of preset=NAME, manual_fit=True, or w, near and far",
+                )),
+            }
+        }
+        "gaussians" => match a.preset.as_deref() {
+            None => Model::Gaussians {
+                count: a.count.unwrap_or(ssskit::kernel::gaussians::DEFAULT_COUNT),
+            },
+            Some(p) if p.eq_ignore_ascii_case("deon-skin") => Model::DeonSkin,
+            Some(p) => {
+                return Err(bad(format!(
+                    "gaussians: preset {p} is a preset of model manual (gaussians has deon-skin)"
+                )))
+            }
+        },
+        "jimenez" => {
+            let d = JimenezParams::default();
+            Model::Jimenez(JimenezParams {
+                width: a.jimenez_width.unwrap_or(d.width),
+                strength: rgb_opt(py, &a.jimenez_strength, "jimenez_strength")?
+                    .unwrap_or(d.strength),
+                falloff: rgb_opt(py, &a.jimenez_falloff, "jimenez_falloff")?.unwrap_or(d.falloff),
+            })
+        }
+        other => {
+            return Err(bad(format!(
+                "model: invalid value '{other}': expected one of {}",
+                MODELS.join(", ")
+            )))
+        }
+    })
+}
+
+/// The separable models `fit` knows (those of `ssskit fit --model`).
+const MODELS: [&str; 6] = [
+    "svd",
+    "preintegrate",
+    "guided",
+    "manual",
+    "gaussians",
+    "jimenez",
+];
+
+/// Fits a separable kernel to a profile (`ssskit fit`).
+///
+/// model: "svd" (rank, renormalize), "preintegrate" (method "abel" or
+/// "grid"), "guided" (k, b, max_iters), "manual" (preset=NAME,
+/// manual_fit=True, or w, near, far), "gaussians" (count, or
+/// preset="deon-skin"), "jimenez" (jimenez_width, jimenez_strength,
+/// jimenez_falloff). taps: odd tap count of the real-time table;
+/// tap_extent: its half-width in mm; grid_size, extent: the kernel grid.
+/// The result equals the CLI's for the same parameters. Releases the GIL.
+#[pyfunction]
+#[pyo3(signature = (profile, model="preintegrate", *, taps=ssskit::kernel::taps::DEFAULT_TAPS,
+    tap_extent=None, grid_size=None, extent=None, **params))]
+fn fit(
+    py: Python<'_>,
+    profile: &Bound<'_, PyAny>,
+    model: &str,
+    taps: usize,
+    tap_extent: Option<f64>,
+    grid_size: Option<usize>,
+    extent: Option<f64>,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyKernel> {
+    let profile = profile_of(profile)?;
+    let args = ModelArgs::from_kwargs(params)?;
+    let m = model_of(py, model, &args)?;
+    let spec = Kernel2DSpec {
+        size: grid_size,
+        extent_mm: extent,
+    };
+    let k = interruptible(py, |_| {
+        fit_kernel_file_with(&profile, &spec, &m, taps, tap_extent)
+    })?;
+    Ok(PyKernel { inner: k })
+}
+
+/// An engine's own diffusion model fitted to a profile (`ssskit engine`):
+/// engine "unreal", "unity-hdrp", "blender", "godot" or "iryoku"; returns
+/// the parameters, units, errors and warnings as a dict.
+#[pyfunction]
+#[pyo3(signature = (profile, engine, *, version=None, units_per_mm=None))]
+fn engine_params<'py>(
+    py: Python<'py>,
+    profile: &Bound<'_, PyAny>,
+    engine: &str,
+    version: Option<&str>,
+    units_per_mm: Option<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let profile = profile_of(profile)?;
+    let e: Engine = engine.parse().map_err(to_py)?;
+    let scene = units_per_mm.map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
+    let fit = engine::fit_version(e, &profile, scene, version).map_err(to_py)?;
+    let v = serde_json::to_value(&fit).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    json_to_py(py, &v)
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyKernel>()?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(engine_params, m)?)?;
+    m.add("MODELS", MODELS.to_vec())?;
+    Ok(())
+}

@@ -1,0 +1,233 @@
+//! Reflectance profiles: Monte Carlo (`simulate`) and analytic (`profile`).
+
+use crate::material::{material_of, PyMaterial};
+use crate::{interruptible, json_to_py, path_of, pretty_json, to_py};
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use ssskit::material::Channel;
+use ssskit::profile::analytic::{self, Options};
+use ssskit::profile::fresnel::FresnelMode;
+use ssskit::profile::mc::{self, McConfig, McOptions, PhotonBudget};
+use ssskit::profile::{GridSpec, Profile};
+
+/// A radial reflectance profile R_d(r) per channel (ssskit.profile/1).
+///
+/// `r` holds the bin centres in mm, `r_edges` the bin edges, `rd` one row
+/// per channel (mm^-2), `rd_stderr` the Monte Carlo standard errors (None
+/// for an analytic profile).
+#[pyclass(module = "ssskit", name = "Profile", frozen)]
+pub struct PyProfile {
+    pub inner: Profile,
+}
+
+fn rows<'py>(py: Python<'py>, v: &[Vec<f64>]) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    PyArray2::from_vec2(py, v).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+#[pymethods]
+impl PyProfile {
+    /// Bin centres, mm.
+    #[getter]
+    fn r<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.r)
+    }
+    /// Bin edges, mm (one more than `r`).
+    #[getter]
+    fn r_edges<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.r_edges)
+    }
+    /// R_d(r), shape (channels, bins), mm^-2.
+    #[getter]
+    fn rd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        rows(py, &self.inner.rd)
+    }
+    /// Standard errors of `rd` (Monte Carlo), or None.
+    #[getter]
+    fn rd_stderr<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+        self.inner
+            .rd_stderr
+            .as_deref()
+            .map(|e| rows(py, e))
+            .transpose()
+    }
+    /// Total diffuse reflectance per channel.
+    #[getter]
+    fn total_rd<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.total_rd)
+    }
+    /// Standard errors of `total_rd` (Monte Carlo), or None.
+    #[getter]
+    fn total_rd_stderr<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.inner
+            .total_rd_stderr
+            .as_deref()
+            .map(|e| PyArray1::from_slice(py, e))
+    }
+    /// The channels, e.g. ["r", "g", "b"].
+    #[getter]
+    fn channels(&self) -> Vec<&'static str> {
+        self.inner.channels.iter().map(|c| c.name()).collect()
+    }
+    #[getter]
+    fn material(&self) -> PyMaterial {
+        PyMaterial {
+            inner: self.inner.material.clone(),
+        }
+    }
+    /// Where the profile came from (kind, photons, seed, model, params).
+    #[getter]
+    fn source<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let v = serde_json::to_value(&self.inner.source)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        json_to_py(py, &v)
+    }
+    /// Seconds the computation took.
+    #[getter]
+    fn elapsed_s(&self) -> f64 {
+        self.inner.elapsed_s
+    }
+    /// The library's warnings about this profile (e.g. light beyond r_max).
+    fn warnings(&self) -> PyResult<Vec<String>> {
+        self.inner.warnings().map_err(to_py)
+    }
+    /// Writes the profile file (JSON), as `ssskit simulate --out` does.
+    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.inner.write(&path_of(path)?).map_err(to_py)
+    }
+    /// The profile file's text.
+    fn to_json(&self) -> PyResult<String> {
+        pretty_json(&self.inner)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "ssskit.Profile('{}', {}, {} bins to {:.4} mm)",
+            self.inner.material.name,
+            self.inner.source.kind,
+            self.inner.r.len(),
+            self.inner.r_edges.last().copied().unwrap_or(0.0)
+        )
+    }
+}
+
+fn grid_spec(dr: Option<f64>, rmax: Option<f64>, log_bins: bool) -> GridSpec {
+    GridSpec {
+        dr,
+        r_max: rmax,
+        log_bins,
+    }
+}
+
+/// When the run stops, as `ssskit simulate` decides it from its flags: a
+/// fixed photon count, else a target error, else the kernel-factor rule
+/// (its default target when nothing is given).
+fn budget(
+    photons: Option<u64>,
+    mc_error: Option<f64>,
+    kernel_error: Option<f64>,
+    max_photons: u64,
+) -> PyResult<PhotonBudget> {
+    Ok(match (photons, mc_error, kernel_error) {
+        (Some(n), None, None) => PhotonBudget::Fixed(n),
+        (None, Some(rel), None) => PhotonBudget::TargetError { rel, max_photons },
+        (None, None, rel) => PhotonBudget::KernelFactor {
+            rel: rel.unwrap_or(mc::DEFAULT_KERNEL_ERROR),
+            max_photons,
+        },
+        _ => {
+            return Err(PyValueError::new_err(
+                "give at most one of photons, mc_error and kernel_error",
+            ))
+        }
+    })
+}
+
+/// Monte Carlo reflectance profile of a material (`ssskit simulate`).
+///
+/// The budget: `photons` per channel, or `mc_error` (relative standard
+/// error of total R_d and profile), or `kernel_error` (the kernel-factor
+/// rule, the default); `max_photons` caps the error targets. The same
+/// `seed` gives the same profile, bit for bit, for any `threads`, and the
+/// same as the CLI with the same flags. Releases the GIL; Ctrl-C stops it
+/// with KeyboardInterrupt.
+#[pyfunction]
+#[pyo3(signature = (material, *, photons=None, mc_error=None, kernel_error=None,
+    max_photons=mc::DEFAULT_MAX_PHOTONS, seed=mc::DEFAULT_SEED, threads=None, channels="rgb",
+    dr=None, rmax=None, log_bins=false))]
+fn simulate(
+    py: Python<'_>,
+    material: &Bound<'_, PyAny>,
+    photons: Option<u64>,
+    mc_error: Option<f64>,
+    kernel_error: Option<f64>,
+    max_photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+    channels: &str,
+    dr: Option<f64>,
+    rmax: Option<f64>,
+    log_bins: bool,
+) -> PyResult<PyProfile> {
+    let material = material_of(material)?;
+    let channels = Channel::parse_list(channels).map_err(to_py)?;
+    let spec = grid_spec(dr, rmax, log_bins);
+    let grid = if spec == GridSpec::default() {
+        None
+    } else {
+        Some(spec.grid(&material, &channels).map_err(to_py)?)
+    };
+    let cfg = McConfig {
+        budget: budget(photons, mc_error, kernel_error, max_photons)?,
+        seed,
+        threads,
+        channels,
+        grid,
+    };
+    let opts = McOptions::default();
+    let p = interruptible(py, |progress| {
+        mc::simulate_with(&material, &cfg, &opts, progress)
+    })?;
+    Ok(PyProfile { inner: p })
+}
+
+/// Analytic reflectance profile (`ssskit profile`): model "dipole", "pbd",
+/// "burley" or the others `ssskit profile --profile-model` lists; fresnel
+/// "fit" or "exact".
+#[pyfunction]
+#[pyo3(signature = (material, model="pbd", *, channels="rgb", dr=None, rmax=None, fresnel="fit"))]
+fn profile(
+    py: Python<'_>,
+    material: &Bound<'_, PyAny>,
+    model: &str,
+    channels: &str,
+    dr: Option<f64>,
+    rmax: Option<f64>,
+    fresnel: &str,
+) -> PyResult<PyProfile> {
+    let material = material_of(material)?;
+    let model = analytic::Model::parse(model).map_err(to_py)?;
+    let fresnel = match fresnel {
+        "fit" => FresnelMode::Fit,
+        "exact" => FresnelMode::Exact,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "fresnel: invalid value '{other}': expected 'fit' or 'exact'"
+            )))
+        }
+    };
+    let channels = Channel::parse_list(channels).map_err(to_py)?;
+    let grid = grid_spec(dr, rmax, false)
+        .grid(&material, &channels)
+        .map_err(to_py)?;
+    let options = Options { fresnel, channels };
+    let p = interruptible(py, |_| analytic::profile(&material, model, &grid, &options))?;
+    p.validate("the analytic profile").map_err(to_py)?;
+    Ok(PyProfile { inner: p })
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyProfile>()?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(profile, m)?)?;
+    Ok(())
+}
