@@ -5,6 +5,7 @@
 
 pub mod advise;
 pub mod advise_decide;
+pub mod advise_disk;
 pub mod advise_noise;
 pub mod advise_search;
 pub mod advise_types;
