@@ -700,14 +700,20 @@ fn advise_and_kernels_give_the_same_answer() {
 
 /// What docs/kernels.md shows of `advise`: skin1 at 0.1 mm per pixel as a
 /// user runs it (the Monte Carlo profile made with the default seed), at
-/// the default budget and at six passes, recorded in docs/records/advise.json
+/// the default budget, at 16 samples per pixel, and among separable
+/// kernels alone at the default budget and at six passes, recorded in docs/records/advise.json
 /// (the search and the bootstrap are deterministic at any thread count).
 #[test]
 fn advise_record_for_the_docs() {
     use common::measured::{check, table};
     let mut rows = Vec::new();
     let mut data = serde_json::Map::new();
-    for extra in [&[][..], &["--max-passes", "6"][..]] {
+    for extra in [
+        &[][..],
+        &["--max-samples", "16"][..],
+        &["--models", SEPARABLE][..],
+        &["--models", SEPARABLE, "--max-passes", "6"][..],
+    ] {
         let mut args = vec![
             "advise",
             "--material",
@@ -774,8 +780,8 @@ fn advise_record_for_the_docs() {
     check(
         "advise",
         "advise_cli",
-        "what advise chooses for skin1 at 0.1 mm per pixel at the default budget and at six \
-         passes, shown in docs/kernels.md; no oracle gives these, so they are pinned to catch a \
+        "what advise chooses for skin1 at 0.1 mm per pixel at the default budget, at 16 samples \
+         per pixel, and among separable kernels at the default budget and at six passes, shown in docs/kernels.md; no oracle gives these, so they are pinned to catch a \
          change of the search, the bootstrap or the decision rule",
         tables,
         Value::Object(data),

@@ -60,9 +60,9 @@ pub struct Args {
     /// A disk kernel's image changes every frame (its per-pixel rotation).
     /// Its score on a signal is, in its worst channel, sqrt(bias^2 +
     /// noise_K^2): the bias (the mean over 4 K rotations against the exact
-    /// image, its own noise floor taken off) and the RMS noise of the mean
-    /// of K frames, relative to the exact image's peak. Separable kernels
-    /// are the same every frame.
+    /// image, which errs high by that mean's own noise) and the RMS noise
+    /// of the mean of K frames, relative to the exact image's peak.
+    /// Separable kernels are the same every frame.
     #[arg(long, value_name = "N", value_parser = count::<u32>,
           default_value_t = ssskit::report::advise_disk::DEFAULT_FRAMES)]
     frames: u32,

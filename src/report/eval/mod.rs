@@ -10,6 +10,7 @@ pub mod advise_noise;
 pub mod advise_search;
 pub mod advise_types;
 pub mod claims;
+pub mod disk_compare;
 pub mod evaluate;
 pub mod kernel_compare;
 pub mod pipeline;
