@@ -781,8 +781,9 @@ fn advise_record_for_the_docs() {
         "advise",
         "advise_cli",
         "what advise chooses for skin1 at 0.1 mm per pixel at the default budget, at 16 samples \
-         per pixel, and among separable kernels at the default budget and at six passes, shown in docs/kernels.md; no oracle gives these, so they are pinned to catch a \
-         change of the search, the bootstrap or the decision rule",
+         per pixel, and among separable kernels at the default budget and at six passes, shown \
+         in docs/kernels.md; no oracle gives these, so they are pinned to catch a change of the \
+         search, the bootstrap or the decision rule",
         tables,
         Value::Object(data),
     );

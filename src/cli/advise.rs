@@ -54,10 +54,10 @@ pub struct Args {
     budget: BudgetArgs,
     #[command(flatten)]
     signal_size: SignalSizeArg,
-    /// Frames a temporal filter accumulates: disk kernels are scored on the
-    /// noise after this many, 1 to 64.
+    /// Frames: disk kernels are scored on their noise after this many, 1 to 64.
     ///
-    /// A disk kernel's image changes every frame (its per-pixel rotation).
+    /// A temporal filter accumulates them under a static camera; a disk
+    /// kernel's image changes every frame (its per-pixel rotation).
     /// Its score on a signal is, in its worst channel, sqrt(bias^2 +
     /// noise_K^2): the bias (the mean over 4 K rotations against the exact
     /// image, which errs high by that mean's own noise) and the RMS noise

@@ -39,7 +39,12 @@
 //! with tap tables of 5 to 33 taps, each over three extents: the one chosen
 //! for the tap count ([`crate::kernel::taps::auto_extent`]) and the radii
 //! holding 95% and 99.9% of the factor's mass; and the full factors when
-//! they cover at most [`FULL_MAX_PIXELS`] pixels.
+//! they cover at most [`FULL_MAX_PIXELS`] pixels. Beside them, with the
+//! family `disk`, importance-sampled disk kernels of
+//! [`super::advise_disk::DISK_SAMPLES`] samples, one pass each, scored on
+//! their bias and their noise after `Config::frames` frames
+//! ([`super::advise_disk`] says how); the budget counts a disk kernel as
+//! one pass of N taps, N samples per pixel.
 
 use super::advise_decide::{choose, Cost};
 pub use super::advise_decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};

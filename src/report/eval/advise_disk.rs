@@ -74,6 +74,9 @@ pub const DISK_SEED: u32 = 0;
 /// The label and model name of a disk row.
 pub const DISK: &str = "disk";
 
+/// A score on one test image: (signal, score, standard deviation).
+type Scored = (String, f64, f64);
+
 /// A disk row's bias and noise on one signal, each the largest over the
 /// channels, relative to the exact image's peak.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -181,8 +184,7 @@ impl Search<'_> {
             .collect();
         let skipped = DISK_SAMPLES.len() - kept.len();
         let target = self.cfg.target;
-        let mut rows: Vec<(usize, DiskKernelFile, Vec<(String, f64, f64)>, DiskScores)> =
-            Vec::new();
+        let mut rows: Vec<(usize, DiskKernelFile, Vec<Scored>, DiskScores)> = Vec::new();
         for n in kept {
             let kernel = disk_kernel(self.profile, n)?;
             let mut scores = DiskScores {
@@ -215,7 +217,7 @@ impl Search<'_> {
     fn extend_disk(
         &self,
         kernel: &DiskKernelFile,
-        scored: &mut Vec<(String, f64, f64)>,
+        scored: &mut Vec<Scored>,
         scores: &mut DiskScores,
         stop: bool,
     ) -> Result<()> {
@@ -235,7 +237,7 @@ impl Search<'_> {
         &self,
         n: usize,
         kernel: &DiskKernelFile,
-        scored: &[(String, f64, f64)],
+        scored: &[Scored],
         scores: DiskScores,
     ) -> Candidate {
         Candidate {
