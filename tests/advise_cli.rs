@@ -417,9 +417,9 @@ fn kernels_runs_the_main_job_in_one_command() {
     assert!(rows.as_array().unwrap().len() >= 3 * 10);
 }
 
-/// The study measures every knob; more photons give a smaller profile
-/// error, and with 17 taps the extent chosen for the count beats the full
-/// kernel extent in image space.
+/// The study measures every knob (disk kernels too); more photons give a
+/// smaller profile error, and with 17 taps the extent chosen for the count
+/// beats the full kernel extent in image space.
 #[test]
 fn study_measures_the_trade_of_every_knob() {
     let dir = tempfile::tempdir().unwrap();
@@ -439,8 +439,26 @@ fn study_measures_the_trade_of_every_knob() {
     let entries = v["entries"].as_array().unwrap();
     let section =
         |name: &str| -> Vec<&Value> { entries.iter().filter(|e| e["section"] == name).collect() };
-    for s in ["photons", "profile_model", "taps", "rank", "kernel_model"] {
+    for s in [
+        "photons",
+        "profile_model",
+        "taps",
+        "rank",
+        "kernel_model",
+        "disk",
+    ] {
         assert!(!section(s).is_empty(), "no {s} entries");
+    }
+    // Disk kernels keyed by samples per pixel, one pass each; more samples
+    // average more of the noise away (importance sampling: variance ~ 1/N).
+    let disk = section("disk");
+    for w in disk.windows(2) {
+        let n = |e: &Value| e["samples_per_pixel"].as_u64().unwrap();
+        assert!(n(w[1]) > n(w[0]) && w[1]["passes"] == 1, "{disk:?}");
+        assert!(
+            w[1]["rel_rms"].as_f64().unwrap() < w[0]["rel_rms"].as_f64().unwrap(),
+            "{disk:?}"
+        );
     }
     let photons = section("photons");
     let perr = |e: &Value| e["profile_or_kernel_error"].as_f64().unwrap();
