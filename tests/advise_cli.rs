@@ -417,9 +417,9 @@ fn kernels_runs_the_main_job_in_one_command() {
     assert!(rows.as_array().unwrap().len() >= 3 * 10);
 }
 
-/// The study measures every knob; more photons give a smaller profile
-/// error, and with 17 taps the extent chosen for the count beats the full
-/// kernel extent in image space.
+/// The study measures every knob (disk kernels too); more photons give a
+/// smaller profile error, and with 17 taps the extent chosen for the count
+/// beats the full kernel extent in image space.
 #[test]
 fn study_measures_the_trade_of_every_knob() {
     let dir = tempfile::tempdir().unwrap();
@@ -439,8 +439,26 @@ fn study_measures_the_trade_of_every_knob() {
     let entries = v["entries"].as_array().unwrap();
     let section =
         |name: &str| -> Vec<&Value> { entries.iter().filter(|e| e["section"] == name).collect() };
-    for s in ["photons", "profile_model", "taps", "rank", "kernel_model"] {
+    for s in [
+        "photons",
+        "profile_model",
+        "taps",
+        "rank",
+        "kernel_model",
+        "disk",
+    ] {
         assert!(!section(s).is_empty(), "no {s} entries");
+    }
+    // Disk kernels keyed by samples per pixel, one pass each; more samples
+    // average more of the noise away (importance sampling: variance ~ 1/N).
+    let disk = section("disk");
+    for w in disk.windows(2) {
+        let n = |e: &Value| e["samples_per_pixel"].as_u64().unwrap();
+        assert!(n(w[1]) > n(w[0]) && w[1]["passes"] == 1, "{disk:?}");
+        assert!(
+            w[1]["rel_rms"].as_f64().unwrap() < w[0]["rel_rms"].as_f64().unwrap(),
+            "{disk:?}"
+        );
     }
     let photons = section("photons");
     let perr = |e: &Value| e["profile_or_kernel_error"].as_f64().unwrap();
@@ -556,8 +574,12 @@ fn advise_skin1(extra: &[&str]) -> (Value, String) {
     (serde_json::from_str(&out).unwrap(), err)
 }
 
+/// The separable families of advise's default (the disk rows have
+/// `tests/advise_disk.rs`).
+const SEPARABLE: &str = "svd,preintegrate,guided,manual,gaussians";
+
 /// The default budget is two one-dimensional passes (one rank-1 pair) and
-/// the answer fits it; every row is scored on every signal, with the
+/// the answer fits it (separable kernels alone); every row is scored on every signal, with the
 /// worst case, its uncertainty and the deciding signal; where nothing in
 /// the budget meets the target, the remedies are computed: the looser
 /// target it names is met (only thanks to the noise margin: it lies below
@@ -565,7 +587,7 @@ fn advise_skin1(extra: &[&str]) -> (Value, String) {
 /// the unbounded search chooses.
 #[test]
 fn advise_keeps_to_the_budget_and_says_why() {
-    let (a, err) = advise_skin1(&[]);
+    let (a, err) = advise_skin1(&["--models", SEPARABLE]);
     assert_eq!(a["budget"]["max_passes"], 2, "{a}");
     assert_eq!(a["passes"], 2, "{err}");
     assert_eq!(a["passes"].as_u64(), a["rank"].as_u64().map(|r| 2 * r));
@@ -602,11 +624,11 @@ fn advise_keeps_to_the_budget_and_says_why() {
     let loose = a["remedy"]["target_met_by_best"].as_f64().unwrap() * (1.0 + 1e-9);
     let worst = a["worst_case"]["rel_rms"].as_f64().unwrap();
     assert!(loose < worst, "the margin matters here: {loose} vs {worst}");
-    let (b, err) = advise_skin1(&["--image-error", &loose.to_string()]);
+    let (b, err) = advise_skin1(&["--models", SEPARABLE, "--image-error", &loose.to_string()]);
     assert_eq!(b["meets_target"], true, "{err}");
     // The kernel named outside the budget is the unbounded search's.
     let named = &a["remedy"]["outside_budget"];
-    let (u, err) = advise_skin1(&["--max-passes", "none"]);
+    let (u, err) = advise_skin1(&["--models", SEPARABLE, "--max-passes", "none"]);
     assert_eq!(u["meets_target"], true, "{err}");
     assert!(u["passes"].as_u64().unwrap() > 2, "{u}");
     for key in ["label", "taps", "extent_mm", "passes"] {
@@ -614,7 +636,7 @@ fn advise_keeps_to_the_budget_and_says_why() {
     }
     // And the budget that names it chooses it.
     let passes = named["passes"].to_string();
-    let (six, _) = advise_skin1(&["--max-passes", &passes]);
+    let (six, _) = advise_skin1(&["--models", SEPARABLE, "--max-passes", &passes]);
     assert_eq!(six["label"], u["label"], "{six}");
 }
 
@@ -696,14 +718,20 @@ fn advise_and_kernels_give_the_same_answer() {
 
 /// What docs/kernels.md shows of `advise`: skin1 at 0.1 mm per pixel as a
 /// user runs it (the Monte Carlo profile made with the default seed), at
-/// the default budget and at six passes, recorded in docs/records/advise.json
+/// the default budget, at 16 samples per pixel, and among separable
+/// kernels alone at the default budget and at six passes, recorded in docs/records/advise.json
 /// (the search and the bootstrap are deterministic at any thread count).
 #[test]
 fn advise_record_for_the_docs() {
     use common::measured::{check, table};
     let mut rows = Vec::new();
     let mut data = serde_json::Map::new();
-    for extra in [&[][..], &["--max-passes", "6"][..]] {
+    for extra in [
+        &[][..],
+        &["--max-samples", "16"][..],
+        &["--models", SEPARABLE][..],
+        &["--models", SEPARABLE, "--max-passes", "6"][..],
+    ] {
         let mut args = vec![
             "advise",
             "--material",
@@ -770,9 +798,10 @@ fn advise_record_for_the_docs() {
     check(
         "advise",
         "advise_cli",
-        "what advise chooses for skin1 at 0.1 mm per pixel at the default budget and at six \
-         passes, shown in docs/kernels.md; no oracle gives these, so they are pinned to catch a \
-         change of the search, the bootstrap or the decision rule",
+        "what advise chooses for skin1 at 0.1 mm per pixel at the default budget, at 16 samples \
+         per pixel, and among separable kernels at the default budget and at six passes, shown \
+         in docs/kernels.md; no oracle gives these, so they are pinned to catch a change of the \
+         search, the bootstrap or the decision rule",
         tables,
         Value::Object(data),
     );

@@ -33,6 +33,9 @@ const RENDER_ERROR: &str = "0.05";
 const PROFILE_PHOTONS: &str = "200000";
 /// The f32 EXR files against the f64 scores inside `advise`: relative.
 const F32_AGREEMENT: f64 = 1e-5;
+/// advise's default `--frames` (`advise_disk::DEFAULT_FRAMES`): a chosen
+/// disk kernel is scored as the mean of that many rotations.
+const DISK_FRAMES: &str = "8";
 /// The decision's noise margin, in standard deviations (`NOISE_K`).
 const K: f64 = 2.0;
 
@@ -188,7 +191,10 @@ fn check(dir: &Path, material: &str, mm_per_pixel: f64) -> String {
         "--out",
         p(&out),
     ];
-    if v["taps"].is_null() {
+    if v["model"] == "disk" {
+        // The frames and the first rotation advise scored the disk after.
+        args.extend(["--frames", DISK_FRAMES, "--frame-seed", "0"]);
+    } else if v["taps"].is_null() {
         args.push("--full-factors");
     }
     ok(&args);

@@ -36,7 +36,7 @@ struct ViewArgs {
     mut_arg("image_error", args::alias("--target-error")),
     mut_arg("signal_size", args::alias("--size")),
     mut_arg("models", args::default(FAMILIES.join(","))),
-    mut_arg("out", args::help("Output file: the chosen kernel (ssskit.kernel/1 JSON) [default: not written]")),
+    mut_arg("out", args::help("Output file: the chosen kernel (ssskit.kernel/1 JSON, ssskit.disk/1 for a disk kernel) [default: not written]")),
 )]
 pub struct Args {
     #[command(flatten)]
@@ -55,6 +55,18 @@ pub struct Args {
     budget: BudgetArgs,
     #[command(flatten)]
     signal_size: SignalSizeArg,
+    /// Frames: disk kernels are scored on their noise after this many, 1 to 64.
+    ///
+    /// A temporal filter accumulates them under a static camera; a disk
+    /// kernel's image changes every frame (its per-pixel rotation).
+    /// Its score on a signal is, in its worst channel, sqrt(bias^2 +
+    /// noise_K^2): the bias (the mean over 4 K rotations against the exact
+    /// image, which errs high by that mean's own noise) and the RMS noise
+    /// of the mean of K frames, relative to the exact image's peak.
+    /// Separable kernels are the same every frame.
+    #[arg(long, value_name = "N", value_parser = count::<u32>,
+          default_value_t = ssskit::report::advise_disk::DEFAULT_FRAMES)]
+    frames: u32,
     #[command(flatten)]
     models: ModelsArg,
     #[command(flatten)]
@@ -118,6 +130,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             );
         }
     }
+    ssskit::report::advise_disk::check_frames(a.frames)?;
     let target = a.target.fraction()?;
     let (profile, source) = match &scene {
         // The render's own profile of the scene's first object: the
@@ -149,6 +162,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     cfg.size = a.signal_size.signal_size;
     cfg.budget = a.budget.budget();
     cfg.families = a.models.families();
+    cfg.frames = a.frames;
     let advice = advise::advise_on_scene(
         &profile,
         &cfg,
@@ -157,8 +171,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )?;
     let out = a.out.out.as_ref();
     if let Some(out) = out {
-        advice.kernel.write(out)?;
-        ssskit::kernel::KernelFile::read(out)?;
+        match &advice.disk_kernel {
+            Some(k) => {
+                k.write(out)?;
+                ssskit::kernel::disk::DiskKernelFile::read(out)?;
+            }
+            None => {
+                advice.kernel.write(out)?;
+                ssskit::kernel::KernelFile::read(out)?;
+            }
+        }
     }
     let c = advice.chosen();
     let text = advise::explain(&advice);

@@ -74,6 +74,7 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("advise", "target error", &["--image-error"]),
     ("advise", "max_passes", &["--max-passes"]),
     ("advise", "max_samples", &["--max-samples"]),
+    ("advise", "frames", &["--frames"]),
     ("compare", "model", &["--models"]),
     ("compare", "ranks", &["--ranks"]),
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),

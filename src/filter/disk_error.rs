@@ -52,6 +52,19 @@ pub fn disk_error(
     rotations: u32,
     frames: u32,
 ) -> Result<DiskError> {
+    Ok(disk_error_with_mean(image, setup, reference, rotations, frames)?.0)
+}
+
+/// [`disk_error`] and the mean over the `rotations` frames (what the bias
+/// is measured on), so that other references (the advice's bootstrap
+/// replicates) can be compared with it.
+pub fn disk_error_with_mean(
+    image: &Image,
+    setup: &DiskSetup,
+    reference: &Image,
+    rotations: u32,
+    frames: u32,
+) -> Result<(DiskError, Image)> {
     if frames == 0
         || rotations > MAX_FRAMES
         || !rotations.is_multiple_of(frames)
@@ -118,7 +131,13 @@ pub fn disk_error(
     let noise: [f64; 3] = std::array::from_fn(|c| rel(c, spread(&sum[c], &sumsq[c], m)));
     let noise_after: [f64; 3] =
         std::array::from_fn(|c| rel(c, spread(&wsum[c], &wsumsq[c], windows)));
-    Ok(DiskError {
+    let mut mean = image.clone();
+    for (c, plane) in mean.rgb.iter_mut().enumerate() {
+        for (v, s) in plane.iter_mut().zip(&sum[c]) {
+            *v = s / m;
+        }
+    }
+    let e = DiskError {
         samples_per_pixel: setup.taps.len(),
         rotations,
         frames,
@@ -126,7 +145,8 @@ pub fn disk_error(
         bias_noise_floor: noise_after.map(|v| v / windows.sqrt()),
         noise,
         noise_after,
-    })
+    };
+    Ok((e, mean))
 }
 
 /// The disk kernel of `profile` with `samples` per channel (radii from

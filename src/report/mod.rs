@@ -7,7 +7,9 @@
 pub mod eval;
 pub mod present;
 
-pub use eval::{advise, evaluate, kernel_compare, pipeline, scene_compare, study};
+pub use eval::{
+    advise, advise_disk, disk_compare, evaluate, kernel_compare, pipeline, scene_compare, study,
+};
 pub use present::{kernel_plots, kernel_report, pareto, plot, record, scene_tables, table};
 
 /// Analytic profile models against a Monte Carlo reference: the

@@ -39,12 +39,18 @@
 //! with tap tables of 5 to 33 taps, each over three extents: the one chosen
 //! for the tap count ([`crate::kernel::taps::auto_extent`]) and the radii
 //! holding 95% and 99.9% of the factor's mass; and the full factors when
-//! they cover at most [`FULL_MAX_PIXELS`] pixels.
+//! they cover at most [`FULL_MAX_PIXELS`] pixels. Beside them, with the
+//! family `disk`, importance-sampled disk kernels of
+//! [`super::advise_disk::DISK_SAMPLES`] samples, one pass each, scored on
+//! their bias and their noise after `Config::frames` frames
+//! ([`super::advise_disk`] says how); the budget counts a disk kernel as
+//! one pass of N taps, N samples per pixel.
 
 use super::advise_decide::{choose, Cost};
 pub use super::advise_decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};
+use super::advise_disk::{check_frames, disk_kernel, DISK};
 use super::advise_noise::{Reference, BOOTSTRAP_SEED};
-use super::advise_scene::{check_on_scene, SceneCandidate, SceneCheck};
+use super::advise_scene::{check_on_scene, SceneCandidate, SceneCheck, ScenePass};
 use super::advise_search::Search;
 use super::evaluate::{ImageCase, ImageErrors};
 use super::kernel_compare::{model_specs, ModelSpec};
@@ -52,6 +58,7 @@ use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::warnings::{scale_warnings, ScaleWarning};
 use crate::filter::Scale;
+use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::taps::factor_radius_holding;
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile};
 use crate::profile::Profile;
@@ -84,9 +91,14 @@ pub struct Advice {
     pub meets_target: bool,
     /// Where none meets the target: what would.
     pub remedy: Option<Remedy>,
-    /// The chosen kernel, its tap table as chosen (the stored 17-tap table
-    /// when full factors were chosen).
+    /// The chosen separable kernel (where a disk kernel is chosen, the
+    /// best separable row's), its tap table as chosen (the stored 17-tap
+    /// table when full factors were chosen).
     pub kernel: KernelFile,
+    /// The chosen disk kernel, where a disk row is chosen.
+    pub disk_kernel: Option<DiskKernelFile>,
+    /// Frames a disk kernel's noise is scored after.
+    pub frames: u32,
     /// The chosen configuration's errors on each signal with FLIP.
     pub predicted: BTreeMap<String, ImageErrors>,
     pub warnings: Vec<ScaleWarning>,
@@ -135,6 +147,8 @@ impl Advice {
             "rank": c.rank,
             "passes": c.passes,
             "taps_per_pass": c.taps_per_pass,
+            "frames": self.frames,
+            "disk": c.disk,
             "target_format": c.target_format(),
             "extent_mm": c.extent_mm,
             "extent_rule": c.extent_rule,
@@ -196,15 +210,36 @@ fn best_per_model(candidates: &[Candidate]) -> Vec<usize> {
 /// on skin1, loaded machine) and whose image error never led on skin1 at
 /// 0.02, 0.2 and 2 mm per pixel (the table A.1 preset stays).
 pub fn candidate_models(families: &[String], material: &str) -> Result<Vec<ModelSpec>> {
-    Ok(model_specs(families, &[1, 2, 3], material)?
+    let separable: Vec<String> = families.iter().filter(|f| *f != DISK).cloned().collect();
+    Ok(model_specs(&separable, &[1, 2, 3], material)?
         .into_iter()
         .filter(|s| s.label != "gaussians1" && s.label != "manual-fit")
         .collect())
 }
 
+/// The kernel file an advice holds when only disk rows were searched: the
+/// rank-1 pre-integration (Freude 2014, sec. 5.2) with the default tap
+/// table, the separable model `kernels` lists first.
+fn separable_fallback(profile: &Profile, truth: &Kernel2D) -> Result<KernelFile> {
+    let spec = model_specs(&["preintegrate".to_string()], &[1], &profile.material.name)?
+        .into_iter()
+        .next()
+        .ok_or_else(|| Error::Unsupported("no pre-integration model".into()))?;
+    let fitted = crate::kernel::model::fit_model(truth, profile, &spec.model)?;
+    crate::kernel::model::assemble_with(
+        profile,
+        truth,
+        &spec.model,
+        fitted,
+        crate::kernel::taps::DEFAULT_TAPS,
+        None,
+    )
+}
+
 /// `cfg`'s target, lists and budget are usable.
 fn validate(cfg: &Config) -> Result<()> {
     Scale::MmPerPixel(cfg.mm_per_pixel).validate()?;
+    check_frames(cfg.frames)?;
     if !(cfg.target > 0.0 && cfg.target < 1.0) {
         return Err(Error::invalid(
             "advise",
@@ -319,9 +354,29 @@ pub fn advise_on_scene(
     } else {
         Some(search.remedy(&c)?)
     };
-    let (kernel, passes) = search.chosen_kernel(&c)?;
-    let predicted = search.predict(&passes, c.cost)?;
-    let warnings = scale_warnings(&passes, 1.0 / cfg.mm_per_pixel, c.taps.is_some());
+    // Where a disk row wins, the best separable row still gives `kernel`.
+    let separable: Vec<Candidate> = candidates
+        .iter()
+        .filter(|c| c.disk.is_none())
+        .cloned()
+        .collect();
+    let best_separable = choose(&separable).map(|i| &separable[i]);
+    let (kernel, passes) = match (c.disk.is_some(), best_separable) {
+        (false, _) => search.chosen_kernel(&c)?,
+        (true, Some(s)) => search.chosen_kernel(s)?,
+        (true, None) => (separable_fallback(profile, &search.truth)?, Vec::new()),
+    };
+    let (disk_kernel, predicted) = if c.disk.is_some() {
+        let (k, p) = search.predict_disk(&c)?;
+        (Some(k), p)
+    } else {
+        (None, search.predict(&passes, c.cost)?)
+    };
+    let warnings = if c.disk.is_some() {
+        Vec::new()
+    } else {
+        scale_warnings(&passes, 1.0 / cfg.mm_per_pixel, c.taps.is_some())
+    };
     let scene = match scene {
         Some((scene, render)) => Some(scene_check(&search, &candidates, chosen, scene, render)?),
         None => None,
@@ -338,6 +393,8 @@ pub fn advise_on_scene(
         candidates,
         chosen,
         kernel,
+        disk_kernel,
+        frames: cfg.frames,
         predicted,
         warnings,
         kernel_radius_mm: kernel_radius(&search.truth),
@@ -361,12 +418,19 @@ fn scene_check(
         .iter()
         .map(|&i| {
             let c = &candidates[i];
-            let (_, taps) = search.chosen_kernel(c)?;
+            let pass = if c.disk.is_some() {
+                ScenePass::Disk {
+                    kernel: disk_kernel(search.profile, c.cost)?,
+                    frames: search.cfg.frames,
+                }
+            } else {
+                ScenePass::Separable(search.chosen_kernel(c)?.1)
+            };
             Ok(SceneCandidate {
                 configuration: c.describe(),
                 passes: c.passes,
                 samples_per_pixel: c.cost,
-                taps,
+                pass,
             })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -381,5 +445,5 @@ fn scene_check(
 }
 
 pub use crate::report::present::advice_text::{
-    explain, extent_rule_text, remedy_text, screen_space_note,
+    cost_text, explain, extent_rule_text, remedy_text, screen_space_note,
 };

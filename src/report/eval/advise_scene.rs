@@ -42,12 +42,14 @@
 //!   the user asked for.
 
 use super::advise_decide::NOISE_K;
-use super::scene_compare::screen_space_pass;
+use super::advise_disk::DISK_SEED;
 use super::scene_compare::{angular_obstacle, cosines};
 use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
+use super::scene_compare::{screen_space_disk_pass, screen_space_pass};
 use crate::error::{Error, Result};
 use crate::filter::{angular, Image, Plane, Taps};
 use crate::kernel::angular::{simulate_factors, AngularFactors};
+use crate::kernel::disk::DiskKernelFile;
 use crate::profile::source::MC_SEED;
 use crate::profile::Profile;
 use crate::scene::{Render, Scene};
@@ -165,12 +167,20 @@ impl SceneCheck {
     }
 }
 
-/// A configuration to run: its description, cost and taps.
+/// A configuration to run: its description, cost and pass.
 pub struct SceneCandidate {
     pub configuration: String,
     pub passes: usize,
     pub samples_per_pixel: usize,
-    pub taps: Vec<Taps>,
+    pub pass: ScenePass,
+}
+
+/// What a configuration runs: separable taps as `advise` scored them, or
+/// a disk kernel accumulated over the frames `advise` scored it after
+/// (from the advice's own rotation seed, [`DISK_SEED`]).
+pub enum ScenePass {
+    Separable(Vec<Taps>),
+    Disk { kernel: DiskKernelFile, frames: u32 },
 }
 
 /// Photons per channel and incidence of the factors' run when the profile
@@ -352,8 +362,20 @@ pub fn check_on_scene(
     let mut rows = Vec::with_capacity(candidates.len());
     for c in candidates {
         let pass = |img: &Image| {
-            screen_space_pass(scene, &depth, &c.taps, img, Some(follow_c))
-                .map_err(|e| Error::Unsupported(format!("{} on the scene: {e}", c.configuration)))
+            match &c.pass {
+                ScenePass::Separable(taps) => {
+                    screen_space_pass(scene, &depth, taps, img, Some(follow_c))
+                }
+                ScenePass::Disk { kernel, frames } => screen_space_disk_pass(
+                    scene,
+                    &depth,
+                    kernel,
+                    (DISK_SEED, *frames),
+                    img,
+                    Some(follow_c),
+                ),
+            }
+            .map_err(|e| Error::Unsupported(format!("{} on the scene: {e}", c.configuration)))
         };
         let img = pass(&irradiance)?;
         let rel_rms = truth.rel_rms(&img);

@@ -257,6 +257,7 @@ impl Search<'_> {
                         self.cfg.target,
                         scores.len() == self.refs.len(),
                     ),
+                    disk: None,
                 }
             })
             .collect();
@@ -272,16 +273,20 @@ impl Search<'_> {
         fits: &(dyn Fn(usize, usize, usize) -> bool + Sync),
         only_meeting: bool,
     ) -> Result<(Vec<Candidate>, usize)> {
-        let per_model: Vec<(Vec<Candidate>, usize)> = self
-            .specs
-            .par_iter()
-            .map(|spec| self.model_candidates(spec, fits, only_meeting))
-            .collect::<Result<_>>()?;
-        let skipped = per_model.iter().map(|(_, s)| s).sum();
-        Ok((
-            per_model.into_iter().flat_map(|(c, _)| c).collect(),
-            skipped,
-        ))
+        let (per_model, disk) = rayon::join(
+            || {
+                self.specs
+                    .par_iter()
+                    .map(|spec| self.model_candidates(spec, fits, only_meeting))
+                    .collect::<Result<Vec<(Vec<Candidate>, usize)>>>()
+            },
+            || self.disk_candidates(fits, only_meeting),
+        );
+        let (per_model, (disk, disk_skipped)) = (per_model?, disk?);
+        let skipped = per_model.iter().map(|(_, s)| s).sum::<usize>() + disk_skipped;
+        let mut all: Vec<Candidate> = per_model.into_iter().flat_map(|(c, _)| c).collect();
+        all.extend(disk);
+        Ok((all, skipped))
     }
 
     /// The kernel file of candidate `c` (its tap table as chosen, the

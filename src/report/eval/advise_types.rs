@@ -5,6 +5,7 @@
 //! ([`super::advise`]) both read these; this file reads neither.
 
 use super::advise_decide::{Budget, Cost, Verdict};
+use super::advise_disk::{DiskScores, DEFAULT_FRAMES};
 use super::evaluate::Options;
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
@@ -103,6 +104,9 @@ pub struct Config {
     pub options: Options,
     /// What a candidate may cost.
     pub budget: Budget,
+    /// Frames a temporal filter accumulates: the noise of a disk kernel is
+    /// scored after this many.
+    pub frames: u32,
 }
 
 impl Config {
@@ -116,6 +120,7 @@ impl Config {
             families: FAMILIES.iter().map(|s| s.to_string()).collect(),
             options: Options::default(),
             budget: Budget::default(),
+            frames: DEFAULT_FRAMES,
         }
     }
 }
@@ -148,6 +153,9 @@ pub struct Candidate {
     /// The scores and the decision on them.
     #[serde(flatten)]
     pub verdict: Verdict,
+    /// A disk kernel's bias and noise per signal (None: separable).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disk: Option<DiskScores>,
 }
 
 impl Cost for Candidate {
@@ -164,6 +172,12 @@ impl Cost for Candidate {
 
 impl Candidate {
     pub fn describe(&self) -> String {
+        if let Some(d) = &self.disk {
+            return format!(
+                "disk, {} samples within {:.3} mm, mean of {} frames",
+                self.cost, self.extent_mm, d.frames
+            );
+        }
         let taps = match self.taps {
             Some(n) => format!("{n} taps"),
             None => "full factors".into(),
@@ -203,5 +217,13 @@ pub struct Remedy {
 }
 
 /// The model families advise tries by default: every family of the
-/// comparison but Jimenez's fixed skin model, which is not fitted.
-pub const FAMILIES: [&str; 5] = ["svd", "preintegrate", "guided", "manual", "gaussians"];
+/// comparison but Jimenez's fixed skin model, which is not fitted, and the
+/// importance-sampled disk (`kernel::disk`, not separable).
+pub const FAMILIES: [&str; 6] = [
+    "svd",
+    "preintegrate",
+    "guided",
+    "manual",
+    "gaussians",
+    "disk",
+];

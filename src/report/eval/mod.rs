@@ -5,11 +5,13 @@
 
 pub mod advise;
 pub mod advise_decide;
+pub mod advise_disk;
 pub mod advise_noise;
 pub mod advise_scene;
 pub mod advise_search;
 pub mod advise_types;
 pub mod claims;
+pub mod disk_compare;
 pub mod evaluate;
 pub mod kernel_compare;
 pub mod pipeline;

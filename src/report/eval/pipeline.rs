@@ -10,6 +10,7 @@ use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::io::{file_stem, join_inside};
+use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::emit::{emit, Lang};
 use crate::kernel::KernelFile;
 use crate::profile::Profile;
@@ -163,6 +164,30 @@ fn write_kernel(
     Ok(())
 }
 
+/// A disk kernel as `stem`.json with its shader arrays.
+fn write_disk_kernel(
+    kernel: &DiskKernelFile,
+    dir: &Path,
+    stem: &str,
+    files: &mut Vec<String>,
+) -> Result<()> {
+    let path = join_inside(dir, &format!("{stem}.json"))?;
+    kernel.write(&path)?;
+    DiskKernelFile::read(&path)?;
+    files.push(format!("{stem}.json"));
+    for (lang, ext) in [
+        (Lang::Hlsl, "hlsl"),
+        (Lang::Glsl, "glsl"),
+        (Lang::Wgsl, "wgsl"),
+    ] {
+        let name = format!("{stem}.{ext}");
+        let text = crate::kernel::disk_emit::emit_disk(kernel, lang)?;
+        crate::io::write_atomic(&join_inside(dir, &name)?, text.as_bytes())?;
+        files.push(name);
+    }
+    Ok(())
+}
+
 /// Runs the pipeline on `profile` into `dir` (created). `command` is the
 /// command line the report prints.
 pub fn run(
@@ -235,7 +260,10 @@ pub fn run(
     acfg.size = settings.size;
     acfg.budget = settings.budget;
     let advice = advise::advise(profile, &acfg, &crate::progress::NoProgress)?;
-    write_kernel(&advice.kernel, dir, "recommended", true, &mut files)?;
+    match &advice.disk_kernel {
+        Some(k) => write_disk_kernel(k, dir, "recommended", &mut files)?,
+        None => write_kernel(&advice.kernel, dir, "recommended", true, &mut files)?,
+    }
     // The advice and why, where the comparison is read.
     let mut md = std::fs::read_to_string(dir.join("report.md"))
         .map_err(|e| Error::format(dir.join("report.md"), e.to_string()))?;
@@ -268,15 +296,7 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         settings.mm_per_pixel
     );
     let rel = |e: &super::evaluate::ImageErrors| e.rel_rms.iter().cloned().fold(0.0, f64::max);
-    let _ = writeln!(
-        s,
-        "ship: {} ({} passes x {} taps = {} samples per pixel, {} target)",
-        c.describe(),
-        c.passes,
-        c.taps_per_pass,
-        c.cost,
-        c.target_format()
-    );
+    let _ = writeln!(s, "ship: {} ({})", c.describe(), advise::cost_text(c));
     let _ = writeln!(
         s,
         "  worst case {:.2}% +- {:.2}% on {}, deciding signal {}; target {:.1}% {} within the \

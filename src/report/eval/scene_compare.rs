@@ -338,14 +338,37 @@ pub fn screen_space_pass(
 ) -> Result<Image> {
     let setup = Setup {
         passes: passes.to_vec(),
+        ..view_on(scene, depth, follow)
+    };
+    cpu::apply_with(img, &setup, cpu::Precision::F64)
+}
+
+/// [`screen_space_pass`] with a disk kernel: `frames` rotations from frame
+/// `seed` accumulated (plain mean), on the CPU in f64.
+pub fn screen_space_disk_pass(
+    scene: &Scene,
+    depth: &Plane,
+    kernel: &crate::kernel::disk::DiskKernelFile,
+    (seed, frames): (u32, u32),
+    img: &Image,
+    follow: Option<f64>,
+) -> Result<Image> {
+    let setup =
+        crate::filter::disk::DiskSetup::new(kernel, view_on(scene, depth, follow), seed, frames);
+    crate::filter::disk::apply_disk(img, &setup)
+}
+
+/// The scene camera's scale, depth and lerp, no passes yet.
+fn view_on(scene: &Scene, depth: &Plane, follow: Option<f64>) -> Setup {
+    Setup {
+        passes: Vec::new(),
         scale: scale_of(scene),
         depth: Some(depth.clone()),
         strength: None,
         follow_surface: follow.map(FollowSurface::InSceneUnits),
         specular: None,
         jitter: false,
-    };
-    cpu::apply_with(img, &setup, cpu::Precision::F64)
+    }
 }
 
 /// The largest flat-plane relative RMS over the channels of `label`'s tap

@@ -15,6 +15,9 @@
 //!    samples per pixel (the CPU filter time in the table).
 //! 5. Kernel model vs kernel and image error vs samples per pixel (the fit
 //!    time, offline and irrelevant to shipping, in the table).
+//! 6. Disk kernels (`kernel::disk`, one pass of N samples) vs image error
+//!    after 8 frames (bias and noise in quadrature) vs samples per pixel,
+//!    beside the kernel models at the same cost.
 //!
 //! Every entry filtered with separable passes records its kernel model,
 //! its one-dimensional passes (2 per separable term) and its samples per
@@ -24,11 +27,14 @@
 //! and the colour FLIP, on the edge and shapes signals at one scale
 //! ([`super::evaluate`]); reported as the larger of the two signals.
 
+use super::advise_disk::{disk_kernel, DEFAULT_FRAMES, DISK_SAMPLES, DISK_SEED, WINDOWS};
 use super::evaluate::{self, Exact, ImageCase, ImageErrors, Options};
 use super::kernel_compare::{self, Config as CompareConfig, MaterialInput, FAMILIES};
 use super::pipeline::{make_profile_on, ProfileSource};
 use super::profile_compare;
 use crate::error::Result;
+use crate::filter::disk::{apply_disk, DiskSetup};
+use crate::filter::disk_error::{disk_error, view};
 use crate::filter::signals::Signal;
 use crate::filter::Taps;
 use crate::kernel::model::{assemble_with, fit_model};
@@ -418,10 +424,57 @@ impl<'a> Bench<'a> {
     }
 }
 
+impl Bench<'_> {
+    /// 6. Disk kernels of [`DISK_SAMPLES`] samples (one pass): the image
+    ///    error a temporal filter shows after [`DEFAULT_FRAMES`] frames,
+    ///    sqrt(bias^2 + noise_K^2) per channel ([`super::advise_disk`]),
+    ///    and the FLIP of one accumulation of that many frames.
+    fn disk(&self) -> Result<Vec<Entry>> {
+        let k = DEFAULT_FRAMES;
+        let mut entries = Vec::new();
+        for n in DISK_SAMPLES {
+            let t0 = std::time::Instant::now();
+            let kernel = disk_kernel(self.reference, n)?;
+            let (mut rel, mut flip, mut bias, mut noise) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+            for x in &self.exact {
+                let mm = x.case.mm_per_pixel;
+                let setup = DiskSetup::new(&kernel, view(mm), DISK_SEED, 1);
+                let e = disk_error(&x.case.image, &setup, &x.image, WINDOWS * k, k)?;
+                for c in 0..3 {
+                    rel = rel.max(e.bias[c].hypot(e.noise_after[c]));
+                    bias = bias.max(e.bias[c]);
+                    noise = noise.max(e.noise_after[c]);
+                }
+                let acc = apply_disk(&x.case.image, &setup.with_frames(DISK_SEED, k))?;
+                flip = flip.max(evaluate::errors(x, &acc, &self.options)?.flip_rgb);
+            }
+            entries.push(Entry {
+                section: "disk".into(),
+                config: format!(
+                    "disk {n} samples, {k} frames (bias {:.2}%, noise {:.2}%)",
+                    100.0 * bias,
+                    100.0 * noise
+                ),
+                cost: n as f64,
+                cost_unit: "samples/pixel".into(),
+                profile_or_kernel_error: None,
+                rel_rms: Some(rel),
+                flip: Some(flip),
+                model: Some("disk".into()),
+                passes: Some(1),
+                samples_per_pixel: Some(n),
+                ms_per_megapixel: None,
+                seconds: t0.elapsed().as_secs_f64(),
+            });
+        }
+        Ok(entries)
+    }
+}
+
 /// Runs the study of `reference`'s material against `reference`.
 pub fn run(reference: &Profile, s: &Settings, progress: &dyn Progress) -> Result<Study> {
     let bench = Bench::new(reference, s)?;
-    progress.start(5, "study sections");
+    progress.start(6, "study sections");
     let (mut entries, mc) = bench.photons(s)?;
     progress.advance(1);
     entries.extend(bench.profile_models(mc)?);
@@ -431,6 +484,8 @@ pub fn run(reference: &Profile, s: &Settings, progress: &dyn Progress) -> Result
     entries.extend(bench.ranks(s)?);
     progress.advance(1);
     entries.extend(bench.kernel_models()?);
+    progress.advance(1);
+    entries.extend(bench.disk()?);
     progress.advance(1);
     progress.finish();
     Ok(Study {

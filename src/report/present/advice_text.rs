@@ -9,6 +9,7 @@ use crate::report::eval::advise::{
     Advice, Candidate, ExtentRule, Remedy, FULL_MAX_PIXELS, NOISE_K,
 };
 use crate::report::eval::advise_decide::tie;
+use crate::report::eval::advise_disk::{disk_text, DISK_SAMPLES};
 
 /// The rule behind the automatic extent, for the record.
 pub fn extent_rule_text(taps: usize) -> String {
@@ -19,7 +20,15 @@ pub fn extent_rule_text(taps: usize) -> String {
 }
 
 /// "2 passes x 11 taps = 22 samples per pixel, unsigned target".
-fn cost_text(c: &Candidate) -> String {
+pub fn cost_text(c: &Candidate) -> String {
+    if c.disk.is_some() {
+        return format!(
+            "1 pass of {} samples = {} samples per pixel, {} target",
+            c.taps_per_pass,
+            c.cost,
+            c.target_format()
+        );
+    }
     format!(
         "{} passes x {} taps = {} samples per pixel, {} target",
         c.passes,
@@ -242,15 +251,22 @@ fn table(s: &mut String, a: &Advice, c: &Candidate) {
             why(b, c, a)
         );
     }
+    for b in a.best_per_model() {
+        if let Some(t) = disk_text(b) {
+            let _ = writeln!(s, "  {}: {t}", b.label);
+        }
+    }
     let _ = writeln!(
         s,
         "  ({} configurations filtered: every model x taps {:?} x 3 extents, plus full factors \
-         (taps*: pixels spanned) up to {} px, within the budget; passes = 2 x separable terms; \
-         each model stops at its cheapest layout meeting the target; format: the render target \
-         the weights need, signed float where one is negative)",
+         (taps*: pixels spanned) up to {} px, and disk kernels of {:?} samples (one pass; taps: \
+         samples), within the budget; passes = 2 x separable terms; each model stops at its \
+         cheapest layout meeting the target; format: the render target the weights need, \
+         signed float where one is negative)",
         a.candidates.len(),
         a.taps,
-        FULL_MAX_PIXELS
+        FULL_MAX_PIXELS,
+        DISK_SAMPLES
     );
 }
 

@@ -158,16 +158,28 @@ pub fn panels(study: &Study) -> Vec<ParetoPanel> {
             ],
         },
         ParetoPanel {
-            title: format!("{m}: kernel model (17 taps)"),
+            title: format!(
+                "{m}: kernel model (17 taps; disk: after {} frames)",
+                crate::report::eval::advise_disk::DEFAULT_FRAMES
+            ),
             x_label: spp.into(),
             y_label: "image rel. RMS".into(),
-            series: vec![series(
-                study,
-                "kernel_model",
-                "models",
-                |e| e.rel_rms,
-                |e| e.config.clone(),
-            )],
+            series: vec![
+                series(
+                    study,
+                    "kernel_model",
+                    "models",
+                    |e| e.rel_rms,
+                    |e| e.config.clone(),
+                ),
+                series(
+                    study,
+                    "disk",
+                    "disk kernels",
+                    |e| e.rel_rms,
+                    |e| format!("disk {}", e.samples_per_pixel.unwrap_or(0)),
+                ),
+            ],
         },
     ]
 }
