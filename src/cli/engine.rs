@@ -59,7 +59,7 @@ pub struct Args {
     plot: Option<PathBuf>,
     /// Scene units per millimetre (0.001: a scene in metres; Jimenez's sssWidth) [default: the
     /// engine's own unit: unreal 0.1 (the cm), the others 0.001 (the metre)].
-    #[arg(long, value_name = "UNITS", allow_negative_numbers = true)]
+    #[arg(long, value_name = "UNITS", allow_negative_numbers = true, value_parser = args::real)]
     units_per_mm: Option<f64>,
 }
 

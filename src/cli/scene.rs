@@ -51,7 +51,7 @@ struct Flags {
     /// Trace until the noise (RMS standard error over the pixels that see
     /// an object, over their 99th-percentile radiance) is below E in every
     /// channel, or until --max-spp.
-    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    #[arg(long, value_name = "E", allow_hyphen_values = true, value_parser = args::real)]
     render_error: Option<f64>,
     /// Cap on samples per pixel of --render-error.
     #[arg(long, value_name = "N", default_value = args::count_text(DEFAULT_MAX_SPP), value_parser = count::<u64>)]
