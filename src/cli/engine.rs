@@ -4,6 +4,7 @@
 use super::args::{self, OutFile, ProfileFile};
 use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
+use ssskit::numerics::Bounded;
 use ssskit::profile::Profile;
 use ssskit::report::plot;
 use std::path::PathBuf;
@@ -89,7 +90,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let unit = fit.units.get(name).map_or("", String::as_str);
         outln!("  {name} = {v}    [{unit}]")?;
     }
-    let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", 100.0 * x)).join(", ");
+    let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", Bounded(100.0 * x))).join(", ");
     outln!(
         "error against the profile (r, g, b): total {}; shape (relative L2 of r R_d, r < r99) {}",
         pct(fit.error.total),
