@@ -228,9 +228,11 @@ pub fn nelder_mead(
 }
 
 /// Magnitude from which [`Bounded`] switches to exponent form: fixed-point
-/// text of 1e300 has 301 digits; a million keeps every ordinary value
-/// (percentages, millimetres, pixels) as it was written before.
-pub const BOUNDED_FIXED_MAX: f64 = 1e6;
+/// text of 1e300 has 301 digits; a billion (at most ten digits before the
+/// point) keeps every value the reports print today as it was, percentage
+/// errors of millions (a model against a medium that barely reflects)
+/// among them.
+pub const BOUNDED_FIXED_MAX: f64 = 1e9;
 
 /// A number printed with a bounded count of digits: `{:.2}` of `Bounded(x)`
 /// is `{:.2}` of `x` below [`BOUNDED_FIXED_MAX`] in magnitude and `{:.2e}`
