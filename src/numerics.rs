@@ -1,7 +1,8 @@
 //! Quadrature shared by the profile models, the Fresnel moments and the
 //! kernel discretisation: fixed-order Gauss-Legendre, its use on annular
 //! bins, and integrals of radial functions over the whole plane; root
-//! finding by bisection; box-bounded Nelder-Mead for the kernel fits.
+//! finding by bisection; box-bounded Nelder-Mead for the kernel fits;
+//! [`Bounded`], the one way a message prints a number that may be huge.
 
 /// 8-point Gauss-Legendre quadrature of `f` over [a, b] (exact for
 /// polynomials up to degree 15).
@@ -226,6 +227,43 @@ pub fn nelder_mead(
     simplex.swap_remove(0).0
 }
 
+/// Magnitude from which [`Bounded`] switches to exponent form: fixed-point
+/// text of 1e300 has 301 digits; a billion (at most ten digits before the
+/// point) keeps every value the reports print today as it was, percentage
+/// errors of millions (a model against a medium that barely reflects)
+/// among them.
+pub const BOUNDED_FIXED_MAX: f64 = 1e9;
+
+/// A number printed with a bounded count of digits: `{:.2}` of `Bounded(x)`
+/// is `{:.2}` of `x` below [`BOUNDED_FIXED_MAX`] in magnitude and `{:.2e}`
+/// above it (with `+` when asked), so a message about a degenerate input
+/// (an error of 1e300 %) stays one short line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounded(pub f64);
+
+impl std::fmt::Display for Bounded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        let plus = if f.sign_plus() && x >= 0.0 { "+" } else { "" };
+        let s = match (x.is_finite() && x.abs() < BOUNDED_FIXED_MAX, f.precision()) {
+            (true, Some(d)) => format!("{plus}{x:.d$}"),
+            (true, None) => format!("{plus}{x}"),
+            (false, _) if !x.is_finite() => format!("{plus}{x}"),
+            (false, Some(d)) => format!("{plus}{x:.d$e}"),
+            (false, None) => format!("{plus}{x:e}"),
+        };
+        // Width and alignment as for a number (right by default); `pad`
+        // would read the precision as a maximum length.
+        let fill = f.width().unwrap_or(0).saturating_sub(s.chars().count());
+        let (left, right) = match f.align() {
+            Some(std::fmt::Alignment::Left) => (0, fill),
+            Some(std::fmt::Alignment::Center) => (fill / 2, fill - fill / 2),
+            _ => (fill, 0),
+        };
+        write!(f, "{}{s}{}", " ".repeat(left), " ".repeat(right))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -308,5 +346,20 @@ mod tests {
         };
         let h = nelder_mead(half, &[0.1], 0.5, (-5.0, 5.0), 500);
         assert!((h[0] - 1.0).abs() < 1e-5, "{h:?}");
+    }
+
+    #[test]
+    fn bounded_numbers_keep_their_format_and_few_digits() {
+        assert_eq!(format!("{:.2}", Bounded(12.345)), "12.35");
+        assert_eq!(format!("{:+.1}", Bounded(3.0)), "+3.0");
+        assert_eq!(format!("{:+.1}", Bounded(-3.0)), "-3.0");
+        assert_eq!(format!("{:.2}", Bounded(1e302)), "1.00e302");
+        assert_eq!(format!("{:+.1}", Bounded(-2.5e300)), "-2.5e300");
+        assert_eq!(format!("{:.1}", Bounded(f64::INFINITY)), "inf");
+        assert_eq!(format!("{}", Bounded(1e20)), "1e20");
+        assert_eq!(
+            format!("{:>7.1}|{:<5.0}|", Bounded(2.5), Bounded(1.0)),
+            "    2.5|1    |"
+        );
     }
 }

@@ -1,5 +1,6 @@
 //! A fuzz harness over every file reader: material TOML, profile JSON,
-//! kernel JSON, Monte Carlo shard JSON, MCML .mci, EXR and PNG. Each case
+//! kernel JSON, Monte Carlo shard JSON, MCML .mci, EXR and PNG, scene TOML
+//! and the OBJ meshes it names. Each case
 //! mutates a valid file (bytes flipped, inserted, deleted or truncated;
 //! JSON values replaced by hostile ones; numbers replaced by extreme
 //! ones) and reads it the way ssskit does: the reader returns an error or
@@ -261,6 +262,48 @@ const MCI: &str = "1.0 # version\n2 # runs\nslab.mco A\n20000\n0.001 0.001\n10 1
 1.0 10 90 0.75 0.02\n1.0\n\nhalf.mco A\n1000\n0.01 0.01\n1 50 1\n1\n1.0\n\
 1.4 1 100 0.9 1E8\n1.0\n";
 
+/// A scene with every kind of object (the mesh is `cube.obj` beside it)
+/// and both kinds of light.
+const SCENE: &str = "unit = \"mm\"\n[camera]\ntype = \"perspective\"\nposition = [0, 0, 60]\n\
+look_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 30\nsize = [16, 12]\n[[light]]\ntype = \
+\"directional\"\ntoward = [0.6, 0, 0.8]\nirradiance = 2\n[[light]]\ntype = \"environment\"\n\
+radiance = 0.5\n[[object]]\nshape = \"sphere\"\ncenter = [0, 0, 0]\nradius = 4\nmaterial = \
+\"skin1\"\neta = 1.3\n[[object]]\nname = \"slab\"\nshape = \"box\"\ncenter = [10, 0, 0]\n\
+size = [3, 3, 3]\nmaterial = \"skin1\"\n[[object]]\nshape = \"mesh\"\nfile = \"cube.obj\"\n\
+translate = [-10, 0, 0]\nmaterial = \"skin1\"\neta = 1\n[[object]]\nshape = \"cylinder\"\n\
+center = [0, 10, 0]\nradius = 1\nheight = 2\naxis = [0, 1, 0]\nmaterial = \"skin1\"\neta = 1\n";
+
+/// A closed cube of side 4 about the origin, faces as quads and a
+/// comment, normals and texture coordinates that the reader skips.
+const CUBE_OBJ: &str = "# cube\nv -2 -2 -2\nv 2 -2 -2\nv -2 2 -2\nv 2 2 -2\nv -2 -2 2\n\
+v 2 -2 2\nv -2 2 2\nv 2 2 2\nvn 0 0 1\nvt 0 0\nf 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\n\
+f 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+
+/// Longest a reader may take on one case. A case takes milliseconds; the
+/// bound is far above that (a loaded CI machine) and far below a hang (a
+/// reader that loops or waits on a pipe runs until the job is killed).
+const CASE_SECONDS: f64 = 10.0;
+
+/// Parses `scene` with `obj` as its `cube.obj`: an error, or a scene that
+/// keeps its own rules (objects, finite bounds), within [`CASE_SECONDS`].
+fn read_scene(scene: &str, obj: &[u8]) -> Result<(), TestCaseError> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cube.obj"), obj).unwrap();
+    let start = std::time::Instant::now();
+    let parsed = ssskit::scene::parse_scene_toml(scene, "fuzz.toml", dir.path());
+    let secs = start.elapsed().as_secs_f64();
+    prop_assert!(secs < CASE_SECONDS, "a case took {} s", secs);
+    match parsed {
+        Ok(s) => {
+            prop_assert!(!s.objects.is_empty());
+            let (lo, hi) = s.bounds();
+            prop_assert!((0..3).all(|k| lo[k].is_finite() && hi[k].is_finite() && lo[k] < hi[k]));
+        }
+        Err(e) => prop_assert!(!e.to_string().is_empty()),
+    }
+    Ok(())
+}
+
 /// Numbers a hostile text puts where a number was.
 fn hostile_number() -> impl Strategy<Value = String> {
     prop_oneof![
@@ -356,6 +399,16 @@ fn image_bytes(ext: &str) -> &'static [u8] {
         "exr" => EXR.get_or_init(|| make("exr")),
         _ => PNG.get_or_init(|| make("png")),
     }
+}
+
+/// The scene and mesh the two scene properties start from are valid: the
+/// properties mutate a file that parses, not one refused whatever the edit.
+#[test]
+fn the_base_scene_parses() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    let s = ssskit::scene::parse_scene_toml(SCENE, "base.toml", dir.path()).unwrap();
+    assert_eq!(s.objects.len(), 4);
 }
 
 // ---- the properties --------------------------------------------------------
@@ -496,5 +549,30 @@ proptest! {
             }
         }
         let _ = ssskit::filter::image::read_plane(&path, None);
+    }
+
+    /// Scene TOML with bytes mangled or numbers replaced: an error, or a
+    /// scene with objects and finite bounds, in bounded time.
+    #[test]
+    fn scene_toml(edits in byte_edits(), numbers in number_picks(), bytes in any::<bool>()) {
+        let text = if bytes {
+            String::from_utf8_lossy(&apply_edits(SCENE.as_bytes().to_vec(), &edits)).into_owned()
+        } else {
+            replace_numbers(SCENE, &numbers)
+        };
+        read_scene(&text, CUBE_OBJ.as_bytes())?;
+    }
+
+    /// The OBJ a scene names, bytes mangled or numbers replaced (a face
+    /// index out of range, a coordinate of 1e308, a line cut): an error, or
+    /// a scene that keeps its rules, in bounded time.
+    #[test]
+    fn obj_mesh(edits in byte_edits(), numbers in number_picks(), bytes in any::<bool>()) {
+        let obj = if bytes {
+            apply_edits(CUBE_OBJ.as_bytes().to_vec(), &edits)
+        } else {
+            replace_numbers(CUBE_OBJ, &numbers).into_bytes()
+        };
+        read_scene(SCENE, &obj)?;
     }
 }

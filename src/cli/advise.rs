@@ -15,7 +15,7 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 struct ViewArgs {
     /// Linear view depth of the surface, scene units (with --fov-y).
-    #[arg(long, value_name = "UNITS", allow_negative_numbers = true)]
+    #[arg(long, value_name = "UNITS", allow_negative_numbers = true, value_parser = args::real)]
     view_depth: Option<f64>,
     /// Image height in pixels (with --fov-y).
     #[arg(long, value_name = "PX", value_parser = count::<usize>)]

@@ -138,7 +138,7 @@ pub struct Args {
     /// (Jimenez's shader uses 300 for a scene in metres): the rate is
     /// C x 1e-6 / (--units-per-mm x tan(fov_y / 2)) per scene unit of depth,
     /// or C x 1e-3 per mm of depth under --mm-per-pixel (depth in mm).
-    #[arg(long, value_name = "C", allow_hyphen_values = true)]
+    #[arg(long, value_name = "C", allow_hyphen_values = true, value_parser = args::real)]
     follow_surface: Option<f64>,
     /// The lerp of --follow-surface with C in the depth image's own units [default: off].
     ///
@@ -146,6 +146,7 @@ pub struct Args {
     /// --mm-per-pixel): the behaviour of --follow-surface before it was
     /// unit-safe, equal to it for a scene in metres.
     #[arg(
+        value_parser = args::real,
         long,
         value_name = "C",
         allow_hyphen_values = true,

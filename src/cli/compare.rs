@@ -84,7 +84,7 @@ pub struct Args {
     #[command(flatten)]
     extent: ExtentArg,
     /// FLIP viewing condition: pixels per degree of visual angle.
-    #[arg(long, value_name = "PPD", default_value_t = Options::default().pixels_per_degree)]
+    #[arg(long, value_name = "PPD", default_value_t = Options::default().pixels_per_degree, value_parser = args::real)]
     pixels_per_degree: f64,
     #[command(flatten)]
     no_plots: NoPlotsArg,
@@ -106,6 +106,7 @@ pub struct Args {
     /// scene's own length: the lerp reaches the centre colour at this depth
     /// difference.
     #[arg(
+        value_parser = args::real,
         long,
         value_name = "MM",
         requires = "scene",

@@ -29,7 +29,7 @@ pub struct Args {
     /// Difference at the top of the colour ramp [default: the largest in the image].
     ///
     /// Give the same value to compare several images.
-    #[arg(long, value_name = "DIFF", allow_negative_numbers = true)]
+    #[arg(long, value_name = "DIFF", allow_negative_numbers = true, value_parser = args::real)]
     scale: Option<f64>,
 }
 

@@ -4,6 +4,7 @@
 use super::args::{self, OutFile, ProfileFile};
 use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
+use ssskit::numerics::Bounded;
 use ssskit::profile::Profile;
 use ssskit::report::plot;
 use std::path::PathBuf;
@@ -59,7 +60,7 @@ pub struct Args {
     plot: Option<PathBuf>,
     /// Scene units per millimetre (0.001: a scene in metres; Jimenez's sssWidth) [default: the
     /// engine's own unit: unreal 0.1 (the cm), the others 0.001 (the metre)].
-    #[arg(long, value_name = "UNITS", allow_negative_numbers = true)]
+    #[arg(long, value_name = "UNITS", allow_negative_numbers = true, value_parser = args::real)]
     units_per_mm: Option<f64>,
 }
 
@@ -89,7 +90,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let unit = fit.units.get(name).map_or("", String::as_str);
         outln!("  {name} = {v}    [{unit}]")?;
     }
-    let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", 100.0 * x)).join(", ");
+    let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", Bounded(100.0 * x))).join(", ");
     outln!(
         "error against the profile (r, g, b): total {}; shape (relative L2 of r R_d, r < r99) {}",
         pct(fit.error.total),

@@ -109,7 +109,7 @@ pub struct Args {
     /// The default is the radius holding 1 - 0.7 taps^-1.2 of the factor's
     /// mass; for jimenez, iryoku's span: RANGE x width, RANGE 2 below 21
     /// taps and 3 from 21.
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = args::real)]
     tap_extent: Option<f64>,
     /// Print the tap table as a shader constant array [default: not printed].
     #[arg(long, value_enum, value_name = "LANG", ignore_case = true)]
@@ -134,16 +134,16 @@ pub struct ModelOpts {
     #[arg(long, value_enum, value_name = "METHOD", default_value_t = MethodArg::Abel)]
     method: MethodArg,
     /// guided: exponent of the radial weight (Freude 2014, eq. 5.20).
-    #[arg(long, value_name = "K", default_value_t = GuidedParams::default().k, allow_negative_numbers = true)]
+    #[arg(long, value_name = "K", default_value_t = GuidedParams::default().k, allow_negative_numbers = true, value_parser = args::real)]
     k: f64,
     /// guided: axis suppression (Freude 2014, eq. 5.20, for x, y in [-1, 1]); 0 = off.
-    #[arg(long, value_name = "B", default_value_t = GuidedParams::default().b, allow_negative_numbers = true)]
+    #[arg(long, value_name = "B", default_value_t = GuidedParams::default().b, allow_negative_numbers = true, value_parser = args::real)]
     b: f64,
     /// guided: L-BFGS iteration limit.
     #[arg(long, value_name = "N", default_value_t = GuidedParams::default().max_iters, value_parser = count::<u64>)]
     max_iters: u64,
     /// manual: weight of the near Gaussian [default: none: give --w, --near, --far].
-    #[arg(long, value_name = "W", allow_negative_numbers = true)]
+    #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = args::real)]
     w: Option<f64>,
     /// manual: sqrt(tau_n) per channel in mm, "R,G,B" [default: none].
     #[arg(long, value_name = "R,G,B", value_parser = args::rgb)]
@@ -162,7 +162,7 @@ pub struct ModelOpts {
     count: usize,
     /// jimenez: mm per unit of the kernel's offsets (w = 1: d'Eon's skin
     /// profile in mm, iryoku's table in its offset units).
-    #[arg(long, value_name = "SCALE", alias = "width", default_value_t = JimenezParams::default().width, allow_negative_numbers = true)]
+    #[arg(long, value_name = "SCALE", alias = "width", default_value_t = JimenezParams::default().width, allow_negative_numbers = true, value_parser = args::real)]
     jimenez_width: f64,
     /// jimenez: strength t per channel, "R,G,B".
     #[arg(long, value_name = "R,G,B", alias = "strength", default_value = args::rgb_text(JimenezParams::default().strength), value_parser = args::rgb)]

@@ -6,7 +6,7 @@ use super::args::{
     self, FresnelArg, MaterialsArg, MaxPhotonsArg, McErrorArg, OutDir, PhotonsArg, SeedArg,
 };
 use super::errors::invalid;
-use super::out::out;
+use super::out::{out, outln};
 use super::progress::Bar;
 use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model};
@@ -105,9 +105,13 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         max_work: mc::DEFAULT_MAX_WORK,
     };
     let mut rows = Vec::new();
+    let mut warnings = Vec::new();
     for mat in &materials {
         let grid = analytic::default_grid(mat, &Channel::ALL)?;
         let (reference, _) = make_profile_on(mat, &reference_source, Some(&grid), &Bar::new())?;
+        for w in reference.warnings()? {
+            warnings.push(format!("Monte Carlo reference of {}: {w}", mat.name));
+        }
         let mut models = Vec::new();
         for model in Model::ALL {
             // A model that cannot run here (e.g. the Fresnel fits outside
@@ -143,9 +147,21 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     }
     let md = out_dir.join("compare.md");
     let csv = out_dir.join("compare.csv");
-    ssskit::io::write_atomic(&md, compare::report(&rows).as_bytes())?;
+    // A reference too noisy to judge the models by says so in the report
+    // and on standard output, not only on standard error.
+    let mut report = compare::report(&rows);
+    if !warnings.is_empty() {
+        report.push_str("\n## Warnings\n\n");
+        for w in &warnings {
+            report.push_str(&format!("- {w}\n"));
+        }
+    }
+    ssskit::io::write_atomic(&md, report.as_bytes())?;
     compare::csv_table(&rows).write_csv(&csv)?;
     out!("{}", compare::table(&rows).markdown())?;
+    for w in &warnings {
+        outln!("warning: {w}")?;
+    }
     eprintln!("wrote {} and {}", md.display(), csv.display());
     Ok(())
 }

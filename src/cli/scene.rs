@@ -12,6 +12,7 @@ use ssskit::filter::image::{
     read_exr_channels, write_exr, write_exr_channels, write_image, PngDepth,
 };
 use ssskit::filter::{Image, Plane};
+use ssskit::numerics::Bounded;
 use ssskit::profile::mc::{self, PhotonBudget};
 use ssskit::profile::Profile;
 use ssskit::scene::{
@@ -51,7 +52,7 @@ struct Flags {
     /// Trace until the noise (RMS standard error over the pixels that see
     /// an object, over their 99th-percentile radiance) is below E in every
     /// channel, or until --max-spp.
-    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    #[arg(long, value_name = "E", allow_hyphen_values = true, value_parser = args::real)]
     render_error: Option<f64>,
     /// Cap on samples per pixel of --render-error.
     #[arg(long, value_name = "N", default_value = args::count_text(DEFAULT_MAX_SPP), value_parser = count::<u64>)]
@@ -171,9 +172,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         i.spp[0],
         i.spp[1],
         i.spp[2],
-        100.0 * i.noise[0],
-        100.0 * i.noise[1],
-        100.0 * i.noise[2],
+        Bounded(100.0 * i.noise[0]),
+        Bounded(100.0 * i.noise[1]),
+        Bounded(100.0 * i.noise[2]),
         i.seconds
     )?;
     for (o, rd) in scene.objects.iter().zip(&i.rd) {
@@ -186,6 +187,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             rd[2]
         )?;
     }
+    print_profile_warnings(&scene, &profiles)?;
     if !i.converged {
         super::errors::warn(&format!(
             "the render stopped before its target ({}): raise `max_spp` or `max_work`",
@@ -203,6 +205,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ));
     }
     eprintln!("-> {}, {}", out.display(), sidecar_path(out).display());
+    Ok(())
+}
+
+/// The warnings of each material's profile (too few photons, ...) on
+/// standard output, once per material; the record holds them too, in each
+/// profile's `extra.warnings`.
+fn print_profile_warnings(scene: &Scene, profiles: &[Profile]) -> anyhow::Result<()> {
+    let mut seen: Vec<&str> = Vec::new();
+    for (o, p) in scene.objects.iter().zip(profiles) {
+        if seen.contains(&o.material.name.as_str()) {
+            continue;
+        }
+        seen.push(&o.material.name);
+        for w in p.warnings()? {
+            outln!("warning: profile of {}: {w}", o.material.name)?;
+        }
+    }
     Ok(())
 }
 

@@ -45,7 +45,7 @@ pub struct Args {
     #[command(flatten)]
     mm_per_pixel: MmPerPixelArg,
     /// Checker cell width in mm.
-    #[arg(long, value_name = "MM", default_value_t = evaluate::CHECKER_MM, allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", default_value_t = evaluate::CHECKER_MM, allow_negative_numbers = true, value_parser = args::real)]
     checker_mm: f64,
     #[command(flatten)]
     out: OutFile,

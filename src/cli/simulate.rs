@@ -96,7 +96,7 @@ struct Flags {
     /// "kernel-factor", the default when no other budget is given). Its
     /// default grid has geometric bins. A channel also stops at the
     /// absolute floor (--abs-floor).
-    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    #[arg(long, value_name = "E", allow_hyphen_values = true, value_parser = args::real)]
     kernel_error: Option<f64>,
     /// Absolute floor of the kernel-factor rule, a fraction of the incident light.
     ///
@@ -105,7 +105,7 @@ struct Flags {
     /// 3/A photons (media that barely scatter back, e.g. wine, beer; 2e-6
     /// is 150x below the smallest 8-bit sRGB value); never before the
     /// relative target where R_d >= A/E. 0 = off.
-    #[arg(long, value_name = "A", default_value = format!("{:e}", mc::DEFAULT_ABS_FLOOR), allow_hyphen_values = true)]
+    #[arg(long, value_name = "A", default_value = format!("{:e}", mc::DEFAULT_ABS_FLOOR), allow_hyphen_values = true, value_parser = args::real)]
     abs_floor: f64,
     #[command(flatten)]
     mc_error: McErrorArg,
@@ -149,7 +149,7 @@ struct Flags {
     ///
     /// Unbiased for any value in (0, 1); MCML uses 1e-4, the default is
     /// more efficient: the Speed table of docs/mc.md.
-    #[arg(long, value_name = "WEIGHT", default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true)]
+    #[arg(long, value_name = "WEIGHT", default_value_t = mc::DEFAULT_ROULETTE_THRESHOLD, allow_hyphen_values = true, value_parser = args::real)]
     roulette: f64,
     #[command(flatten)]
     backend: BackendArg,
@@ -183,6 +183,7 @@ struct Flags {
     /// One more run per angle with the normal run's photon count, for the
     /// entry factor R_d(theta_in) / R_d(0) (extra.angular.entry).
     #[arg(
+        value_parser = args::real,
         long,
         value_name = "DEG,...",
         value_delimiter = ',',
@@ -197,6 +198,7 @@ struct Flags {
     view_profile: Option<PathBuf>,
     /// View angle from the normal in degrees, for --view-profile.
     #[arg(
+        value_parser = args::real,
         long,
         value_name = "DEG",
         default_value_t = 0.0,

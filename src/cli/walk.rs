@@ -466,3 +466,67 @@ fn one_default_seed() {
     // kernels, advise, study, simulate, profiles compare, compare, scene.
     assert_eq!(seen, 7);
 }
+
+/// Values that parse as an `f64` (Rust's `FromStr` reads all of them) but
+/// are no quantity: each real-valued flag must refuse them while parsing,
+/// before any work.
+const NOT_FINITE: [&str; 5] = ["NaN", "nan", "inf", "-inf", "1e400"];
+
+/// Every flag that takes real numbers (`f64`, or `[f64; 3]` for R,G,B),
+/// hidden ones included, with its command.
+fn real_flags(commands: &[(String, clap::Command)]) -> Vec<(String, clap::Command, clap::Arg)> {
+    use std::any::TypeId;
+    let mut out = Vec::new();
+    for (path, c) in commands {
+        for a in c.get_arguments() {
+            let t = a.get_value_parser().type_id();
+            if t == TypeId::of::<f64>() || t == TypeId::of::<[f64; 3]>() {
+                out.push((path.clone(), c.clone(), a.clone()));
+            }
+        }
+    }
+    out
+}
+
+/// The flags of `commands` whose parser accepts a value of [`NOT_FINITE`].
+fn non_finite_problems(commands: &[(String, clap::Command)]) -> Vec<String> {
+    let mut bad = Vec::new();
+    for (path, c, a) in real_flags(commands) {
+        let rgb = a.get_value_parser().type_id() == std::any::TypeId::of::<[f64; 3]>();
+        for v in NOT_FINITE {
+            let text = if rgb {
+                format!("1,{v},1")
+            } else {
+                v.to_string()
+            };
+            let token = match a.get_long() {
+                Some(l) => format!("--{l}={text}"),
+                None => text.clone(),
+            };
+            // A parse error is the one wanted; a missing or conflicting
+            // flag reported instead means the value itself was accepted.
+            let kind = c
+                .clone()
+                .try_get_matches_from([c.get_name().to_string(), token])
+                .err()
+                .map(|e| e.kind());
+            if kind != Some(clap::error::ErrorKind::ValueValidation) {
+                bad.push(format!("{path} {}: accepts {text}", name(&a)));
+            }
+        }
+    }
+    bad
+}
+
+/// Real-valued flags the walk must find at least (so that a change to how
+/// it recognises them cannot make the check below vacuous): the count when
+/// the check was written (46), less a margin for flags later removed.
+const MIN_REAL_FLAGS: usize = 40;
+
+#[test]
+fn real_flags_refuse_values_that_are_not_finite() {
+    let cmds = commands();
+    let n = real_flags(&cmds).len();
+    assert!(n >= MIN_REAL_FLAGS, "only {n} real-valued flags found");
+    assert_none("non-finite values accepted", non_finite_problems(&cmds));
+}

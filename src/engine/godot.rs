@@ -62,6 +62,7 @@ use super::{color, number, table, triple, EngineFit, Scene, Units};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams};
 use crate::kernel::taps;
+use crate::numerics::Bounded;
 use crate::profile::Profile;
 use serde_json::{json, Map, Value};
 
@@ -434,11 +435,11 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
                 ..k
             };
             let (_, e) = sep::rendered(&moved.separable()?, profile, "godot")?;
-            let pct = |v: [f64; 3]| v.map(|x| format!("{:.1}%", 100.0 * x)).join(", ");
+            let pct = |v: [f64; 3]| v.map(|x| format!("{:.1}%", Bounded(100.0 * x))).join(", ");
             warnings.push(format!(
                 "the inspector rounds `subsurf_scatter_strength` to {typed:.2} ({:+.1}% width; \
                  shape error there {}): a script keeps it exact",
-                100.0 * (typed / strength - 1.0),
+                Bounded(100.0 * (typed / strength - 1.0)),
                 pct(e.shape)
             ));
         }

@@ -33,6 +33,7 @@ use super::{
     text, triple, typed, Printed, Scene, Version,
 };
 use crate::error::{Error, Result};
+use crate::numerics::Bounded;
 use serde_json::{json, Map, Value};
 
 pub const VERSIONS: [Version; 1] = [Version {
@@ -78,7 +79,7 @@ pub fn params(b: &Burley, scene: Scene, _v: Version) -> Printed {
             warnings.push(format!(
                 "Scattering Color: typed as the hex {hex} (8 bits) instead of the numbers, d \
                  moves by up to {:.1}%",
-                100.0 * worst
+                Bounded(100.0 * worst)
             ));
         }
     }

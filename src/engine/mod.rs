@@ -25,6 +25,7 @@ pub mod jimenez;
 pub mod unreal;
 
 use crate::error::{Error, Result};
+use crate::numerics::Bounded;
 use crate::profile::metrics::{channel_error, same_grid};
 use crate::profile::{Profile, RadialGrid};
 use serde::Serialize;
@@ -262,7 +263,7 @@ fn fit_burley(engine: Engine, v: Version, profile: &Profile, scene: Scene) -> Re
                  fitted for it (total error {:+.1}%)",
                 ["r", "g", "b"][c],
                 profile.total_rd[c],
-                100.0 * error.total[c]
+                Bounded(100.0 * error.total[c])
             ));
         }
     }

@@ -53,7 +53,47 @@ fn profile_context(profile: &Profile) -> String {
 /// about 384 MB of f64.
 pub const MAX_SIZE: usize = 4001;
 
+/// Largest share of each channel's light the centre cell of a kernel to
+/// fit may hold. Above it in every channel the kernel moves less than 1% of
+/// the light off the pixel: any separable fit matches it and reports an
+/// error near zero that says nothing about the profile (a grid one cell
+/// wide, or an extent so large that the profile fits inside one cell).
+pub const MAX_CENTRE_SHARE: f64 = 0.99;
+
 impl Kernel2D {
+    /// Refuses a grid that does not resolve its profile (see
+    /// [`MAX_CENTRE_SHARE`]), before a fit measures itself against it.
+    pub fn check_resolves(&self) -> Result<()> {
+        let centre = self.half() * self.size + self.half();
+        let share = self
+            .data
+            .iter()
+            .map(|d| d[centre])
+            .fold(f64::INFINITY, f64::min);
+        if self.size < 3 || !(share <= MAX_CENTRE_SHARE) {
+            return Err(Error::invalid(
+                "kernel",
+                if self.size < 3 { "size" } else { "extent_mm" },
+                if self.size < 3 {
+                    self.size.to_string()
+                } else {
+                    format!("{}", crate::numerics::Bounded(self.extent_mm()))
+                },
+                format!(
+                    "a grid of {} cell(s) of {} mm puts {:.1}% of the light in its centre cell \
+                     in every channel (at most {:.0}%): it does not resolve the profile, and a \
+                     fit to it would claim no error; use at least 3 cells and an extent near \
+                     the profile's (the default)",
+                    self.size,
+                    crate::numerics::Bounded(self.cell_mm),
+                    crate::numerics::Bounded(100.0 * share.min(1.0)),
+                    100.0 * MAX_CENTRE_SHARE
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     pub fn half(&self) -> usize {
         self.size / 2
     }
@@ -406,5 +446,24 @@ mod tests {
         }
         assert!(Kernel2D::pixel_averaged(&p, 4, 0.1).is_err());
         assert!(Kernel2D::pixel_averaged(&p, 5, 0.0).is_err());
+    }
+
+    /// A grid that holds its profile in one cell is refused for a fit; the
+    /// default grid and a coarse but real one are not.
+    #[test]
+    fn a_grid_that_does_not_resolve_its_profile_is_refused() {
+        let p = dipole(0.01, 20.0);
+        let k = |size: Option<usize>, extent_mm: Option<f64>| {
+            Kernel2D::from_profile(&p, &Kernel2DSpec { size, extent_mm }).unwrap()
+        };
+        let e = k(Some(1), None).check_resolves().unwrap_err().to_string();
+        assert!(e.contains("invalid size = 1"), "{e}");
+        let e = k(None, Some(1.8e19))
+            .check_resolves()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("extent_mm") && e.len() < 400, "{e}");
+        k(None, None).check_resolves().unwrap();
+        k(Some(3), None).check_resolves().unwrap();
     }
 }

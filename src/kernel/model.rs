@@ -136,6 +136,7 @@ pub fn fit_kernel_file_with(
 ) -> Result<KernelFile> {
     let t0 = Instant::now();
     let k = Kernel2D::from_profile(profile, spec)?;
+    k.check_resolves()?;
     let build = t0.elapsed().as_secs_f64();
     let fitted = fit_model(&k, profile, model)?;
     let mut file = assemble_with(profile, &k, model, fitted, tap_count, tap_extent_mm)?;

@@ -7,6 +7,7 @@
 
 use crate::error::Result;
 use crate::material::{Channel, Material};
+use crate::numerics::Bounded;
 use crate::profile::analytic::{self, Model as AnalyticModel};
 use crate::profile::fresnel::FresnelMode;
 use crate::profile::mc::{self, McConfig, McOptions, PhotonBudget};
@@ -89,7 +90,7 @@ impl ProfileSource {
                 | PhotonBudget::KernelFactor { rel, max_photons } => format!(
                     "Monte Carlo to {:.1}% relative standard error (at most {max_photons} \
                      photons per channel, seed {seed})",
-                    100.0 * rel
+                    Bounded(100.0 * rel)
                 ),
             },
             ProfileSource::Analytic { model, fresnel } => match fresnel {

@@ -38,6 +38,7 @@ mod check;
 mod light;
 mod obj;
 mod object;
+mod overlap;
 
 use super::beam::SPHERE_MAX_ETA;
 use super::{Light, Object, Scene, Shape, Unit};
@@ -112,6 +113,7 @@ pub fn parse_scene_toml(text: &str, context: &str, dir: &Path) -> Result<Scene> 
         .enumerate()
         .map(|(i, o)| parse_object(&ck, i, o, unit, dir))
         .collect::<Result<Vec<_>>>()?;
+    overlap::check_disjoint(&ck, &objects)?;
     if lights
         .iter()
         .any(|l| matches!(l, Light::Directional { .. }))

@@ -185,6 +185,50 @@ impl Mesh {
         self.tris.len()
     }
 
+    /// One vertex of the surface (a point on it, for containment tests).
+    pub fn vertex(&self) -> V3 {
+        self.tris[0][0]
+    }
+
+    /// Whether `f` holds for a triangle whose box meets the box (lo, hi):
+    /// the hierarchy prunes the others, so a query near a small part of a
+    /// large mesh visits few triangles.
+    pub fn any_near(&self, lo: V3, hi: V3, mut f: impl FnMut(&[V3; 3]) -> bool) -> bool {
+        let meets = |b: &(V3, V3)| (0..3).all(|i| b.0[i] <= hi[i] && lo[i] <= b.1[i]);
+        if self.nodes.is_empty() || !meets(&(self.min, self.max)) {
+            return false;
+        }
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            match &self.nodes[i] {
+                Node::Leaf(k) => {
+                    if f(&self.tris[*k]) {
+                        return true;
+                    }
+                }
+                Node::Inner {
+                    left,
+                    left_box,
+                    right,
+                    right_box,
+                } => {
+                    if meets(left_box) {
+                        stack.push(*left);
+                    }
+                    if meets(right_box) {
+                        stack.push(*right);
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Every triangle, in order.
+    pub fn tris(&self) -> &[[V3; 3]] {
+        &self.tris
+    }
+
     /// Whether `p` is inside: the parity of the crossings along one ray.
     pub fn contains(&self, p: V3) -> bool {
         let ray = Ray {

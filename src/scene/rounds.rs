@@ -205,10 +205,13 @@ impl Rounds {
                         self.active[c] = false;
                         continue;
                     }
+                    if first {
+                        self.check_projected_work(c, self.target_spp(c))?;
+                    }
                 }
                 None => {
                     if first && self.spp[c] < self.max_spp {
-                        self.check_projected_work(c)?;
+                        self.check_projected_work(c, self.max_spp)?;
                     }
                     if self.spp[c] >= self.max_spp {
                         self.active[c] = false;
@@ -224,19 +227,42 @@ impl Rounds {
         Ok(())
     }
 
-    /// The events of a fixed budget, projected from its first round, within
-    /// the work cap.
-    fn check_projected_work(&self, c: usize) -> Result<()> {
-        let (spp, events, max_spp) = (self.spp[c], self.events[c], self.max_spp);
-        let projected = events as f64 / spp as f64 * max_spp as f64;
+    /// The samples per pixel a target-error budget will run channel `c`
+    /// to, from its first round: noise ~ N^-1/2 (the law `round_len`
+    /// follows) reaches `rel` at N = n (noise / rel)^2, or stops at the cap.
+    fn target_spp(&self, c: usize) -> u64 {
+        let needed = self.spp[c] as f64 * self.ratio[c] * self.ratio[c];
+        // `as` saturates an infinite or huge projection at u64::MAX.
+        (needed.ceil() as u64).min(self.max_spp)
+    }
+
+    /// The events of `spp` samples per pixel (a fixed budget's, or what a
+    /// target error needs), projected from channel `c`'s first round,
+    /// within the work cap: work the cap would stop is refused after one
+    /// round, not run until the cap.
+    fn check_projected_work(&self, c: usize, spp_to: u64) -> Result<()> {
+        let (spp, events) = (self.spp[c], self.events[c]);
+        let projected = events as f64 / spp as f64 * spp_to as f64;
         if projected > self.max_work as f64 {
+            let (field, value, why) = match self.target {
+                None => ("spp", spp_to.to_string(), String::new()),
+                Some(rel) => (
+                    "target_error",
+                    rel.to_string(),
+                    format!(
+                        " (noise {:.2e} after them: the target needs about {spp_to} samples \
+                         per pixel, at most `max_spp`)",
+                        self.noise[c]
+                    ),
+                ),
+            };
             return Err(Error::invalid(
                 CONTEXT,
-                "spp",
-                max_spp,
+                field,
+                value,
                 format!(
-                    "channel {}: the first {spp} samples per pixel took {events} events: \
-                     {max_spp} would take about {projected:.2e}, above the work \
+                    "channel {}: the first {spp} samples per pixel took {events} events{why}: \
+                     {spp_to} would take about {projected:.2e}, above the work \
                      cap of {} events per channel (`max_work`)",
                     Channel::ALL[c].name(),
                     self.max_work
@@ -337,5 +363,39 @@ mod tests {
         assert_eq!(round_len(100, 3.0, 1000), 100);
         assert_eq!(round_len(100, 0.5, 1000), 1);
         assert_eq!(round_len(100, f64::INFINITY, 30), 30);
+    }
+
+    /// A target error the work cap would stop is refused after the first
+    /// round, as a fixed budget is; one the cap allows goes on.
+    #[test]
+    fn a_target_beyond_the_work_cap_is_refused_after_one_round() {
+        // Two pixels, samples alternating 0 and 2: mean 1, standard error
+        // of the mean about 0.26 after the 16 samples of the first round;
+        // two events per sample and pixel.
+        let run = |rel: f64| {
+            let budget = SampleBudget::TargetError {
+                rel,
+                max_spp: 1_000_000_000_000,
+            };
+            let mut rounds = Rounds::new(2, budget, 1_000_000_000);
+            let lens = rounds.next_lens();
+            let n = lens[0];
+            let (s, s2) = (n as f64, 2.0 * n as f64);
+            let parts = (0..3)
+                .map(|c| TileRound {
+                    c,
+                    origin: (0, 0),
+                    values: vec![(s, s2); 2],
+                    events: 4 * n,
+                    lost: 0,
+                })
+                .collect();
+            rounds.add(parts, (2, 1));
+            rounds.close(lens, &[1.0, 1.0])
+        };
+        let e = run(1e-9).unwrap_err().to_string();
+        assert!(e.contains("target_error") && e.contains("max_work"), "{e}");
+        // 0.1 needs about 16 x 2.6^2 = 110 samples: far below the cap.
+        assert!(run(0.1).is_ok());
     }
 }

@@ -24,7 +24,7 @@ pub use deprecated::{deprecated_spellings, running_command};
 pub use settings::{alias, default, default_enum, help, long_help_opens_with_help, required};
 pub use values::{
     channel_item, count, count_text, counts_text, flag_value, image_size, name_item, rank_item,
-    rgb, rgb_text, signal_size, taps, value_or,
+    real, rgb, rgb_text, signal_size, taps, value_or,
 };
 
 use clap::builder::PossibleValue;
@@ -221,7 +221,7 @@ impl ChannelsArg {
 #[derive(clap::Args)]
 pub struct GridArgs {
     /// Radial bin width in mm [default: min MFP / 20, Freude 2014, table 6.1].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = real)]
     pub dr: Option<f64>,
     /// Largest radius of the grid in mm [default: from the material].
     ///
@@ -229,7 +229,7 @@ pub struct GridArgs {
     /// table 6.1) and the radius where the exponential tail falls to 1e-5,
     /// ln(1e5) / min(sigma_tr, sigma_t), at most 2000 times the largest
     /// MFP.
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = real)]
     pub rmax: Option<f64>,
 }
 
@@ -252,7 +252,7 @@ pub struct McErrorArg {
     /// and of the profile (the R_d-weighted mean relative error of the
     /// bins inside the radius holding 99% of R_d) are below E in every
     /// channel, or until --max-photons.
-    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    #[arg(long, value_name = "E", allow_hyphen_values = true, value_parser = real)]
     pub mc_error: Option<f64>,
 }
 
@@ -314,7 +314,7 @@ pub fn profile_source(model: ProfileModel) -> impl FnMut(clap::Arg) -> clap::Arg
 #[derive(clap::Args)]
 pub struct MmPerPixelArg {
     /// Scale: surface millimetres per pixel.
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = real)]
     pub mm_per_pixel: Option<f64>,
 }
 
@@ -329,7 +329,7 @@ impl MmPerPixelArg {
 #[derive(clap::Args)]
 pub struct FovYArg {
     /// Vertical field of view in degrees (perspective scale, Freude 2014, eq. 4.11).
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true, value_parser = real)]
     pub fov_y: Option<f64>,
 }
 
@@ -338,6 +338,7 @@ pub struct FovYArg {
 pub struct UnitsPerMmArg {
     /// Scene units per millimetre (0.001: a scene in metres; Jimenez's sssWidth).
     #[arg(
+        value_parser = real,
         long,
         value_name = "UNITS",
         allow_negative_numbers = true,
@@ -370,6 +371,7 @@ pub struct ImageErrorArg {
     /// Relative RMS as `ssskit diff` reports it (per channel, divided by
     /// the exact image's peak), the largest over channels and test signals.
     #[arg(
+        value_parser = real,
         long,
         value_name = "E",
         allow_negative_numbers = true,
@@ -487,7 +489,7 @@ pub struct TapsArg {
 #[derive(clap::Args)]
 pub struct ExtentArg {
     /// Half-width of the kernel in mm [default: the radius holding 99.9% of R_d].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = real)]
     pub extent: Option<f64>,
 }
 

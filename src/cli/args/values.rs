@@ -53,11 +53,25 @@ pub fn image_size(s: &str) -> Result<(usize, usize), String> {
     Ok((count(w).map_err(|_| bad())?, count(h).map_err(|_| bad())?))
 }
 
+/// A real number: finite, as every real-valued flag takes (Rust reads
+/// "NaN", "inf" and "1e400" as `f64`s; none of them is a quantity, and a
+/// NaN passes every `<` check the library makes after it).
+pub fn real(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| "expected a number, e.g. 0.5 or 1e-3".to_string())?;
+    if !v.is_finite() {
+        return Err("must be a finite number".into());
+    }
+    Ok(v)
+}
+
 /// "R,G,B": three numbers, one per channel.
 pub fn rgb(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = s
         .split(',')
-        .map(|t| t.trim().parse::<f64>())
+        .map(real)
         .collect::<Result<_, _>>()
         .map_err(|e| format!("not three numbers R,G,B ({e})"))?;
     match v.as_slice() {

@@ -3,6 +3,7 @@
 //! warnings.
 
 use super::*;
+use crate::numerics::Bounded;
 
 pub(super) fn build_profile(
     material: &Material,
@@ -235,13 +236,15 @@ pub(super) fn channel_warnings(
     if total > 0.0 && beyond > 1e-3 * total {
         w.push(format!(
             "channel {c}: {:.2}% of R_d left beyond r_max (counted in total_rd, not in the profile)",
-            100.0 * beyond / total
+            Bounded(100.0 * beyond / total)
         ));
     }
     if total == 0.0 {
         w.push(format!(
             "channel {c}: no diffuse reflectance (no scattering or nothing comes back)"
         ));
+    } else if let Some(text) = noise_warning(t, &run.status) {
+        w.push(format!("channel {c}: {text}"));
     }
     if total > 1.0 {
         // Unbiased but useless: reflectance is at most the incident light.
@@ -277,6 +280,39 @@ pub(super) fn channel_warnings(
         ));
     }
     w
+}
+
+/// Largest relative standard error of a channel's total R_d that a
+/// profile reports without a warning. A profile scales every kernel and
+/// image made from it by its total R_d; an error above 10% is a visible
+/// change of brightness and hue (twenty times the default target of the
+/// kernel-factor rule, `DEFAULT_KERNEL_ERROR`, 0.5%), so such a profile is
+/// noise rather than a measurement.
+pub const NOISY_REL_TOTAL: f64 = 0.1;
+
+/// Photons below which a total's standard error cannot be estimated: the
+/// sample variance needs two.
+const MIN_PHOTONS_FOR_ERROR: u64 = 2;
+
+/// A channel whose total R_d is too noisy to mean anything (or whose noise
+/// is unknown), whatever the budget that asked for so few photons.
+fn noise_warning(t: &ChunkTally, s: &Status) -> Option<String> {
+    if t.photons < MIN_PHOTONS_FOR_ERROR {
+        return Some(format!(
+            "{} photon(s) give no estimate of the noise: the total R_d is one packet's \
+             weight, not a measurement; trace more photons",
+            t.photons
+        ));
+    }
+    (!(s.rel_total <= NOISY_REL_TOTAL)).then(|| {
+        format!(
+            "total R_d has a relative standard error of {:.1}% with {} photons, above \
+             {:.0}%: the profile is noise; trace more photons",
+            Bounded(100.0 * s.rel_total),
+            t.photons,
+            Bounded(100.0 * NOISY_REL_TOTAL)
+        )
+    })
 }
 
 /// A fixed run that the work cap stopped short of its photons.

@@ -464,4 +464,34 @@ mod tests {
             assert!(e.contains("radial grid"), "{e}");
         }
     }
+
+    #[test]
+    fn too_few_photons_carry_a_noise_warning() {
+        let m = crate::material::preset("skin1").unwrap();
+        let noise = |photons: u64| -> Vec<String> {
+            let cfg = McConfig {
+                budget: PhotonBudget::Fixed(photons),
+                seed: 1,
+                threads: None,
+                channels: vec![Channel::R],
+                grid: None,
+            };
+            let p = simulate(&m, &cfg, &NoProgress).unwrap();
+            let w = p.warnings().unwrap();
+            w.into_iter()
+                .filter(|w| w.contains("photon") && w.contains("noise"))
+                .collect()
+        };
+        // One photon: no variance, so no error estimate at all.
+        let one = noise(1);
+        assert!(one.len() == 1 && one[0].contains("no estimate"), "{one:?}");
+        // Sixteen: the estimated error is well above the 10% line.
+        let few = noise(16);
+        assert!(
+            few.len() == 1 && few[0].contains("relative standard error"),
+            "{few:?}"
+        );
+        // A real run is quiet.
+        assert!(noise(2 * CHUNK).is_empty());
+    }
 }

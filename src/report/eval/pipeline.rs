@@ -13,6 +13,7 @@ use crate::io::{file_stem, join_inside};
 use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::emit::{emit, Lang};
 use crate::kernel::KernelFile;
+use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::Progress;
 use crate::report::kernel_report::{self, ReportContext};
@@ -301,11 +302,11 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         s,
         "  worst case {:.2}% +- {:.2}% on {}, deciding signal {}; target {:.1}% {} within the \
          budget ({})",
-        100.0 * c.verdict.rel_rms,
-        100.0 * c.verdict.rel_rms_sigma,
+        Bounded(100.0 * c.verdict.rel_rms),
+        Bounded(100.0 * c.verdict.rel_rms_sigma),
         c.verdict.worst_signal,
         c.verdict.deciding_signal,
-        100.0 * a.target,
+        Bounded(100.0 * a.target),
         if a.meets_target { "met" } else { "NOT met" },
         a.budget.describe()
     );
@@ -316,7 +317,7 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         let _ = writeln!(
             s,
             "  {sig:<11} {:.2}% relative RMS (largest channel), FLIP {:.4}",
-            100.0 * rel(e),
+            Bounded(100.0 * rel(e)),
             e.flip_rgb
         );
     }
@@ -345,8 +346,8 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
             "  {:<18} {:>6} {:>8.2}% {:>8.2}% {:>8.3}",
             f.spec.label,
             f.kernel.metrics.passes,
-            100.0 * e(0),
-            100.0 * e(1),
+            Bounded(100.0 * e(0)),
+            Bounded(100.0 * e(1)),
             f.kernel.metrics.fit_seconds
         );
     }

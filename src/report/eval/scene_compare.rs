@@ -51,6 +51,7 @@ use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which};
 use crate::kernel::angular::AngularFactors;
+use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::Progress;
 use crate::scene::{Projection, Render, Scene};
@@ -513,10 +514,10 @@ impl Dominance {
              image, where its flat-plane error at {:.3} mm per pixel is {:.2}%; the exact flat \
              kernel: {:.2}%. {}",
             self.best_label,
-            100.0 * self.best_scene_rms,
+            Bounded(100.0 * self.best_scene_rms),
             self.mm_per_pixel,
-            100.0 * self.best_flat_rms,
-            100.0 * self.exact_scene_rms,
+            Bounded(100.0 * self.best_flat_rms),
+            Bounded(100.0 * self.exact_scene_rms),
             if self.best_scene_rms > self.best_flat_rms {
                 format!(
                     "The screen-space model's own error dominates, {:.1} times the kernel's.",
@@ -529,7 +530,7 @@ impl Dominance {
             (Some(l), Some(a)) => format!(
                 " With the angular entry and exit factors around the pass: {l} at {:.2}%, {:.2} \
                  times less than the best without.",
-                100.0 * a,
+                Bounded(100.0 * a),
                 self.best_scene_rms / a.max(1e-12)
             ),
             _ => String::new(),

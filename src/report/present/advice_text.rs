@@ -5,6 +5,7 @@
 
 use super::number::sig;
 use crate::kernel::taps::hold_for_taps;
+use crate::numerics::Bounded;
 use crate::report::eval::advise::{
     Advice, Candidate, ExtentRule, Remedy, FULL_MAX_PIXELS, NOISE_K,
 };
@@ -15,7 +16,7 @@ use crate::report::eval::advise_disk::{disk_text, DISK_SAMPLES};
 pub fn extent_rule_text(taps: usize) -> String {
     format!(
         "radius holding {:.2}% of the factor's mass (1 - 0.7 N^-1.2 at N = {taps})",
-        100.0 * hold_for_taps(taps)
+        Bounded(100.0 * hold_for_taps(taps))
     )
 }
 
@@ -42,8 +43,8 @@ pub fn cost_text(c: &Candidate) -> String {
 fn worst_text(c: &Candidate) -> String {
     format!(
         "{:.3}% +- {:.3}% on {}",
-        100.0 * c.verdict.rel_rms,
-        100.0 * c.verdict.rel_rms_sigma,
+        Bounded(100.0 * c.verdict.rel_rms),
+        Bounded(100.0 * c.verdict.rel_rms_sigma),
         c.verdict.worst_signal
     )
 }
@@ -60,8 +61,8 @@ fn why(b: &Candidate, chosen: &Candidate, a: &Advice) -> String {
     let miss = format!(
         "misses on {}: {:.3}% - {NOISE_K} sd > {:.2}%",
         v.deciding_signal,
-        100.0 * v.per_signal[&v.deciding_signal],
-        100.0 * a.target
+        Bounded(100.0 * v.per_signal[&v.deciding_signal]),
+        Bounded(100.0 * a.target)
     );
     if a.meets_target {
         miss
@@ -87,7 +88,7 @@ pub fn explain(a: &Advice) -> String {
         sig(a.mm_per_pixel),
         a.kernel_radius_mm,
         a.kernel_radius_mm / a.mm_per_pixel,
-        100.0 * a.target
+        Bounded(100.0 * a.target)
     );
     let _ = writeln!(
         s,
@@ -139,9 +140,9 @@ pub fn explain(a: &Advice) -> String {
         let _ = writeln!(
             s,
             "  predicted on {sig}: relative RMS {:.3}% / {:.3}% / {:.3}% (r/g/b), FLIP {:.4}",
-            100.0 * e.rel_rms[0],
-            100.0 * e.rel_rms[1],
-            100.0 * e.rel_rms[2],
+            Bounded(100.0 * e.rel_rms[0]),
+            Bounded(100.0 * e.rel_rms[1]),
+            Bounded(100.0 * e.rel_rms[2]),
             e.flip_rgb
         );
     }
@@ -187,7 +188,7 @@ pub fn explain(a: &Advice) -> String {
 pub fn remedy_text(r: &Remedy) -> String {
     let target = format!(
         "it meets a target of {:.2}% or looser",
-        100.0 * r.target_met_by_best
+        Bounded(100.0 * r.target_met_by_best)
     );
     match (&r.outside_budget, r.searched_outside) {
         (Some(o), _) => format!(
@@ -245,8 +246,8 @@ fn table(s: &mut String, a: &Advice, c: &Candidate) {
             " {:>16}  {}",
             format!(
                 "{:.3} +- {:.3}",
-                100.0 * b.verdict.rel_rms,
-                100.0 * b.verdict.rel_rms_sigma
+                Bounded(100.0 * b.verdict.rel_rms),
+                Bounded(100.0 * b.verdict.rel_rms_sigma)
             ),
             why(b, c, a)
         );
@@ -292,9 +293,9 @@ pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
          docs/scene.md) the best kernel through the screen-space pass misses by {:.1}% RMS of \
          the peak and the exact flat kernel by {:.1}%, against this choice's {:.2}% at {} mm per \
          pixel: {}",
-        100.0 * best,
-        100.0 * exact,
-        100.0 * kernel_rms,
+        Bounded(100.0 * best),
+        Bounded(100.0 * exact),
+        Bounded(100.0 * kernel_rms),
         sig(mm_per_pixel),
         if best > kernel_rms {
             format!(

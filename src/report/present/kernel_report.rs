@@ -12,6 +12,7 @@
 
 pub use super::number::sig;
 use super::table::Table;
+use crate::numerics::Bounded;
 pub use crate::report::eval::claims::{claims, factor_distance, Claim, RANK1};
 use crate::report::kernel_compare::{gaussians_rms, grouped, image_rms, Comparison, Factor, Row};
 use std::fmt::Write as _;
@@ -235,7 +236,7 @@ pub fn engine_table(cmp: &Comparison) -> Table {
     ]);
     let pct3 = |v: [f64; 3]| {
         v.iter()
-            .map(|x| format!("{:.1}%", 100.0 * x))
+            .map(|x| format!("{:.1}%", Bounded(100.0 * x)))
             .collect::<Vec<_>>()
             .join(", ")
     };
@@ -283,7 +284,7 @@ pub fn burley_engine_table(cmp: &Comparison) -> Table {
                     f.error
                         .shape
                         .iter()
-                        .map(|x| format!("{:.1}%", 100.0 * x))
+                        .map(|x| format!("{:.1}%", Bounded(100.0 * x)))
                         .collect::<Vec<_>>()
                         .join(", ")
                 },

@@ -1,5 +1,6 @@
 //! Number formatting of the reports: significant digits, percentages,
 //! durations. One definition per format, shared by every table.
+use crate::numerics::Bounded;
 
 /// Three significant digits, plain or in exponent form.
 pub fn sig(v: f64) -> String {
@@ -20,8 +21,8 @@ pub fn sig(v: f64) -> String {
 fn percent(x: f64, signed: bool) -> String {
     match (x.is_finite(), signed) {
         (false, _) => "inf".into(),
-        (true, true) => format!("{:+.1}%", 100.0 * x),
-        (true, false) => format!("{:.1}%", 100.0 * x),
+        (true, true) => format!("{:+.1}%", Bounded(100.0 * x)),
+        (true, false) => format!("{:.1}%", Bounded(100.0 * x)),
     }
 }
 
