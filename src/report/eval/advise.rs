@@ -420,7 +420,7 @@ fn scene_check(
             let c = &candidates[i];
             let pass = if c.disk.is_some() {
                 ScenePass::Disk {
-                    kernel: disk_kernel(search.profile, c.cost)?,
+                    kernel: Box::new(disk_kernel(search.profile, c.cost)?),
                     frames: search.cfg.frames,
                 }
             } else {

@@ -180,7 +180,10 @@ pub struct SceneCandidate {
 /// (from the advice's own rotation seed, [`DISK_SEED`]).
 pub enum ScenePass {
     Separable(Vec<Taps>),
-    Disk { kernel: DiskKernelFile, frames: u32 },
+    Disk {
+        kernel: Box<DiskKernelFile>,
+        frames: u32,
+    },
 }
 
 /// Photons per channel and incidence of the factors' run when the profile
