@@ -73,7 +73,7 @@ pub struct Args {
     json: JsonArg,
     #[command(flatten)]
     out: OutFile,
-    /// A path-traced scene (TOML) to check the advice on [default: none].
+    /// A path-traced scene (TOML) to score kernels on [default: none].
     ///
     /// Each model's answer within the budget and the chosen one run
     /// through the screen-space pass on the scene's G-buffer (scaled by

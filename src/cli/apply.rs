@@ -162,8 +162,10 @@ pub struct Args {
     /// under a uniform scale).
     #[arg(long)]
     full_factors: bool,
-    /// The tap table, the default since the tap table is what an engine
-    /// runs; kept so that older scripts still run.
+    /// Deprecated: use --full-factors to leave the tap table (the default now).
+    ///
+    /// The tap table is what an engine runs; the flag is kept so that older
+    /// scripts still run.
     #[arg(long, hide = true, conflicts_with = "full_factors")]
     taps_only: bool,
     /// Jitter each tap per pixel inside the interval it stands for.

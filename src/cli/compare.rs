@@ -90,7 +90,7 @@ pub struct Args {
     no_plots: NoPlotsArg,
     #[command(flatten)]
     out_dir: OutDir,
-    /// A path-traced scene (TOML) to score every kernel model on [default: none].
+    /// A path-traced scene (TOML) to score kernels on [default: none].
     ///
     /// Every kernel model through the screen-space pass on the scene's
     /// G-buffer, against the path-traced image (with --render; the profile

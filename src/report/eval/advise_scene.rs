@@ -200,17 +200,22 @@ fn factors_for(scene: &Scene, profile: &Profile) -> Result<(Option<AngularFactor
     if let Some(f) = AngularFactors::from_profile(profile)? {
         return Ok((Some(f), "the profile's own".into()));
     }
-    let f = simulate_factors(
+    // A run the Monte Carlo refuses (a material whose radial grid is too
+    // fine for the angle-resolved tables) leaves the scene check without
+    // the factors, said in the output, rather than without an answer.
+    match simulate_factors(
         &profile.material,
         ANGULAR_PHOTONS,
         MC_SEED,
         None,
         &crate::progress::NoProgress,
-    )?;
-    Ok((
-        Some(f),
-        format!("Monte Carlo, {ANGULAR_PHOTONS} photons per channel and incidence"),
-    ))
+    ) {
+        Ok(f) => Ok((
+            Some(f),
+            format!("Monte Carlo, {ANGULAR_PHOTONS} photons per channel and incidence"),
+        )),
+        Err(e) => Ok((None, format!("their Monte Carlo run was refused: {e}"))),
+    }
 }
 
 /// Which object each pixel's centre ray meets first (None: nothing).
