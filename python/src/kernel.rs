@@ -311,15 +311,9 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
     })
 }
 
-/// The separable models `fit` knows (those of `ssskit fit --model`).
-const MODELS: [&str; 6] = [
-    "svd",
-    "preintegrate",
-    "guided",
-    "manual",
-    "gaussians",
-    "jimenez",
-];
+/// The separable models `fit` knows (those of `ssskit fit --model`): the
+/// comparison's families, from the library.
+const MODELS: [&str; 6] = ssskit::report::kernel_compare::FAMILIES;
 
 /// Fits a separable kernel to a profile (`ssskit fit`).
 ///
