@@ -33,7 +33,7 @@ const RENDER_ERROR: &str = "0.05";
 const PROFILE_PHOTONS: &str = "200000";
 /// The f32 EXR files against the f64 scores inside `advise`: relative.
 const F32_AGREEMENT: f64 = 1e-5;
-/// advise's default `--frames` (`advise_disk::DEFAULT_FRAMES`): a chosen
+/// advise's default `--frames` (`advise_types::DEFAULT_FRAMES`): a chosen
 /// disk kernel is scored as the mean of that many rotations.
 const DISK_FRAMES: &str = "8";
 /// The decision's noise margin, in standard deviations (`NOISE_K`).

@@ -65,7 +65,7 @@ pub struct Args {
     /// of the mean of K frames, relative to the exact image's peak.
     /// Separable kernels are the same every frame.
     #[arg(long, value_name = "N", value_parser = count::<u32>,
-          default_value_t = ssskit::report::advise_disk::DEFAULT_FRAMES)]
+          default_value_t = ssskit::report::eval::advise_types::DEFAULT_FRAMES)]
     frames: u32,
     #[command(flatten)]
     models: ModelsArg,

@@ -34,7 +34,7 @@
 use super::advise_decide::{Verdict, NOISE_K};
 use super::advise_noise::{std_dev, Reference};
 use super::advise_search::Search;
-use super::advise_types::Candidate;
+use super::advise_types::{Candidate, DiskScore, DiskScores};
 use super::evaluate::{self, ImageErrors};
 use crate::error::{Error, Result};
 use crate::filter::disk::{apply_disk, DiskSetup};
@@ -43,7 +43,6 @@ use crate::filter::{diff, Image};
 use crate::kernel::disk::{fit_disk, DiskKernelFile, RadiusPdf};
 use crate::profile::radius::DEFAULT_HOLD;
 use crate::profile::Profile;
-use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::collections::BTreeMap;
 
@@ -52,11 +51,6 @@ use std::collections::BTreeMap;
 /// pass takes per pixel (more costs more than the 2 x 33 of the widest
 /// separable table).
 pub const DISK_SAMPLES: [usize; 5] = [4, 8, 16, 32, 64];
-
-/// Frames a temporal filter accumulates by default: 8, the history over
-/// which a typical temporal anti-aliasing pass has converged to within a
-/// few percent of its limit.
-pub const DEFAULT_FRAMES: u32 = 8;
 
 /// Most frames advise accepts: a temporal filter's history is a few dozen
 /// frames, and each signal costs [`WINDOWS`] x K disk passes to measure.
@@ -76,29 +70,6 @@ pub const DISK: &str = "disk";
 
 /// A score on one test image: (signal, score, standard deviation).
 type Scored = (String, f64, f64);
-
-/// A disk row's bias and noise on one signal, each the largest over the
-/// channels, relative to the exact image's peak.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DiskScore {
-    /// The bias, with the residual noise of the mean (module doc).
-    pub bias: f64,
-    /// One frame.
-    pub noise: f64,
-    /// The mean of `frames` frames.
-    pub noise_after: f64,
-}
-
-/// A disk row's measurements.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DiskScores {
-    /// Frames accumulated (K).
-    pub frames: u32,
-    /// Rotations the bias is the mean over.
-    pub rotations: u32,
-    /// Per signal scored.
-    pub signals: BTreeMap<String, DiskScore>,
-}
 
 /// The disk kernel advise scores with `samples` per pixel.
 pub fn disk_kernel(profile: &Profile, samples: usize) -> Result<DiskKernelFile> {

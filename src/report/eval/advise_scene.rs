@@ -46,6 +46,7 @@ use super::advise_disk::DISK_SEED;
 use super::scene_compare::{angular_obstacle, cosines};
 use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
 use super::scene_compare::{screen_space_disk_pass, screen_space_pass};
+use super::scene_score::percentile99;
 use crate::error::{Error, Result};
 use crate::filter::{angular, Image, Plane, Taps};
 use crate::kernel::angular::{simulate_factors, AngularFactors};
@@ -266,13 +267,6 @@ fn scored_pixels(scene: &Scene, render: &Render, profile: &Profile) -> Result<Ve
     Ok(pixels)
 }
 
-/// The 99th percentile of `v` over `pixels`.
-fn peak(v: &[f64], pixels: &[usize]) -> f64 {
-    let mut x: Vec<f64> = pixels.iter().map(|&i| v[i]).collect();
-    x.sort_by(f64::total_cmp);
-    x[((0.99 * x.len() as f64).ceil() as usize).clamp(1, x.len()) - 1]
-}
-
 /// What each pass is scored against.
 struct Truth<'a> {
     radiance: &'a [Vec<f64>; 3],
@@ -341,7 +335,12 @@ pub fn check_on_scene(
     let truth = Truth {
         radiance: &render.radiance,
         stderr: &render.stderr,
-        peak: std::array::from_fn(|c| peak(&render.radiance[c], &pixels)),
+        // The peak of `compare --scene`'s scores, over the scored pixels.
+        peak: {
+            let mut mask = vec![false; render.radiance[0].len()];
+            pixels.iter().for_each(|&i| mask[i] = true);
+            std::array::from_fn(|c| percentile99(&render.radiance[c], &mask))
+        },
         pixels,
     };
     if truth.peak.iter().any(|&p| !(p > 0.0)) {

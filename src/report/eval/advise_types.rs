@@ -5,12 +5,12 @@
 //! ([`super::advise`]) both read these; this file reads neither.
 
 use super::advise_decide::{Budget, Cost, Verdict};
-use super::advise_disk::{DiskScores, DEFAULT_FRAMES};
 use super::evaluate::Options;
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::Scale;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// Cell widths of the checker signals advise chooses on, pixels.
 pub const CHECKER_PX: [usize; 5] = [2, 3, 4, 6, 8];
@@ -227,3 +227,31 @@ pub const FAMILIES: [&str; 6] = [
     "gaussians",
     "disk",
 ];
+
+/// Frames a temporal filter accumulates by default: 8, the history over
+/// which a typical temporal anti-aliasing pass has converged to within a
+/// few percent of its limit.
+pub const DEFAULT_FRAMES: u32 = 8;
+
+/// A disk row's bias and noise on one signal, each the largest over the
+/// channels, relative to the exact image's peak.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DiskScore {
+    /// The bias, with the residual noise of the mean (module doc).
+    pub bias: f64,
+    /// One frame.
+    pub noise: f64,
+    /// The mean of `frames` frames.
+    pub noise_after: f64,
+}
+
+/// A disk row's measurements.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DiskScores {
+    /// Frames accumulated (K).
+    pub frames: u32,
+    /// Rotations the bias is the mean over.
+    pub rotations: u32,
+    /// Per signal scored.
+    pub signals: BTreeMap<String, DiskScore>,
+}

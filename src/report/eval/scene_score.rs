@@ -90,7 +90,7 @@ pub(super) fn masks_of(cos: &Cosines, coverage: &[f64]) -> Vec<Vec<bool>> {
 }
 
 /// The 99th percentile of `v` over `mask` (0 when empty).
-fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
+pub(super) fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
     let mut x: Vec<f64> = v
         .iter()
         .zip(mask)

@@ -27,7 +27,8 @@
 //! and the colour FLIP, on the edge and shapes signals at one scale
 //! ([`super::evaluate`]); reported as the larger of the two signals.
 
-use super::advise_disk::{disk_kernel, DEFAULT_FRAMES, DISK_SAMPLES, DISK_SEED, WINDOWS};
+use super::advise_disk::{disk_kernel, DISK_SAMPLES, DISK_SEED, WINDOWS};
+use super::advise_types::DEFAULT_FRAMES;
 use super::evaluate::{self, Exact, ImageCase, ImageErrors, Options};
 use super::kernel_compare::{self, Config as CompareConfig, MaterialInput, FAMILIES};
 use super::pipeline::{make_profile_on, ProfileSource};
