@@ -68,8 +68,8 @@ use serde_json::json;
 use std::collections::BTreeMap;
 
 pub use super::advise_types::{
-    Candidate, Config, ExtentRule, Remedy, ViewScale, CHECKER_PX, DEFAULT_TARGET, FAMILIES,
-    FULL_MAX_PIXELS, TAP_COUNTS,
+    Candidate, CoarserScale, Config, ExtentRule, Remedy, ViewScale, CHECKER_PX, COARSER_SCALES,
+    DEFAULT_TARGET, FAMILIES, FULL_MAX_PIXELS, TAP_COUNTS,
 };
 
 /// The answer.
@@ -297,6 +297,32 @@ fn test_cases(cfg: &Config) -> Result<Vec<ImageCase>> {
     Ok(cases)
 }
 
+/// The finest of [`COARSER_SCALES`] at which the search within the budget
+/// meets the target, and its choice there (the remedy "a coarser
+/// --mm-per-pixel"). A scale the filter refuses ends the walk.
+fn coarser_scale(search: &Search) -> Result<Option<CoarserScale>> {
+    let budget = search.cfg.budget;
+    for f in COARSER_SCALES {
+        let cfg = Config {
+            mm_per_pixel: f * search.cfg.mm_per_pixel,
+            ..search.cfg.clone()
+        };
+        if validate(&cfg).is_err() {
+            break;
+        }
+        let refs = Reference::all(search.profile, &test_cases(&cfg)?)?;
+        let at = search.at_scale(&cfg, refs)?;
+        let (c, _) = at.candidates(&|p, t, s| budget.allows(p, t, s), true)?;
+        if let Some(i) = choose(&c).filter(|&i| c[i].verdict.meets) {
+            return Ok(Some(CoarserScale {
+                mm_per_pixel: cfg.mm_per_pixel,
+                candidate: c[i].clone(),
+            }));
+        }
+    }
+    Ok(None)
+}
+
 /// Radius holding 99% of the ground truth's 1D projection, mm.
 fn kernel_radius(truth: &Kernel2D) -> f64 {
     factor_radius_holding(
@@ -352,7 +378,9 @@ pub fn advise_on_scene(
     let remedy = if c.verdict.meets {
         None
     } else {
-        Some(search.remedy(&c)?)
+        let mut r = search.remedy(&c)?;
+        r.coarser = coarser_scale(&search)?;
+        Some(r)
     };
     // Where a disk row wins, the best separable row still gives `kernel`.
     let separable: Vec<Candidate> = candidates

@@ -332,6 +332,38 @@ impl Search<'_> {
         Ok(predicted)
     }
 
+    /// The same search at another scale: its configuration and test
+    /// images, this search's fits (a fit is made on the truth in mm, so it
+    /// does not depend on the scale).
+    pub fn at_scale<'b>(&'b self, cfg: &'b Config, refs: Vec<Reference>) -> Result<Search<'b>> {
+        let fits = self
+            .fits
+            .lock()
+            .map_err(|_| Error::Unsupported("advise: a fit panicked".into()))?
+            .iter()
+            .map(|(k, f)| {
+                (
+                    k.clone(),
+                    Fitted {
+                        factors: f.factors.clone(),
+                        params: f.params.clone(),
+                        extra: f.extra.clone(),
+                        seconds: f.seconds,
+                    },
+                )
+            })
+            .collect();
+        Ok(Search {
+            profile: self.profile,
+            truth: self.truth.clone(),
+            specs: self.specs.clone(),
+            refs,
+            cfg,
+            progress: self.progress,
+            fits: std::sync::Mutex::new(fits),
+        })
+    }
+
     /// Where the best within the budget misses: the target it meets, and
     /// the cheapest outside the budget that meets the target.
     pub fn remedy(&self, best: &Candidate) -> Result<Remedy> {
@@ -347,6 +379,7 @@ impl Search<'_> {
             target_met_by_best: best.verdict.decided_at,
             outside_budget: outside,
             searched_outside,
+            coarser: None,
         })
     }
 }

@@ -214,7 +214,27 @@ pub struct Remedy {
     pub outside_budget: Option<Candidate>,
     /// Whether candidates outside the budget were searched.
     pub searched_outside: bool,
+    /// The finest of the coarser scales tried ([`COARSER_SCALES`]) at
+    /// which a kernel within the budget meets the target, and that kernel
+    /// (None: none of them does).
+    #[serde(default)]
+    pub coarser: Option<CoarserScale>,
 }
+
+/// A scale at which the budget suffices.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CoarserScale {
+    pub mm_per_pixel: f64,
+    pub candidate: Candidate,
+}
+
+/// The coarser scales the remedy tries, as multiples of the one asked. At
+/// a coarser scale the kernel spans fewer pixels, so a tap table of the
+/// same length samples it more densely and a fine checker is averaged more
+/// evenly; the steps reach 4x (an object at four times the distance, or a
+/// quarter of the resolution), and three of them bound the extra work of a
+/// run that misses to three searches with the fits reused.
+pub const COARSER_SCALES: [f64; 3] = [1.5, 2.0, 4.0];
 
 /// The model families advise tries by default: every family of the
 /// comparison but Jimenez's fixed skin model, which is not fitted, and the

@@ -7,7 +7,7 @@ use super::number::sig;
 use crate::kernel::taps::hold_for_taps;
 use crate::numerics::Bounded;
 use crate::report::eval::advise::{
-    Advice, Candidate, ExtentRule, Remedy, FULL_MAX_PIXELS, NOISE_K,
+    Advice, Candidate, ExtentRule, Remedy, COARSER_SCALES, FULL_MAX_PIXELS, NOISE_K,
 };
 use crate::report::eval::advise_decide::tie;
 use crate::report::eval::advise_disk::{disk_text, DISK_SAMPLES};
@@ -190,10 +190,10 @@ pub fn remedy_text(r: &Remedy) -> String {
         "it meets a target of {:.2}% or looser",
         Bounded(100.0 * r.target_met_by_best)
     );
-    match (&r.outside_budget, r.searched_outside) {
+    let budget = match (&r.outside_budget, r.searched_outside) {
         (Some(o), _) => format!(
-            "to meet it: {target}; or a budget of {} passes, {} samples per pixel, {} taps per \
-             pass buys {} ({}, worst case {})",
+            "; or a budget of {} passes, {} samples per pixel, {} taps per pass buys {} ({}, \
+             worst case {})",
             o.passes,
             o.cost,
             o.taps_per_pass,
@@ -201,9 +201,25 @@ pub fn remedy_text(r: &Remedy) -> String {
             cost_text(o),
             worst_text(o)
         ),
-        (None, true) => format!("to meet it: {target}; no kernel outside the budget meets it"),
-        (None, false) => format!("to meet it: {target}"),
-    }
+        (None, true) => "; no kernel outside the budget meets it".to_string(),
+        (None, false) => String::new(),
+    };
+    let scale = match &r.coarser {
+        Some(c) => format!(
+            "; or, within the budget, at --mm-per-pixel {} (the finest of {} times the scale \
+             that meets it): {} ({}, worst case {})",
+            sig(c.mm_per_pixel),
+            COARSER_SCALES.map(|f| f.to_string()).join(", "),
+            c.candidate.describe(),
+            cost_text(&c.candidate),
+            worst_text(&c.candidate)
+        ),
+        None => format!(
+            "; no scale up to {}x coarser meets it within the budget",
+            COARSER_SCALES[COARSER_SCALES.len() - 1]
+        ),
+    };
+    format!("to meet it: {target}{budget}{scale}")
 }
 
 /// The table: per model variant its winner on every signal, cheapest first.
