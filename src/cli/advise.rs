@@ -3,13 +3,12 @@
 
 use super::args::{
     self, count, BudgetArgs, FovYArg, ImageErrorArg, JsonArg, MmPerPixelArg, ModelsArg, OutFile,
-    ProfileModel, ProfileSourceArgs, SignalSizeArg, UnitsPerMmArg,
+    ProfileModel, ProfileSourceArgs, SceneCheckArgs, SignalSizeArg, UnitsPerMmArg,
 };
 use super::out::{out, outln};
 use anyhow::bail;
 use ssskit::report::advise::{self, ViewScale, FAMILIES};
 use ssskit::report::kernel_report::sig;
-use std::path::PathBuf;
 
 /// The perspective scale's own flags (with --fov-y and --units-per-mm).
 #[derive(clap::Args)]
@@ -73,34 +72,13 @@ pub struct Args {
     json: JsonArg,
     #[command(flatten)]
     out: OutFile,
-    /// A path-traced scene (TOML) to score kernels on [default: none].
-    ///
-    /// Each model's answer within the budget and the chosen one run
-    /// through the screen-space pass on the scene's G-buffer (scaled by
-    /// depth, depth-aware) against its path-traced image (--render): the
-    /// chosen kernel's scene error beside the best's, with the uncertainty
-    /// the render's noise gives the difference. The seen object must be of
-    /// the advised material (the same preset, eta included). Without
-    /// --material or --profile the profile is the render's own (its first
-    /// object's); the scale is the scene's unless --mm-per-pixel is given.
-    #[arg(long, value_name = "SCENE.toml", requires = "render")]
-    scene: Option<PathBuf>,
-    /// The scene's render, `ssskit scene SCENE.toml --out IMG.exr` [default: none].
-    #[arg(long, value_name = "IMG.exr", requires = "scene")]
-    render: Option<PathBuf>,
+    #[command(flatten)]
+    scene: SceneCheckArgs,
 }
-
-/// Relative difference between a given scale and the scene's beyond which
-/// the two are refused as different views (1%: well above the rounding of
-/// a scale typed from the scene file).
-const SCALE_AGREEMENT: f64 = 0.01;
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let units_per_mm = a.units_per_mm.units_per_mm;
-    let scene = match (&a.scene, &a.render) {
-        (Some(s), Some(r)) => Some(super::scene::scene_and_render(s, r)?),
-        _ => None,
-    };
+    let scene = super::scene::scene_check(&a.scene)?;
     let scene_mm = scene
         .as_ref()
         .map(|(s, r, _)| ssskit::report::scene_compare::median_mm_per_pixel(s, r));
@@ -121,14 +99,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let mm = view.mm_per_pixel()?;
     if let Some(m) = scene_mm {
-        if (mm - m).abs() > SCALE_AGREEMENT * m {
-            bail!(
-                "--scene: the scene is seen at {} mm per pixel (its median depth), the advice \
-                 asked for {}: drop the scale flags to take the scene's",
-                sig(m),
-                sig(mm)
-            );
-        }
+        super::scene::agrees_with_scene(mm, m)?;
     }
     ssskit::report::advise_disk::check_frames(a.frames)?;
     let target = a.target.fraction()?;

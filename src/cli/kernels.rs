@@ -2,7 +2,8 @@
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
 use super::args::{
-    self, BudgetArgs, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs, TapsArg,
+    self, BudgetArgs, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs, SceneCheckArgs,
+    TapsArg,
 };
 use super::out::out;
 use super::profile_source::command_line;
@@ -14,6 +15,9 @@ use ssskit::report::pipeline::{self, Settings};
     mut_args(args::report())
 )]
 #[command(mut_arg("image_error", args::alias("--target-error")))]
+#[command(mut_arg("mm_per_pixel", |a| a
+    .default_value(None::<&str>)
+    .help("Scale: surface millimetres per pixel [default: 0.1, or the scene's with --scene]")))]
 pub struct Args {
     #[command(flatten)]
     profile: ProfileSourceArgs,
@@ -25,18 +29,40 @@ pub struct Args {
     target: ImageErrorArg,
     #[command(flatten)]
     budget: BudgetArgs,
+    #[command(flatten)]
+    scene: SceneCheckArgs,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let mm_per_pixel =
-        super::errors::positive("--mm-per-pixel", a.report.mm_per_pixel.or_default())?;
+    let scene = super::scene::scene_check(&a.scene)?;
+    let scene_mm = scene
+        .as_ref()
+        .map(|(s, r, _)| ssskit::report::scene_compare::median_mm_per_pixel(s, r));
+    let given = a.report.mm_per_pixel.mm_per_pixel;
+    let mm_per_pixel = super::errors::positive(
+        "--mm-per-pixel",
+        given
+            .or(scene_mm)
+            .unwrap_or_else(|| a.report.mm_per_pixel.or_default()),
+    )?;
+    if let (Some(m), Some(_)) = (scene_mm, given) {
+        super::scene::agrees_with_scene(mm_per_pixel, m)?;
+    }
     ssskit::kernel::taps::check_count(a.taps.taps)?;
     let target = a.target.fraction()?;
     let out_dir = a.report.out_dir.path()?;
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(out_dir)?;
     let t0 = std::time::Instant::now();
-    let (profile, source) = a.profile.load()?;
+    let (profile, source) = match &scene {
+        // The render's own profile of the scene's first object: the
+        // material it was rendered with, to its Monte Carlo error.
+        Some((_, _, profiles)) if !a.profile.given() => match profiles.first() {
+            Some(p) => (p.clone(), "the render's (its first object's)".to_string()),
+            None => anyhow::bail!("--render: its record holds no profile: give --material"),
+        },
+        _ => a.profile.load()?,
+    };
     eprintln!("{}: profile {source}", profile.material.name);
     let settings = Settings {
         mm_per_pixel,
@@ -51,6 +77,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         &settings,
         staged.path(),
         &command_line(out_dir),
+        scene.as_ref().map(|(s, r, _)| (s, r)),
         &super::progress::Bar::new(),
     )?;
     staged.commit()?;

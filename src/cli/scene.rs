@@ -314,6 +314,35 @@ fn check_record_replaceable(out: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Relative difference between a given scale and the scene's beyond which
+/// the two are refused as different views (1%: well above the rounding of
+/// a scale typed from the scene file).
+const SCALE_AGREEMENT: f64 = 0.01;
+
+/// The scene and render of `--scene` / `--render`, when given.
+pub(super) fn scene_check(
+    a: &super::args::SceneCheckArgs,
+) -> anyhow::Result<Option<(Scene, Render, Vec<Profile>)>> {
+    match (&a.scene, &a.render) {
+        (Some(s), Some(r)) => Ok(Some(scene_and_render(s, r)?)),
+        _ => Ok(None),
+    }
+}
+
+/// A scale `mm` asked for beside a scene seen at `scene_mm` (its median
+/// depth): refused where they are different views.
+pub(super) fn agrees_with_scene(mm: f64, scene_mm: f64) -> anyhow::Result<()> {
+    if (mm - scene_mm).abs() > SCALE_AGREEMENT * scene_mm {
+        bail!(
+            "--scene: the scene is seen at {} mm per pixel (its median depth), the advice \
+             asked for {}: drop the scale flags to take the scene's",
+            ssskit::report::kernel_report::sig(scene_mm),
+            ssskit::report::kernel_report::sig(mm)
+        );
+    }
+    Ok(())
+}
+
 /// A scene and its render (`ssskit scene SCENE --out IMG`), refused when
 /// the render's record holds another scene's text; with the render's
 /// profiles.
@@ -479,8 +508,12 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         contact_sheet(&cmp, &name, &dir.join("contact-sheet.png"))?;
     }
     staged.commit()?;
+    let d = dominance(&cmp);
+    if let Some(h) = d.as_ref().and_then(|d| d.headline()) {
+        outln!("{h}")?;
+    }
     outln!("{head}\n\n{}", tables[0].1.markdown())?;
-    if let Some(d) = dominance(&cmp) {
+    if let Some(d) = d {
         outln!("{}", d.sentence())?;
     }
     eprintln!(

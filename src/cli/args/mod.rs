@@ -456,6 +456,28 @@ impl BudgetArgs {
     }
 }
 
+/// `--scene` with `--render`: the advice checked on a path-traced scene.
+#[derive(clap::Args)]
+pub struct SceneCheckArgs {
+    /// A path-traced scene (TOML) to score kernels on [default: none].
+    ///
+    /// Each model's answer within the budget and the chosen one run
+    /// through the screen-space pass on the scene's G-buffer (scaled by
+    /// depth, depth-aware) against its path-traced image (--render),
+    /// without and with the entry and exit factors around the pass: the
+    /// chosen kernel's scene error beside the best's, with the uncertainty
+    /// the render's noise gives the difference. The seen object must be of
+    /// the advised material (the same preset, eta included). Without
+    /// --material or --profile the profile is the render's own (its first
+    /// object's); the scale is the scene's unless --mm-per-pixel is given
+    /// (and then must agree).
+    #[arg(long, value_name = "SCENE.toml", requires = "render")]
+    pub scene: Option<PathBuf>,
+    /// The scene's render, `ssskit scene SCENE.toml --out IMG.exr` [default: none].
+    #[arg(long, value_name = "IMG.exr", requires = "scene")]
+    pub render: Option<PathBuf>,
+}
+
 /// `--models`.
 #[derive(clap::Args)]
 pub struct ModelsArg {

@@ -350,6 +350,11 @@ pub fn advise_on_scene(
     progress: &dyn Progress,
 ) -> Result<Advice> {
     validate(cfg)?;
+    // A scene whose seen object is of another material is refused before
+    // the search, not after it.
+    if let Some((scene, render)) = scene {
+        super::advise_scene::scored_pixels(scene, render, profile)?;
+    }
     let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
     let refs = Reference::all(profile, &test_cases(cfg)?)?;
     let search = Search {

@@ -32,6 +32,9 @@
 //!   is 2 sqrt(sum (a - b)^2 s^2) / N; divided by RMS_a + RMS_b it is that
 //!   of RMS_a - RMS_b. The noise common to both scores cancels, so two
 //!   kernels are told apart far below the render's own noise.
+//! - Ranking: by the worst channel of what ships, the pass with the
+//!   factors around it where the scene allows them (the kernel files carry
+//!   them), else the bare pass.
 //! - Verdicts: the gap (the chosen configuration's scene error less the
 //!   best one's) is `significant` beyond [`NOISE_K`] of those standard
 //!   deviations (the margin of the flat-plane decision,
@@ -46,7 +49,7 @@ use super::advise_disk::DISK_SEED;
 use super::scene_compare::{angular_obstacle, cosines};
 use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
 use super::scene_compare::{screen_space_disk_pass, screen_space_pass};
-use super::scene_score::percentile99;
+use super::scene_score::{percentile99, ranking};
 use crate::error::{Error, Result};
 use crate::filter::{angular, Image, Plane, Taps};
 use crate::kernel::angular::{simulate_factors, AngularFactors};
@@ -65,7 +68,8 @@ pub struct SceneRow {
     pub samples_per_pixel: usize,
     /// Relative RMS per channel against the path-traced image.
     pub rel_rms: [f64; 3],
-    /// The worst channel's.
+    /// The worst channel's of what ships: with the factors where the
+    /// scene allows them, else the bare pass (the ranking's score).
     pub worst: f64,
     /// Relative RMS per channel with the entry and exit factors around the
     /// pass (None: the scene's lights leave them nothing to weigh).
@@ -113,11 +117,35 @@ pub struct SceneCheck {
 }
 
 impl SceneCheck {
+    /// The ranking of [`ranking`] over the rows: the unblurred irradiance,
+    /// the best row without the factors and the best with them.
+    pub fn headline(&self) -> String {
+        let best_of = |f: &dyn Fn(&SceneRow) -> Option<[f64; 3]>| {
+            self.rows
+                .iter()
+                .filter_map(|r| Some((r.configuration.as_str(), worst(f(r)?).1)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+        };
+        let without = best_of(&|r| Some(r.rel_rms)).unwrap_or(("no row", f64::NAN));
+        format!(
+            "On the scene {} at {:.3} mm per pixel:\n{}",
+            self.scene,
+            self.mm_per_pixel,
+            ranking(
+                worst(self.no_blur).1,
+                without,
+                best_of(&|r| r.rel_rms_with_factors),
+                &self.factors
+            )
+        )
+    }
+
     /// One line: the chosen configuration's scene error, the best's, the
     /// gap with its uncertainty.
     pub fn sentence(&self) -> String {
         let (c, b) = (&self.rows[self.chosen], &self.rows[self.best]);
         let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}", 100.0 * x)).join(" / ");
+        let shipped = |r: &SceneRow| pct(r.rel_rms_with_factors.unwrap_or(r.rel_rms));
         let verdict = if self.chosen == self.best {
             "the best within the budget".to_string()
         } else {
@@ -132,7 +160,7 @@ impl SceneCheck {
                     "within the render's noise"
                 },
                 b.configuration,
-                pct(b.rel_rms),
+                shipped(b),
                 if self.within_accepted {
                     "within"
                 } else {
@@ -155,15 +183,15 @@ impl SceneCheck {
             None => format!("; no entry and exit factors: {}", self.factors),
         };
         format!(
-            "on the scene {} ({:.3} mm per pixel, {} pixels, render noise {}%): {} gives {}% RMS \
-             (r / g / b; unblurred {}%){factors}; {verdict}",
+            "on the scene {} ({:.3} mm per pixel, {} pixels, render noise {}%), RMS of the peak \
+             (r / g / b): no blur {}%; {} without the entry and exit factors {}%{factors}; {verdict}",
             self.scene,
             self.mm_per_pixel,
             self.pixels,
             pct(self.noise),
+            pct(self.no_blur),
             c.configuration,
             pct(c.rel_rms),
-            pct(self.no_blur),
         )
     }
 }
@@ -235,7 +263,7 @@ fn seen_objects(scene: &Scene) -> Vec<Option<usize>> {
 /// The pixels to score: covered, and their centre ray meets an object of
 /// `profile`'s material; refuses a scene whose seen objects are of another
 /// material, or whose render is not of its camera.
-fn scored_pixels(scene: &Scene, render: &Render, profile: &Profile) -> Result<Vec<usize>> {
+pub fn scored_pixels(scene: &Scene, render: &Render, profile: &Profile) -> Result<Vec<usize>> {
     if (render.width, render.height) != (scene.camera.width, scene.camera.height) {
         return Err(Error::Unsupported(format!(
             "the render is {}x{} but the scene's camera is {}x{}",
@@ -386,24 +414,26 @@ pub fn check_on_scene(
         };
         let img = pass(&irradiance)?;
         let rel_rms = truth.rel_rms(&img);
-        let rel_rms_with_factors = match &factors {
+        let factored = match &factors {
             Some(f) => {
                 let nl = cos.n_dot_l.as_deref().unwrap_or(&[]);
                 let lit = angular::entry_weighted(&irradiance, nl, f)?;
-                let out = angular::exit_weighted(&pass(&lit)?, &cos.n_dot_v, f)?;
-                Some(truth.rel_rms(&out))
+                Some(angular::exit_weighted(&pass(&lit)?, &cos.n_dot_v, f)?)
             }
             None => None,
         };
+        let rel_rms_with_factors = factored.as_ref().map(|out| truth.rel_rms(out));
         rows.push(SceneRow {
             configuration: c.configuration.clone(),
             passes: c.passes,
             samples_per_pixel: c.samples_per_pixel,
             rel_rms,
-            worst: worst(rel_rms).1,
+            worst: worst(rel_rms_with_factors.unwrap_or(rel_rms)).1,
             rel_rms_with_factors,
         });
-        images.push(img);
+        // What ships is ranked: the pass with the factors where the scene
+        // allows them (the kernel files carry them), else the bare pass.
+        images.push(factored.unwrap_or(img));
     }
     let best = (0..rows.len())
         .min_by(|&a, &b| rows[a].worst.total_cmp(&rows[b].worst))
@@ -411,8 +441,9 @@ pub fn check_on_scene(
     let gap = rows[chosen].worst - rows[best].worst;
     // The gap's channel is the chosen one's worst; its uncertainty that of
     // the difference on that channel.
-    let (wc, _) = worst(rows[chosen].rel_rms);
-    let rms = [rows[chosen].rel_rms[wc], rows[best].rel_rms[wc]];
+    let ranked = |r: &SceneRow| r.rel_rms_with_factors.unwrap_or(r.rel_rms);
+    let (wc, _) = worst(ranked(&rows[chosen]));
+    let rms = [ranked(&rows[chosen])[wc], ranked(&rows[best])[wc]];
     let gap_sigma = truth.gap_sigma(&images[chosen], &images[best], rms, wc);
     Ok(SceneCheck {
         scene: scene.origin.clone(),

@@ -18,6 +18,7 @@ use crate::profile::Profile;
 use crate::progress::Progress;
 use crate::report::kernel_report::{self, ReportContext};
 use crate::report::{kernel_plots, plot};
+use crate::scene::{Render, Scene};
 use std::path::Path;
 
 pub use crate::profile::source::{
@@ -196,6 +197,7 @@ pub fn run(
     settings: &Settings,
     dir: &Path,
     command: &str,
+    scene: Option<(&Scene, &Render)>,
     progress: &dyn Progress,
 ) -> Result<Outcome> {
     std::fs::create_dir_all(dir.join("kernels"))
@@ -260,7 +262,7 @@ pub fn run(
     let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
     acfg.size = settings.size;
     acfg.budget = settings.budget;
-    let advice = advise::advise(profile, &acfg, &crate::progress::NoProgress)?;
+    let advice = advise::advise_on_scene(profile, &acfg, scene, &crate::progress::NoProgress)?;
     match &advice.disk_kernel {
         Some(k) => write_disk_kernel(k, dir, "recommended", &mut files)?,
         None => write_kernel(&advice.kernel, dir, "recommended", true, &mut files)?,
@@ -268,6 +270,11 @@ pub fn run(
     // The advice and why, where the comparison is read.
     let mut md = std::fs::read_to_string(dir.join("report.md"))
         .map_err(|e| Error::format(dir.join("report.md"), e.to_string()))?;
+    // The scene's ranking in the report's first lines, under its title.
+    if let Some(sc) = &advice.scene {
+        let at = md.find('\n').map_or(md.len(), |i| i + 1);
+        md.insert_str(at, &format!("\n{}\n", sc.headline()));
+    }
     md.push_str(&format!(
         "\n## What to ship (recommended.json, advice.json)\n\n```text\n{}```\n",
         advise::explain(&advice)
@@ -312,6 +319,18 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
     );
     if let Some(r) = &a.remedy {
         let _ = writeln!(s, "  {}", advise::remedy_text(r));
+    }
+    match &a.scene {
+        Some(sc) => {
+            let _ = writeln!(s, "  {}", sc.sentence());
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  scene: none given (--scene SCENE.toml --render IMG.exr scores the choice on a \
+                 path-traced scene, with and without the entry and exit factors)"
+            );
+        }
     }
     for (sig, e) in &a.predicted {
         let _ = writeln!(

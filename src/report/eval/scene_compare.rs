@@ -46,7 +46,7 @@ use super::kernel_compare::{self, Comparison, Config, Factor, Fitted, MaterialIn
 pub use super::scene_score::{
     cosines, region_masks, Cosines, RegionError, GRAZING_VIEW, REGIONS, TERMINATOR_BAND,
 };
-use super::scene_score::{masks_of, Scorer};
+use super::scene_score::{masks_of, ranking, Scorer};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which};
@@ -505,9 +505,34 @@ pub struct Dominance {
     pub angular_label: Option<String>,
     #[serde(default)]
     pub angular_scene_rms: Option<f64>,
+    /// The unblurred irradiance's relative RMS (worst channel).
+    #[serde(default)]
+    pub no_blur_scene_rms: Option<f64>,
+    /// Why there are no angular rows, where there are none.
+    #[serde(default)]
+    pub angular_note: Option<String>,
 }
 
 impl Dominance {
+    /// The ranking first ([`ranking`]): no blur, the best screen-space pass
+    /// (depth+follow) without the factors, the best with them.
+    pub fn headline(&self) -> Option<String> {
+        Some(ranking(
+            self.no_blur_scene_rms?,
+            (
+                &format!("{} (depth+follow)", self.best_label),
+                self.best_scene_rms,
+            ),
+            self.angular_label
+                .as_deref()
+                .zip(self.angular_scene_rms)
+                .map(|(l, e)| (l, e)),
+            self.angular_note
+                .as_deref()
+                .unwrap_or("the comparison ran without them"),
+        ))
+    }
+
     pub fn sentence(&self) -> String {
         format!(
             "Best kernel model on the scene: {} at {:.2}% RMS of the peak against the path-traced \
@@ -568,7 +593,13 @@ pub fn dominance(cmp: &SceneComparison) -> Option<Dominance> {
             .max(best.0.flat_shapes.unwrap_or(0.0)),
         exact_scene_rms: exact,
         mm_per_pixel: cmp.mm_per_pixel,
-        angular_label: angular.map(|a| a.0.label.clone()),
+        angular_label: angular.map(|a| format!("{} (depth+follow)", a.0.label)),
         angular_scene_rms: angular.map(|a| a.1),
+        no_blur_scene_rms: cmp
+            .rows
+            .iter()
+            .find(|r| r.label == "no-blur" && r.variant == "baseline")
+            .and_then(rms),
+        angular_note: cmp.angular_note.clone(),
     })
 }

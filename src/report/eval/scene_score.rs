@@ -173,3 +173,65 @@ impl<'a> Scorer<'a> {
             .collect()
     }
 }
+
+/// The ranking a user needs first on a scene: the unblurred irradiance,
+/// the best pass without the entry and exit factors and the best with them
+/// (None: the scene allows none, `why_none` says why), each as its worst
+/// channel's relative RMS, lowest first, and what that means for what to
+/// ship. `passes` are (configuration, error) pairs.
+pub fn ranking(
+    no_blur: f64,
+    without: (&str, f64),
+    with: Option<(&str, f64)>,
+    why_none: &str,
+) -> String {
+    let mut rows: Vec<(f64, String)> = vec![
+        (no_blur, "no blur (the irradiance as lit)".to_string()),
+        (
+            without.1,
+            format!("{} without the entry and exit factors", without.0),
+        ),
+    ];
+    if let Some((l, e)) = with {
+        rows.push((
+            e,
+            format!("{l} with the entry and exit factors around the pass"),
+        ));
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut s = String::from(
+        "Ranking (worst channel's RMS of the peak against the path-traced image, lowest first):\n",
+    );
+    for (i, (e, what)) in rows.iter().enumerate() {
+        s.push_str(&format!("  {}. {:>6.2}%  {what}\n", i + 1, 100.0 * e));
+    }
+    let blur = if without.1 < no_blur {
+        format!(
+            "the blur alone takes the error from {:.2}% to {:.2}%",
+            100.0 * no_blur,
+            100.0 * without.1
+        )
+    } else {
+        format!(
+            "the blur alone does not beat the unblurred irradiance ({:.2}% against {:.2}%): on \
+             this scene the light's entry and exit, not the blur, is what the kernel misses",
+            100.0 * without.1,
+            100.0 * no_blur
+        )
+    };
+    let factors = match with {
+        Some((_, e)) if e < without.1 => format!(
+            "; with the entry and exit factors it falls to {:.2}% ({:.2} times less): ship them \
+             (sss_entry_factor(N.L) per light before the blur, sss_exit_factor(N.V) after it)",
+            100.0 * e,
+            without.1 / e.max(1e-12)
+        ),
+        Some((_, e)) => format!(
+            "; the entry and exit factors do not help here ({:.2}% with them)",
+            100.0 * e
+        ),
+        None => format!("; no entry and exit factors: {why_none}"),
+    };
+    s.push_str(&format!("What it means: {blur}{factors}.\n"));
+    s
+}

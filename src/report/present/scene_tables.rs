@@ -159,9 +159,15 @@ pub fn page(cmp: &SceneComparison, head: &str) -> String {
         (None, Some(why)) => format!("\nNo angular rows: {why}.\n"),
         (None, None) => String::new(),
     };
-    let sentence = dominance(cmp).map_or(String::new(), |d| format!("{}\n\n", d.sentence()));
+    let d = dominance(cmp);
+    let sentence = d
+        .as_ref()
+        .map_or(String::new(), |d| format!("{}\n\n", d.sentence()));
+    let ranking = d
+        .and_then(|d| d.headline())
+        .map_or(String::new(), |h| format!("```text\n{h}```\n\n"));
     format!(
-        "# Screen-space SSS against the path-traced scene\n\n{head}\n\n{sentence}All seen \
+        "# Screen-space SSS against the path-traced scene\n\n{ranking}{head}\n\n{sentence}All seen \
          pixels: relative RMS of (pass - path traced) over the 99th-percentile radiance, mean \
          bias, FLIP; flat-plane errors of the same tap table beside them.\n\n{}\nLargest RMS \
          over the channels and FLIP by region.\n\n{}\nThe path-traced image's noise by region \
