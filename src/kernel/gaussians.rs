@@ -4,8 +4,8 @@
 //! projection: non-negative weights by least squares for given variances,
 //! log-variances by Nelder-Mead.
 
+use super::factors::Factors;
 use super::kernel2d::multiplicity;
-use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
 use crate::numerics::nelder_mead;

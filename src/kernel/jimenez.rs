@@ -15,8 +15,8 @@
 //! the engines iryoku and Godot render) and the model's factor on the 2D
 //! kernel grid.
 
+use super::factors::Factors;
 use super::gaussians::{gaussian_cells, DEON_SKIN_VARIANCES, DEON_SKIN_WEIGHTS};
-use super::model::Factors;
 use super::{taps, Kernel2D, Pass, TapTable};
 use crate::error::{Error, Result};
 use serde_json::json;

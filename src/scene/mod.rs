@@ -38,6 +38,7 @@ mod light;
 mod mesh;
 mod render;
 mod rounds;
+mod samples;
 mod trace;
 
 pub use camera::{Camera, Measure, Projection};
@@ -46,9 +47,9 @@ pub use gbuffer::{GBuffer, ENV_RAYS};
 pub use geometry::{Shape, V3};
 pub use render::{
     channel_names, material_profiles, render, Render, RenderConfig, RenderConfigRecord, RenderInfo,
-    SampleBudget, DEFAULT_GBUFFER_SIDE, DEFAULT_MAX_SPP, DEFAULT_MAX_WORK, DEFAULT_SCENE_ERROR,
-    FIRST_ROUND_SPP, RENDER_SCHEMA,
+    DEFAULT_GBUFFER_SIDE, DEFAULT_MAX_SPP, DEFAULT_MAX_WORK, DEFAULT_SCENE_ERROR, RENDER_SCHEMA,
 };
+pub use samples::{SampleBudget, FIRST_ROUND_SPP};
 
 use crate::error::Result;
 use crate::material::Material;

@@ -4,7 +4,7 @@
 //! image does not depend on the thread count. Between rounds each channel's
 //! noise decides the next round's length or that the channel is done.
 
-use super::render::{sample_key, SampleBudget, CONTEXT, FIRST_ROUND_SPP};
+use super::samples::{sample_key, SampleBudget, CONTEXT, FIRST_ROUND_SPP};
 use super::trace::ChannelScene;
 use crate::error::{Error, Result};
 use crate::material::Channel;

@@ -17,10 +17,12 @@
 //! name the flag as the user typed it (`errors::set_typed`).
 
 mod deprecated;
+mod model;
 mod settings;
 mod values;
 
 pub use deprecated::{deprecated_spellings, running_command};
+pub use model::ModelArg;
 pub use settings::{alias, default, default_enum, help, long_help_opens_with_help, required};
 pub use values::{
     channel_item, count, count_text, counts_text, flag_value, image_size, name_item, rank_item,
@@ -460,8 +462,8 @@ impl BudgetArgs {
 #[derive(clap::Args)]
 pub struct ModelsArg {
     /// Kernel models, comma-separated, or all.
-    #[arg(long, value_name = "MODEL,...", value_delimiter = ',', required = false, value_parser = value_or::<super::fit::ModelArg>(PossibleValue::new("all")))]
-    models: Vec<Option<super::fit::ModelArg>>,
+    #[arg(long, value_name = "MODEL,...", value_delimiter = ',', required = false, value_parser = value_or::<ModelArg>(PossibleValue::new("all")))]
+    models: Vec<Option<ModelArg>>,
 }
 
 impl ModelsArg {
