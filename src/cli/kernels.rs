@@ -6,7 +6,7 @@ use super::args::{
 };
 use super::out::out;
 use super::profile_source::command_line;
-use ssskit::report::pipeline::{self, Settings};
+use ssskit::report::eval::pipeline::{self, Settings};
 
 #[derive(clap::Args)]
 #[command(

@@ -247,8 +247,8 @@ mod tests {
     use super::args::flag_value;
     use super::*;
     use ssskit::engine::Engine;
-    use ssskit::report::evaluate::signal_name;
-    use ssskit::report::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
+    use ssskit::report::eval::evaluate::signal_name;
+    use ssskit::report::eval::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
 
     fn names<T: clap::ValueEnum>() -> Vec<String> {
         T::value_variants().iter().map(flag_value).collect()

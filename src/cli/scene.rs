@@ -395,7 +395,7 @@ fn angular_factors(
     if photons == 0 {
         return Ok(None);
     }
-    if let Some(why) = ssskit::report::scene_compare::angular_obstacle(scene) {
+    if let Some(why) = ssskit::report::eval::scene_compare::angular_obstacle(scene) {
         super::errors::warn(&format!("{why}: no angular rows"));
         return Ok(None);
     }
@@ -409,9 +409,9 @@ fn angular_factors(
 /// scene's G-buffer against its path-traced image; writes scene.md,
 /// scene.json, record.json and the contact sheet.
 pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
-    use ssskit::report::record::{machine_line, Record};
-    use ssskit::report::scene_compare::{compare_scene, dominance, SceneConfig};
-    use ssskit::report::scene_tables::{contact_sheet, named_tables, page};
+    use ssskit::report::eval::scene_compare::{compare_scene, dominance, SceneConfig};
+    use ssskit::report::present::record::{machine_line, Record};
+    use ssskit::report::present::scene_tables::{contact_sheet, named_tables, page};
     let (scene, r, profiles) = scene_and_render(a.scene, a.render)?;
     let Some(profile) = profiles.first() else {
         bail!(
@@ -427,7 +427,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         families: a.families,
         ranks: a.ranks,
         taps: a.taps,
-        options: ssskit::report::evaluate::Options {
+        options: ssskit::report::eval::evaluate::Options {
             round_to_f32: true,
             pixels_per_degree: a.pixels_per_degree,
         },

@@ -12,7 +12,7 @@
 //! with [`ENV_RAYS`] rays per position.
 
 use super::frame::cosine_direction;
-use super::geometry::{Ray, V3};
+use super::ray::{Ray, V3};
 use super::Scene;
 use crate::profile::mc::tracer::uniform;
 use rand_core::SeedableRng;

@@ -23,7 +23,7 @@
 use super::boundary::cross;
 use super::camera::Measure;
 use super::frame::{cosine_direction, turn};
-use super::geometry::{Ray, V3};
+use super::ray::{Ray, V3};
 use super::Scene;
 use crate::profile::mc::tracer::{sample_hg_cos, uniform, LayerOptics};
 use crate::profile::mc::{

@@ -33,7 +33,7 @@ use clap::builder::PossibleValue;
 use clap::ValueEnum;
 use ssskit::material::Channel;
 use ssskit::profile::mc;
-use ssskit::report::evaluate;
+use ssskit::report::eval::evaluate;
 use std::path::{Path, PathBuf};
 
 // ---- Shared enumerations ---------------------------------------------------
@@ -377,7 +377,7 @@ pub struct ImageErrorArg {
         long,
         value_name = "E",
         allow_negative_numbers = true,
-        default_value_t = ssskit::report::advise::DEFAULT_TARGET
+        default_value_t = ssskit::report::eval::advise::DEFAULT_TARGET
     )]
     pub image_error: f64,
 }
@@ -428,7 +428,7 @@ pub fn limit(s: &str) -> Result<Limit, String> {
 }
 
 /// `--max-passes`, `--max-samples`, `--max-taps`: what a recommended kernel
-/// may cost (`ssskit::report::advise::Budget`).
+/// may cost (`ssskit::report::eval::advise::Budget`).
 #[derive(clap::Args)]
 pub struct BudgetArgs {
     /// Budget: one-dimensional passes at most (rank r runs 2r); none: any.
@@ -438,7 +438,7 @@ pub struct BudgetArgs {
     /// pair, what every engine in `ssskit engine` runs. none (or 0) lifts
     /// the limit; the search then tries ranks 1 to 3.
     #[arg(long, value_name = "N", value_parser = limit,
-          default_value_t = Limit(Some(ssskit::report::advise::DEFAULT_MAX_PASSES)))]
+          default_value_t = Limit(Some(ssskit::report::eval::advise::DEFAULT_MAX_PASSES)))]
     pub max_passes: Limit,
     /// Budget: samples per pixel at most, over all passes; none: any.
     #[arg(long, value_name = "N", value_parser = limit, default_value_t = Limit(None))]
@@ -449,8 +449,8 @@ pub struct BudgetArgs {
 }
 
 impl BudgetArgs {
-    pub fn budget(&self) -> ssskit::report::advise::Budget {
-        ssskit::report::advise::Budget {
+    pub fn budget(&self) -> ssskit::report::eval::advise::Budget {
+        ssskit::report::eval::advise::Budget {
             max_passes: self.max_passes.0,
             max_samples: self.max_samples.0,
             max_taps: self.max_taps.0,
@@ -471,7 +471,7 @@ impl ModelsArg {
     pub fn families(&self) -> Vec<String> {
         match self.models.iter().copied().collect::<Option<Vec<_>>>() {
             Some(models) => models.iter().map(flag_value).collect(),
-            None => ssskit::report::kernel_compare::FAMILIES
+            None => ssskit::report::eval::kernel_compare::FAMILIES
                 .iter()
                 .map(|s| s.to_string())
                 .collect(),
