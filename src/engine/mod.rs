@@ -27,7 +27,7 @@ pub mod unreal;
 
 use crate::error::{Error, Result};
 use crate::numerics::Bounded;
-use crate::profile::metrics::{channel_error, same_grid};
+use crate::profile::metrics::{self, channel_error, same_grid};
 use crate::profile::{Profile, RadialGrid};
 use printed::Units;
 use serde::Serialize;
@@ -419,43 +419,6 @@ impl Model {
     }
 }
 
-/// Golden-section search for the minimum of `f` on [lo, hi] in log space,
-/// after a scan of `scan` log-spaced points (the objectives here are
-/// smooth but not guaranteed unimodal over decades).
-pub(crate) fn minimise_log(f: impl Fn(f64) -> f64, lo: f64, hi: f64, scan: usize) -> f64 {
-    let (a, b) = (lo.ln(), hi.ln());
-    let xs: Vec<f64> = (0..scan)
-        .map(|i| a + (b - a) * i as f64 / (scan - 1) as f64)
-        .collect();
-    let best = (0..scan)
-        .min_by(|&i, &j| f(xs[i].exp()).total_cmp(&f(xs[j].exp())))
-        .unwrap_or(0);
-    let (mut x0, mut x1) = (xs[best.saturating_sub(1)], xs[(best + 1).min(scan - 1)]);
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = x1 - g * (x1 - x0);
-    let mut d = x0 + g * (x1 - x0);
-    let (mut fc, mut fd) = (f(c.exp()), f(d.exp()));
-    for _ in 0..80 {
-        if fc < fd {
-            x1 = d;
-            d = c;
-            fd = fc;
-            c = x1 - g * (x1 - x0);
-            fc = f(c.exp());
-        } else {
-            x0 = c;
-            c = d;
-            fc = fd;
-            d = x0 + g * (x1 - x0);
-            fd = f(d.exp());
-        }
-        if (x1 - x0).abs() < 1e-10 {
-            break;
-        }
-    }
-    (0.5 * (x0 + x1)).exp()
-}
-
 /// Weights and targets of the least squares on r R_d(r): bins inside the
 /// radius holding 99% of channel `c`, weight w = bin width r^2 (the
 /// discrete norm of `profile::metrics::l2_errors`).
@@ -467,13 +430,12 @@ pub(crate) struct Target {
 
 impl Target {
     pub fn new(p: &Profile, c: usize) -> Target {
-        let r99 = crate::profile::radius_holding(p, c, 0.99);
-        let bins = p.r_edges.windows(2).take_while(|e| e[0] < r99).count();
+        let r99 = crate::profile::radius_holding(p, c, metrics::SHAPE_HOLD);
+        let weight = metrics::shape_weights(p, r99);
+        let bins = weight.len();
         Target {
             bins,
-            weight: (0..bins)
-                .map(|i| (p.r_edges[i + 1] - p.r_edges[i]) * p.r[i] * p.r[i])
-                .collect(),
+            weight,
             value: p.rd[c][..bins].to_vec(),
         }
     }
