@@ -252,7 +252,7 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
 }
 
 fn main() {
-    let machine = ssskit::report::record::machine_line();
+    let machine = ssskit::report::present::record::machine_line();
     let reps: usize = std::env::var("SSSKIT_BENCH_REPS")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -336,7 +336,7 @@ fn main() {
     // README: the renderer's case and the CLI default against OpenCV on
     // planes, at every core.
     let n = *threads.last().unwrap();
-    let mut readme = ssskit::report::table::Table::new(&[
+    let mut readme = ssskit::report::present::table::Table::new(&[
         &format!("path ({n} threads, wall ms per frame)"),
         "ssskit",
         &format!("OpenCV {version} sepFilter2D on 3 planes"),
@@ -377,7 +377,7 @@ fn main() {
         )
     }));
     let hdr: Vec<&str> = header.iter().map(String::as_str).collect();
-    let mut all_paths = ssskit::report::table::Table::new(&hdr);
+    let mut all_paths = ssskit::report::present::table::Table::new(&hdr);
     let pair = |(w, c): (f64, f64)| format!("{} / {}", ms(w), ms(c));
     let rows: [(&str, bool, &str); 10] = [
         (
@@ -445,7 +445,7 @@ fn main() {
         eprintln!("SSSKIT_BENCH_REPS={reps}: record not written");
         return;
     }
-    let mut record = ssskit::report::record::Record::new(
+    let mut record = ssskit::report::present::record::Record::new(
         "cargo bench --bench filter",
         &format!("{machine}; OpenCV {version}"),
     );
@@ -472,7 +472,7 @@ fn main() {
         "ssskit_wall_cpu_ms": raw,
         "opencv": cv,
     });
-    let path = ssskit::report::record::docs_path("filter-cpu");
+    let path = ssskit::report::present::record::docs_path("filter-cpu");
     record.write(&path).unwrap();
     eprintln!("wrote {}", path.display());
 }

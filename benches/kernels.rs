@@ -18,8 +18,8 @@ use ssskit::kernel::jimenez::JimenezParams;
 use ssskit::kernel::preintegrate::PreMethod;
 use ssskit::kernel::reference::dipole_preset;
 use ssskit::kernel::{fit_model, Kernel2D, Kernel2DSpec, Model};
-use ssskit::report::record::{machine_line, Record};
-use ssskit::report::table::Table;
+use ssskit::report::present::record::{machine_line, Record};
+use ssskit::report::present::table::Table;
 use std::time::Instant;
 
 fn models() -> Vec<(&'static str, Model)> {
@@ -209,7 +209,7 @@ fn main() {
         "fit_seconds_201_401_801": fit_raw,
         "command_wall_seconds": raw,
     });
-    let path = ssskit::report::record::docs_path("kernels");
+    let path = ssskit::report::present::record::docs_path("kernels");
     record.write(&path).unwrap();
     eprintln!("wrote {}", path.display());
 }

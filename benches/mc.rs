@@ -35,8 +35,8 @@ use ssskit::profile::mc::{
 };
 use ssskit::profile::{Profile, RadialGrid};
 use ssskit::progress::NoProgress;
-use ssskit::report::record::{machine_line, Record};
-use ssskit::report::table::Table;
+use ssskit::report::present::record::{machine_line, Record};
+use ssskit::report::present::table::Table;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 

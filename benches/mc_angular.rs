@@ -20,8 +20,8 @@
 use ssskit::material::{preset, Channel};
 use ssskit::profile::mc::{simulate_with, AngularOptions, McConfig, McOptions, PhotonBudget};
 use ssskit::progress::NoProgress;
-use ssskit::report::record::{docs_path, machine_line, Record};
-use ssskit::report::table::Table;
+use ssskit::report::present::record::{docs_path, machine_line, Record};
+use ssskit::report::present::table::Table;
 use std::path::Path;
 use std::process::{Command, Stdio};
 

@@ -13,9 +13,9 @@ use ssskit::material::{preset, preset_names, Channel};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::progress::NoProgress;
-use ssskit::report::compare::time;
-use ssskit::report::record::{machine_line, Record};
-use ssskit::report::table::Table;
+use ssskit::report::present::number::time;
+use ssskit::report::present::record::{machine_line, Record};
+use ssskit::report::present::table::Table;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -176,7 +176,7 @@ fn main() {
         "monte_carlo": mc_data,
         "mc_target_rel_error": rel,
     });
-    let path = ssskit::report::record::docs_path("profiles");
+    let path = ssskit::report::present::record::docs_path("profiles");
     record.write(&path).unwrap();
     eprintln!("wrote {}", path.display());
 }

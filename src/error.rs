@@ -94,6 +94,29 @@ pub fn short_numbers(text: &str) -> String {
     out
 }
 
+/// `v` when it is finite and > 0; otherwise the one error of that check,
+/// its reason "must be finite and > 0" followed by `unit` when one is given
+/// (" (mm)").
+pub fn finite_positive(context: &str, field: &str, v: f64, unit: &str) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        return Ok(v);
+    }
+    Err(Error::invalid(
+        context,
+        field,
+        v,
+        format!("must be finite and > 0{unit}"),
+    ))
+}
+
+/// `v` when it is finite and >= 0; otherwise the one error of that check.
+pub fn finite_non_negative(context: &str, field: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v >= 0.0 {
+        return Ok(v);
+    }
+    Err(Error::invalid(context, field, v, "must be finite and >= 0"))
+}
+
 impl Error {
     pub fn invalid(
         context: impl Into<String>,
@@ -126,6 +149,28 @@ impl Error {
 
 #[cfg(test)]
 mod tests {
+    /// The shared checks pass a good value through and refuse the edge,
+    /// the wrong sign, NaN and infinity with the one reason.
+    #[test]
+    fn positive_and_non_negative_checks() {
+        assert_eq!(super::finite_positive("c", "f", 2.5, "").unwrap(), 2.5);
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = super::finite_positive("c", "f", bad, " (mm)").unwrap_err();
+            assert!(
+                e.to_string().contains("must be finite and > 0 (mm)"),
+                "{bad}: {e}"
+            );
+        }
+        assert_eq!(super::finite_non_negative("c", "f", 0.0).unwrap(), 0.0);
+        for bad in [-1e-300, f64::NAN, f64::NEG_INFINITY] {
+            let e = super::finite_non_negative("c", "f", bad).unwrap_err();
+            assert!(
+                e.to_string().contains("must be finite and >= 0"),
+                "{bad}: {e}"
+            );
+        }
+    }
+
     #[test]
     fn long_numbers_are_shortened_in_messages() {
         let huge = format!("sample {} at pixel (3, 4).", 1e300f64);

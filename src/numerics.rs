@@ -1,8 +1,10 @@
 //! Quadrature shared by the profile models, the Fresnel moments and the
 //! kernel discretisation: fixed-order Gauss-Legendre, its use on annular
 //! bins, and integrals of radial functions over the whole plane; root
-//! finding by bisection; box-bounded Nelder-Mead for the kernel fits;
-//! [`Bounded`], the one way a message prints a number that may be huge.
+//! finding by bisection; box-bounded Nelder-Mead for the kernel fits, the
+//! golden-section search in log space for the engine fits and non-negative
+//! least squares for the Gaussian weights; erf and erfc; [`Bounded`], the
+//! one way a message prints a number that may be huge.
 
 /// 8-point Gauss-Legendre quadrature of `f` over [a, b] (exact for
 /// polynomials up to degree 15).
@@ -61,6 +63,12 @@ pub fn bin_averages(f: impl Fn(f64) -> f64, edges: &[f64]) -> Vec<f64> {
                 / annulus_area(e[0], e[1])
         })
         .collect()
+}
+
+/// The nearest-rank `q` quantile of `sorted` (ascending, not empty): the
+/// value at rank ceil(q n), at least the first.
+pub fn nearest_rank(sorted: &[f64], q: f64) -> f64 {
+    sorted[((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1]
 }
 
 /// Area of the annulus between radii `a` and `b`.
@@ -264,6 +272,158 @@ impl std::fmt::Display for Bounded {
     }
 }
 
+/// erf(x) to about 1e-15: positive-term series below 3, continued fraction
+/// for erfc above (no cancellation in either).
+pub fn erf(x: f64) -> f64 {
+    if x < 0.0 {
+        return -erf(-x);
+    }
+    if x < 3.0 {
+        // erf x = 2/sqrt(pi) e^{-x^2} sum_n 2^n x^{2n+1} / (2n+1)!!
+        let mut term = x;
+        let mut sum = x;
+        let x2 = x * x;
+        let mut n = 0.0;
+        while term > 1e-17 * sum {
+            n += 1.0;
+            term *= 2.0 * x2 / (2.0 * n + 1.0);
+            sum += term;
+        }
+        2.0 / std::f64::consts::PI.sqrt() * (-x2).exp() * sum
+    } else {
+        1.0 - erfc_cf(x)
+    }
+}
+
+/// erfc(x) for x >= 3 by the Lentz continued fraction.
+fn erfc_cf(x: f64) -> f64 {
+    // erfc x = e^{-x^2}/sqrt(pi) * 1/(x + 1/2/(x + 1/(x + 3/2/(x + ...))))
+    let tiny = 1e-300;
+    let mut f = x;
+    let mut c = x;
+    let mut d = 0.0;
+    for k in 1..200 {
+        let a = k as f64 / 2.0;
+        d = x + a * d;
+        d = if d.abs() < tiny { tiny } else { d };
+        c = x + a / c;
+        c = if c.abs() < tiny { tiny } else { c };
+        d = 1.0 / d;
+        let delta = c * d;
+        f *= delta;
+        if (delta - 1.0).abs() < 1e-16 {
+            break;
+        }
+    }
+    (-x * x).exp() / std::f64::consts::PI.sqrt() / f
+}
+
+/// erfc(x) = 1 - erf(x), by the continued fraction where 1 - erf would cancel.
+pub fn erfc(x: f64) -> f64 {
+    if x >= 3.0 {
+        erfc_cf(x)
+    } else {
+        1.0 - erf(x)
+    }
+}
+
+/// Minimises 1/2 w^T M w - b^T w over w >= 0 (M symmetric positive
+/// semidefinite, small) by the Lawson-Hanson active set method.
+pub fn nnls(m: &[f64], b: &[f64], n: usize) -> Vec<f64> {
+    let mut w = vec![0.0; n];
+    let mut passive = vec![false; n];
+    for _ in 0..(3 * n + 10) {
+        let grad: Vec<f64> = (0..n)
+            .map(|i| b[i] - (0..n).map(|j| m[i * n + j] * w[j]).sum::<f64>())
+            .collect();
+        let cand = (0..n)
+            .filter(|&i| !passive[i] && grad[i] > 1e-14 * b[i].abs().max(1e-300))
+            .max_by(|&i, &j| grad[i].total_cmp(&grad[j]));
+        let Some(t) = cand else { break };
+        passive[t] = true;
+        loop {
+            let z = solve_passive(m, b, n, &passive);
+            if (0..n).all(|i| !passive[i] || z[i] > 0.0) {
+                w = z;
+                break;
+            }
+            let mut alpha = 1.0f64;
+            for i in 0..n {
+                if passive[i] && z[i] <= 0.0 {
+                    alpha = alpha.min(w[i] / (w[i] - z[i]));
+                }
+            }
+            for i in 0..n {
+                w[i] += alpha * (z[i] - w[i]);
+                if passive[i] && w[i] <= 1e-300 {
+                    passive[i] = false;
+                    w[i] = 0.0;
+                }
+            }
+            if !passive.iter().any(|&p| p) {
+                break;
+            }
+        }
+    }
+    w
+}
+
+/// Solves the normal equations restricted to the passive set.
+fn solve_passive(m: &[f64], b: &[f64], n: usize, passive: &[bool]) -> Vec<f64> {
+    let idx: Vec<usize> = (0..n).filter(|&i| passive[i]).collect();
+    let p = idx.len();
+    let mat = nalgebra::DMatrix::from_fn(p, p, |i, j| m[idx[i] * n + idx[j]]);
+    let rhs = nalgebra::DVector::from_fn(p, |i, _| b[idx[i]]);
+    let sol = mat
+        .clone()
+        .cholesky()
+        .map(|c| c.solve(&rhs))
+        .or_else(|| mat.pseudo_inverse(1e-300).ok().map(|pi| pi * &rhs))
+        .unwrap_or_else(|| nalgebra::DVector::zeros(p));
+    let mut z = vec![0.0; n];
+    for (k, &i) in idx.iter().enumerate() {
+        z[i] = sol[k];
+    }
+    z
+}
+
+/// Golden-section search for the minimum of `f` on [lo, hi] in log space,
+/// after a scan of `scan` log-spaced points (the objectives here are
+/// smooth but not guaranteed unimodal over decades).
+pub fn minimise_log(f: impl Fn(f64) -> f64, lo: f64, hi: f64, scan: usize) -> f64 {
+    let (a, b) = (lo.ln(), hi.ln());
+    let xs: Vec<f64> = (0..scan)
+        .map(|i| a + (b - a) * i as f64 / (scan - 1) as f64)
+        .collect();
+    let best = (0..scan)
+        .min_by(|&i, &j| f(xs[i].exp()).total_cmp(&f(xs[j].exp())))
+        .unwrap_or(0);
+    let (mut x0, mut x1) = (xs[best.saturating_sub(1)], xs[(best + 1).min(scan - 1)]);
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = x1 - g * (x1 - x0);
+    let mut d = x0 + g * (x1 - x0);
+    let (mut fc, mut fd) = (f(c.exp()), f(d.exp()));
+    for _ in 0..80 {
+        if fc < fd {
+            x1 = d;
+            d = c;
+            fd = fc;
+            c = x1 - g * (x1 - x0);
+            fc = f(c.exp());
+        } else {
+            x0 = c;
+            c = d;
+            fc = fd;
+            d = x0 + g * (x1 - x0);
+            fd = f(d.exp());
+        }
+        if (x1 - x0).abs() < 1e-10 {
+            break;
+        }
+    }
+    (0.5 * (x0 + x1)).exp()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -361,5 +521,49 @@ mod tests {
             format!("{:>7.1}|{:<5.0}|", Bounded(2.5), Bounded(1.0)),
             "    2.5|1    |"
         );
+    }
+
+    /// The golden-section search finds a minimum decades from the ends of
+    /// its range, and the scan picks the lower of two valleys.
+    #[test]
+    fn minimise_log_finds_the_minimum() {
+        let x = minimise_log(|x| (x.ln() - 3f64.ln()).powi(2), 1e-3, 1e3, 21);
+        assert!((x / 3.0 - 1.0).abs() < 1e-6, "{x}");
+        let two =
+            |x: f64| ((x.ln() - 0.1f64.ln()).powi(2) + 0.5).min((x.ln() - 30f64.ln()).powi(2));
+        let x = minimise_log(two, 1e-3, 1e3, 41);
+        assert!((x / 30.0 - 1.0).abs() < 1e-6, "{x}");
+    }
+
+    /// Nearest rank: the value at rank ceil(q n), the first for q = 0.
+    #[test]
+    fn nearest_rank_is_rank_ceil_q_n() {
+        let x: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(nearest_rank(&x, 0.99), 99.0);
+        assert_eq!(nearest_rank(&[1.0, 2.0, 3.0], 0.99), 3.0);
+        assert_eq!(nearest_rank(&[1.0, 2.0, 3.0], 0.5), 2.0);
+        assert_eq!(nearest_rank(&[1.0, 2.0, 3.0], 0.0), 1.0);
+        assert_eq!(nearest_rank(&[7.0], 0.99), 7.0);
+    }
+
+    #[test]
+    fn erf_matches_known_values() {
+        // Abramowitz and Stegun table 7.1.
+        for (x, e) in [
+            (0.5, 0.520_499_877_813_046_5),
+            (1.0, 0.842_700_792_949_714_9),
+            (2.0, 0.995_322_265_018_952_7),
+            (3.5, 0.999_999_256_901_627_7),
+        ] {
+            assert!((erf(x) - e).abs() < 1e-14, "erf({x}) = {}", erf(x));
+        }
+        assert!((erfc(5.0) - 1.537_459_794_428_035e-12).abs() < 1e-24);
+    }
+
+    #[test]
+    fn nnls_recovers_non_negative_solution() {
+        // M = I, b = (1, -1): w = (1, 0).
+        let w = nnls(&[1.0, 0.0, 0.0, 1.0], &[1.0, -1.0], 2);
+        assert_eq!(w, vec![1.0, 0.0]);
     }
 }

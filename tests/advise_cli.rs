@@ -506,11 +506,12 @@ fn study_measures_the_trade_of_every_knob() {
 /// own font; the kernel-model and rank panels plot against samples per
 /// pixel; every tick label is in plain notation inside 1e-3..1e4.
 fn pareto_layout_reads(study_json: &std::path::Path, dir: &std::path::Path) {
+    use ssskit::report::eval::study;
     use ssskit::report::present::layout::{collisions, Rect};
-    use ssskit::report::{pareto, study};
+    use ssskit::report::present::{pareto, study_report};
     let st: study::Study = serde_json::from_str(&std::fs::read_to_string(study_json).unwrap())
         .expect("study.json reads back");
-    let panels = study::panels(&st);
+    let panels = study_report::panels(&st);
     for p in &panels {
         if p.title.contains("kernel model (") || p.title.contains("SVD rank") {
             assert_eq!(p.x_label, "samples per pixel", "{}", p.title);

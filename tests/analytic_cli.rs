@@ -200,7 +200,7 @@ fn compare_writes_table_csv_and_plot_with_the_failures_visible() {
     let csv = std::fs::read_to_string(dir.path().join("compare.csv")).unwrap();
     // Header + 4 models x 3 channels.
     assert_eq!(csv.lines().count(), 13);
-    let all = ssskit::report::kernel_report::blocks(&md)
+    let all = ssskit::report::present::kernel_report::blocks(&md)
         .into_iter()
         .find(|(n, _)| n == "all")
         .expect("block 'all' in compare.md")

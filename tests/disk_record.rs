@@ -111,8 +111,8 @@ fn pct(v: f64) -> String {
 /// samples (importance sampling: variance ~ 1 / N) and with the frames.
 #[test]
 fn separable_against_disk_at_equal_cost() {
-    use ssskit::report::disk_compare::{equal_cost, EqualCost};
-    use ssskit::report::evaluate::ImageCase;
+    use ssskit::report::eval::disk_compare::{equal_cost, EqualCost};
+    use ssskit::report::eval::evaluate::ImageCase;
     let case = ImageCase::signal(Signal::Shapes, EQUAL_COST_SIZE, MM_PER_PIXEL).unwrap();
     let cfg = EqualCost {
         case,

@@ -118,7 +118,7 @@ fn run_markdown(dir: &Path) -> String {
 
 /// (name, body) of every block in `text`.
 fn blocks(text: &str) -> Vec<(String, String)> {
-    ssskit::report::kernel_report::blocks(text)
+    ssskit::report::present::kernel_report::blocks(text)
 }
 
 #[test]

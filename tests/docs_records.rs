@@ -8,8 +8,8 @@
 //! blocks from the records (scripts/regen-docs does this); it never touches
 //! a record, which only its benchmark writes.
 
-use ssskit::report::kernel_report::blocks_of;
-use ssskit::report::record::Record;
+use ssskit::report::present::kernel_report::blocks_of;
+use ssskit::report::present::record::Record;
 use std::path::Path;
 
 mod common;
@@ -20,7 +20,7 @@ fn fresh_block(name: &str, file: &Path) -> String {
     let (record, table) = name
         .split_once('/')
         .unwrap_or_else(|| panic!("{}: block record:{name} has no /TABLE", file.display()));
-    let path = ssskit::report::record::docs_path(record);
+    let path = ssskit::report::present::record::docs_path(record);
     let r = Record::read(&path)
         .unwrap_or_else(|e| panic!("{}: block record:{name}: {e}", file.display()));
     r.block(table).unwrap_or_else(|| {
@@ -137,7 +137,7 @@ fn gnu_dates(days: &[i64]) -> Vec<String> {
 
 #[test]
 fn record_dates_match_gnu_date() {
-    use ssskit::report::record::civil_date;
+    use ssskit::report::present::record::civil_date;
     // Every day from 1896 to 2104 (leap and non-leap centuries, the epoch),
     // and a stride through four 400-year eras either side.
     let mut days: Vec<i64> = (-27_000..49_000).collect();

@@ -14,8 +14,8 @@ use ssskit::filter::Image;
 use ssskit::kernel::Kernel2D;
 use ssskit::material::preset;
 use ssskit::profile::{Profile, RadialGrid, RadialInterp};
-use ssskit::report::record::{Record, RecordTable};
-use ssskit::report::table::Table;
+use ssskit::report::present::record::{Record, RecordTable};
+use ssskit::report::present::table::Table;
 
 mod common;
 use common::half_space::gauss;
@@ -206,7 +206,7 @@ fn edge_pixels_of_the_reference_skin1_profile() {
             ]);
         }
     }
-    let path = ssskit::report::record::docs_path("reference-edge");
+    let path = ssskit::report::present::record::docs_path("reference-edge");
     let computed = RecordTable::from(&table);
     if common::bless() {
         let mut r = Record::new(

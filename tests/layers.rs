@@ -158,3 +158,247 @@ fn the_scanner_finds_upward_and_sideways_paths() {
     assert!(bad[0].contains("f.rs:1: profile (layer 2) uses crate::kernel (layer 3)"));
     assert!(bad[1].contains("f.rs:1: scene (layer 3) uses crate::kernel (layer 3)"));
 }
+
+/// The sibling files each file of a folder names: `super::NAME` (alone or
+/// in a `super::{...}` group) where NAME is a sibling file, or an item the
+/// folder's module file re-exports from one (`pub use NAME::{...}`). The
+/// folder's module file (`mod.rs`, or `D.rs` beside `D/`) only declares
+/// and re-exports, so it is no node; code after `#[cfg(test)]` is left
+/// out, since a test module's `super::` is the file itself.
+fn sibling_edges(
+    siblings: &BTreeMap<String, String>,
+    module_file: &str,
+) -> BTreeMap<String, Vec<String>> {
+    let reexports = reexported_items(module_file);
+    let resolve = |name: &str| -> Option<String> {
+        if siblings.contains_key(name) {
+            Some(name.to_string())
+        } else {
+            reexports.get(name).cloned()
+        }
+    };
+    let mut edges = BTreeMap::new();
+    for (file, code) in siblings {
+        let code = code.split("#[cfg(test)]").next().unwrap_or("");
+        let mut to: Vec<String> = Vec::new();
+        for line in code.lines() {
+            let line = line.split("//").next().unwrap_or("");
+            let mut rest = line;
+            while let Some(k) = rest.find("super::") {
+                rest = &rest[k + "super::".len()..];
+                for name in first_names(rest) {
+                    if let Some(t) = resolve(&name).filter(|t| t != file) {
+                        to.push(t);
+                    }
+                }
+            }
+        }
+        to.sort();
+        to.dedup();
+        edges.insert(file.clone(), to);
+    }
+    edges
+}
+
+/// The first name of a path, or of each entry of a `{...}` group that
+/// opens it (one level; grouped entries are read up to the closing brace
+/// on the same line).
+fn first_names(rest: &str) -> Vec<String> {
+    let ident = |s: &str| -> String {
+        s.trim_start()
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect()
+    };
+    if let Some(group) = rest.strip_prefix('{') {
+        let inner = group.split('}').next().unwrap_or("");
+        inner
+            .split(',')
+            .map(ident)
+            .filter(|n| !n.is_empty())
+            .collect()
+    } else {
+        vec![ident(rest)]
+            .into_iter()
+            .filter(|n| !n.is_empty())
+            .collect()
+    }
+}
+
+/// Item -> sibling file, from the module file's `pub use NAME::...` lines
+/// (one line or a `{...}` group over several).
+fn reexported_items(module_file: &str) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    let mut rest = module_file;
+    while let Some(k) = rest.find("pub use ") {
+        rest = &rest[k + "pub use ".len()..];
+        let stmt = rest.split(';').next().unwrap_or("");
+        let Some((from, items)) = stmt.split_once("::") else {
+            continue;
+        };
+        let items = items.trim().trim_start_matches('{').trim_end_matches('}');
+        for item in items.split(',') {
+            let item = item.trim();
+            let name = item.rsplit(" as ").next().unwrap_or(item);
+            let name = name.rsplit("::").next().unwrap_or(name).trim();
+            if !name.is_empty() && name != "self" && name != "*" {
+                out.insert(name.to_string(), from.trim().to_string());
+            }
+        }
+    }
+    out
+}
+
+/// The cycles of `edges` (strongly connected sets of two or more files),
+/// each sorted, by Tarjan's algorithm (Tarjan 1972).
+fn cycles(edges: &BTreeMap<String, Vec<String>>) -> Vec<Vec<String>> {
+    struct State<'a> {
+        edges: &'a BTreeMap<String, Vec<String>>,
+        index: BTreeMap<&'a str, usize>,
+        low: BTreeMap<&'a str, usize>,
+        stack: Vec<&'a str>,
+        out: Vec<Vec<String>>,
+    }
+    fn visit<'a>(s: &mut State<'a>, v: &'a str) {
+        let n = s.index.len();
+        s.index.insert(v, n);
+        s.low.insert(v, n);
+        s.stack.push(v);
+        for w in s.edges.get(v).into_iter().flatten() {
+            let w = w.as_str();
+            if !s.index.contains_key(w) {
+                visit(s, w);
+                let lw = s.low[w];
+                let lv = s.low.get_mut(v).unwrap();
+                *lv = (*lv).min(lw);
+            } else if s.stack.contains(&w) {
+                let iw = s.index[w];
+                let lv = s.low.get_mut(v).unwrap();
+                *lv = (*lv).min(iw);
+            }
+        }
+        if s.low[v] == s.index[v] {
+            let mut set = Vec::new();
+            while let Some(w) = s.stack.pop() {
+                set.push(w.to_string());
+                if w == v {
+                    break;
+                }
+            }
+            if set.len() > 1 {
+                set.sort();
+                s.out.push(set);
+            }
+        }
+    }
+    let mut s = State {
+        edges,
+        index: BTreeMap::new(),
+        low: BTreeMap::new(),
+        stack: Vec::new(),
+        out: Vec::new(),
+    };
+    for v in edges.keys() {
+        if !s.index.contains_key(v.as_str()) {
+            visit(&mut s, v);
+        }
+    }
+    s.out
+}
+
+/// Every folder of `src/` with its module file's text and its sibling
+/// files (stem -> text).
+fn folders() -> Vec<(String, String, BTreeMap<String, String>)> {
+    let src = Path::new(REPO).join("src");
+    let mut by_dir: BTreeMap<std::path::PathBuf, BTreeMap<String, String>> = BTreeMap::new();
+    for p in common::rust_sources(&src) {
+        let stem = p.file_stem().unwrap().to_string_lossy().into_owned();
+        let dir = p.parent().unwrap().to_path_buf();
+        if stem != "mod" && dir != src {
+            let text = std::fs::read_to_string(&p).unwrap();
+            by_dir.entry(dir).or_default().insert(stem, text);
+        }
+    }
+    by_dir
+        .into_iter()
+        .map(|(dir, siblings)| {
+            let module_file = [dir.join("mod.rs"), dir.with_extension("rs")]
+                .iter()
+                .find_map(|p| std::fs::read_to_string(p).ok())
+                .unwrap_or_default();
+            let rel = dir
+                .strip_prefix(REPO)
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
+            (rel, module_file, siblings)
+        })
+        .collect()
+}
+
+#[test]
+fn no_files_import_each_other_in_a_circle_inside_a_folder() {
+    let folders = folders();
+    // src/cli, src/kernel, src/scene, src/report/eval, ... : every folder.
+    const FOLDERS_AT_LEAST: usize = 15;
+    assert!(
+        folders.len() >= FOLDERS_AT_LEAST,
+        "only {} folders",
+        folders.len()
+    );
+    let mut bad = Vec::new();
+    let mut edge_count = 0;
+    for (dir, module_file, siblings) in &folders {
+        let edges = sibling_edges(siblings, module_file);
+        edge_count += edges.values().map(Vec::len).sum::<usize>();
+        for c in cycles(&edges) {
+            bad.push(format!("{dir}: {}", c.join(" <-> ")));
+        }
+    }
+    // The scanner sees the folders' imports at all: today about 150 edges.
+    const EDGES_AT_LEAST: usize = 100;
+    assert!(
+        edge_count >= EDGES_AT_LEAST,
+        "only {edge_count} edges between sibling files"
+    );
+    assert!(
+        bad.is_empty(),
+        "files of one folder that import each other in a circle (move what both \
+         need into a leaf file):\n{}",
+        bad.join("\n")
+    );
+}
+
+/// The cycle scanner: a direct pair, a pair through the module file's
+/// re-export and a three-file ring are found; a test module's `super::`,
+/// a comment and a one-way edge are not.
+#[test]
+fn the_cycle_scanner_finds_circles_between_siblings() {
+    let files = |pairs: &[(&str, &str)]| -> BTreeMap<String, String> {
+        pairs
+            .iter()
+            .map(|(n, c)| (n.to_string(), c.to_string()))
+            .collect()
+    };
+    let module_file = "mod a;\nmod b;\npub use b::{Budget, other as Other};\n";
+    let siblings = files(&[
+        ("a", "use super::b::thing;\n"),
+        ("b", "use super::{a, Budget};\n"),
+        (
+            "c",
+            "use super::a;\n// super::d\n#[cfg(test)]\nmod tests { use super::d; }\n",
+        ),
+        ("d", "use super::c::x;\n"),
+        ("e", "use super::Budget;\n"),
+    ]);
+    let edges = sibling_edges(&siblings, module_file);
+    assert_eq!(edges["e"], ["b"], "a re-exported item resolves to its file");
+    assert_eq!(cycles(&edges), [vec!["a".to_string(), "b".to_string()]]);
+    let ring = files(&[
+        ("x", "use super::y::f;\n"),
+        ("y", "use super::{z::g, Budget};\n"),
+        ("z", "let v = super::x::h();\n"),
+    ]);
+    let found = cycles(&sibling_edges(&ring, module_file));
+    assert_eq!(found, [vec!["x", "y", "z"]]);
+}

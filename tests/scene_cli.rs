@@ -203,7 +203,7 @@ fn scene_writes_radiance_gbuffer_and_record() {
     let md = std::fs::read_to_string(cmp.join("scene.md")).unwrap();
     assert!(md.contains("<!-- BEGIN compare:summary -->"));
     assert!(md.contains("<!-- BEGIN compare:angular -->"));
-    ssskit::report::record::Record::read(&cmp.join("record.json")).unwrap();
+    ssskit::report::present::record::Record::read(&cmp.join("record.json")).unwrap();
     assert!(cmp.join("contact-sheet.png").exists());
 
     // A render of another scene is refused.

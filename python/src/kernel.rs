@@ -313,7 +313,7 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
 
 /// The separable models `fit` knows (those of `ssskit fit --model`): the
 /// comparison's families, from the library.
-const MODELS: [&str; 6] = ssskit::report::kernel_compare::FAMILIES;
+const MODELS: [&str; 6] = ssskit::report::eval::kernel_compare::FAMILIES;
 
 /// Fits a separable kernel to a profile (`ssskit fit`).
 ///

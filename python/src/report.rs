@@ -7,9 +7,9 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::filter::signals::Signal;
-use ssskit::report::advise::{self, Budget};
-use ssskit::report::evaluate::{self, ImageCase, Options};
-use ssskit::report::kernel_compare::{self, parse_ranks, Config, MaterialInput};
+use ssskit::report::eval::advise::{self, Budget};
+use ssskit::report::eval::evaluate::{self, ImageCase, Options};
+use ssskit::report::eval::kernel_compare::{self, parse_ranks, Config, MaterialInput};
 
 fn signal_of(name: &str) -> PyResult<Signal> {
     Ok(match name {

@@ -7,8 +7,9 @@ use super::args::{
 };
 use super::out::{out, outln};
 use anyhow::bail;
-use ssskit::report::advise::{self, ViewScale, FAMILIES};
-use ssskit::report::kernel_report::sig;
+use ssskit::report::eval::advise::{self, ViewScale, FAMILIES};
+use ssskit::report::present::advice_text;
+use ssskit::report::present::number::sig;
 
 /// The perspective scale's own flags (with --fov-y and --units-per-mm).
 #[derive(clap::Args)]
@@ -81,7 +82,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = super::scene::scene_check(&a.scene)?;
     let scene_mm = scene
         .as_ref()
-        .map(|(s, r, _)| ssskit::report::scene_compare::median_mm_per_pixel(s, r));
+        .map(|(s, r, _)| ssskit::report::eval::scene_compare::median_mm_per_pixel(s, r));
     let view = match (
         a.mm_per_pixel.mm_per_pixel.or(scene_mm),
         a.fov_y.fov_y,
@@ -101,7 +102,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(m) = scene_mm {
         super::scene::agrees_with_scene(mm, m)?;
     }
-    ssskit::report::advise_disk::check_frames(a.frames)?;
+    ssskit::report::eval::advise_disk::check_frames(a.frames)?;
     let target = a.target.fraction()?;
     let (profile, source) = match &scene {
         // The render's own profile of the scene's first object: the
@@ -154,7 +155,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let c = advice.chosen();
-    let text = advise::explain(&advice);
+    let text = advice_text::explain(&advice);
     if a.json.json {
         eprint!("{text}");
         outln!("{}", serde_json::to_string_pretty(&advice.to_json())?)?;

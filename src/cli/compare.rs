@@ -16,10 +16,11 @@ use clap::ValueEnum;
 use ssskit::filter::image::read_image;
 use ssskit::material::Material;
 use ssskit::profile::Profile;
-use ssskit::report::evaluate::{self, ImageCase, Options, Which};
-use ssskit::report::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
-use ssskit::report::kernel_report;
-use ssskit::report::pipeline::{self, ProfileSource};
+use ssskit::report::eval::claims;
+use ssskit::report::eval::evaluate::{self, ImageCase, Options, Which};
+use ssskit::report::eval::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
+use ssskit::report::eval::pipeline::{self, ProfileSource};
+use ssskit::report::present::kernel_report;
 use std::path::PathBuf;
 
 /// `--signals`: a test signal as `signal` spells it, or "none" (also "")
@@ -306,7 +307,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )?;
     pipeline::write_fitted_kernels(&cmp, &staged.path().join("kernels"), false)?;
     staged.commit()?;
-    let claims = kernel_report::claims(&cmp, &signals, &factors, &ranks);
+    let claims = claims::claims(&cmp, &signals, &factors, &ranks);
     out!("{}", kernel_report::claims_table(&claims).markdown())?;
     eprintln!(
         "{} materials x {} kernels x {} images in {:.1} s -> {}/report.md, compare.csv, compare.json, kernels/{}",

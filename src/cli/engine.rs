@@ -6,7 +6,7 @@ use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
 use ssskit::numerics::Bounded;
 use ssskit::profile::Profile;
-use ssskit::report::plot;
+use ssskit::report::present::plot;
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -1,7 +1,7 @@
 //! `ssskit fit`: a separable kernel from a reflectance profile.
 
 use super::args::{
-    self, count, ExtentArg, KernelFile as KernelFileArg, OutFile, ProfileFile, TapsArg,
+    self, count, ExtentArg, KernelFile as KernelFileArg, ModelArg, OutFile, ProfileFile, TapsArg,
 };
 use super::out::out;
 use anyhow::{bail, Context};
@@ -14,24 +14,6 @@ use ssskit::kernel::manual::ManualParams;
 use ssskit::kernel::preintegrate::PreMethod;
 use ssskit::kernel::{fit_kernel_file_with, Kernel2DSpec, KernelFile, Model};
 use ssskit::profile::Profile;
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum ModelArg {
-    /// Rank-N SVD (Freude 2014, sec. 5.1): --rank, --renormalize.
-    Svd,
-    /// Pre-integration / Abel projection (Freude 2014, sec. 5.2): --method.
-    Preintegrate,
-    /// Guided optimization (Freude 2014, sec. 5.3): --k, --b.
-    Guided,
-    /// Two-Gaussian manual model (Freude 2014, sec. 5.4): --w --near --far, --preset or --fit.
-    Manual,
-    /// d'Eon sum of 2D Gaussians: --count, or --preset deon-skin.
-    Gaussians,
-    /// Jimenez's skin model (Freude 2014, eq. 4.8): --jimenez-width, --jimenez-strength, --jimenez-falloff.
-    Jimenez,
-    /// Importance-sampled disk (not separable): --samples, --radii.
-    Disk,
-}
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum MethodArg {

@@ -7,7 +7,7 @@ use super::args::{
 };
 use super::out::out;
 use super::profile_source::command_line;
-use ssskit::report::pipeline::{self, Settings};
+use ssskit::report::eval::pipeline::{self, Settings};
 
 #[derive(clap::Args)]
 #[command(
@@ -37,7 +37,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = super::scene::scene_check(&a.scene)?;
     let scene_mm = scene
         .as_ref()
-        .map(|(s, r, _)| ssskit::report::scene_compare::median_mm_per_pixel(s, r));
+        .map(|(s, r, _)| ssskit::report::eval::scene_compare::median_mm_per_pixel(s, r));
     let given = a.report.mm_per_pixel.mm_per_pixel;
     let mm_per_pixel = super::errors::positive(
         "--mm-per-pixel",

@@ -247,8 +247,8 @@ mod tests {
     use super::args::flag_value;
     use super::*;
     use ssskit::engine::Engine;
-    use ssskit::report::evaluate::signal_name;
-    use ssskit::report::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
+    use ssskit::report::eval::evaluate::signal_name;
+    use ssskit::report::eval::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
 
     fn names<T: clap::ValueEnum>() -> Vec<String> {
         T::value_variants().iter().map(flag_value).collect()
@@ -278,13 +278,13 @@ mod tests {
     fn flag_values_are_the_library_names() {
         // Every separable model of `fit --model` is a family of `compare`;
         // the disk model is not separable.
-        let separable: Vec<String> = names::<fit::ModelArg>()
+        let separable: Vec<String> = names::<args::ModelArg>()
             .into_iter()
             .filter(|m| m != "disk")
             .collect();
         assert_eq!(separable, COMPARE);
         // advise's default families are kernel models of `fit --model`.
-        let models = names::<fit::ModelArg>();
+        let models = names::<args::ModelArg>();
         assert!(ADVISE.iter().all(|f| models.iter().any(|m| m == f)));
         let engines: Vec<&str> = Engine::ALL.iter().map(|e| e.name()).collect();
         assert_eq!(names::<engine::EngineArg>(), engines);

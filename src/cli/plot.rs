@@ -2,7 +2,7 @@
 
 use super::args::{self, OutFile};
 use ssskit::profile::Profile;
-use ssskit::report::plot;
+use ssskit::report::present::plot;
 use std::path::PathBuf;
 
 pub type Args = args::Group<What>;

@@ -12,7 +12,8 @@ use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model};
 use ssskit::profile::mc::{self, PhotonBudget};
 use ssskit::profile::source::{make_profile_on, ProfileSource};
-use ssskit::report::{compare, plot};
+use ssskit::report::eval::profile_compare as compare;
+use ssskit::report::present::{plot, profile_tables};
 
 pub type Args = args::Group<What>;
 
@@ -138,7 +139,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
                 .unwrap_or_else(|| "?".into())
         );
         plot::render(
-            &compare::comparison_panels(&reference, &models),
+            &profile_tables::comparison_panels(&reference, &models),
             3,
             &title,
             &png,
@@ -149,7 +150,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     let csv = out_dir.join("compare.csv");
     // A reference too noisy to judge the models by says so in the report
     // and on standard output, not only on standard error.
-    let mut report = compare::report(&rows);
+    let mut report = profile_tables::report(&rows);
     if !warnings.is_empty() {
         report.push_str("\n## Warnings\n\n");
         for w in &warnings {
@@ -157,8 +158,8 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         }
     }
     ssskit::io::write_atomic(&md, report.as_bytes())?;
-    compare::csv_table(&rows).write_csv(&csv)?;
-    out!("{}", compare::table(&rows).markdown())?;
+    profile_tables::csv_table(&rows).write_csv(&csv)?;
+    out!("{}", profile_tables::table(&rows).markdown())?;
     for w in &warnings {
         outln!("warning: {w}")?;
     }

@@ -336,8 +336,8 @@ pub(super) fn agrees_with_scene(mm: f64, scene_mm: f64) -> anyhow::Result<()> {
         bail!(
             "--scene: the scene is seen at {} mm per pixel (its median depth), the advice \
              asked for {}: drop the scale flags to take the scene's",
-            ssskit::report::kernel_report::sig(scene_mm),
-            ssskit::report::kernel_report::sig(mm)
+            ssskit::report::present::number::sig(scene_mm),
+            ssskit::report::present::number::sig(mm)
         );
     }
     Ok(())
@@ -424,7 +424,7 @@ fn angular_factors(
     if photons == 0 {
         return Ok(None);
     }
-    if let Some(why) = ssskit::report::scene_compare::angular_obstacle(scene) {
+    if let Some(why) = ssskit::report::eval::scene_compare::angular_obstacle(scene) {
         super::errors::warn(&format!("{why}: no angular rows"));
         return Ok(None);
     }
@@ -438,9 +438,9 @@ fn angular_factors(
 /// scene's G-buffer against its path-traced image; writes scene.md,
 /// scene.json, record.json and the contact sheet.
 pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
-    use ssskit::report::record::{machine_line, Record};
-    use ssskit::report::scene_compare::{compare_scene, dominance, SceneConfig};
-    use ssskit::report::scene_tables::{contact_sheet, named_tables, page};
+    use ssskit::report::eval::scene_compare::{compare_scene, dominance, SceneConfig};
+    use ssskit::report::present::record::{machine_line, Record};
+    use ssskit::report::present::scene_tables::{contact_sheet, named_tables, page};
     let (scene, r, profiles) = scene_and_render(a.scene, a.render)?;
     let Some(profile) = profiles.first() else {
         bail!(
@@ -456,7 +456,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         families: a.families,
         ranks: a.ranks,
         taps: a.taps,
-        options: ssskit::report::evaluate::Options {
+        options: ssskit::report::eval::evaluate::Options {
             round_to_f32: true,
             pixels_per_degree: a.pixels_per_degree,
         },

@@ -4,7 +4,7 @@ use super::args::{self, ImageSizeArg, MmPerPixelArg, OutFile};
 use super::errors::positive;
 use ssskit::filter::image::{write_image, PngDepth};
 use ssskit::filter::signals::{generate, Signal, DEFAULT_SIZE};
-use ssskit::report::evaluate;
+use ssskit::report::eval::evaluate;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub(super) enum Kind {

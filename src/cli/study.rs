@@ -4,7 +4,8 @@ use super::args::{self, count, ProfileModel, ProfileSourceArgs, ReportArgs};
 use super::errors::invalid;
 use super::out::out;
 use super::profile_source::command_line;
-use ssskit::report::study::{self, Settings};
+use ssskit::report::eval::study::{self, Settings};
+use ssskit::report::present::study_report;
 
 #[derive(clap::Args)]
 #[command(
@@ -65,14 +66,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ..Settings::default()
     };
     let s = study::run(&reference, &settings, &super::progress::Bar::new())?;
-    let files = study::write(
+    let files = study_report::write(
         &s,
         staged.path(),
         &command_line(out_dir),
         !a.report.no_plots.no_plots,
     )?;
     staged.commit()?;
-    out!("{}", study::table(&s).markdown())?;
+    out!("{}", study_report::table(&s).markdown())?;
     eprintln!(
         "{} entries in {:.1} s -> {}/{}",
         s.entries.len(),

@@ -31,10 +31,10 @@
 //! its hex field is sRGB (Blender Manual, Color Picker).
 
 use super::burley::Burley;
-use super::{
-    color, in_range, number, printed, require, srgb_hex, text, triple, typed, Printed, Scene,
-    Version,
+use super::printed::{
+    color, in_range, number, printed, require, srgb_hex, text, triple, typed, Printed,
 };
+use super::{Scene, Version};
 use crate::error::{Error, Result};
 use crate::profile::analytic::burley::diffuse_surface_scale;
 use serde_json::{json, Map, Value};

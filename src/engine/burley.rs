@@ -6,9 +6,10 @@
 //! from the profile itself; each engine file turns them into the values a
 //! user types, and back through that engine's own chain.
 
-use super::{minimise_log, Target};
+use super::Target;
 use crate::error::{Error, Result};
 use crate::numerics::bin_averages_resolved;
+use crate::numerics::minimise_log;
 use crate::profile::analytic::burley::normalized_diffusion;
 use crate::profile::{Profile, RadialGrid};
 

@@ -58,7 +58,8 @@
 //! distance over the screen's height, 1 / aspect of that in the scene.
 
 use super::jimenez::{self as sep, FitData, Separable};
-use super::{color, number, table, triple, EngineFit, Scene, Units};
+use super::printed::{color, number, table, triple, Units};
+use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams};
 use crate::kernel::taps;

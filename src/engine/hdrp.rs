@@ -28,11 +28,12 @@
 //! Scale u) mm for u scene units per mm.
 
 use super::burley::Burley;
-use super::{
-    color, from_srgb_hex, in_range, linear_to_srgb, number, printed, srgb_hex, srgb_to_linear,
-    text, triple, typed, Printed, Scene, Version,
+use super::printed::{
+    color, from_srgb_hex, in_range, number, printed, srgb_hex, text, triple, typed, Printed,
 };
+use super::{Scene, Version};
 use crate::error::{Error, Result};
+use crate::filter::image::{linear_to_srgb, srgb_to_linear};
 use crate::numerics::Bounded;
 use serde_json::{json, Map, Value};
 

@@ -30,7 +30,8 @@
 //! from -3 to 3" holds for 25 taps; below 21 the table spans +-2 units.
 
 use super::jimenez::{self as sep, ChannelFit, FitData, Separable};
-use super::{color, number, table, triple, EngineFit, Scene, Units};
+use super::printed::{color, number, table, triple, Units};
+use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams, IRYOKU_FALLOFF, IRYOKU_STRENGTH};
 use crate::kernel::taps;

@@ -13,11 +13,12 @@
 //! r R_d(r) over r < r99 (the shape error `profiles compare` reports),
 //! summed over the channels.
 
-use super::{minimise_log, FitError, Model, Target};
+use super::{FitError, Model, Target};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{offsets_mm, scattered_weights};
 use crate::kernel::tap_kernel::{radial_bins, SeparableBins};
 use crate::kernel::{taps, Pass};
+use crate::numerics::minimise_log;
 use crate::profile::Profile;
 use rayon::prelude::*;
 

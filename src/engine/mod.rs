@@ -22,12 +22,14 @@ pub mod godot;
 pub mod hdrp;
 pub mod iryoku;
 pub mod jimenez;
+pub mod printed;
 pub mod unreal;
 
 use crate::error::{Error, Result};
 use crate::numerics::Bounded;
-use crate::profile::metrics::{channel_error, same_grid};
+use crate::profile::metrics::{self, channel_error, same_grid};
 use crate::profile::{Profile, RadialGrid};
+use printed::Units;
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -143,9 +145,6 @@ pub struct FitError {
     pub shape: [f64; 3],
 }
 
-/// Parameter name (the engine's) -> its unit and meaning.
-pub type Units = std::collections::BTreeMap<String, String>;
-
 /// The answer for one engine: `{"engine", "params", "units", "error"}`.
 #[derive(Clone, Debug, Serialize)]
 pub struct EngineFit {
@@ -201,14 +200,6 @@ impl Scene {
             _ => Scene::default(),
         }
     }
-}
-
-/// What a Burley engine's UI takes, as printed: parameter name -> value,
-/// name -> unit and meaning, and the values moved to fit the UI.
-pub struct Printed {
-    pub params: Map<String, Value>,
-    pub units: Units,
-    pub warnings: Vec<String>,
 }
 
 /// Fits `engine`'s model to `profile`, for the engine's default version.
@@ -428,43 +419,6 @@ impl Model {
     }
 }
 
-/// Golden-section search for the minimum of `f` on [lo, hi] in log space,
-/// after a scan of `scan` log-spaced points (the objectives here are
-/// smooth but not guaranteed unimodal over decades).
-pub(crate) fn minimise_log(f: impl Fn(f64) -> f64, lo: f64, hi: f64, scan: usize) -> f64 {
-    let (a, b) = (lo.ln(), hi.ln());
-    let xs: Vec<f64> = (0..scan)
-        .map(|i| a + (b - a) * i as f64 / (scan - 1) as f64)
-        .collect();
-    let best = (0..scan)
-        .min_by(|&i, &j| f(xs[i].exp()).total_cmp(&f(xs[j].exp())))
-        .unwrap_or(0);
-    let (mut x0, mut x1) = (xs[best.saturating_sub(1)], xs[(best + 1).min(scan - 1)]);
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = x1 - g * (x1 - x0);
-    let mut d = x0 + g * (x1 - x0);
-    let (mut fc, mut fd) = (f(c.exp()), f(d.exp()));
-    for _ in 0..80 {
-        if fc < fd {
-            x1 = d;
-            d = c;
-            fd = fc;
-            c = x1 - g * (x1 - x0);
-            fc = f(c.exp());
-        } else {
-            x0 = c;
-            c = d;
-            fc = fd;
-            d = x0 + g * (x1 - x0);
-            fd = f(d.exp());
-        }
-        if (x1 - x0).abs() < 1e-10 {
-            break;
-        }
-    }
-    (0.5 * (x0 + x1)).exp()
-}
-
 /// Weights and targets of the least squares on r R_d(r): bins inside the
 /// radius holding 99% of channel `c`, weight w = bin width r^2 (the
 /// discrete norm of `profile::metrics::l2_errors`).
@@ -476,13 +430,12 @@ pub(crate) struct Target {
 
 impl Target {
     pub fn new(p: &Profile, c: usize) -> Target {
-        let r99 = crate::profile::radius_holding(p, c, 0.99);
-        let bins = p.r_edges.windows(2).take_while(|e| e[0] < r99).count();
+        let r99 = crate::profile::radius_holding(p, c, metrics::SHAPE_HOLD);
+        let weight = metrics::shape_weights(p, r99);
+        let bins = weight.len();
         Target {
             bins,
-            weight: (0..bins)
-                .map(|i| (p.r_edges[i + 1] - p.r_edges[i]) * p.r[i] * p.r[i])
-                .collect(),
+            weight,
             value: p.rd[c][..bins].to_vec(),
         }
     }
@@ -504,138 +457,5 @@ impl Target {
         }
         let a = if gg > 0.0 { (sg / gg).max(0.0) } else { 0.0 };
         (a, ss - 2.0 * a * sg + a * a * gg)
-    }
-}
-
-fn rgb(v: [f64; 3]) -> Value {
-    serde_json::json!(v)
-}
-
-/// Reads a number parameter.
-pub(crate) fn number(params: &Map<String, Value>, name: &str) -> Result<f64> {
-    params
-        .get(name)
-        .and_then(Value::as_f64)
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| Error::Unsupported(format!("parameter '{name}' is missing or not a number")))
-}
-
-/// Reads an [r, g, b] parameter.
-pub(crate) fn triple(params: &Map<String, Value>, name: &str) -> Result<[f64; 3]> {
-    let v = params
-        .get(name)
-        .and_then(Value::as_array)
-        .filter(|a| a.len() == 3)
-        .ok_or_else(|| Error::Unsupported(format!("parameter '{name}' is not [r, g, b]")))?;
-    let mut out = [0.0; 3];
-    for c in 0..3 {
-        out[c] = v[c].as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
-            Error::Unsupported(format!("parameter '{name}'[{c}] is not a number"))
-        })?;
-    }
-    Ok(out)
-}
-
-/// What a Burley engine's UI takes, from (name, value, unit) rows and the
-/// warnings of the values moved to fit it.
-pub(crate) fn printed(rows: Vec<(&str, Value, &str)>, warnings: Vec<String>) -> Printed {
-    let (params, units) = table(rows);
-    Printed {
-        params,
-        units,
-        warnings,
-    }
-}
-
-/// A parameter map from (name, value, unit) rows.
-pub(crate) fn table(rows: Vec<(&str, Value, &str)>) -> (Map<String, Value>, Units) {
-    let mut p = Map::new();
-    let mut u = Units::new();
-    for (name, v, unit) in rows {
-        p.insert(name.into(), v);
-        u.insert(name.into(), unit.into());
-    }
-    (p, u)
-}
-
-pub(crate) fn color(v: [f64; 3]) -> Value {
-    rgb(v)
-}
-
-/// `x` to 4 significant digits, as ssskit prints a value to type: the
-/// error is computed from this value, not from the unrounded fit.
-pub(crate) fn typed(x: f64) -> f64 {
-    if x == 0.0 || !x.is_finite() {
-        return x;
-    }
-    format!("{x:.3e}").parse().unwrap_or(x)
-}
-
-/// A linear colour as an 8-bit sRGB hex code ("#RRGGBB"), the form the
-/// colour pickers' hex fields take.
-pub(crate) fn srgb_hex(linear: [f64; 3]) -> String {
-    let byte = |v: f64| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u8;
-    format!(
-        "#{:02X}{:02X}{:02X}",
-        byte(linear[0]),
-        byte(linear[1]),
-        byte(linear[2])
-    )
-}
-
-/// The linear colour an "#RRGGBB" sRGB hex code stands for.
-pub(crate) fn from_srgb_hex(hex: &str) -> Option<[f64; 3]> {
-    let h = hex.strip_prefix('#')?;
-    if h.len() != 6 || !h.is_ascii() {
-        return None;
-    }
-    let mut out = [0.0; 3];
-    for (c, o) in out.iter_mut().enumerate() {
-        let b = u8::from_str_radix(&h[2 * c..2 * c + 2], 16).ok()?;
-        *o = srgb_to_linear(b as f64 / 255.0);
-    }
-    Some(out)
-}
-
-pub(crate) use crate::filter::image::{linear_to_srgb, srgb_to_linear};
-
-/// Reads a string parameter.
-pub(crate) fn text<'a>(params: &'a Map<String, Value>, name: &str) -> Result<&'a str> {
-    params
-        .get(name)
-        .and_then(Value::as_str)
-        .ok_or_else(|| Error::Unsupported(format!("parameter '{name}' is missing or not text")))
-}
-
-/// `x` if it lies in [lo, hi], the range `ui` (the engine's UI) takes for
-/// parameter `name`; an error naming both otherwise.
-pub(crate) fn in_range(ui: &str, name: &str, x: f64, (lo, hi): (f64, f64)) -> Result<f64> {
-    if !(lo..=hi).contains(&x) {
-        return Err(Error::invalid(
-            "engine",
-            name,
-            x,
-            format!("{ui} takes [{lo}, {hi}]"),
-        ));
-    }
-    Ok(x)
-}
-
-/// Refuses a parameter that is not the one value the fit assumes.
-pub(crate) fn require(
-    params: &Map<String, Value>,
-    name: &str,
-    want: &Value,
-    why: &str,
-) -> Result<()> {
-    match params.get(name) {
-        Some(v) if v == want => Ok(()),
-        Some(v) => Err(Error::invalid(
-            "engine",
-            name,
-            v,
-            format!("must be {want}: {why}"),
-        )),
-        None => Err(Error::Unsupported(format!("parameter '{name}' is missing"))),
     }
 }

@@ -36,7 +36,8 @@
 //! perpendicular-searchlight and diffuse-mean-free-path fits.
 
 use super::burley::Burley;
-use super::{color, in_range, number, printed, require, triple, typed, Printed, Scene, Version};
+use super::printed::{color, in_range, number, printed, require, triple, typed, Printed};
+use super::{Scene, Version};
 use crate::error::Result;
 use crate::profile::analytic::burley::{dmfp_scale, searchlight_scale};
 use serde_json::{json, Map, Value};

@@ -36,7 +36,7 @@ pub mod timing;
 pub mod warnings;
 pub(crate) mod which;
 
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 use crate::kernel::{KernelFile, Pass};
 pub use image::{Image, Plane};
 pub use jitter::{
@@ -55,15 +55,7 @@ const SCALE: &str = "kernel scale";
 
 /// An orthographic pixel footprint must be a finite positive length.
 fn check_mm_per_pixel(mm: f64) -> Result<()> {
-    if mm > 0.0 && mm.is_finite() {
-        return Ok(());
-    }
-    Err(Error::invalid(
-        SCALE,
-        "mm_per_pixel",
-        mm,
-        "must be finite and > 0",
-    ))
+    finite_positive(SCALE, "mm_per_pixel", mm, "").map(drop)
 }
 
 /// How kernel millimetres map to pixels.
@@ -85,15 +77,9 @@ impl Scale {
             Scale::Perspective { fov_y_deg, .. } if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) => Err(
                 Error::invalid(SCALE, "fov_y_deg", fov_y_deg, "must be in (0, 180) degrees"),
             ),
-            Scale::Perspective { sss_width, .. } if !(sss_width > 0.0 && sss_width.is_finite()) => {
-                Err(Error::invalid(
-                    SCALE,
-                    "sss_width",
-                    sss_width,
-                    "must be finite and > 0",
-                ))
+            Scale::Perspective { sss_width, .. } => {
+                finite_positive(SCALE, "sss_width", sss_width, "").map(drop)
             }
-            Scale::Perspective { .. } => Ok(()),
         }
     }
 

@@ -4,11 +4,11 @@
 //! projection: non-negative weights by least squares for given variances,
 //! log-variances by Nelder-Mead.
 
+use super::factors::Factors;
 use super::kernel2d::multiplicity;
-use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
-use crate::numerics::nelder_mead;
+use crate::numerics::{erf, erfc, nelder_mead, nnls};
 use serde_json::json;
 
 /// Gaussians in a sum by default: four, the sum of the reference kernels
@@ -27,52 +27,6 @@ pub const DEON_SKIN_WEIGHTS: [[f64; 3]; 6] = [
     [0.078, 0.0, 0.0],
 ];
 
-/// erf(x) to about 1e-15: positive-term series below 3, continued fraction
-/// for erfc above (no cancellation in either).
-pub fn erf(x: f64) -> f64 {
-    if x < 0.0 {
-        return -erf(-x);
-    }
-    if x < 3.0 {
-        // erf x = 2/sqrt(pi) e^{-x^2} sum_n 2^n x^{2n+1} / (2n+1)!!
-        let mut term = x;
-        let mut sum = x;
-        let x2 = x * x;
-        let mut n = 0.0;
-        while term > 1e-17 * sum {
-            n += 1.0;
-            term *= 2.0 * x2 / (2.0 * n + 1.0);
-            sum += term;
-        }
-        2.0 / std::f64::consts::PI.sqrt() * (-x2).exp() * sum
-    } else {
-        1.0 - erfc_cf(x)
-    }
-}
-
-/// erfc(x) for x >= 3 by the Lentz continued fraction.
-fn erfc_cf(x: f64) -> f64 {
-    // erfc x = e^{-x^2}/sqrt(pi) * 1/(x + 1/2/(x + 1/(x + 3/2/(x + ...))))
-    let tiny = 1e-300;
-    let mut f = x;
-    let mut c = x;
-    let mut d = 0.0;
-    for k in 1..200 {
-        let a = k as f64 / 2.0;
-        d = x + a * d;
-        d = if d.abs() < tiny { tiny } else { d };
-        c = x + a / c;
-        c = if c.abs() < tiny { tiny } else { c };
-        d = 1.0 / d;
-        let delta = c * d;
-        f *= delta;
-        if (delta - 1.0).abs() < 1e-16 {
-            break;
-        }
-    }
-    (-x * x).exp() / std::f64::consts::PI.sqrt() / f
-}
-
 /// Integral over [a, b] of the unit-mass 1D Gaussian of variance `v`.
 pub fn gaussian_mass(a: f64, b: f64, v: f64) -> f64 {
     if v <= 0.0 {
@@ -86,14 +40,6 @@ pub fn gaussian_mass(a: f64, b: f64, v: f64) -> f64 {
         0.5 * (erfc(-b / s) - erfc(-a / s))
     } else {
         0.5 * (erf(b / s) - erf(a / s))
-    }
-}
-
-fn erfc(x: f64) -> f64 {
-    if x >= 3.0 {
-        erfc_cf(x)
-    } else {
-        1.0 - erf(x)
     }
 }
 
@@ -216,66 +162,6 @@ fn nnls_weights(q: &[f64], g: &[Vec<f64>]) -> (Vec<f64>, f64) {
     (w, obj)
 }
 
-/// Minimises 1/2 w^T M w - b^T w over w >= 0 (M symmetric positive
-/// semidefinite, small) by the Lawson-Hanson active set method.
-fn nnls(m: &[f64], b: &[f64], n: usize) -> Vec<f64> {
-    let mut w = vec![0.0; n];
-    let mut passive = vec![false; n];
-    for _ in 0..(3 * n + 10) {
-        let grad: Vec<f64> = (0..n)
-            .map(|i| b[i] - (0..n).map(|j| m[i * n + j] * w[j]).sum::<f64>())
-            .collect();
-        let cand = (0..n)
-            .filter(|&i| !passive[i] && grad[i] > 1e-14 * b[i].abs().max(1e-300))
-            .max_by(|&i, &j| grad[i].total_cmp(&grad[j]));
-        let Some(t) = cand else { break };
-        passive[t] = true;
-        loop {
-            let z = solve_passive(m, b, n, &passive);
-            if (0..n).all(|i| !passive[i] || z[i] > 0.0) {
-                w = z;
-                break;
-            }
-            let mut alpha = 1.0f64;
-            for i in 0..n {
-                if passive[i] && z[i] <= 0.0 {
-                    alpha = alpha.min(w[i] / (w[i] - z[i]));
-                }
-            }
-            for i in 0..n {
-                w[i] += alpha * (z[i] - w[i]);
-                if passive[i] && w[i] <= 1e-300 {
-                    passive[i] = false;
-                    w[i] = 0.0;
-                }
-            }
-            if !passive.iter().any(|&p| p) {
-                break;
-            }
-        }
-    }
-    w
-}
-
-/// Solves the normal equations restricted to the passive set.
-fn solve_passive(m: &[f64], b: &[f64], n: usize, passive: &[bool]) -> Vec<f64> {
-    let idx: Vec<usize> = (0..n).filter(|&i| passive[i]).collect();
-    let p = idx.len();
-    let mat = nalgebra::DMatrix::from_fn(p, p, |i, j| m[idx[i] * n + idx[j]]);
-    let rhs = nalgebra::DVector::from_fn(p, |i, _| b[idx[i]]);
-    let sol = mat
-        .clone()
-        .cholesky()
-        .map(|c| c.solve(&rhs))
-        .or_else(|| mat.pseudo_inverse(1e-300).ok().map(|pi| pi * &rhs))
-        .unwrap_or_else(|| nalgebra::DVector::zeros(p));
-    let mut z = vec![0.0; n];
-    for (k, &i) in idx.iter().enumerate() {
-        z[i] = sol[k];
-    }
-    z
-}
-
 /// Fits `count` 2D Gaussians per channel to the kernel (kernel-space least
 /// squares, the kernel_rms metric), weights >= 0.
 pub fn fit_gaussians(k: &Kernel2D, count: usize) -> Result<(Factors, serde_json::Value)> {
@@ -336,20 +222,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn erf_matches_known_values() {
-        // Abramowitz and Stegun table 7.1.
-        for (x, e) in [
-            (0.5, 0.520_499_877_813_046_5),
-            (1.0, 0.842_700_792_949_714_9),
-            (2.0, 0.995_322_265_018_952_7),
-            (3.5, 0.999_999_256_901_627_7),
-        ] {
-            assert!((erf(x) - e).abs() < 1e-14, "erf({x}) = {}", erf(x));
-        }
-        assert!((erfc(5.0) - 1.537_459_794_428_035e-12).abs() < 1e-24);
-    }
-
-    #[test]
     fn half_cells_match_full_cells() {
         let k = Kernel2D {
             size: 41,
@@ -375,12 +247,5 @@ mod tests {
             let s: f64 = DEON_SKIN_WEIGHTS.iter().map(|w| w[c]).sum();
             assert!((s - 1.0).abs() < 2e-3, "channel {c}: {s}");
         }
-    }
-
-    #[test]
-    fn nnls_recovers_non_negative_solution() {
-        // M = I, b = (1, -1): w = (1, 0).
-        let w = nnls(&[1.0, 0.0, 0.0, 1.0], &[1.0, -1.0], 2);
-        assert_eq!(w, vec![1.0, 0.0]);
     }
 }

@@ -11,8 +11,8 @@
 //! with the line search of Moré and Thuente 1994, started from the better of
 //! pre-integration and rank-1 SVD.
 
+use super::factors::Factors;
 use super::kernel2d::multiplicity;
-use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
 use argmin::core::{CostFunction, Executor, Gradient, State};

@@ -15,10 +15,10 @@
 //! the engines iryoku and Godot render) and the model's factor on the 2D
 //! kernel grid.
 
+use super::factors::Factors;
 use super::gaussians::{gaussian_cells, DEON_SKIN_VARIANCES, DEON_SKIN_WEIGHTS};
-use super::model::Factors;
 use super::{taps, Kernel2D, Pass, TapTable};
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 use serde_json::json;
 use std::f64::consts::PI;
 
@@ -159,14 +159,7 @@ pub fn tap_table(p: &JimenezParams, count: usize, extent_mm: f64) -> Result<Pass
             "Jimenez's table needs at least 3 taps (its areas are gaps between taps)",
         ));
     }
-    if !(extent_mm.is_finite() && extent_mm > 0.0) {
-        return Err(Error::invalid(
-            "taps",
-            "extent_mm",
-            extent_mm,
-            "must be finite and > 0 (mm)",
-        ));
-    }
+    finite_positive("taps", "extent_mm", extent_mm, " (mm)")?;
     let offsets = offsets_mm(count, extent_mm);
     let centre = count / 2;
     let channels: [Vec<f64>; 3] = std::array::from_fn(|c| {

@@ -9,11 +9,11 @@
 //! kernel exactly symmetric under x <-> -x, y <-> -y and x <-> y.
 
 use super::cell_integrals::{cell_integrals, tent_integrals};
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 use crate::material::Channel;
-use crate::profile::radius::{default_kernel_size, DEFAULT_HOLD};
+use crate::profile::radius::{default_extent, default_kernel_size};
 use crate::profile::Profile;
-use crate::profile::{radius_holding, RadialInterp};
+use crate::profile::RadialInterp;
 
 /// How to discretise: both optional, chosen from the profile when absent.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -136,19 +136,8 @@ impl Kernel2D {
         let idx = rgb_indices(profile)?;
         check_profile_values(profile, &idx)?;
         let extent = match spec.extent_mm {
-            Some(e) if e.is_finite() && e > 0.0 => e,
-            Some(e) => {
-                return Err(Error::invalid(
-                    "kernel",
-                    "extent_mm",
-                    e,
-                    "must be finite and > 0 (mm)",
-                ))
-            }
-            None => idx
-                .iter()
-                .map(|&c| radius_holding(profile, c, DEFAULT_HOLD))
-                .fold(0.0, f64::max),
+            Some(e) => finite_positive("kernel", "extent_mm", e, " (mm)")?,
+            None => default_extent(profile, idx.iter().copied()),
         };
         if !(extent > 0.0) {
             return Err(Error::invalid(
@@ -207,14 +196,7 @@ impl Kernel2D {
                 format!("must be odd, at least 3 and at most {MAX_SIZE}"),
             ));
         }
-        if !(cell_mm.is_finite() && cell_mm > 0.0) {
-            return Err(Error::invalid(
-                "kernel",
-                "cell_mm",
-                cell_mm,
-                "must be finite and > 0 (mm)",
-            ));
-        }
+        finite_positive("kernel", "cell_mm", cell_mm, " (mm)")?;
         let extent = size as f64 * cell_mm / 2.0;
         normalised(
             profile,

@@ -4,8 +4,8 @@
 //! sqrt(tau) in mm like Freude 2014, table A.1. `fit` finds w, tau_n, tau_f by least
 //! squares in kernel space (the kernel_rms metric of all channels).
 
+use super::factors::Factors;
 use super::gaussians::{gaussian_cells, gaussian_half_cells, half_dot, half_quad_form};
-use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
 use crate::numerics::nelder_mead;

@@ -3,7 +3,7 @@
 //! A = sum_i a_i a_i^T exactly as produced (no renormalisation) with the
 //! ground truth R normalised to sum 1 per channel.
 
-use super::model::Factors;
+use super::factors::Factors;
 use super::Kernel2D;
 
 /// The 2D kernel of channel `c`, row-major.

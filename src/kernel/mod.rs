@@ -7,6 +7,7 @@ pub mod cell_integrals;
 pub mod disk;
 pub mod disk_emit;
 pub mod emit;
+pub mod factors;
 pub mod format;
 pub mod gaussians;
 pub mod guided;
@@ -21,6 +22,7 @@ pub mod svd;
 pub mod tap_kernel;
 pub mod taps;
 
+pub use factors::Factors;
 pub use format::{KernelFile, Metrics, ModelInfo, Pass, TapTable, Usage, KERNEL_SCHEMA};
 pub use kernel2d::{Kernel2D, Kernel2DSpec};
-pub use model::{fit_kernel_file, fit_kernel_file_with, fit_model, Factors, Model};
+pub use model::{fit_kernel_file, fit_kernel_file_with, fit_model, Model};

@@ -1,6 +1,7 @@
 //! The model dispatcher: from a profile and a model choice to a complete
 //! `KernelFile` (factors on the kernel grid, tap table, metrics).
 
+use super::factors::Factors;
 use super::gaussians;
 use super::guided::{self, GuidedParams};
 use super::jimenez::{self, JimenezParams};
@@ -14,10 +15,6 @@ use crate::error::Result;
 use crate::profile::Profile;
 use serde_json::json;
 use std::time::Instant;
-
-/// Separable terms: `factors[i][c]` is the 1D factor a_i of channel c on the
-/// kernel grid (cell integrals); the 2D kernel is sum_i a_i(x) a_i(y).
-pub type Factors = Vec<[Vec<f64>; 3]>;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Model {

@@ -8,8 +8,8 @@
 //! and integrated over each cell in x. Quadrature: Gauss-Legendre panels
 //! split at the profile's nodes (where the reconstruction has kinks).
 
+use super::factors::Factors;
 use super::kernel2d::rgb_indices;
-use super::model::Factors;
 use super::Kernel2D;
 use crate::error::Result;
 use crate::numerics::{gauss_legendre, gauss_legendre_sqrt_end, gauss_legendre_sqrt_start};

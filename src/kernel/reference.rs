@@ -5,6 +5,7 @@
 use crate::error::Result;
 use crate::material::{Channel, Material};
 use crate::profile::analytic;
+use crate::profile::grid::{thesis_dr, THESIS_RADIUS_MFPS};
 use crate::profile::{Profile, RadialGrid};
 
 /// Freude 2014, table 6.1: dr = min(MFP_rgb)/20, r_max = 32 max(MFP_rgb) (here at
@@ -13,7 +14,7 @@ pub fn thesis_grid(m: &Material, min_mfps: f64) -> Result<RadialGrid> {
     let mfps: Vec<f64> = Channel::ALL.iter().map(|&c| m.top(c).mfp()).collect();
     let lo = mfps.iter().cloned().fold(f64::INFINITY, f64::min);
     let hi = mfps.iter().cloned().fold(0.0, f64::max);
-    RadialGrid::uniform(lo / 20.0, min_mfps.max(32.0) * hi)
+    RadialGrid::uniform(thesis_dr(lo), min_mfps.max(THESIS_RADIUS_MFPS) * hi)
 }
 
 /// The dipole profile (`ssskit profile --model dipole`) on `grid`.

@@ -3,8 +3,8 @@
 //! rank-N approximation in the Frobenius norm (Eckart and Young 1936; Freude 2014,
 //! eq. 5.6).
 
+use super::factors::Factors;
 use super::kernel2d::multiplicity;
-use super::model::Factors;
 use super::Kernel2D;
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;

@@ -332,7 +332,7 @@ mod tests {
         }
         // All the mass lands on the grid when the grid covers the kernel.
         let total: f64 = (0..80)
-            .map(|k| a[k] * PI * (edges[k + 1].powi(2) - edges[k].powi(2)))
+            .map(|k| a[k] * crate::numerics::annulus_area(edges[k], edges[k + 1]))
             .sum();
         let sum: f64 = w.iter().sum();
         assert!((total - sum * sum).abs() < 1e-12 * sum * sum);

@@ -13,7 +13,7 @@
 //! density, so footprints split cells exactly. Per channel, the weights are
 //! then scaled so the tap kernel has the model's 1-norm.
 
-use super::model::Factors;
+use super::factors::Factors;
 use super::{Kernel2D, Pass, TapTable};
 use crate::error::{Error, Result};
 

@@ -9,7 +9,7 @@ pub use file::parse_material_toml;
 pub(crate) use file::{describe_toml_error, PerChannel};
 pub use presets::{preset, preset_names, PRESETS};
 
-use crate::error::{Error, Result};
+use crate::error::{finite_non_negative, finite_positive, Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -205,8 +205,8 @@ impl Material {
     /// Checks every parameter; `context` names the file or preset in errors.
     pub fn validate(&self, context: &str) -> Result<()> {
         check_name(context, &self.name)?;
-        finite_positive(context, "eta_above", self.eta_above)?;
-        finite_positive(context, "eta_below", self.eta_below)?;
+        finite_positive(context, "eta_above", self.eta_above, "")?;
+        finite_positive(context, "eta_below", self.eta_below, "")?;
         if self.layers.is_empty() {
             return Err(Error::invalid(
                 context,
@@ -229,8 +229,8 @@ impl Material {
                 let sa = l.sigma_a[k];
                 let ss = l.sigma_s[k];
                 let g = l.g[k];
-                non_negative(context, &format!("{}[{}]", lname("sigma_a"), c.name()), sa)?;
-                non_negative(context, &format!("{}[{}]", lname("sigma_s"), c.name()), ss)?;
+                finite_non_negative(context, &format!("{}[{}]", lname("sigma_a"), c.name()), sa)?;
+                finite_non_negative(context, &format!("{}[{}]", lname("sigma_s"), c.name()), ss)?;
                 if !g.is_finite() || g.abs() >= 1.0 {
                     return Err(Error::invalid(
                         context,
@@ -275,9 +275,11 @@ impl Material {
                     ));
                 }
             }
-            finite_positive(context, &lname("eta"), l.eta)?;
+            finite_positive(context, &lname("eta"), l.eta, "")?;
             match l.thickness {
-                Some(t) => finite_positive(context, &lname("thickness"), t)?,
+                Some(t) => {
+                    finite_positive(context, &lname("thickness"), t, "")?;
+                }
                 None if i + 1 < n => {
                     return Err(Error::invalid(
                         context,
@@ -340,20 +342,6 @@ fn check_name(context: &str, name: &str) -> Result<()> {
     }
     if name.trim().is_empty() {
         return Err(Error::invalid(context, "name", shown(), "is empty"));
-    }
-    Ok(())
-}
-
-fn finite_positive(context: &str, field: &str, v: f64) -> Result<()> {
-    if !v.is_finite() || v <= 0.0 {
-        return Err(Error::invalid(context, field, v, "must be finite and > 0"));
-    }
-    Ok(())
-}
-
-fn non_negative(context: &str, field: &str, v: f64) -> Result<()> {
-    if !v.is_finite() || v < 0.0 {
-        return Err(Error::invalid(context, field, v, "must be finite and >= 0"));
     }
     Ok(())
 }

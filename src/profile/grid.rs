@@ -1,6 +1,6 @@
 //! Radial bins for tallies and tabulated profiles.
 
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 use crate::material::{Channel, Material};
 use serde::{Deserialize, Serialize};
 
@@ -10,6 +10,32 @@ const TAIL_FACTOR: f64 = 11.512_925_464_970_229;
 pub const MAX_MFP_RADIUS: f64 = 2000.0;
 /// Cap of the number of uniform bins of the automatic grid.
 pub const MAX_AUTO_BINS: usize = 200_000;
+/// Freude 2014, table 6.1: bins per smallest mean free path (dr = min MFP / 20).
+pub const THESIS_BINS_PER_MFP: f64 = 20.0;
+/// Freude 2014, table 6.1: r_max in largest mean free paths (32 max MFP).
+pub const THESIS_RADIUS_MFPS: f64 = 32.0;
+/// Logarithmic grids: bins per e-fold of r_max / dr, and the fewest and
+/// most bins (fine enough near the source, bounded in the tail).
+const LOG_BINS_PER_E_FOLD: f64 = 25.0;
+const MIN_LOG_BINS: usize = 50;
+const MAX_LOG_BINS: usize = 2000;
+
+/// The bin width of Freude 2014, table 6.1, from the smallest mean free path.
+pub fn thesis_dr(mfp_min: f64) -> f64 {
+    mfp_min / THESIS_BINS_PER_MFP
+}
+
+/// Bins of a logarithmic grid from `dr` to `r_max`: [`LOG_BINS_PER_E_FOLD`]
+/// per e-fold of r_max / dr, between [`MIN_LOG_BINS`] and [`MAX_LOG_BINS`].
+pub fn log_bin_count(dr: f64, r_max: f64) -> usize {
+    if dr > 0.0 && r_max > dr {
+        (LOG_BINS_PER_E_FOLD * (r_max / dr).ln())
+            .ceil()
+            .clamp(MIN_LOG_BINS as f64, MAX_LOG_BINS as f64) as usize
+    } else {
+        MIN_LOG_BINS
+    }
+}
 
 /// Bin edges from 0 to r_max. Centres follow MCML's convention for uniform
 /// grids ((i + 0.5) dr); log grids use the area-weighted centre.
@@ -70,14 +96,7 @@ impl RadialGrid {
 
     /// `n = ceil(r_max / dr)` uniform bins of width `dr`.
     pub fn uniform(dr: f64, r_max: f64) -> Result<RadialGrid> {
-        if !(dr.is_finite() && dr > 0.0) {
-            return Err(Error::invalid(
-                "radial grid",
-                "dr",
-                dr,
-                "must be finite and > 0",
-            ));
-        }
+        finite_positive("radial grid", "dr", dr, "")?;
         if !(r_max.is_finite() && r_max >= dr) {
             return Err(Error::invalid(
                 "radial grid",
@@ -109,14 +128,7 @@ impl RadialGrid {
     /// Bins whose width grows geometrically from `dr_min` at the centre to
     /// r_max, so that both the peak and a long tail are resolved.
     pub fn logarithmic(dr_min: f64, r_max: f64, n: usize) -> Result<RadialGrid> {
-        if !(dr_min.is_finite() && dr_min > 0.0) {
-            return Err(Error::invalid(
-                "radial grid",
-                "dr",
-                dr_min,
-                "must be finite and > 0",
-            ));
-        }
+        finite_positive("radial grid", "dr", dr_min, "")?;
         if !(r_max.is_finite() && r_max > dr_min) {
             return Err(Error::invalid(
                 "radial grid",
@@ -205,8 +217,8 @@ impl RadialGrid {
             }
             kappa_min = kappa_min.min(kappa);
         }
-        let mut dr = mfp_min / 20.0;
-        let r_002 = 32.0 * mfp_max;
+        let mut dr = thesis_dr(mfp_min);
+        let r_002 = THESIS_RADIUS_MFPS * mfp_max;
         let r_tail = TAIL_FACTOR / kappa_min;
         let r_cap = MAX_MFP_RADIUS * mfp_max;
         let r_max = r_002.max(r_tail.min(r_cap));
@@ -218,10 +230,8 @@ impl RadialGrid {
             ));
         }
         let (grid, bins) = if log_bins {
-            let n = (25.0 * (r_max / (mfp_min / 20.0)).ln())
-                .ceil()
-                .clamp(50.0, 2000.0) as usize;
-            let g = RadialGrid::logarithmic(mfp_min / 20.0, r_max, n);
+            let n = log_bin_count(thesis_dr(mfp_min), r_max);
+            let g = RadialGrid::logarithmic(thesis_dr(mfp_min), r_max, n);
             (g, n)
         } else {
             let g = RadialGrid::uniform(dr, r_max);
@@ -285,6 +295,19 @@ impl RadialGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// 25 bins per e-fold of r_max / dr, clamped to [50, 2000]; 50 where
+    /// the span is empty or dr is no width.
+    #[test]
+    fn log_bin_count_follows_the_rule() {
+        assert_eq!(log_bin_count(1.0, 4f64.exp()), 100);
+        assert_eq!(log_bin_count(0.5, 0.5 * 10f64.exp()), 250);
+        assert_eq!(log_bin_count(1.0, 1f64.exp()), MIN_LOG_BINS);
+        assert_eq!(log_bin_count(1.0, 100f64.exp()), MAX_LOG_BINS);
+        assert_eq!(log_bin_count(0.0, 1.0), MIN_LOG_BINS);
+        assert_eq!(log_bin_count(2.0, 1.0), MIN_LOG_BINS);
+        assert_eq!(thesis_dr(0.4), 0.02);
+    }
 
     #[test]
     fn uniform_grid() {

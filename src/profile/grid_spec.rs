@@ -2,6 +2,7 @@
 //! each optional, completed from the material's rule and validated in one
 //! place for every command that tabulates a profile.
 
+use super::grid::log_bin_count;
 use super::RadialGrid;
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
@@ -65,13 +66,7 @@ impl GridSpec {
             ));
         }
         if self.log_bins {
-            // 25 bins per e-fold of r_max / dr, between 50 and 2000.
-            let n = if dr > 0.0 && r_max > dr {
-                (25.0 * (r_max / dr).ln()).ceil().clamp(50.0, 2000.0) as usize
-            } else {
-                50
-            };
-            RadialGrid::logarithmic(dr, r_max, n)
+            RadialGrid::logarithmic(dr, r_max, log_bin_count(dr, r_max))
         } else {
             RadialGrid::uniform(dr, r_max)
         }

@@ -19,21 +19,32 @@ pub fn relative(model: f64, reference: f64) -> f64 {
     }
 }
 
+/// Fraction of the reference's tabulated R_d inside the radius the shape
+/// error covers: where R_d lives, leaving out the noisy far tail.
+pub const SHAPE_HOLD: f64 = 0.99;
+
+/// The weights of the discrete L2 norm of r R_d(r) on the bins of `p`
+/// whose left edge is below `r_lim`: bin width times r^2, one per bin.
+pub fn shape_weights(p: &Profile, r_lim: f64) -> Vec<f64> {
+    p.r_edges
+        .windows(2)
+        .zip(&p.r)
+        .take_while(|(e, _)| e[0] < r_lim)
+        .map(|(e, r)| (e[1] - e[0]) * r * r)
+        .collect()
+}
+
 /// Relative L2 error of r R_d(r) over [0, r_lim] on the bins of
-/// `reference` (bin-width weights, bins whose left edge is below r_lim),
-/// and the same norm of the reference's standard errors.
+/// `reference` ([`shape_weights`]), and the same norm of the reference's
+/// standard errors.
 pub fn l2_errors(model: &[f64], reference: &Profile, c: usize, r_lim: f64) -> (f64, f64) {
     let (mut num, mut den, mut noise) = (0.0, 0.0, 0.0);
-    for (i, e) in reference.r_edges.windows(2).enumerate() {
-        if e[0] >= r_lim {
-            break;
-        }
-        let (w, r) = (e[1] - e[0], reference.r[i]);
+    for (i, w) in shape_weights(reference, r_lim).into_iter().enumerate() {
         let mc = reference.rd[c][i];
-        num += w * (r * (model[i] - mc)).powi(2);
-        den += w * (r * mc).powi(2);
+        num += w * (model[i] - mc).powi(2);
+        den += w * mc.powi(2);
         if let Some(se) = &reference.rd_stderr {
-            noise += w * (r * se[c][i]).powi(2);
+            noise += w * se[c][i].powi(2);
         }
     }
     if den > 0.0 {
@@ -66,7 +77,7 @@ pub fn channel_error(
     reference: &Profile,
     c: usize,
 ) -> ChannelError {
-    let r99 = radius_holding(reference, c, 0.99);
+    let r99 = radius_holding(reference, c, SHAPE_HOLD);
     let (shape, noise) = l2_errors(model_rd, reference, c, r99);
     ChannelError {
         total: relative(model_total, reference.total_rd[c]),
@@ -84,4 +95,35 @@ pub fn same_grid(model: &Profile, reference: &Profile) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::profile::RadialGrid;
+
+    /// Bin width times r^2 for the bins whose left edge lies below the
+    /// limit, and the L2 error of a model off by 10% everywhere is 10%.
+    #[test]
+    fn shape_weights_are_width_times_r_squared() {
+        let grid = RadialGrid::uniform(0.5, 2.0).unwrap();
+        let m = crate::material::preset("skin1").unwrap();
+        let o = crate::profile::analytic::Options::default();
+        let mut p = crate::profile::analytic::profile(
+            &m,
+            crate::profile::analytic::Model::Dipole,
+            &grid,
+            &o,
+        )
+        .unwrap();
+        p.rd = vec![vec![1.0, 0.5, 0.25, 0.125]; 3];
+        let w = shape_weights(&p, 1.2);
+        assert_eq!(w.len(), 3, "bins starting at 0, 0.5 and 1.0");
+        for (i, w) in w.iter().enumerate() {
+            assert_eq!(*w, 0.5 * p.r[i] * p.r[i], "bin {i}");
+        }
+        let model: Vec<f64> = p.rd[0].iter().map(|v| 1.1 * v).collect();
+        let (shape, _) = l2_errors(&model, &p, 0, 1.2);
+        assert!((shape - 0.1).abs() < 1e-12, "{shape}");
+    }
 }

@@ -130,11 +130,16 @@ impl Profile {
     /// 2 pi int R_d r dr over the tabulated range (bin averages times annulus
     /// areas): the part of the total inside r_max.
     pub fn tabulated_total(&self, ch_index: usize) -> f64 {
+        self.bin_amounts(ch_index).sum()
+    }
+
+    /// The reflectance of each bin of channel `ch_index`: its average times
+    /// its annulus area.
+    pub fn bin_amounts(&self, ch_index: usize) -> impl Iterator<Item = f64> + '_ {
         self.rd[ch_index]
             .iter()
             .zip(self.r_edges.windows(2))
-            .map(|(v, e)| v * std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0]))
-            .sum()
+            .map(|(v, e)| v * crate::numerics::annulus_area(e[0], e[1]))
     }
 
     /// What the maker of the profile warned about (`extra.warnings`: the

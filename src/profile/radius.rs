@@ -22,15 +22,24 @@ pub fn radius_reaching(edges: &[f64], amounts: impl IntoIterator<Item = f64>, go
 
 /// Radius inside which `fraction` of the tabulated R_d of channel `c` lies.
 pub fn radius_holding(p: &Profile, c: usize, fraction: f64) -> f64 {
-    let amounts = p.rd[c]
-        .iter()
-        .zip(p.r_edges.windows(2))
-        .map(|(v, e)| v * std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0]));
-    radius_reaching(&p.r_edges, amounts, fraction * p.tabulated_total(c))
+    radius_reaching(
+        &p.r_edges,
+        p.bin_amounts(c),
+        fraction * p.tabulated_total(c),
+    )
 }
 
 /// Fraction of R_d the 2D kernel's default extent holds.
 pub const DEFAULT_HOLD: f64 = 0.999;
+
+/// Half-width (mm) of the 2D kernel by default: the largest radius holding
+/// [`DEFAULT_HOLD`] of R_d over `channels` (indices into the profile).
+pub fn default_extent(p: &Profile, channels: impl IntoIterator<Item = usize>) -> f64 {
+    channels
+        .into_iter()
+        .map(|c| radius_holding(p, c, DEFAULT_HOLD))
+        .fold(0.0, f64::max)
+}
 
 /// Cells per side of the 2D kernel by default (`kernel::kernel2d`, and the
 /// Monte Carlo rule that sizes photons for it): odd, with a cell that

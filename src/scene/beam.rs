@@ -7,7 +7,7 @@
 
 use super::boundary::refract;
 use super::frame::frame;
-use super::geometry::V3;
+use super::ray::V3;
 use crate::profile::fresnel::fresnel_dielectric;
 
 /// One way of a refracted collimated beam to a point inside an object.
@@ -209,7 +209,7 @@ fn sphere_ray(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::geometry::Ray;
+    use crate::scene::ray::Ray;
 
     /// Every refracted ray of a collimated beam that reaches a point inside
     /// a ball is found, against a fine scan of the whole lit half circle

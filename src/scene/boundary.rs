@@ -3,9 +3,9 @@
 //! unpolarised Fresnel reflectance (1 under total internal reflection),
 //! else transmit.
 
-use super::geometry::{Ray, V3};
-use super::trace::uniform;
+use super::ray::{Ray, V3};
 use crate::profile::fresnel::fresnel_dielectric;
+use crate::profile::mc::tracer::uniform;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// A path along `d` meeting at `p` a boundary whose unit normal `m` faces

@@ -2,7 +2,7 @@
 //! (positions uniform over the pixel's square), perspective (vertical
 //! field of view) or orthographic (millimetres per pixel).
 
-use super::geometry::{Ray, V3};
+use super::ray::{Ray, V3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {

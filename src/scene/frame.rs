@@ -4,7 +4,7 @@
 //! scattering angle and drawing a cosine-distributed direction about a
 //! surface normal.
 
-use super::geometry::V3;
+use super::ray::V3;
 
 /// An orthonormal pair (u, v) completing the unit vector `w` to a
 /// right-handed frame (Duff et al. 2017, "Building an Orthonormal Basis,

@@ -12,9 +12,9 @@
 //! with [`ENV_RAYS`] rays per position.
 
 use super::frame::cosine_direction;
-use super::geometry::{Ray, V3};
-use super::trace::uniform;
+use super::ray::{Ray, V3};
 use super::Scene;
+use crate::profile::mc::tracer::uniform;
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
@@ -50,7 +50,7 @@ pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, see
         .map(|p| {
             let (x, y) = (p % w, p / w);
             let mut rng =
-                Xoshiro256PlusPlus::seed_from_u64(super::render::sample_key(seed, 3, p as u64, 0));
+                Xoshiro256PlusPlus::seed_from_u64(super::samples::sample_key(seed, 3, p as u64, 0));
             let mut irr = [0.0; 3];
             let (mut depth, mut normal, mut hits) = (0.0, V3::zeros(), 0usize);
             for j in 0..side {

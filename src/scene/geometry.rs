@@ -5,31 +5,9 @@
 //! outward normal there, whether the ray starts outside (it enters) or
 //! inside (it leaves); the tracer knows which from the medium it is in.
 
-pub use super::frame::frame;
-pub use super::mesh::{Mesh, MeshDefect};
-
-pub type V3 = nalgebra::Vector3<f64>;
-
-/// A ray with a unit direction.
-#[derive(Clone, Copy, Debug)]
-pub struct Ray {
-    pub o: V3,
-    pub d: V3,
-}
-
-impl Ray {
-    pub fn at(&self, t: f64) -> V3 {
-        self.o + t * self.d
-    }
-}
-
-/// A crossing of a surface: distance along the ray and the unit outward
-/// normal.
-#[derive(Clone, Copy, Debug)]
-pub struct Hit {
-    pub t: f64,
-    pub n: V3,
-}
+use super::frame::frame;
+use super::mesh::Mesh;
+use super::ray::{Hit, Ray, V3};
 
 /// A closed surface bounding one homogeneous medium.
 #[derive(Clone, Debug)]

@@ -3,7 +3,7 @@
 //! rising by `height` along +y), above a flat bottom `depth` below the
 //! base plane, joined by vertical walls.
 
-use super::geometry::V3;
+use super::ray::V3;
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -124,7 +124,9 @@ pub fn solid(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::geometry::{Mesh, Ray, Shape};
+    use crate::scene::geometry::Shape;
+    use crate::scene::mesh::Mesh;
+    use crate::scene::ray::Ray;
 
     #[test]
     fn the_solid_is_closed_and_its_top_follows_the_image() {

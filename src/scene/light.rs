@@ -5,7 +5,8 @@
 //! box; the shadow rays outside cross index-matched objects only.
 
 use super::beam::{box_entries, sphere_entries, Entry};
-use super::geometry::{Ray, Shape, V3};
+use super::geometry::Shape;
+use super::ray::{Ray, V3};
 use super::trace::ChannelScene;
 use crate::profile::analytic::pbd::phase_hg;
 

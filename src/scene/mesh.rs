@@ -3,7 +3,7 @@
 //! bounding volume hierarchy, and the nearest triangle crossed along a ray
 //! (Möller and Trumbore 1997 inside the hierarchy's slab tests).
 
-use super::geometry::{Hit, Ray, V3};
+use super::ray::{Hit, Ray, V3};
 use bvh::aabb::{Aabb, Bounded};
 use bvh::bounding_hierarchy::BHShape;
 use bvh::bvh::{Bvh, BvhNode};

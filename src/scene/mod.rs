@@ -36,19 +36,22 @@ pub mod geometry;
 mod heightfield;
 mod light;
 mod mesh;
+mod ray;
 mod render;
 mod rounds;
+mod samples;
 mod trace;
 
 pub use camera::{Camera, Measure, Projection};
 pub use file::{parse_scene_toml, CONTEXT};
 pub use gbuffer::{GBuffer, ENV_RAYS};
-pub use geometry::{Shape, V3};
+pub use geometry::Shape;
+pub use ray::V3;
 pub use render::{
     channel_names, material_profiles, render, Render, RenderConfig, RenderConfigRecord, RenderInfo,
-    SampleBudget, DEFAULT_GBUFFER_SIDE, DEFAULT_MAX_SPP, DEFAULT_MAX_WORK, DEFAULT_SCENE_ERROR,
-    FIRST_ROUND_SPP, RENDER_SCHEMA,
+    DEFAULT_GBUFFER_SIDE, DEFAULT_MAX_SPP, DEFAULT_MAX_WORK, DEFAULT_SCENE_ERROR, RENDER_SCHEMA,
 };
+pub use samples::{SampleBudget, FIRST_ROUND_SPP};
 
 use crate::error::Result;
 use crate::material::Material;
@@ -133,8 +136,8 @@ impl Scene {
 
     /// The nearest object surface along `ray` within `t_max`, from outside
     /// every object.
-    pub fn nearest(&self, ray: &geometry::Ray, t_max: f64) -> Option<(usize, geometry::Hit)> {
-        let mut best: Option<(usize, geometry::Hit)> = None;
+    pub fn nearest(&self, ray: &ray::Ray, t_max: f64) -> Option<(usize, ray::Hit)> {
+        let mut best: Option<(usize, ray::Hit)> = None;
         let mut limit = t_max;
         for (i, o) in self.objects.iter().enumerate() {
             if let Some(h) = o.shape.intersect(ray, limit) {

@@ -3,11 +3,12 @@
 
 use super::gbuffer::{gbuffer, GBuffer};
 use super::rounds::{trace_tile, Rounds, TileRound, TILE};
+use super::samples::{SampleBudget, CONTEXT, FIRST_ROUND_SPP};
 use super::trace::ChannelScene;
 use super::Scene;
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
-use crate::profile::mc::{self, splitmix64, McConfig, PhotonBudget};
+use crate::profile::mc::{self, McConfig, PhotonBudget};
 use crate::profile::Profile;
 use crate::progress::Progress;
 use rayon::prelude::*;
@@ -25,27 +26,10 @@ pub const DEFAULT_MAX_SPP: u64 = 1 << 16;
 pub const DEFAULT_MAX_WORK: u64 = 20_000_000_000;
 /// Default G-buffer positions per pixel side.
 pub const DEFAULT_GBUFFER_SIDE: usize = 4;
-/// Samples per pixel of the first round.
-pub const FIRST_ROUND_SPP: u64 = 16;
-/// Context of the render settings' errors.
 /// The fewest samples per pixel a render takes: its noise (every render
 /// states one, and its record is read back only with one) is estimated
 /// from the spread of each pixel's samples, undefined for one.
 pub const MIN_SPP: u64 = 2;
-pub(super) const CONTEXT: &str = "scene render";
-
-/// How many samples per pixel.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SampleBudget {
-    /// Exactly this many per pixel and channel.
-    Fixed(u64),
-    /// Until the image's noise is below `rel` in every channel, or
-    /// `max_spp`: noise = RMS over the pixels that see an object of the
-    /// radiance's standard error, divided by the 99th percentile of their
-    /// radiance (a robust peak).
-    TargetError { rel: f64, max_spp: u64 },
-}
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RenderConfig {
@@ -218,12 +202,6 @@ impl Render {
             info,
         })
     }
-}
-
-/// The key of the stream of sample `s` of pixel `p` in stream family `c`
-/// (0-2 the channels, 3 the G-buffer): a function of these only.
-pub(crate) fn sample_key(seed: u64, c: u64, p: u64, s: u64) -> u64 {
-    splitmix64(splitmix64(splitmix64(splitmix64(seed) ^ (c + 1)) ^ p) ^ s)
 }
 
 /// The profiles of the objects' materials, by Monte Carlo (`simulate` with

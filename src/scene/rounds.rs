@@ -4,7 +4,7 @@
 //! image does not depend on the thread count. Between rounds each channel's
 //! noise decides the next round's length or that the channel is done.
 
-use super::render::{sample_key, SampleBudget, CONTEXT, FIRST_ROUND_SPP};
+use super::samples::{sample_key, SampleBudget, CONTEXT, FIRST_ROUND_SPP};
 use super::trace::ChannelScene;
 use crate::error::{Error, Result};
 use crate::material::Channel;
@@ -95,7 +95,7 @@ fn noise(s: &Sums, n: u64, coverage: &[f64]) -> f64 {
         .sum::<f64>()
         / pixels.len() as f64;
     means.sort_by(f64::total_cmp);
-    let peak = means[((0.99 * means.len() as f64).ceil() as usize).clamp(1, means.len()) - 1];
+    let peak = crate::numerics::nearest_rank(&means, 0.99);
     if !(peak > 0.0) {
         // A black image is exact once its samples say so.
         return if var == 0.0 { 0.0 } else { f64::INFINITY };

@@ -23,16 +23,13 @@
 use super::boundary::cross;
 use super::camera::Measure;
 use super::frame::{cosine_direction, turn};
-use super::geometry::{Ray, V3};
+use super::ray::{Ray, V3};
 use super::Scene;
-use crate::profile::mc::tracer::{sample_hg_cos, LayerOptics};
+use crate::profile::mc::tracer::{sample_hg_cos, uniform, LayerOptics};
 use crate::profile::mc::{
     DEFAULT_EVENT_ROULETTE, DEFAULT_ROULETTE_THRESHOLD, EVENT_ROULETTE_SURVIVAL, ROULETTE_CHANCE,
 };
 use rand_xoshiro::Xoshiro256PlusPlus;
-
-/// Uniform in [0, 1) with 53 random bits: the Monte Carlo tracer's draw.
-pub(crate) use crate::profile::mc::tracer::uniform;
 
 /// What one path did.
 #[derive(Clone, Copy, Debug, Default)]

@@ -264,7 +264,7 @@ pub mod mc {
 /// record (review `git diff docs/records/`), and scripts/regen-docs the
 /// blocks.
 pub mod measured {
-    use ssskit::report::record::{docs_path, Record, RecordTable};
+    use ssskit::report::present::record::{docs_path, Record, RecordTable};
     use std::collections::BTreeMap;
 
     /// What a deterministic measurement records as its machine.

@@ -17,10 +17,12 @@
 //! name the flag as the user typed it (`errors::set_typed`).
 
 mod deprecated;
+mod model;
 mod settings;
 mod values;
 
 pub use deprecated::{deprecated_spellings, running_command};
+pub use model::ModelArg;
 pub use settings::{alias, default, default_enum, help, long_help_opens_with_help, required};
 pub use values::{
     channel_item, count, count_text, counts_text, flag_value, image_size, name_item, rank_item,
@@ -31,7 +33,7 @@ use clap::builder::PossibleValue;
 use clap::ValueEnum;
 use ssskit::material::Channel;
 use ssskit::profile::mc;
-use ssskit::report::evaluate;
+use ssskit::report::eval::evaluate;
 use std::path::{Path, PathBuf};
 
 // ---- Shared enumerations ---------------------------------------------------
@@ -375,7 +377,7 @@ pub struct ImageErrorArg {
         long,
         value_name = "E",
         allow_negative_numbers = true,
-        default_value_t = ssskit::report::advise::DEFAULT_TARGET
+        default_value_t = ssskit::report::eval::advise::DEFAULT_TARGET
     )]
     pub image_error: f64,
 }
@@ -426,7 +428,7 @@ pub fn limit(s: &str) -> Result<Limit, String> {
 }
 
 /// `--max-passes`, `--max-samples`, `--max-taps`: what a recommended kernel
-/// may cost (`ssskit::report::advise::Budget`).
+/// may cost (`ssskit::report::eval::advise::Budget`).
 #[derive(clap::Args)]
 pub struct BudgetArgs {
     /// Budget: one-dimensional passes at most (rank r runs 2r); none: any.
@@ -436,7 +438,7 @@ pub struct BudgetArgs {
     /// pair, what every engine in `ssskit engine` runs. none (or 0) lifts
     /// the limit; the search then tries ranks 1 to 3.
     #[arg(long, value_name = "N", value_parser = limit,
-          default_value_t = Limit(Some(ssskit::report::advise::DEFAULT_MAX_PASSES)))]
+          default_value_t = Limit(Some(ssskit::report::eval::advise::DEFAULT_MAX_PASSES)))]
     pub max_passes: Limit,
     /// Budget: samples per pixel at most, over all passes; none: any.
     #[arg(long, value_name = "N", value_parser = limit, default_value_t = Limit(None))]
@@ -447,8 +449,8 @@ pub struct BudgetArgs {
 }
 
 impl BudgetArgs {
-    pub fn budget(&self) -> ssskit::report::advise::Budget {
-        ssskit::report::advise::Budget {
+    pub fn budget(&self) -> ssskit::report::eval::advise::Budget {
+        ssskit::report::eval::advise::Budget {
             max_passes: self.max_passes.0,
             max_samples: self.max_samples.0,
             max_taps: self.max_taps.0,
@@ -482,8 +484,8 @@ pub struct SceneCheckArgs {
 #[derive(clap::Args)]
 pub struct ModelsArg {
     /// Kernel models, comma-separated, or all.
-    #[arg(long, value_name = "MODEL,...", value_delimiter = ',', required = false, value_parser = value_or::<super::fit::ModelArg>(PossibleValue::new("all")))]
-    models: Vec<Option<super::fit::ModelArg>>,
+    #[arg(long, value_name = "MODEL,...", value_delimiter = ',', required = false, value_parser = value_or::<ModelArg>(PossibleValue::new("all")))]
+    models: Vec<Option<ModelArg>>,
 }
 
 impl ModelsArg {
@@ -491,7 +493,7 @@ impl ModelsArg {
     pub fn families(&self) -> Vec<String> {
         match self.models.iter().copied().collect::<Option<Vec<_>>>() {
             Some(models) => models.iter().map(flag_value).collect(),
-            None => ssskit::report::kernel_compare::FAMILIES
+            None => ssskit::report::eval::kernel_compare::FAMILIES
                 .iter()
                 .map(|s| s.to_string())
                 .collect(),

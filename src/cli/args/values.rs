@@ -7,7 +7,7 @@
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::ValueEnum;
 use ssskit::material::Channel;
-use ssskit::report::evaluate;
+use ssskit::report::eval::evaluate;
 
 /// A count: an integer, or a whole number in exponent notation (1e6).
 pub fn count<T: TryFrom<u64>>(s: &str) -> Result<T, String> {
@@ -105,7 +105,7 @@ pub fn signal_size(s: &str) -> Result<usize, String> {
 /// One item of a rank list, "N" or "N-M", as the library reads it
 /// (`kernel_compare::parse_ranks`); kept as text for that reader.
 pub fn rank_item(s: &str) -> Result<String, String> {
-    ssskit::report::kernel_compare::parse_ranks(s).map_err(|e| reason(&e))?;
+    ssskit::report::eval::kernel_compare::parse_ranks(s).map_err(|e| reason(&e))?;
     Ok(s.trim().to_string())
 }
 

@@ -19,8 +19,8 @@
 //! <w_i> (delta method for the ratio a_m / S). Under splitting the
 //! cross-bin terms of one packet are neglected.
 
-use crate::profile::radius::{default_kernel_size, DEFAULT_HOLD};
-use crate::profile::radius_holding;
+use crate::numerics::annulus_area;
+use crate::profile::radius::{default_extent, default_kernel_size};
 use crate::profile::Profile;
 
 /// Cells per side and half-width (mm) of the default kernel grid.
@@ -33,10 +33,10 @@ pub struct KernelGeometry {
 /// The grid `Kernel2D::from_profile` chooses for `p` by default (all of its
 /// channels), or None if no channel holds reflectance.
 pub fn kernel_geometry(p: &Profile) -> Option<KernelGeometry> {
-    let extent = (0..p.channels.len())
-        .filter(|&c| p.tabulated_total(c) > 0.0)
-        .map(|c| radius_holding(p, c, DEFAULT_HOLD))
-        .fold(0.0, f64::max);
+    let extent = default_extent(
+        p,
+        (0..p.channels.len()).filter(|&c| p.tabulated_total(c) > 0.0),
+    );
     (extent > 0.0 && extent.is_finite()).then(|| KernelGeometry {
         extent_mm: extent,
         size: default_kernel_size(p, extent),
@@ -102,7 +102,7 @@ impl Projection {
         let mut inner = strip(edges[0]);
         for i in 0..bins {
             let outer = strip(edges[i + 1]);
-            let area = std::f64::consts::PI * (edges[i + 1].powi(2) - edges[i].powi(2));
+            let area = annulus_area(edges[i], edges[i + 1]);
             for m in 0..=half {
                 p[m * bins + i] = (outer[m] - inner[m]) / area;
             }

@@ -14,6 +14,7 @@
 //! cos(a), a at the bin centre.
 
 use crate::error::{Error, Result};
+use crate::numerics::annulus_area;
 use crate::profile::Profile;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -153,7 +154,7 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
     );
     let _ = writeln!(s, "Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]");
     let beyond = p.rd_beyond_rmax()?.map_or(0.0, |b| b[0]);
-    let last_area = std::f64::consts::PI * (p.r_edges[n].powi(2) - p.r_edges[n - 1].powi(2));
+    let last_area = annulus_area(p.r_edges[n - 1], p.r_edges[n]);
     for (i, v) in p.rd[0].iter().enumerate() {
         let mm2 = if i + 1 == n {
             v + beyond / last_area
@@ -198,7 +199,7 @@ fn write_angular(
         "# Rd[r][angle]. [1/(cm2sr)].\n# Rd[0][0], [0][1],..[0][na-1]\n\
          # Rd[1][0], [1][1],..[1][na-1]\n# ...\n# Rd[nr-1][0], [nr-1][1],..[nr-1][na-1]\nRd_ra"
     );
-    let area_mm2 = |ir: usize| PI * (p.r_edges[ir + 1].powi(2) - p.r_edges[ir].powi(2));
+    let area_mm2 = |ir: usize| annulus_area(p.r_edges[ir], p.r_edges[ir + 1]);
     for ir in 0..nr {
         for ia in 0..na {
             // The part of the incident light in the cell: pi L x area x share.

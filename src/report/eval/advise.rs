@@ -476,7 +476,3 @@ fn scene_check(
     };
     check_on_scene(scene, render, search.profile, &run, at, accepted)
 }
-
-pub use crate::report::present::advice_text::{
-    cost_text, explain, extent_rule_text, remedy_text, screen_space_note,
-};

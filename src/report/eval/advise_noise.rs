@@ -20,7 +20,7 @@
 //! estimates to within its Monte Carlo error. Analytic profiles have no
 //! standard error: no replicates, zero uncertainty.
 
-use super::evaluate::{Exact, ImageCase};
+use super::evaluate::{round_f32, Exact, ImageCase};
 use crate::error::{Error, Result};
 use crate::filter::exact::KernelBank;
 use crate::filter::{cpu, diff, Image, Scale, Setup, Taps};
@@ -70,15 +70,6 @@ pub fn replicate(profile: &Profile, i: usize) -> Option<Profile> {
         }
     }
     Some(p)
-}
-
-/// Rounds every value to f32, as [`super::evaluate::errors`] compares.
-fn rounded(image: &Image) -> Image {
-    let mut i = image.clone();
-    for p in i.rgb.iter_mut() {
-        p.iter_mut().for_each(|v| *v = *v as f32 as f64);
-    }
-    i
 }
 
 /// One test image: its exact convolution and the replicates'.
@@ -142,11 +133,15 @@ impl Reference {
         let mut out = Vec::with_capacity(cases.len());
         for exact in exact {
             let replicates = match &bank {
-                Some(b) => b.convolve(&exact.case.image)?.iter().map(rounded).collect(),
+                Some(b) => b
+                    .convolve(&exact.case.image)?
+                    .iter()
+                    .map(round_f32)
+                    .collect(),
                 None => Vec::new(),
             };
             out.push(Reference {
-                exact_f32: rounded(&exact.image),
+                exact_f32: round_f32(&exact.image),
                 replicates,
                 exact,
             });
@@ -170,7 +165,7 @@ impl Reference {
             jitter: false,
         };
         setup.validate(&self.exact.case.image)?;
-        Ok(rounded(&cpu::apply_screen_space(
+        Ok(round_f32(&cpu::apply_screen_space(
             &self.exact.case.image,
             &setup,
         )))

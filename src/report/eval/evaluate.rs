@@ -215,8 +215,7 @@ pub(crate) fn exposure_of(v: &[f64]) -> f64 {
     }
     let mut lit: Vec<f64> = v.iter().copied().filter(|&x| x > 1e-6 * peak).collect();
     lit.sort_by(f64::total_cmp);
-    let i = ((0.99 * lit.len() as f64).ceil() as usize).clamp(1, lit.len()) - 1;
-    1.0 / lit[i]
+    1.0 / crate::numerics::nearest_rank(&lit, 0.99)
 }
 
 /// Errors of one filtered image against the exact one.
@@ -307,7 +306,9 @@ pub fn errors(exact: &Exact, filtered: &Image, options: &Options) -> Result<Imag
     })
 }
 
-fn round_f32(img: &Image) -> Image {
+/// Every value rounded to f32, as the GPU pass stores it: both sides of a
+/// comparison at the precision the shipped filter works in.
+pub fn round_f32(img: &Image) -> Image {
     let mut out = img.clone();
     for plane in out.rgb.iter_mut() {
         plane.iter_mut().for_each(|v| *v = *v as f32 as f64);

@@ -16,8 +16,8 @@ use crate::kernel::KernelFile;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::Progress;
-use crate::report::kernel_report::{self, ReportContext};
-use crate::report::{kernel_plots, plot};
+use crate::report::present::kernel_report::{self, ReportContext};
+use crate::report::present::{advice_text, kernel_plots, plot};
 use crate::scene::{Render, Scene};
 use std::path::Path;
 
@@ -277,7 +277,7 @@ pub fn run(
     }
     md.push_str(&format!(
         "\n## What to ship (recommended.json, advice.json)\n\n```text\n{}```\n",
-        advise::explain(&advice)
+        advice_text::explain(&advice)
     ));
     crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
     crate::io::write_json_atomic(&dir.join("advice.json"), &advice.to_json())?;
@@ -304,7 +304,7 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         settings.mm_per_pixel
     );
     let rel = |e: &super::evaluate::ImageErrors| e.rel_rms.iter().cloned().fold(0.0, f64::max);
-    let _ = writeln!(s, "ship: {} ({})", c.describe(), advise::cost_text(c));
+    let _ = writeln!(s, "ship: {} ({})", c.describe(), advice_text::cost_text(c));
     let _ = writeln!(
         s,
         "  worst case {:.2}% +- {:.2}% on {}, deciding signal {}; target {:.1}% {} within the \
@@ -318,7 +318,7 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         a.budget.describe()
     );
     if let Some(r) = &a.remedy {
-        let _ = writeln!(s, "  {}", advise::remedy_text(r));
+        let _ = writeln!(s, "  {}", advice_text::remedy_text(r));
     }
     match &a.scene {
         Some(sc) => {

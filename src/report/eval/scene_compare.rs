@@ -47,7 +47,7 @@ pub use super::scene_score::{
     cosines, region_masks, Cosines, RegionError, GRAZING_VIEW, REGIONS, TERMINATOR_BAND,
 };
 use super::scene_score::{masks_of, ranking, Scorer};
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which};
 use crate::kernel::angular::AngularFactors;
@@ -206,13 +206,7 @@ pub fn median_mm_per_pixel(scene: &Scene, render: &Render) -> f64 {
 /// 99% of R_d (largest over the channels).
 fn follow_mm_of(cfg: &SceneConfig, profile: &Profile) -> Result<f64> {
     match cfg.follow_mm {
-        Some(f) if f > 0.0 && f.is_finite() => Ok(f),
-        Some(f) => Err(Error::invalid(
-            "scene comparison",
-            "follow_mm",
-            f,
-            "must be finite and > 0",
-        )),
+        Some(f) => finite_positive("scene comparison", "follow_mm", f, ""),
         None => Ok(kernel_reach_mm(profile)),
     }
 }

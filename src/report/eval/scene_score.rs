@@ -101,7 +101,7 @@ pub(super) fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
         return 0.0;
     }
     x.sort_by(f64::total_cmp);
-    x[((0.99 * x.len() as f64).ceil() as usize).clamp(1, x.len()) - 1]
+    crate::numerics::nearest_rank(&x, 0.99)
 }
 
 /// Scores images against one path-traced truth.

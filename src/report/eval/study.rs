@@ -500,5 +500,3 @@ pub fn run(reference: &Profile, s: &Settings, progress: &dyn Progress) -> Result
         entries,
     })
 }
-
-pub use crate::report::present::study_report::{panels, table, write};

@@ -1,7 +1,7 @@
 //! The advice in words: the chosen configuration, the cheapest per model
 //! variant with its cost and error, the predicted errors, and which error
 //! dominates against the recorded screen-space scene
-//! ([`crate::report::advise`] makes the choice).
+//! ([`crate::report::eval::advise`] makes the choice).
 
 use super::number::sig;
 use crate::kernel::taps::hold_for_taps;

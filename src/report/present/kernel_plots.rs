@@ -8,7 +8,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::colour_bar::{self, ColourBar};
-use super::kernel_report::RANK1;
 use super::plot::{self, Curve, Panel, PALETTE};
 use crate::error::{Error, Result};
 use crate::filter::diff::false_colour;
@@ -16,7 +15,8 @@ use crate::filter::image::linear_to_srgb;
 use crate::filter::Image;
 use crate::kernel::metrics::reconstruct;
 use crate::kernel::{Factors, Kernel2D, KernelFile};
-use crate::report::kernel_compare::{Comparison, Fitted};
+use crate::report::eval::claims::RANK1;
+use crate::report::eval::kernel_compare::{Comparison, Fitted};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -172,7 +172,7 @@ pub fn spectra(cmp: &Comparison, out: &Path) -> Result<()> {
     plot::render(&panels, 3, "Singular value spectra", out)
 }
 
-/// Tone mapping of the report (see [`crate::report::evaluate`]): exposure, clamp,
+/// Tone mapping of the report (see [`crate::report::eval::evaluate`]): exposure, clamp,
 /// sRGB 8-bit, interleaved.
 pub(crate) fn to_rgb8(img: &Image, exposure: f64) -> Vec<u8> {
     let mut v = Vec::with_capacity(3 * img.len());

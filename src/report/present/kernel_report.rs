@@ -1,4 +1,4 @@
-//! The written results of a kernel comparison ([`crate::report::kernel_compare`]):
+//! The written results of a kernel comparison ([`crate::report::eval::kernel_compare`]):
 //! tables raw and normalised the way Freude 2014 prints tables 6.3-6.5 (the
 //! largest per-channel error of a table is 1, the last column sums the
 //! three channels), the thesis's claims checked on the rows with the
@@ -10,11 +10,13 @@
 //! produces. Timings change from run to run and are kept out of those
 //! blocks.
 
-pub use super::number::sig;
+use super::number::sig;
 use super::table::Table;
 use crate::numerics::Bounded;
-pub use crate::report::eval::claims::{claims, factor_distance, Claim, RANK1};
-use crate::report::kernel_compare::{gaussians_rms, grouped, image_rms, Comparison, Factor, Row};
+use crate::report::eval::claims::{claims, Claim};
+use crate::report::eval::kernel_compare::{
+    gaussians_rms, grouped, image_rms, Comparison, Factor, Row,
+};
 use std::fmt::Write as _;
 
 /// Per (material, label), three channel values.
@@ -199,7 +201,7 @@ pub fn blocks(text: &str) -> Vec<(String, String)> {
 
 /// (name, body) of every `<!-- BEGIN KIND:NAME -->` ... `<!-- END KIND:NAME -->`
 /// block in `text` (kinds: `compare` for report tables, `record` for
-/// recorded measurements, see [`crate::report::record`]).
+/// recorded measurements, see [`crate::report::present::record`]).
 pub fn blocks_of(text: &str, kind: &str) -> Vec<(String, String)> {
     let begin = format!("<!-- BEGIN {kind}:");
     let mut out = Vec::new();
@@ -301,7 +303,7 @@ pub struct ReportContext<'a> {
     pub signals: &'a [String],
     pub factors: &'a [Factor],
     pub ranks: &'a [usize],
-    pub options: &'a crate::report::evaluate::Options,
+    pub options: &'a crate::report::eval::evaluate::Options,
 }
 
 /// The markdown report.

@@ -11,7 +11,7 @@
 //! the blocks), so every published timing traces back to one run.
 
 use crate::error::{Error, Result};
-use crate::report::table::Table;
+use crate::report::present::table::Table;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;

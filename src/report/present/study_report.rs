@@ -1,4 +1,4 @@
-//! The written study ([`crate::report::study`]): its table, the Pareto
+//! The written study ([`crate::report::eval::study`]): its table, the Pareto
 //! panels of each section, and the files (study.md, study.json read back,
 //! study.csv, pareto.png).
 

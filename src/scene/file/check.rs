@@ -43,11 +43,7 @@ impl Check<'_> {
     }
 
     pub(super) fn positive(&self, field: &str, v: f64) -> Result<f64> {
-        if v > 0.0 && v.is_finite() {
-            Ok(v)
-        } else {
-            Err(self.err(field, v, "must be finite and > 0"))
-        }
+        crate::error::finite_positive(self.context, field, v, "")
     }
 
     /// A point or length vector in scene units, converted to mm.
