@@ -283,6 +283,93 @@ fn scene_check_refuses_a_mismatched_material_or_scale() {
     common::fails_with(&base, &["--mm-per-pixel", "would span", "use at least"]);
 }
 
+/// The main job on a scene: `kernels --scene --render` puts the chosen
+/// kernel's scene error without and with the entry and exit factors (per
+/// channel, with the scene and its scale) in advice.json, both in one line
+/// of the summary, and the ranking (no blur, best without the factors,
+/// best with them, lowest first) in report.md's first lines; `advise
+/// --scene` on the same scene gives the same numbers.
+#[test]
+fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("ink.toml"), INK).unwrap();
+    let toml = d.join("scene.toml");
+    std::fs::write(&toml, scene("skin1", 0.3)).unwrap();
+    let exr = d.join("render.exr");
+    ok(&["scene", p(&toml), "--out", p(&exr), "--spp", "4"]);
+    let out_dir = d.join("k");
+    let (summary, _) = ok_both(&[
+        "kernels",
+        "--scene",
+        p(&toml),
+        "--render",
+        p(&exr),
+        "--out-dir",
+        p(&out_dir),
+        "--no-plots",
+    ]);
+    let advice: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("advice.json")).unwrap())
+            .unwrap();
+    let sc = &advice["scene"];
+    let rgb =
+        |v: &serde_json::Value| -> [f64; 3] { std::array::from_fn(|c| v[c].as_f64().unwrap()) };
+    let (without, with) = (
+        rgb(&sc["rms_without_factors"]),
+        rgb(&sc["rms_with_factors"]),
+    );
+    assert!(
+        (sc["mm_per_pixel"].as_f64().unwrap() - 0.3).abs() < 1e-9,
+        "{sc}"
+    );
+    assert!(
+        sc["scene"].as_str().unwrap().ends_with("scene.toml"),
+        "{sc}"
+    );
+    // The factors were applied: at 45 degrees' light they move every
+    // channel (a factor left at 1 gives the same numbers to the last bit).
+    for c in 0..3 {
+        assert!(
+            with[c] != without[c],
+            "channel {c}: {with:?} vs {without:?}"
+        );
+    }
+    let line = summary
+        .lines()
+        .find(|l| l.contains("on the scene"))
+        .unwrap_or_else(|| panic!("{summary}"));
+    assert!(
+        line.contains("without the entry and exit factors")
+            && line.contains("with the entry and exit factors"),
+        "{line}"
+    );
+    let md = std::fs::read_to_string(out_dir.join("report.md")).unwrap();
+    let head: Vec<&str> = md.lines().take(8).collect();
+    assert!(head.iter().any(|l| l.starts_with("Ranking")), "{md}");
+    let ranked: Vec<f64> = head
+        .iter()
+        .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
+        .map(|l| {
+            let v = l
+                .split('%')
+                .next()
+                .unwrap()
+                .split_whitespace()
+                .last()
+                .unwrap();
+            v.parse::<f64>().unwrap()
+        })
+        .collect();
+    assert_eq!(ranked.len(), 3, "{md}");
+    assert!(ranked.windows(2).all(|w| w[0] <= w[1]), "{ranked:?}");
+    // The same answer from advise on the same scene.
+    let (a, _) = ok_both(&["advise", "--scene", p(&toml), "--render", p(&exr), "--json"]);
+    let a: serde_json::Value = serde_json::from_str(&a).unwrap();
+    assert_eq!(a["scene"]["rms_with_factors"], sc["rms_with_factors"]);
+    assert_eq!(a["scene"]["rms_without_factors"], sc["rms_without_factors"]);
+}
+
 /// What docs/kernels.md shows of `advise --scene`: skin1 on
 /// docs/scenes/shadow-skin1.toml (this file's scene at 0.1 mm per pixel)
 /// at the default budget (disk kernels included), separable kernels only,

@@ -200,7 +200,61 @@ fn scene_writes_radiance_gbuffer_and_record() {
         assert_eq!(regions, ["all", "lit", "unlit", "terminator", "grazing"]);
     }
     assert_eq!(j["angular"]["entry"].as_array().unwrap().len(), 9);
+    // The headline opens stdout and scene.md: the unblurred irradiance,
+    // the best depth+follow pass and the best with the factors, lowest
+    // first, each the worst channel of its row over all seen pixels.
+    let worst = |r: &serde_json::Value| {
+        r["regions"][0]["rel_rms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .fold(0.0, f64::max)
+    };
+    let best = |variant: &str| {
+        j["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["variant"] == variant)
+            .map(worst)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let no_blur = j["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["label"] == "no-blur")
+        .map(worst)
+        .unwrap();
+    let mut want = [no_blur, best("depth+follow"), best("depth+follow+angular")];
+    want.sort_by(f64::total_cmp);
+    assert!(text.starts_with("Ranking"), "{text}");
+    let shown: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .take(3)
+        .map(|l| {
+            let v = l
+                .split('%')
+                .next()
+                .unwrap()
+                .split_whitespace()
+                .last()
+                .unwrap();
+            v.parse::<f64>().unwrap() / 100.0
+        })
+        .collect();
+    for (s, w) in shown.iter().zip(want) {
+        // Shown with two decimals of a percent.
+        assert!((s - w).abs() <= 0.5e-4, "{shown:?} vs {want:?}\n{text}");
+    }
+    assert!(
+        text.lines().nth(4).unwrap().starts_with("What it means"),
+        "{text}"
+    );
     let md = std::fs::read_to_string(cmp.join("scene.md")).unwrap();
+    assert!(md.contains("```text\nRanking"), "{md}");
     assert!(md.contains("<!-- BEGIN compare:summary -->"));
     assert!(md.contains("<!-- BEGIN compare:angular -->"));
     ssskit::report::present::record::Record::read(&cmp.join("record.json")).unwrap();
