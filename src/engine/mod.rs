@@ -22,6 +22,8 @@ pub mod godot;
 pub mod hdrp;
 pub mod iryoku;
 pub mod jimenez;
+pub mod sampled;
+pub mod sampling;
 pub mod unreal;
 
 use crate::error::{Error, Result};

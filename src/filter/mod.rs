@@ -54,7 +54,7 @@ fn clamp_index(i: i64, n: usize) -> usize {
 const SCALE: &str = "kernel scale";
 
 /// An orthographic pixel footprint must be a finite positive length.
-fn check_mm_per_pixel(mm: f64) -> Result<()> {
+pub fn check_mm_per_pixel(mm: f64) -> Result<()> {
     if mm > 0.0 && mm.is_finite() {
         return Ok(());
     }
