@@ -39,6 +39,10 @@ impl From<EngineArg> for Engine {
 #[command(
     mut_arg("profile", |a| args::required()(a)
         .help("Reflectance profile file (ssskit.profile/1 JSON): with r, g, b channels")),
+    mut_arg("mm_per_pixel", |a| args::default(ssskit::report::evaluate::DEFAULT_MM_PER_PIXEL)(a)
+        .help("Scale: surface mm per pixel of the plane the engine's sampling is scored on")
+        .long_help("Scale: surface millimetres per pixel of the flat plane the unreal and \
+                    unity-hdrp parameters are scored on through the engine's own sampling")),
     mut_arg("out", args::help(
         "Output file: {\"engine\", \"params\", \"units\", \"error\"} as JSON [default: not written]"
     )),
@@ -62,8 +66,6 @@ pub struct Args {
     /// engine's own unit: unreal 0.1 (the cm), the others 0.001 (the metre)].
     #[arg(long, value_name = "UNITS", allow_negative_numbers = true, value_parser = args::real)]
     units_per_mm: Option<f64>,
-    /// Scale of the flat plane the Unreal and HDRP parameters are scored on through the engine's
-    /// own sampling.
     #[command(flatten)]
     mm_per_pixel: MmPerPixelArg,
 }

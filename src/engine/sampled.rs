@@ -24,8 +24,7 @@
 //! rotations from distinct depth values.
 
 use super::sampling::{
-    EngineSample, HdrpProfile, UnrealProfile, HDRP_BUDGETS, UNREAL_MAX_SAMPLES,
-    UNREAL_MIN_SAMPLES,
+    EngineSample, HdrpProfile, UnrealProfile, HDRP_BUDGETS, UNREAL_MAX_SAMPLES, UNREAL_MIN_SAMPLES,
 };
 use super::{EngineFit, Scene, Version};
 use crate::error::{Error, Result};

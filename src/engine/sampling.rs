@@ -3,8 +3,9 @@
 //! shader sources (formulas and constants as the sources write them; the
 //! sources are cited per function, the repositories in docs/engines.md):
 //!
-//! - Unreal Engine 5 (Epic's UnrealEngine repository, 5.x, read in the
-//!   5.3 tree): Engine/Shaders/Private/SubsurfaceBurleyNormalized.ush,
+//! - Unreal Engine 5 (Epic's UnrealEngine repository, read in a mirror of
+//!   the 5.2.0 source, Build.version 5.2.0):
+//!   Engine/Shaders/Private/SubsurfaceBurleyNormalized.ush,
 //!   `BurleyNormalizedSS` with `GenerateSampleInfo`,
 //!   `RadiusRootFindByApproximation`, `GetPdf`, `UpdateSeed`,
 //!   `CalculateCenterSampleCdf`, `CalculateCenterSampleWeight`;
@@ -41,8 +42,10 @@ const UNREAL_CLAMP_PDF: f64 = 0.00001;
 const UNREAL_MIN_RADIUS_MM: f64 = 0.00001;
 /// `EnergyNormalization = 1 / 0.99995` of `BurleyNormalizedSS`.
 const UNREAL_ENERGY_NORMALIZATION: f64 = 1.0 / 0.99995;
-/// The plastic number `R2Sequence` steps by.
-const R2_PHI: f32 = 1.324_717_9;
+/// The plastic number `R2Sequence` steps by, as the source types it (its
+/// nearest float, which the sequence's fractions depend on).
+#[allow(clippy::excessive_precision)]
+const R2_PHI: f32 = 1.324_717_957_244_746;
 
 /// `DefaultSssSampleBudgetForQualityLevel`: Low, Medium, High.
 pub const HDRP_BUDGETS: [usize; 3] = [20, 40, 80];
@@ -51,8 +54,9 @@ pub const HDRP_BUDGETS: [usize; 3] = [20, 40, 80];
 const HDRP_PIXELS_PER_SAMPLE: f64 = 4.0;
 /// The CDF value whose radius is HDRP's filter radius (`UpdateKernel`).
 const HDRP_FILTER_CDF: f64 = 0.997;
-/// `GOLDEN_RATIO` of Fibonacci.hlsl.
-const GOLDEN_RATIO: f32 = 1.618_034;
+/// `GOLDEN_RATIO` of Fibonacci.hlsl, as the source types it.
+#[allow(clippy::excessive_precision)]
+const GOLDEN_RATIO: f32 = 1.618_033_988_749_895;
 /// `DiffusionProfile.UpdateKernel`'s bound on S = 1 / d.
 const HDRP_MAX_SHAPE: f64 = 16_777_216.0;
 
@@ -76,7 +80,11 @@ pub fn burley_cdf(d: f64, x: f64) -> f64 {
 /// `Rand3DPCG16`: an LCG step then three rounds of a MAD Feistel network on
 /// the three words; 16 bits of each.
 pub fn rand3d_pcg16(p: [i32; 3]) -> [u32; 3] {
-    let mut v = p.map(|x| (x as u32).wrapping_mul(1_664_525).wrapping_add(1_013_904_223));
+    let mut v = p.map(|x| {
+        (x as u32)
+            .wrapping_mul(1_664_525)
+            .wrapping_add(1_013_904_223)
+    });
     for _ in 0..3 {
         v[0] = v[0].wrapping_add(v[1].wrapping_mul(v[2]));
         v[1] = v[1].wrapping_add(v[2].wrapping_mul(v[0]));
@@ -170,7 +178,14 @@ impl UnrealProfile {
     /// (`UpdateSeed`), then consecutive R2 points; u remapped to
     /// [centre CDF, 1), radius by the approximate root, angle 2 pi v,
     /// weight r R_c(r) / pdf(r).
-    pub fn samples(&self, x: u32, y: u32, frame: u32, n: usize, pixel_mm: f64) -> Vec<EngineSample> {
+    pub fn samples(
+        &self,
+        x: u32,
+        y: u32,
+        frame: u32,
+        n: usize,
+        pixel_mm: f64,
+    ) -> Vec<EngineSample> {
         let d = self.sampling_d();
         let cdf0 = self.centre_cdf(pixel_mm);
         let start = rand3d_pcg16([x as i32, y as i32, frame as i32])[0];
@@ -193,7 +208,13 @@ impl UnrealProfile {
     /// The pixel's result from its samples' colours and its own colour:
     /// sum w I / sum w x EnergyNormalization, then lerped toward the centre
     /// colour by the centre weight.
-    pub fn resolve(&self, acc: [f64; 3], wsum: [f64; 3], centre: [f64; 3], cw: [f64; 3]) -> [f64; 3] {
+    pub fn resolve(
+        &self,
+        acc: [f64; 3],
+        wsum: [f64; 3],
+        centre: [f64; 3],
+        cw: [f64; 3],
+    ) -> [f64; 3] {
         std::array::from_fn(|c| {
             let blurred = if wsum[c] == 0.0 {
                 0.0
