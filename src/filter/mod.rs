@@ -18,6 +18,7 @@
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
+pub mod accumulate;
 pub mod angular;
 pub mod cpu;
 pub mod diff;
