@@ -243,3 +243,79 @@ fn apply_accumulates_frames_as_the_library_does() {
         &["--jitter", "disk kernel"],
     );
 }
+
+/// `--accumulate ema:W` weighs the frames as the library's EMA; bad
+/// weights, the wgpu backend and separable kernels are refused by name.
+#[test]
+fn apply_accumulates_by_an_ema_when_asked() {
+    use ssskit::filter::accumulate::Accumulate;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
+    ok(&[
+        "fit",
+        "--profile",
+        SKIN,
+        "--model",
+        "disk",
+        "--samples",
+        "8",
+        "--out",
+        s(&k),
+    ]);
+    ok(&["signal", "edge", "--size", "24x16", "--out", s(&img)]);
+    let apply = |extra: &[&str]| -> Vec<String> {
+        let mut a: Vec<String> = [
+            "apply",
+            "--kernel",
+            s(&k),
+            "--input",
+            s(&img),
+            "--out",
+            s(&out),
+            "--mm-per-pixel",
+            "0.1",
+            "--frames",
+            "4",
+        ]
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
+        a.extend(extra.iter().map(|x| x.to_string()));
+        a
+    };
+    let args = apply(&["--accumulate", "ema:0.3", "--backend", "cpu"]);
+    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let (input, _) = read_image(&img, None).unwrap();
+    let (got, _) = read_image(&out, None).unwrap();
+    let kernel = DiskKernelFile::read(&k).unwrap();
+    let setup = DiskSetup::new(&kernel, view(0.1), 0, 4).accumulated_by(Accumulate::Ema(0.3));
+    let want = apply_disk(&input, &setup).unwrap();
+    let mean = apply_disk(&input, &DiskSetup::new(&kernel, view(0.1), 0, 4)).unwrap();
+    let mut differs = false;
+    for c in 0..3 {
+        for ((a, b), m) in got.rgb[c].iter().zip(&want.rgb[c]).zip(&mean.rgb[c]) {
+            // EXR stores f32.
+            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
+            differs |= (a - m).abs() > 1e-4;
+        }
+    }
+    assert!(differs, "the EMA image is the plain mean's");
+    for (extra, needles) in [
+        (
+            vec!["--accumulate", "ema:1.5"],
+            vec!["--accumulate", "(0, 1]"],
+        ),
+        (vec!["--accumulate", "median"], vec!["--accumulate", "mean"]),
+        (
+            vec!["--accumulate", "ema:0.3", "--backend", "gpu"],
+            vec!["ema:0.3", "--backend cpu"],
+        ),
+    ] {
+        let args = apply(&extra);
+        fails_with(
+            &args.iter().map(String::as_str).collect::<Vec<_>>(),
+            &needles,
+        );
+    }
+}

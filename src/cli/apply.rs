@@ -191,9 +191,23 @@ pub struct Args {
     /// mean of the frames. Separable kernels take 1 (the same every frame).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = count::<u32>)]
     frames: u32,
+    /// Disk kernels: how the frames are accumulated, mean or ema:W (W in (0, 1]).
+    ///
+    /// mean: the plain mean of the frames. ema:W: an exponential moving
+    /// average, h = (1 - W) h + W frame from the first frame on (a TAA
+    /// history blend of weight W); after K frames of independent noise s it
+    /// leaves s sqrt(sum of the squared weights), at least s sqrt(W / (2 -
+    /// W)) (docs/kernels.md). Runs on the CPU.
+    #[arg(long, value_name = "HOW", default_value = "mean", value_parser = accumulate)]
+    accumulate: ssskit::filter::accumulate::Accumulate,
     /// Disk kernels: index of the first frame, which picks its rotation.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = count::<u32>)]
     frame_seed: u32,
+}
+
+/// `--accumulate`: `mean` or `ema:W`.
+fn accumulate(s: &str) -> Result<ssskit::filter::accumulate::Accumulate, String> {
+    ssskit::filter::accumulate::Accumulate::parse(s).map_err(|e| e.to_string())
 }
 
 #[path = "apply_disk.rs"]
@@ -259,6 +273,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             out_path.display()
         );
         return Ok(());
+    }
+    if args.accumulate != ssskit::filter::accumulate::Accumulate::Mean {
+        anyhow::bail!(
+            "--accumulate weighs the frames of a disk kernel; {} is separable (the same every \
+             frame)",
+            kernel_path.display()
+        );
     }
     if args.frames != 1 {
         anyhow::bail!(

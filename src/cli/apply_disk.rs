@@ -4,6 +4,7 @@
 use super::Args;
 use crate::cli::args::Backend;
 use anyhow::{bail, Context};
+use ssskit::filter::accumulate::Accumulate;
 use ssskit::filter::disk::{apply_disk, DiskSetup};
 use ssskit::filter::disk_gpu::DiskGpu;
 use ssskit::filter::{Image, Setup};
@@ -19,7 +20,9 @@ pub fn run(args: &Args, path: &Path, view: Setup, image: &Image) -> anyhow::Resu
         );
     }
     let kernel = DiskKernelFile::read(path)?;
-    let setup = DiskSetup::new(&kernel, view, args.frame_seed, args.frames);
+    let setup =
+        DiskSetup::new(&kernel, view, args.frame_seed, args.frames).accumulated_by(args.accumulate);
+    let ema = setup.accumulate != Accumulate::Mean;
     setup
         .validate(image)
         .with_context(|| format!("applying {}", path.display()))?;
@@ -30,6 +33,11 @@ pub fn run(args: &Args, path: &Path, view: Setup, image: &Image) -> anyhow::Resu
     };
     match args.backend.backend {
         Backend::Cpu => cpu(""),
+        Backend::Gpu if ema => bail!(
+            "--accumulate {}: the wgpu disk pass takes the plain mean; use --backend cpu",
+            setup.accumulate.name()
+        ),
+        Backend::Auto if ema => cpu("; auto: --accumulate ema runs on the CPU"),
         Backend::Gpu => {
             let g = DiskGpu::new()?;
             eprintln!(

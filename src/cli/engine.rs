@@ -1,7 +1,7 @@
 //! `ssskit engine`: the parameters of an engine's own diffusion model
 //! fitted to a profile, with the fit's error and a plot.
 
-use super::args::{self, OutFile, ProfileFile};
+use super::args::{self, MmPerPixelArg, OutFile, ProfileFile};
 use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
 use ssskit::numerics::Bounded;
@@ -39,6 +39,10 @@ impl From<EngineArg> for Engine {
 #[command(
     mut_arg("profile", |a| args::required()(a)
         .help("Reflectance profile file (ssskit.profile/1 JSON): with r, g, b channels")),
+    mut_arg("mm_per_pixel", |a| args::default(ssskit::report::eval::evaluate::DEFAULT_MM_PER_PIXEL)(a)
+        .help("Scale: surface mm per pixel of the plane the engine's sampling is scored on")
+        .long_help("Scale: surface millimetres per pixel of the flat plane the unreal and \
+                    unity-hdrp parameters are scored on through the engine's own sampling")),
     mut_arg("out", args::help(
         "Output file: {\"engine\", \"params\", \"units\", \"error\"} as JSON [default: not written]"
     )),
@@ -62,6 +66,8 @@ pub struct Args {
     /// engine's own unit: unreal 0.1 (the cm), the others 0.001 (the metre)].
     #[arg(long, value_name = "UNITS", allow_negative_numbers = true, value_parser = args::real)]
     units_per_mm: Option<f64>,
+    #[command(flatten)]
+    mm_per_pixel: MmPerPixelArg,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -104,6 +110,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         )?,
         Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
     }
+    if matches!(e, Engine::Unreal | Engine::UnityHdrp) {
+        let v = e.version(a.engine_version.as_deref())?;
+        sampled(&fit, e, scene, v, a.mm_per_pixel.or_default())?;
+    }
     if !fit.error_for.is_empty() {
         outln!("the error is for: {}", fit.error_for)?;
     }
@@ -129,6 +139,42 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             png,
         )?;
         eprintln!("wrote {}", png.display());
+    }
+    Ok(())
+}
+
+/// The fit's parameters through the engine's own sampling
+/// (`engine::sampled`): bias and noise per sample setting and signal.
+fn sampled(
+    fit: &engine::EngineFit,
+    e: Engine,
+    scene: Scene,
+    v: engine::Version,
+    mm_per_pixel: f64,
+) -> anyhow::Result<()> {
+    use engine::sampled::{score, signals, FRAMES, ROTATIONS};
+    let rows = score(fit, e, scene, v, &signals()?, mm_per_pixel)?;
+    outln!(
+        "sampled as the engine renders it (its own sample pattern; flat plane at {mm_per_pixel} mm \
+         per pixel; worst channel, % of the exact image's peak; bias over {ROTATIONS} rotations):"
+    )?;
+    let worst = |v: [f64; 3]| 100.0 * v.into_iter().fold(0.0, f64::max);
+    for r in rows {
+        let after = if r.static_pattern {
+            format!("the same after {FRAMES} (the pattern repeats on a static view)")
+        } else {
+            format!("{:.3}% after {FRAMES} frames", worst(r.error.noise_after))
+        };
+        outln!(
+            "  {} ({} samples/px) on {}: bias {:.3}% (its own noise floor {:.3}%), noise {:.3}% \
+             in one frame, {after}",
+            r.setting,
+            r.samples_per_pixel,
+            r.signal,
+            worst(r.error.bias),
+            worst(r.error.bias_noise_floor),
+            worst(r.error.noise)
+        )?;
     }
     Ok(())
 }

@@ -23,6 +23,8 @@ pub mod hdrp;
 pub mod iryoku;
 pub mod jimenez;
 pub mod printed;
+pub mod sampled;
+pub mod sampling;
 pub mod unreal;
 
 use crate::error::{Error, Result};

@@ -93,13 +93,45 @@ fn scene_mm_per_profile_mm(v: Version, wus: f64, units_per_mm: f64) -> f64 {
     wus * world_units_per_profile_mm(v) / units_per_mm
 }
 
-/// Burley's d in profile mm from one channel's asset values (steps 2, 3).
-fn profile_d_mm(albedo: f64, mfp_color: f64, distance_cm: f64) -> f64 {
+/// The surface albedo and the diffuse mean free path in profile mm the
+/// profile texture holds for one channel's asset values (step 2).
+fn texture_values(albedo: f64, mfp_color: f64, distance_cm: f64) -> (f64, f64) {
     let a = albedo.clamp(TEXTURE_MIN, 1.0);
     let mfp_cm = mfp_color.clamp(TEXTURE_MIN, 1.0) * distance_cm;
     let dmfp_mm =
         (mfp_cm * dmfp_scale(a) / (searchlight_scale(a) * DMFP2MFP) * MM_PER_CM).min(DMFP_MAX_MM);
+    (a, dmfp_mm)
+}
+
+/// Burley's d in profile mm from one channel's asset values (steps 2, 3).
+fn profile_d_mm(albedo: f64, mfp_color: f64, distance_cm: f64) -> f64 {
+    let (a, dmfp_mm) = texture_values(albedo, mfp_color, distance_cm);
     dmfp_mm / dmfp_scale(a)
+}
+
+/// What the Burley pass reads for the values `params` prints (steps 1 to
+/// 3): the profile texture's surface albedo and diffuse mean free path in
+/// profile mm, and the scene mm one profile mm covers (step 4).
+pub fn sampled_profile(
+    p: &Map<String, Value>,
+    scene: Scene,
+    v: Version,
+) -> Result<(super::sampling::UnrealProfile, f64)> {
+    // The checks of `from_params`, once.
+    from_params(p, scene, v)?;
+    let surface = triple(p, "SurfaceAlbedo")?;
+    let mfp_color = triple(p, "MeanFreePathColor")?;
+    let distance = number(p, "MeanFreePathDistance")?;
+    let wus = number(p, "WorldUnitScale")?;
+    let values: [(f64, f64); 3] =
+        std::array::from_fn(|c| texture_values(surface[c], mfp_color[c], distance));
+    Ok((
+        super::sampling::UnrealProfile {
+            surface_albedo: values.map(|v| v.0),
+            dmfp_mm: values.map(|v| v.1),
+        },
+        scene_mm_per_profile_mm(v, wus, scene.units_per_mm),
+    ))
 }
 
 pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {

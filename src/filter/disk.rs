@@ -6,8 +6,9 @@
 //! depth, Freude 2014, eq. 4.11), fetched bilinearly with clamped
 //! positions, lerped toward the centre colour by depth difference
 //! (Freude 2014, eq. 4.12, [`super::follow_t`]) and summed with their
-//! weights. `frames` rotations are averaged (the plain mean a temporal
-//! filter converges to under a static camera). Rayon over rows; each
+//! weights. `frames` rotations are accumulated by `accumulate` (the plain
+//! mean a temporal filter converges to under a static camera, or an
+//! exponential moving average, `super::accumulate`). Rayon over rows; each
 //! output pixel is computed by one thread (deterministic).
 //!
 //! Bilinear fetches at positions spread uniformly over the plane sample the
@@ -15,6 +16,7 @@
 //! is the exact convolution averaged over each pixel
 //! (`exact::PixelSampling::Average`), the oracle of the tests.
 
+use super::accumulate::Accumulate;
 use super::image::par_planes;
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
@@ -43,8 +45,10 @@ pub struct DiskSetup {
     pub view: Setup,
     /// Added to the frame index before the rotation (wrapping).
     pub seed: u32,
-    /// Rotations averaged, frames seed, seed + 1, ...
+    /// Rotations accumulated, frames seed, seed + 1, ...
     pub frames: u32,
+    /// How they are accumulated (the plain mean unless set).
+    pub accumulate: Accumulate,
 }
 
 impl DiskSetup {
@@ -64,7 +68,13 @@ impl DiskSetup {
             view,
             seed,
             frames,
+            accumulate: Accumulate::Mean,
         }
+    }
+
+    /// The same pass with its frames accumulated by `accumulate`.
+    pub fn accumulated_by(self, accumulate: Accumulate) -> DiskSetup {
+        DiskSetup { accumulate, ..self }
     }
 
     /// The same pass over other frames.
@@ -167,10 +177,11 @@ impl<'a> Pass<'a> {
 
     fn run(&self, first: u32, frames: u32) -> Image {
         let (w, h) = (self.image.width, self.image.height);
+        let weights = self.setup.accumulate.weights(frames);
         Image {
             width: w,
             height: h,
-            rgb: par_planes(w, h, |x, y| self.pixel(x, y, first, frames)),
+            rgb: par_planes(w, h, |x, y| self.pixel(x, y, first, &weights)),
             alpha: self.image.alpha.clone(),
         }
     }
@@ -195,14 +206,16 @@ impl<'a> Pass<'a> {
         )
     }
 
-    fn pixel(&self, x: usize, y: usize, first: u32, frames: u32) -> [f64; 3] {
+    /// Frame `first + f` weighted by `weights[f]` (`Accumulate::weights`).
+    fn pixel(&self, x: usize, y: usize, first: u32, weights: &[f64]) -> [f64; 3] {
         let (w, h) = (self.image.width, self.image.height);
         let centre = y * w + x;
         let step = self.steps[centre];
         let rgb = &self.image.rgb;
         let centre_colour = [rgb[0][centre], rgb[1][centre], rgb[2][centre]];
         let mut acc = [0.0; 3];
-        for f in 0..frames {
+        for (f, &wf) in (0u32..).zip(weights) {
+            let mut frame = [0.0; 3];
             let turn = rotation_unit(x as u32, y as u32, first.wrapping_add(f));
             let (sin, cos) = (2.0 * PI * turn).sin_cos();
             for t in &self.setup.taps {
@@ -223,10 +236,13 @@ impl<'a> Pass<'a> {
                     }
                 }
                 for c in 0..3 {
-                    acc[c] += t.weight[c] * o[c];
+                    frame[c] += t.weight[c] * o[c];
                 }
             }
+            for c in 0..3 {
+                acc[c] += wf * frame[c];
+            }
         }
-        acc.map(|v| v / frames as f64)
+        acc
     }
 }

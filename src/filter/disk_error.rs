@@ -65,6 +65,24 @@ pub fn disk_error_with_mean(
     rotations: u32,
     frames: u32,
 ) -> Result<(DiskError, Image)> {
+    frames_error(image, reference, setup.taps.len(), rotations, frames, |k| {
+        let s = setup.with_frames(setup.seed.wrapping_add(k), 1);
+        Ok(disk_frames(image, &s)?.swap_remove(0))
+    })
+}
+
+/// [`disk_error_with_mean`] for any stochastic pass: `frame(k)` is the
+/// pass's diffuse image of frame k (k < `rotations`), `samples_per_pixel`
+/// its fetches per pixel and frame (an engine's own sampling, the disk
+/// kernels).
+pub fn frames_error(
+    image: &Image,
+    reference: &Image,
+    samples_per_pixel: usize,
+    rotations: u32,
+    frames: u32,
+    mut frame: impl FnMut(u32) -> Result<Image>,
+) -> Result<(DiskError, Image)> {
     if frames == 0
         || rotations > MAX_FRAMES
         || !rotations.is_multiple_of(frames)
@@ -88,7 +106,8 @@ pub fn disk_error_with_mean(
     let (mut wsum, mut wsumsq) = (sum.clone(), sum.clone());
     // Frame by frame: memory of a few images whatever the rotations.
     for k in 0..rotations {
-        let f = &disk_frames(image, &setup.with_frames(setup.seed.wrapping_add(k), 1))?[0];
+        let f = &frame(k)?;
+        super::image::check_same_size("a frame", f.width, f.height, image)?;
         for c in 0..3 {
             for (i, &v) in f.rgb[c].iter().enumerate() {
                 sum[c][i] += v;
@@ -138,7 +157,7 @@ pub fn disk_error_with_mean(
         }
     }
     let e = DiskError {
-        samples_per_pixel: setup.taps.len(),
+        samples_per_pixel,
         rotations,
         frames,
         bias,

@@ -75,6 +75,12 @@ impl DiskGpu {
     /// image.
     pub fn apply(&self, image: &Image, setup: &DiskSetup) -> Result<Image> {
         setup.validate(image)?;
+        if setup.accumulate != super::accumulate::Accumulate::Mean {
+            return Err(crate::error::Error::Unsupported(format!(
+                "the wgpu disk pass accumulates its frames by the plain mean; {} runs on the CPU",
+                setup.accumulate.name()
+            )));
+        }
         let (w, h) = (image.width, image.height);
         let n = w * h;
         check_binding(&self.ctx, w, h)?;

@@ -18,6 +18,7 @@
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
+pub mod accumulate;
 pub mod angular;
 pub mod cpu;
 pub mod diff;
@@ -54,7 +55,7 @@ fn clamp_index(i: i64, n: usize) -> usize {
 const SCALE: &str = "kernel scale";
 
 /// An orthographic pixel footprint must be a finite positive length.
-fn check_mm_per_pixel(mm: f64) -> Result<()> {
+pub fn check_mm_per_pixel(mm: f64) -> Result<()> {
     finite_positive(SCALE, "mm_per_pixel", mm, "").map(drop)
 }
 
