@@ -121,6 +121,12 @@ pub struct Scratch<T> {
     offsets: Vec<usize>,
 }
 
+impl<T> Default for Scratch<T> {
+    fn default() -> Scratch<T> {
+        Scratch::new()
+    }
+}
+
 impl<T> Scratch<T> {
     pub const fn new() -> Scratch<T> {
         Scratch {

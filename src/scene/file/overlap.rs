@@ -471,6 +471,20 @@ mod tests {
         check(vec![cyl(), Shape::Mesh(box_mesh(&below).unwrap())]).unwrap();
         check(vec![cyl(), cube(2.5, 1.0)]).unwrap();
         check(vec![cyl(), cuboid([0.8, -1.0, 0.8], [2.0, 1.0, 2.0])]).unwrap();
+        // A face in a cap's plane touches (reached only by tilted
+        // cylinders through check_disjoint: the box test drops it here);
+        // one just inside the cap enters.
+        let c = Cylinder::new(V3::zeros(), V3::y(), 1.0, 2.0);
+        let at = |y: f64| {
+            [
+                V3::new(-0.5, y, -0.5),
+                V3::new(0.5, y, -0.5),
+                V3::new(0.0, y, 0.5),
+            ]
+        };
+        assert!(!triangle_enters_cylinder(&c, &at(2.0)));
+        assert!(!triangle_enters_cylinder(&c, &at(-2.0)));
+        assert!(triangle_enters_cylinder(&c, &at(1.999)));
     }
 
     /// The nearest point of a triangle from each of its seven regions.
