@@ -53,8 +53,11 @@ static GLOBAL: Counting = Counting;
 /// with 4 to spare for buffers and tables.
 const PEAK_BYTES_PER_PIXEL: f64 = 44.0;
 
+/// One test at a time: the counters see every thread's allocations.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// The peak of allocated bytes above what was allocated before, while `f`
-/// runs; one measurement at a time (the only test of this binary).
+/// runs (callers hold `SERIAL`).
 fn peak_of<T>(f: impl FnOnce() -> T) -> (T, usize) {
     let base = NOW.load(Ordering::Relaxed);
     PEAK.store(base, Ordering::Relaxed);
@@ -64,6 +67,7 @@ fn peak_of<T>(f: impl FnOnce() -> T) -> (T, usize) {
 
 #[test]
 fn reading_an_image_holds_it_once() {
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (w, h) = (1024, 1024);
     let dir = tempfile::tempdir().unwrap();
     {
@@ -89,5 +93,47 @@ fn reading_an_image_holds_it_once() {
         );
         // The image itself is 32 bytes per pixel: the measure is not vacuous.
         assert!(per_pixel >= 32.0, "{name}: {per_pixel}");
+    }
+}
+
+/// Bytes per pixel that filtering in place (the CLI's default path) and
+/// writing the EXR may add to the image: the halo rows (at most 1/8 of one
+/// f64 plane, 1 byte), the rings of filtered rows (17 rows per thread) and
+/// the encoder's blocks, with 1 to spare. A fresh f64 output (24 bytes) or
+/// an f32 copy for the writer (12 bytes) would be far above.
+const FILTER_WRITE_EXTRA_BYTES_PER_PIXEL: f64 = 2.0;
+
+#[test]
+fn filtering_in_place_and_writing_add_little_to_the_image() {
+    use ssskit::filter::{cpu, Scale, Setup, Taps};
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let (w, h) = (1024, 1024);
+    let dir = tempfile::tempdir().unwrap();
+    let mut img = ssskit::filter::signals::noise(w, h, 7);
+    let n = 17;
+    let setup = Setup {
+        passes: vec![Taps {
+            offsets_mm: (0..n).map(|i| (i as f64 - 8.0) * 0.1).collect(),
+            weights: vec![[1.0 / n as f64; 3]; n],
+        }],
+        scale: Scale::MmPerPixel(0.1),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+        jitter: false,
+    };
+    for precision in [cpu::Precision::F32, cpu::Precision::F64] {
+        let (_, peak) = peak_of(|| {
+            cpu::apply_in_place(&mut img, &setup, precision).unwrap();
+            write_image(&dir.path().join("o.exr"), &img, PngDepth::Eight).unwrap();
+        });
+        let per_pixel = peak as f64 / (w * h) as f64;
+        eprintln!("{precision:?}: filter and write peak {per_pixel:.2} bytes per pixel");
+        assert!(
+            per_pixel <= FILTER_WRITE_EXTRA_BYTES_PER_PIXEL,
+            "{precision:?}: filtering and writing added {per_pixel:.2} bytes per pixel, above \
+             {FILTER_WRITE_EXTRA_BYTES_PER_PIXEL}"
+        );
     }
 }

@@ -290,7 +290,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let kernel = KernelFile::read(kernel_path)?;
     let setup = setup_of(&args, &kernel, kernel_path, scale, depth, &image)?;
-    let out = filter(&args, &image, &setup)?;
+    let out = filter(&args, image, &setup)?;
     write_image(out_path, &out, png_depth)?;
     eprintln!(
         "{} one-dimensional passes ({} separable term(s)) of up to {} taps, {:.3} s -> {}",
@@ -391,8 +391,9 @@ fn view_of(
 }
 
 /// Runs the pass on the backend --backend names (auto: a hardware GPU,
-/// else the CPU), saying which on stderr.
-fn filter(args: &Args, image: &Image, setup: &Setup) -> anyhow::Result<Image> {
+/// else the CPU), saying which on stderr. The CPU filters the image in
+/// place (the peak stays near the image itself; docs/filter.md).
+fn filter(args: &Args, mut image: Image, setup: &Setup) -> anyhow::Result<Image> {
     let precision = cpu::Precision::from(args.precision);
     let cpu_path = if setup.is_uniform() {
         format!("fixed kernels, {precision:?}").to_lowercase()
@@ -402,17 +403,18 @@ fn filter(args: &Args, image: &Image, setup: &Setup) -> anyhow::Result<Image> {
     Ok(match args.backend.backend {
         Backend::Cpu => {
             eprintln!("backend: cpu ({cpu_path})");
-            cpu::apply_with(image, setup, precision)?
+            cpu::apply_in_place(&mut image, setup, precision)?;
+            image
         }
         Backend::Gpu => {
             let g = gpu::Gpu::new()?;
             eprintln!("backend: gpu, adapter {}", g.describe());
-            g.apply(image, setup)?
+            g.apply(&image, setup)?
         }
         Backend::Auto => match gpu::Gpu::new() {
             Ok(g) if !g.is_software() => {
                 eprintln!("backend: gpu (auto), adapter {}", g.describe());
-                g.apply(image, setup)?
+                g.apply(&image, setup)?
             }
             Ok(g) => {
                 eprintln!(
@@ -420,11 +422,13 @@ fn filter(args: &Args, image: &Image, setup: &Setup) -> anyhow::Result<Image> {
                      rasteriser, slower than the CPU path; --backend gpu forces it)",
                     g.describe()
                 );
-                cpu::apply_with(image, setup, precision)?
+                cpu::apply_in_place(&mut image, setup, precision)?;
+                image
             }
             Err(e) => {
                 eprintln!("backend: cpu ({cpu_path}; auto: {e})");
-                cpu::apply_with(image, setup, precision)?
+                cpu::apply_in_place(&mut image, setup, precision)?;
+                image
             }
         },
     })

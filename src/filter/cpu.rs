@@ -15,7 +15,10 @@ pub use super::exact::{
 };
 pub use super::screen_space::apply_screen_space;
 use super::separable::apply_separable_in;
-pub use super::separable::{apply_separable, apply_separable_into, PixelKernel, Precision};
+pub use super::separable::{
+    apply_separable, apply_separable_f32, apply_separable_in_place, apply_separable_into,
+    PixelKernel, Precision,
+};
 use super::{Image, Setup};
 use crate::error::Result;
 
@@ -30,20 +33,46 @@ pub fn apply(image: &Image, setup: &Setup) -> Result<Image> {
 pub fn apply_with(image: &Image, setup: &Setup, precision: Precision) -> Result<Image> {
     setup.validate(image)?;
     let out = if setup.is_uniform() {
-        let step = setup.scale.step_base(image.height);
-        let kernels: Vec<PixelKernel> = setup
-            .passes
-            .iter()
-            .map(|t| PixelKernel::from_taps(t, step))
-            .collect();
-        apply_separable_in(image, &kernels, precision)
+        apply_separable_in(image, &fixed_kernels(image, setup), precision)
     } else {
         apply_screen_space(image, setup)
     };
     Ok(add_specular(out, setup.specular.as_ref()))
 }
 
+/// [`apply_with`] overwriting `image`, as `ssskit apply` runs it: the
+/// fixed-kernel path filters in place (the image plus a ring of rows per
+/// thread and halo rows of at most 1/8 of a plane); the per-pixel
+/// algorithm still writes a fresh image, which then replaces the input.
+pub fn apply_in_place(image: &mut Image, setup: &Setup, precision: Precision) -> Result<()> {
+    setup.validate(image)?;
+    if setup.is_uniform() {
+        let kernels = fixed_kernels(image, setup);
+        precision.separable_in_place(image, &kernels);
+    } else {
+        let out = apply_screen_space(image, setup);
+        *image = out;
+    }
+    add_specular_into(image, setup.specular.as_ref());
+    Ok(())
+}
+
+/// Every rank as a fixed pixel kernel at the uniform step.
+fn fixed_kernels(image: &Image, setup: &Setup) -> Vec<PixelKernel> {
+    let step = setup.scale.step_base(image.height);
+    setup
+        .passes
+        .iter()
+        .map(|t| PixelKernel::from_taps(t, step))
+        .collect()
+}
+
 fn add_specular(mut out: Image, specular: Option<&Image>) -> Image {
+    add_specular_into(&mut out, specular);
+    out
+}
+
+fn add_specular_into(out: &mut Image, specular: Option<&Image>) {
     if let Some(s) = specular {
         for c in 0..3 {
             out.rgb[c]
@@ -52,7 +81,6 @@ fn add_specular(mut out: Image, specular: Option<&Image>) -> Image {
                 .for_each(|(o, v)| *o += v);
         }
     }
-    out
 }
 
 #[cfg(test)]

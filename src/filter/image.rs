@@ -546,20 +546,34 @@ fn check_writable(path: &Path, image: &Image) -> Result<()> {
 /// given (NaN included: tests build hostile inputs with it); outputs go
 /// through [`write_image`], which refuses what ssskit could not read back.
 pub fn write_exr(path: &Path, image: &Image, depth: Option<&Plane>) -> Result<()> {
-    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec, WritableImage};
-    let f = |v: &[f64]| FlatSamples::F32(v.iter().map(|&x| x as f32).collect());
-    let mut list = SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
-    for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        list.push(AnyChannel::new(*name, f(&image.rgb[c])));
-    }
-    if let Some(a) = &image.alpha {
-        list.push(AnyChannel::new("A", f(a)));
-    }
-    if let Some(d) = depth {
-        list.push(AnyChannel::new("Z", f(&d.data)));
-    }
-    let exr_image =
-        exr::image::Image::from_channels((image.width, image.height), AnyChannels::sort(list));
+    use exr::prelude::{ChannelDescription, SampleType, SpecificChannels, Vec2, WritableImage};
+    // Samples are converted to f32 block by block as the encoder asks for
+    // them: no f32 copy of the image is made (an 8K RGB copy is 398 MB).
+    let named = |n: &str| ChannelDescription::named(n, SampleType::F32);
+    let channels = (
+        named("R"),
+        named("G"),
+        named("B"),
+        image.alpha.as_ref().map(|_| named("A")),
+        depth.map(|_| named("Z")),
+    );
+    let (w, [r, g, b]) = (image.width, &image.rgb);
+    let (alpha, z) = (image.alpha.as_deref(), depth.map(|d| d.data.as_slice()));
+    let at = |v: Option<&[f64]>, i: usize| v.map_or(0.0, |v| v[i] as f32);
+    let pixels = |p: Vec2<usize>| {
+        let i = p.y() * w + p.x();
+        (
+            r[i] as f32,
+            g[i] as f32,
+            b[i] as f32,
+            at(alpha, i),
+            at(z, i),
+        )
+    };
+    let exr_image = exr::image::Image::from_channels(
+        (image.width, image.height),
+        SpecificChannels { channels, pixels },
+    );
     crate::io::write_atomic_with(path, |w| {
         exr_image
             .write()

@@ -33,6 +33,7 @@ pub mod kernel_setup;
 pub mod screen_space;
 pub mod separable;
 pub mod signals;
+pub mod sweep;
 pub mod timing;
 pub mod warnings;
 pub(crate) mod which;

@@ -24,8 +24,9 @@ pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
     let steps = setup.steps(w, h);
     let depth = setup.depth.as_ref().map(|d| d.data.as_slice());
     let follow = setup.follow_surface.map(|f| f.rate(&setup.scale));
-    let mut out = Image::new(w, h);
-    out.alpha = image.alpha.clone();
+    // The first rank's result becomes the sum (no zeroed image beside it:
+    // at 8K each f64 image is 796 MB).
+    let mut sum: Option<[Vec<f64>; 3]> = None;
     for taps in &setup.passes {
         let footprints = setup.jitter.then(|| taps.footprints());
         let ctx = PassCtx {
@@ -39,10 +40,20 @@ pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
         };
         let tmp = ctx.run(&image.rgb, Axis::Horizontal);
         let v = ctx.run(&tmp, Axis::Vertical);
-        for c in 0..3 {
-            out.rgb[c].iter_mut().zip(&v[c]).for_each(|(o, x)| *o += x);
+        drop(tmp);
+        match sum.as_mut() {
+            None => sum = Some(v),
+            Some(s) => {
+                for c in 0..3 {
+                    s[c].iter_mut().zip(&v[c]).for_each(|(o, x)| *o += x);
+                }
+            }
         }
     }
+    let mut out = Image::new(0, 0);
+    (out.width, out.height) = (w, h);
+    out.rgb = sum.unwrap_or_else(|| Image::new(w, h).rgb);
+    out.alpha = image.alpha.clone();
     out
 }
 

@@ -7,8 +7,8 @@
 //! f32 ([`Precision`]), SIMD-friendly row and column loops, rayon over
 //! strips of rows with no cross-thread sums (deterministic).
 
-use super::{clamp_index, Image, Taps};
-use rayon::prelude::*;
+use super::sweep::{self, Job, Scratch};
+use super::{Image, Taps};
 
 /// A 1D kernel on whole pixels: `weights[k]` at pixel offset `first + k`.
 #[derive(Clone, Debug, PartialEq)]
@@ -73,6 +73,14 @@ impl Precision {
             Precision::F64 => apply_separable_into::<f64>(image, kernels, out),
         }
     }
+
+    /// [`apply_separable_in_place`] in this precision.
+    pub fn separable_in_place(self, image: &mut Image, kernels: &[PixelKernel]) {
+        match self {
+            Precision::F32 => apply_separable_in_place::<f32>(image, kernels),
+            Precision::F64 => apply_separable_in_place::<f64>(image, kernels),
+        }
+    }
 }
 
 /// Rank-N separable convolution: sum over kernels of vertical(horizontal(I)),
@@ -130,18 +138,63 @@ pub fn apply_separable_into<T: Sample>(image: &Image, kernels: &[PixelKernel], o
     out.width = w;
     out.height = h;
     for c in 0..3 {
-        if kernels.is_empty() || w == 0 || h == 0 {
-            out.rgb[c].clear();
-            out.rgb[c].resize(w * h, 0.0);
-            continue;
-        }
         // Every sample is overwritten by the first kernel: no zero fill.
         out.rgb[c].resize(w * h, 0.0);
-        separable_plane::<T>(&image.rgb[c], &mut out.rgb[c], w, h, kernels, c);
+        if kernels.is_empty() || w == 0 || h == 0 {
+            out.rgb[c].fill(0.0);
+            continue;
+        }
+        sweep::plane(
+            &Job::<T>::new(kernels, c, w, h),
+            &image.rgb[c],
+            &mut out.rgb[c],
+        );
     }
 }
 
-/// The working precision of the fixed-kernel path.
+/// [`apply_separable`] in place, in precision `T`: each plane is swept
+/// through a ring of filtered rows and overwritten row by row, so the only
+/// memory beyond the image is the ring per thread and the strips' halo rows
+/// (at most 1/8 of one plane, reused across planes). The same result as
+/// [`apply_separable_into`], bit for bit.
+pub fn apply_separable_in_place<T: Sample>(image: &mut Image, kernels: &[PixelKernel]) {
+    let (w, h) = (image.width, image.height);
+    let mut halo = Vec::new();
+    for c in 0..3 {
+        if kernels.is_empty() || w == 0 || h == 0 {
+            image.rgb[c].fill(0.0);
+            continue;
+        }
+        let job = Job::<T>::new(kernels, c, w, h);
+        sweep::plane_in_place(&job, &mut image.rgb[c], &mut halo);
+    }
+}
+
+/// One f32 plane `src` (`w` x `h`, row-major) filtered into `out` with
+/// channel `c` of `kernels`: the renderer's frame, f32 in and out as
+/// OpenCV's `sepFilter2D` on a float image; nothing is allocated once the
+/// worker threads have run a frame of this size. Differs from the f64
+/// reference by f32 round-off (about taps x 6e-8 of the peak).
+pub fn apply_separable_f32(
+    src: &[f32],
+    out: &mut [f32],
+    (w, h): (usize, usize),
+    kernels: &[PixelKernel],
+    c: usize,
+) {
+    assert!(
+        src.len() == w * h && out.len() == w * h,
+        "planes of {w}x{h} samples"
+    );
+    if kernels.is_empty() || w == 0 || h == 0 {
+        out.fill(0.0);
+        return;
+    }
+    sweep::plane(&Job::<f32>::new(kernels, c, w, h), src, out);
+}
+
+/// The working precision of the fixed-kernel path (and the sample type of
+/// the planes it reads and writes).
 pub trait Sample:
     Copy
     + Default
@@ -155,201 +208,48 @@ pub trait Sample:
 {
     fn from_f64(v: f64) -> Self;
     fn to_f64(self) -> f64;
+    /// The same value in this precision (exact when widening; an f32 to
+    /// f32 round trip through f64 compiles to nothing).
+    #[inline(always)]
+    fn from_sample<S: Sample>(v: S) -> Self {
+        Self::from_f64(v.to_f64())
+    }
+    /// Runs `f` with this thread's buffers of this precision.
+    fn with_scratch<R>(f: impl FnOnce(&mut Scratch<Self>) -> R) -> R;
+}
+
+thread_local! {
+    static SCRATCH_F64: std::cell::RefCell<Scratch<f64>> =
+        const { std::cell::RefCell::new(Scratch::new()) };
+    static SCRATCH_F32: std::cell::RefCell<Scratch<f32>> =
+        const { std::cell::RefCell::new(Scratch::new()) };
 }
 
 impl Sample for f64 {
+    #[inline(always)]
     fn from_f64(v: f64) -> f64 {
         v
     }
+    #[inline(always)]
     fn to_f64(self) -> f64 {
         self
+    }
+    fn with_scratch<R>(f: impl FnOnce(&mut Scratch<f64>) -> R) -> R {
+        SCRATCH_F64.with_borrow_mut(f)
     }
 }
 
 impl Sample for f32 {
+    #[inline(always)]
     fn from_f64(v: f64) -> f32 {
         v as f32
     }
+    #[inline(always)]
     fn to_f64(self) -> f64 {
         self as f64
     }
-}
-
-/// Output rows per task: each task filters the rows it needs horizontally
-/// into a strip, then runs the vertical pass from it, so no full-size
-/// intermediate image is written.
-const STRIP: usize = 96;
-
-fn separable_plane<T: Sample>(
-    src: &[f64],
-    out: &mut [f64],
-    w: usize,
-    h: usize,
-    kernels: &[PixelKernel],
-    c: usize,
-) {
-    out.par_chunks_mut(STRIP * w).enumerate().for_each_init(
-        || (Vec::<T>::new(), Vec::<T>::new(), Vec::<T>::new()),
-        |(strip, pad, wts), (block, o)| {
-            let y0 = block * STRIP;
-            let rows = o.len() / w;
-            for (i, k) in kernels.iter().enumerate() {
-                wts.clear();
-                wts.extend(k.weights.iter().map(|v| T::from_f64(v[c])));
-                let n = wts.len();
-                // Source rows y0 + first .. y0 + rows - 1 + first + n - 1.
-                let lo = y0 as i64 + k.first;
-                strip.resize((rows + n - 1) * w, T::default());
-                for (r, srow) in strip.chunks_mut(w).enumerate() {
-                    let sy = clamp_index(lo + r as i64, h);
-                    let row = &src[sy * w..sy * w + w];
-                    fill_clamped(pad, row, k.first, w + n - 1);
-                    correlate_row(pad, wts, srow);
-                }
-                accumulate_columns(strip, w, wts, o, i > 0);
-            }
-        },
-    );
-}
-
-/// pad[i] = row[clamp(first + i)] for i < len: clamped ends, converted middle.
-fn fill_clamped<T: Sample>(pad: &mut Vec<T>, row: &[f64], first: i64, len: usize) {
-    let w = row.len() as i64;
-    pad.clear();
-    let left = (-first).clamp(0, len as i64) as usize;
-    pad.extend(std::iter::repeat_n(T::from_f64(row[0]), left));
-    // A kernel shifted wholly past the row reads only its border pixels.
-    let start = (first + left as i64).clamp(0, row.len() as i64) as usize;
-    let mid = (len - left).min(row.len().saturating_sub(start));
-    pad.extend(row[start..start + mid].iter().map(|&v| T::from_f64(v)));
-    let right = len - left - mid;
-    pad.extend(std::iter::repeat_n(
-        T::from_f64(row[(w - 1) as usize]),
-        right,
-    ));
-}
-
-/// Accumulators per block: two AVX2 registers of f32, four of f64.
-const LANES: usize = 16;
-
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// out[x] = sum_j wts[j] pad[x + j], blocked so each output is stored once.
-fn correlate_row<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
-        // SAFETY: has_avx2 checked the CPU features.
-        return unsafe { correlate_row_avx2(pad, wts, out) };
-    }
-    correlate_row_generic(pad, wts, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn correlate_row_avx2<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
-    correlate_row_generic(pad, wts, out)
-}
-
-#[inline(always)]
-fn correlate_row_generic<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
-    let w = out.len();
-    let mut x = 0;
-    while x + LANES <= w {
-        let mut acc = [T::default(); LANES];
-        for (j, &wt) in wts.iter().enumerate() {
-            let p = &pad[x + j..x + j + LANES];
-            for l in 0..LANES {
-                acc[l] += wt * p[l];
-            }
-        }
-        out[x..x + LANES].copy_from_slice(&acc);
-        x += LANES;
-    }
-    for (xx, o) in out.iter_mut().enumerate().skip(x) {
-        *o = wts
-            .iter()
-            .enumerate()
-            .map(|(j, &wt)| wt * pad[xx + j])
-            .sum();
-    }
-}
-
-/// out[r][x] (+)= sum_j wts[j] strip[r + j][x] for the rows of `out`
-/// (overwriting unless `add`). Walks down one column block at a time so the
-/// window of n rows stays in L1.
-fn accumulate_columns<T: Sample>(strip: &[T], w: usize, wts: &[T], out: &mut [f64], add: bool) {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
-        // SAFETY: has_avx2 checked the CPU features.
-        return unsafe { accumulate_columns_avx2(strip, w, wts, out, add) };
-    }
-    accumulate_columns_generic(strip, w, wts, out, add)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn accumulate_columns_avx2<T: Sample>(
-    strip: &[T],
-    w: usize,
-    wts: &[T],
-    out: &mut [f64],
-    add: bool,
-) {
-    accumulate_columns_generic(strip, w, wts, out, add)
-}
-
-#[inline(always)]
-fn accumulate_columns_generic<T: Sample>(
-    strip: &[T],
-    w: usize,
-    wts: &[T],
-    out: &mut [f64],
-    add: bool,
-) {
-    let rows = out.len() / w;
-    let mut x = 0;
-    while x + LANES <= w {
-        for r in 0..rows {
-            let mut acc = [T::default(); LANES];
-            for (j, &wt) in wts.iter().enumerate() {
-                let p = &strip[(r + j) * w + x..(r + j) * w + x + LANES];
-                for l in 0..LANES {
-                    acc[l] += wt * p[l];
-                }
-            }
-            let o = &mut out[r * w + x..r * w + x + LANES];
-            if add {
-                for l in 0..LANES {
-                    o[l] += acc[l].to_f64();
-                }
-            } else {
-                for l in 0..LANES {
-                    o[l] = acc[l].to_f64();
-                }
-            }
-        }
-        x += LANES;
-    }
-    for r in 0..rows {
-        for xx in x..w {
-            let v = wts
-                .iter()
-                .enumerate()
-                .map(|(j, &wt)| wt * strip[(r + j) * w + xx])
-                .sum::<T>()
-                .to_f64();
-            let o = &mut out[r * w + xx];
-            *o = if add { *o + v } else { v };
-        }
+    fn with_scratch<R>(f: impl FnOnce(&mut Scratch<f32>) -> R) -> R {
+        SCRATCH_F32.with_borrow_mut(f)
     }
 }
 

@@ -27,7 +27,6 @@ pub(super) fn read_obj(path: &Path) -> Result<(Vec<V3>, Vec<[usize; 3]>)> {
     let mut tris = Vec::new();
     for m in &models {
         let mesh = &m.mesh;
-        let base = positions.len();
         if mesh.positions.len() % 3 != 0 || mesh.indices.len() % 3 != 0 {
             return Err(Error::format(path, "positions or faces are not triples"));
         }
@@ -37,24 +36,8 @@ pub(super) fn read_obj(path: &Path) -> Result<(Vec<V3>, Vec<[usize; 3]>)> {
                 format!("meshes are limited to {MAX_TRIANGLES} triangles"),
             ));
         }
-        for (k, v) in mesh.positions.chunks_exact(3).enumerate() {
-            let q = V3::new(v[0] as f64, v[1] as f64, v[2] as f64);
-            if !q.iter().all(|x| x.is_finite()) {
-                return Err(Error::format(path, format!("vertex {k} is not finite")));
-            }
-            positions.push(q);
-        }
-        let n = mesh.positions.len() / 3;
-        for t in mesh.indices.chunks_exact(3) {
-            let idx = [t[0] as usize, t[1] as usize, t[2] as usize];
-            if idx.iter().any(|&i| i >= n) {
-                return Err(Error::format(
-                    path,
-                    "a face names a vertex that does not exist",
-                ));
-            }
-            tris.push(idx.map(|i| base + i));
-        }
+        append_model(&mesh.positions, &mesh.indices, &mut positions, &mut tris)
+            .map_err(|e| Error::format(path, e))?;
     }
     // Faces refer to vertices by position in OBJ; the same position
     // listed twice (seams of texture coordinates) is one vertex for the
@@ -73,6 +56,37 @@ pub(super) fn read_obj(path: &Path) -> Result<(Vec<V3>, Vec<[usize; 3]>)> {
         .collect();
     let tris = tris.into_iter().map(|t| t.map(|i| remap[i])).collect();
     Ok((unique, tris))
+}
+
+/// Appends one model's vertices and triangles (indices into the model's
+/// own positions) to the merged lists, refusing a vertex that is not
+/// finite (an f32 literal past 3.4e38 parses as infinite) and a face index
+/// past the model's vertices. `tobj` already refuses out-of-range face
+/// indices while parsing; this check keeps the indexing below safe on its
+/// own, whatever a parser hands over.
+fn append_model(
+    model_positions: &[f32],
+    indices: &[u32],
+    positions: &mut Vec<V3>,
+    tris: &mut Vec<[usize; 3]>,
+) -> std::result::Result<(), String> {
+    let base = positions.len();
+    for (k, v) in model_positions.chunks_exact(3).enumerate() {
+        let q = V3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+        if !q.iter().all(|x| x.is_finite()) {
+            return Err(format!("vertex {k} is not finite"));
+        }
+        positions.push(q);
+    }
+    let n = model_positions.len() / 3;
+    for t in indices.chunks_exact(3) {
+        let idx = [t[0] as usize, t[1] as usize, t[2] as usize];
+        if idx.iter().any(|&i| i >= n) {
+            return Err("a face names a vertex that does not exist".into());
+        }
+        tris.push(idx.map(|i| base + i));
+    }
+    Ok(())
 }
 
 /// The text of an OBJ file: a regular file only (a pipe could block, a
@@ -140,6 +154,27 @@ mod tests {
         std::fs::write(&obj, format!("{libs}usemtl x\n{CUBE}")).unwrap();
         let (v, f) = read_obj(&obj).unwrap();
         assert_eq!((v.len(), f.len()), (8, 12));
+    }
+
+    /// A vertex past f32's range parses as infinite and is refused by name
+    /// (through the file: tobj accepts it); a face index past the model's
+    /// vertices, which tobj refuses before it gets here, is refused by the
+    /// check itself.
+    #[test]
+    fn infinite_vertices_and_missing_face_vertices_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = dir.path().join("inf.obj");
+        std::fs::write(&obj, CUBE.replacen("v 1 1 1", "v 1 1e39 1", 1)).unwrap();
+        let e = read_obj(&obj).unwrap_err().to_string();
+        assert!(e.contains("vertex 6 is not finite"), "{e}");
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        let tri = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        append_model(&tri, &[0, 1, 2], &mut p, &mut t).unwrap();
+        assert_eq!(t, vec![[0, 1, 2]]);
+        let e = append_model(&tri, &[0, 1, 3], &mut p, &mut t).unwrap_err();
+        assert!(e.contains("does not exist"), "{e}");
+        // No triangle of the refused face was kept.
+        assert_eq!(t, vec![[0, 1, 2]]);
     }
 
     /// A pipe, a device and a folder as the mesh are refused at once; a

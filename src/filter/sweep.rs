@@ -1,0 +1,617 @@
+//! The fixed-kernel separable filter's inner engine: one plane, swept in
+//! strips of rows, each strip top to bottom through a ring buffer of
+//! horizontally filtered rows (the scheme of OpenCV's `FilterEngine`: the
+//! row filter fills a ring of `n` rows, the column filter reads it), so the
+//! working set of a strip is `n` rows (in L2 for a 1080p row of f32) and no
+//! intermediate image exists. Because a row is filtered horizontally
+//! before the output row of the same index is written, the sweep can write
+//! into its own source: only the rows a strip reads from its neighbours
+//! (its halo, at most 1/8 of the plane) are copied first. Every output is
+//! the same sum in the same order whatever the partition into strips, so
+//! the result does not depend on the thread count.
+
+use super::separable::{PixelKernel, Sample};
+use rayon::prelude::*;
+
+/// Fewest rows per strip: the ring's start-up rows are filtered once per
+/// strip, so a strip much shorter than the kernel wastes work.
+const MIN_STRIP_ROWS: usize = 32;
+
+/// In place, strips are at least this many times the kernel's row span, so
+/// that the halos copied before the sweep are at most 1/8 of the plane
+/// (each strip copies `span` rows: above and below together).
+const HALO_FRACTION_INV: usize = 8;
+
+/// Strips per thread: enough to balance rows of uneven cost (none today,
+/// but the machine is shared), few enough that start-up rows stay cheap.
+const STRIPS_PER_THREAD: usize = 4;
+
+/// Outputs per block, by sample size: eight AVX2 registers of
+/// accumulators, f32 or f64, so that eight independent sums hide the
+/// latency of the adds (with two, each tap waited on the previous one).
+/// The order of every output's sum is the same whatever the block.
+const LANES_F32: usize = 64;
+const LANES_F64: usize = 32;
+
+/// Whether `T` is the 4-byte sample (the wider block).
+fn is_f32<T>() -> bool {
+    std::mem::size_of::<T>() == 4
+}
+
+/// One plane's filter: the kernels' weights for this channel in the working
+/// precision `T`, and the union of their row spans.
+pub(crate) struct Job<T> {
+    pub w: usize,
+    pub h: usize,
+    /// Per kernel: its first pixel offset and its weights.
+    kernels: Vec<(i64, Vec<T>)>,
+    /// Lowest offset any kernel reads (at most 0) and highest (at least 0):
+    /// including 0 keeps the row of an output index filtered before that
+    /// output is written.
+    lo: i64,
+    hi: i64,
+}
+
+impl<T: Sample> Job<T> {
+    pub fn new(kernels: &[PixelKernel], c: usize, w: usize, h: usize) -> Job<T> {
+        let kernels: Vec<(i64, Vec<T>)> = kernels
+            .iter()
+            .map(|k| {
+                (
+                    k.first,
+                    k.weights.iter().map(|v| T::from_f64(v[c])).collect(),
+                )
+            })
+            .collect();
+        let lo = kernels.iter().map(|k| k.0).min().unwrap_or(0).min(0);
+        let hi = kernels
+            .iter()
+            .map(|k| k.0 + k.1.len() as i64 - 1)
+            .max()
+            .unwrap_or(0)
+            .max(0);
+        Job {
+            w,
+            h,
+            kernels,
+            lo,
+            hi,
+        }
+    }
+
+    /// Rows of the ring: every row any kernel reads for one output row.
+    fn ring_rows(&self) -> usize {
+        (self.hi - self.lo + 1) as usize
+    }
+
+    /// Rows per strip for this plane (in place: long enough to keep the
+    /// halos small).
+    fn strip_rows(&self, in_place: bool) -> usize {
+        let threads = rayon::current_num_threads().max(1);
+        let mut rows = self
+            .h
+            .div_ceil(threads * STRIPS_PER_THREAD)
+            .max(MIN_STRIP_ROWS);
+        if in_place {
+            rows = rows.max(HALO_FRACTION_INV * (self.ring_rows() - 1));
+        }
+        rows.min(self.h.max(1))
+    }
+}
+
+/// Where a strip reads rows that are not its own.
+enum Source<'a, S> {
+    /// A separate source plane (every row read from it).
+    Plane(&'a [S]),
+    /// In place: rows `top_first..` above the strip and `bottom_first..`
+    /// below it, copied before the sweep.
+    Halo {
+        top_first: usize,
+        top: &'a [S],
+        bottom_first: usize,
+        bottom: &'a [S],
+    },
+}
+
+/// Per-thread buffers, kept between calls: a renderer's frame allocates
+/// nothing once the threads have run one frame.
+pub struct Scratch<T> {
+    pad: Vec<T>,
+    ring: Vec<T>,
+    offsets: Vec<usize>,
+}
+
+impl<T> Default for Scratch<T> {
+    fn default() -> Scratch<T> {
+        Scratch::new()
+    }
+}
+
+impl<T> Scratch<T> {
+    pub const fn new() -> Scratch<T> {
+        Scratch {
+            pad: Vec::new(),
+            ring: Vec::new(),
+            offsets: Vec::new(),
+        }
+    }
+}
+
+/// Filters `src` into `out` (both `w` x `h`).
+pub(crate) fn plane<T: Sample, S: Sample>(job: &Job<T>, src: &[S], out: &mut [S]) {
+    let rows = job.strip_rows(false);
+    out.par_chunks_mut(rows * job.w)
+        .enumerate()
+        .for_each(|(i, chunk)| {
+            T::with_scratch(|s| strip(job, i * rows, chunk, &Source::Plane(src), false, s))
+        });
+}
+
+/// Filters `plane` in place: the halo rows of every strip are copied
+/// first (into `halo`, reused), then the strips run in parallel.
+pub(crate) fn plane_in_place<T: Sample, S: Sample>(
+    job: &Job<T>,
+    plane: &mut [S],
+    halo: &mut Vec<S>,
+) {
+    let (w, h) = (job.w, job.h);
+    let rows = job.strip_rows(true);
+    let strips = h.div_ceil(rows);
+    // Per strip: (top_first, top range in halo, bottom_first, bottom range).
+    let mut spans = Vec::with_capacity(strips);
+    halo.clear();
+    for i in 0..strips {
+        let (y0, y1) = (i * rows, ((i + 1) * rows).min(h));
+        let top_first = (y0 as i64 + job.lo).max(0) as usize;
+        let bottom_end = ((y1 as i64 + job.hi) as usize).min(h);
+        let t0 = halo.len();
+        halo.extend_from_slice(&plane[top_first * w..y0 * w]);
+        let b0 = halo.len();
+        halo.extend_from_slice(&plane[y1 * w..bottom_end * w]);
+        spans.push((top_first, t0..b0, y1, b0..halo.len()));
+    }
+    let halo = &halo[..];
+    plane
+        .par_chunks_mut(rows * w)
+        .zip(spans.into_par_iter())
+        .enumerate()
+        .for_each(|(i, (chunk, (top_first, t, bottom_first, b)))| {
+            let source = Source::Halo {
+                top_first,
+                top: &halo[t],
+                bottom_first,
+                bottom: &halo[b],
+            };
+            T::with_scratch(|s| strip(job, i * rows, chunk, &source, true, s))
+        });
+}
+
+/// One strip: output rows `y0..` (as many as `chunk` holds), top to bottom.
+fn strip<T: Sample, S: Sample>(
+    job: &Job<T>,
+    y0: usize,
+    chunk: &mut [S],
+    source: &Source<S>,
+    in_place: bool,
+    s: &mut Scratch<T>,
+) {
+    let (w, h) = (job.w, job.h);
+    let n_rows = chunk.len() / w;
+    let ring_rows = job.ring_rows();
+    let k_count = job.kernels.len();
+    s.ring.resize(k_count * ring_rows * w, T::default());
+    // Ring slot of source row r (r may be negative: clamped when read).
+    let slot = |r: i64| r.rem_euclid(ring_rows as i64) as usize;
+    let fill = |r: i64, chunk: &[S], s: &mut Scratch<T>| {
+        let sc = r.clamp(0, h as i64 - 1) as usize;
+        let row: &[S] = if in_place && sc >= y0 && sc < y0 + n_rows {
+            // Not yet overwritten: r is never below the output row.
+            &chunk[(sc - y0) * w..(sc - y0 + 1) * w]
+        } else {
+            source_row(source, sc, w)
+        };
+        fill_clamped(&mut s.pad, row, job.lo, w + ring_rows - 1);
+        let at = slot(r) * w;
+        for (k, (first, wts)) in job.kernels.iter().enumerate() {
+            let pad = &s.pad[(first - job.lo) as usize..];
+            let dst = &mut s.ring[(k * ring_rows) * w + at..][..w];
+            correlate_row(pad, wts, dst);
+        }
+    };
+    let y0i = y0 as i64;
+    for r in y0i + job.lo..y0i + job.hi {
+        fill(r, chunk, s);
+    }
+    for y in 0..n_rows {
+        let yi = y0i + y as i64;
+        fill(yi + job.hi, chunk, s);
+        let out = &mut chunk[y * w..(y + 1) * w];
+        for (k, (first, wts)) in job.kernels.iter().enumerate() {
+            s.offsets.clear();
+            let base = k * ring_rows * w;
+            s.offsets
+                .extend((0..wts.len() as i64).map(|j| base + slot(yi + first + j) * w));
+            accumulate_row(&s.ring, &s.offsets, wts, out, k > 0);
+        }
+    }
+}
+
+fn source_row<'a, S>(source: &'a Source<S>, sc: usize, w: usize) -> &'a [S] {
+    match source {
+        Source::Plane(p) => &p[sc * w..(sc + 1) * w],
+        Source::Halo {
+            top_first,
+            top,
+            bottom_first,
+            bottom,
+        } => {
+            if sc < *bottom_first {
+                &top[(sc - top_first) * w..(sc - top_first + 1) * w]
+            } else {
+                &bottom[(sc - bottom_first) * w..(sc - bottom_first + 1) * w]
+            }
+        }
+    }
+}
+
+/// pad[i] = row[clamp(first + i)] for i < len: clamped ends, converted middle.
+fn fill_clamped<T: Sample, S: Sample>(pad: &mut Vec<T>, row: &[S], first: i64, len: usize) {
+    let w = row.len() as i64;
+    pad.clear();
+    let left = (-first).clamp(0, len as i64) as usize;
+    pad.extend(std::iter::repeat_n(T::from_sample(row[0]), left));
+    // A kernel shifted wholly past the row reads only its border pixels.
+    let start = (first + left as i64).clamp(0, w) as usize;
+    let mid = (len - left).min(row.len().saturating_sub(start));
+    pad.extend(row[start..start + mid].iter().map(|&v| T::from_sample(v)));
+    let right = len - left - mid;
+    pad.extend(std::iter::repeat_n(
+        T::from_sample(row[(w - 1) as usize]),
+        right,
+    ));
+}
+
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// out[x] = sum_j wts[j] pad[x + j], blocked so each output is stored once.
+fn correlate_row<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: has_avx2 checked the CPU features.
+        return unsafe { correlate_row_avx2(pad, wts, out) };
+    }
+    correlate_row_lanes(pad, wts, out)
+}
+
+#[inline(always)]
+fn correlate_row_lanes<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
+    if is_f32::<T>() {
+        correlate_row_generic::<T, LANES_F32>(pad, wts, out)
+    } else {
+        correlate_row_generic::<T, LANES_F64>(pad, wts, out)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn correlate_row_avx2<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
+    correlate_row_lanes(pad, wts, out)
+}
+
+#[inline(always)]
+fn correlate_row_generic<T: Sample, const LANES: usize>(pad: &[T], wts: &[T], out: &mut [T]) {
+    let w = out.len();
+    let n = wts.len();
+    let sym = is_symmetric(wts);
+    let mut x = 0;
+    while x + LANES <= w {
+        let window = &pad[x..x + n - 1 + LANES];
+        let acc = if sym {
+            // Mirrored taps share a weight: one product for two samples
+            // (what OpenCV's symmetric column filter does).
+            let mut acc = [T::default(); LANES];
+            for j in 0..n / 2 {
+                let (a, b) = (&window[j..j + LANES], &window[n - 1 - j..n - 1 - j + LANES]);
+                for l in 0..LANES {
+                    acc[l] += wts[j] * (a[l] + b[l]);
+                }
+            }
+            if n % 2 == 1 {
+                let m = &window[n / 2..n / 2 + LANES];
+                for l in 0..LANES {
+                    acc[l] += wts[n / 2] * m[l];
+                }
+            }
+            acc
+        } else {
+            let mut acc = [T::default(); LANES];
+            for (j, &wt) in wts.iter().enumerate() {
+                let p = &window[j..j + LANES];
+                for l in 0..LANES {
+                    acc[l] += wt * p[l];
+                }
+            }
+            acc
+        };
+        out[x..x + LANES].copy_from_slice(&acc);
+        x += LANES;
+    }
+    for (xx, o) in out.iter_mut().enumerate().skip(x) {
+        *o = tap_sum(wts, sym, |j| pad[xx + j]);
+    }
+}
+
+/// Equal weights at mirrored taps (exactly, in the working precision).
+fn is_symmetric<T: Sample>(wts: &[T]) -> bool {
+    let n = wts.len();
+    (0..n / 2).all(|j| wts[j].to_f64() == wts[n - 1 - j].to_f64())
+}
+
+/// sum_j wts[j] v(j), in the order the blocked loops use, for the samples
+/// past the last whole block.
+#[inline(always)]
+fn tap_sum<T: Sample>(wts: &[T], sym: bool, v: impl Fn(usize) -> T) -> T {
+    let n = wts.len();
+    if !sym {
+        return wts
+            .iter()
+            .enumerate()
+            .fold(T::default(), |a, (j, &wt)| a + wt * v(j));
+    }
+    let mut acc = T::default();
+    for j in 0..n / 2 {
+        acc += wts[j] * (v(j) + v(n - 1 - j));
+    }
+    if n % 2 == 1 {
+        acc += wts[n / 2] * v(n / 2);
+    }
+    acc
+}
+
+/// out[x] (+)= sum_j wts[j] ring[offsets[j] + x] (overwriting unless `add`).
+fn accumulate_row<T: Sample, S: Sample>(
+    ring: &[T],
+    offsets: &[usize],
+    wts: &[T],
+    out: &mut [S],
+    add: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: has_avx2 checked the CPU features.
+        return unsafe { accumulate_row_avx2(ring, offsets, wts, out, add) };
+    }
+    accumulate_row_lanes(ring, offsets, wts, out, add)
+}
+
+#[inline(always)]
+fn accumulate_row_lanes<T: Sample, S: Sample>(
+    ring: &[T],
+    offsets: &[usize],
+    wts: &[T],
+    out: &mut [S],
+    add: bool,
+) {
+    if is_f32::<T>() {
+        accumulate_row_generic::<T, S, LANES_F32>(ring, offsets, wts, out, add)
+    } else {
+        accumulate_row_generic::<T, S, LANES_F64>(ring, offsets, wts, out, add)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn accumulate_row_avx2<T: Sample, S: Sample>(
+    ring: &[T],
+    offsets: &[usize],
+    wts: &[T],
+    out: &mut [S],
+    add: bool,
+) {
+    accumulate_row_lanes(ring, offsets, wts, out, add)
+}
+
+#[inline(always)]
+fn accumulate_row_generic<T: Sample, S: Sample, const LANES: usize>(
+    ring: &[T],
+    offsets: &[usize],
+    wts: &[T],
+    out: &mut [S],
+    add: bool,
+) {
+    let w = out.len();
+    let n = wts.len();
+    let rows: &[usize] = &offsets[..n];
+    let sym = is_symmetric(wts);
+    let mut x = 0;
+    while x + LANES <= w {
+        let mut acc = [T::default(); LANES];
+        if sym {
+            for j in 0..n / 2 {
+                let a = &ring[rows[j] + x..rows[j] + x + LANES];
+                let b = &ring[rows[n - 1 - j] + x..rows[n - 1 - j] + x + LANES];
+                for l in 0..LANES {
+                    acc[l] += wts[j] * (a[l] + b[l]);
+                }
+            }
+            if n % 2 == 1 {
+                let m = &ring[rows[n / 2] + x..rows[n / 2] + x + LANES];
+                for l in 0..LANES {
+                    acc[l] += wts[n / 2] * m[l];
+                }
+            }
+        } else {
+            for (&off, &wt) in rows.iter().zip(wts) {
+                let p = &ring[off + x..off + x + LANES];
+                for l in 0..LANES {
+                    acc[l] += wt * p[l];
+                }
+            }
+        }
+        store(&mut out[x..x + LANES], &acc, add);
+        x += LANES;
+    }
+    for xx in x..w {
+        let v = tap_sum(wts, sym, |j| ring[rows[j] + xx]);
+        store(&mut out[xx..xx + 1], &[v], add);
+    }
+}
+
+#[inline(always)]
+fn store<T: Sample, S: Sample>(out: &mut [S], acc: &[T], add: bool) {
+    if add {
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o += S::from_sample(*a);
+        }
+    } else {
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o = S::from_sample(*a);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::separable::{
+        apply_separable_f32, apply_separable_in_place, apply_separable_into,
+    };
+    use super::*;
+    use crate::filter::signals::noise;
+    use crate::filter::{Image, Taps};
+
+    /// f32 against the f64 sweep: each output sums at most a few dozen
+    /// products of f32 round-off 6e-8 each, relative to the plane's peak
+    /// (a normalised kernel never exceeds it); 1e-6 leaves a factor of
+    /// about 1.5 over 11 taps x 6e-8.
+    const F32_REL: f64 = 1e-6;
+
+    /// Direct clamp-to-edge convolution, rows then columns, in f64: the
+    /// definition, with no ring, strip or halo.
+    fn naive(img: &Image, kernels: &[PixelKernel]) -> Image {
+        let (w, h) = (img.width, img.height);
+        let mut out = Image::new(w, h);
+        let at = |i: i64, n: usize| i.clamp(0, n as i64 - 1) as usize;
+        for c in 0..3 {
+            for k in kernels {
+                let mut rows = vec![0.0; w * h];
+                for y in 0..h {
+                    for x in 0..w {
+                        rows[y * w + x] = (k.weights.iter().enumerate())
+                            .map(|(j, v)| {
+                                v[c] * img.rgb[c][y * w + at(x as i64 + k.first + j as i64, w)]
+                            })
+                            .sum();
+                    }
+                }
+                for y in 0..h {
+                    for x in 0..w {
+                        out.rgb[c][y * w + x] += (k.weights.iter().enumerate())
+                            .map(|(j, v)| v[c] * rows[at(y as i64 + k.first + j as i64, h) * w + x])
+                            .sum::<f64>();
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn kernels() -> Vec<PixelKernel> {
+        let t = Taps {
+            offsets_mm: vec![-0.9, -0.2, 0.0, 0.5, 1.1],
+            weights: vec![
+                [0.1, 0.2, 0.3],
+                [0.2; 3],
+                [0.4, 0.3, 0.1],
+                [0.2; 3],
+                [0.1; 3],
+            ],
+        };
+        // Rank 4: two asymmetric kernels, one wholly below the pixel
+        // (offsets -9..-7: the ring must still hold the output's own row)
+        // and a symmetric one.
+        vec![
+            PixelKernel::from_taps(&t, 3.0),
+            PixelKernel::from_taps(&t, 1.7),
+            PixelKernel {
+                first: -9,
+                weights: vec![[0.3; 3], [-0.1; 3], [0.2; 3]],
+            },
+            // Symmetric in every channel: the folded loops.
+            PixelKernel {
+                first: -2,
+                weights: vec![
+                    [0.1, 0.2, 0.05],
+                    [0.2; 3],
+                    [0.4; 3],
+                    [0.2; 3],
+                    [0.1, 0.2, 0.05],
+                ],
+            },
+        ]
+    }
+
+    fn max_rel(a: &Image, b: &Image) -> f64 {
+        let peak = a.peak().iter().fold(0.0f64, |m, &p| m.max(p));
+        (0..3)
+            .flat_map(|c| a.rgb[c].iter().zip(&b.rgb[c]).map(|(x, y)| (x - y).abs()))
+            .fold(0.0, f64::max)
+            / peak
+    }
+
+    #[test]
+    fn in_place_and_into_equal_the_direct_convolution_at_any_thread_count() {
+        let k = kernels();
+        // 41 rows: one strip; 300 rows: several strips with halos (rows
+        // per strip at least 8 x the 20-row span); 3 x 2: smaller than
+        // the kernel in both directions. Widths 150 and 70: whole blocks
+        // (64 f32 or 32 f64 outputs) and a tail.
+        for (w, h) in [(150, 41), (70, 300), (3, 2)] {
+            let img = noise(w, h, 12345);
+            let exact = naive(&img, &k);
+            let mut results = Vec::new();
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                pool.install(|| {
+                    let mut into = Image::new(1, 1);
+                    apply_separable_into::<f64>(&img, &k, &mut into);
+                    let mut in_place = img.clone();
+                    apply_separable_in_place::<f64>(&mut in_place, &k);
+                    assert_eq!(into.rgb, in_place.rgb, "{w}x{h}, {threads} threads");
+                    // The sweep sums in another order than the definition.
+                    assert!(max_rel(&exact, &into) < 1e-14, "{w}x{h}");
+                    let mut f32_place = img.clone();
+                    apply_separable_in_place::<f32>(&mut f32_place, &k);
+                    assert!(max_rel(&exact, &f32_place) < F32_REL, "{w}x{h}");
+                    let mut out = [vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]];
+                    for c in 0..3 {
+                        let src: Vec<f32> = img.rgb[c].iter().map(|&v| v as f32).collect();
+                        apply_separable_f32(&src, &mut out[c], (w, h), &k, c);
+                    }
+                    let planes = out.map(|p| p.iter().map(|&v| v as f64).collect());
+                    let f32_frame = Image {
+                        rgb: planes,
+                        ..img.clone()
+                    };
+                    assert!(max_rel(&exact, &f32_frame) < F32_REL, "{w}x{h}");
+                    results.push((into.rgb, f32_place.rgb, f32_frame.rgb));
+                });
+            }
+            assert!(
+                results[0] == results[1],
+                "{w}x{h}: thread count changed the result"
+            );
+        }
+    }
+}
