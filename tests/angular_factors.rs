@@ -373,3 +373,79 @@ fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
         .iter()
         .any(|r| r["variant"].as_str().unwrap().contains("angular")));
 }
+
+/// Photons per channel and incidence of the grid check below: it compares
+/// runs of the same streams, so few photons suffice (enough that every node
+/// pools some escapes: a factor of 0 is refused).
+const GRID_CHECK_PHOTONS: u64 = 5_000;
+
+/// Every preset's factor run is accepted: its coarse radial grid keeps the
+/// radiance table under the cell cap even for marble and ketchup, whose own
+/// grids (5894 bins x 90 angles) exceed it; and within the work the main job
+/// allows, the slowest preset's run still has photons enough.
+#[test]
+fn every_preset_gets_a_factor_run() {
+    use ssskit::kernel::angular::{factor_grid, photons_within_work, run_options};
+    use ssskit::profile::RadialGrid;
+    let mut refused_on_own_grid = Vec::new();
+    for name in ssskit::material::preset_names() {
+        let m = ssskit::material::Material::load(name).unwrap();
+        let grid = factor_grid(&m).unwrap();
+        run_options()
+            .validate(grid.len())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let own = RadialGrid::for_material(&m, &ssskit::material::Channel::ALL);
+        assert!((grid.r_max() - own.r_max()).abs() <= 1e-12 * own.r_max());
+        if run_options().validate(own.len()).is_err() {
+            refused_on_own_grid.push(name);
+        }
+    }
+    // The blocker the coarse grid removes is real.
+    for name in ["marble", "ketchup"] {
+        assert!(
+            refused_on_own_grid.contains(&name),
+            "{refused_on_own_grid:?}"
+        );
+    }
+    // The work budget: skin1's slowest channel (about 42 events per photon)
+    // keeps the full count, spectralon's (about 1000) gets the floor.
+    use ssskit::kernel::angular::{DEFAULT_PHOTONS, FACTOR_MAX_WORK, MIN_PHOTONS};
+    assert_eq!(photons_within_work(None), DEFAULT_PHOTONS);
+    assert_eq!(
+        photons_within_work(Some(&[20.0, 10.0, 5.0])),
+        DEFAULT_PHOTONS
+    );
+    let n = photons_within_work(Some(&[10.0, 400.0, 50.0]));
+    assert_eq!(n, FACTOR_MAX_WORK / (NODES as u64 * 400));
+    assert_eq!(
+        photons_within_work(Some(&[1e4, f64::NAN, 1.0])),
+        MIN_PHOTONS
+    );
+}
+
+/// The factors use the whole-plane tallies only: the coarse grid of the
+/// factor run gives bit for bit the tables of a run of the same streams on
+/// the material's own grid (skin1's fits under the cap).
+#[test]
+fn the_coarse_grid_changes_no_factor() {
+    use ssskit::profile::mc::{self, McConfig, McOptions, PhotonBudget};
+    let m = ssskit::material::Material::load("skin1").unwrap();
+    let coarse = simulate_factors(&m, GRID_CHECK_PHOTONS, 5, None, &NoProgress).unwrap();
+    let cfg = McConfig {
+        budget: PhotonBudget::Fixed(GRID_CHECK_PHOTONS),
+        seed: 5,
+        threads: None,
+        channels: ssskit::material::Channel::ALL.to_vec(),
+        grid: None,
+    };
+    let opts = McOptions {
+        angular: Some(ssskit::kernel::angular::run_options()),
+        ..McOptions::default()
+    };
+    let p = mc::simulate_with(&m, &cfg, &opts, &NoProgress).unwrap();
+    let fine =
+        ssskit::kernel::angular::from_angular(&p.angular().unwrap().unwrap(), GRID_CHECK_PHOTONS)
+            .unwrap();
+    assert!(p.r.len() > 4 * ssskit::kernel::angular::FACTOR_RADIAL_BINS);
+    assert_eq!(coarse, fine);
+}

@@ -54,6 +54,8 @@ pub struct Args {
     #[command(flatten)]
     budget: BudgetArgs,
     #[command(flatten)]
+    factors: args::FactorsArg,
+    #[command(flatten)]
     signal_size: SignalSizeArg,
     /// Frames: disk kernels are scored on their noise after this many, 1 to 64.
     ///
@@ -139,7 +141,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             Some(p) => (p.clone(), "the render's (its first object's)".to_string()),
             None => bail!("--render: its record holds no profile: give --material"),
         },
-        _ => a.profile.load()?,
+        _ => a.profile.load_with_factors(&a.factors)?,
     };
     eprintln!(
         "{}: profile {source}; scale {} mm per pixel{}",

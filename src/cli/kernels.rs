@@ -25,6 +25,8 @@ pub struct Args {
     target: ImageErrorArg,
     #[command(flatten)]
     budget: BudgetArgs,
+    #[command(flatten)]
+    factors: args::FactorsArg,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -36,7 +38,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(out_dir)?;
     let t0 = std::time::Instant::now();
-    let (profile, source) = a.profile.load()?;
+    let (profile, source) = a.profile.load_with_factors(&a.factors)?;
     eprintln!("{}: profile {source}", profile.material.name);
     let settings = Settings {
         mm_per_pixel,
