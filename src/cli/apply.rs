@@ -202,7 +202,7 @@ pub struct Args {
     /// is seen.
     #[arg(long, value_name = "IMAGE")]
     normals: Option<PathBuf>,
-    /// View-space direction toward the one light, for the entry factor at N.L.
+    /// View-space direction toward the one light, for the entry factor at N.L [default: none].
     #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_negative_numbers = true,
           value_parser = args::real, conflicts_with_all = ["n_dot_l", "entry_weighted"])]
     light_toward: Vec<f64>,
