@@ -28,13 +28,33 @@ fn half_space(eta: f64) -> ssskit::material::Material {
     ))
 }
 
+/// Upper bound of the mean square deviation (standard errors squared) of
+/// the real tables: not twice too small errors (0.25 would be half).
+const MAX_CHI2: f64 = 2.5;
+/// Mean square deviation a broken table (a factor left at 1, or inverted)
+/// must reach for the oracle to tell it from the real one: four times
+/// [`MAX_CHI2`], so that the check below fails it whatever the run's
+/// noise (the exit table without a boundary, the nearest to Lambertian,
+/// is the hardest case).
+const BROKEN_MIN_CHI2: f64 = 4.0 * MAX_CHI2;
+
 /// Every node of both tables within 4 standard errors of the exact value:
 /// entry R(mu) / R(1) at the node's incidence (89 degrees for mu = 0), exit
 /// the Lambertian-weighted mean of pi L / M over mu +- 1/16, i.e. the
-/// interval's share of R_d over its Lambertian share.
+/// interval's share of R_d over its Lambertian share. The same oracle
+/// tells a factor left at 1 or inverted (1 / f) from the real one, in each
+/// table: their mean square deviations are [`BROKEN_MIN_CHI2`] or more.
 fn check_against_half_space(eta: f64) {
     let f = simulate_factors(&half_space(eta), 50_000, 7, None, &NoProgress).unwrap();
     let mut zs = Vec::new();
+    // [table][left at 1, inverted]: squared deviations of broken tables.
+    let mut broken = [[0.0f64; 2]; 2];
+    let mut nodes = [0usize; 2];
+    let mut note = |t: usize, got: f64, want: f64, se: f64| {
+        broken[t][0] += ((1.0 - want) / se).powi(2);
+        broken[t][1] += ((1.0 / got - want) / se).powi(2);
+        nodes[t] += 1;
+    };
     for (c, &a) in ALBEDOS.iter().enumerate() {
         let normal = HalfSpace::new(a, eta, 1.0);
         let total0 = normal.total();
@@ -48,6 +68,7 @@ fn check_against_half_space(eta: f64) {
             } else {
                 within(f.entry[k][c], want, f.entry_stderr[k][c], &what);
                 zs.push((f.entry[k][c] - want) / f.entry_stderr[k][c]);
+                note(0, f.entry[k][c], want, f.entry_stderr[k][c]);
             }
             let (lo, hi) = ((m - 1.0 / 16.0).max(0.0), (m + 1.0 / 16.0).min(1.0));
             let share = normal.fraction(hi.acos(), lo.acos()) / total0;
@@ -55,6 +76,7 @@ fn check_against_half_space(eta: f64) {
             let what = format!("eta {eta}, albedo {a}, exit node {k}");
             within(f.exit[k][c], want, f.exit_stderr[k][c], &what);
             zs.push((f.exit[k][c] - want) / f.exit_stderr[k][c]);
+            note(1, f.exit[k][c], want, f.exit_stderr[k][c]);
         }
     }
     let chi2 = zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64;
@@ -63,7 +85,19 @@ fn check_against_half_space(eta: f64) {
         zs.len()
     );
     // Honest errors: not twice too large (0.25) nor half (4).
-    assert!((0.4..2.5).contains(&chi2), "mean square deviation {chi2}");
+    assert!((0.4..MAX_CHI2).contains(&chi2), "mean square deviation {chi2}");
+    for (t, name) in ["entry", "exit"].iter().enumerate() {
+        let [one, inv] = broken[t].map(|b| b / nodes[t] as f64);
+        eprintln!("eta {eta}: {name} left at 1: {one:.0} sigma^2, inverted: {inv:.0} sigma^2");
+        assert!(
+            one >= BROKEN_MIN_CHI2,
+            "eta {eta}: {name} left at 1 is {one}"
+        );
+        assert!(
+            inv >= BROKEN_MIN_CHI2,
+            "eta {eta}: {name} inverted is {inv}"
+        );
+    }
 }
 
 #[test]
@@ -74,6 +108,18 @@ fn the_nodes_match_the_h_function_without_a_boundary() {
 #[test]
 fn the_nodes_match_the_adding_solution_under_a_fresnel_boundary() {
     check_against_half_space(1.5);
+}
+
+/// Water's index, the boundary of milk, ketchup and the wine presets.
+#[test]
+fn the_nodes_match_the_adding_solution_at_eta_1_33() {
+    check_against_half_space(1.33);
+}
+
+/// Skin's index (the skin presets).
+#[test]
+fn the_nodes_match_the_adding_solution_at_eta_1_4() {
+    check_against_half_space(1.4);
 }
 
 /// A kernel file of the committed reference profile with angular tables
