@@ -85,7 +85,10 @@ fn check_against_half_space(eta: f64) {
         zs.len()
     );
     // Honest errors: not twice too large (0.25) nor half (4).
-    assert!((0.4..MAX_CHI2).contains(&chi2), "mean square deviation {chi2}");
+    assert!(
+        (0.4..MAX_CHI2).contains(&chi2),
+        "mean square deviation {chi2}"
+    );
     for (t, name) in ["entry", "exit"].iter().enumerate() {
         let [one, inv] = broken[t].map(|b| b / nodes[t] as f64);
         eprintln!("eta {eta}: {name} left at 1: {one:.0} sigma^2, inverted: {inv:.0} sigma^2");
