@@ -28,13 +28,33 @@ fn half_space(eta: f64) -> ssskit::material::Material {
     ))
 }
 
+/// Upper bound of the mean square deviation (standard errors squared) of
+/// the real tables: not twice too small errors (0.25 would be half).
+const MAX_CHI2: f64 = 2.5;
+/// Mean square deviation a broken table (a factor left at 1, or inverted)
+/// must reach for the oracle to tell it from the real one: four times
+/// [`MAX_CHI2`], so that the check below fails it whatever the run's
+/// noise (the exit table without a boundary, the nearest to Lambertian,
+/// is the hardest case).
+const BROKEN_MIN_CHI2: f64 = 4.0 * MAX_CHI2;
+
 /// Every node of both tables within 4 standard errors of the exact value:
 /// entry R(mu) / R(1) at the node's incidence (89 degrees for mu = 0), exit
 /// the Lambertian-weighted mean of pi L / M over mu +- 1/16, i.e. the
-/// interval's share of R_d over its Lambertian share.
+/// interval's share of R_d over its Lambertian share. The same oracle
+/// tells a factor left at 1 or inverted (1 / f) from the real one, in each
+/// table: their mean square deviations are [`BROKEN_MIN_CHI2`] or more.
 fn check_against_half_space(eta: f64) {
     let f = simulate_factors(&half_space(eta), 50_000, 7, None, &NoProgress).unwrap();
     let mut zs = Vec::new();
+    // [table][left at 1, inverted]: squared deviations of broken tables.
+    let mut broken = [[0.0f64; 2]; 2];
+    let mut nodes = [0usize; 2];
+    let mut note = |t: usize, got: f64, want: f64, se: f64| {
+        broken[t][0] += ((1.0 - want) / se).powi(2);
+        broken[t][1] += ((1.0 / got - want) / se).powi(2);
+        nodes[t] += 1;
+    };
     for (c, &a) in ALBEDOS.iter().enumerate() {
         let normal = HalfSpace::new(a, eta, 1.0);
         let total0 = normal.total();
@@ -48,6 +68,7 @@ fn check_against_half_space(eta: f64) {
             } else {
                 within(f.entry[k][c], want, f.entry_stderr[k][c], &what);
                 zs.push((f.entry[k][c] - want) / f.entry_stderr[k][c]);
+                note(0, f.entry[k][c], want, f.entry_stderr[k][c]);
             }
             let (lo, hi) = ((m - 1.0 / 16.0).max(0.0), (m + 1.0 / 16.0).min(1.0));
             let share = normal.fraction(hi.acos(), lo.acos()) / total0;
@@ -55,6 +76,7 @@ fn check_against_half_space(eta: f64) {
             let what = format!("eta {eta}, albedo {a}, exit node {k}");
             within(f.exit[k][c], want, f.exit_stderr[k][c], &what);
             zs.push((f.exit[k][c] - want) / f.exit_stderr[k][c]);
+            note(1, f.exit[k][c], want, f.exit_stderr[k][c]);
         }
     }
     let chi2 = zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64;
@@ -63,7 +85,22 @@ fn check_against_half_space(eta: f64) {
         zs.len()
     );
     // Honest errors: not twice too large (0.25) nor half (4).
-    assert!((0.4..2.5).contains(&chi2), "mean square deviation {chi2}");
+    assert!(
+        (0.4..MAX_CHI2).contains(&chi2),
+        "mean square deviation {chi2}"
+    );
+    for (t, name) in ["entry", "exit"].iter().enumerate() {
+        let [one, inv] = broken[t].map(|b| b / nodes[t] as f64);
+        eprintln!("eta {eta}: {name} left at 1: {one:.0} sigma^2, inverted: {inv:.0} sigma^2");
+        assert!(
+            one >= BROKEN_MIN_CHI2,
+            "eta {eta}: {name} left at 1 is {one}"
+        );
+        assert!(
+            inv >= BROKEN_MIN_CHI2,
+            "eta {eta}: {name} inverted is {inv}"
+        );
+    }
 }
 
 #[test]
@@ -74,6 +111,18 @@ fn the_nodes_match_the_h_function_without_a_boundary() {
 #[test]
 fn the_nodes_match_the_adding_solution_under_a_fresnel_boundary() {
     check_against_half_space(1.5);
+}
+
+/// Water's index, the boundary of milk, ketchup and the wine presets.
+#[test]
+fn the_nodes_match_the_adding_solution_at_eta_1_33() {
+    check_against_half_space(1.33);
+}
+
+/// Skin's index (the skin presets).
+#[test]
+fn the_nodes_match_the_adding_solution_at_eta_1_4() {
+    check_against_half_space(1.4);
 }
 
 /// A kernel file of the committed reference profile with angular tables
@@ -372,4 +421,80 @@ fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
         .unwrap()
         .iter()
         .any(|r| r["variant"].as_str().unwrap().contains("angular")));
+}
+
+/// Photons per channel and incidence of the grid check below: it compares
+/// runs of the same streams, so few photons suffice (enough that every node
+/// pools some escapes: a factor of 0 is refused).
+const GRID_CHECK_PHOTONS: u64 = 5_000;
+
+/// Every preset's factor run is accepted: its coarse radial grid keeps the
+/// radiance table under the cell cap even for marble and ketchup, whose own
+/// grids (5894 bins x 90 angles) exceed it; and within the work the main job
+/// allows, the slowest preset's run still has photons enough.
+#[test]
+fn every_preset_gets_a_factor_run() {
+    use ssskit::kernel::angular::{factor_grid, photons_within_work, run_options};
+    use ssskit::profile::RadialGrid;
+    let mut refused_on_own_grid = Vec::new();
+    for name in ssskit::material::preset_names() {
+        let m = ssskit::material::Material::load(name).unwrap();
+        let grid = factor_grid(&m).unwrap();
+        run_options()
+            .validate(grid.len())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let own = RadialGrid::for_material(&m, &ssskit::material::Channel::ALL);
+        assert!((grid.r_max() - own.r_max()).abs() <= 1e-12 * own.r_max());
+        if run_options().validate(own.len()).is_err() {
+            refused_on_own_grid.push(name);
+        }
+    }
+    // The blocker the coarse grid removes is real.
+    for name in ["marble", "ketchup"] {
+        assert!(
+            refused_on_own_grid.contains(&name),
+            "{refused_on_own_grid:?}"
+        );
+    }
+    // The work budget: skin1's slowest channel (about 42 events per photon)
+    // keeps the full count, spectralon's (about 1000) gets the floor.
+    use ssskit::kernel::angular::{DEFAULT_PHOTONS, FACTOR_MAX_WORK, MIN_PHOTONS};
+    assert_eq!(photons_within_work(None), DEFAULT_PHOTONS);
+    assert_eq!(
+        photons_within_work(Some(&[20.0, 10.0, 5.0])),
+        DEFAULT_PHOTONS
+    );
+    let n = photons_within_work(Some(&[10.0, 400.0, 50.0]));
+    assert_eq!(n, FACTOR_MAX_WORK / (NODES as u64 * 400));
+    assert_eq!(
+        photons_within_work(Some(&[1e4, f64::NAN, 1.0])),
+        MIN_PHOTONS
+    );
+}
+
+/// The factors use the whole-plane tallies only: the coarse grid of the
+/// factor run gives bit for bit the tables of a run of the same streams on
+/// the material's own grid (skin1's fits under the cap).
+#[test]
+fn the_coarse_grid_changes_no_factor() {
+    use ssskit::profile::mc::{self, McConfig, McOptions, PhotonBudget};
+    let m = ssskit::material::Material::load("skin1").unwrap();
+    let coarse = simulate_factors(&m, GRID_CHECK_PHOTONS, 5, None, &NoProgress).unwrap();
+    let cfg = McConfig {
+        budget: PhotonBudget::Fixed(GRID_CHECK_PHOTONS),
+        seed: 5,
+        threads: None,
+        channels: ssskit::material::Channel::ALL.to_vec(),
+        grid: None,
+    };
+    let opts = McOptions {
+        angular: Some(ssskit::kernel::angular::run_options()),
+        ..McOptions::default()
+    };
+    let p = mc::simulate_with(&m, &cfg, &opts, &NoProgress).unwrap();
+    let fine =
+        ssskit::kernel::angular::from_angular(&p.angular().unwrap().unwrap(), GRID_CHECK_PHOTONS)
+            .unwrap();
+    assert!(p.r.len() > 4 * ssskit::kernel::angular::FACTOR_RADIAL_BINS);
+    assert_eq!(coarse, fine);
 }

@@ -3,7 +3,7 @@
 //! and the CLI's default path and `--precision f64` (both filter in place)
 //! stay within the bound docs/filter.md states.
 
-use ssskit::report::record::{docs_path, Record};
+use ssskit::report::present::record::{docs_path, Record};
 
 /// The default path's bound, in units of the image's own f32 RGB size
 /// (7680 x 4320 x 3 x 4 B = 398 MB): the f64 image itself is 2 of them,

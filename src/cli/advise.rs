@@ -54,6 +54,8 @@ pub struct Args {
     #[command(flatten)]
     budget: BudgetArgs,
     #[command(flatten)]
+    factors: args::FactorsArg,
+    #[command(flatten)]
     signal_size: SignalSizeArg,
     /// Frames: disk kernels are scored on their noise after this many, 1 to 64.
     ///
@@ -104,15 +106,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     ssskit::report::eval::advise_disk::check_frames(a.frames)?;
     let target = a.target.fraction()?;
-    let (profile, source) = match &scene {
-        // The render's own profile of the scene's first object: the
-        // material it was rendered with, to its Monte Carlo error.
-        Some((_, _, profiles)) if !a.profile.given() => match profiles.first() {
-            Some(p) => (p.clone(), "the render's (its first object's)".to_string()),
-            None => bail!("--render: its record holds no profile: give --material"),
-        },
-        _ => a.profile.load()?,
-    };
+    let (profile, source) = a
+        .profile
+        .load_for_scene(scene.as_ref().map(|(_, _, p)| p.as_slice()), &a.factors)?;
     eprintln!(
         "{}: profile {source}; scale {} mm per pixel{}",
         profile.material.name,

@@ -203,6 +203,28 @@ pub struct Args {
     /// Disk kernels: index of the first frame, which picks its rotation.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = count::<u32>)]
     frame_seed: u32,
+    /// View-space unit normals in R, G, B: x right, y up, z toward the camera [default: the input EXR's N.X, N.Y, N.Z].
+    ///
+    /// With a kernel that carries the angular entry and exit factors: the
+    /// exit factor is taken at N.V, V from the camera of --fov-y (or
+    /// straight on under --mm-per-pixel), after the pass; 0 where nothing
+    /// is seen.
+    #[arg(long, value_name = "IMAGE")]
+    normals: Option<PathBuf>,
+    /// View-space direction toward the one light, for the entry factor at N.L [default: none].
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_negative_numbers = true,
+          value_parser = args::real, conflicts_with_all = ["n_dot_l", "entry_weighted"])]
+    light_toward: Vec<f64>,
+    /// Per-pixel N.L of the one light, for the entry factor [default: the input EXR's NdotL].
+    #[arg(long, value_name = "IMAGE", conflicts_with = "entry_weighted")]
+    n_dot_l: Option<PathBuf>,
+    /// The input is already weighted by the entry factor (an engine's lighting pass).
+    ///
+    /// Then only the exit factor is applied, after the pass.
+    #[arg(long)]
+    entry_weighted: bool,
+    #[command(flatten)]
+    factors: args::FactorsArg,
 }
 
 /// `--accumulate`: `mean` or `ema:W`.
@@ -212,6 +234,9 @@ fn accumulate(s: &str) -> Result<ssskit::filter::accumulate::Accumulate, String>
 
 #[path = "apply_disk.rs"]
 mod disk;
+
+#[path = "apply_angular.rs"]
+mod angular;
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let out_path = args.out.path()?;
@@ -262,9 +287,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::bail!("give --kernel K.json or --reference PROFILE.json");
     };
     let depth = load_depth(&args, extras.depth)?;
+    let factors = angular::kernel_factors(kernel_path)?;
+    let around = angular::view(&args, factors.as_ref(), &image, &scale)?;
     if ssskit::kernel::disk::is_disk_file(kernel_path) {
-        let view = view_of(&args, scale, depth, &image)?;
-        let out = disk::run(&args, kernel_path, view, &image)?;
+        let mut view = view_of(&args, scale, depth, &image)?;
+        let specular = take_specular(&mut view, around.is_some());
+        let out = with_factors(&around, image, specular, |img| {
+            disk::run(&args, kernel_path, view, &img)
+        })?;
         write_image(out_path, &out, png_depth)?;
         eprintln!(
             "disk pass, {} frame(s): {:.3} s -> {}",
@@ -289,8 +319,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let kernel = KernelFile::read(kernel_path)?;
-    let setup = setup_of(&args, &kernel, kernel_path, scale, depth, &image)?;
-    let out = filter(&args, image, &setup)?;
+    let mut setup = setup_of(&args, &kernel, kernel_path, scale, depth, &image)?;
+    let specular = take_specular(&mut setup, around.is_some());
+    let out = with_factors(&around, image, specular, |img| filter(&args, img, &setup))?;
     write_image(out_path, &out, png_depth)?;
     eprintln!(
         "{} one-dimensional passes ({} separable term(s)) of up to {} taps, {:.3} s -> {}",
@@ -306,6 +337,47 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out_path.display()
     );
     Ok(())
+}
+
+/// The specular image of `setup`, taken out of it when the factors go
+/// around the pass: the exit factor weighs the subsurface light only, and
+/// the specular is added after it.
+fn take_specular(setup: &mut Setup, factors: bool) -> Option<Image> {
+    if factors {
+        setup.specular.take()
+    } else {
+        None
+    }
+}
+
+/// `pass` of the image, with the angular factors around it when `around`
+/// holds them, then `specular` added. The image is handed on by value, so
+/// an in-place pass holds no second copy of it.
+fn with_factors(
+    around: &Option<ssskit::filter::angular::AngularView>,
+    image: Image,
+    specular: Option<Image>,
+    pass: impl FnOnce(Image) -> anyhow::Result<Image>,
+) -> anyhow::Result<Image> {
+    let mut out = match around {
+        None => pass(image)?,
+        Some(a) => {
+            use ssskit::filter::angular::{entry_weighted, exit_weighted};
+            let lit = match &a.n_dot_l {
+                Some(nl) => entry_weighted(&image, nl, a.factors)?,
+                None => image,
+            };
+            exit_weighted(&pass(lit)?, &a.n_dot_v, a.factors)?
+        }
+    };
+    if let Some(s) = specular {
+        for c in 0..3 {
+            for (o, v) in out.rgb[c].iter_mut().zip(&s.rgb[c]) {
+                *o += v;
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// The depth plane (--depth, else the input's own), its non-finite values
@@ -457,10 +529,11 @@ fn run_reference(
         || args.taps_only
         || args.full_factors
         || args.jitter
+        || angular::any_flag(args).is_some()
     {
         anyhow::bail!(
             "--reference is the plain exact 2D convolution: it takes no --depth, --strength, \
-             --follow-surface, --specular, --full-factors or --jitter"
+             --follow-surface, --specular, --full-factors, --jitter or angular factor flags"
         );
     }
     if args.backend.backend == Backend::Gpu {
@@ -499,7 +572,7 @@ fn report_sanitized(what: &str, n: usize) {
     }
 }
 
-fn is_exr(p: &Path) -> bool {
+pub(super) fn is_exr(p: &Path) -> bool {
     p.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("exr"))

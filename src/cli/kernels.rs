@@ -31,6 +31,8 @@ pub struct Args {
     budget: BudgetArgs,
     #[command(flatten)]
     scene: SceneCheckArgs,
+    #[command(flatten)]
+    factors: args::FactorsArg,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -54,15 +56,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(out_dir)?;
     let t0 = std::time::Instant::now();
-    let (profile, source) = match &scene {
-        // The render's own profile of the scene's first object: the
-        // material it was rendered with, to its Monte Carlo error.
-        Some((_, _, profiles)) if !a.profile.given() => match profiles.first() {
-            Some(p) => (p.clone(), "the render's (its first object's)".to_string()),
-            None => anyhow::bail!("--render: its record holds no profile: give --material"),
-        },
-        _ => a.profile.load()?,
-    };
+    let (profile, source) = a
+        .profile
+        .load_for_scene(scene.as_ref().map(|(_, _, p)| p.as_slice()), &a.factors)?;
     eprintln!("{}: profile {source}", profile.material.name);
     let settings = Settings {
         mm_per_pixel,

@@ -2,7 +2,7 @@
 //! `args::ProfileSourceArgs`): a profile file, or one made from a material
 //! by Monte Carlo or an analytic model.
 
-use super::args::ProfileSourceArgs;
+use super::args::{FactorsArg, ProfileSourceArgs};
 use super::errors::invalid;
 use ssskit::profile::Profile;
 use ssskit::report::eval::pipeline::ProfileSource;
@@ -66,6 +66,84 @@ impl ProfileSourceArgs {
             profile,
             format!("{}{photons}, {secs:.1} s", source.describe()),
         ))
+    }
+}
+
+impl ProfileSourceArgs {
+    /// [`Self::load`], and for a profile made from --material by Monte
+    /// Carlo the angular entry and exit factors unless `--no-factors`
+    /// (a run the Monte Carlo refuses is a warning: the kernels then go
+    /// without). A profile left without them says so in one line.
+    pub fn load_with_factors(&self, factors: &FactorsArg) -> anyhow::Result<(Profile, String)> {
+        let (profile, source) = self.load()?;
+        self.with_factors(profile, source, factors)
+    }
+
+    /// [`Self::load_with_factors`], or where a scene's render is given
+    /// (`rendered`: its profiles) and no profile source is, the render's
+    /// own profile of its first object (the material it was rendered with,
+    /// to its Monte Carlo error) with the factors.
+    pub fn load_for_scene(
+        &self,
+        rendered: Option<&[Profile]>,
+        factors: &FactorsArg,
+    ) -> anyhow::Result<(Profile, String)> {
+        match rendered {
+            Some(profiles) if !self.given() => match profiles.first() {
+                Some(p) => self.with_factors(
+                    p.clone(),
+                    "the render's (its first object's)".to_string(),
+                    factors,
+                ),
+                None => anyhow::bail!("--render: its record holds no profile: give --material"),
+            },
+            _ => self.load_with_factors(factors),
+        }
+    }
+
+    /// `profile` (from `source`) with the entry and exit factors attached
+    /// where `factors` asks for them and it has none: a Monte Carlo
+    /// profile gets its material's factor run, any other says in one line
+    /// what is missing.
+    pub fn with_factors(
+        &self,
+        mut profile: Profile,
+        mut source: String,
+        factors: &FactorsArg,
+    ) -> anyhow::Result<(Profile, String)> {
+        use ssskit::kernel::angular::{self, AngularFactors};
+        if factors.no_factors || AngularFactors::from_profile(&profile)?.is_some() {
+            return Ok((profile, source));
+        }
+        if self.profile.profile.is_some() || profile.source.kind != "monte-carlo" {
+            super::errors::warn(&angular::missing_note(&profile));
+            return Ok((profile, source));
+        }
+        let t0 = std::time::Instant::now();
+        let events: Option<Vec<f64>> =
+            serde_json::from_value(profile.extra["events_per_photon"].clone()).ok();
+        let photons = angular::photons_within_work(events.as_deref());
+        match angular::simulate_factors(
+            &profile.material,
+            photons,
+            self.seed.seed,
+            None,
+            &super::progress::Bar::new(),
+        ) {
+            Ok(f) => {
+                angular::attach(&mut profile, &f);
+                source += &format!(
+                    "; entry and exit factors from {photons} photons per channel and incidence, \
+                     {:.1} s",
+                    t0.elapsed().as_secs_f64()
+                );
+            }
+            Err(e) => super::errors::warn(&format!(
+                "the entry and exit factors' Monte Carlo run was refused ({e}): the kernels \
+                 carry no factors"
+            )),
+        }
+        Ok((profile, source))
     }
 }
 

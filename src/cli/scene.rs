@@ -8,10 +8,8 @@ use super::args::{self, count, OutFile, SeedArg};
 use super::out::outln;
 use super::progress::Bar;
 use anyhow::{bail, Context};
-use ssskit::filter::image::{
-    read_exr_channels, write_exr, write_exr_channels, write_image, PngDepth,
-};
-use ssskit::filter::{Image, Plane};
+use ssskit::filter::image::{read_exr_channels, write_exr_channels, write_image, PngDepth};
+use ssskit::filter::Image;
 use ssskit::numerics::Bounded;
 use ssskit::profile::mc::{self, PhotonBudget};
 use ssskit::profile::Profile;
@@ -79,7 +77,9 @@ struct Flags {
     /// Also write the G-buffer as `ssskit apply` reads it [default: not written].
     ///
     /// R, G, B = irradiance / pi x R_d, Z = depth (apply --fov-y F
-    /// --units-per-mm U).
+    /// --units-per-mm U), N.X, N.Y, N.Z = view-space normals and, under one
+    /// directional light alone, NdotL: what apply needs for the angular
+    /// entry and exit factors of a kernel that carries them.
     #[arg(long, value_name = "FILE.exr")]
     irradiance_out: Option<PathBuf>,
     /// Also write a tone-mapped PNG of the radiance [default: not written].
@@ -146,18 +146,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let r = render(&scene, &rd, &cfg, &Bar::new())?;
     write_render(out, &r, &text, &profiles)?;
     if let Some(p) = &a.irradiance_out {
-        let img = Image {
-            width: r.width,
-            height: r.height,
-            rgb: r.gbuffer.irradiance.clone(),
-            alpha: None,
-        };
-        let depth = Plane {
-            width: r.width,
-            height: r.height,
-            data: r.gbuffer.depth.clone(),
-        };
-        write_exr(p, &img, Some(&depth))?;
+        write_gbuffer(p, &scene, &r)?;
     }
     if let Some(p) = &a.preview {
         write_image(p, &preview(&r), PngDepth::Eight)?;
@@ -244,6 +233,44 @@ fn preview(r: &Render) -> Image {
         rgb: std::array::from_fn(|c| r.radiance[c].iter().map(|v| v / p).collect()),
         alpha: None,
     }
+}
+
+/// The G-buffer as `apply` reads it: R, G, B the irradiance / pi x R_d, Z
+/// the depth, N.X, N.Y, N.Z the normals in view space (x right, y up, z
+/// toward the camera; 0 where nothing is seen) and, for a scene lit by one
+/// directional light and nothing else, NdotL (the cosines the angular
+/// factors of `compare --scene` take).
+fn write_gbuffer(path: &Path, scene: &Scene, r: &Render) -> anyhow::Result<()> {
+    let g = &r.gbuffer;
+    let cam = &scene.camera;
+    let axes = [cam.right, cam.up, -cam.forward];
+    let view: Vec<Vec<f64>> = axes
+        .iter()
+        .map(|a| {
+            (0..r.width * r.height)
+                .map(|i| g.normal[0][i] * a.x + g.normal[1][i] * a.y + g.normal[2][i] * a.z)
+                .collect()
+        })
+        .collect();
+    let mut planes: Vec<(&str, &[f64])> = vec![
+        ("R", &g.irradiance[0]),
+        ("G", &g.irradiance[1]),
+        ("B", &g.irradiance[2]),
+        ("Z", &g.depth),
+        ("N.X", &view[0]),
+        ("N.Y", &view[1]),
+        ("N.Z", &view[2]),
+    ];
+    let cos = ssskit::report::eval::scene_score::cosines(scene, r);
+    if ssskit::report::eval::scene_compare::angular_obstacle(scene).is_none() {
+        if let Some(nl) = &cos.n_dot_l {
+            planes.push(("NdotL", nl));
+        }
+    }
+    let mut group = ssskit::io::AtomicGroup::new();
+    write_exr_channels(&mut group, path, r.width, r.height, &planes)?;
+    group.commit()?;
+    Ok(())
 }
 
 /// The image and its record, committed as one: two runs writing the same

@@ -34,7 +34,7 @@ use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
 use crate::profile::mc::angular::{AngularOptions, MAX_INCIDENCE_DEG};
 use crate::profile::mc::{self, Angular, McConfig, McOptions, PhotonBudget};
-use crate::profile::Profile;
+use crate::profile::{Profile, RadialGrid};
 use crate::progress::Progress;
 use serde::{Deserialize, Serialize};
 
@@ -47,6 +47,50 @@ pub const EXIT_BINS: usize = 90;
 /// standard errors about 0.3-0.7% on the entry nodes and 1-3% on the exit
 /// nodes for skin-like media.
 pub const DEFAULT_PHOTONS: u64 = 200_000;
+
+/// Events per channel the main job's factor run may spend over all its
+/// runs (the normal one and [`NODES`] - 1 oblique ones): half the
+/// pipeline's cap on its own profile
+/// ([`crate::profile::source::MC_MAX_WORK`]), so that the factors at most
+/// add half the Monte Carlo time the profile itself may take.
+pub const FACTOR_MAX_WORK: u64 = crate::profile::source::MC_MAX_WORK / 2;
+/// Fewest photons per channel and incidence the main job's factor run
+/// traces, whatever the work: fewer leave grazing exit nodes without
+/// escapes (a factor of 0, refused) in absorbing channels.
+pub const MIN_PHOTONS: u64 = 10_000;
+
+/// Photons per channel and incidence of a factor run within
+/// [`FACTOR_MAX_WORK`], from the events per photon of the material's normal
+/// incidence run (the slowest channel; oblique photons start shallower and
+/// take fewer): [`DEFAULT_PHOTONS`] at most, [`MIN_PHOTONS`] at least;
+/// [`DEFAULT_PHOTONS`] when the events are unknown.
+pub fn photons_within_work(events_per_photon: Option<&[f64]>) -> u64 {
+    let worst = events_per_photon
+        .unwrap_or(&[])
+        .iter()
+        .copied()
+        .filter(|e| e.is_finite() && *e > 0.0)
+        .fold(0.0, f64::max);
+    if worst <= 0.0 {
+        return DEFAULT_PHOTONS;
+    }
+    let n = FACTOR_MAX_WORK as f64 / (NODES as f64 * worst);
+    (n as u64).clamp(MIN_PHOTONS, DEFAULT_PHOTONS)
+}
+
+/// Radial bins of [`simulate_factors`]' run. The factors use the
+/// whole-plane tallies only (the exit-angle bins over every radius and the
+/// total R_d, beyond r_max included), which do not depend on the radial
+/// grid; the radiance table per radial bin, which does, is left unused. A
+/// coarse grid keeps that table far under
+/// [`crate::profile::mc::angular::MAX_ANGLE_CELLS`] for every material (the
+/// material's own grid has up to 5894 bins: 5894 x 90 cells are too many).
+pub const FACTOR_RADIAL_BINS: usize = 64;
+
+/// Key of `extra` where a profile made by the main job keeps the tables of
+/// its own factor run (a profile of `ssskit simulate --angle-bins
+/// --incidence` keeps the whole record under `angular` instead).
+pub const PROFILE_KEY: &str = "angular_factors";
 
 /// The cosine of node `k`.
 pub fn node_mu(k: usize) -> f64 {
@@ -156,12 +200,13 @@ impl AngularFactors {
         Ok(())
     }
 
-    /// The tables of a profile's angle-resolved record, None when it has
-    /// none or lacks one of the two (an exit table and at least one oblique
-    /// incidence are needed).
+    /// The tables of a profile: those its angle-resolved record gives, or
+    /// else those the main job stored under [`PROFILE_KEY`]; None when it
+    /// has neither, or its record lacks one of the two (an exit table and
+    /// at least one oblique incidence are needed).
     pub fn from_profile(p: &Profile) -> Result<Option<AngularFactors>> {
         let Some(a) = p.angular()? else {
-            return Ok(None);
+            return stored(p);
         };
         let oblique = a.entry.as_ref().is_some_and(|e| e.incidence_deg.len() > 1);
         if a.exit.is_none() || !oblique || p.channels != Channel::ALL {
@@ -171,6 +216,45 @@ impl AngularFactors {
         let f = from_angular(&a, photons)?;
         Ok(Some(f))
     }
+}
+
+/// The tables under [`PROFILE_KEY`] of `p`'s `extra`, validated.
+fn stored(p: &Profile) -> Result<Option<AngularFactors>> {
+    let v = &p.extra[PROFILE_KEY];
+    if v.is_null() {
+        return Ok(None);
+    }
+    let bad = |why: String| Error::Unsupported(format!("profile extra.{PROFILE_KEY}: {why}"));
+    let f: AngularFactors = serde_json::from_value(v.clone()).map_err(|e| bad(e.to_string()))?;
+    f.validate(&format!("extra.{PROFILE_KEY}")).map_err(bad)?;
+    Ok(Some(f))
+}
+
+/// Stores `f` in `p` (under [`PROFILE_KEY`]), so that every kernel fitted
+/// from `p` carries it.
+pub fn attach(p: &mut Profile, f: &AngularFactors) {
+    if !p.extra.is_object() {
+        p.extra = serde_json::json!({});
+    }
+    p.extra[PROFILE_KEY] = serde_json::json!(f);
+}
+
+/// One line saying what a profile without the tables lacks and how to get
+/// them.
+pub fn missing_note(p: &Profile) -> String {
+    format!(
+        "profile of {} ({}) has no angular tables: the kernels carry no entry and exit factors \
+         (the main job makes them from a material by Monte Carlo; `ssskit simulate --angle-bins \
+         90 --incidence 30,60,80` adds them to a profile)",
+        p.material.name, p.source.kind
+    )
+}
+
+/// The radial grid of [`simulate_factors`]' run: [`FACTOR_RADIAL_BINS`]
+/// uniform bins out to the material's own r_max.
+pub fn factor_grid(material: &Material) -> Result<RadialGrid> {
+    let r_max = RadialGrid::for_material(material, &Channel::ALL).r_max();
+    RadialGrid::uniform(r_max / FACTOR_RADIAL_BINS as f64, r_max)
 }
 
 /// Builds both tables from an angle-resolved record of the three channels.
@@ -277,7 +361,8 @@ fn exit_node(edges_deg: &[f64], factor: &[f64], stderr: &[f64], mu: f64) -> (f64
 }
 
 /// Runs the angle-resolved Monte Carlo for `material` ([`run_options`],
-/// `photons` per channel and incidence) and builds the tables.
+/// `photons` per channel and incidence, on [`factor_grid`]) and builds the
+/// tables.
 pub fn simulate_factors(
     material: &Material,
     photons: u64,
@@ -290,7 +375,7 @@ pub fn simulate_factors(
         seed,
         threads,
         channels: Channel::ALL.to_vec(),
-        grid: None,
+        grid: Some(factor_grid(material)?),
     };
     let opts = McOptions {
         angular: Some(run_options()),

@@ -134,6 +134,9 @@ pub struct DiskKernelFile {
     pub raw_weight_sum: [f64; 3],
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub usage: Option<DiskUsage>,
+    /// The profile's angular entry and exit factors, when it has them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular: Option<super::angular::AngularFactors>,
 }
 
 /// The profile's three normalised kernels as continuous radial functions
@@ -341,6 +344,7 @@ pub fn fit_disk(profile: &Profile, n: usize, radii: RadiusPdf) -> Result<DiskKer
         samples,
         raw_weight_sum,
         usage: None,
+        angular: super::angular::AngularFactors::from_profile(profile)?,
     };
     file.validate("fitted disk kernel")?;
     Ok(file)
@@ -404,6 +408,9 @@ impl DiskKernelFile {
                      (at least {MIN_KERNEL_SUM:.0e}, at most {MAX_KERNEL_SUM:.0e})"
                 ));
             }
+        }
+        if let Some(a) = &self.angular {
+            a.validate("angular").or_else(bad)?;
         }
         Ok(())
     }

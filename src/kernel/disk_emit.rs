@@ -98,5 +98,8 @@ pub fn emit_disk(k: &DiskKernelFile, lang: Lang) -> Result<String> {
             ),
         };
     }
+    if let Some(a) = &k.angular {
+        super::emit::emit_angular(&mut out, a, lang)?;
+    }
     Ok(out)
 }

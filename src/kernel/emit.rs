@@ -212,25 +212,57 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
         };
     }
     if let Some(a) = &k.angular {
-        emit_angular(&mut out, a, lang);
+        emit_angular(&mut out, a, lang)?;
     }
     Ok(out)
 }
 
 /// The angular factor tables and their lookups (linear between the nodes
-/// mu_k = k / (n - 1), clamped: [`super::angular::lookup`]).
-fn emit_angular(out: &mut String, a: &super::angular::AngularFactors, lang: Lang) {
+/// mu_k = k / (n - 1), clamped: [`super::angular::lookup`]), with where
+/// each goes and their standard errors; also the disk kernel's header's.
+/// Refuses a value beyond f32.
+pub(crate) fn emit_angular(
+    out: &mut String,
+    a: &super::angular::AngularFactors,
+    lang: Lang,
+) -> Result<()> {
+    for (name, t) in [("entry", &a.entry), ("exit", &a.exit)] {
+        for (i, w) in t.iter().enumerate() {
+            if let Some(&v) = w.iter().find(|v| !(v.abs() <= f32::MAX as f64)) {
+                return Err(Error::invalid(
+                    "shader",
+                    format!("angular.{name}[{i}]"),
+                    v,
+                    "shader arrays hold f32: values must be finite and at most f32::MAX",
+                ));
+            }
+        }
+    }
     let n = a.mu.len();
     let last = n - 1;
     comment(
         out,
         &format!(
-            "Angular factors, {n} nodes at N.L or N.V = k / {last}: multiply the irradiance by \
-             sss_entry_factor(N.L) before the blur (R_d(theta_in) / R_d(0)) and the blurred \
-             result by sss_exit_factor(N.V) after it (pi L / M, the radiance seen from V \
-             relative to a Lambertian exit)."
+            "Angular factors, {n} nodes at N.L or N.V = k / {last}, linear between them. \
+             Entry, sss_entry_factor(N.L) = R_d(theta_in) / R_d(0): per light, in the lighting \
+             pass, before the blur (the irradiance written for the blur is the sum over lights \
+             of E_l max(N.L_l, 0) sss_entry_factor(N.L_l)). Exit, sss_exit_factor(N.V) = pi L / \
+             M, the radiance seen from V relative to a Lambertian exit: after the blur, the \
+             blurred result times sss_exit_factor(N.V). From {} photons per channel and \
+             incidence.",
+            a.photons
         ),
     );
+    for (name, se) in [("sss_entry", &a.entry_stderr), ("sss_exit", &a.exit_stderr)] {
+        let rows: Vec<String> = se
+            .iter()
+            .map(|v| format!("({:.1e} {:.1e} {:.1e})", v[0], v[1], v[2]))
+            .collect();
+        comment(
+            out,
+            &format!("{name} standard errors per node: {}.", rows.join(" ")),
+        );
+    }
     for (name, table) in [("sss_entry", &a.entry), ("sss_exit", &a.exit)] {
         let ctor = match lang {
             Lang::Hlsl => "float3",
@@ -275,4 +307,5 @@ fn emit_angular(out: &mut String, a: &super::angular::AngularFactors, lang: Lang
             ),
         };
     }
+    Ok(())
 }

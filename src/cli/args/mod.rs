@@ -580,6 +580,18 @@ pub struct NoPlotsArg {
     pub no_plots: bool,
 }
 
+/// `--no-factors`.
+#[derive(clap::Args)]
+pub struct FactorsArg {
+    /// Leave out the entry and exit factors (and their Monte Carlo run).
+    ///
+    /// By default a profile made from --material by Monte Carlo gets the
+    /// angle-resolved entry and exit factors (one more run, a few seconds),
+    /// which every kernel and shader array then carries.
+    #[arg(long)]
+    pub no_factors: bool,
+}
+
 /// What `kernels` and `study` measure on and where their report goes.
 #[derive(clap::Args)]
 pub struct ReportArgs {

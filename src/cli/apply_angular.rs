@@ -1,0 +1,179 @@
+//! `ssskit apply` with a kernel that carries the angular entry and exit
+//! factors: the per-pixel cosines they take, from the G-buffer's
+//! view-space normals, the camera of the scale flags and the light.
+
+use super::Args;
+use anyhow::{bail, Context};
+use ssskit::filter::angular::{check_normals, n_dot_l, n_dot_v, AngularView};
+use ssskit::filter::image::{read_exr_channels, read_plane};
+use ssskit::filter::{Image, Scale};
+use ssskit::kernel::angular::AngularFactors;
+use std::path::Path;
+
+/// The input EXR's normal channels, read when --normals is not given.
+const NORMAL_CHANNELS: [&str; 3] = ["N.X", "N.Y", "N.Z"];
+/// The input EXR's N.L channel, read when neither --n-dot-l nor
+/// --light-toward is given.
+const N_DOT_L_CHANNEL: &str = "NdotL";
+
+/// The factors of the kernel at `path`, whatever its kind.
+pub fn kernel_factors(path: &Path) -> anyhow::Result<Option<AngularFactors>> {
+    Ok(if ssskit::kernel::disk::is_disk_file(path) {
+        ssskit::kernel::disk::DiskKernelFile::read(path)?.angular
+    } else {
+        ssskit::kernel::KernelFile::read(path)?.angular
+    })
+}
+
+/// Whether a flag that only the factors use was given.
+pub fn any_flag(args: &Args) -> Option<&'static str> {
+    if args.normals.is_some() {
+        Some("--normals")
+    } else if args.n_dot_l.is_some() {
+        Some("--n-dot-l")
+    } else if !args.light_toward.is_empty() {
+        Some("--light-toward")
+    } else if args.entry_weighted {
+        Some("--entry-weighted")
+    } else {
+        None
+    }
+}
+
+/// The cosines the kernel's factors take around the pass, or None (the
+/// kernel carries none, --no-factors, or no normals: said in one line).
+pub fn view<'a>(
+    args: &Args,
+    factors: Option<&'a AngularFactors>,
+    image: &Image,
+    scale: &Scale,
+) -> anyhow::Result<Option<AngularView<'a>>> {
+    let (w, h) = (image.width, image.height);
+    let Some(f) = factors else {
+        if let Some(flag) = any_flag(args) {
+            bail!("{flag}: the kernel carries no angular entry and exit factors");
+        }
+        return Ok(None);
+    };
+    if args.factors.no_factors {
+        return Ok(None);
+    }
+    let Some(normals) = normals(args, w, h)? else {
+        if let Some(flag) = any_flag(args) {
+            bail!("{flag}: the exit factor needs the normals: give --normals IMAGE");
+        }
+        crate::cli::errors::warn(&format!(
+            "the kernel carries angular entry and exit factors, but {} has no normals ({}) \
+             and --normals is not given: applied without them (--no-factors says so)",
+            args.input.display(),
+            NORMAL_CHANNELS.join(", ")
+        ));
+        return Ok(None);
+    };
+    let nl = if args.entry_weighted {
+        None
+    } else {
+        Some(cosine_to_light(args, &normals, w, h)?)
+    };
+    eprintln!(
+        "angular factors: {}the exit factor at N.V after the pass",
+        if nl.is_some() {
+            "the entry factor at N.L before the pass, "
+        } else {
+            "the input already entry-weighted (--entry-weighted), "
+        }
+    );
+    Ok(Some(AngularView {
+        factors: f,
+        n_dot_l: nl,
+        n_dot_v: n_dot_v(&normals, w, h, scale),
+    }))
+}
+
+/// The view-space normals: --normals (R, G, B), else the input EXR's
+/// [`NORMAL_CHANNELS`]; None when neither holds them.
+fn normals(args: &Args, w: usize, h: usize) -> anyhow::Result<Option<[Vec<f64>; 3]>> {
+    let (path, names) = match &args.normals {
+        Some(p) => (p.as_path(), ["R", "G", "B"]),
+        None => {
+            if !super::is_exr(&args.input) || !has_channels(&args.input, &NORMAL_CHANNELS)? {
+                return Ok(None);
+            }
+            (args.input.as_path(), NORMAL_CHANNELS)
+        }
+    };
+    let mut planes: [Vec<f64>; 3] = Default::default();
+    for (c, name) in names.iter().enumerate() {
+        let p =
+            read_plane(path, Some(name)).with_context(|| format!("the normals' channel {name}"))?;
+        if (p.width, p.height) != (w, h) {
+            bail!(
+                "{}: the normals are {}x{}, the input {w}x{h}",
+                path.display(),
+                p.width,
+                p.height
+            );
+        }
+        planes[c] = p.data;
+    }
+    check_normals(&path.display().to_string(), &planes, w, h)?;
+    Ok(Some(planes))
+}
+
+/// N.L per pixel: --n-dot-l, else --light-toward with the normals, else
+/// the input EXR's [`N_DOT_L_CHANNEL`].
+fn cosine_to_light(
+    args: &Args,
+    normals: &[Vec<f64>; 3],
+    w: usize,
+    h: usize,
+) -> anyhow::Result<Vec<f64>> {
+    if !args.light_toward.is_empty() {
+        let v = &args.light_toward;
+        let len = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if v.len() != 3 || !(len > 0.0 && len.is_finite()) {
+            bail!(
+                "--light-toward: invalid value {v:?}: three finite numbers, not all 0, expected \
+                 (the view-space direction toward the light)"
+            );
+        }
+        return Ok(n_dot_l(normals, [v[0] / len, v[1] / len, v[2] / len]));
+    }
+    let (path, channel) = match &args.n_dot_l {
+        Some(p) => (p.as_path(), None),
+        None if super::is_exr(&args.input) && has_channels(&args.input, &[N_DOT_L_CHANNEL])? => {
+            (args.input.as_path(), Some(N_DOT_L_CHANNEL))
+        }
+        None => bail!(
+            "the kernel's entry factor needs the light: give --light-toward X,Y,Z, --n-dot-l \
+             IMAGE or --entry-weighted (or --no-factors to leave the factors out)"
+        ),
+    };
+    let p = read_plane(path, channel)?;
+    if (p.width, p.height) != (w, h) {
+        bail!(
+            "{}: N.L is {}x{}, the input {w}x{h}",
+            path.display(),
+            p.width,
+            p.height
+        );
+    }
+    if let Some(i) = p.data.iter().position(|x| !x.is_finite()) {
+        bail!(
+            "{}: N.L at pixel ({}, {}) is {}: must be finite",
+            path.display(),
+            i % w,
+            i / w,
+            p.data[i]
+        );
+    }
+    Ok(p.data)
+}
+
+/// Whether the EXR at `path` has every channel of `names`.
+fn has_channels(path: &Path, names: &[&str]) -> anyhow::Result<bool> {
+    let (_, channels) = read_exr_channels(path)?;
+    Ok(names
+        .iter()
+        .all(|n| channels.iter().any(|(c, _)| c.as_str() == *n)))
+}
