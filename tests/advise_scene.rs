@@ -246,6 +246,16 @@ fn advice_holds_on_a_lit_sphere_at_three_scales_for_three_materials() {
     eprintln!("{}", lines.join("\n"));
 }
 
+/// The scene at 0.3 mm per pixel of skin1 in `d` and its 4-sample render.
+fn skin1_at_0_3(d: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    std::fs::write(d.join("ink.toml"), INK).unwrap();
+    let toml = d.join("scene.toml");
+    std::fs::write(&toml, scene("skin1", 0.3)).unwrap();
+    let exr = d.join("render.exr");
+    ok(&["scene", p(&toml), "--out", p(&exr), "--spp", "4"]);
+    (toml, exr)
+}
+
 /// The scene check refuses what it cannot score: a profile of another
 /// material than the one seen, a scale that is not the scene's, and a
 /// kernel wider than advise's pixel bound (marble at 0.02 mm per pixel).
@@ -253,11 +263,7 @@ fn advice_holds_on_a_lit_sphere_at_three_scales_for_three_materials() {
 fn scene_check_refuses_a_mismatched_material_or_scale() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("ink.toml"), INK).unwrap();
-    let toml = d.join("scene.toml");
-    std::fs::write(&toml, scene("skin1", 0.3)).unwrap();
-    let exr = d.join("render.exr");
-    ok(&["scene", p(&toml), "--out", p(&exr), "--spp", "4"]);
+    let (toml, exr) = skin1_at_0_3(d);
     let base = ["advise", "--scene", p(&toml), "--render", p(&exr)];
     let mut other_material = base.to_vec();
     other_material.extend(["--material", "skin1", "--profile-model", "pbd"]);
@@ -293,11 +299,7 @@ fn scene_check_refuses_a_mismatched_material_or_scale() {
 fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("ink.toml"), INK).unwrap();
-    let toml = d.join("scene.toml");
-    std::fs::write(&toml, scene("skin1", 0.3)).unwrap();
-    let exr = d.join("render.exr");
-    ok(&["scene", p(&toml), "--out", p(&exr), "--spp", "4"]);
+    let (toml, exr) = skin1_at_0_3(d);
     let out_dir = d.join("k");
     let (summary, _) = ok_both(&[
         "kernels",
@@ -347,20 +349,7 @@ fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
     let md = std::fs::read_to_string(out_dir.join("report.md")).unwrap();
     let head: Vec<&str> = md.lines().take(8).collect();
     assert!(head.iter().any(|l| l.starts_with("Ranking")), "{md}");
-    let ranked: Vec<f64> = head
-        .iter()
-        .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
-        .map(|l| {
-            let v = l
-                .split('%')
-                .next()
-                .unwrap()
-                .split_whitespace()
-                .last()
-                .unwrap();
-            v.parse::<f64>().unwrap()
-        })
-        .collect();
+    let ranked = common::ranked_fractions(head.iter().copied());
     assert_eq!(ranked.len(), 3, "{md}");
     assert!(ranked.windows(2).all(|w| w[0] <= w[1]), "{ranked:?}");
     // The same answer from advise on the same scene.

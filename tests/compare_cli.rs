@@ -264,3 +264,101 @@ fn bad_flags_are_refused_with_their_name() {
     }
     common::fails_with(&["compare", "--out-dir", p(&out)], &["--profiles"]);
 }
+
+/// `compare --models ...,disk`: each disk kernel sits beside the
+/// pre-integrated separable kernel at the same samples per pixel (2 T for
+/// each --taps T), with its bias, its noise in one frame and after
+/// --frames frames; the separable row is compare's own pre-integrated row
+/// at T taps, and accumulating frames lowers the noise (with one frame it
+/// is the noise of one frame).
+#[test]
+fn compare_puts_disk_kernels_beside_separable_at_equal_samples() {
+    // compare's main table filters in f32 (`round_to_f32`), the disk
+    // table's separable row in f64: they agree to f32's precision.
+    const F32_AGREEMENT: f64 = 1e-5;
+    let dir = tempfile::tempdir().unwrap();
+    let run = |frames: &str, out: &Path| {
+        ok(&[
+            "compare",
+            "--materials",
+            "skin1",
+            "--profile-model",
+            "pbd",
+            "--models",
+            "preintegrate,disk",
+            "--taps",
+            "9,17",
+            "--signals",
+            "edge",
+            "--frames",
+            frames,
+            "--no-plots",
+            "--out-dir",
+            p(out),
+        ])
+    };
+    let out = dir.path().join("k8");
+    let text = run("8", &out);
+    assert!(text.contains("noise after 8 frames"), "{text}");
+    let disk: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("disk.json")).unwrap()).unwrap();
+    let rows = disk[0]["rows"].as_array().unwrap();
+    assert_eq!(disk[0]["signal"], "edge");
+    assert_eq!(rows.len(), 4, "{disk}");
+    let main: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+    for (i, t) in [9usize, 17].into_iter().enumerate() {
+        let (sep, d) = (&rows[2 * i], &rows[2 * i + 1]);
+        assert_eq!(sep["family"], "separable");
+        assert_eq!(d["family"], "disk");
+        assert_eq!(sep["samples_per_pixel"].as_u64().unwrap() as usize, 2 * t);
+        assert_eq!(d["samples_per_pixel"].as_u64().unwrap() as usize, 2 * t);
+        let own = main
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["label"] == "preintegrate")
+            .map(|r| {
+                r["image"]["edge"]["taps"][t.to_string()]["rel_rms"]
+                    .as_f64()
+                    .unwrap()
+            })
+            .fold(0.0, f64::max);
+        let bias = sep["bias"].as_f64().unwrap();
+        assert!(
+            (bias - own).abs() <= F32_AGREEMENT * own,
+            "{t} taps: {bias} vs compare's {own}"
+        );
+        let (n1, n8) = (
+            d["noise"].as_f64().unwrap(),
+            d["noise_after"].as_f64().unwrap(),
+        );
+        assert!(n1 > 0.0 && n8 < n1, "{d}");
+    }
+    let one = dir.path().join("k1");
+    run("1", &one);
+    let disk: Value =
+        serde_json::from_str(&std::fs::read_to_string(one.join("disk.json")).unwrap()).unwrap();
+    for d in disk[0]["rows"].as_array().unwrap() {
+        assert_eq!(d["noise"], d["noise_after"], "{d}");
+    }
+    // Without the disk family, no disk rows.
+    let none = dir.path().join("k0");
+    ok(&[
+        "compare",
+        "--materials",
+        "skin1",
+        "--profile-model",
+        "pbd",
+        "--models",
+        "preintegrate",
+        "--taps",
+        "9",
+        "--signals",
+        "edge",
+        "--no-plots",
+        "--out-dir",
+        p(&none),
+    ]);
+    assert!(!none.join("disk.json").exists());
+}

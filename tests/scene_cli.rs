@@ -230,21 +230,8 @@ fn scene_writes_radiance_gbuffer_and_record() {
     let mut want = [no_blur, best("depth+follow"), best("depth+follow+angular")];
     want.sort_by(f64::total_cmp);
     assert!(text.starts_with("Ranking"), "{text}");
-    let shown: Vec<f64> = text
-        .lines()
-        .skip(1)
-        .take(3)
-        .map(|l| {
-            let v = l
-                .split('%')
-                .next()
-                .unwrap()
-                .split_whitespace()
-                .last()
-                .unwrap();
-            v.parse::<f64>().unwrap() / 100.0
-        })
-        .collect();
+    let shown = common::ranked_fractions(text.lines().skip(1).take(3));
+    assert_eq!(shown.len(), 3, "{text}");
     for (s, w) in shown.iter().zip(want) {
         // Shown with two decimals of a percent.
         assert!((s - w).abs() <= 0.5e-4, "{shown:?} vs {want:?}\n{text}");

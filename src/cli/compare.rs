@@ -3,7 +3,7 @@
 //! and plots.
 
 use super::args::{
-    self, value_or, ExtentArg, MaterialsArg, MmPerPixelArg, ModelsArg, NoPlotsArg, OutDir,
+    self, count, value_or, ExtentArg, MaterialsArg, MmPerPixelArg, ModelsArg, NoPlotsArg, OutDir,
     PhotonsArg, ProfileModel, ProfileModelArg, SeedArg, SignalSizeArg,
 };
 use super::errors::{invalid, positive};
@@ -64,6 +64,16 @@ pub struct Args {
     seed: SeedArg,
     #[command(flatten)]
     models: ModelsArg,
+    /// Frames: disk kernels (--models ...,disk) are scored on their noise after this many, 1 to 64.
+    ///
+    /// Each disk kernel gets a row beside the pre-integrated separable
+    /// kernel at the same samples per pixel (2 passes of T taps for each
+    /// --taps T against 2 T samples): its bias (the mean over 4 K
+    /// rotations against the exact image), its noise in one frame and
+    /// after K frames, and FLIP; in report.md, disk.json and on stdout.
+    #[arg(long, value_name = "N", value_parser = count::<u32>,
+          default_value_t = ssskit::report::eval::advise_types::DEFAULT_FRAMES)]
+    frames: u32,
     /// Test signals, comma-separated, or none for kernel space only.
     #[arg(long, value_name = "SIGNAL,...", value_parser = signal_or_none(), value_delimiter = ',', default_value = "edge,shapes")]
     signals: Vec<Option<SignalArg>>,
@@ -209,7 +219,14 @@ fn distinct(v: &[usize]) -> Vec<usize> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let families = a.models.families();
+    // Disk kernels are not separable: they get their own rows, beside the
+    // separable kernel at the same samples per pixel.
+    let (disks, families): (Vec<String>, Vec<String>) = a
+        .models
+        .families()
+        .into_iter()
+        .partition(|f| f == ssskit::report::eval::advise_disk::DISK);
+    let with_disk = !disks.is_empty();
     let ranks = parse_ranks(&a.ranks.join(",")).context("--ranks")?;
     let taps = distinct(&a.taps);
     if taps.is_empty() {
@@ -234,35 +251,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             out: a.out_dir.path()?,
         });
     }
-    let mut cases = Vec::new();
-    let mut signals = Vec::new();
-    for &sig in a.signals.iter().flatten() {
-        let case = ImageCase::signal(sig.into(), size, mm_per_pixel)?;
-        if signals.contains(&case.name) {
-            continue;
-        }
-        signals.push(case.name.clone());
-        cases.push(case);
-    }
-    for p in &a.images {
-        let (mut image, _) = read_image(p, None)?;
-        let what = p.display().to_string();
-        image.check_finite(&what, false)?;
-        let name = p
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("image")
-            .to_string();
-        if signals.contains(&name) {
-            bail!("--images {what}: its name '{name}' is already used by another image");
-        }
-        signals.push(name.clone());
-        cases.push(ImageCase {
-            name,
-            image,
-            mm_per_pixel,
-        });
-    }
+    let (cases, signals) = test_cases(&a, size, mm_per_pixel)?;
     if let Some(e) = a.extent.extent {
         positive("--extent", e)?;
     }
@@ -276,6 +265,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         round_to_f32: true,
         pixels_per_degree: a.pixels_per_degree,
     };
+    if families.is_empty() && !with_disk {
+        bail!("--models: give at least one kernel model");
+    }
     let cfg = Config {
         families,
         ranks: ranks.clone(),
@@ -306,9 +298,23 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         &format!("{}-tap tables", taps[0]),
     )?;
     pipeline::write_fitted_kernels(&cmp, &staged.path().join("kernels"), false)?;
+    let disk = if with_disk {
+        Some(disk_rows(
+            &inputs,
+            &cfg.cases,
+            &taps,
+            a.frames,
+            staged.path(),
+        )?)
+    } else {
+        None
+    };
     staged.commit()?;
     let claims = claims::claims(&cmp, &signals, &factors, &ranks);
     out!("{}", kernel_report::claims_table(&claims).markdown())?;
+    if let Some(t) = disk {
+        out!("\n{}", t.markdown())?;
+    }
     eprintln!(
         "{} materials x {} kernels x {} images in {:.1} s -> {}/report.md, compare.csv, compare.json, kernels/{}",
         cmp.materials.len(),
@@ -319,6 +325,75 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if no_plots { "" } else { ", PNG plots" }
     );
     Ok(())
+}
+
+/// The test images: the named signals, then the given images (named by
+/// their file stems), each at `mm_per_pixel`; and their names.
+fn test_cases(
+    a: &Args,
+    size: usize,
+    mm_per_pixel: f64,
+) -> anyhow::Result<(Vec<ImageCase>, Vec<String>)> {
+    let mut cases = Vec::new();
+    let mut signals = Vec::new();
+    for &sig in a.signals.iter().flatten() {
+        let case = ImageCase::signal(sig.into(), size, mm_per_pixel)?;
+        if signals.contains(&case.name) {
+            continue;
+        }
+        signals.push(case.name.clone());
+        cases.push(case);
+    }
+    for p in &a.images {
+        let (mut image, _) = read_image(p, None)?;
+        let what = p.display().to_string();
+        image.check_finite(&what, false)?;
+        let name = p
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("image")
+            .to_string();
+        if signals.contains(&name) {
+            bail!("--images {what}: its name '{name}' is already used by another image");
+        }
+        signals.push(name.clone());
+        cases.push(ImageCase {
+            name,
+            image,
+            mm_per_pixel,
+        });
+    }
+    Ok((cases, signals))
+}
+
+/// The disk rows of `compare --models ...,disk`: written to disk.json and
+/// appended to report.md in `dir`; the table returned for stdout.
+fn disk_rows(
+    inputs: &[MaterialInput],
+    cases: &[ImageCase],
+    taps: &[usize],
+    frames: u32,
+    dir: &std::path::Path,
+) -> anyhow::Result<ssskit::report::present::table::Table> {
+    use ssskit::report::eval::disk_compare::compare_rows;
+    let rows = compare_rows(inputs, cases, taps, frames)?;
+    let t = ssskit::report::present::disk_table::disk_table(&rows, frames);
+    ssskit::io::write_json_atomic(&dir.join("disk.json"), &serde_json::to_value(&rows)?)?;
+    let report = dir.join("report.md");
+    let mut md =
+        std::fs::read_to_string(&report).with_context(|| format!("{}", report.display()))?;
+    md.push_str(&format!(
+        "\n## Disk kernels at equal samples per pixel\n\nThe pre-integrated separable kernel \
+         (2 passes of T taps, 2 T samples per pixel) beside a disk kernel of as many samples, \
+         importance-sampled from the profile: the disk's bias is the mean over {} rotations \
+         against the exact image (+- its own noise floor), its noise the RMS of one frame and \
+         of the mean of {frames} frames about that mean; % of the exact peak, largest \
+         channel.\n\n{}",
+        ssskit::report::eval::advise_disk::WINDOWS * frames,
+        t.markdown()
+    ));
+    ssskit::io::write_atomic(&report, md.as_bytes())?;
+    Ok(t)
 }
 
 #[cfg(test)]

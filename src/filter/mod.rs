@@ -30,6 +30,7 @@ pub mod gpu;
 pub mod image;
 pub mod jitter;
 pub mod kernel_setup;
+pub mod sample;
 pub mod screen_space;
 pub mod separable;
 pub mod signals;

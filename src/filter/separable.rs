@@ -7,52 +7,9 @@
 //! f32 ([`Precision`]), SIMD-friendly row and column loops, rayon over
 //! strips of rows with no cross-thread sums (deterministic).
 
-use super::sweep::{self, Job, Scratch};
-use super::{Image, Taps};
-
-/// A 1D kernel on whole pixels: `weights[k]` at pixel offset `first + k`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PixelKernel {
-    pub first: i64,
-    pub weights: Vec<[f64; 3]>,
-}
-
-impl PixelKernel {
-    /// The taps at a constant step (pixels per mm): each tap's linear
-    /// interpolation between its two neighbouring pixels is folded into the
-    /// integer kernel. With clamp-to-edge sampling this equals the per-pixel
-    /// algorithm exactly (clamping the position or the two indices gives the
-    /// same samples).
-    pub fn from_taps(t: &Taps, step: f64) -> PixelKernel {
-        // A tap within round-off of a whole pixel stays one entry; the
-        // bounds come from the same snapped positions as the loop below.
-        let pos: Vec<f64> = t
-            .offsets_mm
-            .iter()
-            .map(|o| {
-                let p = o * step;
-                if (p - p.round()).abs() < 1e-9 {
-                    p.round()
-                } else {
-                    p
-                }
-            })
-            .collect();
-        let lo = pos.iter().fold(f64::INFINITY, |a, &p| a.min(p.floor())) as i64;
-        let hi = pos.iter().fold(f64::NEG_INFINITY, |a, &p| a.max(p.floor())) as i64 + 1;
-        let mut weights = vec![[0.0; 3]; (hi - lo + 1) as usize];
-        for (&p, w) in pos.iter().zip(&t.weights) {
-            let i0 = p.floor();
-            let f = p - i0;
-            let k = (i0 as i64 - lo) as usize;
-            for c in 0..3 {
-                weights[k][c] += w[c] * (1.0 - f);
-                weights[k + 1][c] += w[c] * f;
-            }
-        }
-        PixelKernel { first: lo, weights }
-    }
-}
+pub use super::sample::{PixelKernel, Sample};
+use super::sweep::{self, Job};
+use super::Image;
 
 /// Working precision of the fixed-kernel (uniform-scale) path, the only
 /// path that has both: the per-pixel algorithm 4.1 (strength, perspective,
@@ -193,70 +150,11 @@ pub fn apply_separable_f32(
     sweep::plane(&Job::<f32>::new(kernels, c, w, h), src, out);
 }
 
-/// The working precision of the fixed-kernel path (and the sample type of
-/// the planes it reads and writes).
-pub trait Sample:
-    Copy
-    + Default
-    + Send
-    + Sync
-    + std::ops::Add<Output = Self>
-    + std::ops::Mul<Output = Self>
-    + std::ops::AddAssign
-    + std::iter::Sum
-    + 'static
-{
-    fn from_f64(v: f64) -> Self;
-    fn to_f64(self) -> f64;
-    /// The same value in this precision (exact when widening; an f32 to
-    /// f32 round trip through f64 compiles to nothing).
-    #[inline(always)]
-    fn from_sample<S: Sample>(v: S) -> Self {
-        Self::from_f64(v.to_f64())
-    }
-    /// Runs `f` with this thread's buffers of this precision.
-    fn with_scratch<R>(f: impl FnOnce(&mut Scratch<Self>) -> R) -> R;
-}
-
-thread_local! {
-    static SCRATCH_F64: std::cell::RefCell<Scratch<f64>> =
-        const { std::cell::RefCell::new(Scratch::new()) };
-    static SCRATCH_F32: std::cell::RefCell<Scratch<f32>> =
-        const { std::cell::RefCell::new(Scratch::new()) };
-}
-
-impl Sample for f64 {
-    #[inline(always)]
-    fn from_f64(v: f64) -> f64 {
-        v
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self
-    }
-    fn with_scratch<R>(f: impl FnOnce(&mut Scratch<f64>) -> R) -> R {
-        SCRATCH_F64.with_borrow_mut(f)
-    }
-}
-
-impl Sample for f32 {
-    #[inline(always)]
-    fn from_f64(v: f64) -> f32 {
-        v as f32
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    fn with_scratch<R>(f: impl FnOnce(&mut Scratch<f32>) -> R) -> R {
-        SCRATCH_F32.with_borrow_mut(f)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::filter::signals::noise;
+    use crate::filter::Taps;
 
     #[test]
     fn reused_buffers_and_f32_give_the_fresh_f64_result() {
@@ -278,6 +176,140 @@ mod tests {
             for (a, b) in fresh.rgb[c].iter().zip(&reused.rgb[c]) {
                 assert!((a - b).abs() < 1e-6, "{a} {b}");
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod sweep_tests {
+    use super::*;
+    use crate::filter::signals::noise;
+    use crate::filter::{Image, Taps};
+
+    /// f32 against the f64 sweep: each output sums at most a few dozen
+    /// products of f32 round-off 6e-8 each, relative to the plane's peak
+    /// (a normalised kernel never exceeds it); 1e-6 leaves a factor of
+    /// about 1.5 over 11 taps x 6e-8.
+    const F32_REL: f64 = 1e-6;
+
+    /// Direct clamp-to-edge convolution, rows then columns, in f64: the
+    /// definition, with no ring, strip or halo.
+    fn naive(img: &Image, kernels: &[PixelKernel]) -> Image {
+        let (w, h) = (img.width, img.height);
+        let mut out = Image::new(w, h);
+        let at = |i: i64, n: usize| i.clamp(0, n as i64 - 1) as usize;
+        for c in 0..3 {
+            for k in kernels {
+                let mut rows = vec![0.0; w * h];
+                for y in 0..h {
+                    for x in 0..w {
+                        rows[y * w + x] = (k.weights.iter().enumerate())
+                            .map(|(j, v)| {
+                                v[c] * img.rgb[c][y * w + at(x as i64 + k.first + j as i64, w)]
+                            })
+                            .sum();
+                    }
+                }
+                for y in 0..h {
+                    for x in 0..w {
+                        out.rgb[c][y * w + x] += (k.weights.iter().enumerate())
+                            .map(|(j, v)| v[c] * rows[at(y as i64 + k.first + j as i64, h) * w + x])
+                            .sum::<f64>();
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn kernels() -> Vec<PixelKernel> {
+        let t = Taps {
+            offsets_mm: vec![-0.9, -0.2, 0.0, 0.5, 1.1],
+            weights: vec![
+                [0.1, 0.2, 0.3],
+                [0.2; 3],
+                [0.4, 0.3, 0.1],
+                [0.2; 3],
+                [0.1; 3],
+            ],
+        };
+        // Rank 4: two asymmetric kernels, one wholly below the pixel
+        // (offsets -9..-7: the ring must still hold the output's own row)
+        // and a symmetric one.
+        vec![
+            PixelKernel::from_taps(&t, 3.0),
+            PixelKernel::from_taps(&t, 1.7),
+            PixelKernel {
+                first: -9,
+                weights: vec![[0.3; 3], [-0.1; 3], [0.2; 3]],
+            },
+            // Symmetric in every channel: the folded loops.
+            PixelKernel {
+                first: -2,
+                weights: vec![
+                    [0.1, 0.2, 0.05],
+                    [0.2; 3],
+                    [0.4; 3],
+                    [0.2; 3],
+                    [0.1, 0.2, 0.05],
+                ],
+            },
+        ]
+    }
+
+    fn max_rel(a: &Image, b: &Image) -> f64 {
+        let peak = a.peak().iter().fold(0.0f64, |m, &p| m.max(p));
+        (0..3)
+            .flat_map(|c| a.rgb[c].iter().zip(&b.rgb[c]).map(|(x, y)| (x - y).abs()))
+            .fold(0.0, f64::max)
+            / peak
+    }
+
+    #[test]
+    fn in_place_and_into_equal_the_direct_convolution_at_any_thread_count() {
+        let k = kernels();
+        // 41 rows: one strip; 300 rows: several strips with halos (rows
+        // per strip at least 8 x the 20-row span); 3 x 2: smaller than
+        // the kernel in both directions. Widths 150 and 70: whole blocks
+        // (64 f32 or 32 f64 outputs) and a tail.
+        for (w, h) in [(150, 41), (70, 300), (3, 2)] {
+            let img = noise(w, h, 12345);
+            let exact = naive(&img, &k);
+            let mut results = Vec::new();
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                pool.install(|| {
+                    let mut into = Image::new(1, 1);
+                    apply_separable_into::<f64>(&img, &k, &mut into);
+                    let mut in_place = img.clone();
+                    apply_separable_in_place::<f64>(&mut in_place, &k);
+                    assert_eq!(into.rgb, in_place.rgb, "{w}x{h}, {threads} threads");
+                    // The sweep sums in another order than the definition.
+                    assert!(max_rel(&exact, &into) < 1e-14, "{w}x{h}");
+                    let mut f32_place = img.clone();
+                    apply_separable_in_place::<f32>(&mut f32_place, &k);
+                    assert!(max_rel(&exact, &f32_place) < F32_REL, "{w}x{h}");
+                    let mut out = [vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]];
+                    for c in 0..3 {
+                        let src: Vec<f32> = img.rgb[c].iter().map(|&v| v as f32).collect();
+                        apply_separable_f32(&src, &mut out[c], (w, h), &k, c);
+                    }
+                    let planes = out.map(|p| p.iter().map(|&v| v as f64).collect());
+                    let f32_frame = Image {
+                        rgb: planes,
+                        ..img.clone()
+                    };
+                    assert!(max_rel(&exact, &f32_frame) < F32_REL, "{w}x{h}");
+                    results.push((into.rgb, f32_place.rgb, f32_frame.rgb));
+                });
+            }
+            assert!(
+                results[0] == results[1],
+                "{w}x{h}: thread count changed the result"
+            );
         }
     }
 }

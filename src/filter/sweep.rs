@@ -10,7 +10,7 @@
 //! the same sum in the same order whatever the partition into strips, so
 //! the result does not depend on the thread count.
 
-use super::separable::{PixelKernel, Sample};
+use super::sample::{PixelKernel, Sample, Scratch};
 use rayon::prelude::*;
 
 /// Fewest rows per strip: the ring's start-up rows are filtered once per
@@ -111,30 +111,6 @@ enum Source<'a, S> {
         bottom_first: usize,
         bottom: &'a [S],
     },
-}
-
-/// Per-thread buffers, kept between calls: a renderer's frame allocates
-/// nothing once the threads have run one frame.
-pub struct Scratch<T> {
-    pad: Vec<T>,
-    ring: Vec<T>,
-    offsets: Vec<usize>,
-}
-
-impl<T> Default for Scratch<T> {
-    fn default() -> Scratch<T> {
-        Scratch::new()
-    }
-}
-
-impl<T> Scratch<T> {
-    pub const fn new() -> Scratch<T> {
-        Scratch {
-            pad: Vec::new(),
-            ring: Vec::new(),
-            offsets: Vec::new(),
-        }
-    }
 }
 
 /// Filters `src` into `out` (both `w` x `h`).
@@ -475,143 +451,6 @@ fn store<T: Sample, S: Sample>(out: &mut [S], acc: &[T], add: bool) {
     } else {
         for (o, a) in out.iter_mut().zip(acc) {
             *o = S::from_sample(*a);
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::separable::{
-        apply_separable_f32, apply_separable_in_place, apply_separable_into,
-    };
-    use super::*;
-    use crate::filter::signals::noise;
-    use crate::filter::{Image, Taps};
-
-    /// f32 against the f64 sweep: each output sums at most a few dozen
-    /// products of f32 round-off 6e-8 each, relative to the plane's peak
-    /// (a normalised kernel never exceeds it); 1e-6 leaves a factor of
-    /// about 1.5 over 11 taps x 6e-8.
-    const F32_REL: f64 = 1e-6;
-
-    /// Direct clamp-to-edge convolution, rows then columns, in f64: the
-    /// definition, with no ring, strip or halo.
-    fn naive(img: &Image, kernels: &[PixelKernel]) -> Image {
-        let (w, h) = (img.width, img.height);
-        let mut out = Image::new(w, h);
-        let at = |i: i64, n: usize| i.clamp(0, n as i64 - 1) as usize;
-        for c in 0..3 {
-            for k in kernels {
-                let mut rows = vec![0.0; w * h];
-                for y in 0..h {
-                    for x in 0..w {
-                        rows[y * w + x] = (k.weights.iter().enumerate())
-                            .map(|(j, v)| {
-                                v[c] * img.rgb[c][y * w + at(x as i64 + k.first + j as i64, w)]
-                            })
-                            .sum();
-                    }
-                }
-                for y in 0..h {
-                    for x in 0..w {
-                        out.rgb[c][y * w + x] += (k.weights.iter().enumerate())
-                            .map(|(j, v)| v[c] * rows[at(y as i64 + k.first + j as i64, h) * w + x])
-                            .sum::<f64>();
-                    }
-                }
-            }
-        }
-        out
-    }
-
-    fn kernels() -> Vec<PixelKernel> {
-        let t = Taps {
-            offsets_mm: vec![-0.9, -0.2, 0.0, 0.5, 1.1],
-            weights: vec![
-                [0.1, 0.2, 0.3],
-                [0.2; 3],
-                [0.4, 0.3, 0.1],
-                [0.2; 3],
-                [0.1; 3],
-            ],
-        };
-        // Rank 4: two asymmetric kernels, one wholly below the pixel
-        // (offsets -9..-7: the ring must still hold the output's own row)
-        // and a symmetric one.
-        vec![
-            PixelKernel::from_taps(&t, 3.0),
-            PixelKernel::from_taps(&t, 1.7),
-            PixelKernel {
-                first: -9,
-                weights: vec![[0.3; 3], [-0.1; 3], [0.2; 3]],
-            },
-            // Symmetric in every channel: the folded loops.
-            PixelKernel {
-                first: -2,
-                weights: vec![
-                    [0.1, 0.2, 0.05],
-                    [0.2; 3],
-                    [0.4; 3],
-                    [0.2; 3],
-                    [0.1, 0.2, 0.05],
-                ],
-            },
-        ]
-    }
-
-    fn max_rel(a: &Image, b: &Image) -> f64 {
-        let peak = a.peak().iter().fold(0.0f64, |m, &p| m.max(p));
-        (0..3)
-            .flat_map(|c| a.rgb[c].iter().zip(&b.rgb[c]).map(|(x, y)| (x - y).abs()))
-            .fold(0.0, f64::max)
-            / peak
-    }
-
-    #[test]
-    fn in_place_and_into_equal_the_direct_convolution_at_any_thread_count() {
-        let k = kernels();
-        // 41 rows: one strip; 300 rows: several strips with halos (rows
-        // per strip at least 8 x the 20-row span); 3 x 2: smaller than
-        // the kernel in both directions. Widths 150 and 70: whole blocks
-        // (64 f32 or 32 f64 outputs) and a tail.
-        for (w, h) in [(150, 41), (70, 300), (3, 2)] {
-            let img = noise(w, h, 12345);
-            let exact = naive(&img, &k);
-            let mut results = Vec::new();
-            for threads in [1, 3] {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap();
-                pool.install(|| {
-                    let mut into = Image::new(1, 1);
-                    apply_separable_into::<f64>(&img, &k, &mut into);
-                    let mut in_place = img.clone();
-                    apply_separable_in_place::<f64>(&mut in_place, &k);
-                    assert_eq!(into.rgb, in_place.rgb, "{w}x{h}, {threads} threads");
-                    // The sweep sums in another order than the definition.
-                    assert!(max_rel(&exact, &into) < 1e-14, "{w}x{h}");
-                    let mut f32_place = img.clone();
-                    apply_separable_in_place::<f32>(&mut f32_place, &k);
-                    assert!(max_rel(&exact, &f32_place) < F32_REL, "{w}x{h}");
-                    let mut out = [vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]];
-                    for c in 0..3 {
-                        let src: Vec<f32> = img.rgb[c].iter().map(|&v| v as f32).collect();
-                        apply_separable_f32(&src, &mut out[c], (w, h), &k, c);
-                    }
-                    let planes = out.map(|p| p.iter().map(|&v| v as f64).collect());
-                    let f32_frame = Image {
-                        rgb: planes,
-                        ..img.clone()
-                    };
-                    assert!(max_rel(&exact, &f32_frame) < F32_REL, "{w}x{h}");
-                    results.push((into.rgb, f32_place.rgb, f32_frame.rgb));
-                });
-            }
-            assert!(
-                results[0] == results[1],
-                "{w}x{h}: thread count changed the result"
-            );
         }
     }
 }

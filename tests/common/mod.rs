@@ -412,3 +412,16 @@ pub fn compare_scene(toml: &Path, exr: &Path, out: &Path, extra: &[&str]) -> (St
     args.extend_from_slice(extra);
     ok_both(&args)
 }
+
+/// The percentages of a ranking (`scene_score::ranking`'s numbered lines,
+/// "  1.  21.30%  what") among `lines`, in their order, as fractions.
+pub fn ranked_fractions<'a>(lines: impl IntoIterator<Item = &'a str>) -> Vec<f64> {
+    lines
+        .into_iter()
+        .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
+        .filter_map(|l| {
+            let v = l.split('%').next()?.split_whitespace().last()?;
+            Some(v.parse::<f64>().ok()? / 100.0)
+        })
+        .collect()
+}

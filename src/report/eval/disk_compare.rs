@@ -128,3 +128,43 @@ pub fn equal_cost(profile: &Profile, cfg: &EqualCost) -> Result<Vec<EqualCostRow
     }
     Ok(rows)
 }
+
+/// One material's rows on one test image.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DiskRows {
+    pub material: String,
+    pub signal: String,
+    pub rows: Vec<EqualCostRow>,
+}
+
+/// `compare`'s disk rows: for each material and test image, the separable
+/// and the disk kernel at the samples per pixel of each separable tap
+/// count (2 passes of T taps: 2 T), accumulated over `frames` with the
+/// bias over [`super::advise_disk::WINDOWS`] x `frames` rotations, as
+/// advise scores them.
+pub fn compare_rows(
+    inputs: &[super::kernel_compare::MaterialInput],
+    cases: &[ImageCase],
+    taps: &[usize],
+    frames: u32,
+) -> Result<Vec<DiskRows>> {
+    super::advise_disk::check_frames(frames)?;
+    let samples: Vec<usize> = taps.iter().map(|&t| 2 * t).collect();
+    let mut out = Vec::new();
+    for m in inputs {
+        for case in cases {
+            let cfg = EqualCost {
+                case: case.clone(),
+                samples: samples.clone(),
+                frames,
+                rotations: super::advise_disk::WINDOWS * frames,
+            };
+            out.push(DiskRows {
+                material: m.name.clone(),
+                signal: case.name.clone(),
+                rows: equal_cost(&m.profile, &cfg)?,
+            });
+        }
+    }
+    Ok(out)
+}

@@ -517,10 +517,7 @@ impl Dominance {
                 &format!("{} (depth+follow)", self.best_label),
                 self.best_scene_rms,
             ),
-            self.angular_label
-                .as_deref()
-                .zip(self.angular_scene_rms)
-                .map(|(l, e)| (l, e)),
+            self.angular_label.as_deref().zip(self.angular_scene_rms),
             self.angular_note
                 .as_deref()
                 .unwrap_or("the comparison ran without them"),

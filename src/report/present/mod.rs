@@ -5,6 +5,7 @@
 pub mod advice_text;
 pub mod colour_bar;
 pub mod diff_png;
+pub mod disk_table;
 pub mod kernel_plots;
 pub mod kernel_report;
 pub mod layout;
