@@ -312,4 +312,22 @@ mod sweep_tests {
             );
         }
     }
+
+    /// A kernel far wider than the image (its taps beyond the image folded
+    /// onto the border offsets) gives the direct convolution's image.
+    #[test]
+    fn a_kernel_wider_than_the_image_gives_the_direct_result() {
+        let img = noise(9, 7, 77);
+        let k = vec![PixelKernel {
+            first: -40,
+            weights: (0..95).map(|i| [0.01 + 1e-4 * i as f64; 3]).collect(),
+        }];
+        let want = naive(&img, &k);
+        let got = apply_separable(&img, &k);
+        for c in 0..3 {
+            for (a, b) in got.rgb[c].iter().zip(&want.rgb[c]) {
+                assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{a} {b}");
+            }
+        }
+    }
 }

@@ -38,6 +38,25 @@ fn is_f32<T>() -> bool {
     std::mem::size_of::<T>() == 4
 }
 
+/// Channel `c` of `k` with the taps beyond the image folded in: with
+/// clamp-to-edge sampling a tap at offset o <= -(n - 1) reads the first row
+/// (column) from every output of an image whose sides are at most n, and
+/// one at o >= n - 1 the last, so their weights sum into those two offsets
+/// with the same result, and the work is bounded by the image, not by the
+/// kernel (a kernel a million pixels wide on a 16-pixel image). A kernel
+/// within the bounds is returned unchanged, bit for bit.
+fn folded(k: &PixelKernel, c: usize, n: usize) -> (i64, Vec<f64>) {
+    let b = n.max(1) as i64 - 1;
+    let last = k.first + k.weights.len() as i64 - 1;
+    let (lo, hi) = (k.first.clamp(-b, b), last.clamp(-b, b));
+    let mut out = vec![0.0; (hi - lo + 1) as usize];
+    for (i, v) in k.weights.iter().enumerate() {
+        let o = (k.first + i as i64).clamp(lo, hi);
+        out[(o - lo) as usize] += v[c];
+    }
+    (lo, out)
+}
+
 /// One plane's filter: the kernels' weights for this channel in the working
 /// precision `T`, and the union of their row spans.
 pub(crate) struct Job<T> {
@@ -57,10 +76,8 @@ impl<T: Sample> Job<T> {
         let kernels: Vec<(i64, Vec<T>)> = kernels
             .iter()
             .map(|k| {
-                (
-                    k.first,
-                    k.weights.iter().map(|v| T::from_f64(v[c])).collect(),
-                )
+                let (first, weights) = folded(k, c, w.max(h));
+                (first, weights.into_iter().map(T::from_f64).collect())
             })
             .collect();
         let lo = kernels.iter().map(|k| k.0).min().unwrap_or(0).min(0);
