@@ -3,18 +3,24 @@
 //! once back; `apply` (separable kernels, CPU or wgpu) and `reference` (the
 //! exact 2D convolution).
 
+use crate::disk::PyDiskKernel;
 use crate::kernel::{profile_of, PyKernel};
 use crate::{interruptible, path_of, to_py};
 use numpy::ndarray::Array3;
 use numpy::{Element, IntoPyArray, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use ssskit::filter::accumulate::Accumulate;
+use ssskit::filter::angular::{angular_view, around_pass, AngularView, Light};
 use ssskit::filter::cpu::{self, PixelSampling, Precision};
+use ssskit::filter::disk::{apply_disk, DiskSetup};
+use ssskit::filter::disk_gpu::DiskGpu;
 use ssskit::filter::image::{
     read_image as lib_read_image, write_image as lib_write_image, PngDepth,
 };
 use ssskit::filter::kernel_setup::kernel_setup;
 use ssskit::filter::{gpu, FollowSurface, Image, Plane, Scale, Setup};
+use ssskit::kernel::angular::AngularFactors;
 
 /// The dtype of the arrays that come in: the output has the input's.
 #[derive(Clone, Copy, PartialEq)]
@@ -112,6 +118,31 @@ impl Samples<'_> {
 /// An (H, W, 3|4) array as the library's planar image, NaN and infinite
 /// samples refused with the CLI's message.
 fn image_of(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<(Image, Dtype)> {
+    image_sanitized(obj, what, Sanitize::Refuse)
+}
+
+/// Non-finite samples: refused, or replaced as `ssskit apply --sanitize`
+/// replaces them (0 in colour and strength, the farthest depth in depth)
+/// with a Python warning saying how many.
+#[derive(Clone, Copy, PartialEq)]
+enum Sanitize {
+    Refuse,
+    Replace,
+}
+
+fn warn_replaced(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<()> {
+    if n > 0 {
+        obj.py().import("warnings")?.call_method1(
+            "warn",
+            (format!(
+                "{what}: replaced {n} NaN/Inf samples (sanitize=True)"
+            ),),
+        )?;
+    }
+    Ok(())
+}
+
+fn image_sanitized(obj: &Bound<'_, PyAny>, what: &str, how: Sanitize) -> PyResult<(Image, Dtype)> {
     let (arr, dtype) = checked(obj, what, true)?;
     let shape = arr.shape().to_vec();
     let (h, w, c) = (shape[0], shape[1], shape[2]);
@@ -124,12 +155,16 @@ fn image_of(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<(Image, Dtype)> {
             alpha: (c == 4).then(|| plane(3)),
         }
     })?;
-    image.check_finite(what, false).map_err(to_py)?;
+    let n = image
+        .check_finite(what, how == Sanitize::Replace)
+        .map_err(to_py)?;
+    warn_replaced(obj, what, n)?;
     Ok((image, dtype))
 }
 
-/// An (H, W) array as a plane (depth), NaN and infinite values refused.
-fn plane_of(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Plane> {
+/// An (H, W) array as a plane (depth, strength, N.L), NaN and infinite
+/// values refused, or with `Replace` filled as [`Sanitize`] says.
+fn plane_of(obj: &Bound<'_, PyAny>, what: &str, how: Sanitize) -> PyResult<Plane> {
     let (arr, dtype) = checked(obj, what, false)?;
     let shape = arr.shape().to_vec();
     let data = with_samples(&arr, dtype, |s| {
@@ -140,7 +175,14 @@ fn plane_of(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Plane> {
         height: shape[0],
         data,
     };
-    plane.check_finite(what, false, 0.0).map_err(to_py)?;
+    let replace = how == Sanitize::Replace;
+    let n = if what == "depth" {
+        plane.check_finite_depth(what, replace)
+    } else {
+        plane.check_finite(what, replace, 0.0)
+    }
+    .map_err(to_py)?;
+    warn_replaced(obj, what, n)?;
     Ok(plane)
 }
 
@@ -194,35 +236,55 @@ fn scale_of(mm_per_pixel: Option<f64>, fov_y: Option<f64>, units_per_mm: f64) ->
     Ok(scale)
 }
 
-/// Applies a separable kernel to an irradiance array (`ssskit apply`).
+/// Applies a kernel to an irradiance array (`ssskit apply`).
 ///
-/// irradiance: (H, W, 3) or (H, W, 4) float32 or float64, linear light,
-/// C-contiguous; alpha is carried through. Scale: mm_per_pixel
-/// (orthographic) or fov_y in degrees with a depth (H, W) array and
-/// units_per_mm. specular: an array like irradiance added after the blur;
-/// follow_surface: the depth-aware lerp constant C in metres. full_factors:
-/// the fit's full-resolution factors instead of the real-time tap table
-/// (the default, as the CLI's: what an engine runs). precision: "f32"
-/// or "f64" (CPU fixed-kernel path); backend: "cpu" or "gpu" (wgpu).
-/// Returns an array of the input's shape and dtype; on the CPU, equal to
-/// the CLI's output bit for bit. Releases the GIL.
+/// kernel: a separable `Kernel` or a `DiskKernel`. irradiance: (H, W, 3)
+/// or (H, W, 4) float32 or float64, linear light, C-contiguous; alpha is
+/// carried through. Scale: mm_per_pixel (orthographic) or fov_y in
+/// degrees with a depth (H, W) array and units_per_mm. specular: an array
+/// like irradiance added after the blur; strength: an (H, W) array that
+/// multiplies the kernel's size per pixel; follow_surface: the
+/// depth-aware lerp constant C in metres; sanitize: replace NaN/Inf
+/// samples (0, the farthest depth) with a warning instead of refusing.
+/// Separable kernels: full_factors (the fit's full-resolution factors
+/// instead of the real-time tap table, the CLI's default), jitter,
+/// precision "f32" or "f64" (CPU fixed-kernel path). Disk kernels:
+/// frames (rotations accumulated), frame_seed (the first frame's index),
+/// accumulate "mean" or "ema:W". A kernel with angular entry and exit
+/// factors applies them given normals ((H, W, 3) view-space unit normals)
+/// and the light: light_toward (x, y, z), n_dot_l ((H, W)), or
+/// entry_weighted=True; factors=False leaves them out. backend: "cpu" or
+/// "gpu" (wgpu). Returns an array of the input's shape and dtype; on the
+/// CPU, equal to the CLI's output bit for bit. Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (kernel, irradiance, mm_per_pixel=None, *, fov_y=None,
     units_per_mm=ssskit::engine::Scene::default().units_per_mm, depth=None, specular=None,
-    follow_surface=None, full_factors=false, jitter=false, precision="f32", backend="cpu"))]
+    strength=None, follow_surface=None, sanitize=false, full_factors=false, jitter=false,
+    precision="f32", frames=1, frame_seed=0, accumulate="mean", normals=None,
+    light_toward=None, n_dot_l=None, entry_weighted=false, factors=true, backend="cpu"))]
 fn apply<'py>(
     py: Python<'py>,
-    kernel: &Bound<'py, PyKernel>,
+    kernel: &Bound<'py, PyAny>,
     irradiance: &Bound<'py, PyAny>,
     mm_per_pixel: Option<f64>,
     fov_y: Option<f64>,
     units_per_mm: f64,
     depth: Option<&Bound<'py, PyAny>>,
     specular: Option<&Bound<'py, PyAny>>,
+    strength: Option<&Bound<'py, PyAny>>,
     follow_surface: Option<f64>,
+    sanitize: bool,
     full_factors: bool,
     jitter: bool,
     precision: &str,
+    frames: u32,
+    frame_seed: u32,
+    accumulate: &str,
+    normals: Option<&Bound<'py, PyAny>>,
+    light_toward: Option<[f64; 3]>,
+    n_dot_l: Option<&Bound<'py, PyAny>>,
+    entry_weighted: bool,
+    factors: bool,
     backend: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let precision = match precision {
@@ -243,22 +305,85 @@ fn apply<'py>(
             )))
         }
     };
+    let accumulate = Accumulate::parse(accumulate).map_err(to_py)?;
+    let how = if sanitize {
+        Sanitize::Replace
+    } else {
+        Sanitize::Refuse
+    };
     let scale = scale_of(mm_per_pixel, fov_y, units_per_mm)?;
-    let (image, dtype) = image_of(irradiance, "irradiance")?;
-    let depth = depth.map(|d| plane_of(d, "depth")).transpose()?;
+    let (image, dtype) = image_sanitized(irradiance, "irradiance", how)?;
+    let depth = depth.map(|d| plane_of(d, "depth", how)).transpose()?;
+    let strength = strength.map(|d| plane_of(d, "strength", how)).transpose()?;
     let specular = specular
-        .map(|s| image_of(s, "specular").map(|x| x.0))
+        .map(|s| image_sanitized(s, "specular", how).map(|x| x.0))
         .transpose()?;
-    let view = Setup {
+    let mut view = Setup {
         passes: Vec::new(),
         scale,
         depth,
-        strength: None,
+        strength,
         follow_surface: follow_surface.map(FollowSurface::InMetres),
         specular,
         jitter,
     };
+    view.validate_view(&image).map_err(to_py)?;
+    let light = Lights {
+        normals,
+        toward: light_toward,
+        n_dot_l,
+        entry_weighted,
+        factors,
+    };
+    if let Ok(disk) = kernel.cast::<PyDiskKernel>() {
+        let k = &disk.get().inner;
+        if full_factors || jitter || precision != Precision::F32 {
+            return Err(PyValueError::new_err(
+                "full_factors, jitter and precision apply to separable kernels; a disk kernel's \
+                 samples are its table, turned per pixel and frame",
+            ));
+        }
+        let around = light.view(py, k.angular.as_ref(), &image, &scale)?;
+        let specular = if around.is_some() {
+            view.specular.take()
+        } else {
+            None
+        };
+        let setup = DiskSetup::new(k, view, frame_seed, frames).accumulated_by(accumulate);
+        setup.validate(&image).map_err(to_py)?;
+        if gpu_backend && setup.accumulate != Accumulate::Mean {
+            return Err(PyValueError::new_err(format!(
+                "accumulate {}: the wgpu disk pass takes the plain mean; use backend=\"cpu\"",
+                setup.accumulate.name()
+            )));
+        }
+        let out = interruptible(py, |_| {
+            around_pass(around.as_ref(), image, specular, |img| {
+                if gpu_backend {
+                    DiskGpu::new()?.apply(&img, &setup)
+                } else {
+                    apply_disk(&img, &setup)
+                }
+            })
+        })?;
+        return array_of(py, &out, dtype);
+    }
+    let kernel = kernel.cast::<PyKernel>().map_err(|_| {
+        PyTypeError::new_err("kernel: expected an ssskit.Kernel or ssskit.DiskKernel")
+    })?;
+    if frames != 1 || accumulate != Accumulate::Mean || frame_seed != 0 {
+        return Err(PyValueError::new_err(
+            "frames, frame_seed and accumulate apply to disk kernels; a separable kernel is the \
+             same every frame",
+        ));
+    }
     let kernel = &kernel.get().inner;
+    let around = light.view(py, kernel.angular.as_ref(), &image, &scale)?;
+    let specular = if around.is_some() {
+        view.specular.take()
+    } else {
+        None
+    };
     let (setup, warnings) = kernel_setup(kernel, full_factors, view, &image).map_err(to_py)?;
     if !warnings.is_empty() {
         let warn = py.import("warnings")?;
@@ -267,13 +392,106 @@ fn apply<'py>(
         }
     }
     let out = interruptible(py, |_| {
-        if gpu_backend {
-            gpu::Gpu::new()?.apply(&image, &setup)
-        } else {
-            cpu::apply_with(&image, &setup, precision)
-        }
+        around_pass(around.as_ref(), image, specular, |img| {
+            if gpu_backend {
+                gpu::Gpu::new()?.apply(&img, &setup)
+            } else {
+                cpu::apply_with(&img, &setup, precision)
+            }
+        })
     })?;
     array_of(py, &out, dtype)
+}
+
+/// The angular factors' arguments of `apply`.
+struct Lights<'a, 'py> {
+    normals: Option<&'a Bound<'py, PyAny>>,
+    toward: Option<[f64; 3]>,
+    n_dot_l: Option<&'a Bound<'py, PyAny>>,
+    entry_weighted: bool,
+    factors: bool,
+}
+
+impl Lights<'_, '_> {
+    /// The argument that only the factors use, if one was given.
+    fn any_given(&self) -> Option<&'static str> {
+        if self.normals.is_some() {
+            Some("normals")
+        } else if self.n_dot_l.is_some() {
+            Some("n_dot_l")
+        } else if self.toward.is_some() {
+            Some("light_toward")
+        } else if self.entry_weighted {
+            Some("entry_weighted")
+        } else {
+            None
+        }
+    }
+
+    /// The cosines the kernel's factors take, as `ssskit apply` decides
+    /// (src/cli/apply_angular.rs): none without factors or with
+    /// factors=False; a warning and none without normals; the light from
+    /// exactly one of light_toward, n_dot_l and entry_weighted.
+    fn view<'f>(
+        &self,
+        py: Python<'_>,
+        f: Option<&'f AngularFactors>,
+        image: &Image,
+        scale: &Scale,
+    ) -> PyResult<Option<AngularView<'f>>> {
+        let (w, h) = (image.width, image.height);
+        let Some(f) = f else {
+            if let Some(arg) = self.any_given() {
+                return Err(PyValueError::new_err(format!(
+                    "{arg}: the kernel carries no angular entry and exit factors"
+                )));
+            }
+            return Ok(None);
+        };
+        if !self.factors {
+            return Ok(None);
+        }
+        let Some(normals) = self.normals else {
+            if let Some(arg) = self.any_given() {
+                return Err(PyValueError::new_err(format!(
+                    "{arg}: the exit factor needs the normals: give normals=(H, W, 3) array"
+                )));
+            }
+            py.import("warnings")?.call_method1(
+                "warn",
+                (
+                    "the kernel carries angular entry and exit factors, but no normals are given: \
+                  applied without them (factors=False says so)",
+                ),
+            )?;
+            return Ok(None);
+        };
+        let (n, _) = image_of(normals, "normals")?;
+        let given = [
+            self.toward.is_some(),
+            self.n_dot_l.is_some(),
+            self.entry_weighted,
+        ];
+        let light = match (self.toward, self.n_dot_l, self.entry_weighted) {
+            _ if given.iter().filter(|g| **g).count() > 1 => {
+                return Err(PyValueError::new_err(
+                    "give one of light_toward, n_dot_l and entry_weighted",
+                ))
+            }
+            (Some(v), _, _) => Light::Toward(v),
+            (_, Some(p), _) => Light::Cosines(plane_of(p, "n_dot_l", Sanitize::Refuse)?.data),
+            (_, _, true) => Light::EntryWeighted,
+            _ => {
+                return Err(PyValueError::new_err(
+                    "the kernel's entry factor needs the light: give light_toward=(x, y, z), \
+                     n_dot_l=(H, W) array or entry_weighted=True (or factors=False to leave the \
+                     factors out)",
+                ))
+            }
+        };
+        let view = angular_view(f, &n.rgb, light, (w, h), scale).map_err(to_py)?;
+        Ok(Some(view))
+    }
 }
 
 /// The exact 2D convolution of an irradiance array with the profile's full

@@ -9,6 +9,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::engine::{self, Engine, Scene};
+use ssskit::kernel::disk::fit_disk;
 use ssskit::kernel::emit::{emit, Lang};
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
@@ -91,17 +92,7 @@ impl PyKernel {
     /// The tap table as a shader constant array: lang "hlsl", "glsl" or
     /// "wgsl" (`ssskit fit --emit LANG`).
     fn emit(&self, lang: &str) -> PyResult<String> {
-        let lang = match lang.to_ascii_lowercase().as_str() {
-            "hlsl" => Lang::Hlsl,
-            "glsl" => Lang::Glsl,
-            "wgsl" => Lang::Wgsl,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "emit: invalid language '{other}': expected hlsl, glsl or wgsl"
-                )))
-            }
-        };
-        emit(&self.inner, lang).map_err(to_py)
+        emit(&self.inner, lang_of(lang)?).map_err(to_py)
     }
     /// Writes the kernel file (JSON), as `ssskit fit --out` does.
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
@@ -118,6 +109,18 @@ impl PyKernel {
             self.inner.passes.len(),
             self.inner.taps.count
         )
+    }
+}
+
+/// A shader language by the name `--emit` takes.
+pub(crate) fn lang_of(lang: &str) -> PyResult<Lang> {
+    match lang.to_ascii_lowercase().as_str() {
+        "hlsl" => Ok(Lang::Hlsl),
+        "glsl" => Ok(Lang::Glsl),
+        "wgsl" => Ok(Lang::Wgsl),
+        other => Err(PyValueError::new_err(format!(
+            "emit: invalid language '{other}': expected hlsl, glsl or wgsl"
+        ))),
     }
 }
 
@@ -152,10 +155,12 @@ struct ModelArgs {
     jimenez_width: Option<f64>,
     jimenez_strength: Option<Py<PyAny>>,
     jimenez_falloff: Option<Py<PyAny>>,
+    samples: Option<usize>,
+    radii: Option<String>,
 }
 
 /// The keyword arguments `fit` passes on to the model.
-const MODEL_KEYS: [&str; 15] = [
+const MODEL_KEYS: [&str; 17] = [
     "rank",
     "renormalize",
     "method",
@@ -171,6 +176,8 @@ const MODEL_KEYS: [&str; 15] = [
     "jimenez_width",
     "jimenez_strength",
     "jimenez_falloff",
+    "samples",
+    "radii",
 ];
 
 impl ModelArgs {
@@ -214,6 +221,8 @@ impl ModelArgs {
             jimenez_width: get(d, "jimenez_width")?,
             jimenez_strength: get(d, "jimenez_strength")?,
             jimenez_falloff: get(d, "jimenez_falloff")?,
+            samples: get(d, "samples")?,
+            radii: get(d, "radii")?,
         })
     }
 }
@@ -304,7 +313,7 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
         }
         other => {
             return Err(bad(format!(
-                "model: invalid value '{other}': expected one of {}",
+                "model: invalid value '{other}': expected one of {}, disk",
                 MODELS.join(", ")
             )))
         }
@@ -315,39 +324,68 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
 /// comparison's families, from the library.
 const MODELS: [&str; 6] = ssskit::report::eval::kernel_compare::FAMILIES;
 
-/// Fits a separable kernel to a profile (`ssskit fit`).
+/// `ssskit fit --model disk`'s default samples per pixel.
+const DISK_SAMPLES: usize = 32;
+
+/// Fits a kernel to a profile (`ssskit fit`).
 ///
 /// model: "svd" (rank, renormalize), "preintegrate" (method "abel" or
 /// "grid"), "guided" (k, b, max_iters), "manual" (preset=NAME,
 /// manual_fit=True, or w, near, far), "gaussians" (count, or
 /// preset="deon-skin"), "jimenez" (jimenez_width, jimenez_strength,
-/// jimenez_falloff). taps: odd tap count of the real-time table;
-/// tap_extent: its half-width in mm; grid_size, extent: the kernel grid.
-/// The result equals the CLI's for the same parameters. Releases the GIL.
+/// jimenez_falloff): a separable `Kernel`; taps: odd tap count of the
+/// real-time table (default 17); tap_extent: its half-width in mm;
+/// grid_size, extent: the kernel grid. "disk" (samples, default 32;
+/// radii "widest", "mean" or "per-channel"): an importance-sampled
+/// `DiskKernel`. The result equals the CLI's for the same parameters.
+/// Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (profile, model="preintegrate", *, taps=ssskit::kernel::taps::DEFAULT_TAPS,
+#[pyo3(signature = (profile, model="preintegrate", *, taps=None,
     tap_extent=None, grid_size=None, extent=None, **params))]
 fn fit(
     py: Python<'_>,
     profile: &Bound<'_, PyAny>,
     model: &str,
-    taps: usize,
+    taps: Option<usize>,
     tap_extent: Option<f64>,
     grid_size: Option<usize>,
     extent: Option<f64>,
     params: Option<&Bound<'_, PyDict>>,
-) -> PyResult<PyKernel> {
+) -> PyResult<Py<PyAny>> {
     let profile = profile_of(profile)?;
     let args = ModelArgs::from_kwargs(params)?;
+    if model == "disk" {
+        let separable = [
+            ("taps", taps.is_some()),
+            ("tap_extent", tap_extent.is_some()),
+            ("grid_size", grid_size.is_some()),
+            ("extent", extent.is_some()),
+        ];
+        if let Some((name, _)) = separable.iter().find(|(_, given)| *given) {
+            return Err(bad(format!(
+                "{name}: a separable kernel's setting; a disk kernel takes samples and radii"
+            )));
+        }
+        let samples = args.samples.unwrap_or(DISK_SAMPLES);
+        let radii = crate::disk::radii_of(args.radii.as_deref().unwrap_or("widest"))?;
+        let inner = interruptible(py, |_| fit_disk(&profile, samples, radii))?;
+        return Ok(Py::new(py, crate::disk::PyDiskKernel { inner })?.into_any());
+    }
+    if args.samples.is_some() || args.radii.is_some() {
+        return Err(bad(format!(
+            "samples and radii are a disk kernel's settings; model '{model}' is separable"
+        )));
+    }
     let m = model_of(py, model, &args)?;
     let spec = Kernel2DSpec {
         size: grid_size,
         extent_mm: extent,
     };
+    let taps = taps.unwrap_or(ssskit::kernel::taps::DEFAULT_TAPS);
     let k = interruptible(py, |_| {
         fit_kernel_file_with(&profile, &spec, &m, taps, tap_extent)
     })?;
-    Ok(PyKernel { inner: k })
+    Ok(Py::new(py, PyKernel { inner: k })?.into_any())
 }
 
 /// An engine's own diffusion model fitted to a profile (`ssskit engine`):

@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
 
+mod disk;
 mod image;
 mod kernel;
 mod material;
@@ -128,7 +129,8 @@ pub(crate) fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<std::path::PathBuf> {
 }
 
 /// Reads any JSON file the CLI writes, by its `schema`: a `Profile`
-/// (`ssskit.profile/1`) or a `Kernel` (`ssskit.kernel/1`).
+/// (`ssskit.profile/1`), a `Kernel` (`ssskit.kernel/1`) or a `DiskKernel`
+/// (`ssskit.disk/1`).
 #[pyfunction]
 fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
     let path = path_of(path)?;
@@ -143,11 +145,16 @@ fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
             let k = ssskit::kernel::KernelFile::read(&path).map_err(to_py)?;
             Ok(Py::new(py, kernel::PyKernel { inner: k })?.into_any())
         }
+        ssskit::kernel::disk::DISK_SCHEMA => {
+            let k = ssskit::kernel::disk::DiskKernelFile::read(&path).map_err(to_py)?;
+            Ok(Py::new(py, disk::PyDiskKernel { inner: k })?.into_any())
+        }
         other => Err(PyValueError::new_err(format!(
-            "{}: schema '{other}' is not one ssskit.load reads ({}, {})",
+            "{}: schema '{other}' is not one ssskit.load reads ({}, {}, {})",
             path.display(),
             ssskit::profile::PROFILE_SCHEMA,
-            ssskit::kernel::KERNEL_SCHEMA
+            ssskit::kernel::KERNEL_SCHEMA,
+            ssskit::kernel::disk::DISK_SCHEMA
         ))),
     }
 }
@@ -159,6 +166,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     material::register(m)?;
     profile::register(m)?;
     kernel::register(m)?;
+    m.add_class::<disk::PyDiskKernel>()?;
     image::register(m)?;
     report::register(m)?;
     Ok(())

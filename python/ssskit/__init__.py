@@ -14,6 +14,7 @@ Data flow::
 
 from ._native import (  # noqa: F401
     MODELS,
+    DiskKernel,
     Kernel,
     Material,
     Profile,
@@ -47,6 +48,7 @@ def to_frame(rows):
 
 __all__ = [
     "MODELS",
+    "DiskKernel",
     "Kernel",
     "Material",
     "Profile",

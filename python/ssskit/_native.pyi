@@ -1,7 +1,7 @@
 """Type stubs of the extension module (see each function's docstring)."""
 
 import os
-from typing import Any, Dict, List, Literal, Optional, Sequence, Union
+from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -100,6 +100,27 @@ class Kernel:
     def save(self, path: PathLike) -> None: ...
     def to_json(self) -> str: ...
 
+class DiskKernel:
+    @property
+    def model(self) -> str: ...
+    @property
+    def samples_per_pixel(self) -> int: ...
+    @property
+    def radius_mm(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def angle(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def weights(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def total_rd(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def material(self) -> Optional[Material]: ...
+    @property
+    def has_factors(self) -> bool: ...
+    def emit(self, lang: Literal["hlsl", "glsl", "wgsl"]) -> str: ...
+    def save(self, path: PathLike) -> None: ...
+    def to_json(self) -> str: ...
+
 def materials() -> List[Material]: ...
 def material(spec: PathLike) -> Material: ...
 def simulate(
@@ -129,7 +150,7 @@ def fit(
     profile: Union[Profile, PathLike],
     model: str = "preintegrate",
     *,
-    taps: int = 17,
+    taps: Optional[int] = None,
     tap_extent: Optional[float] = None,
     grid_size: Optional[int] = None,
     extent: Optional[float] = None,
@@ -148,7 +169,9 @@ def fit(
     jimenez_width: float = ...,
     jimenez_strength: RGB = ...,
     jimenez_falloff: RGB = ...,
-) -> Kernel: ...
+    samples: int = 32,
+    radii: Literal["widest", "mean", "per-channel"] = "widest",
+) -> Union[Kernel, DiskKernel]: ...
 def engine_params(
     profile: Union[Profile, PathLike],
     engine: Literal["unreal", "unity-hdrp", "blender", "godot", "iryoku"],
@@ -157,7 +180,7 @@ def engine_params(
     units_per_mm: Optional[float] = None,
 ) -> Dict[str, Any]: ...
 def apply(
-    kernel: Kernel,
+    kernel: Union[Kernel, DiskKernel],
     irradiance: FloatArray,
     mm_per_pixel: Optional[float] = None,
     *,
@@ -165,10 +188,20 @@ def apply(
     units_per_mm: float = ...,
     depth: Optional[FloatArray] = None,
     specular: Optional[FloatArray] = None,
+    strength: Optional[FloatArray] = None,
     follow_surface: Optional[float] = None,
+    sanitize: bool = False,
     full_factors: bool = False,
     jitter: bool = False,
     precision: Literal["f32", "f64"] = "f32",
+    frames: int = 1,
+    frame_seed: int = 0,
+    accumulate: str = "mean",
+    normals: Optional[FloatArray] = None,
+    light_toward: Optional[Tuple[float, float, float]] = None,
+    n_dot_l: Optional[FloatArray] = None,
+    entry_weighted: bool = False,
+    factors: bool = True,
     backend: Literal["cpu", "gpu"] = "cpu",
 ) -> FloatArray: ...
 def reference(
@@ -180,4 +213,4 @@ def reference(
 ) -> FloatArray: ...
 def read_image(path: PathLike, dtype: Literal["float32", "float64"] = "float32") -> FloatArray: ...
 def write_image(path: PathLike, image: FloatArray, *, png_bits: Literal[8, 16] = 8) -> None: ...
-def load(path: PathLike) -> Union[Profile, Kernel]: ...
+def load(path: PathLike) -> Union[Profile, Kernel, DiskKernel]: ...

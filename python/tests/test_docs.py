@@ -23,8 +23,8 @@ def test_the_worked_example_runs(tmp_path, monkeypatch):
 
 def test_help_shows_parameters_and_docs():
     for f, words, params in [
-        (ssskit.fit, "Fits a separable kernel", ["profile", "model", "taps"]),
-        (ssskit.apply, "Applies a separable kernel", ["kernel", "irradiance", "mm_per_pixel", "backend"]),
+        (ssskit.fit, "Fits a kernel to a profile", ["profile", "model", "taps"]),
+        (ssskit.apply, "Applies a kernel to an irradiance array", ["kernel", "irradiance", "mm_per_pixel", "backend"]),
         (ssskit.simulate, "Monte Carlo reflectance profile", ["material", "photons", "seed", "threads"]),
     ]:
         assert words in f.__doc__

@@ -6,6 +6,7 @@ use super::args::{
     UnitsPerMmArg,
 };
 use anyhow::Context;
+use ssskit::filter::angular::around_pass;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
 use ssskit::filter::kernel_setup::kernel_setup;
 use ssskit::filter::{cpu, gpu, FollowSurface, Image, Plane, Scale, Setup};
@@ -292,7 +293,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if ssskit::kernel::disk::is_disk_file(kernel_path) {
         let mut view = view_of(&args, scale, depth, &image)?;
         let specular = take_specular(&mut view, around.is_some());
-        let out = with_factors(&around, image, specular, |img| {
+        let out = around_pass(around.as_ref(), image, specular, |img| {
             disk::run(&args, kernel_path, view, &img)
         })?;
         write_image(out_path, &out, png_depth)?;
@@ -321,7 +322,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let kernel = KernelFile::read(kernel_path)?;
     let mut setup = setup_of(&args, &kernel, kernel_path, scale, depth, &image)?;
     let specular = take_specular(&mut setup, around.is_some());
-    let out = with_factors(&around, image, specular, |img| filter(&args, img, &setup))?;
+    let out = around_pass(around.as_ref(), image, specular, |img| {
+        filter(&args, img, &setup)
+    })?;
     write_image(out_path, &out, png_depth)?;
     eprintln!(
         "{} one-dimensional passes ({} separable term(s)) of up to {} taps, {:.3} s -> {}",
@@ -350,36 +353,6 @@ fn take_specular(setup: &mut Setup, factors: bool) -> Option<Image> {
     }
 }
 
-/// `pass` of the image, with the angular factors around it when `around`
-/// holds them, then `specular` added. The image is handed on by value, so
-/// an in-place pass holds no second copy of it.
-fn with_factors(
-    around: &Option<ssskit::filter::angular::AngularView>,
-    image: Image,
-    specular: Option<Image>,
-    pass: impl FnOnce(Image) -> anyhow::Result<Image>,
-) -> anyhow::Result<Image> {
-    let mut out = match around {
-        None => pass(image)?,
-        Some(a) => {
-            use ssskit::filter::angular::{entry_weighted, exit_weighted};
-            let lit = match &a.n_dot_l {
-                Some(nl) => entry_weighted(&image, nl, a.factors)?,
-                None => image,
-            };
-            exit_weighted(&pass(lit)?, &a.n_dot_v, a.factors)?
-        }
-    };
-    if let Some(s) = specular {
-        for c in 0..3 {
-            for (o, v) in out.rgb[c].iter_mut().zip(&s.rgb[c]) {
-                *o += v;
-            }
-        }
-    }
-    Ok(out)
-}
-
 /// The depth plane (--depth, else the input's own), its non-finite values
 /// refused or, with --sanitize, set to the farthest finite depth.
 fn load_depth(args: &Args, own: Option<Plane>) -> anyhow::Result<Option<Plane>> {
@@ -388,13 +361,7 @@ fn load_depth(args: &Args, own: Option<Plane>) -> anyhow::Result<Option<Plane>> 
         None => own,
     };
     if let Some(d) = depth.as_mut() {
-        let fill = d
-            .data
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold(f64::NAN, |a: f64, &b| a.max(b));
-        let fill = if fill.is_finite() { fill } else { 1.0 };
-        report_sanitized("depth", d.check_finite("depth", args.sanitize, fill)?);
+        report_sanitized("depth", d.check_finite_depth("depth", args.sanitize)?);
     }
     Ok(depth)
 }

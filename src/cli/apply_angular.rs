@@ -4,7 +4,7 @@
 
 use super::Args;
 use anyhow::{bail, Context};
-use ssskit::filter::angular::{check_normals, n_dot_l, n_dot_v, AngularView};
+use ssskit::filter::angular::{angular_view, AngularView, Light};
 use ssskit::filter::image::{read_exr_channels, read_plane};
 use ssskit::filter::{Image, Scale};
 use ssskit::kernel::angular::AngularFactors;
@@ -70,24 +70,24 @@ pub fn view<'a>(
         ));
         return Ok(None);
     };
-    let nl = if args.entry_weighted {
-        None
-    } else {
-        Some(cosine_to_light(args, &normals, w, h)?)
-    };
+    let light = light(args, w, h)?;
     eprintln!(
         "angular factors: {}the exit factor at N.V after the pass",
-        if nl.is_some() {
-            "the entry factor at N.L before the pass, "
-        } else {
+        if matches!(light, Light::EntryWeighted) {
             "the input already entry-weighted (--entry-weighted), "
+        } else {
+            "the entry factor at N.L before the pass, "
         }
     );
-    Ok(Some(AngularView {
-        factors: f,
-        n_dot_l: nl,
-        n_dot_v: n_dot_v(&normals, w, h, scale),
-    }))
+    let what = args
+        .normals
+        .as_deref()
+        .unwrap_or(&args.input)
+        .display()
+        .to_string();
+    Ok(Some(
+        angular_view(f, &normals, light, (w, h), scale).with_context(|| what)?,
+    ))
 }
 
 /// The view-space normals: --normals (R, G, B), else the input EXR's
@@ -116,28 +116,24 @@ fn normals(args: &Args, w: usize, h: usize) -> anyhow::Result<Option<[Vec<f64>; 
         }
         planes[c] = p.data;
     }
-    check_normals(&path.display().to_string(), &planes, w, h)?;
     Ok(Some(planes))
 }
 
-/// N.L per pixel: --n-dot-l, else --light-toward with the normals, else
-/// the input EXR's [`N_DOT_L_CHANNEL`].
-fn cosine_to_light(
-    args: &Args,
-    normals: &[Vec<f64>; 3],
-    w: usize,
-    h: usize,
-) -> anyhow::Result<Vec<f64>> {
+/// The light of the entry factor: --entry-weighted, --light-toward,
+/// --n-dot-l, else the input EXR's [`N_DOT_L_CHANNEL`].
+fn light(args: &Args, w: usize, h: usize) -> anyhow::Result<Light> {
+    if args.entry_weighted {
+        return Ok(Light::EntryWeighted);
+    }
     if !args.light_toward.is_empty() {
         let v = &args.light_toward;
-        let len = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if v.len() != 3 || !(len > 0.0 && len.is_finite()) {
+        if v.len() != 3 {
             bail!(
                 "--light-toward: invalid value {v:?}: three finite numbers, not all 0, expected \
                  (the view-space direction toward the light)"
             );
         }
-        return Ok(n_dot_l(normals, [v[0] / len, v[1] / len, v[2] / len]));
+        return Ok(Light::Toward([v[0], v[1], v[2]]));
     }
     let (path, channel) = match &args.n_dot_l {
         Some(p) => (p.as_path(), None),
@@ -158,16 +154,7 @@ fn cosine_to_light(
             p.height
         );
     }
-    if let Some(i) = p.data.iter().position(|x| !x.is_finite()) {
-        bail!(
-            "{}: N.L at pixel ({}, {}) is {}: must be finite",
-            path.display(),
-            i % w,
-            i / w,
-            p.data[i]
-        );
-    }
-    Ok(p.data)
+    Ok(Light::Cosines(p.data))
 }
 
 /// Whether the EXR at `path` has every channel of `names`.

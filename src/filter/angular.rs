@@ -115,3 +115,101 @@ pub struct AngularView<'a> {
     pub n_dot_l: Option<Vec<f64>>,
     pub n_dot_v: Vec<f64>,
 }
+
+/// `pass` of `image` with the angular factors of `around` (when given)
+/// around it, then `specular` added: the exit factor weighs the subsurface
+/// light only. The image is handed on by value, so an in-place pass holds
+/// no second copy of it. `ssskit apply` and the Python binding both call it.
+pub fn around_pass<E: From<Error>>(
+    around: Option<&AngularView>,
+    image: Image,
+    specular: Option<Image>,
+    pass: impl FnOnce(Image) -> std::result::Result<Image, E>,
+) -> std::result::Result<Image, E> {
+    let mut out = match around {
+        None => pass(image)?,
+        Some(a) => {
+            let lit = match &a.n_dot_l {
+                Some(nl) => entry_weighted(&image, nl, a.factors)?,
+                None => image,
+            };
+            exit_weighted(&pass(lit)?, &a.n_dot_v, a.factors)?
+        }
+    };
+    if let Some(s) = specular {
+        if (s.width, s.height) != (out.width, out.height) {
+            return Err(Error::Unsupported(format!(
+                "specular is {}x{} but the image is {}x{}",
+                s.width, s.height, out.width, out.height
+            ))
+            .into());
+        }
+        for c in 0..3 {
+            for (o, v) in out.rgb[c].iter_mut().zip(&s.rgb[c]) {
+                *o += v;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Where the light of the entry factor comes from.
+pub enum Light {
+    /// One light, the view-space direction toward it (any length above 0).
+    Toward([f64; 3]),
+    /// N.L per pixel, finite (a G-buffer's channel).
+    Cosines(Vec<f64>),
+    /// The input is already weighted by the entry factor (an engine's
+    /// lighting pass): only the exit factor is applied.
+    EntryWeighted,
+}
+
+/// The cosines `factors` take around a pass over a `width` x `height`
+/// image: N.V from the view-space `normals` (checked) on `scale`'s camera,
+/// N.L from `light`.
+pub fn angular_view<'a>(
+    factors: &'a AngularFactors,
+    normals: &[Vec<f64>; 3],
+    light: Light,
+    (width, height): (usize, usize),
+    scale: &Scale,
+) -> Result<AngularView<'a>> {
+    check_normals("normals", normals, width, height)?;
+    let n_dot_l = match light {
+        Light::EntryWeighted => None,
+        Light::Toward(v) => {
+            let len = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(len > 0.0 && len.is_finite()) {
+                return Err(Error::invalid(
+                    "angular factors",
+                    "light direction",
+                    format!("{v:?}"),
+                    "three finite numbers, not all 0 (the view-space direction toward the light)",
+                ));
+            }
+            Some(n_dot_l(normals, [v[0] / len, v[1] / len, v[2] / len]))
+        }
+        Light::Cosines(nl) => {
+            if nl.len() != width * height {
+                return Err(Error::Unsupported(format!(
+                    "N.L has {} values for a {width}x{height} image",
+                    nl.len()
+                )));
+            }
+            if let Some(i) = nl.iter().position(|x| !x.is_finite()) {
+                return Err(Error::Unsupported(format!(
+                    "N.L at pixel ({}, {}) is {}: must be finite",
+                    i % width,
+                    i / width,
+                    nl[i]
+                )));
+            }
+            Some(nl)
+        }
+    };
+    Ok(AngularView {
+        factors,
+        n_dot_l,
+        n_dot_v: n_dot_v(normals, width, height, scale),
+    })
+}

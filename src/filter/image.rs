@@ -150,6 +150,20 @@ impl Plane {
         }
         Ok(bad.len())
     }
+
+    /// [`Plane::check_finite`] for a depth plane: a non-finite depth is
+    /// refused or, when `sanitize`, set to the farthest finite depth (the
+    /// background a missing sample most likely shows; 1 when none is
+    /// finite).
+    pub fn check_finite_depth(&mut self, what: &str, sanitize: bool) -> Result<usize> {
+        let far = self
+            .data
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(f64::NAN, |a: f64, &b| a.max(b));
+        let fill = if far.is_finite() { far } else { 1.0 };
+        self.check_finite(what, sanitize, fill)
+    }
 }
 
 /// Requires `(w, h)` to equal the colour image's size.

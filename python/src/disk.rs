@@ -1,0 +1,103 @@
+//! Disk kernels (`ssskit.disk/1`, `ssskit fit --model disk`): the sample
+//! table as arrays, shader emission; `fit(profile, "disk", ...)` builds
+//! one and `apply` runs it over frames.
+
+use crate::material::PyMaterial;
+use crate::{path_of, pretty_json, to_py};
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use ssskit::kernel::disk::{DiskKernelFile, RadiusPdf};
+use ssskit::kernel::disk_emit::emit_disk;
+
+/// An importance-sampled disk kernel (ssskit.disk/1): per sample its
+/// radius in mm, its angle before the per-pixel rotation and its weights.
+#[pyclass(module = "ssskit", name = "DiskKernel", frozen)]
+pub struct PyDiskKernel {
+    pub inner: DiskKernelFile,
+}
+
+#[pymethods]
+impl PyDiskKernel {
+    /// The model's name ("disk").
+    #[getter]
+    fn model(&self) -> &str {
+        &self.inner.model.name
+    }
+    /// Samples per pixel of one frame.
+    #[getter]
+    fn samples_per_pixel(&self) -> usize {
+        self.inner.samples_per_pixel()
+    }
+    /// Radii of the samples in mm, shape (n,).
+    #[getter]
+    fn radius_mm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let v: Vec<f64> = self.inner.samples.iter().map(|s| s.radius_mm).collect();
+        PyArray1::from_vec(py, v)
+    }
+    /// Angles of the samples in radians, before the per-pixel rotation, (n,).
+    #[getter]
+    fn angle<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let v: Vec<f64> = self.inner.samples.iter().map(|s| s.angle).collect();
+        PyArray1::from_vec(py, v)
+    }
+    /// Per-sample weights (n, 3).
+    #[getter]
+    fn weights<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let w: Vec<Vec<f64>> = self
+            .inner
+            .samples
+            .iter()
+            .map(|s| s.weight.to_vec())
+            .collect();
+        if w.is_empty() {
+            return Ok(PyArray2::zeros(py, [0, 3], false));
+        }
+        PyArray2::from_vec2(py, &w).map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+    /// Total diffuse reflectance (r, g, b) of the profile.
+    #[getter]
+    fn total_rd<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.total_rd)
+    }
+    #[getter]
+    fn material(&self) -> Option<PyMaterial> {
+        self.inner.material.clone().map(|m| PyMaterial { inner: m })
+    }
+    /// Whether the kernel carries the angular entry and exit factors.
+    #[getter]
+    fn has_factors(&self) -> bool {
+        self.inner.angular.is_some()
+    }
+    /// The sample table as shader constants: lang "hlsl", "glsl" or "wgsl"
+    /// (`ssskit fit --model disk --emit LANG`).
+    fn emit(&self, lang: &str) -> PyResult<String> {
+        emit_disk(&self.inner, crate::kernel::lang_of(lang)?).map_err(to_py)
+    }
+    /// Writes the kernel file (JSON), as `ssskit fit --model disk --out` does.
+    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.inner.write(&path_of(path)?).map_err(to_py)
+    }
+    /// The kernel file's text.
+    fn to_json(&self) -> PyResult<String> {
+        pretty_json(&self.inner)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "ssskit.DiskKernel({} samples per pixel)",
+            self.inner.samples_per_pixel()
+        )
+    }
+}
+
+/// `--radii` as the library's density, with the CLI's names.
+pub(crate) fn radii_of(name: &str) -> PyResult<RadiusPdf> {
+    match name {
+        "widest" => Ok(RadiusPdf::Widest),
+        "mean" => Ok(RadiusPdf::Mean),
+        "per-channel" | "per_channel" => Ok(RadiusPdf::PerChannel),
+        other => Err(PyValueError::new_err(format!(
+            "radii: invalid value '{other}': expected widest, mean or per-channel"
+        ))),
+    }
+}
