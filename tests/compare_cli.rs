@@ -7,7 +7,7 @@ use serde_json::Value;
 use std::path::Path;
 
 mod common;
-use common::{bin, ok, p};
+use common::{bin, ok, p, read_json};
 
 const MM: &str = "0.25";
 
@@ -277,7 +277,7 @@ fn compare_puts_disk_kernels_beside_separable_at_equal_samples() {
     // table's separable row in f64: they agree to f32's precision.
     const F32_AGREEMENT: f64 = 1e-5;
     let dir = tempfile::tempdir().unwrap();
-    let run = |frames: &str, out: &Path| {
+    let run = |models: &str, taps: &str, frames: &str, out: &Path| {
         ok(&[
             "compare",
             "--materials",
@@ -285,9 +285,9 @@ fn compare_puts_disk_kernels_beside_separable_at_equal_samples() {
             "--profile-model",
             "pbd",
             "--models",
-            "preintegrate,disk",
+            models,
             "--taps",
-            "9,17",
+            taps,
             "--signals",
             "edge",
             "--frames",
@@ -298,15 +298,13 @@ fn compare_puts_disk_kernels_beside_separable_at_equal_samples() {
         ])
     };
     let out = dir.path().join("k8");
-    let text = run("8", &out);
+    let text = run("preintegrate,disk", "9,17", "8", &out);
     assert!(text.contains("noise after 8 frames"), "{text}");
-    let disk: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("disk.json")).unwrap()).unwrap();
+    let disk = read_json(&out.join("disk.json"));
     let rows = disk[0]["rows"].as_array().unwrap();
     assert_eq!(disk[0]["signal"], "edge");
     assert_eq!(rows.len(), 4, "{disk}");
-    let main: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+    let main = read_json(&out.join("compare.json"));
     for (i, t) in [9usize, 17].into_iter().enumerate() {
         let (sep, d) = (&rows[2 * i], &rows[2 * i + 1]);
         assert_eq!(sep["family"], "separable");
@@ -336,29 +334,12 @@ fn compare_puts_disk_kernels_beside_separable_at_equal_samples() {
         assert!(n1 > 0.0 && n8 < n1, "{d}");
     }
     let one = dir.path().join("k1");
-    run("1", &one);
-    let disk: Value =
-        serde_json::from_str(&std::fs::read_to_string(one.join("disk.json")).unwrap()).unwrap();
-    for d in disk[0]["rows"].as_array().unwrap() {
+    run("preintegrate,disk", "9,17", "1", &one);
+    for d in read_json(&one.join("disk.json"))[0]["rows"].as_array().unwrap() {
         assert_eq!(d["noise"], d["noise_after"], "{d}");
     }
     // Without the disk family, no disk rows.
     let none = dir.path().join("k0");
-    ok(&[
-        "compare",
-        "--materials",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--models",
-        "preintegrate",
-        "--taps",
-        "9",
-        "--signals",
-        "edge",
-        "--no-plots",
-        "--out-dir",
-        p(&none),
-    ]);
+    run("preintegrate", "9", "8", &none);
     assert!(!none.join("disk.json").exists());
 }
