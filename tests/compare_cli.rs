@@ -335,7 +335,10 @@ fn compare_puts_disk_kernels_beside_separable_at_equal_samples() {
     }
     let one = dir.path().join("k1");
     run("preintegrate,disk", "9,17", "1", &one);
-    for d in read_json(&one.join("disk.json"))[0]["rows"].as_array().unwrap() {
+    for d in read_json(&one.join("disk.json"))[0]["rows"]
+        .as_array()
+        .unwrap()
+    {
         assert_eq!(d["noise"], d["noise_after"], "{d}");
     }
     // Without the disk family, no disk rows.

@@ -72,7 +72,7 @@ impl PyDiskKernel {
     /// The sample table as shader constants: lang "hlsl", "glsl" or "wgsl"
     /// (`ssskit fit --model disk --emit LANG`).
     fn emit(&self, lang: &str) -> PyResult<String> {
-        emit_disk(&self.inner, crate::kernel::lang_of(lang)?).map_err(to_py)
+        emit_disk(&self.inner, crate::lang_of(lang)?).map_err(to_py)
     }
     /// Writes the kernel file (JSON), as `ssskit fit --model disk --out` does.
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {

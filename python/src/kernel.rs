@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::engine::{self, Engine, Scene};
 use ssskit::kernel::disk::fit_disk;
-use ssskit::kernel::emit::{emit, Lang};
+use ssskit::kernel::emit::emit;
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
 use ssskit::kernel::manual::ManualParams;
@@ -92,7 +92,7 @@ impl PyKernel {
     /// The tap table as a shader constant array: lang "hlsl", "glsl" or
     /// "wgsl" (`ssskit fit --emit LANG`).
     fn emit(&self, lang: &str) -> PyResult<String> {
-        emit(&self.inner, lang_of(lang)?).map_err(to_py)
+        emit(&self.inner, crate::lang_of(lang)?).map_err(to_py)
     }
     /// Writes the kernel file (JSON), as `ssskit fit --out` does.
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
@@ -109,18 +109,6 @@ impl PyKernel {
             self.inner.passes.len(),
             self.inner.taps.count
         )
-    }
-}
-
-/// A shader language by the name `--emit` takes.
-pub(crate) fn lang_of(lang: &str) -> PyResult<Lang> {
-    match lang.to_ascii_lowercase().as_str() {
-        "hlsl" => Ok(Lang::Hlsl),
-        "glsl" => Ok(Lang::Glsl),
-        "wgsl" => Ok(Lang::Wgsl),
-        other => Err(PyValueError::new_err(format!(
-            "emit: invalid language '{other}': expected hlsl, glsl or wgsl"
-        ))),
     }
 }
 

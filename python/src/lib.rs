@@ -123,6 +123,19 @@ pub(crate) fn pretty_json<T: serde::Serialize>(v: &T) -> PyResult<String> {
     serde_json::to_string_pretty(v).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
+/// A shader language by the name `--emit` takes.
+pub(crate) fn lang_of(lang: &str) -> PyResult<ssskit::kernel::emit::Lang> {
+    use ssskit::kernel::emit::Lang;
+    match lang.to_ascii_lowercase().as_str() {
+        "hlsl" => Ok(Lang::Hlsl),
+        "glsl" => Ok(Lang::Glsl),
+        "wgsl" => Ok(Lang::Wgsl),
+        other => Err(PyValueError::new_err(format!(
+            "emit: invalid language '{other}': expected hlsl, glsl or wgsl"
+        ))),
+    }
+}
+
 /// A path argument: `str` or `os.PathLike`.
 pub(crate) fn path_of(obj: &Bound<'_, PyAny>) -> PyResult<std::path::PathBuf> {
     obj.extract::<std::path::PathBuf>()
