@@ -21,6 +21,7 @@ use ssskit::filter::image::{
 use ssskit::filter::kernel_setup::kernel_setup;
 use ssskit::filter::{gpu, FollowSurface, Image, Plane, Scale, Setup};
 use ssskit::kernel::angular::AngularFactors;
+use ssskit::kernel::disk::DiskKernelFile;
 
 /// The dtype of the arrays that come in: the output has the input's.
 #[derive(Clone, Copy, PartialEq)]
@@ -287,24 +288,8 @@ fn apply<'py>(
     factors: bool,
     backend: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let precision = match precision {
-        "f32" => Precision::F32,
-        "f64" => Precision::F64,
-        p => {
-            return Err(PyValueError::new_err(format!(
-                "precision: invalid value '{p}': expected f32 or f64"
-            )))
-        }
-    };
-    let gpu_backend = match backend {
-        "cpu" => false,
-        "gpu" => true,
-        b => {
-            return Err(PyValueError::new_err(format!(
-                "backend: invalid value '{b}': expected cpu or gpu"
-            )))
-        }
-    };
+    let precision = precision_of(precision)?;
+    let gpu_backend = gpu_of(backend)?;
     let accumulate = Accumulate::parse(accumulate).map_err(to_py)?;
     let how = if sanitize {
         Sanitize::Replace
@@ -336,36 +321,22 @@ fn apply<'py>(
         factors,
     };
     if let Ok(disk) = kernel.cast::<PyDiskKernel>() {
-        let k = &disk.get().inner;
         if full_factors || jitter || precision != Precision::F32 {
             return Err(PyValueError::new_err(
                 "full_factors, jitter and precision apply to separable kernels; a disk kernel's \
                  samples are its table, turned per pixel and frame",
             ));
         }
-        let around = light.view(py, k.angular.as_ref(), &image, &scale)?;
-        let specular = if around.is_some() {
-            view.specular.take()
-        } else {
-            None
-        };
-        let setup = DiskSetup::new(k, view, frame_seed, frames).accumulated_by(accumulate);
-        setup.validate(&image).map_err(to_py)?;
-        if gpu_backend && setup.accumulate != Accumulate::Mean {
-            return Err(PyValueError::new_err(format!(
-                "accumulate {}: the wgpu disk pass takes the plain mean; use backend=\"cpu\"",
-                setup.accumulate.name()
-            )));
-        }
-        let out = interruptible(py, |_| {
-            around_pass(around.as_ref(), image, specular, |img| {
-                if gpu_backend {
-                    DiskGpu::new()?.apply(&img, &setup)
-                } else {
-                    apply_disk(&img, &setup)
-                }
-            })
-        })?;
+        let frames = (frame_seed, frames, accumulate);
+        let out = run_disk(
+            py,
+            &disk.get().inner,
+            view,
+            image,
+            &light,
+            frames,
+            gpu_backend,
+        )?;
         return array_of(py, &out, dtype);
     }
     let kernel = kernel.cast::<PyKernel>().map_err(|_| {
@@ -378,7 +349,9 @@ fn apply<'py>(
         ));
     }
     let kernel = &kernel.get().inner;
-    let around = light.view(py, kernel.angular.as_ref(), &image, &scale)?;
+    let around = light.view(py, kernel.angular.as_ref(), &image, &view.scale)?;
+    // The exit factor weighs the subsurface light only: the specular is
+    // added after it, outside the pass.
     let specular = if around.is_some() {
         view.specular.take()
     } else {
@@ -401,6 +374,67 @@ fn apply<'py>(
         })
     })?;
     array_of(py, &out, dtype)
+}
+
+/// `--precision`'s values.
+fn precision_of(name: &str) -> PyResult<Precision> {
+    match name {
+        "f32" => Ok(Precision::F32),
+        "f64" => Ok(Precision::F64),
+        p => Err(PyValueError::new_err(format!(
+            "precision: invalid value '{p}': expected f32 or f64"
+        ))),
+    }
+}
+
+/// `--backend`'s values (without auto): whether it is the wgpu pass.
+fn gpu_of(name: &str) -> PyResult<bool> {
+    match name {
+        "cpu" => Ok(false),
+        "gpu" => Ok(true),
+        b => Err(PyValueError::new_err(format!(
+            "backend: invalid value '{b}': expected cpu or gpu"
+        ))),
+    }
+}
+
+/// `ssskit apply` with a disk kernel: the disk pass over `frames` (first
+/// frame's index, count, accumulation) on the CPU (f64) or with wgpu, the
+/// kernel's angular factors around it.
+fn run_disk(
+    py: Python<'_>,
+    k: &DiskKernelFile,
+    mut view: Setup,
+    image: Image,
+    light: &Lights,
+    (seed, frames, accumulate): (u32, u32, Accumulate),
+    gpu_backend: bool,
+) -> PyResult<Image> {
+    let around = light.view(py, k.angular.as_ref(), &image, &view.scale)?;
+    // The exit factor weighs the subsurface light only: the specular is
+    // added after it, outside the pass.
+    let specular = if around.is_some() {
+        view.specular.take()
+    } else {
+        None
+    };
+    let setup = DiskSetup::new(k, view, seed, frames).accumulated_by(accumulate);
+    setup.validate(&image).map_err(to_py)?;
+    if gpu_backend && setup.accumulate != Accumulate::Mean {
+        return Err(PyValueError::new_err(format!(
+            "accumulate {}: the wgpu disk pass takes the plain mean; use backend=\"cpu\"",
+            setup.accumulate.name()
+        )));
+    }
+    interruptible(py, |_| {
+        around_pass(around.as_ref(), image, specular, |img| {
+            if gpu_backend {
+                DiskGpu::new()?.apply(&img, &setup)
+            } else {
+                apply_disk(&img, &setup)
+            }
+        })
+    })
 }
 
 /// The angular factors' arguments of `apply`.

@@ -239,3 +239,20 @@ def test_angular_arguments_are_checked(files):
         warnings.simplefilter("always")
         assert same_bits(plain, ssskit.apply(with_factors, irradiance(), MM_PER_PIXEL, factors=False))
     assert not [w for w in said if "normals" in str(w.message)]
+
+
+@pytest.mark.parametrize("kernel", ["pre.json", "pre_a.json", "disk_a.json"])
+def test_specular_equals_the_cli(files, tmp_path, cli, kernel):
+    """The specular image is added after the pass, and after the exit
+    factor where the kernel carries the factors (it is not subsurface
+    light)."""
+    spec = np.zeros(SHAPE + (3,), np.float32)
+    spec[10:14, 5:40] = [0.5, 0.5, 0.5]
+    ssskit.write_image(tmp_path / "spec.exr", spec)
+    k = ssskit.load(files / kernel)
+    angular = dict(normals=sphere_normals(), light_toward=LIGHT) if kernel != "pre.json" else {}
+    flags = ["--normals", files / "normals.exr", "--light-toward", ",".join(map(str, LIGHT))] if angular else []
+    mine = ssskit.apply(k, irradiance(), MM_PER_PIXEL, specular=spec, **angular)
+    assert same_bits(mine, cli_apply(cli, files, tmp_path, kernel, "--specular", tmp_path / "spec.exr", *flags))
+    without = ssskit.apply(k, irradiance(), MM_PER_PIXEL, **angular)
+    assert np.allclose(mine - without, spec, atol=1e-6)
