@@ -161,7 +161,13 @@ pub fn kept(f: &AngularFactors, entry: bool, exit: bool) -> Kept {
     let mut sq = [0.0; 3];
     let mut diff = [0.0; 3];
     let mut with = [0.0; 3];
+    // The peak at the nodes (mu = 1 included) as well as the midpoints.
     let mut peak = [0.0f64; 3];
+    for (k, &mu) in f.mu.iter().enumerate() {
+        for c in 0..3 {
+            peak[c] = peak[c].max(mu * f.entry[k][c] * f.exit[k][c]);
+        }
+    }
     for i in 0..DISK_POINTS {
         let mu = ((i as f64 + 0.5) / DISK_POINTS as f64).sqrt();
         let (e, x) = (f.entry_at(mu), f.exit_at(mu));
