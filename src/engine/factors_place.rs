@@ -163,9 +163,9 @@ pub fn kept(f: &AngularFactors, entry: bool, exit: bool) -> Kept {
     let mut with = [0.0; 3];
     // The peak at the nodes (mu = 1 included) as well as the midpoints.
     let mut peak = [0.0f64; 3];
-    for (k, &mu) in f.mu.iter().enumerate() {
-        for c in 0..3 {
-            peak[c] = peak[c].max(mu * f.entry[k][c] * f.exit[k][c]);
+    for ((&mu, e), x) in f.mu.iter().zip(&f.entry).zip(&f.exit) {
+        for (c, p) in peak.iter_mut().enumerate() {
+            *p = p.max(mu * e[c] * x[c]);
         }
     }
     for i in 0..DISK_POINTS {
