@@ -14,6 +14,16 @@
 //!    both .mco files and their difference in combined standard errors
 //!    (MCML reports none; its noise is taken as ssskit's, the same photon
 //!    count). Without `SSSKIT_MCML` the table says MCML was not run.
+//! 3. `mcml-exit`: with `SSSKIT_MCML`, the exit factor pi L / M at normal
+//!    incidence per 10-degree exit bin on a semi-infinite medium (MCML's
+//!    sample layer 1: mua 1, mus 100 cm^-1, g 0.9, 1E8 cm thick) under air at
+//!    index 1.0, 1.33 and 1.4: MCML's from its Rd_a and Rd (the bin's share
+//!    of R_d over its Lambertian share sin^2(hi) - sin^2(lo)), mean of
+//!    `MCML_RUNS` runs of one .mci (MCML seeds its generator once per
+//!    process, so the runs are independent batches) with the standard error
+//!    of that mean; ssskit's from `simulate --mci` on the same layer with
+//!    its own standard error. tests/mcml_exit.rs reruns ssskit against the
+//!    recorded MCML factors.
 //!
 //! `cargo bench --bench mc_angular` takes about 1 minute on 2 idle cores.
 
@@ -209,6 +219,131 @@ fn mcml(scale: f64, data: &mut serde_json::Value) -> Table {
     t
 }
 
+/// Runs of each MCML .mci in `mcml_exit`: independent batches whose spread
+/// gives MCML's standard error (10 runs: that error is itself known to
+/// about 25%).
+const MCML_RUNS: u64 = 10;
+/// Indices of refraction of `mcml_exit`'s medium (air above).
+const EXIT_ETAS: [f64; 3] = [1.0, 1.33, 1.4];
+
+/// The semi-infinite layer of `mcml_exit` at index `eta`, `runs` runs of
+/// `photons` each, written to `{stem}{k}.mco` (tests/mcml_exit.rs writes the
+/// same layer).
+fn exit_mci(eta: f64, photons: u64, runs: u64, stem: &str) -> String {
+    let mut s = format!("1.0\n{runs}\n");
+    for k in 0..runs {
+        s += &format!(
+            "{stem}{k}.mco A\n{photons}\n0.01 0.01\n1 50 {BINS}\n1\n1.0\n\
+             {eta} 1 100 0.9 1E8\n1.0\n\n"
+        );
+    }
+    s
+}
+
+/// MCML's exit factor per angle bin from one .mco: the bin's share of the
+/// diffuse reflectance (Rd_a times MCML's solid angle 2 pi sin(a) da, the
+/// inverse of its `ScaleRdTt`) over the bin's Lambertian share.
+fn mcml_factor(text: &str) -> Vec<f64> {
+    let a = section(text, "Rd_a");
+    let rd: f64 = text
+        .lines()
+        .find(|l| l.contains("#Diffuse reflectance"))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(f64::NAN);
+    let da = std::f64::consts::PI / (2.0 * BINS as f64);
+    let shares = ssskit::profile::mc::angular::lambert_shares(BINS);
+    (0..BINS)
+        .map(|i| {
+            let sr = 2.0 * std::f64::consts::PI * da * ((i as f64 + 0.5) * da).sin();
+            a[i] * sr / (rd * shares[i])
+        })
+        .collect()
+}
+
+fn mcml_exit(scale: f64, data: &mut serde_json::Value) -> Table {
+    let mut t = Table::new(&[
+        "index",
+        "exit bin (deg)",
+        "exit factor MCML 1.2.2",
+        "exit factor ssskit",
+        "difference / combined stderr",
+    ]);
+    let Some(bin) = std::env::var_os("SSSKIT_MCML") else {
+        let mut row = vec![String::new(); 5];
+        row[0] = "not run (SSSKIT_MCML unset)".into();
+        t.push(row);
+        return t;
+    };
+    let per_run = ((1e5 * scale) as u64).max(ssskit::profile::mc::CHUNK);
+    let ours_photons = per_run * MCML_RUNS;
+    let dir = std::env::temp_dir().join(format!("ssskit-bench-exit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    let ssskit = Path::new(env!("CARGO_BIN_EXE_ssskit"));
+    let mut record = Vec::new();
+    for eta in EXIT_ETAS {
+        std::fs::write(dir.join("m.mci"), exit_mci(eta, per_run, MCML_RUNS, "m")).unwrap();
+        std::fs::write(dir.join("s.mci"), exit_mci(eta, ours_photons, 1, "s")).unwrap();
+        let ok = Command::new(&bin)
+            .arg("m.mci")
+            .current_dir(&dir)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "MCML at {} failed", Path::new(&bin).display());
+        let runs: Vec<Vec<f64>> = (0..MCML_RUNS)
+            .map(|k| mcml_factor(&std::fs::read_to_string(dir.join(format!("m{k}.mco"))).unwrap()))
+            .collect();
+        let n = MCML_RUNS as f64;
+        let mean: Vec<f64> = (0..BINS)
+            .map(|i| runs.iter().map(|r| r[i]).sum::<f64>() / n)
+            .collect();
+        let se: Vec<f64> = (0..BINS)
+            .map(|i| {
+                let ss: f64 = runs.iter().map(|r| (r[i] - mean[i]).powi(2)).sum();
+                (ss / (n - 1.0) / n).sqrt()
+            })
+            .collect();
+        let ours = Command::new(ssskit)
+            .args([
+                "simulate", "--mci", "s.mci", "--out", "s.json", "--seed", "1",
+            ])
+            .current_dir(&dir)
+            .output()
+            .expect("ssskit runs");
+        assert!(
+            ours.status.success(),
+            "{}",
+            String::from_utf8_lossy(&ours.stderr)
+        );
+        let p = ssskit::profile::Profile::read(&dir.join("s.json")).unwrap();
+        let x = p.angular().unwrap().unwrap().exit.unwrap();
+        let mut z = Vec::new();
+        for i in 0..BINS {
+            let (f, fe) = (x.factor[0][i], x.factor_stderr[0][i]);
+            let zi = (f - mean[i]) / (se[i].powi(2) + fe.powi(2)).sqrt();
+            z.push(zi);
+            t.push(vec![
+                format!("{eta}"),
+                format!("{}-{}", 10 * i, 10 * i + 10),
+                pm(mean[i], se[i]),
+                pm(f, fe),
+                format!("{zi:+.2}"),
+            ]);
+        }
+        record.push(serde_json::json!({
+            "eta": eta, "mcml_factor": mean, "mcml_stderr": se,
+            "mcml_runs": MCML_RUNS, "mcml_photons_per_run": per_run,
+            "ssskit_factor": x.factor[0], "ssskit_stderr": x.factor_stderr[0],
+            "ssskit_photons": ours_photons, "z": z,
+        }));
+    }
+    data["mcml_exit"] = serde_json::json!(record);
+    let _ = std::fs::remove_dir_all(&dir);
+    t
+}
+
 fn main() {
     let scale: f64 = std::env::var("SSSKIT_BENCH_SCALE")
         .ok()
@@ -220,6 +355,8 @@ fn main() {
     eprintln!("{}", f.markdown());
     let m = mcml(scale, &mut data);
     eprintln!("{}", m.markdown());
+    let x = mcml_exit(scale, &mut data);
+    eprintln!("{}", x.markdown());
     let mut r = Record::new(
         if std::env::var_os("SSSKIT_MCML").is_some() {
             "SSSKIT_MCML=<MCML 1.2.2, gcc -O3> cargo bench --bench mc_angular"
@@ -230,6 +367,7 @@ fn main() {
     );
     r.tables.insert("factors".into(), (&f).into());
     r.tables.insert("mcml".into(), (&m).into());
+    r.tables.insert("mcml-exit".into(), (&x).into());
     r.data = data;
     let path = docs_path("mc-angular");
     r.write(&path).expect("record written");

@@ -371,6 +371,39 @@ fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
     assert_eq!(a["scene"]["rms_without_factors"], sc["rms_without_factors"]);
 }
 
+/// `--no-factors` reaches the scene check: `advise --scene --no-factors`
+/// runs no factor Monte Carlo for it (the check says the factors were left
+/// out), records no scene error with them, and the kernel it writes carries
+/// none. Without the flag the same scene gets them (the test above).
+#[test]
+fn no_factors_leaves_them_out_of_the_scene_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (toml, exr) = skin1_at_0_3(d);
+    let kernel = d.join("k.json");
+    let (a, _) = ok_both(&[
+        "advise",
+        "--scene",
+        p(&toml),
+        "--render",
+        p(&exr),
+        "--json",
+        "--no-factors",
+        "--out",
+        p(&kernel),
+    ]);
+    let a: serde_json::Value = serde_json::from_str(&a).unwrap();
+    let s = &a["scene"];
+    assert!(s["rms_with_factors"].is_null(), "{s}");
+    assert!(s["factors"].as_str().unwrap().contains("left out"), "{s}");
+    for r in s["rows"].as_array().unwrap() {
+        assert!(r["rel_rms_with_factors"].is_null(), "{r}");
+    }
+    let k: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&kernel).unwrap()).unwrap();
+    assert!(k["angular"].is_null(), "the kernel carries factors");
+}
+
 /// What docs/kernels.md shows of `advise --scene`: skin1 on
 /// docs/scenes/shadow-skin1.toml (this file's scene at 0.1 mm per pixel)
 /// at the default budget (disk kernels included), separable kernels only,

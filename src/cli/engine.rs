@@ -123,6 +123,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for w in &fit.warnings {
         outln!("warning: {w}")?;
     }
+    let v = e.version(a.engine_version.as_deref())?;
+    for line in engine::factors_place::lines(e, v, &profile)? {
+        outln!("{line}")?;
+    }
     if let Some(out) = &a.out.out {
         ssskit::io::write_json_atomic(out, &fit)?;
         eprintln!("wrote {}", out.display());

@@ -112,7 +112,13 @@ impl ProfileSourceArgs {
         factors: &FactorsArg,
     ) -> anyhow::Result<(Profile, String)> {
         use ssskit::kernel::angular::{self, AngularFactors};
-        if factors.no_factors || AngularFactors::from_profile(&profile)?.is_some() {
+        if factors.no_factors {
+            // Said on the profile, so that the kernels and the scene check
+            // of the advice leave them out too.
+            angular::leave_out(&mut profile);
+            return Ok((profile, source));
+        }
+        if AngularFactors::from_profile(&profile)?.is_some() {
             return Ok((profile, source));
         }
         if self.profile.profile.is_some() || profile.source.kind != "monte-carlo" {

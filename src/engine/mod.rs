@@ -18,6 +18,7 @@
 
 pub mod blender;
 pub mod burley;
+pub mod factors_place;
 pub mod godot;
 pub mod hdrp;
 pub mod iryoku;

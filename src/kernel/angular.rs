@@ -205,6 +205,9 @@ impl AngularFactors {
     /// has neither, or its record lacks one of the two (an exit table and
     /// at least one oblique incidence are needed).
     pub fn from_profile(p: &Profile) -> Result<Option<AngularFactors>> {
+        if left_out(p) {
+            return Ok(None);
+        }
         let Some(a) = p.angular()? else {
             return stored(p);
         };
@@ -237,6 +240,25 @@ pub fn attach(p: &mut Profile, f: &AngularFactors) {
         p.extra = serde_json::json!({});
     }
     p.extra[PROFILE_KEY] = serde_json::json!(f);
+}
+
+/// Key of `extra` marking a profile whose caller left the factors out:
+/// no kernel fitted from it carries them and no later step (the scene
+/// check of the advice) runs their Monte Carlo for it.
+pub const LEFT_OUT_KEY: &str = "angular_factors_left_out";
+
+/// Marks `p` as made without the entry and exit factors ([`LEFT_OUT_KEY`]):
+/// tables it stored or recorded are no longer read as its factors.
+pub fn leave_out(p: &mut Profile) {
+    if !p.extra.is_object() {
+        p.extra = serde_json::json!({});
+    }
+    p.extra[LEFT_OUT_KEY] = serde_json::Value::Bool(true);
+}
+
+/// Whether `p`'s caller left the factors out ([`leave_out`]).
+pub fn left_out(p: &Profile) -> bool {
+    p.extra[LEFT_OUT_KEY] == serde_json::Value::Bool(true)
 }
 
 /// One line saying what a profile without the tables lacks and how to get

@@ -226,6 +226,9 @@ fn factors_for(scene: &Scene, profile: &Profile) -> Result<(Option<AngularFactor
     if let Some(why) = angular_obstacle(scene) {
         return Ok((None, why));
     }
+    if crate::kernel::angular::left_out(profile) {
+        return Ok((None, "left out by the caller: no factor run".into()));
+    }
     if let Some(f) = AngularFactors::from_profile(profile)? {
         return Ok((Some(f), "the profile's own".into()));
     }
