@@ -118,7 +118,7 @@ def pixel_edge(edges, rd, total, columns_mm):
 
 
 def burley_bins(albedo, d_mm, truncate_d=None):
-    """Christensen-Burley 2015 normalized diffusion, A (e^{-r/d} +
+    """Christensen and Burley 2015 normalized diffusion, A (e^{-r/d} +
     e^{-r/3d}) / (8 pi d r), as annulus means from its radial CDF
     1 - e^{-r/d} / 4 - 3 e^{-r/(3d)} / 4, on a geometric grid; with
     `truncate_d`, zero from that many d on and the rest renormalised (as
@@ -140,7 +140,8 @@ def burley_bins(albedo, d_mm, truncate_d=None):
 def chiang_alpha(albedo, g):
     """Cycles' `subsurface_random_walk_remap` (kernel/integrator/
     subsurface_random_walk.h, v5.0.0): single-scattering albedo from the
-    surface albedo (Chiang et al. 2016, eq. 4 refitted for anisotropy)."""
+    surface albedo (Chiang et al. 2016, as Cycles refits it for
+    anisotropy)."""
     g2, g3, g4, g5, g6, g7 = g ** 2, g ** 3, g ** 4, g ** 5, g ** 6, g ** 7
     A = (1.8260523782 - 1.28451056436 * g - 1.79904629312 * g2 + 9.19393289202 * g3
          - 22.8215585862 * g4 + 32.0234874259 * g5 - 23.6264803333 * g6 + 7.21067002658 * g7)
@@ -222,9 +223,9 @@ def random_walk_export(layer):
 
 def random_walk_fit(a, prof, name, tmp, cols, material_edge):
     """Random Walk values fitted to the material's edge response: Base
-    Color = the material's total reflectance (capped at 1; Chiang et al.
-    2016 fit the remap so that the walk's multiple-scattering albedo is
-    the Base Color), and per channel the scale of the walk fitted by least
+    Color = the material's total reflectance (capped at 1; the remap of
+    Chiang et al. 2016 is fitted so that the walk's multiple-scattering
+    albedo is the Base Color), and per channel the scale of the walk fitted by least
     squares on the edge response. An index-matched half-space's profile
     scales with the extinction, R(r; s sigma_t) = s^2 R(s r; sigma_t) (all
     lengths in units of 1 / sigma_t), so one Monte Carlo run at sigma_t =
