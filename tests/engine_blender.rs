@@ -187,9 +187,69 @@ fn params_clamp_the_base_color() {
     let b = Burley {
         albedo: [9.9, 0.5, 0.2],
         d_mm: [1.0, 0.5, 0.2],
+        truncate_d: None,
     };
     for v in blender::VERSIONS {
         let printed = blender::params(&b, Scene::native(Engine::Blender), v);
         assert_inside_the_sockets(v.key, &printed.params);
+    }
+}
+
+/// Cycles' Christensen-Burley closure renders the profile cut off at 16 d
+/// and renormalised: blender/cycles v5.0.0, src/kernel/closure/bssrdf.h,
+/// `bssrdf_eval` returns `bssrdf_burley_pdf(d, r)` =
+/// `bssrdf_burley_eval(d, r)` / BURLEY_TRUNCATE_CDF, and
+/// `bssrdf_burley_eval` is 0 for r >= BURLEY_TRUNCATE d (16 d); the
+/// constant BURLEY_TRUNCATE_CDF = 0.9963790093708328 is copied from there.
+/// EEVEE's pass has no such cut. Cycles 5.0.1's render agrees with the cut
+/// profile, not with the whole one (docs/engines.md, scripts/engine-cycles).
+#[test]
+fn cycles_burley_is_cut_at_16_d_and_renormalised() {
+    use ssskit::engine::burley::Burley;
+    use ssskit::profile::RadialGrid;
+    const BURLEY_TRUNCATE_CDF: f64 = 0.9963790093708328;
+    // Sums of bin averages times areas: quadrature to about 1e-9.
+    const SUM_TOL: f64 = 1e-7;
+    for (version, cut) in [("4", Some(16.0)), ("2.93", Some(16.0)), ("eevee", None)] {
+        let (fit, _) = engine_json(
+            "profiles/reference/skin1.json",
+            "blender",
+            &["--engine-version", version],
+        );
+        assert_eq!(
+            fit["rendered"]["truncate_d"].as_f64(),
+            cut,
+            "blender {version}: {}",
+            fit["rendered"]
+        );
+    }
+    let b = Burley {
+        albedo: [0.4, 0.4, 0.4],
+        d_mm: [1.0, 1.0, 1.0],
+        truncate_d: Some(16.0),
+    };
+    let whole = Burley {
+        truncate_d: None,
+        ..b.clone()
+    };
+    // The cut (16 mm) falls inside a bin, 0.07 mm wide.
+    let grid = RadialGrid {
+        edges: (0..=600).map(|i| i as f64 * 0.07).collect(),
+    };
+    let (cut, all) = (b.bins(0, &grid), whole.bins(0, &grid));
+    let mass = |v: &[f64]| -> f64 {
+        v.iter()
+            .zip(grid.edges.windows(2))
+            .map(|(x, e)| x * PI * (e[1] * e[1] - e[0] * e[0]))
+            .sum()
+    };
+    assert!((mass(&cut) - 0.4).abs() < SUM_TOL * 0.4, "{}", mass(&cut));
+    for (i, e) in grid.edges.windows(2).enumerate() {
+        if e[0] >= 16.0 {
+            assert_eq!(cut[i], 0.0, "bin {i} at {} mm", e[0]);
+        } else if e[1] <= 16.0 {
+            let ratio = cut[i] / all[i] * BURLEY_TRUNCATE_CDF;
+            assert!((ratio - 1.0).abs() < 1e-9, "bin {i}: {ratio}");
+        }
     }
 }

@@ -269,6 +269,7 @@ fn params_clamp_colours_the_fit_did_not_cap() {
     let b = Burley {
         albedo: [4.99, 0.5, 0.001],
         d_mm: [1.0, 0.5, 0.2],
+        truncate_d: None,
     };
     let printed = unreal::params(&b, Scene::native(Engine::Unreal), unreal::VERSIONS[0]);
     assert_inside_the_ui("library", &printed.params);

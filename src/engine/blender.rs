@@ -71,6 +71,13 @@ const METHOD: &str = "Christensen-Burley";
 /// radius before any albedo fit.
 const D_PER_RADIUS: f64 = 0.25 / PI;
 
+/// Cycles' Christensen-Burley closure draws the profile truncated at 16 d
+/// and renormalised (kernel/closure/bssrdf.h: `bssrdf_eval` returns
+/// `bssrdf_burley_pdf`, `bssrdf_burley_eval` / BURLEY_TRUNCATE_CDF, zero
+/// from BURLEY_TRUNCATE d on; read at v2.93.0, v4.0.0 and v5.0.0). Its
+/// render (scripts/engine-cycles) matches that, not the whole profile.
+pub const BURLEY_TRUNCATE: f64 = 16.0;
+
 pub fn error_for(v: Version) -> &'static str {
     match v.key {
         "eevee" => {
@@ -79,14 +86,15 @@ pub fn error_for(v: Version) -> &'static str {
         }
         "2.93" => {
             "Cycles' Christensen-Burley closure (disk sampling of the normalized profile, \
-             truncated at 16 d: about 0.4% of the light); Random Walk renders a volume walk \
-             with the same radius, not scored here"
+             truncated at 16 d and renormalised); Random Walk renders a volume walk with the \
+             same radius, not scored here"
         }
         _ => {
             "Cycles' Christensen-Burley closure (disk sampling of the normalized profile, \
-             truncated at 16 d: about 0.4% of the light); Random Walk reads the same radius as \
-             a mean free path per channel for a volume walk, a different profile not scored \
-             here"
+             truncated at 16 d and renormalised, as Cycles 5.0.1 renders it: \
+             scripts/engine-cycles); Random Walk reads the same radius as a mean free path \
+             per channel for a volume walk, a different profile (its render error in \
+             docs/engines.md)"
         }
     }
 }
@@ -248,6 +256,7 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
     Ok(Burley {
         albedo: colour,
         d_mm: std::array::from_fn(|c| radius[c] * D_PER_RADIUS / s[c] / scene.units_per_mm),
+        truncate_d: (v.key != "eevee").then_some(BURLEY_TRUNCATE),
     })
 }
 

@@ -21,13 +21,45 @@ pub struct Burley {
     pub albedo: [f64; 3],
     /// Shape distance d per channel, mm on the surface.
     pub d_mm: [f64; 3],
+    /// Where the engine cuts the profile off, in units of d: zero beyond,
+    /// the rest scaled by 1 / CDF(cut) so that the total stays A (Cycles:
+    /// `bssrdf_eval` returns `bssrdf_burley_pdf`, the profile truncated at
+    /// BURLEY_TRUNCATE = 16 d and divided by BURLEY_TRUNCATE_CDF,
+    /// kernel/closure/bssrdf.h). None: the whole profile.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truncate_d: Option<f64>,
+}
+
+/// The radial CDF of normalized diffusion, r in units of d:
+/// 1 - e^{-r} / 4 - 3 e^{-r/3} / 4 (Christensen and Burley 2015).
+pub fn normalized_cdf(r_over_d: f64) -> f64 {
+    1.0 - 0.25 * (-r_over_d).exp() - 0.75 * (-r_over_d / 3.0).exp()
 }
 
 impl Burley {
     /// Bin averages of channel `c` on `grid`.
     pub fn bins(&self, c: usize, grid: &RadialGrid) -> Vec<f64> {
         let (a, d) = (self.albedo[c], self.d_mm[c]);
-        bin_averages_resolved(|r| normalized_diffusion(a, d, r), &grid.edges)
+        let whole = bin_averages_resolved(|r| normalized_diffusion(a, d, r), &grid.edges);
+        let Some(cut) = self.truncate_d else {
+            return whole;
+        };
+        let (rm, k) = (cut * d, 1.0 / normalized_cdf(cut));
+        whole
+            .iter()
+            .zip(grid.edges.windows(2))
+            .map(|(v, e)| {
+                if e[1] <= rm {
+                    v * k
+                } else if e[0] >= rm {
+                    0.0
+                } else {
+                    // The bin the cut falls in: its part inside, exactly.
+                    let inside = normalized_cdf(rm / d) - normalized_cdf(e[0] / d);
+                    a * k * inside / (std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0]))
+                }
+            })
+            .collect()
     }
 }
 
@@ -71,7 +103,11 @@ pub fn fit_capped(p: &Profile, cap: [f64; 3]) -> Result<Burley> {
         albedo[c] = scored(d).0;
         d_mm[c] = d;
     }
-    Ok(Burley { albedo, d_mm })
+    Ok(Burley {
+        albedo,
+        d_mm,
+        truncate_d: None,
+    })
 }
 
 /// The error of the forward model (A from the dipole, d from the

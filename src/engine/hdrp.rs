@@ -179,7 +179,11 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, _v: Version) -> Result<
         d_mm[c] = mask / shape / (MM_PER_M * world_scale * scene.units_per_mm);
         albedo[c] = srgb_to_linear(unit_interval("Base Color", base[c])?);
     }
-    Ok(Burley { albedo, d_mm })
+    Ok(Burley {
+        albedo,
+        d_mm,
+        truncate_d: None,
+    })
 }
 
 pub fn requirements(_v: Version, scene: Scene) -> Vec<String> {

@@ -279,6 +279,7 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
     Ok(Burley {
         albedo: base,
         d_mm: std::array::from_fn(|c| profile_d_mm(surface[c], mfp_color[c], distance) * k),
+        truncate_d: None,
     })
 }
 
