@@ -137,3 +137,101 @@ fn filtering_in_place_and_writing_add_little_to_the_image() {
         );
     }
 }
+
+/// Bytes per pixel that the per-pixel paths (depth-aware separable,
+/// algorithm 4.1; the disk pass) may add to the image and its depth while
+/// filtering it in place: their windows of rows (here at most 52 rows of
+/// 1024 per rank, f64 RGB: 1.2 bytes a pixel) and the rayon bookkeeping,
+/// with the rest to spare. A fresh f64 output (24 bytes), an intermediate
+/// image (24) or a plane of steps (8) would be far above.
+const PER_PIXEL_PATH_EXTRA_BYTES_PER_PIXEL: f64 = 3.0;
+
+/// A 1024 x 1024 noise image, a depth ramp, and the view of the pass:
+/// 0.1 mm a pixel, the depth-aware lerp on.
+fn per_pixel_case() -> (ssskit::filter::Image, ssskit::filter::Setup) {
+    use ssskit::filter::{FollowSurface, Plane, Scale, Setup};
+    let (w, h) = (1024, 1024);
+    let img = ssskit::filter::signals::noise(w, h, 11);
+    let depth = Plane {
+        width: w,
+        height: h,
+        data: (0..w * h)
+            .map(|i| 100.0 + (i % 977) as f64 * 0.01)
+            .collect(),
+    };
+    let view = Setup {
+        passes: vec![],
+        scale: Scale::MmPerPixel(0.1),
+        depth: Some(depth),
+        strength: None,
+        follow_surface: Some(FollowSurface::InSceneUnits(0.5)),
+        specular: None,
+        jitter: false,
+    };
+    (img, view)
+}
+
+#[test]
+fn the_depth_aware_path_filters_in_place() {
+    use ssskit::filter::{cpu, Setup, Taps};
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let (mut img, view) = per_pixel_case();
+    let n = 17;
+    let setup = Setup {
+        passes: vec![Taps {
+            offsets_mm: (0..n).map(|i| (i as f64 - 8.0) * 0.1).collect(),
+            weights: vec![[1.0 / n as f64; 3]; n],
+        }],
+        ..view
+    };
+    assert!(
+        !setup.is_uniform(),
+        "the per-pixel path, not the fixed kernels"
+    );
+    let before = img.rgb[0].clone();
+    let (_, peak) = peak_of(|| cpu::apply_in_place(&mut img, &setup, cpu::Precision::F64).unwrap());
+    assert_ne!(img.rgb[0], before, "the image was filtered");
+    let per_pixel = peak as f64 / img.len() as f64;
+    eprintln!("depth-aware: filter peak {per_pixel:.2} bytes per pixel");
+    assert!(
+        per_pixel <= PER_PIXEL_PATH_EXTRA_BYTES_PER_PIXEL,
+        "the depth-aware path added {per_pixel:.2} bytes per pixel, above \
+         {PER_PIXEL_PATH_EXTRA_BYTES_PER_PIXEL}"
+    );
+}
+
+#[test]
+fn the_disk_path_filters_in_place() {
+    use ssskit::filter::accumulate::Accumulate;
+    use ssskit::filter::disk::{apply_disk_in_place, DiskSetup, DiskTap};
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let (mut img, view) = per_pixel_case();
+    // 32 samples on a spiral of radius up to 0.8 mm: 8 pixels.
+    let taps = (0..32)
+        .map(|i| {
+            let (r, a) = (0.025 * i as f64, 2.4 * i as f64);
+            DiskTap {
+                x_mm: r * a.cos(),
+                y_mm: r * a.sin(),
+                weight: [1.0 / 32.0; 3],
+            }
+        })
+        .collect();
+    let setup = DiskSetup {
+        taps,
+        view,
+        seed: 0,
+        frames: 1,
+        accumulate: Accumulate::Mean,
+    };
+    let before = img.rgb[0].clone();
+    let (_, peak) = peak_of(|| apply_disk_in_place(&mut img, &setup).unwrap());
+    assert_ne!(img.rgb[0], before, "the image was filtered");
+    let per_pixel = peak as f64 / img.len() as f64;
+    eprintln!("disk: filter peak {per_pixel:.2} bytes per pixel");
+    assert!(
+        per_pixel <= PER_PIXEL_PATH_EXTRA_BYTES_PER_PIXEL,
+        "the disk path added {per_pixel:.2} bytes per pixel, above \
+         {PER_PIXEL_PATH_EXTRA_BYTES_PER_PIXEL}"
+    );
+}

@@ -13,7 +13,7 @@ use pyo3::prelude::*;
 use ssskit::filter::accumulate::Accumulate;
 use ssskit::filter::angular::{angular_view, around_pass, AngularView, Light};
 use ssskit::filter::cpu::{self, PixelSampling, Precision};
-use ssskit::filter::disk::{apply_disk, DiskSetup};
+use ssskit::filter::disk::{apply_disk_in_place, DiskSetup};
 use ssskit::filter::disk_gpu::DiskGpu;
 use ssskit::filter::image::{
     read_image as lib_read_image, write_image as lib_write_image, PngDepth,
@@ -369,7 +369,9 @@ fn apply<'py>(
             if gpu_backend {
                 gpu::Gpu::new()?.apply(&img, &setup)
             } else {
-                cpu::apply_with(&img, &setup, precision)
+                let mut img = img;
+                cpu::apply_in_place(&mut img, &setup, precision)?;
+                Ok(img)
             }
         })
     })?;
@@ -431,7 +433,9 @@ fn run_disk(
             if gpu_backend {
                 DiskGpu::new()?.apply(&img, &setup)
             } else {
-                apply_disk(&img, &setup)
+                let mut img = img;
+                apply_disk_in_place(&mut img, &setup)?;
+                Ok(img)
             }
         })
     })

@@ -294,7 +294,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let mut view = view_of(&args, scale, depth, &image)?;
         let specular = take_specular(&mut view, around.is_some());
         let out = around_pass(around.as_ref(), image, specular, |img| {
-            disk::run(&args, kernel_path, view, &img)
+            disk::run(&args, kernel_path, view, img)
         })?;
         write_image(out_path, &out, png_depth)?;
         eprintln!(

@@ -5,13 +5,14 @@ use super::Args;
 use crate::cli::args::Backend;
 use anyhow::{bail, Context};
 use ssskit::filter::accumulate::Accumulate;
-use ssskit::filter::disk::{apply_disk, DiskSetup};
+use ssskit::filter::disk::{apply_disk_in_place, DiskSetup};
 use ssskit::filter::disk_gpu::DiskGpu;
 use ssskit::filter::{Image, Setup};
 use ssskit::kernel::disk::DiskKernelFile;
 use std::path::Path;
 
-pub fn run(args: &Args, path: &Path, view: Setup, image: &Image) -> anyhow::Result<Image> {
+/// The disk pass over `image`: the CPU filters it in place (docs/filter.md).
+pub fn run(args: &Args, path: &Path, view: Setup, image: Image) -> anyhow::Result<Image> {
     if args.taps_only || args.full_factors || args.jitter {
         bail!(
             "--full-factors and --jitter apply to separable kernels; {} is a disk kernel (its \
@@ -24,40 +25,44 @@ pub fn run(args: &Args, path: &Path, view: Setup, image: &Image) -> anyhow::Resu
         DiskSetup::new(&kernel, view, args.frame_seed, args.frames).accumulated_by(args.accumulate);
     let ema = setup.accumulate != Accumulate::Mean;
     setup
-        .validate(image)
+        .validate(&image)
         .with_context(|| format!("applying {}", path.display()))?;
     let n = kernel.samples_per_pixel();
-    let cpu = |why: &str| -> anyhow::Result<Image> {
+    let cpu = |mut image: Image, why: &str| -> anyhow::Result<Image> {
         eprintln!("backend: cpu (disk, f64{why}), {n} samples per pixel");
-        Ok(apply_disk(image, &setup)?)
+        apply_disk_in_place(&mut image, &setup)?;
+        Ok(image)
     };
     match args.backend.backend {
-        Backend::Cpu => cpu(""),
+        Backend::Cpu => cpu(image, ""),
         Backend::Gpu if ema => bail!(
             "--accumulate {}: the wgpu disk pass takes the plain mean; use --backend cpu",
             setup.accumulate.name()
         ),
-        Backend::Auto if ema => cpu("; auto: --accumulate ema runs on the CPU"),
+        Backend::Auto if ema => cpu(image, "; auto: --accumulate ema runs on the CPU"),
         Backend::Gpu => {
             let g = DiskGpu::new()?;
             eprintln!(
                 "backend: gpu (disk), adapter {}, {n} samples per pixel",
                 g.describe()
             );
-            Ok(g.apply(image, &setup)?)
+            Ok(g.apply(&image, &setup)?)
         }
         Backend::Auto => match ssskit::gpu::GpuContext::open() {
             Ok(ctx) if !ctx.is_software() => {
                 drop(ctx);
                 let g = DiskGpu::new()?;
                 eprintln!("backend: gpu (auto, disk), adapter {}", g.describe());
-                Ok(g.apply(image, &setup)?)
+                Ok(g.apply(&image, &setup)?)
             }
-            Ok(ctx) => cpu(&format!(
-                "; auto: the only adapter, {}, is a software rasteriser",
-                ctx.describe()
-            )),
-            Err(e) => cpu(&format!("; auto: {e}")),
+            Ok(ctx) => cpu(
+                image,
+                &format!(
+                    "; auto: the only adapter, {}, is a software rasteriser",
+                    ctx.describe()
+                ),
+            ),
+            Err(e) => cpu(image, &format!("; auto: {e}")),
         },
     }
 }

@@ -13,7 +13,7 @@ pub use super::exact::{
     check_reference_fits, convolve_2d, reference_kernel, reference_kernel_sampled, PixelSampling,
     FFT_ABOVE,
 };
-pub use super::screen_space::apply_screen_space;
+pub use super::screen_space::{apply_screen_space, apply_screen_space_in_place};
 use super::separable::apply_separable_in;
 pub use super::separable::{
     apply_separable, apply_separable_f32, apply_separable_in_place, apply_separable_into,
@@ -43,15 +43,15 @@ pub fn apply_with(image: &Image, setup: &Setup, precision: Precision) -> Result<
 /// [`apply_with`] overwriting `image`, as `ssskit apply` runs it: the
 /// fixed-kernel path filters in place (the image plus a ring of rows per
 /// thread and halo rows of at most 1/8 of a plane); the per-pixel
-/// algorithm still writes a fresh image, which then replaces the input.
+/// algorithm sweeps in place too (the image plus a window of filtered rows
+/// per rank, `screen_space`).
 pub fn apply_in_place(image: &mut Image, setup: &Setup, precision: Precision) -> Result<()> {
     setup.validate(image)?;
     if setup.is_uniform() {
         let kernels = fixed_kernels(image, setup);
         precision.separable_in_place(image, &kernels);
     } else {
-        let out = apply_screen_space(image, setup);
-        *image = out;
+        apply_screen_space_in_place(image, setup);
     }
     add_specular_into(image, setup.specular.as_ref());
     Ok(())

@@ -21,6 +21,7 @@ use super::image::par_planes;
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
 use crate::kernel::disk::DiskKernelFile;
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Most frames one filtering may accumulate: a temporal filter's history
@@ -101,8 +102,7 @@ impl DiskSetup {
         }
         let widest = self
             .view
-            .steps(image.width, image.height)
-            .into_iter()
+            .steps_iter(image.width, image.height)
             .fold(0.0, f64::max);
         if !widest.is_finite() {
             return Err(Error::Unsupported(
@@ -132,17 +132,93 @@ impl DiskSetup {
 /// The disk pass over `setup.frames` rotations (their mean), the specular
 /// image added after.
 pub fn apply_disk(image: &Image, setup: &DiskSetup) -> Result<Image> {
+    let mut out = image.clone();
+    apply_disk_in_place(&mut out, setup)?;
+    Ok(out)
+}
+
+/// [`apply_disk`] overwriting `image`, as `ssskit apply` runs it: bands of
+/// output rows wait in a buffer until no later band's samples reach them
+/// (the vertical reach of the widest rotated sample), then replace their
+/// input rows. Besides the image it holds about three reaches of rows, not
+/// a full-size output (796 MB at 8K in f64) nor the plane of steps.
+pub fn apply_disk_in_place(image: &mut Image, setup: &DiskSetup) -> Result<()> {
     setup.validate(image)?;
-    let mut out = Pass::new(image, setup).run(setup.seed, setup.frames);
+    sweep(image, setup, None);
     if let Some(s) = &setup.view.specular {
         for c in 0..3 {
-            out.rgb[c]
+            image.rgb[c]
                 .iter_mut()
                 .zip(&s.rgb[c])
                 .for_each(|(o, v)| *o += v);
         }
     }
-    Ok(out)
+    Ok(())
+}
+
+/// Fewest rows per band: the rows of a band are shared between threads.
+const MIN_BAND_ROWS: usize = 32;
+
+/// Band height in reaches: the buffer holds the reach of rows still read
+/// by the next band plus a band, so a band of two reaches keeps the rows
+/// that wait to at most half of those computed.
+const BAND_PER_REACH: usize = 2;
+
+/// Rows beyond `ceil(max radius x max step)` a sample reads: one for the
+/// floor of a negative position, one for the bilinear fetch's second row.
+const REACH_MARGIN_ROWS: f64 = 2.0;
+
+/// The in-place sweep in bands of `band` rows (None: from the reach).
+fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>) {
+    let (w, h) = (image.width, image.height);
+    let widest = setup.view.steps_iter(w, h).fold(0.0, f64::max);
+    let radius = setup
+        .taps
+        .iter()
+        .map(|t| t.x_mm.hypot(t.y_mm))
+        .fold(0.0, f64::max);
+    let r = (radius * widest).ceil() + REACH_MARGIN_ROWS;
+    // NaN or beyond the image: every row.
+    let reach = if r < h as f64 { r as usize } else { h };
+    let band = band
+        .unwrap_or_else(|| BAND_PER_REACH.saturating_mul(reach).max(MIN_BAND_ROWS))
+        .clamp(1, h);
+    let cap = band.saturating_add(reach).min(h);
+    let weights = setup.accumulate.weights(setup.frames);
+    let mut buf: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; cap * w]);
+    // Rows `pending..a` of the output wait in `buf` from its start.
+    let mut pending = 0;
+    let mut a = 0;
+    while a < h {
+        let b = (a + band).min(h);
+        let pass = Pass::new(image, setup);
+        let [r, g, bl] = &mut buf;
+        let span = (a - pending) * w..(b - pending) * w;
+        r[span.clone()]
+            .par_chunks_mut(w)
+            .zip(g[span.clone()].par_chunks_mut(w))
+            .zip(bl[span].par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(j, ((r, g), bl))| {
+                for x in 0..w {
+                    let v = pass.pixel(x, a + j, setup.seed, &weights);
+                    (r[x], g[x], bl[x]) = (v[0], v[1], v[2]);
+                }
+            });
+        // The next band reads rows from b - reach on.
+        let done = if b == h {
+            h
+        } else {
+            b.saturating_sub(reach).max(pending)
+        };
+        for (c, plane) in buf.iter_mut().enumerate() {
+            let n = (done - pending) * w;
+            image.rgb[c][pending * w..done * w].copy_from_slice(&plane[..n]);
+            plane.copy_within(n..(b - pending) * w, 0);
+        }
+        pending = done;
+        a = b;
+    }
 }
 
 /// The diffuse result of each frame `seed + k`, k < `frames`, apart (no
@@ -158,7 +234,8 @@ pub fn disk_frames(image: &Image, setup: &DiskSetup) -> Result<Vec<Image>> {
 struct Pass<'a> {
     image: &'a Image,
     setup: &'a DiskSetup,
-    steps: Vec<f64>,
+    /// [`super::Scale::step_base`] of the image's height.
+    base: f64,
     depth: Option<&'a [f64]>,
     follow: Option<f64>,
 }
@@ -169,12 +246,11 @@ impl<'a> Pass<'a> {
         Pass {
             image,
             setup,
-            steps: v.steps(image.width, image.height),
+            base: v.scale.step_base(image.height),
             depth: v.depth.as_ref().map(|d| d.data.as_slice()),
             follow: v.follow_surface.map(|f| f.rate(&v.scale)),
         }
     }
-
     fn run(&self, first: u32, frames: u32) -> Image {
         let (w, h) = (self.image.width, self.image.height);
         let weights = self.setup.accumulate.weights(frames);
@@ -210,7 +286,7 @@ impl<'a> Pass<'a> {
     fn pixel(&self, x: usize, y: usize, first: u32, weights: &[f64]) -> [f64; 3] {
         let (w, h) = (self.image.width, self.image.height);
         let centre = y * w + x;
-        let step = self.steps[centre];
+        let step = self.setup.view.step_at(self.base, centre);
         let rgb = &self.image.rgb;
         let centre_colour = [rgb[0][centre], rgb[1][centre], rgb[2][centre]];
         let mut acc = [0.0; 3];
@@ -244,5 +320,64 @@ impl<'a> Pass<'a> {
             }
         }
         acc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::signals::noise;
+    use crate::filter::{FollowSurface, Plane, Scale};
+
+    #[test]
+    fn bands_of_any_height_give_the_one_band_result_bit_for_bit() {
+        let (w, h) = (17, 64);
+        let img = noise(w, h, 5);
+        let depth = Plane {
+            width: w,
+            height: h,
+            data: (0..w * h)
+                .map(|i| 1.0 + ((i * 31) % 7) as f64 * 0.1)
+                .collect(),
+        };
+        let view = Setup {
+            passes: vec![],
+            scale: Scale::MmPerPixel(0.5),
+            depth: Some(depth),
+            strength: None,
+            follow_surface: Some(FollowSurface::InSceneUnits(1.5)),
+            specular: None,
+            jitter: false,
+        };
+        let taps = (0..9)
+            .map(|i| {
+                let (r, a) = (0.3 * i as f64, 2.4 * i as f64);
+                DiskTap {
+                    x_mm: r * a.cos(),
+                    y_mm: r * a.sin(),
+                    weight: [0.1, 0.12, 0.09],
+                }
+            })
+            .collect();
+        let setup = DiskSetup {
+            taps,
+            view,
+            seed: 3,
+            frames: 2,
+            accumulate: Accumulate::Mean,
+        };
+        // Reach: 2.4 mm x 2 px/mm + 2 = 7 rows, well under the height.
+        let mut whole = img.clone();
+        sweep(&mut whole, &setup, Some(h));
+        for band in [1, 3, 8, 20] {
+            let mut banded = img.clone();
+            sweep(&mut banded, &setup, Some(band));
+            for c in 0..3 {
+                for (i, (a, b)) in banded.rgb[c].iter().zip(&whole.rgb[c]).enumerate() {
+                    assert_eq!(a.to_bits(), b.to_bits(), "band {band}, c {c}, pixel {i}");
+                }
+            }
+        }
+        assert_ne!(whole.rgb[0], img.rgb[0]);
     }
 }

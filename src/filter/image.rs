@@ -237,29 +237,16 @@ pub fn read_image(path: &Path, depth_channel: Option<&str>) -> Result<(Image, Ex
 pub fn read_plane(path: &Path, channel: Option<&str>) -> Result<Plane> {
     match kind_of(path)? {
         Kind::Exr => {
-            let mut channels = exr_channels(path)?;
-            let (w, h) = channels.0;
             let names: Vec<&str> = match channel {
                 Some(c) => vec![c],
                 None => vec!["Z", "Y", "R"],
             };
-            for n in &names {
-                if let Some(i) = channels.1.iter().position(|(name, _)| name == n) {
-                    return Ok(Plane {
-                        width: w,
-                        height: h,
-                        data: std::mem::take(&mut channels.1[i].1),
-                    });
-                }
-            }
-            Err(Error::format(
-                path,
-                format!(
-                    "no channel {} (channels: {})",
-                    names.join(" or "),
-                    channel_list(&channels.1)
-                ),
-            ))
+            let ((width, height), data) = super::exr_plane::read_exr_plane(path, &names)?;
+            Ok(Plane {
+                width,
+                height,
+                data,
+            })
         }
         Kind::Png => {
             if channel.is_some() {
@@ -351,7 +338,7 @@ fn exr_channels(path: &Path) -> Result<Channels> {
     // The headers state the sizes: refuse them before any pixel is read.
     let meta =
         exr::meta::MetaData::read_from_buffered(buffered(path)?, false).map_err(unreadable)?;
-    check_exr_headers(&path.display().to_string(), &meta.headers)?;
+    super::exr_plane::check_exr_headers(&path.display().to_string(), &meta.headers)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -380,44 +367,6 @@ fn exr_channels(path: &Path) -> Result<Channels> {
         out.push((ch.name.to_string(), v));
     }
     Ok(((w, h), out))
-}
-
-/// Refuses EXR headers whose parts are over the image size cap, or whose
-/// samples over all channels and parts exceed
-/// [`crate::limits::MAX_EXR_DECODE_BYTES`] (64 channels or 200 parts of an
-/// 8K image each pass the per-layer size check). `what` names the file.
-pub fn check_exr_headers(what: &str, headers: &[exr::meta::header::Header]) -> Result<()> {
-    let max = crate::limits::MAX_EXR_DECODE_BYTES;
-    let mut declared: u64 = 0;
-    let mut channels = 0usize;
-    for header in headers {
-        let size = header.layer_size;
-        crate::limits::check_image_size(what, size.x(), size.y())?;
-        for ch in header.channels.list.iter() {
-            let (sx, sy) = (ch.sampling.x().max(1), ch.sampling.y().max(1));
-            let samples = (size.x() / sx) as u64 * (size.y() / sy) as u64;
-            let bytes = samples.saturating_mul(ch.sample_type.bytes_per_sample() as u64);
-            declared = declared.saturating_add(bytes);
-            channels += 1;
-        }
-    }
-    if declared > max {
-        return Err(Error::invalid(
-            what,
-            "samples",
-            format!(
-                "{declared} bytes in {channels} channel(s) of {} part(s)",
-                headers.len()
-            ),
-            format!(
-                "at most {max} bytes ({} MiB: RGBA and depth in f32 at the image size cap) over \
-                 all channels and parts: keep the channels ssskit reads (R, G, B, A, depth) in \
-                 one part",
-                max >> 20
-            ),
-        ));
-    }
-    Ok(())
 }
 
 fn read_exr(path: &Path, depth_channel: Option<&str>) -> Result<(Image, Extras)> {

@@ -35,8 +35,7 @@ pub fn kernel_setup(
     };
     setup.validate(image)?;
     let largest_step = setup
-        .steps(image.width, image.height)
-        .into_iter()
+        .steps_iter(image.width, image.height)
         .fold(0.0, f64::max);
     let sampled = factors != Which::Full || uniform.is_none();
     let warnings = scale_warnings(&setup.passes, largest_step, sampled);

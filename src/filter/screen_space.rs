@@ -3,11 +3,34 @@
 //! tap offsets are scaled by the pixel's own step (strength, perspective
 //! depth; Freude 2014, eq. 4.11), optionally jittered inside each tap's
 //! footprint, with the depth-aware lerp toward the centre colour (Freude
-//! 2014, eq. 4.12; Jimenez et al. 2009). Rayon over rows; each output pixel
-//! is computed by one thread (deterministic).
+//! 2014, eq. 4.12; Jimenez et al. 2009).
+//!
+//! Swept in place, top to bottom in bands of rows: per rank, a window of
+//! horizontally filtered rows (the rows a band's vertical taps can reach)
+//! slides down the image, and each band's output replaces its input rows,
+//! which no later horizontal row reads. Besides the image, the sweep holds
+//! one window per rank (about four times the vertical reach, in rows),
+//! not the full-size intermediate and output images of a two-pass
+//! filter (796 MB each at 8K in f64). Rayon over the rows of a band; each
+//! output pixel is the same sum in the same order whatever the band or the
+//! thread count (deterministic).
 
-use super::image::par_planes;
 use super::{Image, Setup, Taps};
+use rayon::prelude::*;
+
+/// Fewest rows per band: the rows of a band are shared between threads.
+const MIN_BAND_ROWS: usize = 32;
+
+/// Band height in vertical reaches: the window keeps the `2 reach` rows
+/// that the next band also reads and computes `band` new ones, so with a
+/// band of two reaches the copied rows are at most as many as the new ones
+/// and the window is four reaches tall.
+const BAND_PER_REACH: usize = 2;
+
+/// Rows beyond the reach `ceil(max |offset| x max step)` that a vertical
+/// sample reads: one for the floor of a negative position, one for the
+/// second pixel of the linear interpolation.
+const REACH_MARGIN_ROWS: f64 = 2.0;
 
 /// The direction of a 1D pass; the jitter of a tap differs between the two.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -20,48 +43,155 @@ enum Axis {
 /// horizontal pass. `setup` is taken as valid and the specular image is
 /// not added (see `cpu::apply`, which does both).
 pub fn apply_screen_space(image: &Image, setup: &Setup) -> Image {
+    let mut out = image.clone();
+    apply_screen_space_in_place(&mut out, setup);
+    out
+}
+
+/// [`apply_screen_space`] overwriting `image` (its alpha kept).
+pub fn apply_screen_space_in_place(image: &mut Image, setup: &Setup) {
+    sweep(image, setup, None);
+}
+
+/// The sweep, in bands of `band` rows (None: from the vertical reach).
+fn sweep(image: &mut Image, setup: &Setup, band: Option<usize>) {
     let (w, h) = (image.width, image.height);
-    let steps = setup.steps(w, h);
-    let depth = setup.depth.as_ref().map(|d| d.data.as_slice());
-    let follow = setup.follow_surface.map(|f| f.rate(&setup.scale));
-    // The first rank's result becomes the sum (no zeroed image beside it:
-    // at 8K each f64 image is 796 MB).
-    let mut sum: Option<[Vec<f64>; 3]> = None;
-    for taps in &setup.passes {
-        let footprints = setup.jitter.then(|| taps.footprints());
-        let ctx = PassCtx {
+    if setup.passes.is_empty() || w * h == 0 {
+        image.rgb.iter_mut().for_each(|p| p.fill(0.0));
+        return;
+    }
+    let footprints: Vec<Option<Vec<(f64, f64)>>> = setup
+        .passes
+        .iter()
+        .map(|t| setup.jitter.then(|| t.footprints()))
+        .collect();
+    let ctxs: Vec<PassCtx> = setup
+        .passes
+        .iter()
+        .zip(&footprints)
+        .map(|(taps, f)| PassCtx {
             w,
             h,
             taps,
-            steps: &steps,
-            depth,
-            follow,
-            footprints: footprints.as_deref(),
-        };
-        let tmp = ctx.run(&image.rgb, Axis::Horizontal);
-        let v = ctx.run(&tmp, Axis::Vertical);
-        drop(tmp);
-        match sum.as_mut() {
-            None => sum = Some(v),
-            Some(s) => {
-                for c in 0..3 {
-                    s[c].iter_mut().zip(&v[c]).for_each(|(o, x)| *o += x);
-                }
-            }
+            setup,
+            base: setup.scale.step_base(h),
+            depth: setup.depth.as_ref().map(|d| d.data.as_slice()),
+            follow: setup.follow_surface.map(|f| f.rate(&setup.scale)),
+            footprints: f.as_deref(),
+        })
+        .collect();
+    let reach = reach_rows(setup, &ctxs, w, h);
+    let band = band
+        .unwrap_or_else(|| BAND_PER_REACH.saturating_mul(reach).max(MIN_BAND_ROWS))
+        .clamp(1, h);
+    let cap = band.saturating_add(2 * reach).min(h);
+    let mut windows: Vec<Window> = ctxs.iter().map(|_| Window::new(cap, w)).collect();
+    let mut a = 0;
+    while a < h {
+        let b = (a + band).min(h);
+        // Every rank's rows first: a band's output overwrites rows that
+        // the horizontal pass of a later rank would otherwise read.
+        for (win, ctx) in windows.iter_mut().zip(&ctxs) {
+            win.advance(a.saturating_sub(reach), (b + reach).min(h), ctx, image);
+        }
+        for (k, (win, ctx)) in windows.iter().zip(&ctxs).enumerate() {
+            ctx.vertical_rows(win, image, a, b, k > 0);
+        }
+        a = b;
+    }
+}
+
+/// Rows above or below its own that a vertical sample can read: the
+/// largest |offset| (with jitter, anywhere in a tap's footprint) times the
+/// largest step, plus [`REACH_MARGIN_ROWS`]; at most the image height.
+fn reach_rows(setup: &Setup, ctxs: &[PassCtx], w: usize, h: usize) -> usize {
+    let widest = setup.steps_iter(w, h).fold(0.0, f64::max);
+    let offset = ctxs
+        .iter()
+        .flat_map(|c| match c.footprints {
+            Some(f) => f.iter().map(|(s, d)| s.abs() + d.abs()).collect::<Vec<_>>(),
+            None => c.taps.offsets_mm.iter().map(|o| o.abs()).collect(),
+        })
+        .fold(0.0, f64::max);
+    let reach = (offset * widest).ceil() + REACH_MARGIN_ROWS;
+    // NaN or beyond the image: every row.
+    if reach < h as f64 {
+        reach as usize
+    } else {
+        h
+    }
+}
+
+/// One rank's horizontally filtered rows `first..first + rows`, each
+/// plane's row `r` at `(r - first) * w`.
+struct Window {
+    planes: [Vec<f64>; 3],
+    first: usize,
+    rows: usize,
+    w: usize,
+}
+
+impl Window {
+    fn new(cap: usize, w: usize) -> Window {
+        Window {
+            planes: std::array::from_fn(|_| vec![0.0; cap * w]),
+            first: 0,
+            rows: 0,
+            w,
         }
     }
-    let mut out = Image::new(0, 0);
-    (out.width, out.height) = (w, h);
-    out.rgb = sum.unwrap_or_else(|| Image::new(w, h).rgb);
-    out.alpha = image.alpha.clone();
-    out
+
+    /// Holds rows `lo..hi`: drops the rows above `lo` (the rest moves to
+    /// the front) and filters the new ones from `image`, whose rows from
+    /// the old end on are still the input.
+    fn advance(&mut self, lo: usize, hi: usize, ctx: &PassCtx, image: &Image) {
+        let w = self.w;
+        let drop = lo.saturating_sub(self.first).min(self.rows);
+        for p in &mut self.planes {
+            p.copy_within(drop * w..self.rows * w, 0);
+        }
+        self.first += drop;
+        self.rows -= drop;
+        let start = self.first + self.rows;
+        if hi <= start {
+            return;
+        }
+        let span = self.rows * w..(hi - self.first) * w;
+        let [r, g, b] = &mut self.planes;
+        r[span.clone()]
+            .par_chunks_mut(w)
+            .zip(g[span.clone()].par_chunks_mut(w))
+            .zip(b[span].par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(j, ((r, g), b))| {
+                let y = start + j;
+                let row = y * w..(y + 1) * w;
+                let src = Src {
+                    planes: std::array::from_fn(|c| &image.rgb[c][row.clone()]),
+                    first: y,
+                };
+                for x in 0..w {
+                    let v = ctx.pixel(&src, Axis::Horizontal, x, y);
+                    (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
+                }
+            });
+        self.rows = hi - self.first;
+    }
+}
+
+/// Where a pass reads: three planes whose row 0 is the image's row `first`.
+struct Src<'a> {
+    planes: [&'a [f64]; 3],
+    first: usize,
 }
 
 struct PassCtx<'a> {
     w: usize,
     h: usize,
     taps: &'a Taps,
-    steps: &'a [f64],
+    setup: &'a Setup,
+    /// [`super::Scale::step_base`] of the image's height.
+    base: f64,
     depth: Option<&'a [f64]>,
     follow: Option<f64>,
     /// Jittered taps: each tap's footprint (start, width) in kernel mm.
@@ -69,20 +199,45 @@ struct PassCtx<'a> {
 }
 
 impl PassCtx<'_> {
-    fn run(&self, src: &[Vec<f64>; 3], axis: Axis) -> [Vec<f64>; 3] {
-        par_planes(self.w, self.h, |x, y| self.pixel(src, axis, x, y))
+    /// Rows `a..b` of the vertical pass over `win`, written into `image`
+    /// (`add`: added to what the earlier ranks left there).
+    fn vertical_rows(&self, win: &Window, image: &mut Image, a: usize, b: usize, add: bool) {
+        let w = self.w;
+        let src = Src {
+            planes: std::array::from_fn(|c| &win.planes[c][..win.rows * w]),
+            first: win.first,
+        };
+        let [r, g, bl] = &mut image.rgb;
+        let span = a * w..b * w;
+        r[span.clone()]
+            .par_chunks_mut(w)
+            .zip(g[span.clone()].par_chunks_mut(w))
+            .zip(bl[span].par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(j, ((r, g), bl))| {
+                for x in 0..w {
+                    let v = self.pixel(&src, Axis::Vertical, x, a + j);
+                    if add {
+                        (r[x], g[x], bl[x]) = (r[x] + v[0], g[x] + v[1], bl[x] + v[2]);
+                    } else {
+                        (r[x], g[x], bl[x]) = (v[0], v[1], v[2]);
+                    }
+                }
+            });
     }
 
-    fn pixel(&self, src: &[Vec<f64>; 3], axis: Axis, x: usize, y: usize) -> [f64; 3] {
+    fn pixel(&self, src: &Src, axis: Axis, x: usize, y: usize) -> [f64; 3] {
         let (w, h) = (self.w, self.h);
         let centre = y * w + x;
+        let shift = src.first * w;
         let (coord, n, stride, base) = match axis {
             Axis::Horizontal => (x, w, 1, y * w),
             Axis::Vertical => (y, h, w, x),
         };
-        let step = self.steps[centre];
-        let planes = [&src[0][..], &src[1][..], &src[2][..]];
-        let centre_colour = [planes[0][centre], planes[1][centre], planes[2][centre]];
+        let step = self.setup.step_at(self.base, centre);
+        let planes = src.planes;
+        let local = centre - shift;
+        let centre_colour = [planes[0][local], planes[1][local], planes[2][local]];
         let mut acc = [0.0; 3];
         let axis_id = match axis {
             Axis::Horizontal => 0,
@@ -111,7 +266,7 @@ impl PassCtx<'_> {
             let (a, b) = (base + i0 * stride, base + i1 * stride);
             let mut o = [0.0; 3];
             for c in 0..3 {
-                o[c] = planes[c][a] * (1.0 - f) + planes[c][b] * f;
+                o[c] = planes[c][a - shift] * (1.0 - f) + planes[c][b - shift] * f;
             }
             if let (Some(k), Some(d)) = (self.follow, self.depth) {
                 let od = d[a] * (1.0 - f) + d[b] * f;
@@ -126,5 +281,90 @@ impl PassCtx<'_> {
             }
         }
         acc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::signals::noise;
+    use crate::filter::{FollowSurface, Plane, Scale};
+
+    /// Two ranks of a small asymmetric kernel with every per-pixel feature
+    /// on (perspective depth, strength, jitter, the depth-aware lerp): a
+    /// reach of a few rows on an image of 70, so small bands slide the
+    /// window and drop rows.
+    fn busy_setup(w: usize, h: usize) -> Setup {
+        let taps = Taps {
+            offsets_mm: vec![-0.9, -0.3, 0.0, 0.4, 1.1],
+            weights: vec![
+                [0.1, 0.2, 0.05],
+                [0.2, 0.2, 0.25],
+                [0.4, 0.3, 0.4],
+                [0.2, 0.2, 0.2],
+                [0.1, 0.1, 0.1],
+            ],
+        };
+        let mut other = taps.clone();
+        other.offsets_mm.iter_mut().for_each(|o| *o *= -0.7);
+        let plane = |f: &dyn Fn(usize) -> f64| Plane {
+            width: w,
+            height: h,
+            data: (0..w * h).map(f).collect(),
+        };
+        Setup {
+            passes: vec![taps, other],
+            scale: Scale::Perspective {
+                fov_y_deg: 40.0,
+                sss_width: 0.01,
+            },
+            depth: Some(plane(&|i| 0.5 + ((i * 7919) % 13) as f64 * 0.05)),
+            strength: Some(plane(&|i| 0.5 + ((i * 104729) % 5) as f64 * 0.25)),
+            follow_surface: Some(FollowSurface::InSceneUnits(2.0)),
+            specular: None,
+            jitter: true,
+        }
+    }
+
+    #[test]
+    fn bands_of_any_height_give_the_one_band_result_bit_for_bit() {
+        let (w, h) = (19, 70);
+        let img = noise(w, h, 99);
+        let setup = busy_setup(w, h);
+        let ctxs_reach = {
+            let f: Vec<_> = setup.passes.iter().map(|t| t.footprints()).collect();
+            let ctxs: Vec<PassCtx> = setup
+                .passes
+                .iter()
+                .zip(&f)
+                .map(|(taps, f)| PassCtx {
+                    w,
+                    h,
+                    taps,
+                    setup: &setup,
+                    base: setup.scale.step_base(h),
+                    depth: None,
+                    follow: None,
+                    footprints: Some(f),
+                })
+                .collect();
+            reach_rows(&setup, &ctxs, w, h)
+        };
+        // The window must be shorter than the image for the test to mean
+        // anything: rows are dropped and filtered again never.
+        assert!(4 * ctxs_reach < h, "reach {ctxs_reach}");
+        let mut whole = img.clone();
+        sweep(&mut whole, &setup, Some(h));
+        for band in [1, 2, 5, 13, 31] {
+            let mut banded = img.clone();
+            sweep(&mut banded, &setup, Some(band));
+            for c in 0..3 {
+                for (i, (a, b)) in banded.rgb[c].iter().zip(&whole.rgb[c]).enumerate() {
+                    assert_eq!(a.to_bits(), b.to_bits(), "band {band}, c {c}, pixel {i}");
+                }
+            }
+        }
+        // And the result is a blur, not the input.
+        assert_ne!(whole.rgb[0], img.rgb[0]);
     }
 }
