@@ -415,6 +415,61 @@ fn kernels_runs_the_main_job_in_one_command() {
     assert!(stdout.contains(advice["label"].as_str().unwrap()));
     let rows = read(&out.join("compare.json"));
     assert!(rows.as_array().unwrap().len() >= 3 * 10);
+    recommended_is_what_was_scored(&out, &advice);
+    stage_times_add_up(&std::fs::read_to_string(out.join("report.md")).unwrap());
+}
+
+/// recommended.json runs exactly what the advice scored: the fingerprint
+/// of its passes (a separable kernel's as scored, a disk kernel's
+/// samples) is the one advice.json carries for the chosen row.
+fn recommended_is_what_was_scored(out: &Path, advice: &Value) {
+    use ssskit::report::eval::{advise_disk, advise_search};
+    let path = out.join("recommended.json");
+    let written = if advice["disk"].is_null() {
+        let k = ssskit::kernel::KernelFile::read(&path).unwrap();
+        let mm = advice["mm_per_pixel"].as_f64().unwrap();
+        advise_search::fingerprint(&advise_search::scored_passes(
+            &k,
+            advice["taps"].is_null(),
+            mm,
+        ))
+    } else {
+        advise_disk::disk_fingerprint(&ssskit::kernel::disk::DiskKernelFile::read(&path).unwrap())
+    };
+    assert_eq!(advice["fingerprint"].as_str(), Some(written.as_str()));
+}
+
+/// Seconds the report's rounding to milliseconds can add to the sum of
+/// the six stages against the total: half a millisecond for each of the
+/// seven numbers.
+const STAGE_ROUNDING_S: f64 = 7.0 * 0.0005;
+
+/// The main job's stages in report.md's table, in order.
+const STAGES: [&str; 6] = ["profile", "truth", "fits", "images", "advice", "files"];
+
+/// report.md's "Stage times": the six stages in order, each a positive
+/// number of seconds, their sum at most the total (a structure check, not
+/// a timing test).
+fn stage_times_add_up(report: &str) {
+    let at = report.find("## Stage times").expect("a stage-time table");
+    let rows: Vec<(String, f64)> = report[at..]
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| stage") && !l.starts_with("| ---"))
+        .map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            (cells[1].to_string(), cells[2].parse().unwrap())
+        })
+        .collect();
+    let names: Vec<&str> = rows.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names[..STAGES.len()], STAGES, "{report}");
+    assert_eq!(names.get(STAGES.len()), Some(&"total"), "{report}");
+    let total = rows[STAGES.len()].1;
+    let stages: Vec<f64> = rows[..STAGES.len()].iter().map(|r| r.1).collect();
+    assert!(stages.iter().all(|&s| s > 0.0), "{rows:?}");
+    assert!(
+        stages.iter().sum::<f64>() <= total + STAGE_ROUNDING_S,
+        "{rows:?}"
+    );
 }
 
 /// The study measures every knob (disk kernels too); more photons give a

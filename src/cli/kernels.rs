@@ -59,6 +59,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (profile, source) = a
         .profile
         .load_for_scene(scene.as_ref().map(|(_, _, p)| p.as_slice()), &a.factors)?;
+    let profile_seconds = t0.elapsed().as_secs_f64();
     eprintln!("{}: profile {source}", profile.material.name);
     let settings = Settings {
         mm_per_pixel,
@@ -70,6 +71,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let outcome = pipeline::run(
         &profile,
+        profile_seconds,
         &settings,
         staged.path(),
         &command_line(out_dir),

@@ -52,6 +52,7 @@ impl Model {
 }
 
 /// A fitted model before export.
+#[derive(Clone, Debug)]
 pub struct Fitted {
     pub factors: Factors,
     pub params: serde_json::Value,
@@ -151,6 +152,22 @@ pub fn assemble(
     assemble_with(profile, k, model, fitted, tap_count, None)
 }
 
+/// The tap table of `model` with `factors` fitted to `k`: the one a kernel
+/// file stores and the one a search scores, so the two cannot differ.
+pub fn tap_table(
+    model: &Model,
+    k: &Kernel2D,
+    factors: &Factors,
+    tap_count: usize,
+    tap_extent_mm: Option<f64>,
+) -> Result<super::TapTable> {
+    match model {
+        // Jimenez's model is defined by its own table (iryoku's calculateKernel).
+        Model::Jimenez(p) => jimenez::table(p, tap_count, tap_extent_mm),
+        _ => taps::tap_table_with(k, factors, tap_count, tap_extent_mm),
+    }
+}
+
 /// [`assemble`] with an explicit tap extent (None: chosen for the count).
 pub fn assemble_with(
     profile: &Profile,
@@ -160,11 +177,7 @@ pub fn assemble_with(
     tap_count: usize,
     tap_extent_mm: Option<f64>,
 ) -> Result<KernelFile> {
-    // Jimenez's model is defined by its own table (iryoku's calculateKernel).
-    let taps = match model {
-        Model::Jimenez(p) => jimenez::table(p, tap_count, tap_extent_mm)?,
-        _ => taps::tap_table_with(k, &fitted.factors, tap_count, tap_extent_mm)?,
-    };
+    let taps = tap_table(model, k, &fitted.factors, tap_count, tap_extent_mm)?;
     let m = metrics::measure(k, &fitted.factors);
     let offsets = k.offsets();
     let passes: Vec<Pass> = fitted

@@ -59,6 +59,7 @@ use crate::filter::signals::Signal;
 use crate::filter::warnings::{scale_warnings, ScaleWarning};
 use crate::filter::Scale;
 use crate::kernel::disk::DiskKernelFile;
+use crate::kernel::model::Fitted;
 use crate::kernel::taps::factor_radius_holding;
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile};
 use crate::profile::Profile;
@@ -143,6 +144,7 @@ impl Advice {
             "model": c.model,
             "label": c.label,
             "params": c.params,
+            "fingerprint": c.fingerprint,
             "taps": c.taps,
             "rank": c.rank,
             "passes": c.passes,
@@ -220,15 +222,16 @@ pub fn candidate_models(families: &[String], material: &str) -> Result<Vec<Model
 /// The kernel file an advice holds when only disk rows were searched: the
 /// rank-1 pre-integration (Freude 2014, sec. 5.2) with the default tap
 /// table, the separable model `kernels` lists first.
-fn separable_fallback(profile: &Profile, truth: &Kernel2D) -> Result<KernelFile> {
+fn separable_fallback(search: &Search) -> Result<KernelFile> {
+    let profile = search.profile;
     let spec = model_specs(&["preintegrate".to_string()], &[1], &profile.material.name)?
         .into_iter()
         .next()
         .ok_or_else(|| Error::Unsupported("no pre-integration model".into()))?;
-    let fitted = crate::kernel::model::fit_model(truth, profile, &spec.model)?;
+    let fitted = search.fitted(&spec)?;
     crate::kernel::model::assemble_with(
         profile,
-        truth,
+        &search.truth,
         &spec.model,
         fitted,
         crate::kernel::taps::DEFAULT_TAPS,
@@ -349,22 +352,49 @@ pub fn advise_on_scene(
     scene: Option<(&Scene, &Render)>,
     progress: &dyn Progress,
 ) -> Result<Advice> {
+    advise_prepared(profile, cfg, scene, None, progress)
+}
+
+/// What a caller made already for `profile`: the ground truth on the
+/// default grid and model fits to it by label. [`advise_prepared`] scores
+/// these fits and builds the kernel it returns from them, fitting only a
+/// variant missing here.
+pub struct Prepared {
+    pub truth: Kernel2D,
+    pub fits: BTreeMap<String, Fitted>,
+}
+
+/// [`advise_on_scene`] on the truth and fits of `prepared` (None: made
+/// here).
+pub fn advise_prepared(
+    profile: &Profile,
+    cfg: &Config,
+    scene: Option<(&Scene, &Render)>,
+    prepared: Option<Prepared>,
+    progress: &dyn Progress,
+) -> Result<Advice> {
     validate(cfg)?;
     // A scene whose seen object is of another material is refused before
     // the search, not after it.
     if let Some((scene, render)) = scene {
         super::advise_scene::scored_pixels(scene, render, profile)?;
     }
-    let truth = Kernel2D::from_profile(profile, &Kernel2DSpec::default())?;
+    let prepared = match prepared {
+        Some(p) => p,
+        None => Prepared {
+            truth: Kernel2D::from_profile(profile, &Kernel2DSpec::default())?,
+            fits: BTreeMap::new(),
+        },
+    };
     let refs = Reference::all(profile, &test_cases(cfg)?)?;
     let search = Search {
         profile,
         specs: candidate_models(&cfg.families, &profile.material.name)?,
         refs,
-        truth,
+        truth: prepared.truth,
         cfg,
         progress,
-        fits: Default::default(),
+        fits: std::sync::Mutex::new(prepared.fits),
     };
     progress.start(search.specs.len() as u64, "kernel models");
     let budget = cfg.budget;
@@ -397,7 +427,7 @@ pub fn advise_on_scene(
     let (kernel, passes) = match (c.disk.is_some(), best_separable) {
         (false, _) => search.chosen_kernel(&c)?,
         (true, Some(s)) => search.chosen_kernel(s)?,
-        (true, None) => (separable_fallback(profile, &search.truth)?, Vec::new()),
+        (true, None) => (separable_fallback(&search)?, Vec::new()),
     };
     let (disk_kernel, predicted) = if c.disk.is_some() {
         let (k, p) = search.predict_disk(&c)?;
@@ -475,4 +505,56 @@ fn scene_check(
         c.verdict.rel_rms
     };
     check_on_scene(scene, render, search.profile, &run, at, accepted)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::model::fit_model;
+    use crate::progress::NoProgress;
+    use crate::report::eval::advise_search::{fingerprint, scored_passes};
+
+    /// A fit time no real fit reports: a kernel carrying it was assembled
+    /// from the handed fit, not from a fit made again.
+    const MARKED_SECONDS: f64 = 1234.5;
+
+    /// The advice scores the fits it is handed (no variant is fitted
+    /// again: the kernel carries the handed fit's marked time and its
+    /// factors), and the kernel it returns, written and read back, runs
+    /// exactly the passes the chosen row was scored on.
+    #[test]
+    fn the_advice_scores_and_returns_the_fits_it_is_handed() {
+        let m = crate::material::preset("skin1").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
+        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let truth = Kernel2D::from_profile(&profile, &Kernel2DSpec::default()).unwrap();
+        let mut cfg = Config::new(0.5, DEFAULT_TARGET);
+        cfg.size = 32;
+        cfg.families = vec!["preintegrate".into()];
+        let spec = candidate_models(&cfg.families, "skin1").unwrap().remove(0);
+        let mut fit = fit_model(&truth, &profile, &spec.model).unwrap();
+        fit.seconds = MARKED_SECONDS;
+        let prepared = Prepared {
+            truth: truth.clone(),
+            fits: BTreeMap::from([(spec.label.clone(), fit.clone())]),
+        };
+        let a = advise_prepared(&profile, &cfg, None, Some(prepared), &NoProgress).unwrap();
+        assert_eq!(a.kernel.metrics.fit_seconds, MARKED_SECONDS);
+        let handed: Vec<[f64; 3]> = (0..truth.size)
+            .map(|i| std::array::from_fn(|c| fit.factors[0][c][i]))
+            .collect();
+        assert_eq!(a.kernel.passes[0].weights, handed);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("recommended.json");
+        a.kernel.write(&path).unwrap();
+        let back = KernelFile::read(&path).unwrap();
+        let c = a.chosen();
+        let written = scored_passes(&back, c.taps.is_none(), cfg.mm_per_pixel);
+        assert_eq!(
+            Some(fingerprint(&written)),
+            c.fingerprint,
+            "{}",
+            c.describe()
+        );
+    }
 }

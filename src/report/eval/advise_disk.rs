@@ -79,6 +79,18 @@ pub fn disk_kernel(profile: &Profile, samples: usize) -> Result<DiskKernelFile> 
     fit_disk(&truncated(profile, radius), samples, RadiusPdf::Widest)
 }
 
+/// A fingerprint of a disk kernel's samples (SHA-256 of their JSON, whose
+/// numbers read back to the same bits): the advice carries the chosen
+/// row's, so the written file can be checked to be the one scored.
+pub fn disk_fingerprint(k: &DiskKernelFile) -> String {
+    use sha2::{Digest, Sha256};
+    let json = serde_json::to_vec(&k.samples).unwrap_or_default();
+    Sha256::digest(json)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
 /// sqrt(b^2 + n_K^2) per channel (module doc), the largest.
 fn combined(bias: [f64; 3], after: [f64; 3]) -> f64 {
     (0..3).map(|c| bias[c].hypot(after[c])).fold(0.0, f64::max)
@@ -234,6 +246,7 @@ impl Search<'_> {
             signed: false,
             verdict: Verdict::new(scored, self.cfg.target, scored.len() == self.refs.len()),
             disk: Some(scores),
+            fingerprint: Some(disk_fingerprint(kernel)),
         }
     }
 
@@ -244,6 +257,12 @@ impl Search<'_> {
         c: &Candidate,
     ) -> Result<(DiskKernelFile, BTreeMap<String, ImageErrors>)> {
         let kernel = disk_kernel(self.profile, c.cost)?;
+        if c.fingerprint.as_deref() != Some(disk_fingerprint(&kernel).as_str()) {
+            return Err(Error::Unsupported(format!(
+                "advise: the disk kernel of {} differs from the one scored",
+                c.describe()
+            )));
+        }
         let mut predicted = BTreeMap::new();
         for r in &self.refs {
             let e = &r.exact;

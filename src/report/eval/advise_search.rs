@@ -9,8 +9,8 @@ use super::evaluate::{self, ImageErrors};
 use super::kernel_compare::ModelSpec;
 use crate::error::{Error, Result};
 use crate::filter::{resample_to_pixels, Taps};
-use crate::kernel::model::{assemble_with, fit_model, Fitted};
-use crate::kernel::taps::{auto_extent, factor_radius_holding, tap_table_with};
+use crate::kernel::model::{assemble_with, fit_model, tap_table, Fitted, Model};
+use crate::kernel::taps::{auto_extent, factor_radius_holding};
 use crate::kernel::{Factors, Kernel2D, KernelFile};
 use crate::profile::Profile;
 use crate::progress::Progress;
@@ -28,6 +28,45 @@ fn full_passes(k: &Kernel2D, f: &Factors, mm: f64) -> Vec<Taps> {
                 },
                 mm,
             )
+        })
+        .collect()
+}
+
+/// A fingerprint of the passes a candidate runs (SHA-256 of every
+/// offset's and weight's bits, in order): the advice carries the chosen
+/// one's, so a kernel file can be checked to run exactly what was scored
+/// ([`scored_passes`]).
+pub fn fingerprint(passes: &[Taps]) -> String {
+    use sha2::{Digest, Sha256};
+    let mut h = Sha256::new();
+    for t in passes {
+        h.update((t.offsets_mm.len() as u64).to_le_bytes());
+        for (o, w) in t.offsets_mm.iter().zip(&t.weights) {
+            h.update(o.to_bits().to_le_bytes());
+            w.iter().for_each(|v| h.update(v.to_bits().to_le_bytes()));
+        }
+    }
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The passes a separable kernel file runs as advise scored it: its tap
+/// table, or with `full` its full factors resampled to whole pixels at
+/// `mm_per_pixel`.
+pub fn scored_passes(kernel: &KernelFile, full: bool, mm_per_pixel: f64) -> Vec<Taps> {
+    let table = if full {
+        &kernel.passes
+    } else {
+        &kernel.taps.passes
+    };
+    table
+        .iter()
+        .map(|p| {
+            let t = Taps::from(p);
+            if full {
+                resample_to_pixels(&t, mm_per_pixel)
+            } else {
+                t
+            }
         })
         .collect()
 }
@@ -53,7 +92,7 @@ impl Layout {
     }
 }
 
-fn layouts(k: &Kernel2D, f: &Factors, cfg: &Config) -> Result<Vec<Layout>> {
+fn layouts(model: &Model, k: &Kernel2D, f: &Factors, cfg: &Config) -> Result<Vec<Layout>> {
     let mut out = Vec::new();
     for &n in &cfg.taps {
         let mut seen: Vec<f64> = Vec::new();
@@ -68,7 +107,8 @@ fn layouts(k: &Kernel2D, f: &Factors, cfg: &Config) -> Result<Vec<Layout>> {
                 continue;
             }
             seen.push(e);
-            let t = tap_table_with(k, f, n, Some(e))?;
+            // The table the written kernel file stores ([`tap_table`]).
+            let t = tap_table(model, k, f, n, Some(e))?;
             out.push(Layout {
                 taps: Some(n),
                 rule: Some(rule),
@@ -106,32 +146,20 @@ pub(super) struct Search<'a> {
 type Scored = (String, f64, f64);
 
 impl Search<'_> {
-    /// `spec` fitted to the truth, from the cache when it was before.
-    fn fitted(&self, spec: &ModelSpec) -> Result<Fitted> {
-        let copy = |f: &Fitted| Fitted {
-            factors: f.factors.clone(),
-            params: f.params.clone(),
-            extra: f.extra.clone(),
-            seconds: f.seconds,
-        };
-        let cache = |f: &Fitted| -> Result<()> {
+    /// `spec` fitted to the truth, from the cache when it was before (or
+    /// was handed in: [`super::advise::Prepared`]).
+    pub fn fitted(&self, spec: &ModelSpec) -> Result<Fitted> {
+        let lock = || {
             self.fits
                 .lock()
-                .map_err(|_| Error::Unsupported("advise: a fit panicked".into()))?
-                .insert(spec.label.clone(), copy(f));
-            Ok(())
+                .map_err(|_| Error::Unsupported("advise: a fit panicked".into()))
         };
-        if let Some(f) = self
-            .fits
-            .lock()
-            .map_err(|_| Error::Unsupported("advise: a fit panicked".into()))?
-            .get(&spec.label)
-        {
-            return Ok(copy(f));
+        if let Some(f) = lock()?.get(&spec.label) {
+            return Ok(f.clone());
         }
         let f = fit_model(&self.truth, self.profile, &spec.model)
             .map_err(|e| Error::Unsupported(format!("{}: {e}", spec.label)))?;
-        cache(&f)?;
+        lock()?.insert(spec.label.clone(), f.clone());
         Ok(f)
     }
 
@@ -146,7 +174,7 @@ impl Search<'_> {
         let fitted = self.fitted(spec)?;
         let f = fitted.factors.clone();
         let file = assemble_with(self.profile, &self.truth, &spec.model, fitted, 17, None)?;
-        let all = layouts(&self.truth, &f, self.cfg)?;
+        let all = layouts(&spec.model, &self.truth, &f, self.cfg)?;
         let total = all.len();
         let mut kept: Vec<Layout> = all
             .into_iter()
@@ -258,6 +286,7 @@ impl Search<'_> {
                         scores.len() == self.refs.len(),
                     ),
                     disk: None,
+                    fingerprint: Some(fingerprint(&l.passes)),
                 }
             })
             .collect();
@@ -298,7 +327,6 @@ impl Search<'_> {
             .find(|s| s.label == c.label)
             .ok_or_else(|| Error::Unsupported(format!("lost model {}", c.label)))?;
         let fitted = self.fitted(spec)?;
-        let factors = fitted.factors.clone();
         let (count, extent) = match c.taps {
             Some(n) => (n, Some(c.extent_mm)),
             None => (crate::kernel::taps::DEFAULT_TAPS, None),
@@ -311,10 +339,14 @@ impl Search<'_> {
             count,
             extent,
         )?;
-        let passes = match c.taps {
-            Some(_) => kernel.taps.passes.iter().map(Taps::from).collect(),
-            None => full_passes(&self.truth, &factors, self.cfg.mm_per_pixel),
-        };
+        // What the file runs, checked against what was scored.
+        let passes = scored_passes(&kernel, c.taps.is_none(), self.cfg.mm_per_pixel);
+        if c.fingerprint.as_deref() != Some(fingerprint(&passes).as_str()) {
+            return Err(Error::Unsupported(format!(
+                "advise: the kernel file of {} runs other passes than the ones scored",
+                c.describe()
+            )));
+        }
         Ok((kernel, passes))
     }
 
@@ -340,19 +372,7 @@ impl Search<'_> {
             .fits
             .lock()
             .map_err(|_| Error::Unsupported("advise: a fit panicked".into()))?
-            .iter()
-            .map(|(k, f)| {
-                (
-                    k.clone(),
-                    Fitted {
-                        factors: f.factors.clone(),
-                        params: f.params.clone(),
-                        extra: f.extra.clone(),
-                        seconds: f.seconds,
-                    },
-                )
-            })
-            .collect();
+            .clone();
         Ok(Search {
             profile: self.profile,
             truth: self.truth.clone(),

@@ -156,6 +156,10 @@ pub struct Candidate {
     /// A disk kernel's bias and noise per signal (None: separable).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disk: Option<DiskScores>,
+    /// A separable row's passes as scored
+    /// ([`super::advise_search::fingerprint`]; None: a disk row).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fingerprint: Option<String>,
 }
 
 impl Cost for Candidate {

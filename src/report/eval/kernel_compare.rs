@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::filter::Image;
 use crate::kernel::guided::GuidedParams;
 use crate::kernel::jimenez::JimenezParams;
-use crate::kernel::model::{assemble, fit_model};
+use crate::kernel::model::{assemble, fit_model, Fitted as ModelFit};
 use crate::kernel::preintegrate::PreMethod;
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile, Model};
 use crate::profile::Profile;
@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::collections::BTreeMap;
+use std::time::Instant;
 
 /// The model families, spelled as the kernel fit spells them.
 pub const FAMILIES: [&str; 6] = [
@@ -257,6 +258,19 @@ pub struct Comparison {
     pub rows: Vec<Row>,
     /// The input profile of each material.
     pub profiles: Vec<Profile>,
+    /// Per material, each variant's fit as made, by label (a renormalised
+    /// copy has none of its own): the advice scores these same fits.
+    pub fits: Vec<BTreeMap<String, ModelFit>>,
+    pub seconds: CompareSeconds,
+}
+
+/// Wall seconds of the comparison's stages: the ground truths, the fits,
+/// the exact images and the evaluations of every fit on them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CompareSeconds {
+    pub truth: f64,
+    pub fits: f64,
+    pub images: f64,
 }
 
 pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
@@ -273,7 +287,8 @@ fn named(name: &str, e: Error) -> Error {
 
 /// Runs the comparison: fits every model of `cfg` to every material's
 /// ground-truth kernel (default grid, or the given extent) with the first tap count as the
-/// stored table, and evaluates it on every case.
+/// stored table, and evaluates it on every case. Each truth and each fit
+/// is made once; [`Comparison::fits`] hands the fits on (to the advice).
 pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> Result<Comparison> {
     if inputs.is_empty() {
         return Err(Error::Unsupported("no material to compare".into()));
@@ -281,11 +296,12 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
     if cfg.taps.is_empty() {
         return Err(Error::Unsupported("give at least one tap count".into()));
     }
-    let stored_taps = cfg.taps[0];
     let specs: Vec<Vec<ModelSpec>> = inputs
         .iter()
         .map(|m| model_specs(&cfg.families, &cfg.ranks, &m.name))
         .collect::<Result<_>>()?;
+    let mut seconds = CompareSeconds::default();
+    let t = Instant::now();
     let truths: Vec<Kernel2D> = inputs
         .par_iter()
         .map(|m| {
@@ -299,7 +315,62 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
             .map_err(|e| named(&m.name, e))
         })
         .collect::<Result<_>>()?;
-    let exact: Vec<Vec<Exact>> = inputs
+    seconds.truth = t.elapsed().as_secs_f64();
+    let tasks: Vec<(usize, &ModelSpec)> = specs
+        .iter()
+        .enumerate()
+        .flat_map(|(i, s)| s.iter().map(move |spec| (i, spec)))
+        .collect();
+    // Each task advances once fitted and once evaluated.
+    progress.start(2 * tasks.len() as u64, "material x model");
+    let t = Instant::now();
+    let fits: Vec<ModelFit> = tasks
+        .par_iter()
+        .map(|&(i, spec)| {
+            let m = &inputs[i];
+            let f = fit_model(&truths[i], &m.profile, &spec.model)
+                .map_err(|e| Error::Unsupported(format!("{} {}: {e}", m.name, spec.label)))?;
+            progress.advance(1);
+            Ok(f)
+        })
+        .collect::<Result<_>>()?;
+    seconds.fits = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let exact = exact_images(inputs, cfg)?;
+    let fitted: Vec<Fitted> = tasks
+        .par_iter()
+        .zip(&fits)
+        .map(|(&(i, spec), f)| {
+            let out = evaluate_fit(&inputs[i], &truths[i], &exact[i], spec, f, cfg);
+            progress.advance(1);
+            out
+        })
+        .collect::<Result<Vec<Vec<Fitted>>>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+    seconds.images = t.elapsed().as_secs_f64();
+    progress.finish();
+    let mut by_label = vec![BTreeMap::new(); inputs.len()];
+    for (&(i, spec), f) in tasks.iter().zip(fits) {
+        by_label[i].insert(spec.label.clone(), f);
+    }
+    let rows = fitted.iter().flat_map(rows_of).collect();
+    Ok(Comparison {
+        materials: inputs.iter().map(|m| m.name.clone()).collect(),
+        truths,
+        exact,
+        fitted,
+        rows,
+        profiles: inputs.iter().map(|m| m.profile.clone()).collect(),
+        fits: by_label,
+        seconds,
+    })
+}
+
+/// The exact image of every case, per material.
+fn exact_images(inputs: &[MaterialInput], cfg: &Config) -> Result<Vec<Vec<Exact>>> {
+    inputs
         .par_iter()
         .map(|m| {
             cfg.cases
@@ -314,79 +385,56 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
                 })
                 .collect::<Result<Vec<_>>>()
         })
-        .collect::<Result<_>>()?;
-    let tasks: Vec<(usize, &ModelSpec)> = specs
-        .iter()
-        .enumerate()
-        .flat_map(|(i, s)| s.iter().map(move |spec| (i, spec)))
-        .collect();
-    progress.start(tasks.len() as u64, "material x model");
-    let fitted: Vec<Fitted> = tasks
-        .par_iter()
-        .map(|&(i, spec)| {
-            let m = &inputs[i];
-            let with = |e: Error| Error::Unsupported(format!("{} {}: {e}", m.name, spec.label));
-            let f = fit_model(&truths[i], &m.profile, &spec.model).map_err(with)?;
-            let mut variants = Vec::new();
-            if let Some(label) = &spec.renormalized_label {
-                let mut g = crate::kernel::model::Fitted {
-                    factors: f.factors.clone(),
-                    params: f.params.clone(),
-                    extra: f.extra.clone(),
-                    seconds: f.seconds,
-                };
-                renormalize(&mut g.factors, &truths[i]);
-                g.params["renormalize"] = json!(true);
-                let spec = ModelSpec {
-                    label: label.clone(),
-                    model: spec.model.clone(),
-                    renormalized_label: None,
-                };
-                variants.push((spec, g));
-            }
-            let mut f = f;
-            if spec.renormalized_label.is_some() {
-                f.params["renormalize"] = json!(false);
-            }
-            variants.insert(0, (spec.clone(), f));
-            let mut out = Vec::new();
-            for (spec, f) in variants {
-                let kernel =
-                    assemble(&m.profile, &truths[i], &spec.model, f, stored_taps).map_err(with)?;
-                let mut images = Vec::with_capacity(cfg.cases.len());
-                let mut kept = Vec::with_capacity(cfg.cases.len());
-                for ex in &exact[i] {
-                    let (e, k) =
-                        evaluate::evaluate_keeping(ex, &kernel, &cfg.taps, &cfg.options, cfg.keep)
-                            .map_err(with)?;
-                    images.push(e);
-                    kept.push(k);
-                }
-                out.push(Fitted {
-                    material: m.name.clone(),
-                    spec,
-                    kernel,
-                    images,
-                    kept,
-                });
-            }
-            progress.advance(1);
-            Ok(out)
-        })
-        .collect::<Result<Vec<Vec<Fitted>>>>()?
-        .into_iter()
-        .flatten()
-        .collect();
-    progress.finish();
-    let rows = fitted.iter().flat_map(rows_of).collect();
-    Ok(Comparison {
-        materials: inputs.iter().map(|m| m.name.clone()).collect(),
-        truths,
-        exact,
-        fitted,
-        rows,
-        profiles: inputs.iter().map(|m| m.profile.clone()).collect(),
-    })
+        .collect()
+}
+
+/// One fit as the comparison shows it: the kernel file with the stored
+/// tap table (and its renormalised copy where the spec asks), each
+/// evaluated on every case.
+fn evaluate_fit(
+    m: &MaterialInput,
+    truth: &Kernel2D,
+    exact: &[Exact],
+    spec: &ModelSpec,
+    f: &ModelFit,
+    cfg: &Config,
+) -> Result<Vec<Fitted>> {
+    let with = |e: Error| Error::Unsupported(format!("{} {}: {e}", m.name, spec.label));
+    let mut variants = Vec::new();
+    let mut raw = f.clone();
+    if let Some(label) = &spec.renormalized_label {
+        let mut g = f.clone();
+        renormalize(&mut g.factors, truth);
+        g.params["renormalize"] = json!(true);
+        let spec = ModelSpec {
+            label: label.clone(),
+            model: spec.model.clone(),
+            renormalized_label: None,
+        };
+        raw.params["renormalize"] = json!(false);
+        variants.push((spec, g));
+    }
+    variants.insert(0, (spec.clone(), raw));
+    let mut out = Vec::new();
+    for (spec, f) in variants {
+        let kernel = assemble(&m.profile, truth, &spec.model, f, cfg.taps[0]).map_err(with)?;
+        let mut images = Vec::with_capacity(exact.len());
+        let mut kept = Vec::with_capacity(exact.len());
+        for ex in exact {
+            let (e, k) = evaluate::evaluate_keeping(ex, &kernel, &cfg.taps, &cfg.options, cfg.keep)
+                .map_err(with)?;
+            images.push(e);
+            kept.push(k);
+        }
+        out.push(Fitted {
+            material: m.name.clone(),
+            spec,
+            kernel,
+            images,
+            kept,
+        });
+    }
+    Ok(out)
 }
 
 /// Scales each channel's factors so that the separable kernel has the

@@ -47,6 +47,7 @@ pub struct Outcome {
     pub advice: Advice,
     /// Files written, relative to the output folder.
     pub files: Vec<String>,
+    pub stages: StageTimes,
 }
 
 /// The comparison's written form in `dir`: report.md, compare.csv,
@@ -190,25 +191,74 @@ fn write_disk_kernel(
     Ok(())
 }
 
-/// Runs the pipeline on `profile` into `dir` (created). `command` is the
-/// command line the report prints.
+/// Wall seconds of the main job's stages, as report.md's "Stage times"
+/// shows them: the profile (made or read by the caller), the ground
+/// truth, the fits, the comparison's images (exact and filtered), the
+/// advice, and writing the files (before the report's last write); the
+/// total runs from the profile's start to that write.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    pub profile: f64,
+    pub truth: f64,
+    pub fits: f64,
+    pub images: f64,
+    pub advice: f64,
+    pub files: f64,
+    pub total: f64,
+}
+
+impl StageTimes {
+    /// The stages in order, with their seconds.
+    pub fn stages(&self) -> [(&'static str, f64); 6] {
+        [
+            ("profile", self.profile),
+            ("truth", self.truth),
+            ("fits", self.fits),
+            ("images", self.images),
+            ("advice", self.advice),
+            ("files", self.files),
+        ]
+    }
+
+    /// The report's table: one row per stage and the total.
+    pub fn markdown(&self) -> String {
+        let mut t = crate::report::present::table::Table::new(&["stage", "wall s"]);
+        for (name, s) in self.stages().into_iter().chain([("total", self.total)]) {
+            // Milliseconds, so that the rows add up as the numbers do.
+            t.push(vec![name.to_string(), format!("{s:.3}")]);
+        }
+        t.markdown()
+    }
+}
+
+/// Runs the pipeline on `profile` (made in `profile_seconds`) into `dir`
+/// (created). `command` is the command line the report prints. The truth
+/// and each model's fit are made once, by the comparison, and the advice
+/// scores and writes those same fits.
 pub fn run(
     profile: &Profile,
+    profile_seconds: f64,
     settings: &Settings,
     dir: &Path,
     command: &str,
     scene: Option<(&Scene, &Render)>,
     progress: &dyn Progress,
 ) -> Result<Outcome> {
+    let t0 = std::time::Instant::now();
+    let mut times = StageTimes {
+        profile: profile_seconds,
+        ..StageTimes::default()
+    };
+    let mut files = Vec::new();
+    let t = std::time::Instant::now();
     std::fs::create_dir_all(dir.join("kernels"))
         .map_err(|e| Error::format(dir, format!("cannot create the output folder: {e}")))?;
-    let mut files = Vec::new();
     profile.write(&dir.join("profile.json"))?;
     Profile::read(&dir.join("profile.json"))?;
     files.push("profile.json".to_string());
+    times.files += t.elapsed().as_secs_f64();
     let name = profile.material.name.clone();
-    let signals = [Signal::Edge, Signal::Shapes];
-    let cases: Vec<ImageCase> = signals
+    let cases: Vec<ImageCase> = [Signal::Edge, Signal::Shapes]
         .iter()
         .map(|&s| ImageCase::signal(s, settings.size, settings.mm_per_pixel))
         .collect::<Result<_>>()?;
@@ -222,6 +272,7 @@ pub fn run(
         taps: vec![settings.taps],
         options,
         keep: settings.plots.then_some(Which::Taps(settings.taps)),
+        // The default grid: the one the advice's truth is made on.
         extent_mm: None,
     };
     let input = MaterialInput {
@@ -229,27 +280,69 @@ pub fn run(
         profile: profile.clone(),
     };
     let cmp = kernel_compare::run(std::slice::from_ref(&input), &cfg, progress)?;
-    files.extend(
-        write_fitted_kernels(&cmp, &dir.join("kernels"), true)?
-            .into_iter()
-            .map(|f| format!("kernels/{f}")),
-    );
-    let factors = [Factor::Full, Factor::Taps(settings.taps)];
+    (times.truth, times.fits, times.images) =
+        (cmp.seconds.truth, cmp.seconds.fits, cmp.seconds.images);
+    let t = std::time::Instant::now();
+    let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
+    acfg.size = settings.size;
+    acfg.budget = settings.budget;
+    let prepared = advise::Prepared {
+        truth: cmp.truths[0].clone(),
+        fits: cmp.fits[0].clone(),
+    };
+    let advice = advise::advise_prepared(
+        profile,
+        &acfg,
+        scene,
+        Some(prepared),
+        &crate::progress::NoProgress,
+    )?;
+    times.advice = t.elapsed().as_secs_f64();
+    let t = std::time::Instant::now();
     let ctx = ReportContext {
         command,
         signals: &signal_names,
-        factors: &factors,
+        factors: &[Factor::Full, Factor::Taps(settings.taps)],
         ranks: &ranks,
         options: &options,
     };
+    write_files(&cmp, &advice, &ctx, settings, dir, &mut files)?;
+    times.files += t.elapsed().as_secs_f64();
+    times.total = profile_seconds + t0.elapsed().as_secs_f64();
+    write_report(&advice, &times, dir, &mut files)?;
+    Ok(Outcome {
+        comparison: cmp,
+        advice,
+        files,
+        stages: times,
+    })
+}
+
+/// Every file but the report's last form: the kernels, the comparison
+/// (report.md's first form, tables, plots), the profile plot, the
+/// recommended kernel.
+fn write_files(
+    cmp: &Comparison,
+    advice: &Advice,
+    ctx: &ReportContext,
+    settings: &Settings,
+    dir: &Path,
+    files: &mut Vec<String>,
+) -> Result<()> {
+    files.extend(
+        write_fitted_kernels(cmp, &dir.join("kernels"), true)?
+            .into_iter()
+            .map(|f| format!("kernels/{f}")),
+    );
     files.extend(write_comparison(
-        &cmp,
-        &ctx,
+        cmp,
+        ctx,
         dir,
         settings.plots,
         &format!("{}-tap tables", settings.taps),
     )?);
     if settings.plots {
+        let (name, profile) = (&cmp.materials[0], &cmp.profiles[0]);
         let panels = plot::profile_panels(&[(name.clone(), profile.clone())]);
         plot::render(
             &panels,
@@ -259,35 +352,40 @@ pub fn run(
         )?;
         files.push("profile.png".into());
     }
-    let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
-    acfg.size = settings.size;
-    acfg.budget = settings.budget;
-    let advice = advise::advise_on_scene(profile, &acfg, scene, &crate::progress::NoProgress)?;
     match &advice.disk_kernel {
-        Some(k) => write_disk_kernel(k, dir, "recommended", &mut files)?,
-        None => write_kernel(&advice.kernel, dir, "recommended", true, &mut files)?,
+        Some(k) => write_disk_kernel(k, dir, "recommended", files),
+        None => write_kernel(&advice.kernel, dir, "recommended", true, files),
     }
-    // The advice and why, where the comparison is read.
+}
+
+/// report.md with the scene's ranking under its title, the advice and
+/// why, and the stage times; advice.json (read back).
+fn write_report(
+    advice: &Advice,
+    times: &StageTimes,
+    dir: &Path,
+    files: &mut Vec<String>,
+) -> Result<()> {
     let mut md = std::fs::read_to_string(dir.join("report.md"))
         .map_err(|e| Error::format(dir.join("report.md"), e.to_string()))?;
-    // The scene's ranking in the report's first lines, under its title.
     if let Some(sc) = &advice.scene {
         let at = md.find('\n').map_or(md.len(), |i| i + 1);
         md.insert_str(at, &format!("\n{}\n", sc.headline()));
     }
     md.push_str(&format!(
         "\n## What to ship (recommended.json, advice.json)\n\n```text\n{}```\n",
-        advice_text::explain(&advice)
+        advice_text::explain(advice)
+    ));
+    md.push_str(&format!(
+        "\n## Stage times\n\nWall seconds of this run's stages; the truth and each fit \
+         were made once, for the comparison, and the advice scored those same fits.\n\n{}",
+        times.markdown()
     ));
     crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
     crate::io::write_json_atomic(&dir.join("advice.json"), &advice.to_json())?;
     let _: serde_json::Value = crate::io::read_json(&dir.join("advice.json"))?;
     files.push("advice.json".into());
-    Ok(Outcome {
-        comparison: cmp,
-        advice,
-        files,
-    })
+    Ok(())
 }
 
 /// The one-screen summary: what to ship at this scale and how wrong it is,
