@@ -57,8 +57,8 @@ fn comparison() -> Comparison {
 /// A constant image of linear `rgb`.
 fn constant(rgb: [f64; 3]) -> Image {
     let mut img = Image::new(SIZE, SIZE);
-    for c in 0..3 {
-        img.rgb[c].fill(rgb[c]);
+    for (plane, v) in img.rgb.iter_mut().zip(rgb) {
+        plane.fill(v);
     }
     img
 }

@@ -3,7 +3,7 @@
 //! whole tile (manual-fit's hue on the shapes sheet).
 //!
 //! The mean linear RGB of each tile, times the sheet's exposure, is taken
-//! to CIELAB (sRGB primaries and D65 white, CIE 2004, eq. 8.1-8.3) after
+//! to CIELAB (sRGB primaries and D65 white, Wyszecki and Stiles 1982) after
 //! the result's mean is scaled to the exact mean's luminance Y, so that a
 //! brighter or darker tile (a kernel that loses energy at the border) is
 //! not counted: with equal L*, the CIELAB colour difference Delta E*ab is
@@ -17,15 +17,13 @@ use crate::filter::Image;
 /// unflagged model's tint is one no viewer can tell from the exact one's.
 pub const COLOUR_TOLERANCE_DE: f64 = 2.3;
 
-/// sRGB (linear, D65) to CIE XYZ, IEC 61966-2-1 (CIE 2004).
+/// sRGB (linear, D65) to CIE XYZ: the matrix of the sRGB standard, IEC
+/// 61966-2-1.
 const RGB_TO_XYZ: [[f64; 3]; 3] = [
     [0.4124, 0.3576, 0.1805],
     [0.2126, 0.7152, 0.0722],
     [0.0193, 0.1192, 0.9505],
 ];
-
-/// The D65 white point, Y = 1.
-const WHITE: [f64; 3] = [0.95047, 1.0, 1.08883];
 
 /// The mean of each channel over the image.
 pub fn mean_rgb(img: &Image) -> [f64; 3] {
@@ -37,7 +35,7 @@ fn xyz(rgb: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|i| (0..3).map(|c| RGB_TO_XYZ[i][c] * rgb[c]).sum())
 }
 
-/// CIELAB of XYZ (CIE 2004, eq. 8.1-8.3, with the linear segment below
+/// CIELAB of XYZ (Wyszecki and Stiles 1982, with the linear segment below
 /// (6/29)^3).
 fn lab(xyz: [f64; 3]) -> [f64; 3] {
     const D: f64 = 6.0 / 29.0;
@@ -48,7 +46,10 @@ fn lab(xyz: [f64; 3]) -> [f64; 3] {
             t / (3.0 * D * D) + 4.0 / 29.0
         }
     };
-    let [fx, fy, fz] = std::array::from_fn(|i| f(xyz[i] / WHITE[i]));
+    // The reference white is sRGB's own (RGB 1, 1, 1: D65 at Y = 1), so
+    // that a grey has a* = b* = 0 exactly with the rounded matrix.
+    let white: [f64; 3] = std::array::from_fn(|i| RGB_TO_XYZ[i].iter().sum());
+    let [fx, fy, fz] = std::array::from_fn(|i| f(xyz[i] / white[i]));
     [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
 }
 
@@ -80,7 +81,7 @@ mod tests {
     fn white_is_the_origin_of_a_and_b() {
         let l = lab(xyz([1.0, 1.0, 1.0]));
         assert!((l[0] - 100.0).abs() < 1e-3, "{l:?}");
-        assert!(l[1].abs() < 0.01 && l[2].abs() < 0.01, "{l:?}");
+        assert!(l[1].abs() < 1e-12 && l[2].abs() < 1e-12, "{l:?}");
     }
 
     #[test]
