@@ -415,8 +415,14 @@ fn kernels_runs_the_main_job_in_one_command() {
     assert!(stdout.contains(advice["label"].as_str().unwrap()));
     let rows = read(&out.join("compare.json"));
     assert!(rows.as_array().unwrap().len() >= 3 * 10);
+    // The contact sheets' colour check is in the report, flagged or not.
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains("## Colour of the contact sheets"),
+        "report.md lacks the sheets' colour check"
+    );
     recommended_is_what_was_scored(&out, &advice);
-    stage_times_add_up(&std::fs::read_to_string(out.join("report.md")).unwrap());
+    stage_times_add_up(&md);
 }
 
 /// recommended.json runs exactly what the advice scored: the fingerprint

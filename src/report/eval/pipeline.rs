@@ -7,6 +7,7 @@
 use super::advise::{self, Advice};
 use super::evaluate::{ImageCase, Options, Which};
 use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row, FAMILIES};
+use super::shipped::{shipped, Shipped};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::io::{file_stem, join_inside};
@@ -52,22 +53,23 @@ pub struct Outcome {
 
 /// The comparison's written form in `dir`: report.md, compare.csv,
 /// compare.json (read back), and with `plots` the kernel slices, one
-/// contact sheet per signal and the singular value spectra. Returns the
-/// file names written.
+/// contact sheet per signal (opening with `shipped` where given, else the
+/// best model; tiles of the wrong colour listed in report.md) and the
+/// singular value spectra. Returns the file names written.
 pub fn write_comparison(
     cmp: &Comparison,
     ctx: &ReportContext,
     dir: &Path,
     plots: bool,
     sheet_factor: &str,
+    shipped: Option<&Shipped>,
 ) -> Result<Vec<String>> {
     let mut files = vec![
         "report.md".to_string(),
         "compare.csv".into(),
         "compare.json".into(),
     ];
-    let md = kernel_report::report(cmp, ctx);
-    crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
+    let mut md = kernel_report::report(cmp, ctx);
     let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
     let json = dir.join("compare.json");
@@ -80,6 +82,7 @@ pub fn write_comparison(
         ));
     }
     if plots {
+        let mut flags = Vec::new();
         for m in &cmp.materials {
             let stem = file_stem(m);
             let name = names.claim(format!("slices_{stem}.png"), m)?;
@@ -88,7 +91,9 @@ pub fn write_comparison(
             for (ci, s) in ctx.signals.iter().enumerate() {
                 let label = format!("{m} {s}");
                 let name = names.claim(format!("sheet_{stem}_{}.png", file_stem(s)), &label)?;
-                kernel_plots::contact_sheet(cmp, m, ci, sheet_factor, &join_inside(dir, &name)?)?;
+                let path = join_inside(dir, &name)?;
+                let sheet = kernel_plots::contact_sheet(cmp, m, ci, sheet_factor, shipped, &path)?;
+                flags.extend(sheet.flags);
                 files.push(name);
             }
         }
@@ -96,7 +101,9 @@ pub fn write_comparison(
             kernel_plots::spectra(cmp, &dir.join("spectra.png"))?;
             files.push("spectra.png".into());
         }
+        md.push_str(&kernel_plots::flags_markdown(&flags));
     }
+    crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
     Ok(files)
 }
 
@@ -334,12 +341,20 @@ fn write_files(
             .into_iter()
             .map(|f| format!("kernels/{f}")),
     );
+    // The sheets open with what ships.
+    let ship = if settings.plots {
+        let cases: Vec<&ImageCase> = cmp.exact[0].iter().map(|e| &e.case).collect();
+        Some(shipped(advice, &cases)?)
+    } else {
+        None
+    };
     files.extend(write_comparison(
         cmp,
         ctx,
         dir,
         settings.plots,
         &format!("{}-tap tables", settings.taps),
+        ship.as_ref(),
     )?);
     if settings.plots {
         let (name, profile) = (&cmp.materials[0], &cmp.profiles[0]);

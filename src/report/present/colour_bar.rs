@@ -28,6 +28,8 @@ pub const HEIGHT: usize = 62;
 /// The ramp's width (narrower where the page is), pixels.
 const RAMP_W: usize = 360;
 const RAMP_H: usize = 14;
+/// Size of the bar's texts on a contact sheet, pixels.
+pub const TEXT_PX: u32 = 13;
 /// Ticks at 0, 1/4, 1/2, 3/4 and 1 of the ramp.
 const TICKS: usize = 4;
 
@@ -41,6 +43,19 @@ fn tick(v: f64) -> String {
         s
     }
 }
+
+/// The text above the ramp: what it shows and the value drawn white.
+pub fn caption(bar: &ColourBar) -> String {
+    format!(
+        "{} (white = {} {})",
+        bar.quantity,
+        tick(bar.white),
+        bar.unit
+    )
+}
+
+/// The narrowest page the bar fits on, ticks and ramp (not the caption).
+pub const MIN_PAGE_W: usize = RAMP_W + 40;
 
 /// Paints the ramp into the RGB8 page `buf` (`page_w` pixels wide) with
 /// its top-left corner at `(x0, y0)`, and returns the texts to draw: the
@@ -64,16 +79,7 @@ pub fn paint(
             }
         }
     }
-    let mut texts = vec![(
-        format!(
-            "{} (white = {} {})",
-            bar.quantity,
-            tick(bar.white),
-            bar.unit
-        ),
-        x0 as i32,
-        y0 as i32,
-    )];
+    let mut texts = vec![(caption(bar), x0 as i32, y0 as i32)];
     for k in 0..=TICKS {
         let x = x0 + k * (w - 1) / TICKS;
         for y in top + RAMP_H..top + RAMP_H + 4 {
@@ -116,7 +122,7 @@ pub fn write_heat_png(
     bar: &ColourBar,
     out: &Path,
 ) -> Result<()> {
-    let page_w = w.max(RAMP_W + 40);
+    let page_w = w.max(MIN_PAGE_W);
     let page_h = h + HEIGHT;
     crate::limits::check_image_size(&out.display().to_string(), page_w, page_h)?;
     let mut buf = vec![255u8; page_w * page_h * 3];

@@ -1,22 +1,28 @@
 //! Plots of a kernel comparison: kernel slices along the axis and the
 //! diagonal with the ground truth dashed (Freude 2014, fig. 6.2 and the
 //! appendix kernel plots), singular value spectra, and a contact sheet per
-//! material and signal with each model's filtered image and its difference
-//! from the exact convolution.
+//! material and signal: the configuration that ships (or the best model)
+//! beside the exact convolution with a zoom at native pixels, then each
+//! model's filtered image and its difference from the exact convolution,
+//! tiles of the wrong mean colour flagged.
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use super::colour_bar::{self, ColourBar};
+use super::colour_bar::ColourBar;
+use super::number::sig;
 use super::plot::{self, Curve, Panel, PALETTE};
+use super::sheet::{draw_sheet, SheetLayout, SheetTile};
 use crate::error::{Error, Result};
-use crate::filter::diff::false_colour;
+use crate::filter::diff::{self, false_colour};
 use crate::filter::image::linear_to_srgb;
 use crate::filter::Image;
 use crate::kernel::metrics::reconstruct;
 use crate::kernel::{Factors, Kernel2D, KernelFile};
 use crate::report::eval::claims::RANK1;
+use crate::report::eval::colour_shift::{self, COLOUR_TOLERANCE_DE};
 use crate::report::eval::kernel_compare::{Comparison, Fitted};
+use crate::report::eval::shipped::Shipped;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -188,18 +194,86 @@ pub(crate) fn to_rgb8(img: &Image, exposure: f64) -> Vec<u8> {
 /// Fraction of the exact image's peak shown as white in difference tiles.
 pub const DIFF_SCALE: f64 = 0.05;
 
-/// A contact sheet for `material` and case `ci`: the input and the exact
-/// convolution, then per model its filtered image (`factor` names which
-/// factors) above its difference from the exact image (false colour, white
-/// = [`DIFF_SCALE`] of the exact peak).
+/// Magnification of the zoom tile: each image pixel becomes a ZOOM x ZOOM
+/// block (nearest neighbour), so a 128-pixel tile shows a 32-pixel window
+/// where one-pixel banding and halos are plain to see.
+pub const ZOOM: usize = 4;
+
+/// The outline of the zoom window on the exact tile: a green that no
+/// tone-mapped skin or marble tile holds.
+const WINDOW: [u8; 3] = [0, 200, 0];
+
+/// A tile whose mean colour lies further from the exact tile's than
+/// [`COLOUR_TOLERANCE_DE`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColourFlag {
+    pub material: String,
+    pub signal: String,
+    pub model: String,
+    /// Delta E*ab at equal luminance ([`colour_shift`]).
+    pub delta_e: f64,
+}
+
+/// What a contact sheet drew: where its texts and images went and the
+/// tiles it flagged.
+pub struct SheetOutcome {
+    pub layout: SheetLayout,
+    pub flags: Vec<ColourFlag>,
+}
+
+/// The flag text of a tile `delta_e` from the exact colour, if over the
+/// tolerance.
+fn colour_flag(delta_e: f64) -> Option<String> {
+    (delta_e > COLOUR_TOLERANCE_DE).then(|| {
+        format!(
+            "colour off: ΔE {} > {}",
+            sig(delta_e),
+            sig(COLOUR_TOLERANCE_DE)
+        )
+    })
+}
+
+/// The contact sheet's first tile after the input: the shipped
+/// configuration's image (`shipped`), or else the model with the lowest
+/// relative RMS on this case (largest channel).
+fn lead<'a>(
+    models: &[(&'a str, &'a Image)],
+    exact: &Image,
+    shipped: Option<&'a Shipped>,
+    ci: usize,
+) -> Result<Option<(String, &'a Image)>> {
+    if let Some(s) = shipped {
+        return Ok(s.images.get(ci).map(|i| (s.label.clone(), i)));
+    }
+    let mut best: Option<(f64, usize)> = None;
+    for (i, (_, img)) in models.iter().enumerate() {
+        let e = diff::compare(exact, img)?
+            .rms_rel
+            .iter()
+            .cloned()
+            .fold(0.0, f64::max);
+        if best.is_none_or(|(b, _)| e < b) {
+            best = Some((e, i));
+        }
+    }
+    Ok(best.map(|(_, i)| (format!("lowest error here: {}", models[i].0), models[i].1)))
+}
+
+/// A contact sheet for `material` and case `ci`: the input above the
+/// exact convolution, the shipped configuration (or the best model) above
+/// its difference from the exact image, a zoom at [`ZOOM`] x native pixels
+/// of both on the window where the exact image changes most, then per
+/// model its filtered image (`factor` names which factors) above its
+/// difference (false colour, white = [`DIFF_SCALE`] of the exact peak).
+/// Tiles whose mean colour is off are framed in red and returned.
 pub fn contact_sheet(
     cmp: &Comparison,
     material: &str,
     ci: usize,
     factor: &str,
+    shipped: Option<&Shipped>,
     out: &Path,
-) -> Result<()> {
-    plot::register_fonts();
+) -> Result<SheetOutcome> {
     let Some(mi) = cmp.materials.iter().position(|m| m == material) else {
         return Err(Error::Unsupported(format!("no material {material}")));
     };
@@ -213,18 +287,58 @@ pub fn contact_sheet(
     let (w, h) = (exact.image.width, exact.image.height);
     let peak = exact.image.peak().iter().cloned().fold(0.0f64, f64::max);
     let exposure = exact.exposure_rgb;
-    let mut tiles = vec![SheetTile {
-        label: "input".into(),
-        top: to_rgb8(&exact.case.image, exposure),
-        bottom: Some(("exact 2D".into(), to_rgb8(&exact.image, exposure))),
-    }];
-    for (label, img) in &models {
+    let mut flags = Vec::new();
+    let mut tile = |label: &str, img: &Image| {
+        let delta_e = colour_shift::tile_difference(&exact.image, img, exposure);
+        let flag = colour_flag(delta_e);
+        if flag.is_some() {
+            flags.push(ColourFlag {
+                material: material.into(),
+                signal: exact.case.name.clone(),
+                model: label.into(),
+                delta_e,
+            });
+        }
         let d = false_colour(&exact.image, img, Some(DIFF_SCALE * peak));
-        tiles.push(SheetTile {
+        SheetTile {
             label: label.to_string(),
             top: to_rgb8(img, exposure),
             bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
+            flag,
+        }
+    };
+    let exact_rgb = to_rgb8(&exact.image, exposure);
+    let lead = lead(&models, &exact.image, shipped, ci)?;
+    let window = lead
+        .as_ref()
+        .map(|(_, img)| zoom_window(&exact.image, img, ZOOM));
+    let mut tiles = vec![SheetTile {
+        label: "input".into(),
+        top: to_rgb8(&exact.case.image, exposure),
+        bottom: Some(match window {
+            Some(win) => (
+                "exact 2D (green: zoomed)".into(),
+                outlined(&exact_rgb, w, win),
+            ),
+            None => ("exact 2D".into(), exact_rgb.clone()),
+        }),
+        flag: None,
+    }];
+    if let (Some((label, img)), Some(window)) = (lead, window) {
+        let rgb = to_rgb8(img, exposure);
+        tiles.push(tile(&label, img));
+        tiles.push(SheetTile {
+            label: format!("exact 2D, zoom {ZOOM}x"),
+            top: zoomed(&exact_rgb, (w, h), window, ZOOM),
+            bottom: Some((
+                format!("{}, zoom {ZOOM}x", short(&label)),
+                zoomed(&rgb, (w, h), window, ZOOM),
+            )),
+            flag: None,
         });
+    }
+    for (label, img) in &models {
+        tiles.push(tile(label, img));
     }
     let title = format!(
         "{material}, {} at {} mm/px, {factor}: result (tone mapped) above |result - exact|",
@@ -235,70 +349,112 @@ pub fn contact_sheet(
         unit: "% of the exact peak".into(),
         quantity: "difference tiles: |result - exact|, largest channel".into(),
     };
-    draw_sheet(&tiles, (w, h), &title, Some(&bar), out)
+    let layout = draw_sheet(&tiles, (w, h), &title, Some(&bar), out)?;
+    Ok(SheetOutcome { layout, flags })
 }
 
-/// One cell of a contact sheet: an 8-bit RGB image of the sheet's tile
-/// size with its label, and optionally a second one below it.
-pub(crate) struct SheetTile {
-    pub label: String,
-    pub top: Vec<u8>,
-    pub bottom: Option<(String, Vec<u8>)>,
+/// The model of a lead label ("recommended: svd2, 17 taps over ..." is
+/// "recommended").
+fn short(label: &str) -> &str {
+    label.split(':').next().unwrap_or(label)
 }
 
-/// Draws `tiles` of `w` x `h` pixels six to a row under `title`, with the
-/// colour bar of its difference tiles below them, and writes the PNG
-/// atomically.
-pub(crate) fn draw_sheet(
-    tiles: &[SheetTile],
+/// The top-left corner and side of the window of side min(w, h) / `zoom`
+/// where `result` departs most from `exact`: the largest sum of the
+/// largest channel's |result - exact| (first of equals in row order), so
+/// the zoom shows the banding and halos of the configuration it opens
+/// with.
+pub fn zoom_window(exact: &Image, result: &Image, zoom: usize) -> (usize, usize, usize) {
+    let (w, h) = (exact.width, exact.height);
+    let s = (w.min(h) / zoom).max(1);
+    let d = |i: usize| {
+        (0..3).fold(0.0f64, |m, c| {
+            m.max((exact.rgb[c][i] - result.rgb[c][i]).abs())
+        })
+    };
+    // Summed-area table of the difference.
+    let mut sat = vec![0.0f64; (w + 1) * (h + 1)];
+    for y in 0..h {
+        for x in 0..w {
+            sat[(y + 1) * (w + 1) + x + 1] =
+                d(y * w + x) + sat[y * (w + 1) + x + 1] + sat[(y + 1) * (w + 1) + x]
+                    - sat[y * (w + 1) + x];
+        }
+    }
+    let sum = |x: usize, y: usize| {
+        let a = |x: usize, y: usize| sat[y * (w + 1) + x];
+        a(x + s, y + s) - a(x, y + s) - a(x + s, y) + a(x, y)
+    };
+    let mut best = (f64::NEG_INFINITY, 0, 0);
+    for y in 0..=h - s {
+        for x in 0..=w - s {
+            let g = sum(x, y);
+            if g > best.0 {
+                best = (g, x, y);
+            }
+        }
+    }
+    (best.1, best.2, s)
+}
+
+/// The window `(x0, y0, s)` of the RGB8 image `rgb` (`w` x `h`) blown up
+/// `zoom` times by nearest neighbour, centred on a white tile of `w` x `h`.
+fn zoomed(
+    rgb: &[u8],
     (w, h): (usize, usize),
-    title: &str,
-    bar: Option<&ColourBar>,
-    out: &Path,
-) -> Result<()> {
-    plot::register_fonts();
-    let cols = 6usize;
-    let label_h = 22usize;
-    let cell_w = w + 8;
-    let cell_h = 2 * (h + label_h) + 8;
-    let rows = tiles.len().div_ceil(cols);
-    let head = 34usize;
-    let bar_h = if bar.is_some() { colour_bar::HEIGHT } else { 0 };
-    let sw = cols * cell_w;
-    let sh = head + rows * cell_h + bar_h;
-    crate::limits::check_image_size(&out.display().to_string(), sw, sh)?;
-    let mut buf = vec![255u8; sw * sh * 3];
-    let blit = |buf: &mut [u8], rgb: &[u8], x0: usize, y0: usize| {
-        for y in 0..h {
-            let dst = ((y0 + y) * sw + x0) * 3;
-            buf[dst..dst + 3 * w].copy_from_slice(&rgb[y * w * 3..(y + 1) * w * 3]);
-        }
-    };
-    let mut labels: Vec<(&str, usize, usize)> = Vec::new();
-    for (t, tile) in tiles.iter().enumerate() {
-        let (x0, y0) = ((t % cols) * cell_w + 4, head + (t / cols) * cell_h);
-        blit(&mut buf, &tile.top, x0, y0 + label_h);
-        labels.push((&tile.label, x0, y0));
-        if let Some((label, rgb)) = &tile.bottom {
-            blit(&mut buf, rgb, x0, y0 + 2 * label_h + h);
-            labels.push((label, x0, y0 + label_h + h));
+    (x0, y0, s): (usize, usize, usize),
+    zoom: usize,
+) -> Vec<u8> {
+    let mut out = vec![255u8; w * h * 3];
+    let side = (s * zoom).min(w).min(h);
+    let (ox, oy) = ((w - side) / 2, (h - side) / 2);
+    for y in 0..side {
+        for x in 0..side {
+            let src = ((y0 + y / zoom) * w + x0 + x / zoom) * 3;
+            let dst = ((oy + y) * w + ox + x) * 3;
+            out[dst..dst + 3].copy_from_slice(&rgb[src..src + 3]);
         }
     }
-    let bar_texts = match bar {
-        Some(b) => colour_bar::paint(b, &mut buf, sw, (4, head + rows * cell_h + 2)),
-        None => vec![],
-    };
-    colour_bar::draw_texts(&mut buf, (sw, sh), &bar_texts, 13, out)?;
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (sw as u32, sh as u32)).into_drawing_area();
-        let e = |e| Error::format(out, format!("plotting failed: {e}"));
-        let font = ("sans-serif", 15).into_font().color(&BLACK);
-        root.draw_text(title, &font, (6, 8)).map_err(e)?;
-        for (text, x, y) in &labels {
-            root.draw_text(text, &font, (*x as i32, *y as i32 + 3))
-                .map_err(e)?;
+    out
+}
+
+/// The RGB8 image `rgb` (`w` wide) with the window `(x0, y0, s)` outlined
+/// one pixel outside it (inside the image) in [`WINDOW`].
+fn outlined(rgb: &[u8], w: usize, (x0, y0, s): (usize, usize, usize)) -> Vec<u8> {
+    let mut out = rgb.to_vec();
+    let h = rgb.len() / 3 / w;
+    let (xa, ya) = (x0.saturating_sub(1), y0.saturating_sub(1));
+    let (xb, yb) = ((x0 + s).min(w - 1), (y0 + s).min(h - 1));
+    for y in ya..=yb {
+        for x in xa..=xb {
+            if x == xa || x == xb || y == ya || y == yb {
+                out[(y * w + x) * 3..(y * w + x) * 3 + 3].copy_from_slice(&WINDOW);
+            }
         }
-        root.present().map_err(e)?;
     }
-    plot::write_png(buf, sw as u32, sh as u32, out)
+    out
+}
+
+/// The section of report.md that lists the contact sheets' tiles whose
+/// mean colour is off.
+pub fn flags_markdown(flags: &[ColourFlag]) -> String {
+    let mut s = format!(
+        "\n## Colour of the contact sheets\n\nA tile is framed in red where the hue and chroma \
+         of its mean colour (CIELAB at the exact tile's luminance) lie more than ΔE*ab {} (the \
+         just noticeable difference) from the exact tile's.\n\n",
+        sig(COLOUR_TOLERANCE_DE)
+    );
+    if flags.is_empty() {
+        s.push_str("No tile is flagged.\n");
+    }
+    for f in flags {
+        s.push_str(&format!(
+            "- {} {}: {} (ΔE*ab {})\n",
+            f.material,
+            f.signal,
+            f.model,
+            sig(f.delta_e)
+        ));
+    }
+    s
 }

@@ -15,5 +15,6 @@ pub mod plot;
 pub mod profile_tables;
 pub mod record;
 pub mod scene_tables;
+pub mod sheet;
 pub mod study_report;
 pub mod table;

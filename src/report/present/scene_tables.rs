@@ -185,7 +185,8 @@ pub const SCENE_DIFF_SCALE: f64 = 0.1;
 /// model with the lerp (its image above |image - path traced|, white =
 /// [`SCENE_DIFF_SCALE`] of the peak), one exposure for all.
 pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) -> Result<()> {
-    use super::kernel_plots::{draw_sheet, to_rgb8, SheetTile};
+    use super::kernel_plots::to_rgb8;
+    use super::sheet::{draw_sheet, SheetTile};
     let truth = &cmp.truth;
     let max_rgb: Vec<f64> = (0..truth.len())
         .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
@@ -196,6 +197,7 @@ pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) 
         label: "path traced".into(),
         top: to_rgb8(truth, exposure),
         bottom: None,
+        flag: None,
     }];
     for (label, img) in cmp.images.iter().filter(|(l, _)| {
         !l.contains('(')
@@ -210,6 +212,7 @@ pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) 
                 .replace(" (depth+follow)", ""),
             top: to_rgb8(img, exposure),
             bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
+            flag: None,
         });
     }
     let title = format!("{title}: screen-space pass (depth + follow) above |pass - path traced|");
@@ -218,5 +221,6 @@ pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) 
         unit: "% of the path-traced peak".into(),
         quantity: "difference tiles: |pass - path traced|, largest channel".into(),
     };
-    draw_sheet(&tiles, (truth.width, truth.height), &title, Some(&bar), out)
+    draw_sheet(&tiles, (truth.width, truth.height), &title, Some(&bar), out)?;
+    Ok(())
 }

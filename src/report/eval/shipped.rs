@@ -1,0 +1,49 @@
+//! The configuration the main job ships, applied to the comparison's test
+//! images, so that its contact sheets open with what a renderer will run
+//! (model, taps and extent as the advice chose them) beside the exact
+//! result.
+
+use super::advise::Advice;
+use super::advise_disk::DISK_SEED;
+use super::evaluate::{self, ImageCase, Which};
+use crate::error::Result;
+use crate::filter::disk::{apply_disk, DiskSetup};
+use crate::filter::disk_error::view;
+use crate::filter::Image;
+
+/// What a contact sheet opens with: a label naming the configuration and
+/// its image per case, in the order of the comparison's cases.
+#[derive(Clone, Debug)]
+pub struct Shipped {
+    pub label: String,
+    pub images: Vec<Image>,
+}
+
+/// The advice's chosen configuration applied to each case: a disk kernel
+/// as the user sees it after the advice's frames (rotations from
+/// [`DISK_SEED`], as advise scored it), a separable kernel with the tap
+/// table it chose (or its full factors resampled to pixels).
+pub fn shipped(advice: &Advice, cases: &[&ImageCase]) -> Result<Shipped> {
+    let c = advice.chosen();
+    let images = cases
+        .iter()
+        .map(|case| match &advice.disk_kernel {
+            Some(k) => apply_disk(
+                &case.image,
+                &DiskSetup::new(k, view(case.mm_per_pixel), DISK_SEED, advice.frames),
+            ),
+            None => {
+                let which = match c.taps {
+                    Some(_) => Which::stored(&advice.kernel),
+                    None => Which::Full,
+                };
+                let passes = evaluate::tap_passes(&advice.kernel, which, case.mm_per_pixel)?;
+                Ok(evaluate::filter(case, passes)?.0)
+            }
+        })
+        .collect::<Result<_>>()?;
+    Ok(Shipped {
+        label: format!("recommended: {}", c.describe()),
+        images,
+    })
+}
