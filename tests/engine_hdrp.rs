@@ -106,3 +106,63 @@ fn world_scale_follows_the_scene_unit() {
         &reference("skin1"),
     );
 }
+
+/// The inspector's names and what the files hold, printed together: the
+/// Diffusion Profile .asset serializes `DiffusionProfileSettings.profile`, a
+/// `DiffusionProfile` whose fields scatteringDistance,
+/// scatteringDistanceMultiplier, worldScale and texturingMode the
+/// inspector's Scattering Color, Multiplier, World Scale and Texturing
+/// Mode write (Unity-Technologies/Graphics, DiffusionProfileSettings.cs;
+/// DiffusionProfileSettingsEditor `DrawScattering` stores the picker's
+/// colour `.linear`); the Lit material's Base Map colour and Subsurface
+/// Mask are the shader properties _BaseColor and _SubsurfaceMask (Lit.shader).
+#[test]
+fn inspector_and_serialized_names_are_printed_together() {
+    let (fit, text) = engine_json("profiles/reference/skin1.json", "unity-hdrp", &[]);
+    let line = |name: &str| {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(&format!("{name} = ")))
+            .unwrap_or_else(|| panic!("no {name} line: {text}"))
+            .to_string()
+    };
+    for (inspector, serialized) in [
+        ("Scattering Color", "profile.scatteringDistance = "),
+        ("Multiplier", "profile.scatteringDistanceMultiplier"),
+        ("World Scale", "profile.worldScale"),
+        ("Texturing Mode", "profile.texturingMode = 1"),
+        ("Base Color", "_BaseColor"),
+        ("Subsurface Mask", "_SubsurfaceMask"),
+    ] {
+        let l = line(inspector);
+        assert!(l.contains(serialized), "{l}");
+    }
+    // The .asset's scatteringDistance is the linear form of the picker's
+    // sRGB value, to the 4 digits ssskit prints.
+    let l = line("Scattering Color");
+    let stored: Vec<f64> = l
+        .split("scatteringDistance = [")
+        .nth(1)
+        .and_then(|r| r.split(']').next())
+        .unwrap()
+        .split(',')
+        .map(|x| x.trim().parse().unwrap())
+        .collect();
+    let picker = rgb(params(&fit), "Scattering Color");
+    for c in 0..3 {
+        let linear = srgb_decode(picker[c]);
+        assert!(
+            (stored[c] - linear).abs() <= 5e-4 * linear,
+            "channel {c}: .asset {} against linear {linear}",
+            stored[c]
+        );
+        assert!(
+            (stored[c] - picker[c]).abs() > 0.01 || picker[c] > 0.99,
+            "channel {c}: the .asset value is the picker's, not its .linear"
+        );
+    }
+    // A Burley engine that matches the profile says nothing of the kind.
+    assert!(
+        !text.lines().next().unwrap().contains("cannot match"),
+        "{text}"
+    );
+}

@@ -118,3 +118,20 @@ fn values_outside_iryokus_are_refused() {
         assert!(e.contains(key) && e.contains(needle), "{key}: {e}");
     }
 }
+
+/// iryoku's values are printed as typed, at most 4 significant digits (the
+/// reported error is scored on them: `printed_values_render_the_reported_error`
+/// renders the printed values through calculateKernel), and iryoku, whose
+/// fit keeps the shape error under 35%, is not said to fail to match.
+#[test]
+fn iryoku_values_are_printed_as_typed() {
+    for m in MATERIALS {
+        let json = engine_json(m, "iryoku");
+        for (k, v) in printed_numbers(json["params"].as_object().unwrap()) {
+            assert!(significant_digits(v) <= 4, "{m}: {k} = {v}");
+        }
+        let text = engine_text(m, "iryoku");
+        let first = text.lines().next().unwrap();
+        assert!(!first.contains("cannot match"), "{m}: {first}");
+    }
+}

@@ -13,12 +13,25 @@
 //!   GetDiffuseReflectProfileWithDiffuseMeanFreePath(L = DMFP, S3D =
 //!   GetScalingFactor3D(A)): exponent -(r / L) / (1 / S), so d = L / S;
 //! - Engine/Shaders/Private/SubsurfaceBurleyNormalized.ush,
-//!   CalculateBurleyScale: UV per profile mm = WorldUnitScale x
-//!   SubsurfaceParams.x / depth (x SUBSURFACE_KERNEL_SIZE / BURLEY_CM_2_MM
-//!   in 5.4), SubsurfaceParams.x = ViewToClip[0][0] / SUBSURFACE_KERNEL_SIZE
-//!   x 0.5 (Renderer/Private/PostProcess/PostProcessSubsurface.cpp,
-//!   GetSubsurfaceCommonParameters); the screen spans 2 depth /
-//!   ViewToClip[0][0] world units;
+//!   GetBurleyParameters: `Out.WorldUnitScale =
+//!   DecodeWorldUnitScale(GetSubsurfaceProfileWorldUnitScale(...)) *
+//!   BURLEY_CM_2_MM;` (10 x the asset's WorldUnitScale), and
+//!   CalculateBurleyScale: `BurleyScale *= SSSScaleX / DepthAtCenter;`
+//!   then, in 5.4, `BurleyScale *= SUBSURFACE_KERNEL_SIZE / BURLEY_CM_2_MM;`
+//!   ("cast from cm to mm for depth, and remove the effect of
+//!   SUBSURFACE_KERNEL_SIZE"), SubsurfaceParams.x = ViewToClip[0][0] /
+//!   SUBSURFACE_KERNEL_SIZE x 0.5 (Renderer/Private/PostProcess/
+//!   PostProcessSubsurface.cpp, GetSubsurfaceCommonParameters); the screen
+//!   spans 2 depth / ViewToClip[0][0] world units. Read in the
+//!   chenyong2github/UnrealEngine mirror (GetBurleyParameters, 5.x before
+//!   5.4) and the izzy2lost/UnrealEngineUWP mirror (Build.version 5.4.0:
+//!   CalculateBurleyScale, and BurleyNormalizedSS's bilateral weight
+//!   `* BURLEY_CM_2_MM / BurleyParameter.WorldUnitScale` with its comment
+//!   "when we have a 1 cm world unit scale (i.e., 1cm is regarded as
+//!   1mm)"); FSubsurfaceProfileStruct's constructor
+//!   (Classes/Engine/SubsurfaceProfile.h) sets `WorldUnitScale = 0.1f;`.
+//!   One profile mm is therefore WorldUnitScale world units (cm) in 5.4:
+//!   the default 0.1 is the true size, not 1.0;
 //! - Engine/Shaders/Private/PostProcessSubsurface.usf,
 //!   SubsurfaceRecombinePS: lerp(diffuse, blurred, Tint) x StoredBaseColor.
 
@@ -34,19 +47,53 @@ fn search_light(a: f64) -> f64 {
     3.5 + 100.0 * (a - 0.33).powi(4)
 }
 
+/// `BURLEY_CM_2_MM` (SubsurfaceBurleyNormalized.ush).
+const BURLEY_CM_2_MM: f64 = 10.0;
+/// `SUBSURFACE_KERNEL_SIZE` (SubsurfaceProfile.h; SSSScaleX divides by it).
+const SUBSURFACE_KERNEL_SIZE: f64 = 3.0;
+
+/// How the asset's WorldUnitScale reaches CalculateBurleyScale.
+#[derive(Clone, Copy, Debug)]
+enum Reading {
+    /// GetBurleyParameters: `DecodeWorldUnitScale(..) * BURLEY_CM_2_MM`.
+    Source,
+    /// The asset's value as typed ("1.0 = no scaling"), without the
+    /// BURLEY_CM_2_MM that GetBurleyParameters applies.
+    AsTyped,
+}
+
+/// World units one profile mm spans (CalculateBurleyScale): the UV offset
+/// per mm is the passed scale x SSSScaleX / depth [x SUBSURFACE_KERNEL_SIZE /
+/// BURLEY_CM_2_MM in 5.4], SSSScaleX = ViewToClip[0][0] /
+/// SUBSURFACE_KERNEL_SIZE x 0.5, and one UV spans 2 depth /
+/// ViewToClip[0][0] world units.
+fn world_units_per_profile_mm(wus: f64, ue50: bool, reading: Reading) -> f64 {
+    let passed = match reading {
+        Reading::Source => wus * BURLEY_CM_2_MM,
+        Reading::AsTyped => wus,
+    };
+    let kernel_factor = if ue50 {
+        1.0
+    } else {
+        SUBSURFACE_KERNEL_SIZE / BURLEY_CM_2_MM
+    };
+    passed * (0.5 / SUBSURFACE_KERNEL_SIZE) * kernel_factor * 2.0
+}
+
 /// The profile Unreal renders from a profile asset and material, d in
 /// scene mm at `units_per_mm` world units per mm.
 fn unreal_chain(p: &Map<String, Value>, units_per_mm: f64, ue50: bool) -> Rendered {
+    read_chain(p, units_per_mm, ue50, Reading::Source)
+}
+
+fn read_chain(p: &Map<String, Value>, units_per_mm: f64, ue50: bool, reading: Reading) -> Rendered {
     let albedo = rgb(p, "SurfaceAlbedo").map(|x| x.clamp(0.009, 1.0));
     let colour = rgb(p, "MeanFreePathColor").map(|x| x.clamp(0.009, 1.0));
     let distance = num(p, "MeanFreePathDistance");
     let wus = num(p, "WorldUnitScale");
     let tint = rgb(p, "Tint");
     let base = rgb(p, "Base Color");
-    // World units per profile mm: WUS SSSScaleX / depth [x 3 / 10] UV per
-    // mm, against ViewToClip[0][0] / (2 depth) UV per world unit.
-    let kernel_factor = if ue50 { 1.0 } else { 3.0 / 10.0 };
-    let world_per_mm = wus * (1.0 / 3.0 * 0.5) * kernel_factor * 2.0;
+    let world_per_mm = world_units_per_profile_mm(wus, ue50, reading);
     let mut out = Rendered {
         albedo: [0.0; 3],
         d_mm: [0.0; 3],
@@ -104,9 +151,10 @@ fn printed_values_through_unreals_chain_reproduce_the_reported_error() {
             .starts_with("Unreal Engine 5.4"));
         let p = params(&fit);
         assert_inside_the_ui(m, p);
-        // Unreal's world unit is the cm: WorldUnitScale 1 maps the
-        // profile's mm to the scene's in 5.4.
-        assert_eq!(num(p, "WorldUnitScale"), 1.0, "{m}");
+        // Unreal's world unit is the cm: one profile mm spans
+        // WorldUnitScale cm in 5.4, so 0.1 (the constructor's default) is
+        // the profile's own size.
+        assert_eq!(num(p, "WorldUnitScale"), 0.1, "{m}");
         let chain = unreal_chain(p, 0.1, false);
         check_against_report(&format!("unreal {m}"), &fit, &chain, &reference(m));
     }
@@ -116,18 +164,18 @@ fn printed_values_through_unreals_chain_reproduce_the_reported_error() {
 fn unreal_5_0_maps_the_profile_without_the_kernel_factor() {
     for m in ["skin1", "ketchup"] {
         let file = format!("profiles/reference/{m}.json");
-        let (fit, _) = engine_json(&file, "unreal", &["--engine-version", "5.0"]);
+        let (fit, text) = engine_json(&file, "unreal", &["--engine-version", "5.0"]);
         assert!(fit["version"]
             .as_str()
             .unwrap()
             .starts_with("Unreal Engine 5.0"));
         let p = params(&fit);
         assert_inside_the_ui(m, p);
-        assert!(
-            (num(p, "WorldUnitScale") - 0.3).abs() < 1e-12,
-            "{}",
-            p["WorldUnitScale"]
-        );
+        // One profile mm spans 10 WorldUnitScale / 3 cm in 5.0: the true
+        // size, 0.03, is under the ClampMin 0.1, so 0.1 is printed and the
+        // mean free paths carry the rest.
+        assert_eq!(num(p, "WorldUnitScale"), 0.1, "{m}");
+        assert!(text.contains("warning: WorldUnitScale"), "{text}");
         assert!(
             !p.contains_key("Implementation"),
             "5.0 has no Implementation field"
@@ -277,9 +325,11 @@ fn params_clamp_colours_the_fit_did_not_cap() {
     assert_eq!(rgb(&printed.params, "SurfaceAlbedo"), [1.0, 0.5, 0.01]);
 }
 
-/// A scene in metres: WorldUnitScale would be 0.01, under its ClampMin
-/// 0.1; 0.1 is printed and the mean free paths carry the rest, so the
-/// profile keeps its width in the scene.
+/// A scene in metres: WorldUnitScale would be 0.001 (one profile mm is
+/// WorldUnitScale cm), under its ClampMin 0.1; 0.1 is printed and the mean
+/// free paths carry the rest, down to CreateTexture's least colour 0.009,
+/// below which the profile renders wider: the warnings say so and the
+/// reported error is what the engine's chain renders from the values.
 #[test]
 fn world_unit_scale_under_its_clamp_is_made_up_by_the_mean_free_paths() {
     let (fit, text) = engine_json(
@@ -291,10 +341,83 @@ fn world_unit_scale_under_its_clamp_is_made_up_by_the_mean_free_paths() {
     assert_inside_the_ui("skin1 m", p);
     assert_eq!(num(p, "WorldUnitScale"), 0.1);
     assert!(text.contains("warning: WorldUnitScale"), "{text}");
-    check_against_report(
-        "unreal skin1 m",
-        &fit,
-        &unreal_chain(p, 0.001, false),
-        &reference("skin1"),
+    assert!(
+        text.contains("warning: MeanFreePathColor channel"),
+        "{text}"
     );
+    let chain = unreal_chain(p, 0.001, false);
+    let rendered = triple(&fit["rendered"]["d_mm"]);
+    let (_, shape) = score(&chain, &reference("skin1"));
+    let reported = triple(&fit["error"]["shape"]);
+    for c in 0..3 {
+        assert!(
+            (chain.d_mm[c] - rendered[c]).abs() <= 1e-9 * rendered[c],
+            "channel {c}"
+        );
+        assert!(
+            (shape[c] - reported[c]).abs() <= 0.02,
+            "channel {c}: {shape:?} {reported:?}"
+        );
+    }
+}
+
+/// A reading of WorldUnitScale is ruled out when the printed skin1 values,
+/// rendered through it, miss the profile's shape by more than this: over
+/// four times the worst channel ssskit reports for skin1 (about 11%), and
+/// far under what a factor 10 in d gives (the kernel ten times too wide or
+/// narrow misses most of the profile).
+const RULED_OUT_SHAPE: f64 = 0.5;
+
+/// Which reading of WorldUnitScale the source gives, shown with the printed
+/// skin1 values (5.4). GetBurleyParameters hands CalculateBurleyScale
+/// `DecodeWorldUnitScale(...) * BURLEY_CM_2_MM`, and CalculateBurleyScale
+/// multiplies by `SUBSURFACE_KERNEL_SIZE / BURLEY_CM_2_MM` and SSSScaleX =
+/// ViewToClip[0][0] / SUBSURFACE_KERNEL_SIZE x 0.5: one profile mm spans
+/// WorldUnitScale cm, so at 10 mm per world unit the printed 0.1 renders
+/// the profile at its size. Read as typed ("1.0 = no scaling", ssskit's
+/// chain before), the same 0.1 renders it ten times narrower, and the 1.0
+/// that reading printed renders it ten times wider through the source's
+/// chain.
+#[test]
+fn world_unit_scale_is_read_as_the_source_scales_it() {
+    let (fit, _) = engine_json("profiles/reference/skin1.json", "unreal", &[]);
+    let p = params(&fit);
+    let wus = num(p, "WorldUnitScale");
+    // The source's reading: one profile mm is one scene mm at 0.1 units
+    // per mm.
+    let source = world_units_per_profile_mm(wus, false, Reading::Source) / 0.1;
+    assert!((source - 1.0).abs() < 1e-12, "source reading: {source}");
+    let as_typed = world_units_per_profile_mm(wus, false, Reading::AsTyped) / 0.1;
+    assert!((source / as_typed - BURLEY_CM_2_MM).abs() < 1e-9);
+    let reference = reference("skin1");
+    // The source's reading reproduces the reported error (within 2 points).
+    check_against_report(
+        "unreal skin1",
+        &fit,
+        &read_chain(p, 0.1, false, Reading::Source),
+        &reference,
+    );
+    let (_, typed_shape) = score(&read_chain(p, 0.1, false, Reading::AsTyped), &reference);
+    // The 1.0 the as-typed reading printed, through the source's chain.
+    let mut old = p.clone();
+    old.insert("WorldUnitScale".into(), 1.0.into());
+    let (_, old_shape) = score(&read_chain(&old, 0.1, false, Reading::Source), &reference);
+    for c in 0..3 {
+        eprintln!(
+            "channel {c}: printed {wus} read as typed: shape {:.1}%; 1.0 through the \
+             source: shape {:.1}%",
+            100.0 * typed_shape[c],
+            100.0 * old_shape[c]
+        );
+        assert!(
+            typed_shape[c] > RULED_OUT_SHAPE,
+            "channel {c}: {}",
+            typed_shape[c]
+        );
+        assert!(
+            old_shape[c] > RULED_OUT_SHAPE,
+            "channel {c}: {}",
+            old_shape[c]
+        );
+    }
 }

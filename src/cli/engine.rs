@@ -85,8 +85,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .units_per_mm
         .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
     let fit = engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?;
+    let verdict = fit
+        .cannot_match()
+        .map_or(String::new(), |s| format!(": {s}"));
     outln!(
-        "engine: {} (profile {})",
+        "engine: {} (profile {}){verdict}",
         fit.engine,
         profile_path.display()
     )?;

@@ -58,7 +58,7 @@
 //! distance over the screen's height, 1 / aspect of that in the scene.
 
 use super::jimenez::{self as sep, FitData, Separable};
-use super::printed::{color, number, table, triple, Units};
+use super::printed::{color, number, table, triple, typed, Units, TYPED_REL};
 use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams};
@@ -298,17 +298,25 @@ pub fn inspector_strength(strength: f64) -> Option<f64> {
         .then(|| (strength / INSPECTOR_STEP).round() * INSPECTOR_STEP)
 }
 
+/// The values to type, each to 4 significant digits (`typed`): the
+/// strength first, then the width it gives, so the two agree within the
+/// rounding (`godot_from_params` checks it). 4 digits, not the inspector's
+/// 0.01 step, because skin's strength is about 0.02 and that step moves its
+/// width by up to a quarter (the fit's warning gives that error); a script
+/// takes 4 digits, and they are finer than the colour picker's 8 bits.
+/// The error is scored on these rounded values (`fit`).
 pub fn params(k: &Godot, scene: Scene) -> (Map<String, Value>, Units) {
+    let strength = typed(strength_for_width(k.mm_per_unit * scene.units_per_mm));
     table(vec![
         (
             "kernel_width_mm",
-            json!(k.mm_per_unit),
+            json!(typed(width_for_strength(strength) / scene.units_per_mm)),
             "mm per unit of the kernel's offsets on the horizontal pass (the vertical pass \
              steps 1 / aspect of it)",
         ),
         (
             "subsurf_scatter_strength",
-            json!(strength_for_width(k.mm_per_unit * scene.units_per_mm)),
+            json!(strength),
             "material subsurf_scatter_strength (SSS_STRENGTH) with \
              subsurface_scattering_depth_scale = 1: 1.5 x kernel_width_mm x scene units per mm \
              (the horizontal pass steps 2/3 of it in scene units per offset unit)",
@@ -332,7 +340,7 @@ pub fn params(k: &Godot, scene: Scene) -> (Map<String, Value>, Units) {
         ),
         (
             "albedo",
-            color(k.albedo),
+            color(k.albedo.map(typed)),
             "the material's albedo (linear RGB)",
         ),
     ])
@@ -362,7 +370,7 @@ pub fn godot_from_params(p: &Map<String, Value>, scene: Scene) -> Result<Godot> 
     }
     let w = width_for_strength(strength) / scene.units_per_mm;
     let stated = number(p, "kernel_width_mm")?;
-    if (w - stated).abs() > 1e-9 * stated.abs() {
+    if (w - stated).abs() > TYPED_REL * stated.abs() {
         return Err(Error::invalid(
             "engine",
             "kernel_width_mm",

@@ -46,6 +46,12 @@ pub const VERSIONS: [Version; 1] = [Version {
 
 /// `DiffusionProfile.UpdateKernel`'s bound on S.
 pub const MAX_SHAPE_PARAM: f64 = 16777216.0;
+/// The field of `DiffusionProfileSettings` (DiffusionProfileSettings.cs) that
+/// holds the `DiffusionProfile` the .asset serializes: its fields
+/// `scatteringDistance`, `scatteringDistanceMultiplier`, `worldScale`,
+/// `texturingMode` are what the inspector's Scattering Color, Multiplier,
+/// World Scale and Texturing Mode write.
+pub const SERIALIZED: &str = "profile";
 /// `DiffusionProfile.Validate`'s least World Scale.
 pub const MIN_WORLD_SCALE: f64 = 0.001;
 const MM_PER_M: f64 = 1000.0;
@@ -85,14 +91,18 @@ pub fn params(b: &Burley, scene: Scene, _v: Version) -> Printed {
         }
     }
     let base = b.albedo.map(|a| typed(linear_to_srgb(a.clamp(0.0, 1.0))));
+    // The .asset holds what the picker stores, Color.linear of the typed
+    // colour (DiffusionProfileSettingsEditor `DrawScattering`).
+    let stored = scattering.map(|s| typed(srgb_to_linear(s)));
+    let scattering_unit = format!(
+        "diffusion profile, as the colour picker shows it (sRGB, 0 to 1); .asset: \
+         {SERIALIZED}.scatteringDistance = {} (its .linear): the shape distance per channel, \
+         times Multiplier",
+        color(stored)
+    );
     printed(
         vec![
-            (
-                "Scattering Color",
-                color(scattering),
-                "diffusion profile, as the colour picker shows it (sRGB, 0 to 1; HDRP stores \
-             its .linear): the shape distance per channel, times Multiplier",
-            ),
+            ("Scattering Color", color(scattering), &scattering_unit),
             (
                 "Scattering Color hex",
                 json!(hex),
@@ -101,18 +111,19 @@ pub fn params(b: &Burley, scene: Scene, _v: Version) -> Printed {
             (
                 "Multiplier",
                 json!(multiplier),
-                "diffusion profile: mm at World Scale x scene units per mm = 0.001",
+                "diffusion profile; .asset: profile.scatteringDistanceMultiplier: mm at World \
+                 Scale x scene units per mm = 0.001",
             ),
             (
                 "World Scale",
                 json!(world_scale),
-                "diffusion profile: metres per scene unit",
+                "diffusion profile; .asset: profile.worldScale: metres per scene unit",
             ),
             (
                 "Base Color",
                 color(base),
-                "the Lit material's Base Map colour, as the picker shows it (sRGB): the \
-             profile's total reflectance",
+                "the Lit material's Base Map colour (shader property _BaseColor), as the \
+                 picker shows it (sRGB): the profile's total reflectance",
             ),
             (
                 "Base Color hex",
@@ -122,12 +133,14 @@ pub fn params(b: &Burley, scene: Scene, _v: Version) -> Printed {
             (
                 "Subsurface Mask",
                 json!(1.0),
-                "Lit material: the filter is scaled by it, 1 keeps the profile's width",
+                "Lit material (shader property _SubsurfaceMask): the filter is scaled by it, 1 \
+                 keeps the profile's width",
             ),
             (
                 "Texturing Mode",
                 json!("Post-scatter"),
-                "diffusion profile (Pre- and post-scatter gives the same for a uniform colour)",
+                "diffusion profile; .asset: profile.texturingMode = 1 (PostScatter; Pre- and \
+                 post-scatter, 0, gives the same for a uniform colour)",
             ),
         ],
         warnings,

@@ -30,7 +30,7 @@
 //! from -3 to 3" holds for 25 taps; below 21 the table spans +-2 units.
 
 use super::jimenez::{self as sep, ChannelFit, FitData, Separable};
-use super::printed::{color, number, table, triple, Units};
+use super::printed::{color, number, table, triple, typed, Units};
 use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams, IRYOKU_FALLOFF, IRYOKU_STRENGTH};
@@ -125,11 +125,15 @@ pub fn fit_samples(p: &Profile, samples: usize) -> Result<(Iryoku, f64)> {
     ))
 }
 
+/// The values to type, each to 4 significant digits (`typed`, as for
+/// every engine): SeparableSSS::setWidth, setStrength and setFalloff take
+/// floats set in code, where 16 digits are noise; the error is scored on
+/// these rounded values (`fit`).
 pub fn params(k: &Iryoku, scene: Scene) -> (Map<String, Value>, Units) {
     table(vec![
         (
             "sssWidth",
-            json!(sss_width_for(k.mm_per_unit, scene)),
+            json!(typed(sss_width_for(k.mm_per_unit, scene))),
             "scene units (SSSSBlurPS sssWidth, SeparableSSS::setWidth): the vertical pass \
              steps 2/3 of it per kernel offset unit",
         ),
@@ -140,17 +144,17 @@ pub fn params(k: &Iryoku, scene: Scene) -> (Map<String, Value>, Units) {
         ),
         (
             "strength",
-            color(k.strength),
+            color(k.strength.map(typed)),
             "per channel, in [0, 1] (SeparableSSS::setStrength)",
         ),
         (
             "falloff",
-            color(k.falloff),
+            color(k.falloff.map(typed)),
             "per channel, in [0, 1] (SeparableSSS::setFalloff; the demo's slider range)",
         ),
         (
             "albedo",
-            color(k.albedo),
+            color(k.albedo.map(typed)),
             "the material's diffuse colour (linear RGB): the blur is normalised and keeps it",
         ),
     ])

@@ -72,6 +72,10 @@ pub(crate) fn color(v: [f64; 3]) -> Value {
     rgb(v)
 }
 
+/// The most `typed` moves a value, relative: half a unit in the 4th
+/// significant digit of a mantissa of at least 1.000.
+pub(crate) const TYPED_REL: f64 = 5e-4;
+
 /// `x` to 4 significant digits, as ssskit prints a value to type: the
 /// error is computed from this value, not from the unrounded fit.
 pub(crate) fn typed(x: f64) -> f64 {

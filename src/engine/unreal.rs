@@ -22,12 +22,19 @@
 //!    S = s_dmfp(A) (`GetScalingFactor3D`), i.e. Burley's d = DMFP /
 //!    s_dmfp(A) = 10 MFP / (0.6 s_perp(A)) mm, and divides by the sum of
 //!    the weights: the blur is normalised to 1.
-//! 4. `CalculateBurleyScale` maps the profile's mm to the screen:
-//!    WorldUnitScale x SubsurfaceParams.x / depth (SSSScaleX =
-//!    cot(fov / 2) / 6, PostProcessSubsurface.cpp
-//!    `GetSubsurfaceCommonParameters`) x SUBSURFACE_KERNEL_SIZE /
-//!    BURLEY_CM_2_MM (= 0.3, in 5.4; absent in 5.0.3): one profile mm is
-//!    WorldUnitScale / 10 world units (5.4) or WorldUnitScale / 3 (5.0).
+//! 4. The profile's mm on the screen. `GetBurleyParameters`
+//!    (SubsurfaceBurleyNormalized.ush) hands the pass
+//!    `DecodeWorldUnitScale(...) * BURLEY_CM_2_MM`, i.e. 10 x WorldUnitScale;
+//!    `CalculateBurleyScale` multiplies it by SubsurfaceParams.x / depth
+//!    (SSSScaleX = cot(fov / 2) / 6, PostProcessSubsurface.cpp
+//!    `GetSubsurfaceCommonParameters`) and, in 5.4, by
+//!    SUBSURFACE_KERNEL_SIZE / BURLEY_CM_2_MM (= 0.3; absent in 5.0.3).
+//!    The screen spans 2 depth / cot(fov / 2) world units, so one profile
+//!    mm is WorldUnitScale world units (5.4) or 10 WorldUnitScale / 3
+//!    (5.0): in Unreal's cm, the default WorldUnitScale 0.1
+//!    (`FSubsurfaceProfileStruct`'s constructor) renders the profile at
+//!    its true size in 5.4, as the pass's own bilateral comment says ("a
+//!    1 cm world unit scale (i.e., 1cm is regarded as 1mm)").
 //! 5. `SubsurfaceRecombinePS` (PostProcessSubsurface.usf): lerp(unblurred,
 //!    blurred, Tint) x the material's Base Color (`StoredBaseColor`).
 //!
@@ -78,13 +85,21 @@ pub const ERROR_FOR: &str = "the screen-space Burley pass (Implementation: Adapt
      with r.SSS.HalfRes.ForceSeparable 1) blurs with a separable kernel Unreal fits to the \
      same profile and is not scored here";
 
-/// World units per profile mm, divided by WorldUnitScale
-/// (`CalculateBurleyScale` with SSSScaleX = cot(fov / 2) / 6).
-fn world_units_per_profile_mm(v: Version) -> f64 {
+/// `BURLEY_CM_2_MM`: `GetBurleyParameters` multiplies the decoded
+/// WorldUnitScale by it before `CalculateBurleyScale` sees it.
+pub const BURLEY_CM_2_MM: f64 = 10.0;
+/// `SUBSURFACE_KERNEL_SIZE` (SubsurfaceProfile.h): SSSScaleX divides by it.
+pub const SUBSURFACE_KERNEL_SIZE: f64 = 3.0;
+
+/// World units per profile mm, divided by WorldUnitScale (step 4):
+/// 10 WUS x cot / (2 x 3) / depth [x 3 / 10] UV per mm, against cot / (2
+/// depth) UV per world unit.
+pub fn world_units_per_profile_mm(v: Version) -> f64 {
+    let per_mm = BURLEY_CM_2_MM / SUBSURFACE_KERNEL_SIZE;
     if v.key == "5.0" {
-        1.0 / 3.0
+        per_mm
     } else {
-        0.3 / 3.0
+        per_mm * SUBSURFACE_KERNEL_SIZE / BURLEY_CM_2_MM
     }
 }
 
@@ -196,6 +211,15 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
         }
     }
     let base = b.albedo.map(|a| typed(a.clamp(0.0, 1.0)));
+    let wus_unit = format!(
+        "profile asset, in [0.1, 50]: one profile mm spans {} world units, cm \
+         (GetBurleyParameters' x BURLEY_CM_2_MM, CalculateBurleyScale)",
+        if v.key == "5.0" {
+            "10/3 x WorldUnitScale"
+        } else {
+            "WorldUnitScale"
+        }
+    );
     let mut rows = vec![
         (
             "SurfaceAlbedo",
@@ -213,11 +237,7 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
             json!(distance),
             "profile asset, cm (world units), in [0.1, 50]",
         ),
-        (
-            "WorldUnitScale",
-            json!(wus),
-            "profile asset, in [0.1, 50]: maps the profile's mm to the scene's",
-        ),
+        ("WorldUnitScale", json!(wus), &wus_unit),
         (
             "Tint",
             color([1.0; 3]),

@@ -24,6 +24,38 @@ pub fn reference(m: &str) -> Profile {
     Profile::read(Path::new(&format!("profiles/reference/{m}.json"))).unwrap()
 }
 
+/// The most ssskit's 4-significant-digit rounding moves a printed value,
+/// relative: half a unit in the 4th digit of a mantissa of at least 1.000.
+pub const TYPED_REL: f64 = 5e-4;
+
+/// Significant digits of `x` as printed (its shortest round-trip form).
+pub fn significant_digits(x: f64) -> usize {
+    let e = format!("{:e}", x.abs());
+    let mantissa = e.split('e').next().unwrap();
+    mantissa.chars().filter(char::is_ascii_digit).count()
+}
+
+/// Every number of a printed parameter table, scalars and [r, g, b].
+pub fn printed_numbers(params: &serde_json::Map<String, serde_json::Value>) -> Vec<(String, f64)> {
+    let mut out = Vec::new();
+    for (k, v) in params {
+        match v {
+            serde_json::Value::Number(n) => out.push((k.clone(), n.as_f64().unwrap())),
+            serde_json::Value::Array(a) => {
+                out.extend(a.iter().filter_map(|x| x.as_f64()).map(|x| (k.clone(), x)))
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// `ssskit engine --engine <engine>` on a reference profile: its stdout.
+pub fn engine_text(m: &str, engine: &str) -> String {
+    let profile = format!("profiles/reference/{m}.json");
+    ok(&["engine", "--profile", &profile, "--engine", engine])
+}
+
 /// `ssskit engine --engine <engine> --out` on a reference profile: the JSON.
 pub fn engine_json(m: &str, engine: &str) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
