@@ -18,10 +18,13 @@ import ssskit
 # lasts at least twice this (checked).
 MAX_PAUSE_S = 0.25
 # The calls watched: about 3 s each on 2 busy cores (1e6 photons take
-# 1.8 s; 1080p at 0.15 mm a pixel, rank 2, 3 s), well above twice
-# MAX_PAUSE_S even on a machine a few times faster.
+# 1.8 s), well above twice MAX_PAUSE_S even on a machine a few times
+# faster. The filter is 4K at 0.15 mm a pixel, rank 2, full factors: since
+# it filters in place, 1080p took only 0.46 s on an idle 2-core machine,
+# under twice MAX_PAUSE_S; 4K is four times that.
 GIL_PHOTONS = 1_500_000
 GIL_MM_PER_PIXEL = 0.15
+GIL_IMAGE_SHAPE = (2160, 3840, 3)
 # Photons of the run that Ctrl-C stops: about 18 s of tracing on 2 busy
 # cores (1e6 take 1.8 s), several times the deadline below on a machine
 # many times faster, so stopping in time is distinguishable from finishing.
@@ -66,7 +69,7 @@ def test_simulate_releases_the_gil():
 
 def test_apply_releases_the_gil():
     k = ssskit.fit(ssskit.profile("skin1", "pbd"), "svd", rank=2)
-    img = np.ones((1080, 1920, 3), np.float32)
+    img = np.ones(GIL_IMAGE_SHAPE, np.float32)
     # The full factors: a call long enough to watch (the tap table is faster).
     pause, took = longest_pause_during(
         lambda: ssskit.apply(k, img, mm_per_pixel=GIL_MM_PER_PIXEL, full_factors=True))
