@@ -3,7 +3,7 @@
 
 use super::atomic::{cannot_write, folder_of};
 use super::dest::{destination, Destination};
-use super::temps::{temp_builder, temp_prefix};
+use super::temps::{temp_builder, temp_prefix, LiveTemp};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -66,9 +66,11 @@ pub fn check_output_file(path: &Path, what: &str) -> Result<()> {
             )))
         }
     }
+    // The probe is registered for the signal clean-up like every other
+    // temporary: a signal between its creation and its removal would
+    // otherwise leave it behind.
     let prefix = temp_prefix();
-    temp_builder(&prefix)
-        .tempfile_in(dir)
+    LiveTemp::create(|| temp_builder(&prefix).tempfile_in(dir), |t| t.path())
         .map(drop)
         .map_err(|e| cannot_write(path, dir, &e))
 }
