@@ -146,25 +146,12 @@ fn mcml(scale: f64, data: &mut serde_json::Value) -> Table {
     std::fs::create_dir_all(&dir).expect("temporary directory");
     std::fs::write(dir.join("m.mci"), layered_mci(photons, "m.mco")).unwrap();
     std::fs::write(dir.join("s.mci"), layered_mci(photons, "s.mco")).unwrap();
-    let ok = Command::new(&bin)
-        .arg("m.mci")
-        .current_dir(&dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    let ssskit = Path::new(env!("CARGO_BIN_EXE_ssskit"));
-    let ours = Command::new(ssskit)
-        .args([
+    let ok = run_mcml(&bin, &dir);
+    run_ssskit(
+        &dir,
+        &[
             "simulate", "--mci", "s.mci", "--mco", "s.mco", "--out", "s.json",
-        ])
-        .current_dir(&dir)
-        .output()
-        .expect("ssskit runs");
-    assert!(
-        ours.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ours.stderr)
+        ],
     );
     let theirs = ok
         .then(|| std::fs::read_to_string(dir.join("m.mco")).ok())
@@ -279,18 +266,11 @@ fn mcml_exit(scale: f64, data: &mut serde_json::Value) -> Table {
     let ours_photons = per_run * MCML_RUNS;
     let dir = std::env::temp_dir().join(format!("ssskit-bench-exit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temporary directory");
-    let ssskit = Path::new(env!("CARGO_BIN_EXE_ssskit"));
     let mut record = Vec::new();
     for eta in EXIT_ETAS {
         std::fs::write(dir.join("m.mci"), exit_mci(eta, per_run, MCML_RUNS, "m")).unwrap();
         std::fs::write(dir.join("s.mci"), exit_mci(eta, ours_photons, 1, "s")).unwrap();
-        let ok = Command::new(&bin)
-            .arg("m.mci")
-            .current_dir(&dir)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success());
+        let ok = run_mcml(&bin, &dir);
         assert!(ok, "MCML at {} failed", Path::new(&bin).display());
         let runs: Vec<Vec<f64>> = (0..MCML_RUNS)
             .map(|k| mcml_factor(&std::fs::read_to_string(dir.join(format!("m{k}.mco"))).unwrap()))
@@ -305,17 +285,11 @@ fn mcml_exit(scale: f64, data: &mut serde_json::Value) -> Table {
                 (ss / (n - 1.0) / n).sqrt()
             })
             .collect();
-        let ours = Command::new(ssskit)
-            .args([
+        run_ssskit(
+            &dir,
+            &[
                 "simulate", "--mci", "s.mci", "--out", "s.json", "--seed", "1",
-            ])
-            .current_dir(&dir)
-            .output()
-            .expect("ssskit runs");
-        assert!(
-            ours.status.success(),
-            "{}",
-            String::from_utf8_lossy(&ours.stderr)
+            ],
         );
         let p = ssskit::profile::Profile::read(&dir.join("s.json")).unwrap();
         let x = p.angular().unwrap().unwrap().exit.unwrap();
@@ -372,4 +346,29 @@ fn main() {
     let path = docs_path("mc-angular");
     r.write(&path).expect("record written");
     eprintln!("wrote {}", path.display());
+}
+
+/// MCML 1.2.2 on `dir`/m.mci, run in `dir`: whether it ran and succeeded.
+fn run_mcml(bin: &std::ffi::OsStr, dir: &Path) -> bool {
+    Command::new(bin)
+        .arg("m.mci")
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// The ssskit binary with `args`, run in `dir`; it must succeed.
+fn run_ssskit(dir: &Path, args: &[&str]) {
+    let ours = Command::new(env!("CARGO_BIN_EXE_ssskit"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("ssskit runs");
+    assert!(
+        ours.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ours.stderr)
+    );
 }

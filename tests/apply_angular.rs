@@ -298,4 +298,37 @@ fn gpu_entry_weighted_and_missing_normals() {
         p(&o3),
     ]);
     fails_with(&args, &["--light-toward", "--n-dot-l", "--entry-weighted"]);
+    // A light without the normals is refused by its flag's name.
+    let mut args = base.to_vec();
+    args.extend_from_slice(&[
+        "--input",
+        p(&plain),
+        "--light-toward",
+        "0,0,1",
+        "--out",
+        p(&o3),
+    ]);
+    fails_with(
+        &args,
+        &["--light-toward: the exit factor needs the normals"],
+    );
+    // A factor-only flag on a kernel without factors is refused.
+    let mut kj = read_json(&k);
+    kj.as_object_mut().unwrap().remove("angular");
+    let bare_kernel = c.path("bare-k.json");
+    std::fs::write(&bare_kernel, kj.to_string()).unwrap();
+    let mut args = base.to_vec();
+    args[2] = p(&bare_kernel);
+    args.extend_from_slice(&[
+        "--input",
+        p(&plain),
+        "--normals",
+        p(&normals),
+        "--out",
+        p(&o3),
+    ]);
+    fails_with(
+        &args,
+        &["--normals: the kernel carries no angular entry and exit factors"],
+    );
 }

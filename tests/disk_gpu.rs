@@ -58,24 +58,14 @@ fn the_gpu_disk_pass_equals_the_cpu_reference_for_the_same_seed() {
             fov_y_deg: 30.0,
             sss_width: 1.0,
         };
-        v.depth = Some(Plane {
-            width: w,
-            height: h,
-            data: (0..w * h)
-                .map(|i| {
-                    if (i % w) < w / 2 {
-                        60.0
-                    } else {
-                        90.0 + (i / w) as f64
-                    }
-                })
-                .collect(),
-        });
-        v.strength = Some(Plane {
-            width: w,
-            height: h,
-            data: (0..w * h).map(|i| 0.5 + (i % 5) as f64 * 0.25).collect(),
-        });
+        v.depth = Some(Plane::from_index(w, h, |i| {
+            if (i % w) < w / 2 {
+                60.0
+            } else {
+                90.0 + (i / w) as f64
+            }
+        }));
+        v.strength = Some(Plane::from_index(w, h, |i| 0.5 + (i % 5) as f64 * 0.25));
         v.follow_surface = Some(FollowSurface::InSceneUnits(0.2));
         v.specular = Some(noise(w, h, 5));
         let s = DiskSetup::new(&k, v, 4_000_000_000, 2);

@@ -84,23 +84,23 @@ fn close(got: [f64; 3], want: [f64; 3], what: &str) {
     }
 }
 
+/// skin1's profile, simulated with `extra` flags into `dir`.
+fn skin1_profile(dir: &std::path::Path, extra: &[&str]) -> std::path::PathBuf {
+    let prof = dir.join("p.json");
+    let mut args = vec!["simulate", "--material", "skin1", "--photons", PHOTONS];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", p(&prof)]);
+    ok(&args);
+    prof
+}
+
 #[test]
 fn each_engine_says_where_the_factors_go_and_what_is_kept_without_them() {
     let dir = tempfile::tempdir().unwrap();
-    let prof = dir.path().join("p.json");
-    ok(&[
-        "simulate",
-        "--material",
-        "skin1",
-        "--angle-bins",
-        "90",
-        "--incidence",
-        "30,60,80",
-        "--photons",
-        PHOTONS,
-        "--out",
-        p(&prof),
-    ]);
+    let prof = skin1_profile(
+        dir.path(),
+        &["--angle-bins", "90", "--incidence", "30,60,80"],
+    );
     let profile = ssskit::profile::Profile::read(&prof).unwrap();
     let f = AngularFactors::from_profile(&profile).unwrap().unwrap();
     let (none_rms, none_bias) = kept(&f, false, false);
@@ -160,16 +160,7 @@ fn each_engine_says_where_the_factors_go_and_what_is_kept_without_them() {
 #[test]
 fn a_profile_without_angular_tables_gets_one_line() {
     let dir = tempfile::tempdir().unwrap();
-    let prof = dir.path().join("p.json");
-    ok(&[
-        "simulate",
-        "--material",
-        "skin1",
-        "--photons",
-        PHOTONS,
-        "--out",
-        p(&prof),
-    ]);
+    let prof = skin1_profile(dir.path(), &[]);
     let out = ok(&["engine", "--profile", p(&prof), "--engine", "godot"]);
     let lines: Vec<&str> = out
         .lines()

@@ -216,11 +216,7 @@ fn constant_stays_constant_and_black_stays_black() {
                         sss_width: 0.05,
                     },
                     depth: Some(step_depth(w, h)),
-                    strength: Some(Plane {
-                        width: w,
-                        height: h,
-                        data: (0..w * h).map(|i| (i % 7) as f64 / 3.0).collect(),
-                    }),
+                    strength: Some(Plane::from_index(w, h, |i| (i % 7) as f64 / 3.0)),
                     follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
                     specular: None,
                     jitter: false,

@@ -140,13 +140,7 @@ fn gpu_equals_cpu_with_strength_specular_and_full_factors() {
     let (w, h) = (36, 28);
     let image = scene(w, h);
     let k = gaussian_kernel(3, 17);
-    let strength = Plane {
-        width: w,
-        height: h,
-        data: (0..w * h)
-            .map(|i| (i % w) as f64 / w as f64 * 1.5)
-            .collect(),
-    };
+    let strength = Plane::from_index(w, h, |i| (i % w) as f64 / w as f64 * 1.5);
     let setup = Setup {
         passes: taps_for(&k, Which::Full, None).unwrap(),
         scale: Scale::MmPerPixel(0.2),

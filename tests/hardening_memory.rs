@@ -152,13 +152,7 @@ fn per_pixel_case() -> (ssskit::filter::Image, ssskit::filter::Setup) {
     use ssskit::filter::{FollowSurface, Plane, Scale, Setup};
     let (w, h) = (1024, 1024);
     let img = ssskit::filter::signals::noise(w, h, 11);
-    let depth = Plane {
-        width: w,
-        height: h,
-        data: (0..w * h)
-            .map(|i| 100.0 + (i % 977) as f64 * 0.01)
-            .collect(),
-    };
+    let depth = Plane::from_index(w, h, |i| 100.0 + (i % 977) as f64 * 0.01);
     let view = Setup {
         passes: vec![],
         scale: Scale::MmPerPixel(0.1),

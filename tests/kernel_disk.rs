@@ -119,11 +119,7 @@ fn a_constant_image_stays_constant() {
     }
     // Depth and strength vary the step per pixel; the lerp toward the
     // centre colour of a constant image changes nothing either.
-    let depth = Plane {
-        width: w,
-        height: h,
-        data: (0..w * h).map(|i| 0.5 + (i % 7) as f64 * 0.1).collect(),
-    };
+    let depth = Plane::from_index(w, h, |i| 0.5 + (i % 7) as f64 * 0.1);
     for radii in [RadiusPdf::Mean, RadiusPdf::Widest, RadiusPdf::PerChannel] {
         let k = fit_disk(&p, 37, radii).unwrap();
         for (c, s) in k.raw_weight_sum.iter().enumerate() {

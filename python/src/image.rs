@@ -11,7 +11,9 @@ use numpy::{Element, IntoPyArray, PyArrayMethods, PyUntypedArray, PyUntypedArray
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use ssskit::filter::accumulate::Accumulate;
-use ssskit::filter::angular::{angular_view, around_pass, AngularView, Light};
+use ssskit::filter::angular::{
+    angular_view, around_pass, factor_plan, AngularView, FactorArgs, FactorPlan, Light,
+};
 use ssskit::filter::cpu::{self, PixelSampling, Precision};
 use ssskit::filter::disk::{apply_disk_in_place, DiskSetup};
 use ssskit::filter::disk_gpu::DiskGpu;
@@ -466,10 +468,11 @@ impl Lights<'_, '_> {
         }
     }
 
-    /// The cosines the kernel's factors take, as `ssskit apply` decides
-    /// (src/cli/apply_angular.rs): none without factors or with
-    /// factors=False; a warning and none without normals; the light from
-    /// exactly one of light_toward, n_dot_l and entry_weighted.
+    /// The cosines the kernel's factors take, by the library's
+    /// `factor_plan` (the rule `ssskit apply` follows): none without
+    /// factors or with factors=False; a warning and none without normals;
+    /// the light from exactly one of light_toward, n_dot_l and
+    /// entry_weighted.
     fn view<'f>(
         &self,
         py: Python<'_>,
@@ -478,23 +481,17 @@ impl Lights<'_, '_> {
         scale: &Scale,
     ) -> PyResult<Option<AngularView<'f>>> {
         let (w, h) = (image.width, image.height);
-        let Some(f) = f else {
-            if let Some(arg) = self.any_given() {
-                return Err(PyValueError::new_err(format!(
-                    "{arg}: the kernel carries no angular entry and exit factors"
-                )));
-            }
-            return Ok(None);
-        };
-        if !self.factors {
-            return Ok(None);
-        }
-        let Some(normals) = self.normals else {
-            if let Some(arg) = self.any_given() {
-                return Err(PyValueError::new_err(format!(
-                    "{arg}: the exit factor needs the normals: give normals=(H, W, 3) array"
-                )));
-            }
+        let plan = factor_plan(
+            f.is_some(),
+            &FactorArgs {
+                first_given: self.any_given(),
+                has_normals: self.normals.is_some(),
+                leave_out: !self.factors,
+                normals_hint: "normals=(H, W, 3) array",
+            },
+        )
+        .map_err(to_py)?;
+        if plan == FactorPlan::WithoutNormals {
             py.import("warnings")?.call_method1(
                 "warn",
                 (
@@ -502,6 +499,8 @@ impl Lights<'_, '_> {
                   applied without them (factors=False says so)",
                 ),
             )?;
+        }
+        let (FactorPlan::With, Some(f), Some(normals)) = (plan, f, self.normals) else {
             return Ok(None);
         };
         let (n, _) = image_of(normals, "normals")?;

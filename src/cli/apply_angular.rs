@@ -4,7 +4,9 @@
 
 use super::Args;
 use anyhow::{bail, Context};
-use ssskit::filter::angular::{angular_view, AngularView, Light};
+use ssskit::filter::angular::{
+    angular_view, factor_plan, AngularView, FactorArgs, FactorPlan, Light,
+};
 use ssskit::filter::image::{read_exr_channels, read_plane};
 use ssskit::filter::{Image, Scale};
 use ssskit::kernel::angular::AngularFactors;
@@ -49,25 +51,29 @@ pub fn view<'a>(
     scale: &Scale,
 ) -> anyhow::Result<Option<AngularView<'a>>> {
     let (w, h) = (image.width, image.height);
-    let Some(f) = factors else {
-        if let Some(flag) = any_flag(args) {
-            bail!("{flag}: the kernel carries no angular entry and exit factors");
-        }
-        return Ok(None);
+    // The normals are read only where the factors may be used.
+    let normals = match factors {
+        Some(_) if !args.factors.no_factors => normals(args, w, h)?,
+        _ => None,
     };
-    if args.factors.no_factors {
-        return Ok(None);
-    }
-    let Some(normals) = normals(args, w, h)? else {
-        if let Some(flag) = any_flag(args) {
-            bail!("{flag}: the exit factor needs the normals: give --normals IMAGE");
-        }
+    let plan = factor_plan(
+        factors.is_some(),
+        &FactorArgs {
+            first_given: any_flag(args),
+            has_normals: normals.is_some(),
+            leave_out: args.factors.no_factors,
+            normals_hint: "--normals IMAGE",
+        },
+    )?;
+    if plan == FactorPlan::WithoutNormals {
         crate::cli::errors::warn(&format!(
             "the kernel carries angular entry and exit factors, but {} has no normals ({}) \
              and --normals is not given: applied without them (--no-factors says so)",
             args.input.display(),
             NORMAL_CHANNELS.join(", ")
         ));
+    }
+    let (FactorPlan::With, Some(f), Some(normals)) = (plan, factors, normals) else {
         return Ok(None);
     };
     let light = light(args, w, h)?;

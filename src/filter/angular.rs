@@ -153,6 +153,59 @@ pub fn around_pass<E: From<Error>>(
     Ok(out)
 }
 
+/// What a caller of the pass was given for a kernel's entry and exit
+/// factors, in its own spelling (`--normals` on the command line, `normals`
+/// in Python), so that `ssskit apply` and the binding follow one rule.
+pub struct FactorArgs<'a> {
+    /// The first factor-only argument given (the normals, then the light).
+    pub first_given: Option<&'a str>,
+    /// Normals are at hand (given, or in the input file).
+    pub has_normals: bool,
+    /// The caller asked to leave the factors out.
+    pub leave_out: bool,
+    /// How this caller gives the normals, for the error that asks for them.
+    pub normals_hint: &'a str,
+}
+
+/// Whether the factors go around the pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FactorPlan {
+    /// No factors: the kernel has none, or the caller left them out.
+    Without,
+    /// The kernel has factors but no normals are at hand and nothing else
+    /// was asked of them: the pass runs without them, and the caller warns.
+    WithoutNormals,
+    /// Around the pass, with the normals and a light.
+    With,
+}
+
+/// The one rule: a factor-only argument on a kernel without factors is an
+/// error, as is a light without normals; leaving them out wins; a kernel
+/// with factors and nothing to apply them with runs without them (warned).
+pub fn factor_plan(kernel_has_factors: bool, a: &FactorArgs) -> Result<FactorPlan> {
+    if !kernel_has_factors {
+        return match a.first_given {
+            Some(arg) => Err(Error::Unsupported(format!(
+                "{arg}: the kernel carries no angular entry and exit factors"
+            ))),
+            None => Ok(FactorPlan::Without),
+        };
+    }
+    if a.leave_out {
+        return Ok(FactorPlan::Without);
+    }
+    if !a.has_normals {
+        return match a.first_given {
+            Some(arg) => Err(Error::Unsupported(format!(
+                "{arg}: the exit factor needs the normals: give {}",
+                a.normals_hint
+            ))),
+            None => Ok(FactorPlan::WithoutNormals),
+        };
+    }
+    Ok(FactorPlan::With)
+}
+
 /// Where the light of the entry factor comes from.
 pub enum Light {
     /// One light, the view-space direction toward it (any length above 0).
@@ -212,4 +265,44 @@ pub fn angular_view<'a>(
         n_dot_l,
         n_dot_v: n_dot_v(normals, width, height, scale),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(first_given: Option<&str>, has_normals: bool, leave_out: bool) -> FactorArgs<'_> {
+        FactorArgs {
+            first_given,
+            has_normals,
+            leave_out,
+            normals_hint: "the normals",
+        }
+    }
+
+    #[test]
+    fn the_factor_rule_in_each_case() {
+        let plan = |has, a: FactorArgs| factor_plan(has, &a).map_err(|e| e.to_string());
+        assert_eq!(
+            plan(false, args(None, true, false)),
+            Ok(FactorPlan::Without)
+        );
+        let e = plan(false, args(Some("--normals"), true, false)).unwrap_err();
+        assert!(e.starts_with("--normals: the kernel carries no"), "{e}");
+        // Leaving the factors out wins over every other argument.
+        assert_eq!(
+            plan(true, args(Some("--light-toward"), false, true)),
+            Ok(FactorPlan::Without)
+        );
+        assert_eq!(
+            plan(true, args(None, false, false)),
+            Ok(FactorPlan::WithoutNormals)
+        );
+        let e = plan(true, args(Some("n_dot_l"), false, false)).unwrap_err();
+        assert_eq!(
+            e,
+            "n_dot_l: the exit factor needs the normals: give the normals"
+        );
+        assert_eq!(plan(true, args(None, true, false)), Ok(FactorPlan::With));
+    }
 }

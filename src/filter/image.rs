@@ -127,6 +127,15 @@ impl Image {
 }
 
 impl Plane {
+    /// The `w` x `h` plane whose value at row-major index `i` is `value(i)`.
+    pub fn from_index(w: usize, h: usize, value: impl Fn(usize) -> f64) -> Plane {
+        Plane {
+            width: w,
+            height: h,
+            data: (0..w * h).map(value).collect(),
+        }
+    }
+
     /// Rejects non-finite values, or replaces them by `fill` when `sanitize`.
     pub fn check_finite(&mut self, what: &str, sanitize: bool, fill: f64) -> Result<usize> {
         let bad: Vec<usize> = (0..self.data.len())

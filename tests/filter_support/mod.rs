@@ -157,13 +157,7 @@ pub fn max_rel(a: &Image, b: &Image) -> f64 {
 
 /// Depth 1 on the left half, 4 on the right: a silhouette edge.
 pub fn step_depth(w: usize, h: usize) -> Plane {
-    Plane {
-        width: w,
-        height: h,
-        data: (0..w * h)
-            .map(|i| if i % w < w / 2 { 1.0 } else { 4.0 })
-            .collect(),
-    }
+    Plane::from_index(w, h, |i| if i % w < w / 2 { 1.0 } else { 4.0 })
 }
 
 /// A black foreground (left half, depth 1) against a bright far background
