@@ -83,11 +83,16 @@ fn checked<'py>(
 }
 
 /// The samples of a checked array, read in place (no copy).
-fn with_samples<R>(
+/// `f` on the array's samples, run without the GIL: a 4K image's
+/// conversion takes long enough (0.4 s on a loaded 2-core machine) that
+/// other Python threads must run meanwhile. Python code may still write to
+/// the array as it is read, as it may during numpy's own GIL-free loops.
+fn with_samples<R: Send>(
     arr: &Bound<'_, PyUntypedArray>,
     dtype: Dtype,
-    f: impl FnOnce(Samples<'_>) -> R,
+    f: impl FnOnce(Samples<'_>) -> R + Send,
 ) -> PyResult<R> {
+    let py = arr.py();
     fn slice<'a, T: Element>(r: &'a numpy::PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
         r.as_slice()
             .map_err(|e| PyValueError::new_err(e.to_string()))
@@ -95,11 +100,13 @@ fn with_samples<R>(
     Ok(match dtype {
         Dtype::F32 => {
             let r = arr.cast::<numpy::PyArrayDyn<f32>>()?.try_readonly()?;
-            f(Samples::F32(slice(&r)?))
+            let s = slice(&r)?;
+            py.detach(|| f(Samples::F32(s)))
         }
         Dtype::F64 => {
             let r = arr.cast::<numpy::PyArrayDyn<f64>>()?.try_readonly()?;
-            f(Samples::F64(slice(&r)?))
+            let s = slice(&r)?;
+            py.detach(|| f(Samples::F64(s)))
         }
     })
 }
@@ -149,18 +156,18 @@ fn image_sanitized(obj: &Bound<'_, PyAny>, what: &str, how: Sanitize) -> PyResul
     let (arr, dtype) = checked(obj, what, true)?;
     let shape = arr.shape().to_vec();
     let (h, w, c) = (shape[0], shape[1], shape[2]);
-    let mut image = with_samples(&arr, dtype, |s| {
+    let (image, n) = with_samples(&arr, dtype, |s| {
         let plane = |k: usize| (0..w * h).map(|i| s.get(i * c + k)).collect::<Vec<f64>>();
-        Image {
+        let mut image = Image {
             width: w,
             height: h,
             rgb: [plane(0), plane(1), plane(2)],
             alpha: (c == 4).then(|| plane(3)),
-        }
-    })?;
-    let n = image
-        .check_finite(what, how == Sanitize::Replace)
-        .map_err(to_py)?;
+        };
+        let n = image.check_finite(what, how == Sanitize::Replace);
+        n.map(|n| (image, n))
+    })?
+    .map_err(to_py)?;
     warn_replaced(obj, what, n)?;
     Ok((image, dtype))
 }
@@ -190,7 +197,8 @@ fn plane_of(obj: &Bound<'_, PyAny>, what: &str, how: Sanitize) -> PyResult<Plane
 }
 
 /// The library's image as an (H, W, 3|4) array of `dtype`, interleaved
-/// once into a buffer numpy then owns.
+/// once (without the GIL, see [`with_samples`]) into a buffer numpy then
+/// owns.
 fn array_of<'py>(py: Python<'py>, image: &Image, dtype: Dtype) -> PyResult<Bound<'py, PyAny>> {
     let c = if image.alpha.is_some() { 4 } else { 3 };
     let planes: Vec<&[f64]> = image
@@ -203,16 +211,19 @@ fn array_of<'py>(py: Python<'py>, image: &Image, dtype: Dtype) -> PyResult<Bound
     let bad = |e: numpy::ndarray::ShapeError| PyValueError::new_err(e.to_string());
     Ok(match dtype {
         Dtype::F32 => {
-            let v: Vec<f32> = (0..image.len() * c)
-                .map(|i| planes[i % c][i / c] as f32)
-                .collect();
+            let v: Vec<f32> = py.detach(|| {
+                (0..image.len() * c)
+                    .map(|i| planes[i % c][i / c] as f32)
+                    .collect()
+            });
             Array3::from_shape_vec(shape, v)
                 .map_err(bad)?
                 .into_pyarray(py)
                 .into_any()
         }
         Dtype::F64 => {
-            let v: Vec<f64> = (0..image.len() * c).map(|i| planes[i % c][i / c]).collect();
+            let v: Vec<f64> =
+                py.detach(|| (0..image.len() * c).map(|i| planes[i % c][i / c]).collect());
             Array3::from_shape_vec(shape, v)
                 .map_err(bad)?
                 .into_pyarray(py)
