@@ -538,8 +538,9 @@ fn godot_material(dir: &Path, fit: &Value) {
         fields[0],
         ("type".into(), GdValue::Str("StandardMaterial3D".into()))
     );
-    // resource_format_text.cpp: format 3 is what Godot 4 writes for a
-    // resource without 4.3's newer variant types.
+    // resource_format_text.h: FORMAT_VERSION_COMPAT = 3, the format the
+    // saver writes for a resource without the newer variant types of
+    // FORMAT_VERSION 4; the loader takes both.
     assert_eq!(fields[1], ("format".into(), GdValue::Int(3)));
     assert_eq!(s[1].0, "resource");
     let props = &s[1].2;

@@ -12,7 +12,8 @@
 //! "..._scale" and "..._depth_scale". The file layout is the text resource
 //! format of scene/resources/resource_format_text.cpp
 //! (`ResourceFormatSaverTextInstance::save`: a `[gd_resource type=...
-//! format=3]` header, then `[resource]` and one `name = value` line per
+//! format=3]` header, 3 being resource_format_text.h's
+//! FORMAT_VERSION_COMPAT, what it writes without the newer variant types, then `[resource]` and one `name = value` line per
 //! property, values as core/variant/variant_parser.cpp `VariantWriter`
 //! writes them) and ProjectSettings' `project.godot` (`[section]`, then
 //! `key=value`).
