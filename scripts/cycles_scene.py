@@ -5,7 +5,12 @@ Run by scripts/engine-cycles inside Blender's Python module (PyPI `bpy`):
     python scripts/cycles_scene.py JOB.json
 
 JOB.json holds the Principled BSDF values to type (under the node's socket
-names), the render settings and the output path; the script writes one
+names), the render settings, the output path and `material_script`: the
+Blender script `ssskit engine --engine blender --out-dir DIR` wrote. Every
+subsurface material is made BY RUNNING that script (its make_material()):
+with the script's own values where the job's are the ones it holds, with
+the job's otherwise; each of the job's values is then read back from the
+node and must be what the job asked for. The script writes one
 linear EXR per render (read with the OpenEXR package: Blender's own
 image loader rounds the pixels it hands back to Python to 1e-4) and a
 JSON of their timings.
@@ -53,29 +58,87 @@ def box(name, lo, hi):
     return obj
 
 
-def principled(values, method):
-    mat = bpy.data.materials.new("slab")
-    mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    bsdf = nodes.get("Principled BSDF")
-    bsdf.subsurface_method = method
-    # Only the subsurface layer: no specular, coat, sheen, metal or
-    # transmission (each takes its share of the weight, closure.h).
-    fixed = {
-        "Metallic": 0.0,
-        "Specular IOR Level": 0.0,
-        "Coat Weight": 0.0,
-        "Sheen Weight": 0.0,
-        "Transmission Weight": 0.0,
-        "Roughness": 0.0,
-    }
-    fixed.update(values)
-    for name, v in fixed.items():
+# Only the subsurface layer: no specular, coat, sheen, metal or
+# transmission (each takes its share of the weight, closure.h).
+SCENE_ONLY = {
+    "Metallic": 0.0,
+    "Specular IOR Level": 0.0,
+    "Coat Weight": 0.0,
+    "Sheen Weight": 0.0,
+    "Transmission Weight": 0.0,
+    "Roughness": 0.0,
+}
+# A socket holds 32-bit floats: what it reads back is the value to this.
+FLOAT32_REL = 1e-6
+
+
+def load_script(path):
+    """The written script's globals (run as a module, not as __main__, so
+    it defines make_material, VALUES and METHOD and makes nothing)."""
+    import runpy
+
+    return runpy.run_path(path, run_name="ssskit_material")
+
+
+def same(a, b):
+    """Two socket values (numbers or sequences) equal to float32."""
+    a = list(a) if hasattr(a, "__len__") else [a]
+    b = list(b) if hasattr(b, "__len__") else [b]
+    return len(a) == len(b) and all(
+        abs(x - y) <= FLOAT32_REL * max(abs(x), abs(y), 1e-30) for x, y in zip(a, b))
+
+
+def socket_value(v, sock):
+    """A job value as the socket takes it: an RGB list gets alpha 1 on a
+    colour socket."""
+    if isinstance(v, (list, tuple)):
+        return list(v) + ([1.0] if len(sock.default_value) == 4 and len(v) == 3 else [])
+    return v
+
+
+def without_alpha(v, like):
+    """The script's colour (r, g, b, 1) as the job writes it, [r, g, b]."""
+    if hasattr(v, "__len__") and hasattr(like, "__len__") and len(v) == 4 and len(like) == 3:
+        return list(v)[:3]
+    return v
+
+
+def check_node(bsdf, values, method):
+    """Reads every value back from the node: the script must have set
+    what was asked for."""
+    if bsdf.subsurface_method != method:
+        sys.exit(f"material script: subsurface_method {bsdf.subsurface_method}, not {method}")
+    for name, v in values.items():
         sock = bsdf.inputs[name]
-        if isinstance(v, list):
-            sock.default_value = list(v) + ([1.0] if len(sock.default_value) == 4 else [])
-        else:
-            sock.default_value = v
+        got = sock.default_value
+        want = socket_value(v, sock)
+        if not same(got, want):
+            sys.exit(f"material script: {name} reads back {list(got) if hasattr(got, '__len__') else got}, "
+                     f"not {want}")
+
+
+def principled(values, method, script):
+    """The slab's material, made by the written script: its own VALUES and
+    METHOD when the job's values include them unchanged (the script's
+    values are what renders), else the job's values through its
+    make_material(); then the scene-only settings and the job's other
+    values, and every one read back."""
+    mod = load_script(script)
+    own = mod["VALUES"]
+    as_written = method == mod["METHOD"] and all(
+        k in values and same(values[k], without_alpha(v, values[k]))
+        for k, v in own.items())
+    if as_written:
+        mat = mod["make_material"]("slab")
+    else:
+        mat = mod["make_material"]("slab", values=dict(values), method=method)
+    bsdf = mod["principled_node"](mat)
+    rest = dict(SCENE_ONLY)
+    rest.update({k: v for k, v in values.items() if k not in own or not as_written})
+    for name, v in rest.items():
+        sock = bsdf.inputs[name]
+        sock.default_value = socket_value(v, sock)
+    check_node(bsdf, {**SCENE_ONLY, **values}, method)
     return mat
 
 
@@ -171,6 +234,10 @@ def render(path):
 
 def main():
     job = json.load(open(sys.argv[1]))
+    script = job.get("material_script")
+    if not script or not os.path.isfile(script):
+        sys.exit("the job needs material_script: the script `ssskit engine --engine blender "
+                 "--out-dir DIR` wrote (DIR/NAME-blender.py)")
     times = {}
     for r in job["renders"]:
         job["seed"] = r["seed"]
@@ -178,7 +245,7 @@ def main():
             mat_fn = white
         else:
             def mat_fn():
-                return principled(r["values"], r["method"])
+                return principled(r["values"], r["method"], script)
         scene(job, None)
         # The material after the factory reset that scene() does.
         bpy.data.objects["slab"].data.materials.append(mat_fn())

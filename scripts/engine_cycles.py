@@ -334,7 +334,9 @@ def main():
         if len(prof["material"]["layers"]) != 1 or len(set(layer["g"])) != 1:
             sys.exit(f"{name}: one layer with one g is what Cycles' walk takes")
         out = os.path.join(tmp, f"{name}-blender.json")
-        ssskit(["engine", "--profile", prof_path, "--engine", "blender", "--out", out], a.bin)
+        files = os.path.join(tmp, f"{name}-blender-files")
+        ssskit(["engine", "--profile", prof_path, "--engine", "blender", "--out", out,
+                "--out-dir", files], a.bin)
         fit = json.load(open(out))
         printed = {k: fit["params"][k] for k in
                    ["Base Color", "Subsurface Radius", "Subsurface Scale", "Subsurface Weight"]}
@@ -381,6 +383,7 @@ def main():
                 sys.exit(f"unknown method {m}")
         job = dict(spp=a.spp, threads=a.threads, width_px=a.width_px, height_px=a.height_px,
                    width_m=width_mm * UNITS_PER_MM, timing_out=os.path.join(tmp, "t.json"),
+                   material_script=os.path.join(files, f"{prof['material']['name']}-blender.py"),
                    renders=[dict(material="white", seed=1, path=os.path.join(tmp, "white.exr"))])
         for i, (_, _, method, values, _) in enumerate(cases):
             for seed in (1, 2):

@@ -1,7 +1,7 @@
 //! `ssskit engine`: the parameters of an engine's own diffusion model
 //! fitted to a profile, with the fit's error and a plot.
 
-use super::args::{self, MmPerPixelArg, OutFile, ProfileFile};
+use super::args::{self, MmPerPixelArg, OutDir, OutFile, ProfileFile};
 use super::out::outln;
 use ssskit::engine::{self, burley, Engine, Scene};
 use ssskit::numerics::Bounded;
@@ -46,6 +46,16 @@ impl From<EngineArg> for Engine {
     mut_arg("out", args::help(
         "Output file: {\"engine\", \"params\", \"units\", \"error\"} as JSON [default: not written]"
     )),
+    mut_arg("out_dir", |a| a.required(false).help(
+        "Output folder (created): the JSON of --out and the file the engine imports \
+         (blender, unity-hdrp, godot) [default: not written]"
+    ).long_help(
+        "Output folder (created, replaced as a whole): NAME-ENGINE.json (what --out writes) and \
+         the file the engine imports, NAME after the profile's material: blender NAME-blender.py \
+         (a script that makes the material), unity-hdrp NAME.asset (a Diffusion Profile), godot \
+         NAME.tres (a StandardMaterial3D) and NAME-project.godot (project settings) \
+         [default: not written]"
+    )),
 )]
 pub struct Args {
     #[command(flatten)]
@@ -59,6 +69,8 @@ pub struct Args {
     engine_version: Option<String>,
     #[command(flatten)]
     out: OutFile,
+    #[command(flatten)]
+    out_dir: OutDir,
     /// Plot the input profile and the engine model's r R_d(r) [default: not written].
     #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
@@ -75,6 +87,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ssskit::io::check_extension(out, &["json"], "engine parameters")?;
     }
     let e = Engine::from(a.engine);
+    // Before any work: an engine without a file, or a folder that may
+    // not be replaced, fails here.
+    let staged = match &a.out_dir.out_dir {
+        Some(dir) => {
+            engine::files::check_engine(e, a.engine_version.as_deref())?;
+            Some(ssskit::io::StagedDir::new(dir)?)
+        }
+        None => None,
+    };
     let profile_path = a
         .profile
         .profile
@@ -134,6 +155,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ssskit::io::write_json_atomic(out, &fit)?;
         eprintln!("wrote {}", out.display());
     }
+    if let Some(staged) = staged {
+        write_files(staged, e, &fit, &profile)?;
+    }
     if let Some(png) = &a.plot {
         let panels = plot::profile_panels(&[
             ("input".to_string(), profile.clone()),
@@ -146,6 +170,31 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             png,
         )?;
         eprintln!("wrote {}", png.display());
+    }
+    Ok(())
+}
+
+/// The JSON and the engine's own files into the staged folder, then the
+/// folder swapped in.
+fn write_files(
+    staged: ssskit::io::StagedDir,
+    e: Engine,
+    fit: &engine::EngineFit,
+    profile: &Profile,
+) -> anyhow::Result<()> {
+    let stem = ssskit::io::file_stem(&profile.material.name);
+    let files = engine::files::files(e, fit, &stem)?;
+    let json = format!("{stem}-{}.json", e.name());
+    ssskit::io::write_json_atomic(&ssskit::io::join_inside(staged.path(), &json)?, fit)?;
+    for f in &files {
+        let path = ssskit::io::join_inside(staged.path(), &f.name)?;
+        ssskit::io::write_atomic(&path, f.text.as_bytes())?;
+    }
+    let dir = staged.target().to_path_buf();
+    staged.commit()?;
+    eprintln!("wrote {}", dir.join(&json).display());
+    for f in &files {
+        eprintln!("wrote {}: {}", dir.join(&f.name).display(), f.what);
     }
     Ok(())
 }

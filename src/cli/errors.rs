@@ -80,6 +80,8 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),
     ("engine", "scene units per mm", &["--units-per-mm"]),
     ("engine", "engine version", &["--engine-version"]),
+    ("engine files", "engine", &["--engine"]),
+    ("engine files", "engine version", &["--engine-version"]),
     ("bench", "frames", &["--frames"]),
     ("scene render", "spp", &["--spp"]),
     ("scene render", "target_error", &["--render-error"]),

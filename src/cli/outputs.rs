@@ -17,6 +17,7 @@ pub(super) const FOLDER_OUTPUTS: &[(&[&str], &str)] = &[
     (&["study"], "out_dir"),
     (&["compare"], "out_dir"),
     (&["profiles", "compare"], "out_dir"),
+    (&["engine"], "out_dir"),
 ];
 
 /// Argument ids of output files.

@@ -19,6 +19,7 @@
 pub mod blender;
 pub mod burley;
 pub mod factors_place;
+pub mod files;
 pub mod godot;
 pub mod hdrp;
 pub mod iryoku;
