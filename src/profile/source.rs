@@ -225,6 +225,30 @@ mod tests {
         assert_eq!(pg.r_edges, grid.edges);
     }
 
+    /// The pipeline's default is the kernel-factor rule, and each rule's
+    /// description names the rule and the error it bounds.
+    #[test]
+    fn each_rule_describes_itself() {
+        let d = ProfileSource::monte_carlo(MC_MAX_PHOTONS, MC_SEED);
+        let ProfileSource::MonteCarlo { budget, .. } = &d else {
+            panic!("{d:?}")
+        };
+        assert_eq!(budget.rule(), "kernel-factor");
+        let text = d.describe();
+        assert!(text.contains("rule kernel-factor"), "{text}");
+        assert!(
+            text.contains("0.5% relative error of the 1D kernel factor"),
+            "{text}"
+        );
+        assert!(text.contains("absolute floor 2e-6"), "{text}");
+        let t = ProfileSource::target_error(0.02, 1000, 1).describe();
+        assert!(t.contains("rule total-and-profile"), "{t}");
+        assert!(
+            t.contains("2.0% relative standard error of total R_d and profile"),
+            "{t}"
+        );
+    }
+
     /// A fixed count over the source's work cap is refused before tracing.
     #[test]
     fn a_fixed_count_over_the_work_cap_is_refused() {
