@@ -158,6 +158,10 @@ pub const GPU_REL: f64 = 1e-4;
 /// and reference): a sum of n terms carries at most about n x 1.1e-16
 /// relative rounding, and these passes sum at most a few thousand terms.
 pub const F64_REL: f64 = 1e-12;
+/// The command writes its images as f32 EXR: 2^-24 = 6e-8 of each value,
+/// so an image through the command and the library's f64 (or two runs of
+/// the command) agree to this, relative to the peak.
+pub const F32_OUTPUT: f64 = 1e-6;
 /// An output that differs from its input by less than 1% of the peak was
 /// not filtered: a sanity bound far above rounding and far below what any
 /// of these kernels does to an edge or to noise.
