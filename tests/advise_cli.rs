@@ -778,7 +778,9 @@ fn advise_refuses_a_percent_and_a_folder_is_no_material() {
 }
 
 /// `advise` and `kernels` make the profile the same way by default (Monte
-/// Carlo) and recommend the same kernel.
+/// Carlo) and recommend the same kernel; that profile is `simulate`'s
+/// default one (same rule, same photons, same numbers) under the
+/// pipeline's work cap.
 #[test]
 fn advise_and_kernels_give_the_same_answer() {
     let dir = tempfile::tempdir().unwrap();
@@ -802,6 +804,26 @@ fn advise_and_kernels_give_the_same_answer() {
     let k = read(&out.join("advice.json"));
     for key in ["label", "taps", "extent_mm", "passes", "meets_target"] {
         assert_eq!(a[key], k[key], "{key}");
+    }
+    let sim = dir.path().join("sim.json");
+    let work = ssskit::profile::source::MC_MAX_WORK.to_string();
+    ok(&[
+        "simulate",
+        "--material",
+        "marble",
+        "--max-work",
+        &work,
+        "--out",
+        s(&sim),
+    ]);
+    let (made, simulated) = (read(&out.join("profile.json")), read(&sim));
+    assert_eq!(
+        made["source"]["params"]["budget"]["rule"], "kernel-factor",
+        "{}",
+        made["source"]
+    );
+    for key in ["source", "r_edges", "rd", "total_rd", "total_rd_stderr"] {
+        assert_eq!(made[key], simulated[key], "{key}");
     }
 }
 

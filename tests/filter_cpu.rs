@@ -111,7 +111,7 @@ fn preintegration_equals_exact_2d_on_the_edge() {
     let e_taps = max_rel(&exact, &taps);
     eprintln!("edge: 17 taps vs Jimenez's shader {e_shader:.2e}, vs exact 2D {e_taps:.2e}");
     assert!(
-        e_shader < 1e-12,
+        e_shader < F64_REL,
         "17 taps vs Jimenez's shader: {e_shader:e}"
     );
     assert!(e_taps > 1e-4, "17 taps equal the exact result: {e_taps:e}");
@@ -183,8 +183,7 @@ fn cli_reference_equals_the_library() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     for c in 0..3 {
-        // EXR stores f32.
-        assert!(v["max_rel"][c].as_f64().unwrap() < 1e-6, "{v}");
+        assert!(v["max_rel"][c].as_f64().unwrap() < F32_OUTPUT, "{v}");
     }
 }
 
@@ -227,7 +226,7 @@ fn constant_stays_constant_and_black_stays_black() {
                 let out = cpu::apply(&c, setup).unwrap();
                 let e = max_rel(&c, &out);
                 assert!(
-                    e < 1e-12,
+                    e < F64_REL,
                     "rank {rank} {factors:?}: constant moved by {e:e}"
                 );
                 let black = Image::new(w, h);

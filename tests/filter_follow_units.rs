@@ -66,11 +66,11 @@ fn the_lerp_does_not_depend_on_the_scene_unit() {
         for unit in [0.001, 0.0254] {
             let other = run(unit, FollowSurface::InMetres(c));
             let e = max_rel(&metres, &other);
-            assert!(e < 1e-12, "C {c}, unit {unit} m: {e}");
+            assert!(e < F64_REL, "C {c}, unit {unit} m: {e}");
         }
         // In metres the old rate is the same lerp.
         let old_m = run(1.0, FollowSurface::InSceneUnits(c));
-        assert!(max_rel(&metres, &old_m) < 1e-12);
+        assert!(max_rel(&metres, &old_m) < F64_REL);
     }
     // In millimetres the old rate is not (a million times faster:
     // everything off the disc's depth snaps back).
@@ -185,11 +185,11 @@ fn apply_follow_surface_is_unit_safe() {
         outs.push(ssskit::filter::image::read_image(&out, None).unwrap().0);
     }
     assert!(
-        max_rel(&outs[0], &outs[1]) < 1e-6,
+        max_rel(&outs[0], &outs[1]) < F32_OUTPUT,
         "{}",
         max_rel(&outs[0], &outs[1])
     );
-    assert!(max_rel(&outs[0], &outs[2]) < 1e-6);
+    assert!(max_rel(&outs[0], &outs[2]) < F32_OUTPUT);
     assert!(max_rel(&outs[0], &outs[3]) > 1e-2);
     let (input, z, x) = (d.join("in.exr"), d.join("z.exr"), d.join("x.exr"));
     let base = [

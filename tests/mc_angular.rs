@@ -45,12 +45,16 @@ fn angular_of(p: &Profile) -> Angular {
     p.angular().unwrap().expect("angular tables recorded")
 }
 
+/// A value published to 4 decimals is exact to half a unit of its last
+/// digit.
+const FOUR_DECIMALS: f64 = 5e-5;
+
 #[test]
 fn the_oracle_reproduces_chandrasekhar_and_the_known_totals() {
     // Conservative scattering: Chandrasekhar 1960 tabulates H(1) = 2.9078,
     // and the moments int H = 2, int mu H = 2 / sqrt 3.
     let h1 = h_closed(1.0, 1.0);
-    assert!((h1 - 2.9078).abs() < 1e-4, "H(1) = {h1}");
+    assert!((h1 - 2.9078).abs() < FOUR_DECIMALS, "H(1) = {h1}");
     let rule = graded(0.0, 1.0, 8);
     let m0: f64 = rule.iter().map(|&(m, w)| w * h_closed(1.0, m)).sum();
     let m1: f64 = rule.iter().map(|&(m, w)| w * m * h_closed(1.0, m)).sum();

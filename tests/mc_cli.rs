@@ -87,7 +87,7 @@ fn mci_file_runs_and_bad_mci_is_reported() {
     assert!((p.r_edges[1] - 0.01).abs() < 1e-12);
     let t = p.transmittance.as_ref().unwrap()[0];
     let te = p.transmittance_stderr.as_ref().unwrap()[0];
-    assert!((t - 0.66096).abs() < 4.0 * te, "T {t} +- {te}");
+    assert!((t - 0.66096).abs() < common::SIGMAS * te, "T {t} +- {te}");
     let o = ssskit(
         dir.path(),
         &[

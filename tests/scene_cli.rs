@@ -332,7 +332,7 @@ fn meshes_and_heightfields_render_as_their_box() {
     );
     let (m, me) = mean_radiance(d, &view("shape = \"mesh\"\nfile = \"cube.obj\""), spp);
     eprintln!("box {b:.5} +- {be:.5}, mesh {m:.5} +- {me:.5}");
-    assert!((b - m).abs() <= 4.0 * (be * be + me * me).sqrt());
+    assert!((b - m).abs() <= common::SIGMAS * (be * be + me * me).sqrt());
     let (hb, hbe) = mean_radiance(
         d,
         &view("shape = \"box\"\ncenter = [0, -1, 0]\nsize = [4, 4, 3]"),
@@ -347,9 +347,9 @@ fn meshes_and_heightfields_render_as_their_box() {
         spp,
     );
     eprintln!("box {hb:.5} +- {hbe:.5}, heightfield {hf:.5} +- {hfe:.5}");
-    assert!((hb - hf).abs() <= 4.0 * (hbe * hbe + hfe * hfe).sqrt());
+    assert!((hb - hf).abs() <= common::SIGMAS * (hbe * hbe + hfe * hfe).sqrt());
     // Different shapes differ: the check can fail.
-    assert!((b - hb).abs() > 4.0 * (be * be + hbe * hbe).sqrt());
+    assert!((b - hb).abs() > common::SIGMAS * (be * be + hbe * hbe).sqrt());
 }
 
 /// Each bad value is refused before anything is rendered, naming the field

@@ -39,8 +39,10 @@ fn signal_or_none() -> impl clap::builder::TypedValueParser<Value = Option<Signa
         "Profile model: how the profiles are made from the materials [default: none: \
          give --profiles or this]"
     )),
-    mut_arg("photons", |a| args::default(args::count_text(kernel_compare::MC_PHOTONS))(a)
-        .help("Photons per channel of the Monte Carlo run: a fixed count, with --profile-model mc")),
+    mut_arg("photons", args::help(
+        "Photons per channel of the Monte Carlo run: a fixed count, with --profile-model mc \
+         [default: none: the kernel-factor rule, as in kernels]"
+    )),
     mut_arg("models", args::default("all")),
     mut_arg("mm_per_pixel", |a| args::default(evaluate::DEFAULT_MM_PER_PIXEL)(a)
         .help("Scale: surface millimetres per pixel of the signals and the images")),
@@ -184,8 +186,7 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
         Some(v) => v.to_vec(),
         None => MaterialsArg::half_space_presets(),
     };
-    let photons = a.photons.photons.unwrap_or(kernel_compare::MC_PHOTONS);
-    if model.analytic().is_none() && photons == 0 {
+    if model.analytic().is_none() && a.photons.photons == Some(0) {
         return Err(invalid("--photons", 0, "must be > 0"));
     }
     names
@@ -194,9 +195,10 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
             let m = Material::load(&n).with_context(|| format!("material '{n}'"))?;
             // The pipeline's builder: all channels, the tracer's work cap,
             // the analytic models' Fresnel fits and default grid.
-            let source = match model.analytic() {
-                None => ProfileSource::photons(photons, a.seed.seed),
-                Some(pm) => ProfileSource::analytic(pm),
+            let source = match (model.analytic(), a.photons.photons) {
+                (Some(pm), _) => ProfileSource::analytic(pm),
+                (None, Some(n)) => ProfileSource::photons(n, a.seed.seed),
+                (None, None) => ProfileSource::monte_carlo(pipeline::MC_MAX_PHOTONS, a.seed.seed),
             };
             let profile = pipeline::make_profile(&m, &source, &Bar::new())?.0;
             Ok(MaterialInput {

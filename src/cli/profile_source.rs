@@ -17,17 +17,17 @@ impl ProfileSourceArgs {
         Ok(match model.analytic() {
             Some(m) => ProfileSource::analytic(m),
             None => {
-                let rel = self
-                    .mc_error
-                    .mc_error
-                    .ok_or_else(|| anyhow::anyhow!("give --mc-error"))?;
-                if !(rel > 0.0 && rel < 1.0) {
-                    return Err(invalid("--mc-error", rel, "must be in (0, 1)"));
-                }
-                if self.max_photons.max_photons == 0 {
+                let max_photons = self.max_photons.max_photons;
+                if max_photons == 0 {
                     return Err(invalid("--max-photons", 0, "must be > 0"));
                 }
-                ProfileSource::target_error(rel, self.max_photons.max_photons, self.seed.seed)
+                match self.mc_error.mc_error {
+                    None => ProfileSource::monte_carlo(max_photons, self.seed.seed),
+                    Some(rel) if !(rel > 0.0 && rel < 1.0) => {
+                        return Err(invalid("--mc-error", rel, "must be in (0, 1)"))
+                    }
+                    Some(rel) => ProfileSource::target_error(rel, max_photons, self.seed.seed),
+                }
             }
         })
     }

@@ -11,7 +11,8 @@ use anyhow::{bail, Context};
 use ssskit::filter::image::{read_exr_channels, write_exr_channels, write_image, PngDepth};
 use ssskit::filter::Image;
 use ssskit::numerics::Bounded;
-use ssskit::profile::mc::{self, PhotonBudget};
+use ssskit::profile::mc::PhotonBudget;
+use ssskit::profile::source::{default_budget, MC_MAX_PHOTONS};
 use ssskit::profile::Profile;
 use ssskit::scene::{
     material_profiles, render, Render, RenderConfig, RenderInfo, SampleBudget, Scene,
@@ -19,9 +20,6 @@ use ssskit::scene::{
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// Cap on photons per channel of the materials' profiles.
-const PROFILE_MAX_PHOTONS: u64 = 100_000_000;
 
 /// Boxed so that the subcommand enum stays small.
 #[derive(clap::Args)]
@@ -133,10 +131,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.validate(&scene)?;
     let photons = match a.profile_photons {
         Some(n) => PhotonBudget::Fixed(n),
-        None => PhotonBudget::KernelFactor {
-            rel: mc::DEFAULT_KERNEL_ERROR,
-            max_photons: PROFILE_MAX_PHOTONS,
-        },
+        None => default_budget(MC_MAX_PHOTONS),
     };
     let profiles = material_profiles(&scene, photons, a.seed.seed, a.threads, &Bar::new())?;
     let rd: Vec<[f64; 3]> = profiles

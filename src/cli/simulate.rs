@@ -321,10 +321,7 @@ fn photon_budget(args: &Flags, mci_run: Option<&McmlRun>) -> anyhow::Result<Phot
             max_photons,
         },
         (None, None, None, Some(r)) => PhotonBudget::Fixed(r.photons),
-        (None, None, None, None) => PhotonBudget::KernelFactor {
-            rel: mc::DEFAULT_KERNEL_ERROR,
-            max_photons,
-        },
+        (None, None, None, None) => ssskit::profile::source::default_budget(max_photons),
     };
     if args.shard.is_some() && !matches!(budget, PhotonBudget::Fixed(_)) {
         anyhow::bail!(

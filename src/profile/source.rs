@@ -32,25 +32,43 @@ pub enum ProfileSource {
     },
 }
 
-/// Default Monte Carlo accuracy of the pipeline: 2% relative standard error,
-/// enough for the kernels (the tap tables' own image error is larger).
-pub const MC_REL_ERROR: f64 = 0.02;
-/// Photon cap per channel of the pipeline's Monte Carlo.
-pub const MC_MAX_PHOTONS: u64 = 2_000_000;
-/// Event cap per channel of the pipeline's target-error runs (about 4 s of
+/// Photon cap per channel of the pipeline's Monte Carlo: the tracer's, so
+/// that a preset stops on its target, not on this cap (the most a preset
+/// takes under the default rule is coffee's 9.6M, docs/records/mc-presets.json).
+pub const MC_MAX_PHOTONS: u64 = mc::DEFAULT_MAX_PHOTONS;
+/// Event cap per channel of the pipeline's Monte Carlo (about 4 s of
 /// one core at 2.5e7 events/s): keeps slow media (albedo near 1) inside the
 /// pipeline's minute.
 pub const MC_MAX_WORK: u64 = 100_000_000;
 pub const MC_SEED: u64 = mc::DEFAULT_SEED;
 
+/// The one default stopping rule of every Monte Carlo profile the command
+/// line makes (`simulate`, `scene`, and the pipeline: `kernels`, `advise`,
+/// `compare`, the study's reference): the kernel-factor rule at
+/// [`mc::DEFAULT_KERNEL_ERROR`], with the tracer's absolute floor
+/// ([`mc::DEFAULT_ABS_FLOOR`], in [`McOptions::default`]). It bounds the
+/// error of what the pipeline uses, the pre-integrated kernel factor and
+/// its colour, rather than of the profile's bins.
+pub fn default_budget(max_photons: u64) -> PhotonBudget {
+    PhotonBudget::KernelFactor {
+        rel: mc::DEFAULT_KERNEL_ERROR,
+        max_photons,
+    }
+}
+
 impl ProfileSource {
-    /// The pipeline's Monte Carlo: [`MC_REL_ERROR`], at most
-    /// [`MC_MAX_PHOTONS`] photons and [`MC_MAX_WORK`] events per channel.
-    pub fn monte_carlo() -> ProfileSource {
-        ProfileSource::target_error(MC_REL_ERROR, MC_MAX_PHOTONS, MC_SEED)
+    /// The pipeline's Monte Carlo: [`default_budget`] with at most
+    /// `max_photons` photons and [`MC_MAX_WORK`] events per channel.
+    pub fn monte_carlo(max_photons: u64, seed: u64) -> ProfileSource {
+        ProfileSource::MonteCarlo {
+            budget: default_budget(max_photons),
+            seed,
+            max_work: MC_MAX_WORK,
+        }
     }
 
-    /// Monte Carlo to `rel_error` with the pipeline's work cap.
+    /// Monte Carlo to `rel_error` by the total-and-profile rule, with the
+    /// pipeline's work cap.
     pub fn target_error(rel_error: f64, max_photons: u64, seed: u64) -> ProfileSource {
         ProfileSource::MonteCarlo {
             budget: PhotonBudget::TargetError {
@@ -86,11 +104,20 @@ impl ProfileSource {
                 PhotonBudget::Fixed(n) => {
                     format!("Monte Carlo, {n} photons per channel (seed {seed})")
                 }
-                PhotonBudget::TargetError { rel, max_photons }
-                | PhotonBudget::KernelFactor { rel, max_photons } => format!(
-                    "Monte Carlo to {:.1}% relative standard error (at most {max_photons} \
-                     photons per channel, seed {seed})",
-                    Bounded(100.0 * rel)
+                PhotonBudget::TargetError { rel, max_photons } => format!(
+                    "Monte Carlo to {:.1}% relative standard error of total R_d and profile \
+                     (rule {}, at most {max_photons} photons per channel, seed {seed})",
+                    Bounded(100.0 * rel),
+                    budget.rule()
+                ),
+                // The floor is the one `make_profile_on` runs with.
+                PhotonBudget::KernelFactor { rel, max_photons } => format!(
+                    "Monte Carlo to {:.1}% relative error of the 1D kernel factor and of \
+                     total R_d (rule {}, absolute floor {:e}, at most {max_photons} photons per \
+                     channel, seed {seed})",
+                    Bounded(100.0 * rel),
+                    budget.rule(),
+                    McOptions::default().abs_floor
                 ),
             },
             ProfileSource::Analytic { model, fresnel } => match fresnel {
@@ -196,6 +223,30 @@ mod tests {
         let grid = RadialGrid::uniform(0.05, 4.0).unwrap();
         let (pg, _) = make_profile_on(&m, &fit, Some(&grid), &NoProgress).unwrap();
         assert_eq!(pg.r_edges, grid.edges);
+    }
+
+    /// The pipeline's default is the kernel-factor rule, and each rule's
+    /// description names the rule and the error it bounds.
+    #[test]
+    fn each_rule_describes_itself() {
+        let d = ProfileSource::monte_carlo(MC_MAX_PHOTONS, MC_SEED);
+        let ProfileSource::MonteCarlo { budget, .. } = &d else {
+            panic!("{d:?}")
+        };
+        assert_eq!(budget.rule(), "kernel-factor");
+        let text = d.describe();
+        assert!(text.contains("rule kernel-factor"), "{text}");
+        assert!(
+            text.contains("0.5% relative error of the 1D kernel factor"),
+            "{text}"
+        );
+        assert!(text.contains("absolute floor 2e-6"), "{text}");
+        let t = ProfileSource::target_error(0.02, 1000, 1).describe();
+        assert!(t.contains("rule total-and-profile"), "{t}");
+        assert!(
+            t.contains("2.0% relative standard error of total R_d and profile"),
+            "{t}"
+        );
     }
 
     /// A fixed count over the source's work cap is refused before tracing.

@@ -9,6 +9,12 @@ use std::process::{Command, Output};
 
 pub mod half_space;
 
+/// Standard errors a statistical check allows: a correct estimate with
+/// normal errors lands beyond 4 sigma once in about 16,000 checks
+/// (two-sided 6.3e-5); with fixed seeds a check that passes once always
+/// passes.
+pub const SIGMAS: f64 = 4.0;
+
 /// The one bless switch of the suite: `SSSKIT_BLESS=1` rewrites goldens,
 /// records and generated docs; unset, empty or `0` checks them. Any other
 /// value is a typo that would otherwise check (or bless) silently, so it
@@ -230,7 +236,7 @@ pub mod mc {
     pub fn within(x: f64, truth: f64, sigma: f64, what: &str) {
         assert!(sigma > 0.0, "{what}: zero standard error");
         assert!(
-            (x - truth).abs() <= 4.0 * sigma,
+            (x - truth).abs() <= super::SIGMAS * sigma,
             "{what}: {x} vs {truth}, {:.2} sigma (sigma {sigma:.2e})",
             (x - truth) / sigma
         );

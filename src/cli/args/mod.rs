@@ -302,7 +302,11 @@ pub fn profile_source(model: ProfileModel) -> impl FnMut(clap::Arg) -> clap::Arg
             .conflicts_with_all(["material", "profile_model"])
             .help("Reflectance profile file (ssskit.profile/1 JSON): read, not made"),
         "profile_model" => default_enum(model)(a),
-        "mc_error" => default(ssskit::profile::source::MC_REL_ERROR)(a),
+        "mc_error" => a.help(format!(
+            "Monte Carlo target: relative standard error of total R_d and profile \
+             [default: none: the kernel-factor rule, E = {}, as in simulate]",
+            mc::DEFAULT_KERNEL_ERROR
+        )),
         "max_photons" => {
             default(count_text(ssskit::profile::source::MC_MAX_PHOTONS))(a).alias("mc-photons")
         }

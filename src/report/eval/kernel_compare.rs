@@ -38,9 +38,6 @@ pub const FAMILIES: [&str; 6] = [
     "jimenez",
 ];
 
-/// Photons per channel of a profile the comparison makes by Monte Carlo.
-pub const MC_PHOTONS: u64 = 1_000_000;
-
 /// One model variant of the comparison.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModelSpec {

@@ -1,5 +1,5 @@
 //! The main job in one call: from a material to the kernels to ship. A
-//! profile (Monte Carlo at a modest accuracy, or an analytic model), every
+//! profile (Monte Carlo to the default kernel-factor rule, or an analytic model), every
 //! kernel model fitted and compared in kernel and image space
 //! ([`super::kernel_compare`]), shader arrays for each, the report with its
 //! plots, and the configuration [`super::advise`] picks at the given scale.
@@ -23,8 +23,7 @@ use crate::scene::{Render, Scene};
 use std::path::Path;
 
 pub use crate::profile::source::{
-    make_profile, make_profile_on, ProfileSource, MC_MAX_PHOTONS, MC_MAX_WORK, MC_REL_ERROR,
-    MC_SEED,
+    make_profile, make_profile_on, ProfileSource, MC_MAX_PHOTONS, MC_MAX_WORK, MC_SEED,
 };
 
 /// Settings of the pipeline.
