@@ -7,7 +7,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+pub mod golden;
 pub mod half_space;
+pub mod skin1;
 
 /// The one bless switch of the suite: `SSSKIT_BLESS=1` rewrites goldens,
 /// records and generated docs; unset, empty or `0` checks them. Any other
