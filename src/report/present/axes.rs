@@ -5,12 +5,19 @@
 //! and unit, and text wrapped to the width it is given.
 
 use super::layout::{linear_tick_sets, log_tick_sets, pick_ticks, tick_label, Rect, TextBox};
-use super::plot::{plot_err, Area};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use plotters::prelude::*;
 use plotters::style::FontTransform;
 use std::ops::Range;
 use std::path::Path;
+
+/// A drawing area of one panel.
+pub type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// The error of a plot that could not be drawn into `out`.
+pub fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
+    Error::format(out, format!("plotting failed: {e}"))
+}
 
 /// Font size of tick labels and axis titles, pixels.
 pub const TICK_PX: u32 = 13;

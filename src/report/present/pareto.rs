@@ -2,9 +2,9 @@
 //! configuration, labelled, the Pareto front (no other point is both
 //! cheaper and more accurate) joined by a line.
 
-use super::axes::{Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
+use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
 use super::layout::{place_labels, Rect, TextBox};
-use super::plot::{plot_err, render_grid, Area, PALETTE};
+use super::plot::{render_grid, PALETTE};
 use crate::error::Result;
 use plotters::coord::combinators::LogCoord;
 use plotters::prelude::*;

@@ -2,7 +2,7 @@
 //! drawn into memory and written atomically; the only font is the bundled
 //! DejaVu Sans, registered once as "sans-serif" (no system fonts).
 
-use super::axes::{Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
+use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
 use super::layout::TextBox;
 use crate::error::{Error, Result};
 use crate::profile::radius_holding;
@@ -58,10 +58,6 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(120, 120, 120),
 ];
 
-pub fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
-    Error::format(out, format!("plotting failed: {e}"))
-}
-
 /// Draws `panels` on a grid with `cols` columns and writes a PNG; returns
 /// every text box it drew, in the image's pixels (for tests of the
 /// layout).
@@ -75,9 +71,6 @@ pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<
     boxes.extend(page);
     Ok(boxes)
 }
-
-/// A drawing area of one panel.
-pub type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 
 /// Size of one profile panel, pixels.
 const PANEL: (u32, u32) = (640, 460);
