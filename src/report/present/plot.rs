@@ -391,7 +391,14 @@ where
                 .draw_series(DashedLineSeries::new(pts, DASH, GAP, style))
                 .map_err(e)?;
         } else {
-            chart.draw_series(LineSeries::new(pts, style)).map_err(e)?;
+            // Segment by segment: plotters joins the segments of a wide
+            // polyline with miters, and a noisy Monte Carlo tail's sharp
+            // zigzags then shoot spikes far past their points (through the
+            // axis and its labels).
+            let segments = pts
+                .windows(2)
+                .map(|s| PathElement::new(vec![s[0], s[1]], style));
+            chart.draw_series(segments).map_err(e)?;
         }
     }
     Ok(())
