@@ -456,7 +456,7 @@ pub fn profile_panels(profiles: &[(String, Profile)]) -> Vec<Panel> {
                     }
                 ),
                 x_label: "r (mm)".into(),
-                y_label: "R_d (1/mm^2)".into(),
+                y_label: "R_d (1/mm²)".into(),
                 x_max,
                 log_y,
                 curves: curves.clone(),
