@@ -8,51 +8,13 @@
 
 mod common;
 
-use ssskit::filter::signals::Signal;
+use common::golden;
+use common::skin1::{comparison, SHAPES, SIZE};
 use ssskit::filter::Image;
-use ssskit::profile::Profile;
-use ssskit::report::eval::evaluate::{ImageCase, Options, Which};
-use ssskit::report::eval::kernel_compare::{self, Comparison, Config, MaterialInput};
 use ssskit::report::eval::shipped::Shipped;
 use ssskit::report::present::kernel_plots::{contact_sheet, SheetOutcome};
 use ssskit::report::present::layout::{collisions, Rect};
-use std::path::{Path, PathBuf};
-
-/// Side of the test signals: small enough to fit in a second, and narrow
-/// tiles make every label wrap, the hardest case for the layout.
-const SIZE: usize = 32;
-/// Scale of the signals: skin1's kernel (radius holding 99% about 3 mm)
-/// spans a good part of a 32-pixel tile.
-const MM_PER_PIXEL: f64 = 0.25;
-/// Tap count of the tables drawn.
-const TAPS: usize = 9;
-/// The index of the shapes case in [`comparison`].
-const SHAPES: usize = 1;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn comparison() -> Comparison {
-    let profile = Profile::read(&root().join("profiles/reference/skin1.json")).unwrap();
-    let cases = [Signal::Edge, Signal::Shapes]
-        .map(|s| ImageCase::signal(s, SIZE, MM_PER_PIXEL).unwrap())
-        .to_vec();
-    let cfg = Config {
-        families: ["svd", "preintegrate", "manual"].map(String::from).to_vec(),
-        ranks: vec![1],
-        cases,
-        taps: vec![TAPS],
-        options: Options::default(),
-        keep: Some(Which::Taps(TAPS)),
-        extent_mm: None,
-    };
-    let input = MaterialInput {
-        name: "skin1".into(),
-        profile,
-    };
-    kernel_compare::run(&[input], &cfg, &ssskit::progress::NoProgress).unwrap()
-}
+use std::path::Path;
 
 /// A constant image of linear `rgb`.
 fn constant(rgb: [f64; 3]) -> Image {
@@ -172,62 +134,14 @@ fn without_advice_the_best_model_leads() {
     }
 }
 
-/// A pixel of the golden sheet may differ by this much in any channel (of
-/// 255) and still match. The page is drawn deterministically: the images
-/// are f64 arithmetic rounded to 8 bits and the text is the bundled DejaVu
-/// Sans rasterised by ab_glyph (no system font), so on another machine
-/// only a libm that rounds a last bit differently can move a pixel, by one
-/// step; a label moved by a pixel changes the edges of its glyphs by far
-/// more than 8.
-const PIXEL_TOLERANCE: u8 = 8;
-
 /// The shapes sheet of the comparison (no advice: the best model leads)
 /// matches tests/golden/sheet-skin1-shapes.png pixel by pixel within
-/// [`PIXEL_TOLERANCE`]; on a mismatch the page drawn and a diff image (red
-/// where a pixel differs) go to target/golden-diffs/. `SSSKIT_BLESS=1`
-/// rewrites the golden.
+/// [`golden::PIXEL_TOLERANCE`]; on a mismatch the page drawn and a diff
+/// image go to target/golden-diffs/. `SSSKIT_BLESS=1` rewrites the golden.
 #[test]
 fn the_sheet_matches_its_golden_png() {
     let cmp = comparison();
-    let golden = root().join("tests/golden/sheet-skin1-shapes.png");
-    let diffs = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .unwrap()
-        .join("golden-diffs");
-    std::fs::create_dir_all(&diffs).unwrap();
-    let drawn = diffs.join("sheet-skin1-shapes.png");
-    contact_sheet(&cmp, "skin1", SHAPES, "9-tap tables", None, &drawn).unwrap();
-    if common::bless() {
-        std::fs::copy(&drawn, &golden).unwrap();
-        return;
-    }
-    let a = image::open(&golden).unwrap().to_rgb8();
-    let b = image::open(&drawn).unwrap().to_rgb8();
-    assert_eq!(a.dimensions(), b.dimensions(), "page size changed");
-    let mut diff = image::RgbImage::new(a.width(), a.height());
-    let mut bad = 0usize;
-    for (x, y, p) in a.enumerate_pixels() {
-        let q = b.get_pixel(x, y);
-        let off = (0..3).any(|c| p.0[c].abs_diff(q.0[c]) > PIXEL_TOLERANCE);
-        bad += off as usize;
-        diff.put_pixel(
-            x,
-            y,
-            image::Rgb(if off {
-                [255, 0, 0]
-            } else {
-                [p.0[0] / 3 + 170; 3]
-            }),
-        );
-    }
-    if bad > 0 {
-        diff.save(diffs.join("sheet-skin1-shapes.diff.png"))
-            .unwrap();
-    }
-    assert_eq!(
-        bad,
-        0,
-        "{bad} pixels differ by more than {PIXEL_TOLERANCE}: see {}",
-        diffs.display()
-    );
+    golden::check_png("sheet-skin1-shapes.png", |drawn| {
+        contact_sheet(&cmp, "skin1", SHAPES, "9-tap tables", None, drawn).unwrap();
+    });
 }

@@ -7,7 +7,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+pub mod golden;
 pub mod half_space;
+pub mod skin1;
 
 /// Standard errors a statistical check allows: a correct estimate with
 /// normal errors lands beyond 4 sigma once in about 16,000 checks

@@ -10,6 +10,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::colour_bar::ColourBar;
+use super::layout::TextBox;
 use super::number::sig;
 use super::plot::{self, Curve, Panel, PALETTE};
 use super::sheet::{draw_sheet, SheetLayout, SheetTile};
@@ -68,7 +69,8 @@ fn colour(i: usize) -> RGBColor {
 
 /// Axis and diagonal slices of the rank-1 models of `material` (and the
 /// highest-rank renormalised SVD) against the ground truth, log scale.
-pub fn kernel_slices(cmp: &Comparison, material: &str, out: &Path) -> Result<()> {
+/// Returns the boxes of the texts drawn.
+pub fn kernel_slices(cmp: &Comparison, material: &str, out: &Path) -> Result<Vec<TextBox>> {
     let Some(mi) = cmp.materials.iter().position(|m| m == material) else {
         return Err(Error::Unsupported(format!("no material {material}")));
     };
@@ -122,7 +124,8 @@ pub fn kernel_slices(cmp: &Comparison, material: &str, out: &Path) -> Result<()>
 
 /// Singular values sigma_i / sigma_1 of each material's ground truth per
 /// channel (from the SVD fits' stored spectra).
-pub fn spectra(cmp: &Comparison, out: &Path) -> Result<()> {
+/// Returns the boxes of the texts drawn.
+pub fn spectra(cmp: &Comparison, out: &Path) -> Result<Vec<TextBox>> {
     let mut panels = Vec::new();
     for m in &cmp.materials {
         let Some(f) = cmp

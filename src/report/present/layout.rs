@@ -122,11 +122,19 @@ pub fn log_tick_sets(lo: f64, hi: f64) -> Vec<Vec<f64>> {
 }
 
 /// The densest tick set whose labels, boxed by `label_box` (the label's
-/// box on the axis for a tick value), keep at least `gap` pixels apart;
-/// a set of two ticks or more is preferred over one of a single tick.
-pub fn pick_ticks(sets: &[Vec<f64>], gap: i32, label_box: impl Fn(f64) -> Rect) -> Vec<f64> {
+/// box on the axis for a tick value of a set), keep at least `gap` pixels
+/// apart; a set of two ticks or more is preferred over one of a single
+/// tick.
+pub fn pick_ticks(
+    sets: &[Vec<f64>],
+    gap: i32,
+    label_box: impl Fn(f64, &[f64]) -> Rect,
+) -> Vec<f64> {
     let fits = |set: &[f64]| {
-        let boxes: Vec<Rect> = set.iter().map(|&v| label_box(v).grown(gap / 2)).collect();
+        let boxes: Vec<Rect> = set
+            .iter()
+            .map(|&v| label_box(v, set).grown(gap / 2))
+            .collect();
         boxes
             .iter()
             .enumerate()
@@ -139,6 +147,51 @@ pub fn pick_ticks(sets: &[Vec<f64>], gap: i32, label_box: impl Fn(f64) -> Rect) 
         .or(fitting.first())
         .map(|s| s.to_vec())
         .unwrap_or_default()
+}
+
+/// Candidate tick sets on a linear axis over `[lo, hi]`, densest first:
+/// the multiples of 1, 2 and 5 x 10^k inside the range, from steps of a
+/// hundredth of the span to steps of the whole span.
+pub fn linear_tick_sets(lo: f64, hi: f64) -> Vec<Vec<f64>> {
+    if !(hi > lo && lo.is_finite() && hi.is_finite()) {
+        return vec![];
+    }
+    let k0 = ((hi - lo) / 100.0).log10().floor() as i32;
+    let mut sets = Vec::new();
+    for k in k0..=k0 + 3 {
+        for m in [1.0, 2.0, 5.0] {
+            let step = m * 10f64.powi(k);
+            let (a, b) = ((lo / step - 1e-9).ceil(), (hi / step + 1e-9).floor());
+            let set: Vec<f64> = (a as i64..=b as i64).map(|n| n as f64 * step).collect();
+            if (2..=101).contains(&set.len()) {
+                sets.push(set);
+            }
+        }
+    }
+    sets
+}
+
+/// A linear tick value `v` on an axis of ticks `step` apart: plain, with
+/// at most the step's decimals ("1", "1.2", never "1.0"), or n e k (`n`
+/// integer, "15e-5") where the step is under 1e-3 or a value reaches 1e4.
+pub fn linear_tick_label(v: f64, step: f64) -> String {
+    if v == 0.0 || !(step > 0.0) {
+        return "0".into();
+    }
+    let k = step.log10().floor() as i32;
+    if k >= -3 && v.abs() < 1e4 {
+        let s = format!("{:.*}", (-k).max(0) as usize, v);
+        return match s.contains('.') {
+            true => s.trim_end_matches('0').trim_end_matches('.').to_string(),
+            false => s,
+        };
+    }
+    let (mut n, mut k) = ((v / 10f64.powi(k)).round() as i64, k);
+    while n != 0 && n % 10 == 0 {
+        n /= 10;
+        k += 1;
+    }
+    format!("{n}e{k}")
 }
 
 /// Where a label goes relative to its marker at `(x, y)` for a text of
@@ -241,14 +294,37 @@ mod tests {
         // 30 px per decade, labels 20 px wide with a 4 px gap: 1-2-5 is
         // too dense (2 and 5 sit 12 px apart on a log axis), decades fit.
         let px = |v: f64| (30.0 * v.log10()) as i32;
-        let b = |v: f64| Rect::at(px(v) - 10, 0, (20, 12));
+        let b = |v: f64, _: &[f64]| Rect::at(px(v) - 10, 0, (20, 12));
         assert_eq!(pick_ticks(&sets, 4, b), vec![10., 100.]);
         // 300 px per decade: 1-2-5 fits; on the short axis the nine per
         // decade do not (8 and 9 sit 15 px apart), 1-2-5 does.
         let px = |v: f64| (300.0 * v.log10()) as i32;
-        let b = |v: f64| Rect::at(px(v) - 10, 0, (20, 12));
+        let b = |v: f64, _: &[f64]| Rect::at(px(v) - 10, 0, (20, 12));
         assert_eq!(pick_ticks(&sets, 4, b), sets[0]);
         assert_eq!(pick_ticks(&short, 4, b), vec![5., 10., 20., 50.]);
+    }
+
+    #[test]
+    fn linear_ticks_are_round_steps_in_plain_notation() {
+        let sets = linear_tick_sets(0.0, 1.3);
+        // Densest first: steps of 0.02 (66 ticks), ..., 0.5 (3 ticks), 1.
+        assert_eq!(sets[0].len(), 66);
+        assert!(sets.contains(&vec![0.0, 0.5, 1.0]));
+        assert_eq!(sets.last().unwrap(), &vec![0.0, 1.0]);
+        let steps: Vec<f64> = sets.iter().map(|s| s[1] - s[0]).collect();
+        assert!(steps.windows(2).all(|w| w[1] > w[0]), "{steps:?}");
+        let cases = [
+            (1.0, 0.2, "1"),
+            (1.2, 0.2, "1.2"),
+            (0.05, 0.05, "0.05"),
+            (250.0, 50.0, "250"),
+            (1.5e-4, 5e-5, "15e-5"),
+            (2e-4, 1e-4, "2e-4"),
+            (3e4, 1e4, "3e4"),
+        ];
+        for (v, step, want) in cases {
+            assert_eq!(linear_tick_label(v, step), want, "{v} {step}");
+        }
     }
 
     #[test]

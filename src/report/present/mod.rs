@@ -3,6 +3,7 @@
 //! Nothing here measures; it shows what [`super::eval`] measured.
 
 pub mod advice_text;
+pub mod axes;
 pub mod colour_bar;
 pub mod diff_png;
 pub mod disk_table;

@@ -2,10 +2,11 @@
 //! configuration, labelled, the Pareto front (no other point is both
 //! cheaper and more accurate) joined by a line.
 
-use super::layout::{log_tick_sets, pick_ticks, place_labels, tick_label, Rect, TextBox};
-use super::plot::{plot_err, render_grid, Area, PALETTE};
+use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
+use super::layout::{place_labels, Rect, TextBox};
+use super::plot::{render_grid, PALETTE};
 use crate::error::Result;
-use plotters::coord::combinators::{BindKeyPoints, LogCoord, WithKeyPoints};
+use plotters::coord::combinators::LogCoord;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -68,13 +69,9 @@ fn decade_range(v: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 /// holds the legend and the numbered key (never drawn over data).
 const PANEL: (u32, u32) = (900, 500);
 const SIDE: u32 = 230;
-/// Font sizes, pixels: title, tick labels and axis titles, point labels
-/// and the side column.
+/// Font sizes, pixels: title, point labels and the side column.
 const TITLE_PX: u32 = 18;
-const TICK_PX: u32 = 13;
 const LABEL_PX: u32 = 11;
-/// Pixels kept free between two tick labels.
-const TICK_GAP: i32 = 8;
 /// Marker radius, pixels.
 const MARKER: i32 = 4;
 
@@ -87,10 +84,11 @@ pub fn render(
     out: &Path,
 ) -> Result<Vec<TextBox>> {
     let mut boxes = Vec::new();
-    render_grid(panels, cols, PANEL, title, out, |panel, area| {
+    let page = render_grid(panels, cols, PANEL, title, out, |panel, area| {
         boxes.extend(draw_panel(panel, area, out)?);
         Ok(())
     })?;
+    boxes.extend(page);
     Ok(boxes)
 }
 
@@ -130,49 +128,6 @@ fn draw_marker(
     }
 }
 
-/// A log axis from `lo` to `hi` drawn over pixels `p0..p1` (p1 may be
-/// below p0 for a y axis): the pixel of a value.
-fn log_px(lo: f64, hi: f64, p0: i32, p1: i32) -> impl Fn(f64) -> i32 {
-    let (a, b) = (lo.ln(), hi.ln());
-    move |v| p0 + ((v.ln() - a) / (b - a) * (p1 - p0) as f64).round() as i32
-}
-
-/// Texts drawn in panel-relative pixels, recorded in image pixels.
-struct Writer<'a, 'b> {
-    area: &'a Area<'b>,
-    base: (i32, i32),
-    out: &'a Path,
-    boxes: Vec<TextBox>,
-}
-
-impl Writer<'_, '_> {
-    /// The box of `text` at `px` pixels: the font's measured width, and
-    /// at least the font size in height (the estimate measures the glyphs'
-    /// ink, which leaves out descenders on some strings).
-    fn size(&self, text: &str, px: u32) -> Result<(u32, u32)> {
-        let (w, h) = self
-            .area
-            .estimate_text_size(text, &("sans-serif", px).into_font().into())
-            .map_err(|e| plot_err(self.out, e))?;
-        Ok((w, h.max(px)))
-    }
-
-    /// Draws `text` with its top-left corner at image pixel `at`.
-    fn text(&mut self, text: &str, px: u32, color: RGBColor, at: (i32, i32)) -> Result<Rect> {
-        let size = self.size(text, px)?;
-        let style = ("sans-serif", px).into_font().color(&color);
-        self.area
-            .draw_text(text, &style, (at.0 - self.base.0, at.1 - self.base.1))
-            .map_err(|e| plot_err(self.out, e))?;
-        let rect = Rect::at(at.0, at.1, size);
-        self.boxes.push(TextBox {
-            text: text.to_string(),
-            rect,
-        });
-        Ok(rect)
-    }
-}
-
 /// One panel: every series' points, labelled where a label fits and
 /// numbered in the key beside the chart where none does, and each series'
 /// Pareto front.
@@ -185,83 +140,42 @@ fn draw_panel(panel: &ParetoPanel, area: &Area, out: &Path) -> Result<Vec<TextBo
     ) else {
         return Ok(vec![]);
     };
-    let base = area.get_base_pixel();
-    let mut w = Writer {
-        area,
-        base,
-        out,
-        boxes: Vec::new(),
-    };
+    let mut w = Writer::new(area, out);
+    let base = w.base;
     w.text(&panel.title, TITLE_PX, BLACK, (base.0 + 12, base.1 + 6))?;
     let (chart_area, side) = area.split_horizontally(PANEL.0 - SIDE);
     let (_, body) = chart_area.split_vertically(TITLE_PX + 14);
-    let builder = |x: Vec<f64>, y: Vec<f64>| {
+    let builder = || {
         let mut b = ChartBuilder::on(&body);
-        b.margin(12).x_label_area_size(48).y_label_area_size(70);
-        b.build_cartesian_2d(
-            (xr.0..xr.1).log_scale().with_key_points(x),
-            (yr.0..yr.1).log_scale().with_key_points(y),
-        )
+        b.margin(12)
+            .x_label_area_size(X_AREA)
+            .y_label_area_size(Y_AREA);
+        b.build_cartesian_2d((xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())
     };
-    let (px_x, px_y) = builder(vec![], vec![])
-        .map_err(e)?
-        .plotting_area()
-        .get_pixel_range();
-    let to_x = log_px(xr.0, xr.1, px_x.start, px_x.end);
-    let to_y = log_px(yr.0, yr.1, px_y.end, px_y.start);
-    let tick_size = |v: f64| w.size(&tick_label(v), TICK_PX);
-    let x_box = |v: f64| {
-        let s = tick_size(v).unwrap_or((0, 0));
-        Rect::at(to_x(v) - s.0 as i32 / 2, px_y.end + 6, s)
+    let mut chart = builder().map_err(e)?;
+    let (x_px, y_px) = chart.plotting_area().get_pixel_range();
+    let axis = |(lo, hi): (f64, f64), title: &str| Axis {
+        scale: Scale::Log,
+        lo,
+        hi,
+        title: title.to_string(),
     };
-    let y_box = |v: f64| {
-        let s = tick_size(v).unwrap_or((0, 0));
-        Rect::at(px_x.start - 8 - s.0 as i32, to_y(v) - s.1 as i32 / 2, s)
+    let frame = Frame {
+        x_px,
+        y_px,
+        x: axis(xr, &panel.x_label),
+        y: axis(yr, &panel.y_label),
     };
-    let xt = pick_ticks(&log_tick_sets(xr.0, xr.1), TICK_GAP, x_box);
-    let yt = pick_ticks(&log_tick_sets(yr.0, yr.1), TICK_GAP, y_box);
-    let mut chart = builder(xt.clone(), yt.clone()).map_err(e)?;
-    chart
-        .configure_mesh()
-        .x_label_formatter(&|_| String::new())
-        .y_label_formatter(&|_| String::new())
-        .y_desc(&panel.y_label)
-        .axis_desc_style(("sans-serif", TICK_PX))
-        .draw()
-        .map_err(e)?;
-    let ticks: Vec<(f64, Rect)> = xt
-        .iter()
-        .map(|&v| (v, x_box(v)))
-        .chain(yt.iter().map(|&v| (v, y_box(v))))
-        .collect();
-    for (v, b) in ticks {
-        w.text(&tick_label(v), TICK_PX, BLACK, (b.x0, b.y0))?;
-    }
-    let xd = w.size(&panel.x_label, TICK_PX)?;
-    let mid = (px_x.start + px_x.end) / 2;
-    w.text(
-        &panel.x_label,
-        TICK_PX,
-        BLACK,
-        (mid - xd.0 as i32 / 2, px_y.end + 26),
-    )?;
-    // The y axis title, drawn rotated by plotters at the left of the label
-    // area: its box, for the layout check.
-    let yd = w.size(&panel.y_label, TICK_PX)?;
-    let ymid = (px_y.start + px_y.end) / 2;
-    w.boxes.push(TextBox {
-        text: panel.y_label.clone(),
-        rect: Rect::at(px_x.start - 70, ymid - yd.0 as i32 / 2, (yd.1, yd.0)),
-    });
+    let ticks = frame.ticks(&w);
+    frame.draw_grid(&w, &ticks)?;
+    frame.draw_text(&mut w, &ticks, body.get_base_pixel().0 + 2)?;
+    let to_x = frame.x.to_px(frame.x_px.start, frame.x_px.end);
+    let to_y = frame.y.to_px(frame.y_px.end, frame.y_px.start);
     draw_points(panel, &mut chart, &mut w, (&to_x, &to_y), &side)?;
     Ok(w.boxes)
 }
 
-type Chart<'a, 'b> = ChartContext<
-    'a,
-    BitMapBackend<'b>,
-    Cartesian2d<WithKeyPoints<LogCoord<f64>>, WithKeyPoints<LogCoord<f64>>>,
->;
+type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
 
 /// The fronts, the markers, their labels, and the side column: legend,
 /// marker shapes by passes, and the numbered key of the labels that did

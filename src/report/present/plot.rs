@@ -2,9 +2,12 @@
 //! drawn into memory and written atomically; the only font is the bundled
 //! DejaVu Sans, registered once as "sans-serif" (no system fonts).
 
+use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
+use super::layout::TextBox;
 use crate::error::{Error, Result};
 use crate::profile::radius_holding;
 use crate::profile::Profile;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use std::path::Path;
@@ -55,23 +58,41 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(120, 120, 120),
 ];
 
-pub fn plot_err(out: &Path, e: impl std::fmt::Display) -> Error {
-    Error::format(out, format!("plotting failed: {e}"))
-}
-
-/// Draws `panels` on a grid with `cols` columns and writes a PNG.
-pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<()> {
+/// Draws `panels` on a grid with `cols` columns and writes a PNG; returns
+/// every text box it drew, in the image's pixels (for tests of the
+/// layout).
+pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<Vec<TextBox>> {
     crate::io::check_extension(out, &["png"], "plot")?;
-    render_grid(panels, cols, (640, 440), title, out, |panel, area| {
-        draw_panel(panel, area, out)
-    })
+    let mut boxes = Vec::new();
+    let page = render_grid(panels, cols, PANEL, title, out, |panel, area| {
+        boxes.extend(draw_panel(panel, area, out)?);
+        Ok(())
+    })?;
+    boxes.extend(page);
+    Ok(boxes)
 }
 
-/// A drawing area of one panel.
-pub type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+/// Size of one profile panel, pixels.
+const PANEL: (u32, u32) = (640, 460);
+/// Font sizes, pixels: the page title, a panel's title, legend entries.
+const PAGE_PX: u32 = 22;
+pub const TITLE_PX: u32 = 16;
+const LEGEND_PX: u32 = 12;
+/// Length of a legend's line sample and the space between two entries,
+/// pixels (the sample long enough for two dashes of a dashed curve).
+const SAMPLE: i32 = 22;
+const ENTRY_GAP: i32 = 16;
+/// Space kept right of and above a chart's plotting area, pixels (room
+/// for the last x tick label's right half and the top y label's upper
+/// half).
+const CHART_RIGHT: u32 = 24;
+const CHART_TOP: u32 = 10;
+/// Left and right margin of titles and legends inside their area, pixels.
+const MARGIN: i32 = 12;
 
-/// The page of every plot: `title` over a grid of `cols` columns of panels
-/// of `size` pixels, each drawn by `draw`, written as a PNG to `out`.
+/// The page of every plot: `title` (wrapped to the page's width) over a
+/// grid of `cols` columns of panels of `size` pixels, each drawn by
+/// `draw`, written as a PNG to `out`; returns the boxes of the title.
 pub fn render_grid<T>(
     panels: &[T],
     cols: usize,
@@ -79,7 +100,7 @@ pub fn render_grid<T>(
     title: &str,
     out: &Path,
     mut draw: impl FnMut(&T, &Area) -> Result<()>,
-) -> Result<()> {
+) -> Result<Vec<TextBox>> {
     register_fonts();
     if panels.is_empty() {
         return Err(Error::Unsupported("nothing to plot".into()));
@@ -87,25 +108,41 @@ pub fn render_grid<T>(
     let cols = cols.clamp(1, panels.len());
     let rows = panels.len().div_ceil(cols);
     let (pw, ph) = size;
-    let (w, h) = (pw * cols as u32, ph * rows as u32 + 40);
+    let w = pw * cols as u32;
+    // The title's lines are measured on a scratch area of the page's
+    // width before the page (whose height they set) exists.
+    let lines = {
+        let mut scratch = vec![255u8; (w * 8 * 3) as usize];
+        let area = BitMapBackend::with_buffer(&mut scratch, (w, 8)).into_drawing_area();
+        Writer::new(&area, out).wrap(title, PAGE_PX, w - 2 * MARGIN as u32)?
+    };
+    let line_h = PAGE_PX + 6;
+    let top = (lines.len() as u32 * line_h + 12).max(40);
+    let h = ph * rows as u32 + top;
     let mut buf = vec![255u8; (w * h * 3) as usize];
+    let boxes;
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| plot_err(out, e))?;
-        let (top, body) = root.split_vertically(40);
-        top.draw_text(
-            title,
-            &("sans-serif", 22).into_font().color(&BLACK),
-            (12, 10),
-        )
-        .map_err(|e| plot_err(out, e))?;
+        let (head, body) = root.split_vertically(top);
+        let mut writer = Writer::new(&head, out);
+        for (i, line) in lines.iter().enumerate() {
+            writer.text(
+                line,
+                PAGE_PX,
+                BLACK,
+                (MARGIN, 8 + (i as u32 * line_h) as i32),
+            )?;
+        }
+        boxes = writer.boxes;
         let areas = body.split_evenly((rows, cols));
         for (panel, area) in panels.iter().zip(areas.iter()) {
             draw(panel, area)?;
         }
         root.present().map_err(|e| plot_err(out, e))?;
     }
-    write_png(buf, w, h, out)
+    write_png(buf, w, h, out)?;
+    Ok(boxes)
 }
 
 /// Writes an RGB8 buffer of `w` x `h` pixels as a PNG, atomically.
@@ -118,11 +155,94 @@ pub fn write_png(buf: Vec<u8>, w: u32, h: u32, out: &Path) -> Result<()> {
     crate::io::write_atomic(out, &png)
 }
 
-fn draw_panel<DB: DrawingBackend>(
-    panel: &Panel,
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    out: &Path,
-) -> Result<()> {
+/// Draws a panel's title wrapped to the area's width from its top;
+/// returns the height it took, pixels.
+pub fn draw_title(w: &mut Writer, title: &str, width: u32) -> Result<u32> {
+    let line_h = TITLE_PX + 4;
+    let lines = w.wrap(title, TITLE_PX, width - 2 * MARGIN as u32)?;
+    for (i, line) in lines.iter().enumerate() {
+        let at = (w.base.0 + MARGIN, w.base.1 + 6 + (i as u32 * line_h) as i32);
+        w.text(line, TITLE_PX, BLACK, at)?;
+    }
+    Ok(lines.len() as u32 * line_h + 8)
+}
+
+/// One legend entry placed: its curve, its lines of text and the
+/// top-left corner of its sample, relative to the legend's top-left.
+struct Entry<'a> {
+    curve: &'a Curve,
+    lines: Vec<String>,
+    at: (i32, i32),
+}
+
+/// The legend of `curves` flowed in rows under a chart `width` pixels
+/// wide: entries left to right, a new row where the next one does not
+/// fit, an entry wider than the row wrapped onto lines of its own.
+/// Returns the entries and the legend's height.
+fn legend_layout<'a>(w: &Writer, curves: &'a [Curve], width: u32) -> Result<(Vec<Entry<'a>>, u32)> {
+    let line_h = LEGEND_PX as i32 + 5;
+    let room = width as i32 - 2 * MARGIN;
+    let text_room = (room - SAMPLE - 6).max(1) as u32;
+    let (mut x, mut y, mut row_h) = (0i32, 0i32, 0i32);
+    let mut entries = Vec::new();
+    for c in curves {
+        let lines = w.wrap(&c.label, LEGEND_PX, text_room)?;
+        let text_w = lines
+            .iter()
+            .map(|l| w.size(l, LEGEND_PX).map(|s| s.0 as i32))
+            .collect::<Result<Vec<_>>>()?
+            .into_iter()
+            .max()
+            .unwrap_or(0);
+        let entry_w = SAMPLE + 6 + text_w;
+        if x > 0 && (x + entry_w > room || lines.len() > 1) {
+            (x, y, row_h) = (0, y + row_h, 0);
+        }
+        let h = lines.len() as i32 * line_h;
+        entries.push(Entry {
+            curve: c,
+            lines,
+            at: (x, y),
+        });
+        row_h = row_h.max(h);
+        x += entry_w + ENTRY_GAP;
+    }
+    Ok((entries, (y + row_h + 6) as u32))
+}
+
+/// Draws the legend laid out by [`legend_layout`] with its top-left at
+/// image pixel `origin`.
+fn draw_legend(w: &mut Writer, entries: &[Entry], origin: (i32, i32)) -> Result<()> {
+    let line_h = LEGEND_PX as i32 + 5;
+    let e = |e| plot_err(w.out, e);
+    for en in entries {
+        let (x, y) = (origin.0 + en.at.0, origin.1 + en.at.1);
+        let mid = y + line_h / 2 - 1;
+        let (sx, sy) = (x - w.base.0, mid - w.base.1);
+        let c = en.curve.color;
+        if en.curve.band.is_some() {
+            let r = Rectangle::new([(sx, sy - 4), (sx + SAMPLE, sy + 4)], c.mix(0.25).filled());
+            w.area.draw(&r).map_err(e)?;
+        }
+        let path = vec![(sx, sy), (sx + SAMPLE, sy)];
+        if en.curve.dashed {
+            let d = plotters::element::DashedPathElement::new(path, DASH, GAP, c.stroke_width(2));
+            w.area.draw(&d).map_err(e)?;
+        } else {
+            w.area
+                .draw(&PathElement::new(path, c.stroke_width(2)))
+                .map_err(e)?;
+        }
+        for (i, line) in en.lines.iter().enumerate() {
+            let at = (x + SAMPLE + 6, y + i as i32 * line_h);
+            w.text(line, LEGEND_PX, BLACK, at)?;
+        }
+    }
+    Ok(())
+}
+
+/// The y range of a panel's visible points, (lowest, highest).
+fn y_extent(panel: &Panel) -> (f64, f64) {
     let visible = |x: f64, y: f64| x <= panel.x_max && y.is_finite() && (!panel.log_y || y > 0.0);
     let mut y_max = 0.0f64;
     let mut y_min = f64::INFINITY;
@@ -135,11 +255,18 @@ fn draw_panel<DB: DrawingBackend>(
         }
     }
     if !(y_max > 0.0) {
-        y_max = 1.0;
-        y_min = 1e-6;
+        (1e-6, 1.0)
+    } else {
+        (y_min, y_max)
     }
+}
+
+/// One profile panel: title, chart with its axes, legend under it.
+/// Returns the boxes of its texts in image pixels.
+fn draw_panel(panel: &Panel, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
+    let (y_min, y_max) = y_extent(panel);
     // Axis ranges are padded by a few percent and cut into ticks: values
-    // near f64::MAX would overflow them (an endless tick loop in plotters).
+    // near f64::MAX would overflow them.
     if !(y_max <= 1e300 && panel.x_max.is_finite()) {
         return Err(plot_err(
             out,
@@ -149,80 +276,79 @@ fn draw_panel<DB: DrawingBackend>(
             ),
         ));
     }
-    let x_range = 0.0..panel.x_max.max(1e-12);
-    let mut chart_builder = ChartBuilder::on(area);
-    chart_builder
-        .caption(&panel.title, ("sans-serif", 18))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(70);
-    let e = |e| plot_err(out, e);
-    if panel.log_y {
-        // Six decades below the peak keep the tail readable without letting
-        // the last noisy bins squash the plot.
+    let (pw, ph) = area.dim_in_pixel();
+    let mut w = Writer::new(area, out);
+    let title_h = draw_title(&mut w, &panel.title, pw)?;
+    let (entries, legend_h) = legend_layout(&w, &panel.curves, pw)?;
+    let (_, rest) = area.split_vertically(title_h);
+    let (chart_area, _) = rest.split_vertically(ph.saturating_sub(title_h + legend_h));
+    let y = if panel.log_y {
+        // Six decades below the peak keep the tail readable without
+        // letting the last noisy bins squash the plot.
         let lo = y_min.max(y_max * 1e-7);
-        let mut chart = chart_builder
-            .build_cartesian_2d(x_range, (lo..y_max * 2.0).log_scale())
-            .map_err(e)?;
-        draw_mesh(&mut chart, panel, &|v| format!("{v:.0e}"), out)?;
-        draw_curves(&mut chart, panel, lo, out)?;
+        Axis {
+            scale: Scale::Log,
+            lo,
+            hi: y_max * 2.0,
+            title: panel.y_label.clone(),
+        }
     } else {
-        let mut chart = chart_builder
-            .build_cartesian_2d(x_range, 0.0..y_max * 1.05)
-            .map_err(e)?;
-        draw_mesh(&mut chart, panel, &|v| format!("{v:.3}"), out)?;
+        Axis {
+            scale: Scale::Linear,
+            lo: 0.0,
+            hi: y_max * 1.05,
+            title: panel.y_label.clone(),
+        }
+    };
+    let x = Axis {
+        scale: Scale::Linear,
+        lo: 0.0,
+        hi: panel.x_max.max(1e-12),
+        title: panel.x_label.clone(),
+    };
+    let builder = || {
+        let mut b = ChartBuilder::on(&chart_area);
+        b.margin_top(CHART_TOP)
+            .margin_right(CHART_RIGHT)
+            .x_label_area_size(X_AREA)
+            .y_label_area_size(Y_AREA);
+        b
+    };
+    let e = |e| plot_err(out, e);
+    let (x_px, y_px) = builder()
+        .build_cartesian_2d(x.lo..x.hi, y.lo..y.hi)
+        .map_err(e)?
+        .plotting_area()
+        .get_pixel_range();
+    let frame = Frame { x_px, y_px, x, y };
+    let ticks = frame.ticks(&w);
+    frame.draw_grid(&w, &ticks)?;
+    let xr = frame.x.lo..frame.x.hi;
+    if panel.log_y {
+        let yr = (frame.y.lo..frame.y.hi).log_scale();
+        let mut chart = builder().build_cartesian_2d(xr, yr).map_err(e)?;
+        draw_curves(&mut chart, panel, frame.y.lo, out)?;
+    } else {
+        let yr = frame.y.lo..frame.y.hi;
+        let mut chart = builder().build_cartesian_2d(xr, yr).map_err(e)?;
         draw_curves(&mut chart, panel, f64::NEG_INFINITY, out)?;
     }
-    Ok(())
+    let (cx, cy) = chart_area.get_base_pixel();
+    frame.draw_text(&mut w, &ticks, cx + 2)?;
+    let legend_top = cy + chart_area.dim_in_pixel().1 as i32;
+    let left = w.base.0 + MARGIN;
+    draw_legend(&mut w, &entries, (left, legend_top))?;
+    Ok(w.boxes)
 }
 
-/// The axes of a profile panel, the y labels written by `y_format`.
-fn draw_mesh<'a, DB: DrawingBackend + 'a, Y>(
-    chart: &mut ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, Y>>,
-    panel: &Panel,
-    y_format: &dyn Fn(&f64) -> String,
-    out: &Path,
-) -> Result<()>
-where
-    Y: Ranged<ValueType = f64> + plotters::coord::ranged1d::ValueFormatter<f64>,
-{
-    chart
-        .configure_mesh()
-        .x_desc(&panel.x_label)
-        .y_desc(&panel.y_label)
-        .y_label_formatter(y_format)
-        .label_style(("sans-serif", 14))
-        .draw()
-        .map_err(|e| plot_err(out, e))
-}
-
-/// The legend of every plot, upper right, labels of `font_px` pixels.
-pub fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
-    chart: &mut ChartContext<'a, DB, CT>,
-    font_px: i32,
-    out: &Path,
-) -> Result<()> {
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font(("sans-serif", font_px))
-        .draw()
-        .map_err(|e| plot_err(out, e))
-}
+type Chart<'a, 'b, Y> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, Y>>;
 
 /// Dash and gap lengths of dashed curves, pixels (short enough that the
-/// 20-pixel legend sample shows two dashes).
+/// legend's sample shows two dashes).
 const DASH: u32 = 6;
 const GAP: u32 = 4;
 
-fn draw_curves<'a, DB: DrawingBackend + 'a, Y>(
-    chart: &mut ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, Y>>,
-    panel: &Panel,
-    floor: f64,
-    out: &Path,
-) -> Result<()>
+fn draw_curves<Y>(chart: &mut Chart<Y>, panel: &Panel, floor: f64, out: &Path) -> Result<()>
 where
     Y: Ranged<ValueType = f64>,
 {
@@ -260,32 +386,22 @@ where
             .filter(|&(x, y)| keep(x, y))
             .collect();
         let style = c.color.stroke_width(if c.band.is_some() { 1 } else { 2 });
-        let color = c.color;
         if c.dashed {
-            // The legend's sample carries the same dash pattern as the line.
             chart
                 .draw_series(DashedLineSeries::new(pts, DASH, GAP, style))
-                .map_err(e)?
-                .label(&c.label)
-                .legend(move |(x, y)| {
-                    plotters::element::DashedPathElement::new(
-                        vec![(x, y), (x + 20, y)],
-                        DASH,
-                        GAP,
-                        color.stroke_width(2),
-                    )
-                });
+                .map_err(e)?;
         } else {
-            chart
-                .draw_series(LineSeries::new(pts, style))
-                .map_err(e)?
-                .label(&c.label)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+            // Segment by segment: plotters joins the segments of a wide
+            // polyline with miters, and a noisy Monte Carlo tail's sharp
+            // zigzags then shoot spikes far past their points (through the
+            // axis and its labels).
+            let segments = pts
+                .windows(2)
+                .map(|s| PathElement::new(vec![s[0], s[1]], style));
+            chart.draw_series(segments).map_err(e)?;
         }
     }
-    draw_legend(chart, 14, out)
+    Ok(())
 }
 
 /// Freude 2014, figure 6.1 layout for one or more profiles: one row per channel,
@@ -340,7 +456,7 @@ pub fn profile_panels(profiles: &[(String, Profile)]) -> Vec<Panel> {
                     }
                 ),
                 x_label: "r (mm)".into(),
-                y_label: "R_d (1/mm^2)".into(),
+                y_label: "R_d (1/mm²)".into(),
                 x_max,
                 log_y,
                 curves: curves.clone(),

@@ -378,7 +378,7 @@ pub fn comparison_panels(reference: &Profile, models: &[Profile]) -> Vec<Panel> 
                     reference.material.top(ch).reduced_albedo()
                 ),
                 x_label: "r (mm)".into(),
-                y_label: "R_d (1/mm^2)".into(),
+                y_label: "R_d (1/mm²)".into(),
                 x_max,
                 log_y: true,
                 curves,
