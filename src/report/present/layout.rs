@@ -173,7 +173,9 @@ pub fn linear_tick_sets(lo: f64, hi: f64) -> Vec<Vec<f64>> {
 
 /// A linear tick value `v` on an axis of ticks `step` apart: plain, with
 /// at most the step's decimals ("1", "1.2", never "1.0"), or n e k (`n`
-/// integer, "15e-5") where the step is under 1e-3 or a value reaches 1e4.
+/// integer, "15e-5") where the step is under 1e-3 or a value reaches 1e4,
+/// with the step's exponent k on every label of the axis ("5e-4, 10e-4,
+/// 15e-4", not "5e-4, 1e-3, 15e-4": one exponent reads as one scale).
 pub fn linear_tick_label(v: f64, step: f64) -> String {
     if v == 0.0 || !(step > 0.0) {
         return "0".into();
@@ -186,11 +188,7 @@ pub fn linear_tick_label(v: f64, step: f64) -> String {
             false => s,
         };
     }
-    let (mut n, mut k) = ((v / 10f64.powi(k)).round() as i64, k);
-    while n != 0 && n % 10 == 0 {
-        n /= 10;
-        k += 1;
-    }
+    let n = (v / 10f64.powi(k)).round() as i64;
     format!("{n}e{k}")
 }
 
@@ -320,6 +318,7 @@ mod tests {
             (250.0, 50.0, "250"),
             (1.5e-4, 5e-5, "15e-5"),
             (2e-4, 1e-4, "2e-4"),
+            (1e-3, 5e-4, "10e-4"),
             (3e4, 1e4, "3e4"),
         ];
         for (v, step, want) in cases {
