@@ -332,3 +332,187 @@ impl UnitWalk {
         (rd, k * total)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `subsurface_random_walk_remap` (Cycles v5.0.0,
+    /// kernel/integrator/subsurface_random_walk.h) as the source writes
+    /// it, in f32: powers g2..g7, powf, atanf, expf, the clamp.
+    #[allow(clippy::excessive_precision)] // the source's digits, as written there
+    fn cycles_remap(albedo: f32, g: f32) -> f32 {
+        let (g2, g3) = (g * g, g * g * g);
+        let (g4, g5, g6, g7) = (g3 * g, g3 * g2, g3 * g3, g3 * g3 * g);
+        let a = 1.8260523782
+            + -1.28451056436 * g
+            + -1.79904629312 * g2
+            + 9.19393289202 * g3
+            + -22.8215585862 * g4
+            + 32.0234874259 * g5
+            + -23.6264803333 * g6
+            + 7.21067002658 * g7;
+        let b = 4.98511194385
+            + 0.127355959438
+                * (31.1491581433 * g
+                    + -201.847017512 * g2
+                    + 841.576016723 * g3
+                    + -2018.09288505 * g4
+                    + 2731.71560286 * g5
+                    + -1935.41424244 * g6
+                    + 559.009054474 * g7)
+                    .exp();
+        let c = 1.09686102424
+            + -0.394704063468 * g
+            + 1.05258115941 * g2
+            + -8.83963712726 * g3
+            + 28.8643230661 * g4
+            + -46.8802913581 * g5
+            + 38.5402837518 * g6
+            + -12.7181042538 * g7;
+        let d = 0.496310210422
+            + 0.360146581622 * g
+            + -2.15139309747 * g2
+            + 17.8896899217 * g3
+            + -55.2984010333 * g4
+            + 82.065982243 * g5
+            + -58.5106008578 * g6
+            + 15.8478295021 * g7;
+        let e = 4.23190299701
+            + 0.00310603949088
+                * (76.7316253952 * g
+                    + -594.356773233 * g2
+                    + 2448.8834203 * g3
+                    + -5576.68528998 * g4
+                    + 7116.60171912 * g5
+                    + -4763.54467887 * g6
+                    + 1303.5318055 * g7)
+                    .exp();
+        let f = 2.40602999408
+            + -2.51814844609 * g
+            + 9.18494908356 * g2
+            + -79.2191708682 * g3
+            + 259.082868209 * g4
+            + -403.613804597 * g5
+            + 302.85712436 * g6
+            + -87.4370473567 * g7;
+        let blend = albedo.powf(0.25);
+        let alpha = (1.0 - blend) * a * (b * albedo).atan().powf(c)
+            + blend * d * (e * albedo).atan().powf(f);
+        alpha.clamp(0.0, 0.999999)
+    }
+
+    /// f32 against f64: the exponents' terms reach about 3e3 at g = 0.9,
+    /// so f32's 6e-8 rounding moves the exponentials by a few 1e-4 of
+    /// themselves; alpha moves by less than this.
+    const REMAP_F32_TOL: f64 = 5e-4;
+
+    #[test]
+    fn the_remap_is_cycles_formula() {
+        for g in [0.0, 0.3, 0.6, 0.9] {
+            for albedo in [0.0, 0.01, 0.05, 0.1, 0.3, 0.5, 0.8, 0.95, 1.0] {
+                let ours = remap_alpha(albedo, g);
+                let theirs = cycles_remap(albedo as f32, g as f32) as f64;
+                assert!(
+                    (ours - theirs).abs() < REMAP_F32_TOL,
+                    "albedo {albedo} g {g}: {ours} vs Cycles' {theirs}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn coefficients_follow_cycles_chain() {
+        // bssrdf_setup_radius: d = radius / (4 pi); remap: sigma_t = 1 /
+        // (d (1 - g)).
+        let (radius, g) = (3.0, 0.4);
+        let ch = channel(0.8, radius, g);
+        let sigma_t = 1.0 / (radius * 0.25 / std::f64::consts::PI * (1.0 - g));
+        assert!((ch.sigma_t - sigma_t).abs() < 1e-12 * sigma_t);
+        assert_eq!((ch.alpha, ch.throughput), (remap_alpha(0.8, g), 1.0));
+        // subsurface_random_walk_coefficients: below 0.2 alpha is raised
+        // to 0.2 and the throughput scaled by alpha / 0.2.
+        let low = remap_alpha(0.02, 0.0);
+        assert!(low < MIN_ALPHA, "{low}");
+        let ch = channel(0.02, radius, 0.0);
+        assert_eq!(ch.alpha, MIN_ALPHA);
+        assert!((ch.throughput - low / MIN_ALPHA).abs() < 1e-15);
+        // The source's constants (kernel/types.h BSSRDF_MAX_BOUNCES,
+        // SUBSURFACE_RANDOM_WALK_SIMILARITY_LEVEL, bssrdf_setup's clamp).
+        assert_eq!((MAX_BOUNCES, SIMILARITY_LEVEL), (256, 9));
+        assert_eq!(ANISOTROPY_RANGE, (0.0, 0.9));
+    }
+
+    /// Monte Carlo checks hold to this many standard errors.
+    const SIGMAS: f64 = 4.0;
+
+    /// The share of walks leaving after exactly one scattering: entering
+    /// straight down, scattering at depth z (density e^-z) into direction
+    /// cosine mu upwards and leaving unscattered (e^(-z / mu)), it is
+    /// int_0^1 p(mu) mu / (1 + mu) dmu with p the phase function's
+    /// density of the upward cosine mu for a downward direction: (1 -
+    /// ln 2) / 2 when isotropic.
+    fn single_scatter_share(g: f64) -> f64 {
+        let hg = |mu: f64| 0.5 * (1.0 - g * g) / (1.0 + g * g + 2.0 * g * mu).powf(1.5);
+        crate::numerics::gauss_legendre(|mu| hg(mu) * mu / (1.0 + mu), 0.0, 1.0)
+    }
+
+    #[test]
+    fn one_scattering_leaves_as_the_closed_form_says() {
+        let exact = (1.0 - 2f64.ln()) / 2.0;
+        assert!((single_scatter_share(0.0) - exact).abs() < 1e-12);
+        let walks = 1 << 18;
+        for g in [0.0, 0.5] {
+            let w = UnitWalk::run(walks, 1.0, g, 7).unwrap();
+            let once = w.exits.iter().filter(|e| e.1 == 1).count() as f64 / walks as f64;
+            let p = single_scatter_share(g);
+            let se = (p * (1.0 - p) / walks as f64).sqrt();
+            assert!(
+                (once - p).abs() < SIGMAS * se,
+                "g {g}: {once} leave after one scattering, exactly {p} (se {se})"
+            );
+        }
+    }
+
+    #[test]
+    fn the_walk_stops_at_the_flight_cap() {
+        // Without absorption a walk in a half-space comes back: what does
+        // not within MAX_BOUNCES flights is lost, and the longest exits
+        // come after MAX_BOUNCES - 1 scatterings.
+        let w = UnitWalk::run(1 << 17, 1.0, 0.0, 3).unwrap();
+        let longest = w.exits.iter().map(|e| e.1).max().unwrap();
+        assert_eq!(longest as usize, MAX_BOUNCES - 1);
+        assert!(w.exits.len() < w.walks);
+    }
+
+    #[test]
+    fn the_similarity_medium_weights_scatterings_after_level_9() {
+        let (alpha, g) = (0.8, 0.5);
+        let w = UnitWalk {
+            walks: 1,
+            alpha,
+            g,
+            exits: Vec::new(),
+            first_half: 0,
+        };
+        // sigma_s* / sigma_t* = alpha (1 - g) / (1 - alpha g).
+        let star = alpha * (1.0 - g) / (1.0 - alpha * g);
+        let expect = alpha.powi(10) * star.powi(2);
+        assert!((w.weight(12, alpha) - expect).abs() < 1e-15);
+        assert!((w.weight(10, alpha) - alpha.powi(10)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn same_seed_same_walks_whatever_the_threads() {
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| UnitWalk::run(3 * CHUNK + 5, 0.9, 0.3, 11).unwrap())
+        };
+        let (a, b) = (run(1), run(3));
+        assert_eq!(a.exits, b.exits);
+        assert_eq!(a.first_half, b.first_half);
+    }
+}
