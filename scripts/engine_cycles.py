@@ -143,7 +143,7 @@ def burley_bins(albedo, d_mm, truncate_d=None):
 
 def walk_claim(fit, cols):
     """The edge response of the Random Walk profile ssskit says Cycles
-    renders (`ssskit engine --method random-walk`, its "walk": two
+    renders (`ssskit engine --subsurface-method random-walk`, its "walk": two
     independent halves of its Monte Carlo of Cycles' walk): their mean
     and the standard error of that mean per column, per channel."""
     w = fit["walk"]
@@ -209,7 +209,7 @@ def main():
             sys.exit(f"{name}: one layer with one g is what Cycles' walk takes")
         out = os.path.join(tmp, f"{name}-blender.json")
         ssskit(["engine", "--profile", prof_path, "--engine", "blender",
-                "--method", "christensen-burley", "--out", out], a.bin)
+                "--subsurface-method", "christensen-burley", "--out", out], a.bin)
         fit = json.load(open(out))
         printed = {k: fit["params"][k] for k in
                    ["Base Color", "Subsurface Radius", "Subsurface Scale", "Subsurface Weight"]}
@@ -217,7 +217,7 @@ def main():
         rw = None
         if any(m.startswith("random-walk") for m in a.methods.split(",")):
             ssskit(["engine", "--profile", prof_path, "--engine", "blender",
-                    "--method", "random-walk", "--out", rw_out], a.bin)
+                    "--subsurface-method", "random-walk", "--out", rw_out], a.bin)
             rw = json.load(open(rw_out))
         sa, ss = np.array(layer["sigma_a"]), np.array(layer["sigma_s"]) * (1 - layer["g"][0])
         sigma_tr = np.sqrt(3 * sa * (sa + ss))
@@ -239,7 +239,7 @@ def main():
             elif m == "random-walk":
                 v = {k: rw["params"][k] for k in RW_KEYS}
                 claim, claim_err = walk_claim(rw, cols)
-                cases.append(("Random Walk", "ssskit engine --method random-walk",
+                cases.append(("Random Walk", "ssskit engine --subsurface-method random-walk",
                               "RANDOM_WALK", v, claim, claim_err))
             elif m == "random-walk-skin":
                 # Skin reads the radius through a dipole fit of the albedo
@@ -249,7 +249,7 @@ def main():
                 # ssskit's Random Walk values rendered, unclaimed.
                 v = dict({k: rw["params"][k] for k in RW_KEYS},
                          **{"Subsurface IOR": layer["eta"]})
-                cases.append(("Random Walk (Skin)", "ssskit engine --method random-walk",
+                cases.append(("Random Walk (Skin)", "ssskit engine --subsurface-method random-walk",
                               "RANDOM_WALK_SKIN", v, None, None))
             else:
                 sys.exit(f"unknown method {m}")

@@ -1,4 +1,4 @@
-//! `ssskit engine --engine blender --method random-walk` against Cycles'
+//! `ssskit engine --engine blender --subsurface-method random-walk` against Cycles'
 //! chain from the node's values to its walk, re-implemented here from the
 //! source (blender/cycles at v5.0.0): src/kernel/svm/closure.h, the
 //! principled BSDF: radius = max(subsurface_radius x subsurface_scale, 0),
@@ -25,7 +25,7 @@ fn random_walk_values_are_the_walk_they_claim() {
         SKIN1,
         "--engine",
         "blender",
-        "--method",
+        "--subsurface-method",
         "random-walk",
         "--out",
         p(&out),
@@ -69,10 +69,10 @@ fn random_walk_is_blender_cycles_only() {
             SKIN1,
             "--engine",
             "unreal",
-            "--method",
+            "--subsurface-method",
             "random-walk",
         ],
-        &["--method", "blender"],
+        &["--subsurface-method", "blender"],
     );
     fails_with(
         &[
@@ -83,9 +83,9 @@ fn random_walk_is_blender_cycles_only() {
             "blender",
             "--engine-version",
             "eevee",
-            "--method",
+            "--subsurface-method",
             "random-walk",
         ],
-        &["--method", "eevee"],
+        &["--subsurface-method", "eevee"],
     );
 }

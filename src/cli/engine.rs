@@ -74,7 +74,7 @@ pub struct Args {
         value_name = "METHOD",
         default_value = "christensen-burley"
     )]
-    method: MethodArg,
+    subsurface_method: MethodArg,
     #[command(flatten)]
     out: OutFile,
     /// Plot the input profile and the engine model's r R_d(r) [default: not written].
@@ -102,7 +102,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = a
         .units_per_mm
         .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
-    let fit = match a.method {
+    let fit = match a.subsurface_method {
         MethodArg::ChristensenBurley => {
             engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?
         }
@@ -111,7 +111,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let verdict = fit
         .cannot_match()
         .map_or(String::new(), |s| format!(": {s}"));
-    let method = match (e, a.method) {
+    let method = match (e, a.subsurface_method) {
         (Engine::Blender, MethodArg::RandomWalk) => ", Random Walk",
         (Engine::Blender, _) => ", Christensen-Burley",
         _ => "",
@@ -186,12 +186,14 @@ fn random_walk(
     version: Option<&str>,
 ) -> anyhow::Result<engine::EngineFit> {
     if e != Engine::Blender {
-        anyhow::bail!("--method: invalid value random-walk: only --engine blender has it");
+        anyhow::bail!(
+            "--subsurface-method: invalid value random-walk: only --engine blender has it"
+        );
     }
     let v = e.version(version)?;
     if v.key != "4" {
         anyhow::bail!(
-            "--method: invalid value random-walk: Cycles 4.0 to 5.0 only (--engine-version 4), \
+            "--subsurface-method: invalid value random-walk: Cycles 4.0 to 5.0 only (--engine-version 4), \
              not {}",
             v.key
         );
