@@ -35,6 +35,15 @@ impl From<EngineArg> for Engine {
     }
 }
 
+/// Blender's subsurface method the values are for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum MethodArg {
+    /// Christensen-Burley: the Burley profile, disk sampled.
+    ChristensenBurley,
+    /// Random Walk: a volume walk (Cycles 4.0 to 5.0).
+    RandomWalk,
+}
+
 #[derive(clap::Args)]
 #[command(
     mut_arg("profile", |a| args::required()(a)
@@ -67,6 +76,15 @@ pub struct Args {
     /// 5.0; unity-hdrp: 17; blender: 4, eevee, 2.93) [default: the newest].
     #[arg(long, value_name = "VERSION")]
     engine_version: Option<String>,
+    /// Blender's Subsurface Method whose values to fit (blender only; random-walk for
+    /// Cycles, --engine-version 4).
+    #[arg(
+        long,
+        value_enum,
+        value_name = "METHOD",
+        default_value = "christensen-burley"
+    )]
+    subsurface_method: MethodArg,
     #[command(flatten)]
     out: OutFile,
     #[command(flatten)]
@@ -105,12 +123,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = a
         .units_per_mm
         .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
-    let fit = engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?;
+    let fit = match a.subsurface_method {
+        MethodArg::ChristensenBurley => {
+            engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?
+        }
+        MethodArg::RandomWalk => random_walk(e, &profile, scene, a.engine_version.as_deref())?,
+    };
     let verdict = fit
         .cannot_match()
         .map_or(String::new(), |s| format!(": {s}"));
+    let method = match (e, a.subsurface_method) {
+        (Engine::Blender, MethodArg::RandomWalk) => ", Random Walk",
+        (Engine::Blender, _) => ", Christensen-Burley",
+        _ => "",
+    };
     outln!(
-        "engine: {} (profile {}){verdict}",
+        "engine: {}{method} (profile {}){verdict}",
         fit.engine,
         profile_path.display()
     )?;
@@ -197,6 +225,29 @@ fn write_files(
         eprintln!("wrote {}: {}", dir.join(&f.name).display(), f.what);
     }
     Ok(())
+}
+
+/// Blender's Random Walk values: Cycles 4.0 to 5.0 only.
+fn random_walk(
+    e: Engine,
+    profile: &Profile,
+    scene: Scene,
+    version: Option<&str>,
+) -> anyhow::Result<engine::EngineFit> {
+    if e != Engine::Blender {
+        anyhow::bail!(
+            "--subsurface-method: invalid value random-walk: only --engine blender has it"
+        );
+    }
+    let v = e.version(version)?;
+    if v.key != "4" {
+        anyhow::bail!(
+            "--subsurface-method: invalid value random-walk: Cycles 4.0 to 5.0 only (--engine-version 4), \
+             not {}",
+            v.key
+        );
+    }
+    Ok(engine::blender_walk::fit(profile, scene)?)
 }
 
 /// The fit's parameters through the engine's own sampling

@@ -93,8 +93,8 @@ pub fn error_for(v: Version) -> &'static str {
             "Cycles' Christensen-Burley closure (disk sampling of the normalized profile, \
              truncated at 16 d and renormalised, as Cycles 5.0.1 renders it: \
              scripts/engine-cycles); Random Walk reads the same radius as a mean free path \
-             per channel for a volume walk, a different profile (its render error in \
-             docs/engines.md)"
+             per channel for a volume walk, a different profile: --subsurface-method random-walk prints \
+             values for it"
         }
     }
 }

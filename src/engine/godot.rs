@@ -468,6 +468,7 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
         requirements: requirements(&k),
         warnings,
         rendered: None,
+        walk: None,
         profile: model_profile,
     })
 }

@@ -250,6 +250,7 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
         requirements: requirements(),
         warnings: warnings(&k),
         rendered: None,
+        walk: None,
         profile: model_profile,
     })
 }

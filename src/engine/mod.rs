@@ -17,7 +17,9 @@
 //! printed values.
 
 pub mod blender;
+pub mod blender_walk;
 pub mod burley;
+pub mod cycles_walk;
 pub mod factors_place;
 pub mod files;
 pub mod godot;
@@ -175,6 +177,10 @@ pub struct EngineFit {
     /// through the engine's chain; absent for the Jimenez engines.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rendered: Option<burley::Burley>,
+    /// Cycles' Random Walk profile of the printed values (`blender_walk`),
+    /// on a grid of its own per channel, in two independent halves.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub walk: Option<blender_walk::WalkProfile>,
     /// The engine model's profile on the input's grid.
     #[serde(skip)]
     pub profile: Profile,
@@ -304,6 +310,7 @@ fn fit_burley(engine: Engine, v: Version, profile: &Profile, scene: Scene) -> Re
         requirements,
         warnings,
         rendered: Some(rendered),
+        walk: None,
         profile: model_profile,
     })
 }
