@@ -22,6 +22,10 @@
 
 mod engine_support;
 use engine_support::*;
+
+/// The Christensen-Burley chain is what this file checks; the default for
+/// Cycles is Random Walk (tests/engine_blender_walk.rs).
+const BURLEY: [&str; 2] = ["--subsurface-method", "christensen-burley"];
 use serde_json::{Map, Value};
 use std::f64::consts::PI;
 
@@ -87,7 +91,7 @@ fn assert_inside_the_sockets(what: &str, p: &Map<String, Value>) {
 fn printed_values_through_cycles_4_reproduce_the_reported_error() {
     for m in MATERIALS {
         let file = format!("profiles/reference/{m}.json");
-        let (fit, _) = engine_json(&file, "blender", &[]);
+        let (fit, _) = engine_json(&file, "blender", &BURLEY);
         assert!(fit["version"]
             .as_str()
             .unwrap()
@@ -119,7 +123,11 @@ fn printed_values_through_cycles_2_93_and_eevee_reproduce_the_reported_error() {
     ] {
         for m in MATERIALS {
             let file = format!("profiles/reference/{m}.json");
-            let (fit, _) = engine_json(&file, "blender", &["--engine-version", version]);
+            let (fit, _) = engine_json(
+                &file,
+                "blender",
+                &[BURLEY[0], BURLEY[1], "--engine-version", version],
+            );
             let p = params(&fit);
             assert_inside_the_sockets(m, p);
             check_against_report(
@@ -137,11 +145,11 @@ fn printed_values_through_cycles_2_93_and_eevee_reproduce_the_reported_error() {
 /// shorter for the same d.
 #[test]
 fn cycles_4_and_2_93_radii_differ_by_the_albedo_fit() {
-    let (new, _) = engine_json("profiles/reference/skin1.json", "blender", &[]);
+    let (new, _) = engine_json("profiles/reference/skin1.json", "blender", &BURLEY);
     let (old, _) = engine_json(
         "profiles/reference/skin1.json",
         "blender",
-        &["--engine-version", "2.93"],
+        &[BURLEY[0], BURLEY[1], "--engine-version", "2.93"],
     );
     let (pn, po) = (params(&new), params(&old));
     let radius_new = rgb(pn, "Subsurface Radius").map(|r| r * num(pn, "Subsurface Scale"));
@@ -164,7 +172,7 @@ fn subsurface_scale_above_its_socket_moves_into_the_radius() {
     let (fit, text) = engine_json(
         "profiles/reference/marble.json",
         "blender",
-        &["--units-per-mm", "1"],
+        &[BURLEY[0], BURLEY[1], "--units-per-mm", "1"],
     );
     let p = params(&fit);
     assert_inside_the_sockets("marble mm", p);
@@ -214,7 +222,7 @@ fn cycles_burley_is_cut_at_16_d_and_renormalised() {
         let (fit, _) = engine_json(
             "profiles/reference/skin1.json",
             "blender",
-            &["--engine-version", version],
+            &[BURLEY[0], BURLEY[1], "--engine-version", version],
         );
         assert_eq!(
             fit["rendered"]["truncate_d"].as_f64(),

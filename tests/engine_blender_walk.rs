@@ -15,6 +15,8 @@ use std::f64::consts::PI;
 
 const SKIN1: &str = "profiles/reference/skin1.json";
 
+/// Random Walk is the default for Cycles (no --subsurface-method here), and
+/// its values are the walk they claim.
 #[test]
 fn random_walk_values_are_the_walk_they_claim() {
     let dir = tempfile::tempdir().unwrap();
@@ -25,8 +27,6 @@ fn random_walk_values_are_the_walk_they_claim() {
         SKIN1,
         "--engine",
         "blender",
-        "--subsurface-method",
-        "random-walk",
         "--out",
         p(&out),
     ]);
@@ -57,6 +57,28 @@ fn random_walk_values_are_the_walk_they_claim() {
             let bins = walk["rd_halves"][half][c].as_array().unwrap().len();
             assert_eq!(bins + 1, walk["r_edges_mm"][c].as_array().unwrap().len());
         }
+    }
+}
+
+/// Where ssskit has no walk (EEVEE, Cycles 2.93) the default stays
+/// Christensen-Burley, named in the first line.
+#[test]
+fn the_default_method_elsewhere_is_christensen_burley() {
+    for version in ["eevee", "2.93"] {
+        let text = ok(&[
+            "engine",
+            "--profile",
+            SKIN1,
+            "--engine",
+            "blender",
+            "--engine-version",
+            version,
+        ]);
+        let first = text.lines().next().unwrap();
+        assert!(
+            first.starts_with("engine: blender, Christensen-Burley"),
+            "{version}: {first}"
+        );
     }
 }
 

@@ -77,14 +77,11 @@ pub struct Args {
     #[arg(long, value_name = "VERSION")]
     engine_version: Option<String>,
     /// Blender's Subsurface Method whose values to fit (blender only; random-walk for
-    /// Cycles, --engine-version 4).
-    #[arg(
-        long,
-        value_enum,
-        value_name = "METHOD",
-        default_value = "christensen-burley"
-    )]
-    subsurface_method: MethodArg,
+    /// Cycles, --engine-version 4) [default: random-walk for Cycles, Blender's own default
+    /// method, which renders its values closer in each material's worst channel; else
+    /// christensen-burley].
+    #[arg(long, value_enum, value_name = "METHOD")]
+    subsurface_method: Option<MethodArg>,
     #[command(flatten)]
     out: OutFile,
     #[command(flatten)]
@@ -123,7 +120,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = a
         .units_per_mm
         .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
-    let fit = match a.subsurface_method {
+    let subsurface_method = match a.subsurface_method {
+        Some(m) => m,
+        None => default_method(e, a.engine_version.as_deref())?,
+    };
+    let fit = match subsurface_method {
         MethodArg::ChristensenBurley => {
             engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?
         }
@@ -132,7 +133,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let verdict = fit
         .cannot_match()
         .map_or(String::new(), |s| format!(": {s}"));
-    let method = match (e, a.subsurface_method) {
+    let method = match (e, subsurface_method) {
         (Engine::Blender, MethodArg::RandomWalk) => ", Random Walk",
         (Engine::Blender, _) => ", Christensen-Burley",
         _ => "",
@@ -225,6 +226,18 @@ fn write_files(
         eprintln!("wrote {}: {}", dir.join(&f.name).display(), f.what);
     }
     Ok(())
+}
+
+/// The method fitted when none is named: Blender's own default, Random
+/// Walk, for Cycles 4.0 to 5.0 (its values render closer than
+/// Christensen-Burley's in each material's worst channel: docs/engines.md's
+/// `engine-cycles` record); Christensen-Burley elsewhere (EEVEE's Burley
+/// approximation; Cycles 2.93, whose walk ssskit does not model).
+fn default_method(e: Engine, version: Option<&str>) -> anyhow::Result<MethodArg> {
+    Ok(match e {
+        Engine::Blender if e.version(version)?.key == "4" => MethodArg::RandomWalk,
+        _ => MethodArg::ChristensenBurley,
+    })
 }
 
 /// Blender's Random Walk values: Cycles 4.0 to 5.0 only.
