@@ -49,6 +49,18 @@ fn angular_of(p: &Profile) -> Angular {
 /// digit.
 const FOUR_DECIMALS: f64 = 5e-5;
 
+/// `mc::ALBEDO_09` is printed to 5 decimals: the exact totals are within
+/// half a unit of their last digit of it (at n = 1 the adding solution is
+/// the H-function's plane albedo, 2.5e-6 from the printed 0.41495).
+const FIVE_DECIMALS: f64 = 5e-6;
+
+/// Under the n = 1.5 Fresnel boundary the adding solution gives 0.219919,
+/// 1.1e-5 from the printed 0.21993: more than the printing's 5e-6, so the
+/// two differ beyond rounding (the adding method's angular quadrature or
+/// the printed value's own source); the check holds them to the 4 decimals
+/// they share.
+const FRESNEL_ADDING: f64 = FOUR_DECIMALS;
+
 #[test]
 fn the_oracle_reproduces_chandrasekhar_and_the_known_totals() {
     // Conservative scattering: Chandrasekhar 1960 tabulates H(1) = 2.9078,
@@ -79,7 +91,12 @@ fn the_oracle_reproduces_chandrasekhar_and_the_known_totals() {
     // equals the plane albedo at every incidence.
     for (eta, rd, spec) in mc::ALBEDO_09 {
         let hs = HalfSpace::new(ALBEDO, eta, 1.0);
-        assert!((hs.total() - rd).abs() < 5e-5, "eta {eta}: {}", hs.total());
+        let tol = if eta == 1.0 {
+            FIVE_DECIMALS
+        } else {
+            FRESNEL_ADDING
+        };
+        assert!((hs.total() - rd).abs() < tol, "eta {eta}: {}", hs.total());
         assert!((hs.specular() - spec).abs() < 1e-12);
     }
     for t in [0.0f64, 45.0, 80.0] {
