@@ -18,6 +18,7 @@ use std::f64::consts::PI;
 mod common;
 use common::half_space::{gauss, graded, h_closed, h_iterated, HalfSpace};
 use common::mc::{self, within};
+use common::EXACT;
 
 const ALBEDO: f64 = 0.9;
 const INCIDENCES: [f64; 3] = [30.0, 60.0, 80.0];
@@ -60,12 +61,6 @@ const FIVE_DECIMALS: f64 = 5e-6;
 /// the printed value's own source); the check holds them to the 4 decimals
 /// they share.
 const FRESNEL_ADDING: f64 = FOUR_DECIMALS;
-
-/// Identities that hold exactly in real arithmetic (a total that is the sum
-/// of its parts, a factor that is a ratio of tallied sums): f64 round-off
-/// of sums of at most a few hundred terms of size at most 1, each rounding
-/// by epsilon = 2.2e-16, stays far below it.
-const EXACT: f64 = 1e-12;
 
 /// Six Lambertian shares that sum to 1: six roundings of half an ulp
 /// (6.7e-16) at most.

@@ -15,6 +15,7 @@ use ssskit::progress::NoProgress;
 
 mod common;
 use common::mc::{self, cfg, material, within};
+use common::EXACT;
 
 /// The three settings the benchmark compares: default (classic, roulette
 /// 0.01), MCML (classic, roulette 1e-4) and splitting (roulette 1e-4).
@@ -268,12 +269,6 @@ fn single_scattering_of_strong_absorber_is_exact() {
 /// `ALBEDO_09`'s totals are published to 5 decimals: exact to half a unit
 /// of the last digit.
 const FIVE_DECIMALS: f64 = 5e-6;
-
-/// Quantities that are the same formula or a sum of their parts (a Fresnel
-/// specular, tabulated plus beyond-grid R_d, dr = mfp / 20): f64 round-off
-/// of a few hundred operations on numbers of size at most 1 stays far
-/// below it.
-const EXACT: f64 = 1e-12;
 
 /// The share of R_d a tally grid may leave beyond r_max: the 1e-4 goal of
 /// `RadialGrid::for_material`'s tail rule, which its documentation states.
