@@ -108,7 +108,7 @@ fn radii_follow_the_profile_cdf_within_the_stratified_bound() {
 
 /// How far the stratified (midpoint in u) estimate of a channel's integral
 /// from 37 samples, the weights' raw sum, may sit from 1. Not derived from
-/// a bound: Koksma's V / (2 N) for centred points allows up to 0.22 here
+/// a bound: the variation bound V / (2 N) of centred points allows 0.22 here
 /// (blue under the widest channel's radii: weights from (0.8 / 0.2)^2 = 16
 /// down to 0), far above what the midpoint rule does on these smooth
 /// weights (largest measured 1.3e-2, blue under widest radii; the test

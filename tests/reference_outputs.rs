@@ -161,9 +161,10 @@ const MOVED: f64 = 1e-8;
 
 /// How far the reported deviation |v - v'| / s of v' = v (1 + MOVED), s the
 /// largest value of v's array (v' when v is it), may sit from MOVED v / s:
-/// the product rounds by half an ulp of v, the subtraction is exact
-/// (Sterbenz), the divisions round by half an ulp each, and s = v' in place
-/// of v shifts it by MOVED^2 = 1e-16; 4 epsilon (8.9e-16) covers the sum.
+/// the product rounds by half an ulp of v, the subtraction is exact (its
+/// operands are within a factor 2), the divisions round by half an ulp
+/// each, and s = v' in place of v shifts it by MOVED^2 = 1e-16; 4 epsilon
+/// (8.9e-16) covers the sum.
 const MOVED_ROUNDING: f64 = 4.0 * f64::EPSILON;
 
 /// Largest magnitude of the numbers anywhere inside `v`.
