@@ -17,7 +17,7 @@
 
 mod common;
 
-use common::{ok, ok_both, p};
+use common::{ok, ok_both, p, EXACT};
 use ssskit::filter::image::read_image;
 use std::path::Path;
 
@@ -126,7 +126,7 @@ fn check(dir: &Path, material: &str, mm_per_pixel: f64) -> String {
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     let s = &v["scene"];
     let case = format!("{material} at {mm_per_pixel} mm/px: {s}");
-    assert!((s["mm_per_pixel"].as_f64().unwrap() - mm_per_pixel).abs() < 1e-12);
+    assert!((s["mm_per_pixel"].as_f64().unwrap() - mm_per_pixel).abs() < EXACT);
     assert!(v["passes"].as_u64().unwrap() <= 2, "{case}");
     let rows = s["rows"].as_array().unwrap();
     assert!(rows.len() >= 2, "{case}");
@@ -138,7 +138,7 @@ fn check(dir: &Path, material: &str, mm_per_pixel: f64) -> String {
     let worst = |r: &serde_json::Value| r["worst"].as_f64().unwrap();
     let (gap, sigma) = (s["gap"].as_f64().unwrap(), s["gap_sigma"].as_f64().unwrap());
     assert!(
-        (gap - (worst(chosen) - worst(best))).abs() < 1e-12,
+        (gap - (worst(chosen) - worst(best))).abs() < EXACT,
         "{case}"
     );
     let noise = s["noise"].as_array().unwrap()[0].as_f64().unwrap();
@@ -153,7 +153,7 @@ fn check(dir: &Path, material: &str, mm_per_pixel: f64) -> String {
         v["worst_case"]["rel_rms"].as_f64().unwrap()
     };
     assert!(
-        (s["accepted"].as_f64().unwrap() - accepted).abs() < 1e-12,
+        (s["accepted"].as_f64().unwrap() - accepted).abs() < EXACT,
         "{case}"
     );
     assert!(gap <= accepted + K * sigma, "{case}");
@@ -334,7 +334,7 @@ fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
         rgb(&sc["rms_with_factors"]),
     );
     assert!(
-        (sc["mm_per_pixel"].as_f64().unwrap() - 0.3).abs() < 1e-9,
+        (sc["mm_per_pixel"].as_f64().unwrap() - 0.3).abs() < EXACT,
         "{sc}"
     );
     assert!(

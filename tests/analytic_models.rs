@@ -44,6 +44,22 @@ fn assert_valid(p: &ssskit::profile::Profile, what: &str) {
     );
 }
 
+/// The same formula evaluated twice (ssskit against its pbrt port, a
+/// closed-form total of 1, a factor of 0.5 taken out): f64 round-off of a
+/// few dozen operations, far below it.
+const EXACT: f64 = 1e-12;
+
+/// pbrt's FresnelMoment2 polynomial has terms reaching 547 that cancel to
+/// ~0.1: 1e-11 is round-off of that sum (547 x a few epsilon); a changed
+/// digit of any coefficient moves it by 1e-6.
+const MOMENT_ROUNDOFF: f64 = 1e-11;
+
+/// Two quadratures of the same profile over the plane (ssskit's
+/// `plane_total` or this file's `plane_integral` against a closed form or
+/// each other): the accuracy claimed for those panel rules, not derived
+/// from an error bound here.
+const QUADRATURE: f64 = 1e-6;
+
 #[test]
 fn closed_form_totals_equal_quadrature_of_the_profile() {
     // Dipole (Jensen eq. 8) and normalized diffusion (normalised to A) have
@@ -60,7 +76,7 @@ fn closed_form_totals_equal_quadrature_of_the_profile() {
                     let (exact, _) = cm.total(&m);
                     let num = plane_total(|r| cm.rd(r), scale(&m), 1.0 / m.sigma_tr());
                     assert!(
-                        (num - exact).abs() < 1e-6 * exact.max(1e-3),
+                        (num - exact).abs() < QUADRATURE * exact.max(1e-3),
                         "{name} {ch:?} {model:?} {mode:?}: {num} vs {exact}"
                     );
                 }
@@ -223,7 +239,7 @@ fn photon_beam_diffusion_is_pbrts() {
                 + pbrt::beam_diffusion_ss(ss, sa, g, eta, r);
             let got = cm.rd(r);
             assert!(
-                (got - want).abs() <= 1e-12 * want.abs(),
+                (got - want).abs() <= EXACT * want.abs(),
                 "sigma_a {sa} sigma_s {ss} g {g} eta {eta} r {r}: {got:e} vs pbrt {want:e}"
             );
             checked += 1;
@@ -240,9 +256,7 @@ fn fresnel_fits_are_pbrts() {
         let eta = 0.5 + 0.025 * i as f64;
         let fit = FresnelMode::Fit;
         let (fm1, fm2) = (pbrt::fresnel_moment1(eta), pbrt::fresnel_moment2(eta));
-        // FresnelMoment2's terms reach 547 and cancel to ~0.1: 1e-11 is
-        // round-off of that sum; a changed digit of any coefficient is 1e-6.
-        let close = |a: f64, b: f64| (a - b).abs() <= 1e-11 * b.abs().max(1.0);
+        let close = |a: f64, b: f64| (a - b).abs() <= MOMENT_ROUNDOFF * b.abs().max(1.0);
         assert!(close(fit.moment1(eta), fm1), "eta {eta}");
         assert!(close(fit.moment2(eta), fm2), "eta {eta}");
         assert!(close(fit.c_phi(eta), 0.25 * (1.0 - 2.0 * fm1)), "eta {eta}");
@@ -273,8 +287,8 @@ fn diffusion_models_conserve_energy_without_absorption() {
         cm.total(&m).0
     };
     for mode in [FresnelMode::Fit, FresnelMode::Exact] {
-        assert!((total(Model::Dipole, mode) - 1.0).abs() < 1e-12);
-        assert!((total(Model::Burley, mode) - 1.0).abs() < 1e-12);
+        assert!((total(Model::Dipole, mode) - 1.0).abs() < EXACT);
+        assert!((total(Model::Burley, mode) - 1.0).abs() < EXACT);
     }
     let pbd = total(Model::Pbd, FresnelMode::Fit);
     let oracle = plane_integral(
@@ -285,7 +299,10 @@ fn diffusion_models_conserve_energy_without_absorption() {
         m.mfp(),
     );
     eprintln!("spectralon PBD total {pbd}, pbrt's model integrated {oracle}");
-    assert!((pbd - oracle).abs() < 1e-6 * oracle, "{pbd} vs {oracle}");
+    assert!(
+        (pbd - oracle).abs() < QUADRATURE * oracle,
+        "{pbd} vs {oracle}"
+    );
     assert!(pbd > 1.0);
     assert!(total(Model::DirectionalDipole, FresnelMode::Exact) > 1.0);
 }
@@ -300,7 +317,7 @@ fn entry_transmission_scales_every_model() {
             // Burley's shape depends on A, so only its total scales exactly.
             if model != Model::Burley {
                 assert!(
-                    (b.rd(r) - 0.5 * a.rd(r)).abs() <= 1e-12 * a.rd(r),
+                    (b.rd(r) - 0.5 * a.rd(r)).abs() <= EXACT * a.rd(r),
                     "{model:?}"
                 );
             }
@@ -319,12 +336,12 @@ fn profile_records_source_and_keeps_singular_bins_finite() {
         assert_eq!(p.source.kind, "analytic");
         assert_eq!(p.source.model.as_deref(), Some(model.name()));
         assert!(p.rd_stderr.is_none());
-        assert!((p.specular[0] - 0.04).abs() < 1e-12);
+        assert!((p.specular[0] - 0.04).abs() < EXACT);
         assert!(p.source.params["channels"]["g"].is_object());
         // The tabulated part can not exceed the whole-plane total.
         for c in 0..3 {
             assert!(
-                p.tabulated_total(c) <= p.total_rd[c] * (1.0 + 1e-6),
+                p.tabulated_total(c) <= p.total_rd[c] * (1.0 + QUADRATURE),
                 "{model:?}"
             );
         }
@@ -514,7 +531,7 @@ fn analytic_profiles_record_the_quadrature_they_used() {
                 let want = integral / (std::f64::consts::PI * (b * b - a * a));
                 let got = p.rd[c][i];
                 assert!(
-                    (got - want).abs() <= 1e-12 * want.abs().max(1e-300),
+                    (got - want).abs() <= EXACT * want.abs().max(1e-300),
                     "{model:?} {ch:?} bin {i}: {got:e} vs recorded rule {want:e}"
                 );
                 checked += 1;

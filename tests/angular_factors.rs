@@ -291,6 +291,17 @@ fn fit_carries_the_tables_of_an_angular_profile() {
     assert!(read_json(&d.join("l.json")).get("angular").is_none());
 }
 
+/// How far the exit factor may move red's grazing bias on the sphere below:
+/// the claim stated there (red's factor is near 1), checked as stated; not
+/// derived from the factor's deviation from 1 and its Monte Carlo error
+/// (2e4 angular photons), which the scene's report does not give.
+const RED_EXIT_SHIFT: f64 = 0.02;
+
+/// The least lift of green's and blue's grazing bias by the exit factor
+/// (pi L / M up to 1.2 there): the claim stated above (5 points or more),
+/// checked as stated; not derived from a bound either.
+const GRAZING_LIFT: f64 = 0.05;
+
 /// The sphere of the path-traced comparison (skin1, eta = 1, light 60
 /// degrees from the view), small: `compare --scene` with the angular factors
 /// around the pass removes most of the lit side's bias of every model (the
@@ -390,9 +401,19 @@ fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
         three(&region("exact-2d", "exit", "grazing")["bias"]),
     );
     eprintln!("exact-2d grazing bias {g0:?} -> with the exit factor {g1:?}");
-    assert!((g1[0] - g0[0]).abs() < 0.02, "red: {} -> {}", g0[0], g1[0]);
+    assert!(
+        (g1[0] - g0[0]).abs() < RED_EXIT_SHIFT,
+        "red: {} -> {}",
+        g0[0],
+        g1[0]
+    );
     for c in 1..3 {
-        assert!(g1[c] - g0[c] > 0.05, "channel {c}: {} -> {}", g0[c], g1[c]);
+        assert!(
+            g1[c] - g0[c] > GRAZING_LIFT,
+            "channel {c}: {} -> {}",
+            g0[c],
+            g1[c]
+        );
     }
     // An environment light besides the sun: the irradiance is no longer
     // one light's N.L, so no angular rows, and the reason is given.

@@ -90,6 +90,25 @@ impl Step {
     }
 }
 
+/// The reference kernels against the closed forms where nothing is
+/// truncated and a cell is narrower than the profile: the error of sampling
+/// a binned profile on pixel cells, not derived from a bound but measured
+/// (largest 1.2e-5 over the three scales and channels; the test prints
+/// them), with 60% headroom.
+const SAMPLING_ERROR: f64 = 2e-5;
+
+/// The centre-sampled reference at 1.3 mm per pixel, where a cell is wider
+/// than the red channel's mean free path: measured 3.8e-4 (printed), with
+/// 30% headroom; not derived from a bound either.
+const COARSE_CENTRE_ERROR: f64 = 5e-4;
+
+/// The reference kernel keeps the radius holding 99.9% of R_d
+/// (`filter::exact`): the dropped mass m = 1e-3 moves a step image with
+/// values in [0, 1] by at most m, renormalised or not (kept and dropped
+/// parts each average values in [0, 1]); plus the sampling error of the
+/// untruncated kernel. Measured at the edge of skin1: 2.9e-5 (printed).
+const TRUNCATION_ERROR: f64 = (1.0 - 0.999) + SAMPLING_ERROR;
+
 /// A `width` x 4 step image, 1 in the left half.
 fn step_image(width: usize) -> Image {
     let mut img = Image::new(width, 4);
@@ -143,9 +162,13 @@ fn the_reference_is_the_blurred_step_sampled_or_averaged() {
                 "{mm} mm/px channel {c}: largest error {:.1e} (centre) {:.1e} (average)",
                 worst.0, worst.1
             );
-            let centre_tol = if mm > 1.0 { 5e-4 } else { 2e-5 };
+            let centre_tol = if mm > 1.0 {
+                COARSE_CENTRE_ERROR
+            } else {
+                SAMPLING_ERROR
+            };
             assert!(
-                worst.0 < centre_tol && worst.1 < 2e-5,
+                worst.0 < centre_tol && worst.1 < SAMPLING_ERROR,
                 "{mm} {c}: {worst:?}"
             );
             // The first lit pixel: sampling at its centre is sharper than
@@ -192,8 +215,13 @@ fn edge_pixels_of_the_reference_skin1_profile() {
             let (ec, ea) = (step.centre(x), step.average(x, mm));
             // The reference truncates the profile at 99.9% of R_d (the
             // closed forms do not).
+            eprintln!(
+                "channel {c} pixel {i}: error {:.2e} (centre) {:.2e} (average)",
+                (gc - ec).abs(),
+                (ga - ea).abs()
+            );
             assert!(
-                (ga - ea).abs() < 2e-3 && (gc - ec).abs() < 2e-3,
+                (ga - ea).abs() < TRUNCATION_ERROR && (gc - ec).abs() < TRUNCATION_ERROR,
                 "{gc} {ga}"
             );
             table.push(vec![

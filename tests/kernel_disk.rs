@@ -106,6 +106,16 @@ fn radii_follow_the_profile_cdf_within_the_stratified_bound() {
     }
 }
 
+/// How far the stratified (midpoint in u) estimate of a channel's integral
+/// from 37 samples, the weights' raw sum, may sit from 1. Not derived from
+/// a bound: the variation bound V / (2 N) of centred points allows 0.22 here
+/// (blue under the widest channel's radii: weights from (0.8 / 0.2)^2 = 16
+/// down to 0), far above what the midpoint rule does on these smooth
+/// weights (largest measured 1.3e-2, blue under widest radii; the test
+/// prints the sums); 0.05 is the claim checked. Per-channel radii draw
+/// from each channel's own kernel: their sum is 1 to round-off.
+const RAW_SUM_ERROR: f64 = 0.05;
+
 /// f64 round-off of a sum of at most 3 x 1024 weights that sum to 1.
 const NORMALISATION_ERROR: f64 = 1e-12;
 
@@ -125,7 +135,13 @@ fn a_constant_image_stays_constant() {
         for (c, s) in k.raw_weight_sum.iter().enumerate() {
             // The stratified estimate of the kernel's integral before the
             // weights were scaled: 1 exactly for per-channel radii.
-            assert!((s - 1.0).abs() < 0.05, "{radii:?} channel {c}: raw sum {s}");
+            eprintln!("{radii:?} channel {c}: raw sum {s}");
+            let tol = if radii == RadiusPdf::PerChannel {
+                NORMALISATION_ERROR
+            } else {
+                RAW_SUM_ERROR
+            };
+            assert!((s - 1.0).abs() < tol, "{radii:?} channel {c}: raw sum {s}");
         }
         let mut v = view(0.05);
         v.scale = Scale::Perspective {

@@ -18,6 +18,7 @@ use std::f64::consts::PI;
 mod common;
 use common::half_space::{gauss, graded, h_closed, h_iterated, HalfSpace};
 use common::mc::{self, within};
+use common::EXACT;
 
 const ALBEDO: f64 = 0.9;
 const INCIDENCES: [f64; 3] = [30.0, 60.0, 80.0];
@@ -49,6 +50,27 @@ fn angular_of(p: &Profile) -> Angular {
 /// digit.
 const FOUR_DECIMALS: f64 = 5e-5;
 
+/// `mc::ALBEDO_09` is printed to 5 decimals: the exact totals are within
+/// half a unit of their last digit of it (at n = 1 the adding solution is
+/// the H-function's plane albedo, 2.5e-6 from the printed 0.41495).
+const FIVE_DECIMALS: f64 = 5e-6;
+
+/// Under the n = 1.5 Fresnel boundary the adding solution gives 0.219919,
+/// 1.1e-5 from the printed 0.21993: more than the printing's 5e-6, so the
+/// two differ beyond rounding (the adding method's angular quadrature or
+/// the printed value's own source); the check holds them to the 4 decimals
+/// they share.
+const FRESNEL_ADDING: f64 = FOUR_DECIMALS;
+
+/// Six Lambertian shares that sum to 1: six roundings of half an ulp
+/// (6.7e-16) at most.
+const SIX_TERMS: f64 = 1e-15;
+
+/// MCML's text writes five significant digits: each printed value is within
+/// half a unit of its fifth digit, 5e-5 of itself, and so is a sum of
+/// positive printed values.
+const FIVE_SIGNIFICANT: f64 = 5e-5;
+
 #[test]
 fn the_oracle_reproduces_chandrasekhar_and_the_known_totals() {
     // Conservative scattering: Chandrasekhar 1960 tabulates H(1) = 2.9078,
@@ -79,8 +101,13 @@ fn the_oracle_reproduces_chandrasekhar_and_the_known_totals() {
     // equals the plane albedo at every incidence.
     for (eta, rd, spec) in mc::ALBEDO_09 {
         let hs = HalfSpace::new(ALBEDO, eta, 1.0);
-        assert!((hs.total() - rd).abs() < 5e-5, "eta {eta}: {}", hs.total());
-        assert!((hs.specular() - spec).abs() < 1e-12);
+        let tol = if eta == 1.0 {
+            FIVE_DECIMALS
+        } else {
+            FRESNEL_ADDING
+        };
+        assert!((hs.total() - rd).abs() < tol, "eta {eta}: {}", hs.total());
+        assert!((hs.specular() - spec).abs() < EXACT);
     }
     for t in [0.0f64, 45.0, 80.0] {
         let mu0 = t.to_radians().cos();
@@ -127,7 +154,7 @@ fn check_against_oracle(eta: f64, photons: u64) {
             total,
             e.total_rd_stderr[0][k],
         );
-        assert!((e.specular[0][k] - hs.specular()).abs() < 1e-12);
+        assert!((e.specular[0][k] - hs.specular()).abs() < EXACT);
         assert!(e.energy_balance_minus_1[0][k].abs() < 1e-9);
         if k > 0 {
             z(
@@ -202,7 +229,7 @@ fn the_tables_add_up_and_the_default_run_is_untouched() {
             .map(|b| x.radiance[0][i][b] * a.lambert_share[b])
             .sum();
         assert!(
-            (s - rd).abs() <= 1e-12 * rd.max(1e-300),
+            (s - rd).abs() <= EXACT * rd.max(f64::MIN_POSITIVE),
             "bin {i}: {s} vs {rd}"
         );
     }
@@ -211,15 +238,15 @@ fn the_tables_add_up_and_the_default_run_is_untouched() {
             .map(|i| x.radiance[0][i][b] * a.lambert_share[b] * areas[i])
             .sum::<f64>()
             + x.beyond_rmax[0][b];
-        assert!((s - x.fraction[0][b]).abs() <= 1e-12, "angle bin {b}");
+        assert!((s - x.fraction[0][b]).abs() <= EXACT, "angle bin {b}");
     }
     let total: f64 = x.fraction[0].iter().sum();
-    assert!((total - p.total_rd[0]).abs() <= 1e-12);
+    assert!((total - p.total_rd[0]).abs() <= EXACT);
     let shares: f64 = a.lambert_share.iter().sum();
-    assert!((shares - 1.0).abs() < 1e-15);
+    assert!((shares - 1.0).abs() < SIX_TERMS);
     // pi L / M averages to 1 with the Lambertian weights.
     let mean: f64 = (0..6).map(|b| x.factor[0][b] * a.lambert_share[b]).sum();
-    assert!((mean - 1.0).abs() < 1e-12, "{mean}");
+    assert!((mean - 1.0).abs() < EXACT, "{mean}");
     // The profile seen along the normal: the first column, and its total
     // R_d x the exit factor of that bin.
     let v = angular::view_profile(&p, 0.0).unwrap();
@@ -228,7 +255,7 @@ fn the_tables_add_up_and_the_default_run_is_untouched() {
         assert_eq!(v.rd[0][i], x.radiance[0][i][0]);
     }
     let want = p.total_rd[0] * x.factor[0][0];
-    assert!((v.total_rd[0] - want).abs() < 1e-12 * want);
+    assert!((v.total_rd[0] - want).abs() < EXACT * want);
     assert_eq!(
         angular::view_profile(&p, 89.9).unwrap().rd[0][3],
         x.radiance[0][3][5]
@@ -361,7 +388,7 @@ fn simulate_writes_the_angular_tables_and_mcml_arrays() {
     let total: f64 = (0..6)
         .map(|ia| rd_a[ia] * 2.0 * PI * da * a_mid(ia).sin())
         .sum();
-    assert!((total - p.total_rd[0]).abs() < 1e-4 * p.total_rd[0]);
+    assert!((total - p.total_rd[0]).abs() < FIVE_SIGNIFICANT * p.total_rd[0]);
     for ia in 0..6 {
         let t = a_mid(ia);
         let s: f64 = (0..30)
@@ -380,7 +407,10 @@ fn simulate_writes_the_angular_tables_and_mcml_arrays() {
             })
             .sum();
         let want = rd_a[ia] * 2.0 * PI * da * t.sin();
-        assert!((s - want).abs() < 1e-4 * want, "angle {ia}: {s} vs {want}");
+        assert!(
+            (s - want).abs() < FIVE_SIGNIFICANT * want,
+            "angle {ia}: {s} vs {want}"
+        );
     }
     let beyond = p.rd_beyond_rmax().unwrap().unwrap()[0];
     assert!(

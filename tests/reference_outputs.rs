@@ -155,6 +155,18 @@ fn is_diagnostic(key: &str) -> bool {
 /// a 1-norm error of 1e-14): both sides below it count as equal.
 const ROUNDOFF: f64 = 1e-12;
 
+/// The relative move given to one metric in the comparison's own test: 10x
+/// the deterministic tolerance, far below anything a reader could see.
+const MOVED: f64 = 1e-8;
+
+/// How far the reported deviation |v - v'| / s of v' = v (1 + MOVED), s the
+/// largest value of v's array (v' when v is it), may sit from MOVED v / s:
+/// the product rounds by half an ulp of v, the subtraction is exact (its
+/// operands are within a factor 2), the divisions round by half an ulp
+/// each, and s = v' in place of v shifts it by MOVED^2 = 1e-16; 4 epsilon
+/// (8.9e-16) covers the sum.
+const MOVED_ROUNDING: f64 = 4.0 * f64::EPSILON;
+
 /// Largest magnitude of the numbers anywhere inside `v`.
 fn max_abs(v: &Value) -> f64 {
     match v {
@@ -470,13 +482,19 @@ fn the_comparison_reports_what_moved_and_skips_only_timings() {
     let mut got = want.clone();
     got["metrics"]["fit_seconds"] = serde_json::json!(1e3);
     assert_eq!(run(&got).1, Vec::<String>::new());
-    // A metric moved by 1e-8 (inside any float noise a reader could see,
-    // outside the deterministic tolerance) is named.
+    // A metric moved by MOVED (inside any float noise a reader could see,
+    // outside the deterministic tolerance) is named, and the reported
+    // deviation is that move relative to the array's largest value.
     let mut got = want.clone();
     let v = got["metrics"]["kernel_rms"][1].as_f64().unwrap();
-    got["metrics"]["kernel_rms"][1] = serde_json::json!(v * (1.0 + 1e-8));
+    got["metrics"]["kernel_rms"][1] = serde_json::json!(v * (1.0 + MOVED));
     let (worst, diffs) = run(&got);
-    assert!(worst > DETERMINISTIC && worst < 2e-8, "{worst}");
+    let expected = MOVED * v / max_abs(&got["metrics"]["kernel_rms"]);
+    assert!(worst > DETERMINISTIC, "{worst}");
+    assert!(
+        (worst - expected).abs() < MOVED_ROUNDING,
+        "{worst} vs {expected}"
+    );
     assert!(diffs[0].starts_with(".metrics.kernel_rms[1]"), "{diffs:?}");
     // A tap weight moved, a tap dropped, a field lost: each is named.
     let mut got = want.clone();

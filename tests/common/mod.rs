@@ -17,6 +17,13 @@ pub mod skin1;
 /// passes.
 pub const SIGMAS: f64 = 4.0;
 
+/// Quantities equal in real arithmetic (the same formula evaluated twice, a
+/// total against the sum of its parts, a number read back from JSON, which
+/// serde_json writes to round-trip exactly): f64 round-off of a few hundred
+/// operations on numbers of order 1 (each rounding by epsilon = 2.2e-16)
+/// stays far below it. Absolute for numbers of order 1, else relative.
+pub const EXACT: f64 = 1e-12;
+
 /// The one bless switch of the suite: `SSSKIT_BLESS=1` rewrites goldens,
 /// records and generated docs; unset, empty or `0` checks them. Any other
 /// value is a typo that would otherwise check (or bless) silently, so it
