@@ -8,7 +8,7 @@ use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use ssskit::engine::{self, Engine, Scene};
+use ssskit::engine::{self, Engine, Scene, SubsurfaceMethod};
 use ssskit::kernel::disk::fit_disk;
 use ssskit::kernel::emit::emit;
 use ssskit::kernel::guided::GuidedParams;
@@ -377,21 +377,31 @@ fn fit(
 }
 
 /// An engine's own diffusion model fitted to a profile (`ssskit engine`):
-/// engine "unreal", "unity-hdrp", "blender", "godot" or "iryoku"; returns
-/// the parameters, units, errors and warnings as a dict.
+/// engine "unreal", "unity-hdrp", "blender", "godot" or "iryoku";
+/// subsurface_method "christensen-burley" or "random-walk" (blender; None:
+/// the version's default, as the CLI's); returns the parameters, units,
+/// errors and warnings as a dict.
 #[pyfunction]
-#[pyo3(signature = (profile, engine, *, version=None, units_per_mm=None))]
+#[pyo3(signature = (profile, engine, *, version=None, units_per_mm=None, subsurface_method=None))]
 fn engine_params<'py>(
     py: Python<'py>,
     profile: &Bound<'_, PyAny>,
     engine: &str,
     version: Option<&str>,
     units_per_mm: Option<f64>,
+    subsurface_method: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let profile = profile_of(profile)?;
     let e: Engine = engine.parse().map_err(to_py)?;
     let scene = units_per_mm.map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
-    let fit = engine::fit_version(e, &profile, scene, version).map_err(to_py)?;
+    let asked = subsurface_method
+        .map(str::parse::<SubsurfaceMethod>)
+        .transpose()
+        .map_err(to_py)?;
+    let method = SubsurfaceMethod::resolve(e, version, asked).map_err(to_py)?;
+    let fit = interruptible(py, |_| {
+        engine::fit_method(e, &profile, scene, version, method)
+    })?;
     let v = serde_json::to_value(&fit).map_err(|e| PyValueError::new_err(e.to_string()))?;
     json_to_py(py, &v)
 }

@@ -178,6 +178,7 @@ def engine_params(
     *,
     version: Optional[str] = None,
     units_per_mm: Optional[float] = None,
+    subsurface_method: Optional[Literal["christensen-burley", "random-walk"]] = None,
 ) -> Dict[str, Any]: ...
 def apply(
     kernel: Union[Kernel, DiskKernel],

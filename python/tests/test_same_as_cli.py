@@ -221,9 +221,25 @@ def test_materials_from_coefficients_equal_the_files(tmp_path, cli):
     assert [m.name for m in ssskit.materials()][:3] == ["apple", "chicken1", "chicken2"]
 
 
-@pytest.mark.parametrize("engine", ["unreal", "blender"])
-def test_engine_params_equal_the_cli(mc_files, tmp_path, cli, engine):
-    cli("engine", "--profile", mc_files / "p.json", "--engine", engine, "--out", tmp_path / "e.json")
-    mine = ssskit.engine_params(ssskit.load(mc_files / "p.json"), engine)
+# Blender with no method is Random Walk, the CLI's default for Cycles.
+@pytest.mark.parametrize("engine,method", [("unreal", None), ("blender", None),
+                                           ("blender", "christensen-burley")])
+def test_engine_params_equal_the_cli(mc_files, tmp_path, cli, engine, method):
+    flags = [] if method is None else ["--subsurface-method", method]
+    cli("engine", "--profile", mc_files / "p.json", "--engine", engine, *flags,
+        "--out", tmp_path / "e.json")
+    mine = ssskit.engine_params(ssskit.load(mc_files / "p.json"), engine, subsurface_method=method)
     assert mine == json.loads((tmp_path / "e.json").read_text())
     assert mine["params"]
+    if engine == "blender":
+        want = "Random Walk" if method is None else "Christensen-Burley"
+        assert mine["params"]["Subsurface Method"] == want
+
+
+def test_engine_params_refuse_a_walk_elsewhere(mc_files):
+    with pytest.raises(ValueError, match="random-walk is the blender engine's method"):
+        ssskit.engine_params(ssskit.load(mc_files / "p.json"), "unreal",
+                             subsurface_method="random-walk")
+    with pytest.raises(ValueError, match="expected christensen-burley or random-walk"):
+        ssskit.engine_params(ssskit.load(mc_files / "p.json"), "blender",
+                             subsurface_method="walk")

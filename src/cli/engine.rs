@@ -3,7 +3,8 @@
 
 use super::args::{self, MmPerPixelArg, OutDir, OutFile, ProfileFile};
 use super::out::outln;
-use ssskit::engine::{self, burley, Engine, Scene};
+use anyhow::Context;
+use ssskit::engine::{self, burley, Engine, Scene, SubsurfaceMethod};
 use ssskit::numerics::Bounded;
 use ssskit::profile::Profile;
 use ssskit::report::present::plot;
@@ -42,6 +43,15 @@ pub(super) enum MethodArg {
     ChristensenBurley,
     /// Random Walk: a volume walk (Cycles 4.0 to 5.0).
     RandomWalk,
+}
+
+impl From<MethodArg> for SubsurfaceMethod {
+    fn from(m: MethodArg) -> SubsurfaceMethod {
+        match m {
+            MethodArg::ChristensenBurley => SubsurfaceMethod::ChristensenBurley,
+            MethodArg::RandomWalk => SubsurfaceMethod::RandomWalk,
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -120,23 +130,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = a
         .units_per_mm
         .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
-    let subsurface_method = match a.subsurface_method {
-        Some(m) => m,
-        None => default_method(e, a.engine_version.as_deref())?,
-    };
-    let fit = match subsurface_method {
-        MethodArg::ChristensenBurley => {
-            engine::fit_version(e, &profile, scene, a.engine_version.as_deref())?
-        }
-        MethodArg::RandomWalk => random_walk(e, &profile, scene, a.engine_version.as_deref())?,
-    };
+    let version = a.engine_version.as_deref();
+    let subsurface_method =
+        SubsurfaceMethod::resolve(e, version, a.subsurface_method.map(SubsurfaceMethod::from))
+            .context("--subsurface-method")?;
+    let fit = engine::fit_method(e, &profile, scene, version, subsurface_method)?;
     let verdict = fit
         .cannot_match()
         .map_or(String::new(), |s| format!(": {s}"));
-    let method = match (e, subsurface_method) {
-        (Engine::Blender, MethodArg::RandomWalk) => ", Random Walk",
-        (Engine::Blender, _) => ", Christensen-Burley",
-        _ => "",
+    let method = match e {
+        Engine::Blender => format!(", {}", subsurface_method.ui_name()),
+        _ => String::new(),
     };
     outln!(
         "engine: {}{method} (profile {}){verdict}",
@@ -226,41 +230,6 @@ fn write_files(
         eprintln!("wrote {}: {}", dir.join(&f.name).display(), f.what);
     }
     Ok(())
-}
-
-/// The method fitted when none is named: Blender's own default, Random
-/// Walk, for Cycles 4.0 to 5.0 (its values render closer than
-/// Christensen-Burley's in each material's worst channel: docs/engines.md's
-/// `engine-cycles` record); Christensen-Burley elsewhere (EEVEE's Burley
-/// approximation; Cycles 2.93, whose walk ssskit does not model).
-fn default_method(e: Engine, version: Option<&str>) -> anyhow::Result<MethodArg> {
-    Ok(match e {
-        Engine::Blender if e.version(version)?.key == "4" => MethodArg::RandomWalk,
-        _ => MethodArg::ChristensenBurley,
-    })
-}
-
-/// Blender's Random Walk values: Cycles 4.0 to 5.0 only.
-fn random_walk(
-    e: Engine,
-    profile: &Profile,
-    scene: Scene,
-    version: Option<&str>,
-) -> anyhow::Result<engine::EngineFit> {
-    if e != Engine::Blender {
-        anyhow::bail!(
-            "--subsurface-method: invalid value random-walk: only --engine blender has it"
-        );
-    }
-    let v = e.version(version)?;
-    if v.key != "4" {
-        anyhow::bail!(
-            "--subsurface-method: invalid value random-walk: Cycles 4.0 to 5.0 only (--engine-version 4), \
-             not {}",
-            v.key
-        );
-    }
-    Ok(engine::blender_walk::fit(profile, scene)?)
 }
 
 /// The fit's parameters through the engine's own sampling
