@@ -119,16 +119,6 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
     let s = albedo_fit(v, colour);
     // radius (scene units) = d (scene units) / D_PER_RADIUS x s(A).
     let radius: [f64; 3] = std::array::from_fn(|c| b.d_mm[c] * u / D_PER_RADIUS * s[c]);
-    let (rlo, rhi) = RADIUS_RANGE;
-    let clamp_radius = |r: f64, warnings: &mut Vec<String>| {
-        if r > rhi {
-            warnings.push(format!(
-                "Subsurface Radius: {r:.4} is above the socket's {rhi}; {rhi} is printed, so \
-                 the profile renders narrower (the error includes it)"
-            ));
-        }
-        typed(r.clamp(rlo, rhi))
-    };
     let hex = srgb_hex(colour);
     let rows = if v.key == "2.93" {
         let radius = radius.map(|r| clamp_radius(r, &mut warnings));
@@ -157,52 +147,86 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
             ("Subsurface Method", json!(METHOD), "the model fitted"),
         ]
     } else {
-        let longest = radius.iter().fold(0.0f64, |m, r| m.max(*r));
-        let (_, shi) = SCALE_RANGE;
-        let scale = typed(longest.min(shi));
-        if longest > shi {
-            warnings.push(format!(
-                "Subsurface Scale: {longest:.4} is above the socket's {shi}; {shi} is printed \
-                 and Subsurface Radius scaled up to keep the radii"
-            ));
-        }
-        let per_channel = radius.map(|r| clamp_radius(r / scale, &mut warnings));
-        vec![
-            (
-                "Base Color",
-                color(colour),
-                "scene linear RGB (the picker's RGB fields), in [0, 1]: the profile's total \
-                 reflectance",
-            ),
-            (
-                "Base Color hex",
-                json!(hex),
-                "the picker's hex field (sRGB)",
-            ),
-            (
-                "Subsurface Weight",
-                json!(1.0),
-                "all of the diffuse light scatters",
-            ),
-            (
-                "Subsurface Radius",
-                color(per_channel),
-                "per channel, in [0, 100], times Subsurface Scale",
-            ),
-            ("Subsurface Scale", json!(scale), "scene units, in [0, 10]"),
-            (
-                "Subsurface Method",
-                json!(METHOD),
-                if v.key == "eevee" {
-                    "EEVEE renders every method alike; Cycles' Christensen-Burley needs \
-                     --engine-version 4"
-                } else {
-                    "the model fitted"
-                },
-            ),
-        ]
+        let (scale, per_channel) = scale_and_radius(radius, &mut warnings);
+        let mut rows = subsurface_rows(
+            colour,
+            "scene linear RGB (the picker's RGB fields), in [0, 1]: the profile's total \
+             reflectance",
+            per_channel,
+            scale,
+        );
+        rows.push((
+            "Subsurface Method",
+            json!(METHOD),
+            if v.key == "eevee" {
+                "EEVEE renders every method alike; Cycles' Christensen-Burley needs \
+                 --engine-version 4"
+            } else {
+                "the model fitted"
+            },
+        ));
+        rows
     };
     printed(rows, warnings)
+}
+
+/// A Subsurface Radius value (scene units, or a ratio to the Scale) as the
+/// socket takes it: clamped to its range, with a warning where it is cut.
+fn clamp_radius(r: f64, warnings: &mut Vec<String>) -> f64 {
+    let (rlo, rhi) = RADIUS_RANGE;
+    if r > rhi {
+        warnings.push(format!(
+            "Subsurface Radius: {r:.4} is above the socket's {rhi}; {rhi} is printed, so \
+             the profile renders narrower (the error includes it)"
+        ));
+    }
+    typed(r.clamp(rlo, rhi))
+}
+
+/// Subsurface Scale and Radius of Blender 4 and later for per-channel
+/// radii in scene units: the longest radius as the Scale (capped at the
+/// socket's range, the radii then scaled up), each channel its ratio to
+/// it, clamped to the Radius socket's range; warnings where a cap bites.
+pub(super) fn scale_and_radius(radius: [f64; 3], warnings: &mut Vec<String>) -> (f64, [f64; 3]) {
+    let longest = radius.iter().fold(0.0f64, |m, r| m.max(*r));
+    let (_, shi) = SCALE_RANGE;
+    let scale = typed(longest.min(shi));
+    if longest > shi {
+        warnings.push(format!(
+            "Subsurface Scale: {longest:.4} is above the socket's {shi}; {shi} is printed \
+             and Subsurface Radius scaled up to keep the radii"
+        ));
+    }
+    (scale, radius.map(|r| clamp_radius(r / scale, warnings)))
+}
+
+/// The rows every Blender 4 method prints: Base Color (`colour_note` says
+/// what it holds) and its hex, Subsurface Weight, Radius and Scale.
+pub(super) fn subsurface_rows(
+    colour: [f64; 3],
+    colour_note: &'static str,
+    per_channel: [f64; 3],
+    scale: f64,
+) -> Vec<(&'static str, Value, &'static str)> {
+    vec![
+        ("Base Color", color(colour), colour_note),
+        (
+            "Base Color hex",
+            json!(srgb_hex(colour)),
+            "the picker's hex field (sRGB)",
+        ),
+        (
+            "Subsurface Weight",
+            json!(1.0),
+            "all of the diffuse light scatters",
+        ),
+        (
+            "Subsurface Radius",
+            color(per_channel),
+            "per channel, in [0, 100], times Subsurface Scale",
+        ),
+        ("Subsurface Scale", json!(scale), "scene units, in [0, 10]"),
+    ]
 }
 
 const UI: &str = "Blender's socket";

@@ -10,9 +10,9 @@
 //! alpha (each exit weighted by alpha^n); the fit reads it from a fine
 //! radial table, the printed values' profile from the walk's exits.
 
-use super::blender::{RADIUS_RANGE, SCALE_RANGE};
+use super::blender::{scale_and_radius, subsurface_rows, RADIUS_RANGE, SCALE_RANGE};
 use super::cycles_walk::{self, Channel, UnitWalk, ANISOTROPY_RANGE, MAX_BOUNCES};
-use super::printed::{color, in_range, number, printed, require, srgb_hex, text, triple, typed};
+use super::printed::{in_range, number, printed, require, text, triple, typed};
 use super::{EngineFit, Scene, Target};
 use crate::error::{Error, Result};
 use crate::numerics::minimise_log;
@@ -251,47 +251,15 @@ fn params(fitted: [(f64, f64); 3], g: f64, eta: f64, scene: Scene) -> super::pri
     let colour = fitted.map(|(b, _)| typed(b.clamp(0.0, 1.0)));
     // radius (scene units) = 4 pi d, d = 1 / (sigma_t (1 - g)).
     let radius = fitted.map(|(_, s)| 4.0 * PI / (s * (1.0 - g)) * scene.units_per_mm);
-    let longest = radius.iter().fold(0.0f64, |m, r| m.max(*r));
-    let (_, shi) = SCALE_RANGE;
-    let scale = typed(longest.min(shi));
-    if longest > shi {
-        warnings.push(format!(
-            "Subsurface Scale: {longest:.4} is above the socket's {shi}; {shi} is printed"
-        ));
-    }
-    let (rlo, rhi) = RADIUS_RANGE;
-    let per_channel = radius.map(|r| {
-        if r / scale > rhi {
-            warnings.push(format!(
-                "Subsurface Radius: {:.4} is above the socket's {rhi}; {rhi} is printed",
-                r / scale
-            ));
-        }
-        typed((r / scale).clamp(rlo, rhi))
-    });
-    let rows = vec![
-        (
-            "Base Color",
-            color(colour),
-            "scene linear RGB (the picker's RGB fields), in [0, 1]: the walk's alpha through \
-             Cycles' remap, fitted (not the total reflectance)",
-        ),
-        (
-            "Base Color hex",
-            json!(srgb_hex(colour)),
-            "the picker's hex field (sRGB)",
-        ),
-        (
-            "Subsurface Weight",
-            json!(1.0),
-            "all of the diffuse light scatters",
-        ),
-        (
-            "Subsurface Radius",
-            color(per_channel),
-            "per channel, in [0, 100], times Subsurface Scale",
-        ),
-        ("Subsurface Scale", json!(scale), "scene units, in [0, 10]"),
+    let (scale, per_channel) = scale_and_radius(radius, &mut warnings);
+    let mut rows = subsurface_rows(
+        colour,
+        "scene linear RGB (the picker's RGB fields), in [0, 1]: the walk's alpha through \
+         Cycles' remap, fitted (not the total reflectance)",
+        per_channel,
+        scale,
+    );
+    rows.extend([
         (
             "Subsurface Anisotropy",
             json!(g),
@@ -308,7 +276,7 @@ fn params(fitted: [(f64, f64); 3], g: f64, eta: f64, scene: Scene) -> super::pri
             "the entry's GGX roughness (subsurface_entry_bounce)",
         ),
         ("Subsurface Method", json!(METHOD), "the model fitted"),
-    ];
+    ]);
     printed(rows, warnings)
 }
 
@@ -415,21 +383,14 @@ fn assemble<'a>(
         }
         out.r_edges_mm.push(mm);
     }
-    p.source = crate::profile::Source {
+    let source = crate::profile::Source {
         kind: "monte-carlo".into(),
         photons: Some(vec![out.walks as u64; 3]),
         seed: Some(SEED),
         model: Some(format!("blender ({METHOD}, Cycles' walk)")),
         params: Value::Null,
     };
-    p.rd_stderr = None;
-    p.total_rd_stderr = None;
-    p.transmittance = None;
-    p.transmittance_stderr = None;
-    p.absorbed = None;
-    p.extra = Value::Null;
-    p.elapsed_s = 0.0;
-    Ok((p, out))
+    Ok((p.modelled(source, p.rd.clone(), p.total_rd.clone()), out))
 }
 
 #[cfg(test)]

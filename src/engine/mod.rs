@@ -527,24 +527,14 @@ impl Model {
             ),
             Model::Separable(b) => (b.rd.to_vec(), b.total.to_vec(), "separable taps"),
         };
-        let mut p = like.clone();
-        p.source = crate::profile::Source {
+        let source = crate::profile::Source {
             kind: "analytic".into(),
             photons: None,
             seed: None,
             model: Some(format!("{engine} ({name})")),
             params: Value::Null,
         };
-        p.rd = rd;
-        p.rd_stderr = None;
-        p.total_rd = total_rd;
-        p.total_rd_stderr = None;
-        p.transmittance = None;
-        p.transmittance_stderr = None;
-        p.absorbed = None;
-        p.extra = Value::Null;
-        p.elapsed_s = 0.0;
-        p
+        like.modelled(source, rd, total_rd)
     }
 }
 

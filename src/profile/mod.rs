@@ -90,6 +90,25 @@ pub struct Profile {
 }
 
 impl Profile {
+    /// Another model's profile on this one's grid, material and channels:
+    /// `source`, its R_d per bin and totals; nothing measured is carried
+    /// over (no standard errors, transmittance, absorption, extras or time).
+    pub fn modelled(&self, source: Source, rd: Vec<Vec<f64>>, total_rd: Vec<f64>) -> Profile {
+        Profile {
+            source,
+            rd,
+            rd_stderr: None,
+            total_rd,
+            total_rd_stderr: None,
+            transmittance: None,
+            transmittance_stderr: None,
+            absorbed: None,
+            extra: serde_json::Value::Null,
+            elapsed_s: 0.0,
+            ..self.clone()
+        }
+    }
+
     /// Index of `ch` in this profile's channel list.
     pub fn channel_index(&self, ch: Channel) -> Option<usize> {
         self.channels.iter().position(|&c| c == ch)
