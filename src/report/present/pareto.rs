@@ -83,13 +83,9 @@ pub fn render(
     title: &str,
     out: &Path,
 ) -> Result<Vec<TextBox>> {
-    let mut boxes = Vec::new();
-    let page = render_grid(panels, cols, PANEL, title, out, |panel, area| {
-        boxes.extend(draw_panel(panel, area, out)?);
-        Ok(())
-    })?;
-    boxes.extend(page);
-    Ok(boxes)
+    render_grid(panels, cols, PANEL, title, out, |panel, area| {
+        draw_panel(panel, area, out)
+    })
 }
 
 /// The marker of a configuration run in `passes` one-dimensional passes

@@ -63,13 +63,9 @@ pub const PALETTE: [RGBColor; 8] = [
 /// layout).
 pub fn render(panels: &[Panel], cols: usize, title: &str, out: &Path) -> Result<Vec<TextBox>> {
     crate::io::check_extension(out, &["png"], "plot")?;
-    let mut boxes = Vec::new();
-    let page = render_grid(panels, cols, PANEL, title, out, |panel, area| {
-        boxes.extend(draw_panel(panel, area, out)?);
-        Ok(())
-    })?;
-    boxes.extend(page);
-    Ok(boxes)
+    render_grid(panels, cols, PANEL, title, out, |panel, area| {
+        draw_panel(panel, area, out)
+    })
 }
 
 /// Size of one profile panel, pixels.
@@ -92,14 +88,15 @@ const MARGIN: i32 = 12;
 
 /// The page of every plot: `title` (wrapped to the page's width) over a
 /// grid of `cols` columns of panels of `size` pixels, each drawn by
-/// `draw`, written as a PNG to `out`; returns the boxes of the title.
+/// `draw` (which returns the text boxes it drew), written as a PNG to
+/// `out`; returns every text box of the page, the title's and the panels'.
 pub fn render_grid<T>(
     panels: &[T],
     cols: usize,
     size: (u32, u32),
     title: &str,
     out: &Path,
-    mut draw: impl FnMut(&T, &Area) -> Result<()>,
+    mut draw: impl FnMut(&T, &Area) -> Result<Vec<TextBox>>,
 ) -> Result<Vec<TextBox>> {
     register_fonts();
     if panels.is_empty() {
@@ -120,7 +117,7 @@ pub fn render_grid<T>(
     let top = (lines.len() as u32 * line_h + 12).max(40);
     let h = ph * rows as u32 + top;
     let mut buf = vec![255u8; (w * h * 3) as usize];
-    let boxes;
+    let mut boxes;
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| plot_err(out, e))?;
@@ -137,7 +134,7 @@ pub fn render_grid<T>(
         boxes = writer.boxes;
         let areas = body.split_evenly((rows, cols));
         for (panel, area) in panels.iter().zip(areas.iter()) {
-            draw(panel, area)?;
+            boxes.extend(draw(panel, area)?);
         }
         root.present().map_err(|e| plot_err(out, e))?;
     }
