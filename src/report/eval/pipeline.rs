@@ -39,6 +39,9 @@ pub struct Settings {
     /// Side of the test signals, pixels.
     pub size: usize,
     pub plots: bool,
+    /// The engine whose files are written beside recommended.json
+    /// ([`super::engine_step`]).
+    pub engine: Option<crate::engine::Engine>,
 }
 
 /// What the pipeline produced.
@@ -48,6 +51,8 @@ pub struct Outcome {
     /// Files written, relative to the output folder.
     pub files: Vec<String>,
     pub stages: StageTimes,
+    /// The engine step, where asked.
+    pub engine: Option<super::engine_step::EngineStep>,
 }
 
 /// The comparison's written form in `dir`: report.md, compare.csv,
@@ -68,7 +73,8 @@ pub fn write_comparison(
         "compare.csv".into(),
         "compare.json".into(),
     ];
-    let mut md = kernel_report::report(cmp, ctx);
+    let engines = super::engine_tables::engine_tables(&cmp.materials, &cmp.profiles);
+    let mut md = kernel_report::report(cmp, ctx, &engines);
     let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
     let json = dir.join("compare.json");
@@ -210,20 +216,24 @@ pub struct StageTimes {
     pub images: f64,
     pub advice: f64,
     pub files: f64,
+    /// The engine's fit and files, where asked.
+    pub engine: Option<f64>,
     pub total: f64,
 }
 
 impl StageTimes {
-    /// The stages in order, with their seconds.
-    pub fn stages(&self) -> [(&'static str, f64); 6] {
-        [
+    /// The stages in order, with their seconds (the engine's where it ran).
+    pub fn stages(&self) -> Vec<(&'static str, f64)> {
+        let mut v = vec![
             ("profile", self.profile),
             ("truth", self.truth),
             ("fits", self.fits),
             ("images", self.images),
             ("advice", self.advice),
             ("files", self.files),
-        ]
+        ];
+        v.extend(self.engine.map(|s| ("engine", s)));
+        v
     }
 
     /// The report's table: one row per stage and the total.
@@ -314,13 +324,24 @@ pub fn run(
     };
     write_files(&cmp, &advice, &ctx, settings, dir, &mut files)?;
     times.files += t.elapsed().as_secs_f64();
+    let engine = match settings.engine {
+        Some(e) => {
+            let t = std::time::Instant::now();
+            let step = super::engine_step::run(e, profile, dir, progress)?;
+            files.extend(step.files.iter().map(|f| f.0.clone()));
+            times.engine = Some(t.elapsed().as_secs_f64());
+            Some(step)
+        }
+        None => None,
+    };
     times.total = profile_seconds + t0.elapsed().as_secs_f64();
-    write_report(&advice, &times, dir, &mut files)?;
+    write_report(&advice, engine.as_ref(), &times, dir, &mut files)?;
     Ok(Outcome {
         comparison: cmp,
         advice,
         files,
         stages: times,
+        engine,
     })
 }
 
@@ -373,9 +394,11 @@ fn write_files(
 }
 
 /// report.md with the scene's ranking under its title, the advice and
-/// why, and the stage times; advice.json (read back).
+/// why, the engine's files where written, and the stage times;
+/// advice.json (read back).
 fn write_report(
     advice: &Advice,
+    engine: Option<&super::engine_step::EngineStep>,
     times: &StageTimes,
     dir: &Path,
     files: &mut Vec<String>,
@@ -390,6 +413,12 @@ fn write_report(
         "\n## What to ship (recommended.json, advice.json)\n\n```text\n{}```\n",
         advice_text::explain(advice)
     ));
+    if let Some(step) = engine {
+        md.push_str(&crate::report::present::engine_section::section(
+            &step.fit,
+            &step.files,
+        ));
+    }
     md.push_str(&format!(
         "\n## Stage times\n\nWall seconds of this run's stages; the truth and each fit \
          were made once, for the comparison, and the advice scored those same fits.\n\n{}",
@@ -490,5 +519,15 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         o.comparison.fitted.len(),
         if settings.plots { ", PNG plots" } else { "" }
     );
+    if let Some(step) = &o.engine {
+        let names: Vec<&str> = step.files.iter().map(|f| f.0.as_str()).collect();
+        let _ = writeln!(
+            s,
+            "{} files: {} (how to import them: report.md, \"Into {}\")",
+            step.fit.engine,
+            names.join(", "),
+            step.fit.engine
+        );
+    }
     s
 }
