@@ -1,9 +1,10 @@
 //! Reflectance profiles: Monte Carlo (`simulate`) and analytic (`profile`).
 
+use crate::args::kw;
+use crate::call::{file_op, interruptible, json_to_py, path_of, pretty_json, save, to_py};
 use crate::material::{material_of, PyMaterial};
-use crate::{interruptible, json_to_py, path_of, pretty_json, to_py};
 use numpy::{PyArray1, PyArray2};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use ssskit::material::Channel;
 use ssskit::profile::analytic::{self, Options};
@@ -91,9 +92,10 @@ impl PyProfile {
     fn warnings(&self) -> PyResult<Vec<String>> {
         self.inner.warnings().map_err(to_py)
     }
-    /// Writes the profile file (JSON), as `ssskit simulate --out` does.
-    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.inner.write(&path_of(path)?).map_err(to_py)
+    /// Writes the profile file (JSON), as `ssskit simulate --out` does
+    /// (without the GIL).
+    fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        save(py, path, |p| self.inner.write(p))
     }
     /// The profile file's text.
     fn to_json(&self) -> PyResult<String> {
@@ -108,6 +110,20 @@ impl PyProfile {
             self.inner.r_edges.last().copied().unwrap_or(0.0)
         )
     }
+}
+
+/// A profile argument: a `Profile`, or the path of a profile file (read
+/// without the GIL).
+pub(crate) fn profile_of(obj: &Bound<'_, PyAny>) -> PyResult<Profile> {
+    if let Ok(p) = obj.cast::<PyProfile>() {
+        return Ok(p.get().inner.clone());
+    }
+    if let Ok(path) = path_of(obj) {
+        return file_op(obj.py(), || Profile::read(&path));
+    }
+    Err(PyTypeError::new_err(
+        "profile: expected an ssskit.Profile or the path of a profile file",
+    ))
 }
 
 fn grid_spec(dr: Option<f64>, rmax: Option<f64>, log_bins: bool) -> GridSpec {
@@ -154,18 +170,19 @@ fn budget(
 #[pyo3(signature = (material, *, photons=None, mc_error=None, kernel_error=None,
     max_photons=mc::DEFAULT_MAX_PHOTONS, seed=mc::DEFAULT_SEED, threads=None, channels="rgb",
     dr=None, rmax=None, log_bins=false))]
+#[allow(clippy::too_many_arguments)] // the keywords of a Python function
 fn simulate(
     py: Python<'_>,
     material: &Bound<'_, PyAny>,
-    photons: Option<u64>,
-    mc_error: Option<f64>,
-    kernel_error: Option<f64>,
-    max_photons: u64,
-    seed: u64,
-    threads: Option<usize>,
+    #[pyo3(from_py_with = kw::photons)] photons: Option<u64>,
+    #[pyo3(from_py_with = kw::mc_error)] mc_error: Option<f64>,
+    #[pyo3(from_py_with = kw::kernel_error)] kernel_error: Option<f64>,
+    #[pyo3(from_py_with = kw::max_photons)] max_photons: u64,
+    #[pyo3(from_py_with = kw::seed)] seed: u64,
+    #[pyo3(from_py_with = kw::threads)] threads: Option<usize>,
     channels: &str,
-    dr: Option<f64>,
-    rmax: Option<f64>,
+    #[pyo3(from_py_with = kw::dr)] dr: Option<f64>,
+    #[pyo3(from_py_with = kw::rmax)] rmax: Option<f64>,
     log_bins: bool,
 ) -> PyResult<PyProfile> {
     let material = material_of(material)?;
@@ -200,8 +217,8 @@ fn profile(
     material: &Bound<'_, PyAny>,
     model: &str,
     channels: &str,
-    dr: Option<f64>,
-    rmax: Option<f64>,
+    #[pyo3(from_py_with = kw::dr)] dr: Option<f64>,
+    #[pyo3(from_py_with = kw::rmax)] rmax: Option<f64>,
     fresnel: &str,
 ) -> PyResult<PyProfile> {
     let material = material_of(material)?;

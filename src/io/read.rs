@@ -10,19 +10,30 @@ use std::path::Path;
 /// reads as empty (an error about its content) instead of blocking the open
 /// forever; a pipe with a writer (`/dev/stdin` from a shell) reads as usual.
 pub fn open_input(path: &Path) -> Result<std::fs::File> {
-    let mut options = std::fs::OpenOptions::new();
-    options.read(true);
+    open_without_waiting(std::fs::OpenOptions::new().read(true), path)
+        .map_err(|e| Error::io(path, e))
+}
+
+/// Opens `path` with `options` and O_NONBLOCK, then clears O_NONBLOCK:
+/// the open itself never waits on a named pipe (for its writer, or for its
+/// reader: then it fails with ENXIO), and reads and writes block again as
+/// usual. Elsewhere than Unix, a plain open.
+pub(super) fn open_without_waiting(
+    options: &mut std::fs::OpenOptions,
+    path: &Path,
+) -> std::io::Result<std::fs::File> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::OpenOptionsExt;
         options.custom_flags(libc::O_NONBLOCK);
     }
-    let file = options.open(path).map_err(|e| Error::io(path, e))?;
+    let file = options.open(path)?;
     #[cfg(unix)]
     {
         use std::os::fd::AsRawFd;
         let fd = file.as_raw_fd();
-        // SAFETY: fcntl on a descriptor we own; reads block again from here.
+        // SAFETY: fcntl on a descriptor we own; reads and writes block
+        // again from here.
         unsafe {
             let flags = libc::fcntl(fd, libc::F_GETFL);
             if flags >= 0 {
