@@ -251,7 +251,8 @@ pub(super) fn part_name(name0: &str, k0: u64, k: u64) -> Option<String> {
     let mut found = None;
     for (i, _) in name0.match_indices(&digits) {
         let j = i + digits.len();
-        let free = (i == 0 || !b[i - 1].is_ascii_digit()) && (j == b.len() || !b[j].is_ascii_digit());
+        let free =
+            (i == 0 || !b[i - 1].is_ascii_digit()) && (j == b.len() || !b[j].is_ascii_digit());
         if free {
             if found.is_some() {
                 return None;
@@ -344,11 +345,20 @@ mod tests {
 
     #[test]
     fn a_missing_part_is_named_after_the_others() {
-        assert_eq!(part_name("part-1.json", 1, 3).as_deref(), Some("part-3.json"));
-        assert_eq!(part_name("out/12/p.json", 12, 7).as_deref(), Some("out/7/p.json"));
+        assert_eq!(
+            part_name("part-1.json", 1, 3).as_deref(),
+            Some("part-3.json")
+        );
+        assert_eq!(
+            part_name("out/12/p.json", 12, 7).as_deref(),
+            Some("out/7/p.json")
+        );
         // 1 inside 11 or 21 is not the shard number; two free-standing 1s
         // leave the pattern ambiguous.
-        assert_eq!(part_name("run11-1.json", 1, 2).as_deref(), Some("run11-2.json"));
+        assert_eq!(
+            part_name("run11-1.json", 1, 2).as_deref(),
+            Some("run11-2.json")
+        );
         assert_eq!(part_name("1-part-1.json", 1, 2), None);
         assert_eq!(part_name("part.json", 1, 2), None);
     }
