@@ -156,7 +156,9 @@ pub fn preview_markdown(p: &Preview, file: &str, chosen_mm_per_pixel: f64) -> St
         if p.with_factors {
             " and the kernel file's entry and exit factors"
         } else {
-            "; the profile carries no entry and exit factors"
+            "; the profile carries no entry and exit factors, without which the pass misses how \
+             the light enters and leaves, on a lit sphere more than the blur gains \
+             (docs/scene.md)"
         },
         p.mm_per_pixel,
         chosen_mm_per_pixel,
@@ -184,9 +186,9 @@ pub fn preview_markdown(p: &Preview, file: &str, chosen_mm_per_pixel: f64) -> St
     s += &t.markdown();
     let d = |v: [f64; 3]| v.map(|x| format!("{:.2}", 100.0 * x)).join(" / ");
     s += &format!(
-        "\nNo blur is {} points (r / g / b) further from the path trace than what ships, \
-         +- {} (one standard deviation from the render's noise, which both share and which \
-         cancels in the difference). Relative RMS: over the {} pixels that see the sphere, of \
+        "\nNo blur's relative RMS less what ships': {} points (r / g / b), +- {} (one \
+         standard deviation from the render's noise, which both share and which cancels in the \
+         difference); positive where what ships is the closer to the path trace. Relative RMS: over the {} pixels that see the sphere, of \
          its 99th-percentile radiance; beyond the noise: sqrt(RMS^2 - noise^2); FLIP against \
          the noisy path trace, so read it as a comparison between the rows. The render took {} \
          scattering events and boundary crossings (r / g / b).\n",

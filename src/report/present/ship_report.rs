@@ -72,13 +72,13 @@ fn head(r: &ShipReport) -> String {
         s += &format!("{}\n", sc.headline());
     }
     match &r.preview {
-        Some(Ok((p, file))) => s += &preview_markdown(p, file, a.mm_per_pixel),
-        Some(Err(why)) => s += &format!("No preview of the material: {why}.\n"),
+        Some(Ok((p, file))) => s += &format!("{}\n", preview_markdown(p, file, a.mm_per_pixel)),
+        Some(Err(why)) => s += &format!("No preview of the material: {why}.\n\n"),
         None => {}
     }
     if let Some(f) = r.sheet {
         s += &format!(
-            "\n**Contact sheet** ([{0}]({0})): {1}.\n",
+            "**Contact sheet** ([{0}]({0})): {1}.\n\n",
             f.file, f.caption
         );
     }
@@ -88,10 +88,14 @@ fn head(r: &ShipReport) -> String {
 /// The whole report.md.
 pub fn report(r: &ShipReport) -> String {
     let mut s = head(r);
+    let figures = if r.figures.is_empty() {
+        ""
+    } else {
+        "[the figures](#figures), "
+    };
     s += &format!(
-        "\nFurther down: [why this kernel](#what-to-ship-{}json-advicejson), [the \
-         figures](#figures), [the comparison of every model](#kernel-comparison), [stage \
-         times](#stage-times).\n",
+        "Further down: [why this kernel](#what-to-ship-{}json-advicejson), {figures}[the \
+         comparison of every model](#kernel-comparison), [stage times](#stage-times).\n",
         r.stem
     );
     if !r.figures.is_empty() {
