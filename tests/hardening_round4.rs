@@ -243,7 +243,7 @@ fn n_dot_l_and_the_light_are_checked_as_what_they_are() {
     let base = read_json(&kernel_file("skin1-preintegrate.json"));
     let k = edited(&base, d, "k.json", |v| v["angular"] = angular());
     constant(&d.join("in.exr"), 8, 8, [1.0; 3]);
-    constant(&d.join("normals.exr"), 8, 8, [0.0, 0.0, 1.0]);
+    constant(&d.join("normals.exr"), 8, 8, [0.6, 0.0, 0.8]);
     let apply = |extra: &[&str]| {
         let mut a = vec![
             "apply",
@@ -275,9 +275,18 @@ fn n_dot_l_and_the_light_are_checked_as_what_they_are() {
         let e = common::assert_fails(&o, &a, &[name, "N.L at pixel (0, 0)", needle]);
         assert!(!e.contains("normals.exr"), "blames the normals: {e}");
     }
-    let a = apply(&["--light-toward", "1e200,0,0"]);
-    let a: Vec<&str> = a.iter().map(String::as_str).collect();
-    ok_in(d, &a);
+    // 1e200 along x is the direction of 1 along x: the same image (the
+    // normal leans toward x, so N.L is 0.6, not the 0 of a lost
+    // direction).
+    let image = |toward: &str| {
+        let a = apply(&["--light-toward", toward]);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        ok_in(d, &a);
+        std::fs::read(d.join("o.exr")).unwrap()
+    };
+    let (far, near, along) = (image("1e200,0,0"), image("1,0,0"), image("0,1,0"));
+    assert!(far == near, "1e200,0,0 is not the direction of 1,0,0");
+    assert!(near != along, "the light's direction changes nothing");
     let a = apply(&["--light-toward", "0,0,0"]);
     let a: Vec<&str> = a.iter().map(String::as_str).collect();
     fails_with_in(d, &a, &["--light-toward", "all three are 0"]);
