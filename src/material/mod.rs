@@ -415,7 +415,7 @@ mod tests {
             ("new\nline", "U+000A"),
             ("rtl\u{202e}txt", "U+202E"),
             // Format characters beyond the zero-width block (Cf).
-            ("a\u{061c}b", "U+061C (Unicode category Cf)"),
+            ("a\u{061c}b", "character (Unicode category Cf) U+061C"),
             ("soft\u{00ad}hyphen", "U+00AD"),
             ("word\u{2060}joiner", "U+2060"),
             ("mongolian\u{180e}", "U+180E"),
