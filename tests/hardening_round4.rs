@@ -605,7 +605,7 @@ fn a_failed_run_makes_no_parent_folders() {
     assert_eq!(names, vec![std::ffi::OsString::from("bad.json")]);
 }
 
-/// Issue 44's messages: no loader noise on a machine without a display
+/// No loader noise on a machine without a display
 /// session (Mesa's device-select layer connected to Wayland for nothing
 /// and its client library printed "error: XDG_RUNTIME_DIR" twice).
 #[test]

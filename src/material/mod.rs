@@ -310,9 +310,11 @@ pub const MAX_NAME_BYTES: usize = 200;
 /// they change how the text around them is shown or joined (direction
 /// overrides and marks, zero-width spaces and joiners, the soft hyphen,
 /// invisible operators, interlinear annotation, tags), so that two names
-/// that look alike differ. Generated from the Unicode Character Database
-/// 15.1 (`DerivedGeneralCategory.txt`, the ranges of `Cf`); the tag block
-/// U+E0000..U+E007F is taken whole (its unassigned points included).
+/// that look alike differ. The code points of category Cf in the Unicode
+/// Character Database as Python's `unicodedata` (Unicode 14.0) lists
+/// them, with U+13439..U+1343F, the Egyptian hieroglyph format controls
+/// Unicode 15.0 added; the tag block U+E0000..U+E007F is taken whole (its
+/// unassigned points included).
 const FORMAT_CHARACTERS: &[(u32, u32)] = &[
     (0x00AD, 0x00AD),
     (0x0600, 0x0605),
