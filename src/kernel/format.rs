@@ -361,9 +361,6 @@ impl KernelFile {
             }
         }
         check_weights("taps.passes", &self.taps.passes).or_else(bad)?;
-        if let Some(u) = &self.usage {
-            self.check_usage(u).or_else(bad)?;
-        }
         Ok(())
     }
 
@@ -399,9 +396,16 @@ impl KernelFile {
         Ok(())
     }
 
+    /// Reads and checks a kernel file; what its `usage` states is checked
+    /// against its taps here (a kernel changed in memory states nothing:
+    /// `write` recomputes `usage`).
     pub fn read(path: &Path) -> Result<KernelFile> {
         let k: KernelFile = read_kernel(path, KERNEL_SCHEMA)?;
-        k.validate(&path.display().to_string())?;
+        let context = path.display().to_string();
+        k.validate(&context)?;
+        if let Some(u) = &k.usage {
+            k.check_usage(u).map_err(|m| Error::format(&context, m))?;
+        }
         Ok(k)
     }
 
