@@ -360,7 +360,7 @@ fn apply_warns_about_the_kernel_at_the_pixel_scale() {
     // The whole kernel inside 0.4 px at 10 mm per pixel.
     let err = run("10", true);
     assert!(
-        err.contains("warning: the kernel is under a pixel"),
+        err.contains("warning: 99% of the kernel's weight lies within"),
         "{err}"
     );
     assert!(err.contains("px"), "{err}");
