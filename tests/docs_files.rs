@@ -18,6 +18,8 @@ const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 fn fence(path: &str, text: &str) -> &'static str {
     if text.starts_with("#!/bin/sh") || text.starts_with("#!/usr/bin/env bash") {
         "sh"
+    } else if path.ends_with(".py") {
+        "python"
     } else if path.ends_with(".yaml") {
         "yaml"
     } else {

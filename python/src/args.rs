@@ -203,6 +203,8 @@ pub(crate) mod kw {
 
     named!(
         photons,
+        max_work,
+        shard,
         mc_error,
         kernel_error,
         max_photons,

@@ -1,7 +1,7 @@
 """Type stubs of the extension module (see each function's docstring)."""
 
 import os
-from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, TypedDict, Union, final
+from typing import Any, Dict, Iterable, List, Literal, Optional, Sequence, Tuple, TypedDict, Union, final
 
 from typing_extensions import Unpack
 
@@ -15,6 +15,7 @@ __all__ = [
     "material",
     "Profile",
     "simulate",
+    "merge",
     "profile",
     "Kernel",
     "fit",
@@ -105,6 +106,9 @@ class Profile:
     def warnings(self) -> List[str]: ...
     def save(self, path: _PathLike) -> None: ...
     def to_json(self) -> str: ...
+    @staticmethod
+    def from_json(text: str) -> Profile: ...
+    def __reduce__(self) -> Tuple[Any, Tuple[str]]: ...
 
 @final
 class Kernel:
@@ -165,7 +169,10 @@ def simulate(
     dr: Optional[float] = None,
     rmax: Optional[float] = None,
     log_bins: bool = False,
+    shard: Optional[Tuple[int, int]] = None,
+    max_work: int = ...,
 ) -> Profile: ...
+def merge(parts: Iterable[Union[Profile, _PathLike]]) -> Profile: ...
 def profile(
     material: Union[Material, str],
     model: str = "pbd",
