@@ -84,8 +84,8 @@ pub fn channels(p: &Map<String, Value>, scene: Scene) -> Result<([Channel; 3], f
     )?;
     let (glo, ghi) = ANISOTROPY_RANGE;
     let g = g.clamp(glo, ghi);
-    for c in 0..3 {
-        in_range(UI, "Base Color", colour[c], (0.0, 1.0))?;
+    for x in colour {
+        in_range(UI, "Base Color", x, (0.0, 1.0))?;
     }
     let ch = std::array::from_fn(|c| {
         cycles_walk::channel(colour[c], r[c] * scale / scene.units_per_mm, g)
