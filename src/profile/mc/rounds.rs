@@ -2,6 +2,7 @@
 //! inside a round, the budget rules checked between rounds, and each
 //! channel's convergence.
 
+use super::transmit::{channel_ratio, tr_statuses, TrStatus};
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -40,6 +41,8 @@ pub(super) struct Status {
     /// Total R_d and its standard error.
     pub(super) rd: f64,
     pub(super) rd_stderr: f64,
+    /// The transmitted light's errors (finite stacks only).
+    pub(super) tr: Option<TrStatus>,
 }
 
 /// A finished channel: its tally and how the run ended.
@@ -363,16 +366,18 @@ impl Job<'_> {
         } else {
             rule_error(&self.cfg.budget, &run.status)
         };
-        let floor = floor_ratio(
+        let (r, by_floor) = channel_ratio(
             &self.cfg.budget,
             self.opts.abs_floor,
+            rel,
             &run.status,
+            err,
             run.tally.photons,
         );
-        *ratio = (err / rel).min(floor);
-        if err <= rel || floor <= 1.0 {
+        *ratio = r;
+        if r <= 1.0 {
             run.converged = true;
-            run.by_floor = err > rel;
+            run.by_floor = by_floor;
             false
         } else if work >= self.opts.max_work {
             run.work_capped = true;
@@ -549,9 +554,11 @@ pub(super) fn statuses(
     };
     let geometry = kernel_geometry(&provisional);
     let projection = geometry.map(|g| Projection::new(&grid.edges, &g));
+    let tr = tr_statuses(material, channels, grid, &t);
     let s = t
         .iter()
-        .map(|t| {
+        .zip(tr)
+        .map(|(t, tr)| {
             let (rel_total, rel_profile, r99) = convergence(t, grid);
             let rel_factor = projection.as_ref().map_or(0.0, |p| {
                 p.factor_rel_error(&t.rd_bins.sum, &t.rd_bins.sum_sq, t.photons)
@@ -563,6 +570,7 @@ pub(super) fn statuses(
                 rel_factor,
                 rd: t.rd.mean(t.photons),
                 rd_stderr: t.rd.stderr(t.photons),
+                tr,
             }
         })
         .collect();
@@ -578,28 +586,37 @@ pub(super) fn statuses(
 /// sum_i s_i / sum_i W_i, where W_i is the reflectance scored in bin i and
 /// s_i its standard error. A zero R_d (nothing comes back) counts as exact.
 pub(super) fn convergence(t: &ChunkTally, grid: &RadialGrid) -> (f64, f64, f64) {
-    let n = t.photons;
-    let total = t.rd.mean(n);
+    convergence_of(&t.rd, &t.rd_bins, t.photons, grid)
+}
+
+/// `convergence` of any radial tally: its total's moments and its bins'
+/// sums over `n` photons (R_d, or the transmittance of a finite stack).
+pub(super) fn convergence_of(
+    total_m: &Moments,
+    bins: &tally::BinSums,
+    n: u64,
+    grid: &RadialGrid,
+) -> (f64, f64, f64) {
+    let total = total_m.mean(n);
     if total <= 0.0 {
         return (0.0, 0.0, 0.0);
     }
-    let rel_total = t.rd.stderr(n) / total;
-    let goal = 0.99 * t.rd.sum;
+    let rel_total = total_m.stderr(n) / total;
+    let goal = 0.99 * total_m.sum;
     let mut acc = 0.0;
     let mut err = 0.0;
     for i in 0..grid.len() {
         let m = Moments {
-            sum: t.rd_bins.sum[i],
-            sum_sq: t.rd_bins.sum_sq[i],
+            sum: bins.sum[i],
+            sum_sq: bins.sum_sq[i],
         };
-        acc += t.rd_bins.sum[i];
+        acc += bins.sum[i];
         err += m.stderr(n) * n as f64;
         if acc >= goal {
             break;
         }
     }
-    let r99 =
-        crate::profile::radius::radius_reaching(&grid.edges, t.rd_bins.sum.iter().copied(), goal);
+    let r99 = crate::profile::radius::radius_reaching(&grid.edges, bins.sum.iter().copied(), goal);
     let rel_profile = if acc > 0.0 { err / acc } else { 0.0 };
     (rel_total, rel_profile, r99)
 }

@@ -100,7 +100,7 @@ impl BinSums {
         self.sum_sq[i] += v * v;
     }
 
-    fn new(n: usize) -> BinSums {
+    pub(super) fn new(n: usize) -> BinSums {
         BinSums {
             sum: vec![0.0; n],
             sum_sq: vec![0.0; n],
@@ -131,6 +131,12 @@ pub struct ChunkTally {
     pub truncated_photons: u64,
     /// Exit-angle tallies (empty unless `WalkSettings::angular`).
     pub exit: ExitSums,
+    /// Transmittance per radial bin at the bottom surface, the last entry
+    /// for exits beyond r_max (empty for a semi-infinite stack).
+    pub tr_bins: BinSums,
+    /// Exit-angle tallies of the transmitted light (empty unless the stack
+    /// is finite and the walk tallies angles).
+    pub tr_exit: ExitSums,
 }
 
 impl ChunkTally {
@@ -148,10 +154,15 @@ impl ChunkTally {
         let single_bins = std::mem::take(&mut self.single_bins);
         let mut exit = std::mem::take(&mut self.exit);
         exit.fill_zero();
+        let tr_bins = std::mem::take(&mut self.tr_bins);
+        let mut tr_exit = std::mem::take(&mut self.tr_exit);
+        tr_exit.fill_zero();
         *self = ChunkTally {
             rd_bins,
             single_bins,
             exit,
+            tr_bins,
+            tr_exit,
             ..Default::default()
         };
         for v in [
@@ -159,6 +170,8 @@ impl ChunkTally {
             &mut self.rd_bins.sum_sq,
             &mut self.single_bins.sum,
             &mut self.single_bins.sum_sq,
+            &mut self.tr_bins.sum,
+            &mut self.tr_bins.sum_sq,
         ] {
             v.fill(0.0);
         }
@@ -287,6 +300,11 @@ pub struct PhotonScratch {
     single: f64,
     /// Exit-angle scores (empty unless the walk tallies them).
     pub exit: ExitScratch,
+    /// Transmittance per radial bin and beyond (empty for a semi-infinite
+    /// stack), and its exit-angle scores.
+    cur_tr: Vec<f64>,
+    touched_tr: Vec<u32>,
+    pub tr_exit: ExitScratch,
 }
 
 impl PhotonScratch {
@@ -299,7 +317,39 @@ impl PhotonScratch {
             beyond: 0.0,
             single: 0.0,
             exit: ExitScratch::default(),
+            cur_tr: Vec::new(),
+            touched_tr: Vec::new(),
+            tr_exit: ExitScratch::default(),
         }
+    }
+
+    /// Makes room for the transmittance tally of `bins` radial bins (plus
+    /// the one beyond r_max) in this scratch and in `t`, and for its angle
+    /// bins when `angles` is given (a finite stack's walk).
+    pub fn transmitting(&mut self, t: &mut ChunkTally, bins: usize, angles: Option<AngleLayout>) {
+        if self.cur_tr.len() != bins + 1 {
+            self.cur_tr = vec![0.0; bins + 1];
+            self.touched_tr.clear();
+        }
+        if t.tr_bins.sum.len() != bins + 1 {
+            t.tr_bins = BinSums::new(bins + 1);
+        }
+        if let Some(l) = angles {
+            if t.tr_exit.a.sum.len() != l.angle_bins
+                || t.tr_exit.ra.sum.len() != l.radial * l.angle_bins
+            {
+                t.tr_exit = ExitSums::new(l);
+                self.tr_exit = ExitScratch::new(l);
+            }
+        }
+    }
+
+    /// Scores weight `w` transmitted through the bottom at radius `r`
+    /// (the last entry beyond r_max).
+    #[inline(always)]
+    pub fn score_transmittance(&mut self, bins: &BinIndex, r: f64, w: f64) {
+        let i = bins.bin(r).unwrap_or(bins.len());
+        add_sparse(&mut self.cur_tr, &mut self.touched_tr, i, w);
     }
 
     #[inline(always)]
@@ -323,6 +373,11 @@ impl PhotonScratch {
             t.rd_bins.add_square(i, v)
         });
         t.rd_beyond += std::mem::take(&mut self.beyond);
+        if !self.touched_tr.is_empty() {
+            drain_sparse(&mut self.cur_tr, &mut self.touched_tr, |i, v| {
+                t.tr_bins.add_square(i, v)
+            });
+        }
         if single_scatter {
             drain_sparse(&mut self.cur_single, &mut self.touched_single, |i, v| {
                 t.single_bins.add_square(i, v)
