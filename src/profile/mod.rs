@@ -11,6 +11,7 @@ pub mod mc;
 pub mod metrics;
 pub mod radius;
 pub mod source;
+pub mod transmission;
 
 pub use grid::RadialGrid;
 pub use grid_spec::GridSpec;

@@ -139,7 +139,13 @@ pub(super) fn channel_ratio(
     let mut by_floor = rd_err > rel;
     let t = match &s.tr {
         Some(t) => {
-            let e = tr_rule_error(budget, t) / rel;
+            // No light through yet is not an exact zero (the slab is
+            // finite): only the floor's photon minimum may stop it.
+            let e = if t.t > 0.0 {
+                tr_rule_error(budget, t) / rel
+            } else {
+                f64::INFINITY
+            };
             let f = if matches!(budget, PhotonBudget::KernelFactor { .. }) && floor > 0.0 {
                 tr_floor_ratio(floor, t, photons)
             } else {

@@ -19,3 +19,4 @@ pub mod scene_tables;
 pub mod sheet;
 pub mod study_report;
 pub mod table;
+pub mod transmission_plots;
