@@ -214,6 +214,9 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
     if let Some(a) = &k.angular {
         emit_angular(&mut out, a, lang)?;
     }
+    if let Some(t) = &k.transmission {
+        super::transmission::emit(&mut out, t, lang)?;
+    }
     Ok(out)
 }
 
