@@ -69,6 +69,12 @@ pub struct Args {
     channels: ChannelsArg,
     #[command(flatten)]
     profile: ProfileFile,
+    /// Index of refraction of the slab relative to the air, replacing the material's.
+    ///
+    /// For a one-layer material: e.g. 1.0 for the index-matched object of a
+    /// scene whose object sets `eta = 1.0` [default: the material's].
+    #[arg(long, value_name = "ETA", allow_hyphen_values = true, value_parser = args::real)]
+    eta: Option<f64>,
     /// Engines whose transmission is fitted and scored: unreal, unity-hdrp, godot, or none.
     #[arg(
         long,
@@ -143,8 +149,20 @@ fn thicknesses(a: &Args, material: &Material) -> anyhow::Result<Vec<f64>> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let material = Material::load(a.material.material.as_deref().unwrap_or_default())?;
-    material.validate(&format!("material '{}'", material.name))?;
+    let mut material = Material::load(a.material.material.as_deref().unwrap_or_default())?;
+    if let Some(eta) = a.eta {
+        if material.layers.len() != 1 {
+            anyhow::bail!(
+                "--eta: sets the index of a one-layer material; '{}' has {} layers",
+                material.name,
+                material.layers.len()
+            );
+        }
+        material.layers[0].eta = eta * material.eta_above;
+    }
+    material
+        .validate(&format!("material '{}'", material.name))
+        .context("--eta")?;
     let thick = thicknesses(&a, &material)?;
     let engines = engines(&a.engines)?;
     let channels = a.channels.channels()?;
@@ -271,21 +289,20 @@ fn print_table(t: &ThicknessTable) -> anyhow::Result<()> {
         names.join(", ")
     )?;
     outln!(
-        "{:>9}  {:<40} {:<24} {:<24} stopped by",
+        "{:>9}  {:<40} {:<40} {:<24} {:<24} stopped by",
         "mm",
         "T +- stderr",
+        "scattered part of T +- stderr",
         "r50 mm",
         "r90 mm"
     )?;
     for r in &t.rows {
-        let tt: Vec<String> = (0..t.channels.len())
-            .map(|c| {
-                format!(
-                    "{:.4e}+-{:.1e}",
-                    r.transmittance[c], r.transmittance_stderr[c]
-                )
-            })
-            .collect();
+        let pm = |v: &[f64], e: &[f64]| -> String {
+            (0..t.channels.len())
+                .map(|c| format!("{:.4e}+-{:.1e}", v[c], e[c]))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         let list = |v: &[f64]| {
             v.iter()
                 .map(|x| format!("{x:.3}"))
@@ -293,9 +310,10 @@ fn print_table(t: &ThicknessTable) -> anyhow::Result<()> {
                 .join(", ")
         };
         outln!(
-            "{:>9.4}  {:<40} {:<24} {:<24} {}",
+            "{:>9.4}  {:<40} {:<40} {:<24} {:<24} {}",
             r.thickness_mm,
-            tt.join(", "),
+            pm(&r.transmittance, &r.transmittance_stderr),
+            pm(&r.diffuse, &r.diffuse_stderr),
             list(&r.r50_mm),
             list(&r.r90_mm),
             r.stopped_by.join(", ")
@@ -359,4 +377,33 @@ pub(super) fn with_transmission(
         map.insert("transmission".into(), serde_json::to_value(t)?);
     }
     Ok(v)
+}
+
+/// `compare --scene --transmission`: the back-lit rows of `render` (of
+/// `scene`, whose profile is `profile`) with the engines' transmission
+/// fitted to the table at `table`, and their table.
+pub(super) fn scene_block(
+    scene: &ssskit::scene::Scene,
+    render: &ssskit::scene::Render,
+    profile: &Profile,
+    table: &std::path::Path,
+    ppd: f64,
+) -> anyhow::Result<(
+    ssskit::report::eval::scene_transmission::TransmissionComparison,
+    ssskit::report::present::table::Table,
+)> {
+    let t = ThicknessTable::read(table)
+        .with_context(|| format!("--transmission {}", table.display()))?;
+    let mut fits = Vec::new();
+    for e in [Engine::Unreal, Engine::UnityHdrp, Engine::Godot] {
+        let s = Scene::native(e);
+        let reflect = engine::fit(e, profile, s)?;
+        fits.extend(et::fit(e, &reflect, profile, &t, s)?);
+    }
+    let cmp = ssskit::report::eval::scene_transmission::compare_transmission(
+        scene, render, &t, &fits, ppd,
+    )
+    .with_context(|| format!("--transmission {}", table.display()))?;
+    let tab = ssskit::report::present::transmission_plots::scene_table(&cmp);
+    Ok((cmp, tab))
 }

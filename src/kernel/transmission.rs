@@ -1,5 +1,6 @@
 //! The thickness table for shaders: per channel, the transmittance of a
-//! slab t mm thick lit from behind (`profile::transmission`) as a sum of
+//! slab t mm thick lit from behind (`profile::transmission`; its part that
+//! scattered, the glow a camera sees, `diffuse`) as a sum of
 //! two exponentials, T(t) = a1 e^{-b1 t} + a2 e^{-b2 t}, fitted to the
 //! table's significant rows by least squares on the relative error (the
 //! slow and the fast mode of the light that diffuses through a slab), and
@@ -109,10 +110,10 @@ pub fn fit_table(table: &ThicknessTable) -> Result<ThicknessFit> {
             .rows
             .iter()
             .filter(|r| {
-                let (v, s) = (r.transmittance[i], r.transmittance_stderr[i]);
+                let (v, s) = (r.diffuse[i], r.diffuse_stderr[i]);
                 v > 0.0 && v > SIGNIFICANT * s
             })
-            .map(|r| (r.thickness_mm, r.transmittance[i]))
+            .map(|r| (r.thickness_mm, r.diffuse[i]))
             .collect();
         if rows.len() < 2 {
             return Err(Error::Unsupported(format!(
@@ -169,9 +170,9 @@ pub fn emit(out: &mut String, f: &ThicknessFit, lang: Lang) -> Result<()> {
     comment(
         out,
         &format!(
-            "Transmittance through a thickness: sss_transmittance(t) = the light leaving the \
-             unlit face of a slab of {} t mm thick lit from behind (normal beam), per incident \
-             light, RGB; a1 exp(-b1 t) + a2 exp(-b2 t) fitted to `ssskit transmission` over {} \
+            "Transmittance through a thickness: sss_transmittance(t) = the scattered light \
+             leaving the unlit face of a slab of {} t mm thick lit from behind (normal beam), per \
+             incident light, RGB; a1 exp(-b1 t) + a2 exp(-b2 t) fitted to `ssskit transmission` over {} \
              to {} mm (clamped there); relative error over the table's rows (r, g, b): max {}, \
              RMS {}. Multiply by the light behind and give it a Lambertian exit (divide by pi \
              for radiance).",

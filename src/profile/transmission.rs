@@ -61,6 +61,11 @@ pub struct ThicknessRow {
     /// standard error.
     pub transmittance: Vec<f64>,
     pub transmittance_stderr: Vec<f64>,
+    /// The part of T that scattered on its way (what a camera behind the
+    /// slab sees; the rest leaves unscattered along the beam) and its
+    /// standard error.
+    pub diffuse: Vec<f64>,
+    pub diffuse_stderr: Vec<f64>,
     /// The slab's diffuse reflectance, for the balance of the light.
     pub rd: Vec<f64>,
     pub rd_stderr: Vec<f64>,
@@ -272,6 +277,8 @@ fn row_of(t: f64, p: &super::Profile) -> Result<ThicknessRow> {
     let (r50_mm, r90_mm) = (spread(0.5), spread(0.9));
     Ok(ThicknessRow {
         thickness_mm: t,
+        diffuse: tp.diffuse.clone(),
+        diffuse_stderr: tp.diffuse_stderr.clone(),
         transmittance_stderr: p.transmittance_stderr.clone().unwrap_or_default(),
         transmittance: tt,
         rd: p.total_rd.clone(),
@@ -349,12 +356,13 @@ impl ThicknessTable {
         self.channels.iter().position(|&c| c == ch)
     }
 
-    /// T of channel index `c` at thickness `t` mm: linear in log T between
-    /// the rows (T falls about exponentially with thickness), constant
-    /// outside them; None where a neighbouring row holds no light.
+    /// The scattered part of T (`diffuse`) of channel index `c` at
+    /// thickness `t` mm: linear in its log between the rows (it falls about
+    /// exponentially with thickness), constant outside them; None where a
+    /// neighbouring row holds no light.
     pub fn interpolate(&self, c: usize, t: f64) -> Option<f64> {
         let rows = &self.rows;
-        let at = |i: usize| rows[i].transmittance[c];
+        let at = |i: usize| rows[i].diffuse[c];
         if t <= rows[0].thickness_mm {
             return Some(at(0));
         }

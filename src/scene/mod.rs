@@ -40,6 +40,7 @@ mod ray;
 mod render;
 mod rounds;
 mod samples;
+pub mod thickness;
 mod trace;
 
 pub use camera::{Camera, Measure, Projection};

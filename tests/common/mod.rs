@@ -8,6 +8,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 pub mod adding_doubling;
+pub mod backlit_meshes;
 pub mod golden;
 pub mod half_space;
 pub mod skin1;

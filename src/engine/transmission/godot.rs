@@ -36,8 +36,9 @@ pub const DEPTH_RANGE: (f64, f64) = (0.001, 8.0);
 /// The constant of light_compute's Gaussian in the thickness.
 const SCALE: f64 = 8.25;
 
-/// pi L / E through a slab `t_mm` thick (the module comment), `depth` in
-/// scene units, `colour` linear, `albedo` the material's.
+/// pi L / E through a slab `t_mm` thick lit from directly behind (the
+/// module comment), `depth` in scene units, `colour` linear, `albedo` the
+/// material's ([`rendered_at`] with N.L = -1).
 pub fn rendered(
     depth: f64,
     colour: [f64; 3],
@@ -45,15 +46,29 @@ pub fn rendered(
     scene: Scene,
     t_mm: f64,
 ) -> [f64; 3] {
+    rendered_at(depth, colour, albedo, scene, t_mm, -1.0)
+}
+
+/// pi L / E for a shadow-map thickness `t_mm` and the light at `n_dot_l`
+/// (boost 0: clamp(-N.L, 0, 1)).
+pub fn rendered_at(
+    depth: f64,
+    colour: [f64; 3],
+    albedo: [f64; 3],
+    scene: Scene,
+    t_mm: f64,
+    n_dot_l: f64,
+) -> [f64; 3] {
     let d = SCALE * t_mm * scene.units_per_mm / depth;
-    std::array::from_fn(|c| (-d * d).exp() * colour[c] * albedo[c])
+    let facing = (-n_dot_l).clamp(0.0, 1.0);
+    std::array::from_fn(|c| (-d * d).exp() * colour[c] * albedo[c] * facing)
 }
 
 pub(crate) fn fit(
     profile: &Profile,
     target: &Target,
     scene: Scene,
-) -> Result<(Scored, Vec<[f64; 3]>)> {
+) -> Result<(Scored, Vec<[f64; 3]>, super::Model)> {
     // Godot's albedo is the profile's total reflectance (godot.rs prints
     // it so), at most 1.
     let albedo: [f64; 3] = std::array::from_fn(|c| profile.total_rd[c].clamp(0.0, 1.0));
@@ -142,5 +157,6 @@ pub(crate) fn fit(
             warnings,
         },
         model(depth, colour),
+        super::Model::Godot(depth, colour, albedo, scene),
     ))
 }

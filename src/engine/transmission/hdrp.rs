@@ -56,11 +56,24 @@ pub fn thickness(s: &Settings, t_mm: f64, map_mm: f64) -> f64 {
     s.remap.0 + (s.remap.1 - s.remap.0) * (t_mm / map_mm).clamp(0.0, 1.0)
 }
 
-/// pi L / E through a slab `t_mm` thick: the chain of the module comment,
-/// `shape` = S per channel (1 / HDRP mm), `base` the linear Base Map colour.
+/// pi L / E through a slab `t_mm` thick lit from directly behind: the
+/// chain of the module comment, `shape` = S per channel (1 / HDRP mm),
+/// `base` the linear Base Map colour ([`rendered_at`] with N.L = -1).
 pub fn rendered(s: &Settings, shape: [f64; 3], base: [f64; 3], t_mm: f64, map_mm: f64) -> [f64; 3] {
+    rendered_at(s, shape, base, t_mm, map_mm, -1.0)
+}
+
+/// pi L / E for the thickness map's `t_mm` and the light at `n_dot_l`.
+pub fn rendered_at(
+    s: &Settings,
+    shape: [f64; 3],
+    base: [f64; 3],
+    t_mm: f64,
+    map_mm: f64,
+    n_dot_l: f64,
+) -> [f64; 3] {
     let t = thickness(s, t_mm, map_mm);
-    let wrapped = ((1.0 + WRAP) / ((1.0 + WRAP) * (1.0 + WRAP))).clamp(0.0, 1.0);
+    let wrapped = ((-n_dot_l + WRAP) / ((1.0 + WRAP) * (1.0 + WRAP))).clamp(0.0, 1.0);
     std::array::from_fn(|c| {
         let e = (-shape[c] * t / 3.0).exp();
         0.25 * s.tint[c] * (e * e * e + 3.0 * e) * wrapped * base[c]
@@ -71,7 +84,7 @@ pub(crate) fn fit(
     reflect: &EngineFit,
     target: &Target,
     scene: Scene,
-) -> Result<(Scored, Vec<[f64; 3]>)> {
+) -> Result<(Scored, Vec<[f64; 3]>, super::Model)> {
     let b = reflect
         .rendered
         .as_ref()
@@ -159,5 +172,6 @@ pub(crate) fn fit(
             warnings: Vec::new(),
         },
         model(&s),
+        super::Model::Hdrp(s, shape, base, map_mm),
     ))
 }

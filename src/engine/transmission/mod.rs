@@ -50,7 +50,8 @@ pub struct TransmissionFit {
     /// Setting name -> unit, range and meaning.
     pub units: Map<String, Value>,
     pub thickness_mm: Vec<f64>,
-    /// The table's T per row and channel (r, g, b) and its standard error.
+    /// The table's scattered T per row and channel (r, g, b) and its
+    /// standard error.
     pub table: Vec<[f64; 3]>,
     pub table_stderr: Vec<[f64; 3]>,
     /// pi L / E of the engine's formula from the printed values.
@@ -64,6 +65,50 @@ pub struct TransmissionFit {
     pub requirements: Vec<String>,
     /// Values moved to fit the engine's ranges, and what that costs.
     pub warnings: Vec<String>,
+    /// The formula with the printed settings, to evaluate elsewhere.
+    #[serde(skip)]
+    pub model: Option<Model>,
+}
+
+/// An engine's transmission formula with its printed settings.
+#[derive(Clone, Debug)]
+pub enum Model {
+    Unreal(unreal::Settings, unreal::Reflection, Scene),
+    /// Settings, S per channel, Base Map colour, the thickness map's scale.
+    Hdrp(hdrp::Settings, [f64; 3], [f64; 3], f64),
+    /// Depth, linear colour, albedo, scene.
+    Godot(f64, [f64; 3], [f64; 3], Scene),
+}
+
+/// Where an engine reads the thickness it transmits through.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ThicknessSource {
+    /// The light's shadow map: the depth difference along the light.
+    ShadowMap,
+    /// A baked thickness map: the object's thickness through its surface.
+    ThicknessMap,
+}
+
+impl Model {
+    pub fn thickness_source(&self) -> ThicknessSource {
+        match self {
+            Model::Hdrp(..) => ThicknessSource::ThicknessMap,
+            _ => ThicknessSource::ShadowMap,
+        }
+    }
+
+    /// pi L / E on a pixel whose thickness (from `thickness_source`) is
+    /// `t_mm`, with `n_dot_l` its normal against the light and `back_cos`
+    /// = dot(-L, V).
+    pub fn eval(&self, t_mm: f64, n_dot_l: f64, back_cos: f64) -> [f64; 3] {
+        match self {
+            Model::Unreal(s, r, scene) => unreal::rendered_at(s, r, *scene, t_mm, back_cos),
+            Model::Hdrp(s, shape, base, map) => {
+                hdrp::rendered_at(s, *shape, *base, t_mm, *map, n_dot_l)
+            }
+            Model::Godot(d, c, a, scene) => godot::rendered_at(*d, *c, *a, *scene, t_mm, n_dot_l),
+        }
+    }
 }
 
 impl TransmissionFit {
@@ -101,12 +146,8 @@ impl Target {
                 ))
             })?;
         let per = |v: &[f64]| -> [f64; 3] { std::array::from_fn(|c| v[idx[c]]) };
-        let t: Vec<[f64; 3]> = table.rows.iter().map(|r| per(&r.transmittance)).collect();
-        let se: Vec<[f64; 3]> = table
-            .rows
-            .iter()
-            .map(|r| per(&r.transmittance_stderr))
-            .collect();
+        let t: Vec<[f64; 3]> = table.rows.iter().map(|r| per(&r.diffuse)).collect();
+        let se: Vec<[f64; 3]> = table.rows.iter().map(|r| per(&r.diffuse_stderr)).collect();
         let significant: Vec<[bool; 3]> = t
             .iter()
             .zip(&se)
@@ -173,7 +214,7 @@ fn finish(
     source: &str,
     target: &Target,
     s: Scored,
-    model: Vec<[f64; 3]>,
+    (model, formula): (Vec<[f64; 3]>, Model),
 ) -> TransmissionFit {
     let rel_error = model
         .iter()
@@ -201,6 +242,7 @@ fn finish(
         rms_log_error,
         requirements: s.requirements,
         warnings: s.warnings,
+        model: Some(formula),
     }
 }
 
@@ -217,22 +259,28 @@ pub fn fit(
     scene: Scene,
 ) -> Result<Option<TransmissionFit>> {
     let target = Target::new(table)?;
-    let (scored, model, source) = match engine {
+    let (scored, model, formula, source) = match engine {
         Engine::Unreal => {
-            let (s, m) = unreal::fit(reflect, &target, scene)?;
-            (s, m, unreal::SOURCE)
+            let (s, m, f) = unreal::fit(reflect, &target, scene)?;
+            (s, m, f, unreal::SOURCE)
         }
         Engine::UnityHdrp => {
-            let (s, m) = hdrp::fit(reflect, &target, scene)?;
-            (s, m, hdrp::SOURCE)
+            let (s, m, f) = hdrp::fit(reflect, &target, scene)?;
+            (s, m, f, hdrp::SOURCE)
         }
         Engine::Godot => {
-            let (s, m) = godot::fit(profile, &target, scene)?;
-            (s, m, godot::SOURCE)
+            let (s, m, f) = godot::fit(profile, &target, scene)?;
+            (s, m, f, godot::SOURCE)
         }
         Engine::Blender | Engine::Iryoku => return Ok(None),
     };
-    Ok(Some(finish(engine, source, &target, scored, model)))
+    Ok(Some(finish(
+        engine,
+        source,
+        &target,
+        scored,
+        (model, formula),
+    )))
 }
 
 /// A line for an engine without a fitted transmission model.

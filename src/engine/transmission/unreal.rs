@@ -110,18 +110,31 @@ fn texel(s: &Settings, r: &Reflection, c: usize, i: usize) -> f64 {
     t * s.tint[c].clamp(COLOUR_BIAS, 1.0)
 }
 
-/// `ApproximateHG` at cos = 1.
-pub fn phase_forward(g: f64) -> f64 {
-    0.5 * (1.0 - g * g) / ((1.0 - g) * (1.0 - g)).max(1e-5)
+/// `ApproximateHG` (ShadingModels.ush): 0.5 (1 - g^2) / (1 - g cos)^2.
+pub fn approximate_hg(cos: f64, g: f64) -> f64 {
+    0.5 * (1.0 - g * g) / ((1.0 - g * cos) * (1.0 - g * cos)).max(1e-5)
 }
 
-/// pi L / E through a slab `t_mm` thick: the chain of the module comment.
+/// `ApproximateHG` at cos = 1.
+pub fn phase_forward(g: f64) -> f64 {
+    approximate_hg(1.0, g)
+}
+
+/// pi L / E through a slab `t_mm` thick seen along the light: the chain of
+/// the module comment ([`rendered_at`] with cos = 1).
 pub fn rendered(s: &Settings, r: &Reflection, scene: Scene, t_mm: f64) -> [f64; 3] {
+    rendered_at(s, r, scene, t_mm, 1.0)
+}
+
+/// pi L / E through a thickness `t_mm` (the shadow map's) with `cos` =
+/// dot(-L, V), the view through the surface with IOR 1 (`refract(V, -N,
+/// 1)` = V).
+pub fn rendered_at(s: &Settings, r: &Reflection, scene: Scene, t_mm: f64, cos: f64) -> [f64; 3] {
     let od = decoded_optical_depth(s, t_mm * scene.units_per_mm);
     let x = (od / MAX_DISTANCE * (TEXELS - 1) as f64).clamp(0.0, (TEXELS - 1) as f64);
     let i = (x.floor() as usize).min(TEXELS - 2);
     let f = x - i as f64;
-    let phase = phase_forward(s.scattering_distribution);
+    let phase = approximate_hg(cos, s.scattering_distribution);
     std::array::from_fn(|c| {
         let p = texel(s, r, c, i) * (1.0 - f) + texel(s, r, c, i + 1) * f;
         std::f64::consts::PI * p * phase * r.base_color[c]
@@ -150,7 +163,7 @@ pub(crate) fn fit(
     reflect: &EngineFit,
     target: &Target,
     scene: Scene,
-) -> Result<(Scored, Vec<[f64; 3]>)> {
+) -> Result<(Scored, Vec<[f64; 3]>, super::Model)> {
     let r = reflection(reflect)?;
     let unit_tint = |es: f64, ns: f64| Settings {
         extinction_scale: es,
@@ -265,5 +278,6 @@ pub(crate) fn fit(
             warnings,
         },
         model,
+        super::Model::Unreal(s, r, scene),
     ))
 }

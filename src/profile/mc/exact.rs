@@ -461,7 +461,16 @@ impl ExactTally {
             ));
         }
         if !self.tr_bins.is_empty() {
-            let tr: f64 = self.tr_bins.sum.iter().map(|x| x.to_f64()).sum();
+            // The radial bins and the one beyond r_max; the last entry is
+            // the scattered part of them.
+            let n = self.tr_bins.sum.len().saturating_sub(1);
+            let tr: f64 = self.tr_bins.sum[..n].iter().map(|x| x.to_f64()).sum();
+            let scattered = self.tr_bins.sum[n].to_f64();
+            if !(scattered <= tr * (1.0 + 1e-9)) {
+                return Err(format!(
+                    "tr_bins: the scattered transmittance {scattered:e} exceeds the whole {tr:e}"
+                ));
+            }
             if !((tr - v[3]).abs() <= 1e-9 * v[3].max(f64::MIN_POSITIVE)) {
                 return Err(format!(
                     "tr_bins sum to {tr:e}, the total transmittance is {:e}",

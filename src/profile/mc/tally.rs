@@ -131,8 +131,9 @@ pub struct ChunkTally {
     pub truncated_photons: u64,
     /// Exit-angle tallies (empty unless `WalkSettings::angular`).
     pub exit: ExitSums,
-    /// Transmittance per radial bin at the bottom surface, the last entry
-    /// for exits beyond r_max (empty for a semi-infinite stack).
+    /// Transmittance per radial bin at the bottom surface, then the
+    /// entry for exits beyond r_max, then the part of all of it that
+    /// scattered at least once (empty for a semi-infinite stack).
     pub tr_bins: BinSums,
     /// Exit-angle tallies of the transmitted light (empty unless the stack
     /// is finite and the walk tallies angles).
@@ -327,12 +328,12 @@ impl PhotonScratch {
     /// the one beyond r_max) in this scratch and in `t`, and for its angle
     /// bins when `angles` is given (a finite stack's walk).
     pub fn transmitting(&mut self, t: &mut ChunkTally, bins: usize, angles: Option<AngleLayout>) {
-        if self.cur_tr.len() != bins + 1 {
-            self.cur_tr = vec![0.0; bins + 1];
+        if self.cur_tr.len() != bins + 2 {
+            self.cur_tr = vec![0.0; bins + 2];
             self.touched_tr.clear();
         }
-        if t.tr_bins.sum.len() != bins + 1 {
-            t.tr_bins = BinSums::new(bins + 1);
+        if t.tr_bins.sum.len() != bins + 2 {
+            t.tr_bins = BinSums::new(bins + 2);
         }
         if let Some(l) = angles {
             if t.tr_exit.a.sum.len() != l.angle_bins
@@ -345,11 +346,15 @@ impl PhotonScratch {
     }
 
     /// Scores weight `w` transmitted through the bottom at radius `r`
-    /// (the last entry beyond r_max).
+    /// (the entry after the bins beyond r_max), and in the last entry too
+    /// when the packet scattered on its way.
     #[inline(always)]
-    pub fn score_transmittance(&mut self, bins: &BinIndex, r: f64, w: f64) {
+    pub fn score_transmittance(&mut self, bins: &BinIndex, r: f64, w: f64, scatters: u32) {
         let i = bins.bin(r).unwrap_or(bins.len());
         add_sparse(&mut self.cur_tr, &mut self.touched_tr, i, w);
+        if scatters > 0 {
+            add_sparse(&mut self.cur_tr, &mut self.touched_tr, bins.len() + 1, w);
+        }
     }
 
     #[inline(always)]

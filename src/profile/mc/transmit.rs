@@ -77,7 +77,7 @@ pub(super) fn tr_statuses(
     let projection = kernel_geometry(&provisional).map(|g| Projection::new(&grid.edges, &g));
     t.iter()
         .map(|t| {
-            if t.tr_bins.sum.len() != n + 1 {
+            if t.tr_bins.sum.len() != n + 2 {
                 return None;
             }
             let inside = BinSums {
@@ -170,6 +170,13 @@ pub struct TransmittanceProfile {
     pub td_stderr: Vec<Vec<f64>>,
     /// Part of the incident light transmitted beyond r_max (in the total).
     pub beyond_rmax: Vec<f64>,
+    /// The part of total T that scattered at least once on its way (what
+    /// leaves the unlit face spread out; the rest left unscattered, on the
+    /// beam's axis), per channel, and its standard error.
+    #[serde(default)]
+    pub diffuse: Vec<f64>,
+    #[serde(default)]
+    pub diffuse_stderr: Vec<f64>,
     /// Achieved relative errors of total T and of T_d's 1D factor.
     pub rel_error_total: Vec<f64>,
     pub rel_error_kernel_factor: Vec<f64>,
@@ -199,7 +206,7 @@ pub(super) fn record(
     status: &[Option<TrStatus>],
     areas: &[f64],
 ) -> Option<TransmittanceProfile> {
-    if t.iter().any(|t| t.tr_bins.sum.len() != areas.len() + 1) {
+    if t.iter().any(|t| t.tr_bins.sum.len() != areas.len() + 2) {
         return None;
     }
     let n = areas.len();
@@ -231,6 +238,8 @@ pub(super) fn record(
         td,
         td_stderr,
         beyond_rmax: t.iter().map(|t| bin(t, n).mean(t.photons)).collect(),
+        diffuse: t.iter().map(|t| bin(t, n + 1).mean(t.photons)).collect(),
+        diffuse_stderr: t.iter().map(|t| bin(t, n + 1).stderr(t.photons)).collect(),
         rel_error_total: st(&|s| s.rel_total),
         rel_error_kernel_factor: st(&|s| s.rel_factor),
         angular,

@@ -41,23 +41,37 @@ pub fn render(
         let mc: Vec<(f64, f64)> = table
             .rows
             .iter()
-            .map(|r| (r.thickness_mm, r.transmittance[c]))
+            .map(|r| (r.thickness_mm, r.diffuse[c]))
             .collect();
         let bars = table
             .rows
             .iter()
             .map(|r| {
-                let (v, e) = (r.transmittance[c], BARS * r.transmittance_stderr[c]);
+                let (v, e) = (r.diffuse[c], BARS * r.diffuse_stderr[c]);
                 (r.thickness_mm, (v - e).max(v * 1e-3), v + e)
             })
             .collect();
-        let mut curves = vec![Curve {
-            label: format!("Monte Carlo, +-{BARS} standard errors"),
-            color: PALETTE[0],
-            points: mc,
-            band: Some(bars),
-            dashed: false,
-        }];
+        let all: Vec<(f64, f64)> = table
+            .rows
+            .iter()
+            .map(|r| (r.thickness_mm, r.transmittance[c]))
+            .collect();
+        let mut curves = vec![
+            Curve {
+                label: format!("Monte Carlo, scattered light, +-{BARS} standard errors"),
+                color: PALETTE[0],
+                points: mc,
+                band: Some(bars),
+                dashed: false,
+            },
+            Curve {
+                label: "Monte Carlo, all (with the unscattered beam)".into(),
+                color: PALETTE[7],
+                points: all,
+                band: None,
+                dashed: false,
+            },
+        ];
         let ci = ch.index();
         for (k, f) in fits.iter().enumerate() {
             curves.push(Curve {
@@ -219,24 +233,111 @@ fn draw(panel: &LogLog, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
     Ok(w.boxes)
 }
 
-/// The table as CSV: one row per thickness, T, its standard error, R_d
-/// and the radii per channel.
+/// The table as CSV: one row per thickness, T and its scattered part with
+/// their standard errors, R_d and the radii per channel.
 pub fn csv(t: &ThicknessTable) -> String {
     let mut s = String::from("thickness_mm");
     for c in &t.channels {
         let n = c.name();
-        s += &format!(",t_{n},t_{n}_stderr,rd_{n},r50_{n}_mm,r90_{n}_mm");
+        s += &format!(
+            ",t_{n},t_{n}_stderr,t_scattered_{n},t_scattered_{n}_stderr,rd_{n},r50_{n}_mm,r90_{n}_mm"
+        );
     }
     s.push('\n');
     for r in &t.rows {
         s += &format!("{}", r.thickness_mm);
         for c in 0..t.channels.len() {
             s += &format!(
-                ",{:e},{:e},{:e},{},{}",
-                r.transmittance[c], r.transmittance_stderr[c], r.rd[c], r.r50_mm[c], r.r90_mm[c]
+                ",{:e},{:e},{:e},{:e},{:e},{},{}",
+                r.transmittance[c],
+                r.transmittance_stderr[c],
+                r.diffuse[c],
+                r.diffuse_stderr[c],
+                r.rd[c],
+                r.r50_mm[c],
+                r.r90_mm[c]
             );
         }
         s.push('\n');
     }
     s
+}
+
+/// The back-lit block of `compare --scene` as a table: per row, the
+/// relative RMS and bias over the seen pixels (r / g / b) and FLIP, and the
+/// relative RMS where the surface faces away from the light.
+pub fn scene_table(
+    cmp: &crate::report::eval::scene_transmission::TransmissionComparison,
+) -> super::table::Table {
+    let mut t = super::table::Table::new(&[
+        "back-lit object: what the camera gets",
+        "thickness from",
+        "RMS % of peak (r / g / b)",
+        "bias % (r / g / b)",
+        "FLIP",
+        "RMS %, facing away from the light (r / g / b)",
+    ]);
+    let trio = |v: [f64; 3]| {
+        v.map(|x| {
+            if x.is_finite() {
+                format!("{:.2}", 100.0 * x)
+            } else {
+                "-".into()
+            }
+        })
+        .join(" / ")
+    };
+    for r in &cmp.rows {
+        let all = &r.regions[0];
+        let unlit = r.regions.iter().find(|x| x.region == "unlit");
+        t.push(vec![
+            r.label.clone(),
+            r.thickness.clone(),
+            trio(all.rel_rms),
+            trio(all.bias),
+            format!("{:.3}", all.flip),
+            unlit.map_or("-".into(), |u| trio(u.rel_rms)),
+        ]);
+    }
+    t
+}
+
+/// The back-lit block's images: the path-traced image, then each row above
+/// its difference from it (white = `SCENE_DIFF_SCALE` of the peak).
+pub fn scene_sheet(
+    cmp: &crate::report::eval::scene_transmission::TransmissionComparison,
+    truth: &crate::filter::Image,
+    title: &str,
+    out: &Path,
+) -> Result<()> {
+    use super::kernel_plots::to_rgb8;
+    use super::scene_tables::SCENE_DIFF_SCALE;
+    use super::sheet::{draw_sheet, SheetTile};
+    let max_rgb: Vec<f64> = (0..truth.len())
+        .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
+        .collect();
+    let exposure = crate::report::eval::evaluate::exposure_of(&max_rgb);
+    let peak = truth.peak().iter().cloned().fold(0.0f64, f64::max);
+    let mut tiles = vec![SheetTile {
+        label: "path traced".into(),
+        top: to_rgb8(truth, exposure),
+        bottom: None,
+        flag: None,
+    }];
+    for (label, img) in &cmp.images {
+        let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * peak));
+        tiles.push(SheetTile {
+            label: label.clone(),
+            top: to_rgb8(img, exposure),
+            bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
+            flag: None,
+        });
+    }
+    let bar = super::colour_bar::ColourBar {
+        white: 100.0 * SCENE_DIFF_SCALE,
+        unit: "% of the path-traced peak".into(),
+        quantity: "difference tiles: |image - path traced|, largest channel".into(),
+    };
+    draw_sheet(&tiles, (truth.width, truth.height), title, Some(&bar), out)?;
+    Ok(())
 }

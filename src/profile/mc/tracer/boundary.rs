@@ -84,7 +84,7 @@ pub(super) fn meet_ambient<const ANGULAR: bool>(
         } else {
             scores.tr += escaping;
             let radius = (p.x * p.x + p.y * p.y).sqrt();
-            scratch.score_transmittance(walk.bins, radius, escaping);
+            scratch.score_transmittance(walk.bins, radius, escaping, p.scatters);
             if ANGULAR {
                 // MCML's RecordT bins the transmitted direction the same way.
                 let k = n_i / n;
