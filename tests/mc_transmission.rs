@@ -190,7 +190,7 @@ fn mco_carries_tt_r_and_tt_a() {
                 .iter()
                 .any(|t| l.starts_with(t))
         })
-        .map(|l| &l[..l.find(|c: char| c == ' ').unwrap_or(l.len())])
+        .map(|l| &l[..l.find(' ').unwrap_or(l.len())])
         .collect();
     assert_eq!(tags, ["Rd_r", "Rd_a", "Tt_r", "Tt_a", "Rd_ra", "Tt_ra"]);
     let section = |tag: &str| -> Vec<f64> {

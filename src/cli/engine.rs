@@ -198,7 +198,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         outln!("{line}")?;
     }
     let tfit = match &table {
-        Some(t) => engine::transmission::fit(e, &fit, &profile, t, scene)?,
+        Some(t) => engine::transmission::fit(e, &fit, t, scene)?,
         None => None,
     };
     super::transmission::print_engine(e, table.is_some(), tfit.as_ref())?;

@@ -558,8 +558,8 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         }
     }
     staged.commit()?;
-    if let Some((b, _)) = &back {
-        outln!("{}", b.headline)?;
+    if let Some((b, t)) = &back {
+        outln!("{}\n\n{}\n", b.headline, t.markdown())?;
     }
     let d = dominance(&cmp);
     if let Some(h) = d.as_ref().and_then(|d| d.headline()) {

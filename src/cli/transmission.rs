@@ -221,14 +221,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     .units_per_mm
                     .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
                 let reflect = engine::fit(e, &profile, scene)?;
-                Ok(et::fit(e, &reflect, &profile, &table, scene)?)
+                Ok(et::fit(e, &reflect, &table, scene)?)
             })
             .collect::<anyhow::Result<Vec<_>>>()?
             .into_iter()
             .flatten()
             .collect()
     };
-    table.engines = serde_json::to_value(&fits)?;
+    if !fits.is_empty() {
+        table.engines = serde_json::to_value(&fits)?;
+    }
     print_table(&table)?;
     for f in &fits {
         print_fit(f)?;
@@ -398,7 +400,7 @@ pub(super) fn scene_block(
     for e in [Engine::Unreal, Engine::UnityHdrp, Engine::Godot] {
         let s = Scene::native(e);
         let reflect = engine::fit(e, profile, s)?;
-        fits.extend(et::fit(e, &reflect, profile, &t, s)?);
+        fits.extend(et::fit(e, &reflect, &t, s)?);
     }
     let cmp = ssskit::report::eval::scene_transmission::compare_transmission(
         scene, render, &t, &fits, ppd,

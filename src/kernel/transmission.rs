@@ -8,12 +8,10 @@
 //! header. The function clamps the thickness to the table's range: it is
 //! not fitted outside it.
 
-use super::emit::{comment, num, Lang};
 use crate::error::{Error, Result};
 use crate::numerics::nelder_mead;
 use crate::profile::transmission::ThicknessTable;
 use serde::{Deserialize, Serialize};
-use std::fmt::Write as _;
 
 /// Standard errors a row's T must stand above 0 to enter the fit.
 const SIGNIFICANT: f64 = 4.0;
@@ -150,77 +148,4 @@ pub fn fit_table(table: &ThicknessTable) -> Result<ThicknessFit> {
         out.rows[c] = rows.len();
     }
     Ok(out)
-}
-
-/// The shader function `sss_transmittance(thickness_mm)` of `f` in `lang`,
-/// with its fit in the header; refused when a coefficient does not fit an
-/// f32.
-pub fn emit(out: &mut String, f: &ThicknessFit, lang: Lang) -> Result<()> {
-    for (c, t) in f.terms.iter().enumerate() {
-        if let Some(v) = t.iter().find(|v| !(v.abs() <= f32::MAX as f64)) {
-            return Err(Error::invalid(
-                "shader",
-                format!("transmission.terms[{c}]"),
-                v,
-                "shader constants are f32: values must be finite and at most f32::MAX",
-            ));
-        }
-    }
-    let pct = |v: [f64; 3]| v.map(|x| format!("{:.1}%", 100.0 * x)).join(", ");
-    comment(
-        out,
-        &format!(
-            "Transmittance through a thickness: sss_transmittance(t) = the scattered light \
-             leaving the unlit face of a slab of {} t mm thick lit from behind (normal beam), per \
-             incident light, RGB; a1 exp(-b1 t) + a2 exp(-b2 t) fitted to `ssskit transmission` over {} \
-             to {} mm (clamped there); relative error over the table's rows (r, g, b): max {}, \
-             RMS {}. Multiply by the light behind and give it a Lambertian exit (divide by pi \
-             for radiance).",
-            f.material,
-            num(f.range_mm[0]),
-            num(f.range_mm[1]),
-            pct(f.max_rel_error),
-            pct(f.rms_rel_error)
-        ),
-    );
-    let term = |c: usize, exp: &str| {
-        let [a1, b1, a2, b2] = f.terms[c];
-        format!(
-            "{} * {exp}(-{} * t) + {} * {exp}(-{} * t)",
-            num(a1),
-            num(b1),
-            num(a2),
-            num(b2)
-        )
-    };
-    let (lo, hi) = (num(f.range_mm[0]), num(f.range_mm[1]));
-    let body = |ctor: &str| {
-        format!(
-            "{ctor}(\n        {},\n        {},\n        {})",
-            term(0, "exp"),
-            term(1, "exp"),
-            term(2, "exp")
-        )
-    };
-    let _ = match lang {
-        Lang::Hlsl => writeln!(
-            out,
-            "float3 sss_transmittance(float thickness_mm) {{\n    float t = clamp(thickness_mm, \
-             {lo}, {hi});\n    return {};\n}}",
-            body("float3")
-        ),
-        Lang::Glsl => writeln!(
-            out,
-            "vec3 sss_transmittance(float thickness_mm) {{\n    float t = clamp(thickness_mm, \
-             {lo}, {hi});\n    return {};\n}}",
-            body("vec3")
-        ),
-        Lang::Wgsl => writeln!(
-            out,
-            "fn sss_transmittance(thickness_mm: f32) -> vec3<f32> {{\n    let t = \
-             clamp(thickness_mm, {lo}, {hi});\n    return {};\n}}",
-            body("vec3<f32>")
-        ),
-    };
-    Ok(())
 }

@@ -1,4 +1,5 @@
-//! Godot 4's BaseMaterial3D transmittance, read in godotengine/godot:
+//! Godot 4's BaseMaterial3D transmittance, read in godotengine/godot
+//! (4.6.2-stable; the non-skin Gaussian is the same since 4.0):
 //!
 //! 1. `BaseMaterial3D::_update_shader` (scene/resources/material.cpp):
 //!    `transmittance_color : source_color` (sRGB in the inspector, linear
@@ -19,17 +20,16 @@
 //! exp(-(8.25 t / depth)^2) x colour x albedo, t in metres.
 
 use super::{unit, Scored, Target};
-use crate::engine::printed::typed;
-use crate::engine::Scene;
+use crate::engine::printed::{triple, typed};
+use crate::engine::{EngineFit, Scene};
 use crate::error::Result;
-use crate::filter::image::linear_to_srgb;
+use crate::filter::image::{linear_to_srgb, srgb_to_linear};
 use crate::numerics::minimise_log;
-use crate::profile::Profile;
 use serde_json::{json, Map};
 
-pub const SOURCE: &str = "Godot 4: material.cpp BaseMaterial3D::_update_shader, \
+pub const SOURCE: &str = "Godot 4.6: material.cpp BaseMaterial3D::_update_shader, \
      scene_forward_clustered.glsl (directional transmittance_z), scene_forward_lights_inc.glsl \
-     light_compute (read in godotengine/godot)";
+     light_compute (read in godotengine/godot, 4.6.2-stable; the Gaussian unchanged since 4.0)";
 
 /// `transmittance_depth`'s hint_range, metres.
 pub const DEPTH_RANGE: (f64, f64) = (0.001, 8.0);
@@ -65,13 +65,12 @@ pub fn rendered_at(
 }
 
 pub(crate) fn fit(
-    profile: &Profile,
+    reflect: &EngineFit,
     target: &Target,
     scene: Scene,
 ) -> Result<(Scored, Vec<[f64; 3]>, super::Model)> {
-    // Godot's albedo is the profile's total reflectance (godot.rs prints
-    // it so), at most 1.
-    let albedo: [f64; 3] = std::array::from_fn(|c| profile.total_rd[c].clamp(0.0, 1.0));
+    // The albedo Godot's reflection fit prints (linear), at most 1.
+    let albedo = triple(&reflect.params, "albedo")?.map(|a| a.clamp(0.0, 1.0));
     let model = |depth: f64, colour: [f64; 3]| -> Vec<[f64; 3]> {
         target
             .thickness
@@ -88,7 +87,7 @@ pub(crate) fn fit(
     ));
     let (k, _) = target.amplitude(&model(depth, [1.0; 3]));
     let mut warnings = Vec::new();
-    let colour = k.map(|k| typed(k.min(1.0)));
+    let wanted = k.map(|k| k.min(1.0));
     for c in 0..3 {
         if k[c] > 1.0 {
             warnings.push(format!(
@@ -99,7 +98,10 @@ pub(crate) fn fit(
             ));
         }
     }
-    let srgb = colour.map(|c| typed(linear_to_srgb(c)));
+    // The inspector's (and the .tres's) colour is sRGB, as printed; the
+    // shader gets its linear value, so the light is computed from that.
+    let srgb = wanted.map(|c| typed(linear_to_srgb(c)));
+    let colour = srgb.map(srgb_to_linear);
     let mut params = Map::new();
     let mut units = Map::new();
     let mut put = |name: &str, v: serde_json::Value, u: &str| {
@@ -119,7 +121,7 @@ pub(crate) fn fit(
     );
     put(
         "subsurf_scatter_transmittance_color linear",
-        json!(colour),
+        json!(colour.map(typed)),
         "the same colour as the shader sees it (Color.srgb_to_linear)",
     );
     put(

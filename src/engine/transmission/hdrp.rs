@@ -24,9 +24,9 @@
 //!    diffuse lighting, blurred with the reflection and multiplied by the
 //!    Base Map colour (Post-scatter).
 //!
-//! So, lit from directly behind (-N.L = 1): pi L / E = tint / 4 (e^{-S t}
-//! + 3 e^{-S t / 3}) / (1 + w) x Base Color, t the remapped map value in
-//! HDRP's millimetres (not scaled by World Scale).
+//! So, lit from directly behind (-N.L = 1): pi L / E = tint / 4
+//! (e^{-S t} + 3 e^{-S t / 3}) / (1 + w) x Base Color, t the remapped map
+//! value in HDRP's millimetres (not scaled by World Scale).
 
 use super::{unit, Scored, Target};
 use crate::engine::printed::{number, typed};
@@ -38,6 +38,11 @@ use serde_json::{json, Map};
 pub const SOURCE: &str = "Unity 6 HDRP 17: DiffusionProfileSettings.cs UpdateCache, \
      SubsurfaceScattering.hlsl FillMaterialTransmission, DiffusionProfile.hlsl \
      ComputeTransmittanceDisney, Lit.hlsl EvaluateBSDF (read in Unity-Technologies/Graphics)";
+
+/// The largest Transmission Tint channel a fit may ask for: 2^10, ten
+/// stops of the HDR colour picker's Intensity above white (a bound chosen
+/// here so that an artist can set the colour; HDRP itself stores any float).
+pub const TINT_MAX: f64 = 1024.0;
 
 /// TRANSMISSION_WRAP_LIGHT = cos(pi / 2 - pi / 12).
 const WRAP: f64 = 0.258_819_045_102_520_8;
@@ -108,14 +113,17 @@ pub(crate) fn fit(
     };
     let cost = |lo: f64, span: f64| target.amplitude(&model(&unit_tint(lo, span))).1;
     // Remap min from 0 (a scan of offsets, 0 first) and the span by
-    // golden section in log space.
+    // golden section in log space. Tint and remap min nearly trade off
+    // (e^{-S min} x tint), so an offset counts only while its tint stays
+    // under TINT_MAX; 0 always counts.
     let mut best = (0.0, map_mm, f64::INFINITY);
     let top = 2.0 * map_mm;
     for k in 0..=20 {
         let lo = top * k as f64 / 20.0 * (k as f64 / 20.0);
         let span = minimise_log(|s| cost(lo, s), 1e-3 * map_mm, 1e3 * map_mm, 40);
-        let c = cost(lo, span);
-        if c < best.2 {
+        let (tint, c) = target.amplitude(&model(&unit_tint(lo, span)));
+        let settable = k == 0 || tint.iter().all(|t| *t <= TINT_MAX);
+        if settable && c < best.2 {
             best = (lo, span, c);
         }
     }

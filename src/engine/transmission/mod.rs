@@ -29,7 +29,6 @@ use super::{Engine, EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::material::Channel;
 use crate::profile::transmission::ThicknessTable;
-use crate::profile::Profile;
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -247,14 +246,13 @@ fn finish(
 }
 
 /// `engine`'s transmission settings fitted to `table`, the reflectance
-/// side taken from `reflect` (the engine's fit to `profile`): None for an
+/// side taken from `reflect` (the engine's fit to the material's profile): None for an
 /// engine without a thickness-based transmission model (Blender: Cycles'
 /// Random Walk walks through the mesh; iryoku: its reference code's
 /// translucency is not modelled here).
 pub fn fit(
     engine: Engine,
     reflect: &EngineFit,
-    profile: &Profile,
     table: &ThicknessTable,
     scene: Scene,
 ) -> Result<Option<TransmissionFit>> {
@@ -269,7 +267,7 @@ pub fn fit(
             (s, m, f, hdrp::SOURCE)
         }
         Engine::Godot => {
-            let (s, m, f) = godot::fit(profile, &target, scene)?;
+            let (s, m, f) = godot::fit(reflect, &target, scene)?;
             (s, m, f, godot::SOURCE)
         }
         Engine::Blender | Engine::Iryoku => return Ok(None),

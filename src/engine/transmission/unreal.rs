@@ -257,7 +257,21 @@ pub(crate) fn fit(
         "Subsurface Profile, Transmission: 1 keeps the view through the surface straight (the \
          error is for the view along the normal, where IOR changes nothing)",
     );
-    let requirements = vec![
+    Ok((
+        Scored {
+            params,
+            units,
+            requirements: requirements(scene),
+            warnings,
+        },
+        model,
+        super::Model::Unreal(s, r, scene),
+    ))
+}
+
+/// What must hold in Unreal for the fitted settings to give the light.
+fn requirements(scene: Scene) -> Vec<String> {
+    vec![
         "the reflection settings printed above (the transmission profile is built from the same \
          SurfaceAlbedo, mean free path and WorldUnitScale)"
             .to_string(),
@@ -269,15 +283,5 @@ pub(crate) fn fit(
             1.0 / scene.units_per_mm,
             scene.units_per_mm
         ),
-    ];
-    Ok((
-        Scored {
-            params,
-            units,
-            requirements,
-            warnings,
-        },
-        model,
-        super::Model::Unreal(s, r, scene),
-    ))
+    ]
 }

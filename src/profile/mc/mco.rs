@@ -73,16 +73,9 @@ fn c_e(x: f64) -> String {
     )
 }
 
-/// The .mco text of a one-channel profile on a uniform grid.
-pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
-    if p.channels.len() != 1 {
-        return Err(Error::Unsupported(format!(
-            "an .mco file holds one wavelength (MCML is monochrome); this run has {} channels: \
-             simulate one channel",
-            p.channels.len()
-        )));
-    }
-    let n = p.r.len();
+/// The bin width of `p`'s radial grid, refused unless uniform (MCML's
+/// dr, nr).
+fn uniform_dr(p: &Profile) -> Result<f64> {
     let dr = p.r_edges[1] - p.r_edges[0];
     if p.r_edges
         .iter()
@@ -94,6 +87,20 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
                 .into(),
         ));
     }
+    Ok(dr)
+}
+
+/// The .mco text of a one-channel profile on a uniform grid.
+pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
+    if p.channels.len() != 1 {
+        return Err(Error::Unsupported(format!(
+            "an .mco file holds one wavelength (MCML is monochrome); this run has {} channels: \
+             simulate one channel",
+            p.channels.len()
+        )));
+    }
+    let n = p.r.len();
+    let dr = uniform_dr(p)?;
     let photons = p
         .source
         .photons

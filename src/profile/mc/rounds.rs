@@ -2,7 +2,8 @@
 //! inside a round, the budget rules checked between rounds, and each
 //! channel's convergence.
 
-use super::transmit::{channel_ratio, tr_statuses, TrStatus};
+use super::tally::{convergence_of, densities};
+use super::transmit::{tr_floor_ratio, tr_rule_error, tr_statuses, TrStatus};
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -508,12 +509,6 @@ pub(super) fn rule_error(budget: &PhotonBudget, s: &Status) -> f64 {
     }
 }
 
-/// R_d per bin (mm^-2) of a tally.
-pub(super) fn densities(sum: &[f64], n: u64, areas: &[f64]) -> Vec<f64> {
-    let nf = n.max(1) as f64;
-    sum.iter().zip(areas).map(|(s, a)| s / (nf * a)).collect()
-}
-
 /// The status of every channel and the default kernel grid they imply
 /// (all channels together, as `Kernel2D::from_profile` sees them).
 pub(super) fn statuses(
@@ -589,34 +584,38 @@ pub(super) fn convergence(t: &ChunkTally, grid: &RadialGrid) -> (f64, f64, f64) 
     convergence_of(&t.rd, &t.rd_bins, t.photons, grid)
 }
 
-/// `convergence` of any radial tally: its total's moments and its bins'
-/// sums over `n` photons (R_d, or the transmittance of a finite stack).
-pub(super) fn convergence_of(
-    total_m: &Moments,
-    bins: &tally::BinSums,
-    n: u64,
-    grid: &RadialGrid,
-) -> (f64, f64, f64) {
-    let total = total_m.mean(n);
-    if total <= 0.0 {
-        return (0.0, 0.0, 0.0);
-    }
-    let rel_total = total_m.stderr(n) / total;
-    let goal = 0.99 * total_m.sum;
-    let mut acc = 0.0;
-    let mut err = 0.0;
-    for i in 0..grid.len() {
-        let m = Moments {
-            sum: bins.sum[i],
-            sum_sq: bins.sum_sq[i],
-        };
-        acc += bins.sum[i];
-        err += m.stderr(n) * n as f64;
-        if acc >= goal {
-            break;
+/// The larger of how far the reflected and the transmitted light are from
+/// the target (`err / rel`) and from the floor, each part met either way:
+/// a channel stops when both its reflected and its transmitted light meet
+/// the target or the floor.
+pub(super) fn channel_ratio(
+    budget: &PhotonBudget,
+    floor: f64,
+    rel: f64,
+    s: &Status,
+    rd_err: f64,
+    photons: u64,
+) -> (f64, bool) {
+    let r = (rd_err / rel).min(floor_ratio(budget, floor, s, photons));
+    let mut by_floor = rd_err > rel;
+    let t = match &s.tr {
+        Some(t) => {
+            // No light through yet is not an exact zero (the slab is
+            // finite): only the floor's photon minimum may stop it.
+            let e = if t.t > 0.0 {
+                tr_rule_error(budget, t) / rel
+            } else {
+                f64::INFINITY
+            };
+            let f = if matches!(budget, PhotonBudget::KernelFactor { .. }) && floor > 0.0 {
+                tr_floor_ratio(floor, t, photons)
+            } else {
+                f64::INFINITY
+            };
+            by_floor |= e > 1.0 && f <= 1.0;
+            e.min(f)
         }
-    }
-    let r99 = crate::profile::radius::radius_reaching(&grid.edges, bins.sum.iter().copied(), goal);
-    let rel_profile = if acc > 0.0 { err / acc } else { 0.0 };
-    (rel_total, rel_profile, r99)
+        None => 0.0,
+    };
+    (r.max(t), by_floor)
 }

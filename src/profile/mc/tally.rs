@@ -413,6 +413,44 @@ fn drain_sparse(v: &mut [f64], touched: &mut Vec<u32>, mut add: impl FnMut(usize
     touched.clear();
 }
 
+/// R_d per bin (mm^-2) of a tally.
+pub(super) fn densities(sum: &[f64], n: u64, areas: &[f64]) -> Vec<f64> {
+    let nf = n.max(1) as f64;
+    sum.iter().zip(areas).map(|(s, a)| s / (nf * a)).collect()
+}
+
+/// `convergence` of any radial tally: its total's moments and its bins'
+/// sums over `n` photons (R_d, or the transmittance of a finite stack).
+pub(super) fn convergence_of(
+    total_m: &Moments,
+    bins: &BinSums,
+    n: u64,
+    grid: &RadialGrid,
+) -> (f64, f64, f64) {
+    let total = total_m.mean(n);
+    if total <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let rel_total = total_m.stderr(n) / total;
+    let goal = 0.99 * total_m.sum;
+    let mut acc = 0.0;
+    let mut err = 0.0;
+    for i in 0..grid.len() {
+        let m = Moments {
+            sum: bins.sum[i],
+            sum_sq: bins.sum_sq[i],
+        };
+        acc += bins.sum[i];
+        err += m.stderr(n) * n as f64;
+        if acc >= goal {
+            break;
+        }
+    }
+    let r99 = crate::profile::radius::radius_reaching(&grid.edges, bins.sum.iter().copied(), goal);
+    let rel_profile = if acc > 0.0 { err / acc } else { 0.0 };
+    (rel_total, rel_profile, r99)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,8 +7,7 @@
 //! pre-integrated 1D factor, or the absolute floor).
 
 use super::consumer::{kernel_geometry, Projection};
-use super::rounds::{convergence_of, densities, floor_ratio, Status};
-use super::tally::{BinSums, ChunkTally, ExitSums, Moments};
+use super::tally::{convergence_of, densities, BinSums, ChunkTally, ExitSums, Moments};
 use super::{PhotonBudget, CONTEXT};
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
@@ -121,42 +120,6 @@ pub(super) fn tr_floor_ratio(floor: f64, s: &TrStatus, photons: u64) -> f64 {
     let noise = s.t_stderr.max(shape) / floor;
     let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
     noise.max(minimum)
-}
-
-/// The larger of how far the reflected and the transmitted light are from
-/// the target (`err / rel`) and from the floor, each part met either way:
-/// a channel stops when both its reflected and its transmitted light meet
-/// the target or the floor.
-pub(super) fn channel_ratio(
-    budget: &PhotonBudget,
-    floor: f64,
-    rel: f64,
-    s: &Status,
-    rd_err: f64,
-    photons: u64,
-) -> (f64, bool) {
-    let r = (rd_err / rel).min(floor_ratio(budget, floor, s, photons));
-    let mut by_floor = rd_err > rel;
-    let t = match &s.tr {
-        Some(t) => {
-            // No light through yet is not an exact zero (the slab is
-            // finite): only the floor's photon minimum may stop it.
-            let e = if t.t > 0.0 {
-                tr_rule_error(budget, t) / rel
-            } else {
-                f64::INFINITY
-            };
-            let f = if matches!(budget, PhotonBudget::KernelFactor { .. }) && floor > 0.0 {
-                tr_floor_ratio(floor, t, photons)
-            } else {
-                f64::INFINITY
-            };
-            by_floor |= e > 1.0 && f <= 1.0;
-            e.min(f)
-        }
-        None => 0.0,
-    };
-    (r.max(t), by_floor)
 }
 
 /// The transmitted light of one run as a profile records it

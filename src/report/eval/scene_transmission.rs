@@ -196,34 +196,51 @@ fn thickness(px: &PixelThickness, s: ThicknessSource) -> &[f64] {
     }
 }
 
-/// The worst channel's relative RMS over all seen pixels.
-pub fn worst_rms(r: &TransmissionRow) -> f64 {
-    r.regions[0].rel_rms.iter().fold(0.0f64, |m, v| m.max(*v))
+/// The relative RMS over all seen pixels, the mean of the three channels
+/// (one channel's can hide another's: the engines' worst differ).
+pub fn mean_rms(r: &TransmissionRow) -> f64 {
+    r.regions[0].rel_rms.iter().sum::<f64>() / 3.0
 }
 
-/// What a user loses without transmission, and the row that keeps most.
+/// What a user loses without transmission, the engine approximation that
+/// keeps most of it (the lowest mean RMS; FLIP beside it), and how far the
+/// exact table gets.
 fn headline(rows: &[TransmissionRow], lost: [f64; 3]) -> String {
     let pct = |v: [f64; 3]| v.map(|x| format!("{:.0}%", 100.0 * x)).join(", ");
-    let alone = worst_rms(&rows[0]);
-    let best = rows[1..]
-        .iter()
-        .min_by(|a, b| worst_rms(a).total_cmp(&worst_rms(b)));
+    let best = |exact: bool| {
+        rows[1..]
+            .iter()
+            .filter(|r| r.label.contains("exact table") == exact)
+            .min_by(|a, b| mean_rms(a).total_cmp(&mean_rms(b)))
+    };
     let mut s = format!(
         "Without transmission, screen-space SSS misses {} (r, g, b) of the light this object \
-         sends to the camera from the light behind it (error {:.1}% of the peak, worst channel).",
+         sends to the camera from the light behind it (error {:.1}% of the peak, mean of r, g, \
+         b; FLIP {:.3}).",
         pct(lost),
-        100.0 * alone
+        100.0 * mean_rms(&rows[0]),
+        rows[0].regions[0].flip
     );
-    if let Some(b) = best {
+    if let Some(b) = best(false) {
         let bias = b.regions[0]
             .bias
             .map(|x| format!("{:+.0}%", 100.0 * x))
             .join(", ");
         s.push_str(&format!(
-            " Closest: {} ({}): {:.1}% of the peak, bias {bias}.",
-            b.label,
+            " Of the engines' approximations, {} (thickness from the {}) keeps most: {:.1}% \
+             (FLIP {:.3}), bias {bias}.",
+            b.label.trim_start_matches("+ "),
             b.thickness,
-            100.0 * worst_rms(b)
+            100.0 * mean_rms(b),
+            b.regions[0].flip
+        ));
+    }
+    if let Some(b) = best(true) {
+        s.push_str(&format!(
+            " The exact table (thickness from the {}): {:.1}% (FLIP {:.3}).",
+            b.thickness,
+            100.0 * mean_rms(b),
+            b.regions[0].flip
         ));
     }
     s

@@ -123,7 +123,7 @@ pub fn render(
         }
     }
     panels.push(LogLog {
-        title: "radial spread: radius holding 50% (dashed) and 90% of T".into(),
+        title: "radii holding 50% (dashed) and 90% of T (beam included, at r = 0)".into(),
         x_label: "slab thickness (mm)".into(),
         y_label: "radius around the beam (mm)".into(),
         curves: spread,

@@ -265,7 +265,9 @@ fn obj_shape(at: &Site, o: &RawObject) -> Result<Shape> {
                 &f("file"),
                 what,
                 format!(
-                    "crosses itself: triangle {k} and another triangle that shares no vertex with                      it pass through each other (a medium needs a surface that does not cross                      itself)"
+                    "crosses itself: triangle {k} and another triangle that shares no vertex with \
+                     it pass through each other (a medium needs a surface that does not cross \
+                     itself)"
                 ),
             ));
         }
