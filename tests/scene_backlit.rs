@@ -8,7 +8,7 @@
 mod common;
 
 use common::backlit_meshes::{shell, wedge};
-use common::{fails_with_in, ok_in, p, read_json};
+use common::{fails_with_in, p, read_json};
 use ssskit::scene::parse_scene_toml;
 use std::path::Path;
 

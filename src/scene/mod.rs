@@ -40,8 +40,8 @@ mod ray;
 mod render;
 mod rounds;
 mod samples;
-pub mod thickness;
 mod sphere;
+pub mod thickness;
 mod trace;
 
 pub use camera::{Camera, Measure, Projection};
