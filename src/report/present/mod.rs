@@ -22,3 +22,4 @@ pub mod sheet;
 pub mod ship_report;
 pub mod study_report;
 pub mod table;
+pub mod transmission_plots;
