@@ -32,6 +32,7 @@ pub mod printed;
 pub mod request;
 pub mod sampled;
 pub mod sampling;
+pub mod transmission;
 pub mod unreal;
 pub mod walk_profile;
 pub mod walk_table;

@@ -22,5 +22,6 @@ pub mod preview;
 pub mod profile_compare;
 pub mod scene_compare;
 pub mod scene_score;
+pub mod scene_transmission;
 pub mod shipped;
 pub mod study;
