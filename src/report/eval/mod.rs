@@ -13,6 +13,8 @@ pub mod advise_types;
 pub mod claims;
 pub mod colour_shift;
 pub mod disk_compare;
+pub mod engine_step;
+pub mod engine_tables;
 pub mod evaluate;
 pub mod kernel_compare;
 pub mod pipeline;

@@ -7,6 +7,7 @@ pub mod axes;
 pub mod colour_bar;
 pub mod diff_png;
 pub mod disk_table;
+pub mod engine_section;
 pub mod figures;
 pub mod kernel_plots;
 pub mod kernel_report;
