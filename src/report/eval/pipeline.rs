@@ -16,7 +16,7 @@ use crate::kernel::emit::{emit, Lang};
 use crate::kernel::KernelFile;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
-use crate::progress::Progress;
+use crate::progress::{Clock, Progress};
 use crate::report::present::kernel_report::{self, ReportContext};
 use crate::report::present::{advice_text, kernel_plots, plot};
 use crate::scene::{Render, Scene};
@@ -211,6 +211,11 @@ pub struct StageTimes {
     pub advice: f64,
     pub files: f64,
     pub total: f64,
+    /// CPU seconds of the stages of [`Self::stages`] and of the total,
+    /// every thread of the process ([`crate::progress::process_cpu_seconds`]);
+    /// the profile's are the process's before the pipeline starts (the
+    /// profile and the command's start-up).
+    pub cpu: [f64; 7],
 }
 
 impl StageTimes {
@@ -226,12 +231,18 @@ impl StageTimes {
         ]
     }
 
-    /// The report's table: one row per stage and the total.
+    /// The report's table: one row per stage and the total, wall and CPU
+    /// seconds.
     pub fn markdown(&self) -> String {
-        let mut t = crate::report::present::table::Table::new(&["stage", "wall s"]);
-        for (name, s) in self.stages().into_iter().chain([("total", self.total)]) {
+        let mut t = crate::report::present::table::Table::new(&["stage", "wall s", "CPU s"]);
+        let rows = self.stages().into_iter().chain([("total", self.total)]);
+        for ((name, s), cpu) in rows.zip(self.cpu) {
             // Milliseconds, so that the rows add up as the numbers do.
-            t.push(vec![name.to_string(), format!("{s:.3}")]);
+            t.push(vec![
+                name.to_string(),
+                format!("{s:.3}"),
+                format!("{cpu:.3}"),
+            ]);
         }
         t.markdown()
     }
@@ -250,19 +261,20 @@ pub fn run(
     scene: Option<(&Scene, &Render)>,
     progress: &dyn Progress,
 ) -> Result<Outcome> {
-    let t0 = std::time::Instant::now();
+    let t0 = Clock::start();
     let mut times = StageTimes {
         profile: profile_seconds,
         ..StageTimes::default()
     };
+    times.cpu[0] = crate::progress::process_cpu_seconds();
     let mut files = Vec::new();
-    let t = std::time::Instant::now();
+    let t = Clock::start();
     std::fs::create_dir_all(dir.join("kernels"))
         .map_err(|e| Error::format(dir, format!("cannot create the output folder: {e}")))?;
     profile.write(&dir.join("profile.json"))?;
     Profile::read(&dir.join("profile.json"))?;
     files.push("profile.json".to_string());
-    times.files += t.elapsed().as_secs_f64();
+    let files_clock = t.elapsed();
     let name = profile.material.name.clone();
     let cases: Vec<ImageCase> = [Signal::Edge, Signal::Shapes]
         .iter()
@@ -288,7 +300,8 @@ pub fn run(
     let cmp = kernel_compare::run(std::slice::from_ref(&input), &cfg, progress)?;
     (times.truth, times.fits, times.images) =
         (cmp.seconds.truth, cmp.seconds.fits, cmp.seconds.images);
-    let t = std::time::Instant::now();
+    times.cpu[1..4].copy_from_slice(&cmp.seconds.cpu);
+    let t = Clock::start();
     let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
     acfg.size = settings.size;
     acfg.budget = settings.budget;
@@ -296,15 +309,10 @@ pub fn run(
         truth: cmp.truths[0].clone(),
         fits: cmp.fits[0].clone(),
     };
-    let advice = advise::advise_prepared(
-        profile,
-        &acfg,
-        scene,
-        Some(prepared),
-        &crate::progress::NoProgress,
-    )?;
-    times.advice = t.elapsed().as_secs_f64();
-    let t = std::time::Instant::now();
+    let advice = advise::advise_prepared(profile, &acfg, scene, Some(prepared), progress)?;
+    (times.advice, times.cpu[4]) = t.elapsed();
+    let t = Clock::start();
+    progress.start(0, "report and files");
     let ctx = ReportContext {
         command,
         signals: &signal_names,
@@ -313,9 +321,14 @@ pub fn run(
         options: &options,
     };
     write_files(&cmp, &advice, &ctx, settings, dir, &mut files)?;
-    times.files += t.elapsed().as_secs_f64();
-    times.total = profile_seconds + t0.elapsed().as_secs_f64();
+    let (wall, cpu) = t.elapsed();
+    (times.files, times.cpu[5]) = (files_clock.0 + wall, files_clock.1 + cpu);
+    let (wall, cpu) = t0.elapsed();
+    (times.total, times.cpu[6]) = (profile_seconds + wall, times.cpu[0] + cpu);
     write_report(&advice, &times, dir, &mut files)?;
+    progress.set_total(files.len() as u64);
+    progress.advance(files.len() as u64);
+    progress.finish();
     Ok(Outcome {
         comparison: cmp,
         advice,
@@ -391,8 +404,9 @@ fn write_report(
         advice_text::explain(advice)
     ));
     md.push_str(&format!(
-        "\n## Stage times\n\nWall seconds of this run's stages; the truth and each fit \
-         were made once, for the comparison, and the advice scored those same fits.\n\n{}",
+        "\n## Stage times\n\nWall and CPU seconds of this run's stages (CPU: every thread; \
+         the profile's include the command's start-up); the truth and each fit were made once, \
+         for the comparison, and the advice scored those same fits.\n\n{}",
         times.markdown()
     ));
     crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
