@@ -445,6 +445,23 @@ mod tests {
         let ks = [kernel(25, 0.1), kernel(11, -0.2), kernel(31, 0.05)];
         let bank = KernelBank::new(&ks.iter().collect::<Vec<_>>(), 37, 29);
         let got = bank.convolve(&img).unwrap();
+        // Banks of a pair and a single padded as the one bank of all
+        // (`with_half`, advise's replicates a group at a time) give its
+        // images bit for bit.
+        let parts = [&ks[..2], &ks[2..]];
+        let in_parts: Vec<Image> = parts
+            .iter()
+            .flat_map(|p| {
+                let b = KernelBank::with_half(&p.iter().collect::<Vec<_>>(), 37, 29, 15);
+                b.convolve(&img).unwrap()
+            })
+            .collect();
+        for (a, b) in got.iter().zip(&in_parts) {
+            for c in 0..3 {
+                let bits = |i: &Image| i.rgb[c].iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(a), bits(b));
+            }
+        }
         assert_eq!(got.len(), 3);
         for (k, g) in ks.iter().zip(&got) {
             let want = convolve_2d(&img, k);

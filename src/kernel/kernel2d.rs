@@ -486,6 +486,44 @@ mod tests {
         }
     }
 
+    /// Kernels made together ([`Kernel2D::from_profiles`]: profiles on one
+    /// radial grid, one cell grid, integrated in one sweep) are each the
+    /// kernel `from_profile` makes alone, bit for bit; a profile on other
+    /// nodes or another grid in the same call too.
+    #[test]
+    fn kernels_made_together_are_each_made_alone_bit_for_bit() {
+        let p = dipole(0.01, 3.0);
+        let mut q = p.clone();
+        for (c, rd) in q.rd.iter_mut().enumerate() {
+            for (i, v) in rd.iter_mut().enumerate() {
+                *v *= 1.0 + 0.01 * ((i * 7 + c) % 5) as f64;
+            }
+        }
+        let other = dipole(0.02, 2.0);
+        let spec = Kernel2DSpec {
+            size: Some(41),
+            extent_mm: Some(2.5),
+        };
+        let wide = Kernel2DSpec {
+            size: Some(21),
+            ..spec
+        };
+        let items = [(&p, spec), (&q, spec), (&other, spec), (&p, wide)];
+        let together = Kernel2D::from_profiles(&items).unwrap();
+        for ((prof, sp), t) in items.iter().zip(&together) {
+            let alone = Kernel2D::from_profile(prof, sp).unwrap();
+            for c in 0..3 {
+                let bits = |k: &Kernel2D| k.data[c].iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(t), bits(&alone));
+            }
+            assert_eq!(
+                t.captured.map(f64::to_bits),
+                alone.captured.map(f64::to_bits)
+            );
+        }
+        assert_ne!(together[0].data[0], together[1].data[0]);
+    }
+
     /// A pixel much wider than the kernel: R_d is a delta at the centre of
     /// the pixel, where every tent but the centre's is 0.
     #[test]
