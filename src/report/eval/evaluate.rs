@@ -194,10 +194,14 @@ impl Exact {
 
     /// The exact image of every case: one reference kernel per scale
     /// serves the cases at that scale ([`Exact::with_kernel`]); an error
-    /// names the image it is about.
-    pub fn per_scale(profile: &Profile, cases: &[ImageCase]) -> Result<Vec<Exact>> {
+    /// is placed by `place` of the case it is about ([`Error::within`]).
+    pub fn per_scale(
+        profile: &Profile,
+        cases: &[ImageCase],
+        place: &dyn Fn(&ImageCase) -> String,
+    ) -> Result<Vec<Exact>> {
         use rayon::prelude::*;
-        let failed = |c: &ImageCase, e: Error| Error::Unsupported(format!("image {}: {e}", c.name));
+        let failed = |c: &ImageCase, e: Error| e.within(&place(c));
         // Per case, its kernel among those made (one per scale).
         let mut kernels: Vec<(f64, Kernel2D)> = Vec::new();
         let mut which = Vec::with_capacity(cases.len());

@@ -275,11 +275,10 @@ pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
 
 /// An error about material `name`, naming it unless it already does.
 fn named(name: &str, e: Error) -> Error {
-    let text = e.to_string();
-    if text.contains(&format!("'{name}'")) {
+    if e.to_string().contains(&format!("'{name}'")) {
         e
     } else {
-        Error::Unsupported(format!("material '{name}': {text}"))
+        e.within(&format!("material '{name}'"))
     }
 }
 
@@ -370,7 +369,10 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
 fn exact_images(inputs: &[MaterialInput], cfg: &Config) -> Result<Vec<Vec<Exact>>> {
     inputs
         .par_iter()
-        .map(|m| Exact::per_scale(&m.profile, &cfg.cases).map_err(|e| named(&m.name, e)))
+        .map(|m| {
+            let place = |c: &ImageCase| format!("material '{}', image {}", m.name, c.name);
+            Exact::per_scale(&m.profile, &cfg.cases, &place)
+        })
         .collect()
 }
 

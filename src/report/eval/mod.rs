@@ -16,6 +16,7 @@ pub mod disk_compare;
 pub mod evaluate;
 pub mod kernel_compare;
 pub mod pipeline;
+pub mod preview;
 pub mod profile_compare;
 pub mod scene_compare;
 pub mod scene_score;
