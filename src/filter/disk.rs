@@ -17,7 +17,7 @@
 //! (`exact::PixelSampling::Average`), the oracle of the tests.
 
 use super::accumulate::Accumulate;
-use super::disk_lanes;
+use super::disk_lanes::{self, Packed, Planes, Texels};
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
 use crate::kernel::disk::DiskKernelFile;
@@ -312,59 +312,6 @@ struct Pass<'a> {
     /// Whether the samples may go four at a time ([`disk_lanes`]): AVX2,
     /// no depth-aware lerp.
     lanes: bool,
-}
-
-/// Where a pass reads the image: the fetch of four pixels with their
-/// bilinear weights, per channel (a fourth lane, zero, pads the channels to
-/// one 32-byte vector). Every channel's sum is p0 w0 + p1 w1 + p2 w2 + p3 w3
-/// in that order, whatever the layout.
-trait Texels: Sync {
-    fn bilinear(&self, idx: &[usize; 4], wt: &[f64; 4]) -> [f64; 4];
-    /// The packed texels, where the image is packed.
-    fn packed(&self) -> Option<&[[f64; 4]]> {
-        None
-    }
-}
-
-/// The image's own planes (the in-place sweep, whose rows change between
-/// bands).
-struct Planes<'a>(&'a [Vec<f64>; 3]);
-
-impl Texels for Planes<'_> {
-    #[inline(always)]
-    fn bilinear(&self, idx: &[usize; 4], wt: &[f64; 4]) -> [f64; 4] {
-        let mut o = [0.0; 4];
-        for (o, p) in o.iter_mut().zip(self.0) {
-            *o = p[idx[0]] * wt[0] + p[idx[1]] * wt[1] + p[idx[2]] * wt[2] + p[idx[3]] * wt[3];
-        }
-        o
-    }
-}
-
-/// The image packed [r, g, b, 0] per pixel (passes over an image that does
-/// not change, [`disk_frames`]): a fetch reads four texels and sums the
-/// channels side by side.
-struct Packed(Vec<[f64; 4]>);
-
-impl Packed {
-    fn new(image: &Image) -> Packed {
-        let [r, g, b] = &image.rgb;
-        Packed((0..image.len()).map(|i| [r[i], g[i], b[i], 0.0]).collect())
-    }
-}
-
-impl Texels for Packed {
-    fn packed(&self) -> Option<&[[f64; 4]]> {
-        Some(&self.0)
-    }
-
-    #[inline(always)]
-    fn bilinear(&self, idx: &[usize; 4], wt: &[f64; 4]) -> [f64; 4] {
-        let t = idx.map(|i| self.0[i]);
-        std::array::from_fn(|l| {
-            t[0][l] * wt[0] + t[1][l] * wt[1] + t[2][l] * wt[2] + t[3][l] * wt[3]
-        })
-    }
 }
 
 impl<'a> Pass<'a> {

@@ -6,9 +6,65 @@
 //! multiply-add; truncation where it truncates), and the samples are then
 //! added to the frame one by one in their order: the same frame bit for
 //! bit (`disk`'s tests hold the two side by side).
+//!
+//! Also the two layouts a disk pass reads the image in ([`Texels`]).
 
+use super::Image;
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
+
+/// Where a pass reads the image: the fetch of four pixels with their
+/// bilinear weights, per channel (a fourth lane, zero, pads the channels to
+/// one 32-byte vector). Every channel's sum is p0 w0 + p1 w1 + p2 w2 + p3 w3
+/// in that order, whatever the layout.
+pub(super) trait Texels: Sync {
+    fn bilinear(&self, idx: &[usize; 4], wt: &[f64; 4]) -> [f64; 4];
+    /// The packed texels, where the image is packed.
+    fn packed(&self) -> Option<&[[f64; 4]]> {
+        None
+    }
+}
+
+/// The image's own planes (the in-place sweep, whose rows change between
+/// bands).
+pub(super) struct Planes<'a>(pub &'a [Vec<f64>; 3]);
+
+impl Texels for Planes<'_> {
+    #[inline(always)]
+    fn bilinear(&self, idx: &[usize; 4], wt: &[f64; 4]) -> [f64; 4] {
+        let mut o = [0.0; 4];
+        for (o, p) in o.iter_mut().zip(self.0) {
+            *o = p[idx[0]] * wt[0] + p[idx[1]] * wt[1] + p[idx[2]] * wt[2] + p[idx[3]] * wt[3];
+        }
+        o
+    }
+}
+
+/// The image packed [r, g, b, 0] per pixel (passes over an image that does
+/// not change, `disk::disk_frames`): a fetch reads four texels and sums the
+/// channels side by side.
+pub(super) struct Packed(Vec<[f64; 4]>);
+
+impl Packed {
+    pub fn new(image: &Image) -> Packed {
+        let [r, g, b] = &image.rgb;
+        Packed((0..image.len()).map(|i| [r[i], g[i], b[i], 0.0]).collect())
+    }
+}
+
+impl Texels for Packed {
+    fn packed(&self) -> Option<&[[f64; 4]]> {
+        Some(&self.0)
+    }
+
+    #[inline(always)]
+    fn bilinear(&self, idx: &[usize; 4], wt: &[f64; 4]) -> [f64; 4] {
+        let t = idx.map(|i| self.0[i]);
+        std::array::from_fn(|l| {
+            t[0][l] * wt[0] + t[1][l] * wt[1] + t[2][l] * wt[2] + t[3][l] * wt[3]
+        })
+    }
+}
 
 /// One frame's rotation and scale at one pixel, and the image read.
 pub(super) struct Frame<'a> {
