@@ -4,7 +4,22 @@
 //! finding by bisection; box-bounded Nelder-Mead for the kernel fits, the
 //! golden-section search in log space for the engine fits and non-negative
 //! least squares for the Gaussian weights; erf and erfc; [`Bounded`], the
-//! one way a message prints a number that may be huge.
+//! one way a message prints a number that may be huge; [`has_avx2`], the
+//! one test of the CPU's vector units.
+
+/// Whether the CPU runs AVX2 and FMA: the inner loops that have an AVX2
+/// twin (the same operations four lanes at once, no fused multiply-add:
+/// the same bits) call it before they choose.
+pub fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
 
 /// 8-point Gauss-Legendre quadrature of `f` over [a, b] (exact for
 /// polynomials up to degree 15).
@@ -295,9 +310,18 @@ pub fn erf(x: f64) -> f64 {
     }
 }
 
+/// Where erfc is 0 in f64: e^{-x^2} underflows to 0 once x^2 exceeds
+/// 745.2 (x above 27.30), so the continued fraction's result is 0 there
+/// whatever the fraction (the Gaussian fits ask for erfc far out in the
+/// tails of narrow Gaussians, every cell of the grid).
+const ERFC_ZERO_FROM: f64 = 27.5;
+
 /// erfc(x) for x >= 3 by the Lentz continued fraction.
 fn erfc_cf(x: f64) -> f64 {
     // erfc x = e^{-x^2}/sqrt(pi) * 1/(x + 1/2/(x + 1/(x + 3/2/(x + ...))))
+    if x >= ERFC_ZERO_FROM {
+        return 0.0;
+    }
     let tiny = 1e-300;
     let mut f = x;
     let mut c = x;
@@ -558,6 +582,13 @@ mod tests {
             assert!((erf(x) - e).abs() < 1e-14, "erf({x}) = {}", erf(x));
         }
         assert!((erfc(5.0) - 1.537_459_794_428_035e-12).abs() < 1e-24);
+        // The continued fraction is already 0 below ERFC_ZERO_FROM (so
+        // returning 0 from there changes nothing) and not much earlier.
+        for x in [27.31, 27.4, 27.49] {
+            assert_eq!(erfc_cf(x), 0.0, "{x}");
+        }
+        assert!(erfc_cf(27.2) > 0.0);
+        assert_eq!(erfc(ERFC_ZERO_FROM), 0.0);
     }
 
     #[test]

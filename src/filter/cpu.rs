@@ -10,8 +10,8 @@
 //! name every CPU filter as `filter::cpu::…`.
 
 pub use super::exact::{
-    check_reference_fits, convolve_2d, reference_kernel, reference_kernel_sampled, PixelSampling,
-    FFT_ABOVE,
+    check_reference_fits, convolve_2d, reference_kernel, reference_kernel_sampled,
+    reference_kernels, reference_size, PixelSampling, FFT_ABOVE,
 };
 pub use super::screen_space::{apply_screen_space, apply_screen_space_in_place};
 use super::separable::apply_separable_in;

@@ -24,8 +24,7 @@ pub fn compare(a: &Image, b: &Image) -> Result<DiffStats> {
             a.width, a.height, b.width, b.height
         )));
     }
-    let peak = a.peak();
-    let any_peak = peak.iter().fold(0.0f64, |m, &p| m.max(p));
+    let scale = rel_scale(a);
     let mut s = DiffStats {
         rms: [0.0; 3],
         max_abs: [0.0; 3],
@@ -43,12 +42,120 @@ pub fn compare(a: &Image, b: &Image) -> Result<DiffStats> {
         }
         s.rms[c] = (sq / n).sqrt();
         s.max_abs[c] = mx;
-        let p = if peak[c] > 0.0 { peak[c] } else { any_peak };
-        let p = if p > 0.0 { p } else { 1.0 };
-        s.rms_rel[c] = s.rms[c] / p;
-        s.max_rel[c] = mx / p;
+        s.rms_rel[c] = s.rms[c] / scale[c];
+        s.max_rel[c] = mx / scale[c];
     }
     Ok(s)
+}
+
+/// What [`compare`] divides channel c by to make an error relative: the
+/// peak of `a`'s channel, the largest peak where that channel is zero
+/// everywhere, 1 where all are.
+pub fn rel_scale(a: &Image) -> [f64; 3] {
+    let peak = a.peak();
+    let any_peak = peak.iter().fold(0.0f64, |m, &p| m.max(p));
+    peak.map(|p| {
+        let p = if p > 0.0 { p } else { any_peak };
+        if p > 0.0 {
+            p
+        } else {
+            1.0
+        }
+    })
+}
+
+/// Reference images of one size packed pixel by pixel, so that one image
+/// is compared with all of them in one pass: [`RefStack::rms_rel`] gives
+/// each reference's `compare(reference, b).rms_rel` bit for bit (each
+/// reference's sum runs over the pixels in the same order; the references'
+/// sums advance side by side instead of one after the other).
+#[derive(Clone, Debug)]
+pub struct RefStack {
+    width: usize,
+    height: usize,
+    count: usize,
+    /// Per channel, pixel i of reference r at `i * count + r`.
+    planes: [Vec<f64>; 3],
+    scales: Vec<[f64; 3]>,
+}
+
+impl RefStack {
+    /// Packs `refs` (at least one, all of one size).
+    pub fn new(refs: &[&Image]) -> Result<RefStack> {
+        let Some(first) = refs.first() else {
+            return Err(Error::Unsupported("no reference image to compare".into()));
+        };
+        for r in refs {
+            super::image::check_same_size("a reference", r.width, r.height, first)?;
+        }
+        let count = refs.len();
+        let planes = std::array::from_fn(|c| {
+            let mut p = Vec::with_capacity(first.len() * count);
+            for i in 0..first.len() {
+                p.extend(refs.iter().map(|r| r.rgb[c][i]));
+            }
+            p
+        });
+        Ok(RefStack {
+            width: first.width,
+            height: first.height,
+            count,
+            planes,
+            scales: refs.iter().map(|r| rel_scale(r)).collect(),
+        })
+    }
+
+    /// References packed.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// `compare(reference, b).rms_rel` for every reference, in order (in
+    /// AVX2 where the CPU has it).
+    pub fn rms_rel(&self, b: &Image) -> Result<Vec<[f64; 3]>> {
+        if (self.width, self.height) != (b.width, b.height) {
+            return Err(Error::Unsupported(format!(
+                "the images differ in size: {}x{} and {}x{}",
+                self.width, self.height, b.width, b.height
+            )));
+        }
+        #[cfg(target_arch = "x86_64")]
+        if crate::numerics::has_avx2() {
+            // SAFETY: has_avx2 checked the CPU features.
+            return Ok(unsafe { self.rms_rel_avx2(b) });
+        }
+        Ok(self.rms_rel_lanes(b))
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn rms_rel_avx2(&self, b: &Image) -> Vec<[f64; 3]> {
+        self.rms_rel_lanes(b)
+    }
+
+    #[inline(always)]
+    fn rms_rel_lanes(&self, b: &Image) -> Vec<[f64; 3]> {
+        let n = b.len().max(1) as f64;
+        let mut out = vec![[0.0; 3]; self.count];
+        let mut sq = vec![0.0f64; self.count];
+        for c in 0..3 {
+            sq.fill(0.0);
+            for (refs, &y) in self.planes[c].chunks_exact(self.count).zip(&b.rgb[c]) {
+                for (s, &x) in sq.iter_mut().zip(refs) {
+                    let d = x - y;
+                    *s += d * d;
+                }
+            }
+            for ((o, s), scale) in out.iter_mut().zip(&sq).zip(&self.scales) {
+                o[c] = (s / n).sqrt() / scale[c];
+            }
+        }
+        out
+    }
 }
 
 /// A colour ramp black - purple - red - yellow - white, for t in [0, 1],
@@ -127,5 +234,25 @@ mod tests {
         assert!((s.rms[0] - 1.0).abs() < 1e-15);
         assert!((s.rms_rel[0] - 0.5).abs() < 1e-15);
         assert_eq!(s.max_rel[0], 1.0);
+    }
+
+    /// The stack's relative RMS is `compare`'s bit for bit, for each
+    /// reference (one with a dark channel, divided by the largest peak).
+    #[test]
+    fn the_stack_gives_compare_bit_for_bit() {
+        use crate::filter::signals::noise;
+        let mut refs: Vec<Image> = (0..5).map(|k| noise(13, 7, k)).collect();
+        refs[2].rgb[1].fill(0.0);
+        let b = noise(13, 7, 99);
+        let stack = RefStack::new(&refs.iter().collect::<Vec<_>>()).unwrap();
+        let got = stack.rms_rel(&b).unwrap();
+        assert_eq!(got.len(), refs.len());
+        let plain = stack.rms_rel_lanes(&b);
+        for ((r, g), p) in refs.iter().zip(&got).zip(&plain) {
+            let want = compare(r, &b).unwrap().rms_rel;
+            assert_eq!(want.map(f64::to_bits), g.map(f64::to_bits));
+            assert_eq!(want.map(f64::to_bits), p.map(f64::to_bits));
+        }
+        assert!(stack.rms_rel(&noise(7, 13, 1)).is_err());
     }
 }

@@ -40,6 +40,42 @@ pub fn reference_kernel_sampled(
     mm_per_pixel: f64,
     sampling: PixelSampling,
 ) -> Result<Kernel2D> {
+    let spec = reference_spec(profile, mm_per_pixel, sampling)?;
+    match sampling {
+        PixelSampling::Centre => Kernel2D::from_profile(profile, &spec),
+        PixelSampling::Average => {
+            Kernel2D::pixel_averaged(profile, spec.size.unwrap_or(1), mm_per_pixel)
+        }
+    }
+}
+
+/// Cells per side of [`reference_kernel`]'s kernel.
+pub fn reference_size(profile: &Profile, mm_per_pixel: f64) -> Result<usize> {
+    Ok(
+        reference_spec(profile, mm_per_pixel, PixelSampling::Centre)?
+            .size
+            .unwrap_or(1),
+    )
+}
+
+/// [`reference_kernel`] of each profile, in order: the kernels on one grid
+/// of profiles on one radial grid (the bootstrap replicates of one
+/// profile) integrated together ([`Kernel2D::from_profiles`]).
+pub fn reference_kernels(profiles: &[&Profile], mm_per_pixel: f64) -> Result<Vec<Kernel2D>> {
+    let items: Vec<(&Profile, Kernel2DSpec)> = profiles
+        .iter()
+        .map(|&p| Ok((p, reference_spec(p, mm_per_pixel, PixelSampling::Centre)?)))
+        .collect::<Result<_>>()?;
+    Kernel2D::from_profiles(&items)
+}
+
+/// The grid of [`reference_kernel_sampled`]: one pixel per cell out to the
+/// radius holding 99.9% of every channel (one pixel more for `Average`).
+fn reference_spec(
+    profile: &Profile,
+    mm_per_pixel: f64,
+    sampling: PixelSampling,
+) -> Result<Kernel2DSpec> {
     super::check_mm_per_pixel(mm_per_pixel)?;
     let radius = (0..profile.channels.len())
         .map(|c| crate::profile::radius_holding(profile, c, 0.999))
@@ -62,16 +98,10 @@ pub fn reference_kernel_sampled(
             ),
         ));
     }
-    match sampling {
-        PixelSampling::Centre => Kernel2D::from_profile(
-            profile,
-            &Kernel2DSpec {
-                size: Some(size),
-                extent_mm: Some(size as f64 * mm_per_pixel / 2.0),
-            },
-        ),
-        PixelSampling::Average => Kernel2D::pixel_averaged(profile, size, mm_per_pixel),
-    }
+    Ok(Kernel2DSpec {
+        size: Some(size),
+        extent_mm: Some(size as f64 * mm_per_pixel / 2.0),
+    })
 }
 
 /// Kernel sizes above this use the FFT.
@@ -180,10 +210,12 @@ pub fn convolve_2d_fft(src: &[f64], w: usize, h: usize, k: &[f64], size: usize) 
     let mut planner = rustfft::FftPlanner::<f64>::new();
     let (fx, fy) = (planner.plan_fft_forward(nx), planner.plan_fft_forward(ny));
     let (ix, iy) = (planner.plan_fft_inverse(nx), planner.plan_fft_inverse(ny));
-    fft_2d(&mut a, nx, ny, &*fx, &*fy);
-    fft_2d(&mut b, nx, ny, &*fx, &*fy);
+    let mut t = vec![zero; nx * ny];
+    fft_2d(&mut a, nx, ny, &*fx, &*fy, &mut t);
+    fft_2d(&mut b, nx, ny, &*fx, &*fy, &mut t);
     a.par_iter_mut().zip(&b).for_each(|(x, y)| *x *= y);
-    fft_2d(&mut a, nx, ny, &*ix, &*iy);
+    drop(b);
+    fft_2d(&mut a, nx, ny, &*ix, &*iy, &mut t);
     let norm = 1.0 / (nx * ny) as f64;
     let mut out = vec![0.0; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, o)| {
@@ -217,6 +249,16 @@ impl KernelBank {
     /// The spectra of `kernels` for images of `w` x `h` pixels.
     pub fn new(kernels: &[&Kernel2D], w: usize, h: usize) -> KernelBank {
         let r = kernels.iter().map(|k| k.size / 2).max().unwrap_or(0);
+        KernelBank::with_half(kernels, w, h, r)
+    }
+
+    /// [`Self::new`] padded for kernels up to `r` pixels from the centre
+    /// (at least the largest of `kernels`): banks of a few kernels each,
+    /// made in turn to bound memory, pad as one bank of all would, so that
+    /// every image is the one that bank gives, bit for bit (the padding
+    /// sets the transforms' size; the pairs must be the same too).
+    pub fn with_half(kernels: &[&Kernel2D], w: usize, h: usize, r: usize) -> KernelBank {
+        let r = kernels.iter().map(|k| k.size / 2).fold(r, usize::max);
         let (nx, ny) = (smooth_size(w + 2 * r), smooth_size(h + 2 * r));
         let mut planner = rustfft::FftPlanner::<f64>::new();
         let (fx, fy) = (planner.plan_fft_forward(nx), planner.plan_fft_forward(ny));
@@ -241,7 +283,14 @@ impl KernelBank {
                             }
                         }
                     }
-                    fft_2d(&mut b, nx, ny, &*fx, &*fy);
+                    fft_2d(
+                        &mut b,
+                        nx,
+                        ny,
+                        &*fx,
+                        &*fy,
+                        &mut vec![Complex::new(0.0, 0.0); nx * ny],
+                    );
                     b
                 })
                 .collect()
@@ -255,6 +304,13 @@ impl KernelBank {
             count: kernels.len(),
             pairs,
         }
+    }
+
+    /// Bytes of one pair's spectra (three channels) in a bank for images of
+    /// `w` x `h` pixels and kernels up to `r` pixels from the centre.
+    pub fn pair_bytes(w: usize, h: usize, r: usize) -> usize {
+        let (nx, ny) = (smooth_size(w + 2 * r), smooth_size(h + 2 * r));
+        3 * nx * ny * std::mem::size_of::<Complex<f64>>()
     }
 
     /// `image` convolved with each kernel, in the bank's order.
@@ -277,9 +333,13 @@ impl KernelBank {
             })
             .collect();
         let norm = 1.0 / (nx * ny) as f64;
+        // Reused by every channel and pair: fresh buffers of this size are
+        // fresh pages, zeroed by the kernel on every touch.
+        let zero = Complex::new(0.0, 0.0);
+        let (mut prod, mut scratch) = (vec![zero; nx * ny], vec![zero; nx * ny]);
         for c in 0..3 {
             let src = &image.rgb[c];
-            let mut a = vec![Complex::new(0.0, 0.0); nx * ny];
+            let mut a = vec![zero; nx * ny];
             a.par_chunks_mut(nx)
                 .enumerate()
                 .take(h + 2 * r)
@@ -289,11 +349,13 @@ impl KernelBank {
                         *v = Complex::new(src[sy * w + clamp_index(x as i64 - r as i64, w)], 0.0);
                     }
                 });
-            fft_2d(&mut a, nx, ny, &*fx, &*fy);
+            fft_2d(&mut a, nx, ny, &*fx, &*fy, &mut scratch);
             for (p, spec) in self.pairs[c].iter().enumerate() {
-                let mut prod: Vec<Complex<f64>> =
-                    a.par_iter().zip(spec).map(|(x, y)| x * y).collect();
-                fft_2d(&mut prod, nx, ny, &*ix, &*iy);
+                prod.par_iter_mut()
+                    .zip(&a)
+                    .zip(spec)
+                    .for_each(|((o, x), y)| *o = x * y);
+                fft_2d(&mut prod, nx, ny, &*ix, &*iy, &mut scratch);
                 for part in 0..2 {
                     let Some(o) = out.get_mut(2 * p + part) else {
                         continue;
@@ -311,18 +373,20 @@ impl KernelBank {
     }
 }
 
+/// The 2D transform of `data` (rows of `nx`), `t` a buffer of the same
+/// size for the transposed rows.
 fn fft_2d(
     data: &mut [Complex<f64>],
     nx: usize,
     ny: usize,
     fx: &dyn rustfft::Fft<f64>,
     fy: &dyn rustfft::Fft<f64>,
+    t: &mut [Complex<f64>],
 ) {
     data.par_chunks_mut(nx).for_each(|row| fx.process(row));
-    let mut t = vec![Complex::new(0.0, 0.0); nx * ny];
-    transpose(data, &mut t, nx, ny);
+    transpose(data, t, nx, ny);
     t.par_chunks_mut(ny).for_each(|col| fy.process(col));
-    transpose(&t, data, ny, nx);
+    transpose(t, data, ny, nx);
 }
 
 /// `dst[x * h + y] = src[y * w + x]` for a w x h `src`.
@@ -381,6 +445,23 @@ mod tests {
         let ks = [kernel(25, 0.1), kernel(11, -0.2), kernel(31, 0.05)];
         let bank = KernelBank::new(&ks.iter().collect::<Vec<_>>(), 37, 29);
         let got = bank.convolve(&img).unwrap();
+        // Banks of a pair and a single padded as the one bank of all
+        // (`with_half`, advise's replicates a group at a time) give its
+        // images bit for bit.
+        let parts = [&ks[..2], &ks[2..]];
+        let in_parts: Vec<Image> = parts
+            .iter()
+            .flat_map(|p| {
+                let b = KernelBank::with_half(&p.iter().collect::<Vec<_>>(), 37, 29, 15);
+                b.convolve(&img).unwrap()
+            })
+            .collect();
+        for (a, b) in got.iter().zip(&in_parts) {
+            for c in 0..3 {
+                let bits = |i: &Image| i.rgb[c].iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(a), bits(b));
+            }
+        }
         assert_eq!(got.len(), 3);
         for (k, g) in ks.iter().zip(&got) {
             let want = convolve_2d(&img, k);

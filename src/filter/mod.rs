@@ -27,6 +27,7 @@ pub mod diff;
 pub mod disk;
 pub mod disk_error;
 pub mod disk_gpu;
+mod disk_lanes;
 pub mod exact;
 pub mod exr_plane;
 pub mod gpu;
@@ -39,6 +40,7 @@ pub mod separable;
 pub mod signals;
 pub mod sweep;
 pub mod timing;
+mod uniform_pass;
 pub mod warnings;
 pub(crate) mod which;
 

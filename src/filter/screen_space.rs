@@ -14,7 +14,14 @@
 //! filter (796 MB each at 8K in f64). Rayon over the rows of a band; each
 //! output pixel is the same sum in the same order whatever the band or the
 //! thread count (deterministic).
+//!
+//! Where every pixel has the same step and nothing is jittered or lerped
+//! (a uniform scale without depth or strength: the advice scores its
+//! candidates so), the rows are summed tap by tap ([`super::uniform_pass`]),
+//! the same products added in the same order as [`PassCtx::pixel`] (bit for
+//! bit, tested).
 
+use super::uniform_pass::{Lerp, Src, Uniform};
 use super::{Image, Setup, Taps};
 use rayon::prelude::*;
 
@@ -55,6 +62,12 @@ pub fn apply_screen_space_in_place(image: &mut Image, setup: &Setup) {
 
 /// The sweep, in bands of `band` rows (None: from the vertical reach).
 fn sweep(image: &mut Image, setup: &Setup, band: Option<usize>) {
+    sweep_with(image, setup, band, true)
+}
+
+/// [`sweep`], with `uniform` false summing every pixel apart even where
+/// the step is uniform (the tests' yardstick for the uniform path).
+fn sweep_with(image: &mut Image, setup: &Setup, band: Option<usize>, uniform: bool) {
     let (w, h) = (image.width, image.height);
     if setup.passes.is_empty() || w * h == 0 {
         image.rgb.iter_mut().for_each(|p| p.fill(0.0));
@@ -78,6 +91,7 @@ fn sweep(image: &mut Image, setup: &Setup, band: Option<usize>) {
             depth: setup.depth.as_ref().map(|d| d.data.as_slice()),
             follow: setup.follow_surface.map(|f| f.rate(&setup.scale)),
             footprints: f.as_deref(),
+            uniform: Uniform::new(setup, taps, w, h).filter(|_| uniform),
         })
         .collect();
     let reach = reach_rows(setup, &ctxs, w, h);
@@ -158,6 +172,12 @@ impl Window {
         }
         let span = self.rows * w..(hi - self.first) * w;
         let [r, g, b] = &mut self.planes;
+        if let Some(u) = &ctx.uniform {
+            let out = [&mut r[span.clone()], &mut g[span.clone()], &mut b[span]];
+            u.horizontal_rows(ctx.taps, image, start, hi, out);
+            self.rows = hi - self.first;
+            return;
+        }
         r[span.clone()]
             .par_chunks_mut(w)
             .zip(g[span.clone()].par_chunks_mut(w))
@@ -179,12 +199,6 @@ impl Window {
     }
 }
 
-/// Where a pass reads: three planes whose row 0 is the image's row `first`.
-struct Src<'a> {
-    planes: [&'a [f64]; 3],
-    first: usize,
-}
-
 struct PassCtx<'a> {
     w: usize,
     h: usize,
@@ -196,6 +210,8 @@ struct PassCtx<'a> {
     follow: Option<f64>,
     /// Jittered taps: each tap's footprint (start, width) in kernel mm.
     footprints: Option<&'a [(f64, f64)]>,
+    /// The rows' sums tap by tap, where every pixel has the same step.
+    uniform: Option<Uniform>,
 }
 
 impl PassCtx<'_> {
@@ -215,6 +231,9 @@ impl PassCtx<'_> {
             .zip(bl[span].par_chunks_mut(w))
             .enumerate()
             .for_each(|(j, ((r, g), bl))| {
+                if let Some(u) = &self.uniform {
+                    return u.vertical_row(self.taps, &src, a + j, [r, g, bl], add);
+                }
                 for x in 0..w {
                     let v = self.pixel(&src, Axis::Vertical, x, a + j);
                     if add {
@@ -258,15 +277,11 @@ impl PassCtx<'_> {
                 None => *off,
             };
             // Freude 2014, eq. 4.11: the offset scaled by the pixel's kernel size.
-            let p = (coord as f64 + off * step).clamp(0.0, (n - 1) as f64);
-            // p >= 0, so truncation is floor (and avoids a libm call).
-            let i0 = p as usize;
-            let f = p - i0 as f64;
-            let i1 = (i0 + 1).min(n - 1);
+            let Lerp { i0, i1, f, g } = Lerp::at(coord, off * step, n);
             let (a, b) = (base + i0 * stride, base + i1 * stride);
             let mut o = [0.0; 3];
             for c in 0..3 {
-                o[c] = planes[c][a - shift] * (1.0 - f) + planes[c][b - shift] * f;
+                o[c] = planes[c][a - shift] * g + planes[c][b - shift] * f;
             }
             if let (Some(k), Some(d)) = (self.follow, self.depth) {
                 let od = d[a] * (1.0 - f) + d[b] * f;
@@ -342,6 +357,7 @@ mod tests {
                     depth: None,
                     follow: None,
                     footprints: Some(f),
+                    uniform: None,
                 })
                 .collect();
             reach_rows(&setup, &ctxs, w, h)
@@ -352,5 +368,53 @@ mod tests {
         crate::filter::band_check::assert_bands_agree(&img, &[1, 2, 5, 13, 31], |out, band| {
             sweep(out, &setup, Some(band))
         });
+    }
+
+    /// The uniform path sums what the per-pixel one does, bit for bit: two
+    /// ranks of asymmetric taps at fractional positions, some past either
+    /// edge (clamped), on a wide and a tall image, in several band heights.
+    #[test]
+    fn the_uniform_path_is_the_per_pixel_sum_bit_for_bit() {
+        let taps = Taps {
+            offsets_mm: vec![-7.3, -0.91, -0.3, 0.0, 0.37, 1.13, 2.9],
+            weights: vec![
+                [0.05, 0.1, 0.02],
+                [0.1, 0.2, 0.05],
+                [0.2, 0.2, 0.25],
+                [0.3, 0.3, 0.4],
+                [0.2, 0.1, 0.2],
+                [0.1, 0.05, 0.1],
+                [-0.02, 0.05, 0.01],
+            ],
+        };
+        let mut other = taps.clone();
+        other.offsets_mm.iter_mut().for_each(|o| *o *= -0.6);
+        for (w, h) in [(150, 37), (23, 90)] {
+            let img = noise(w, h, 7);
+            let setup = Setup {
+                passes: vec![taps.clone(), other.clone()],
+                scale: Scale::MmPerPixel(0.37),
+                depth: None,
+                strength: None,
+                follow_surface: None,
+                specular: None,
+                jitter: false,
+            };
+            for band in [None, Some(3), Some(40)] {
+                let (mut fast, mut slow) = (img.clone(), img.clone());
+                sweep_with(&mut fast, &setup, band, true);
+                sweep_with(&mut slow, &setup, band, false);
+                for c in 0..3 {
+                    for (i, (a, b)) in fast.rgb[c].iter().zip(&slow.rgb[c]).enumerate() {
+                        assert_eq!(
+                            a.to_bits(),
+                            b.to_bits(),
+                            "{w}x{h} band {band:?} c {c} px {i}"
+                        );
+                    }
+                }
+                assert_ne!(fast.rgb[0], img.rgb[0]);
+            }
+        }
     }
 }

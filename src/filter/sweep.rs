@@ -264,21 +264,10 @@ fn fill_clamped<T: Sample, S: Sample>(pad: &mut Vec<T>, row: &[S], first: i64, l
     ));
 }
 
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// out[x] = sum_j wts[j] pad[x + j], blocked so each output is stored once.
 fn correlate_row<T: Sample>(pad: &[T], wts: &[T], out: &mut [T]) {
     #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
+    if crate::numerics::has_avx2() {
         // SAFETY: has_avx2 checked the CPU features.
         return unsafe { correlate_row_avx2(pad, wts, out) };
     }
@@ -379,7 +368,7 @@ fn accumulate_row<T: Sample, S: Sample>(
     add: bool,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
+    if crate::numerics::has_avx2() {
         // SAFETY: has_avx2 checked the CPU features.
         return unsafe { accumulate_row_avx2(ring, offsets, wts, out, add) };
     }

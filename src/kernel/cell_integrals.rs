@@ -300,44 +300,63 @@ fn narrowest_bin(interp: &RadialInterp, cell: f64) -> f64 {
         .max(cell * 1e-3)
 }
 
-pub(super) fn cell_integrals(interp: &RadialInterp, size: usize, cell: f64) -> Vec<f64> {
+/// The cell integrals of each of `interps` (reconstructions on the same
+/// nodes: [`RadialInterp::same_nodes`]), each `size` x `size` row-major:
+/// the supersampled cells place each sample among the nodes once for all
+/// of them, and each adds its values in the same order as alone.
+pub(super) fn cell_integrals(interps: &[RadialInterp], size: usize, cell: f64) -> Vec<Vec<f64>> {
+    let Some(lead) = interps.first() else {
+        return Vec::new();
+    };
+    debug_assert!(interps.iter().all(|f| f.same_nodes(lead)));
+    let k = interps.len();
     let half = size / 2;
     // Narrowest bin: the resolution the supersampling must follow.
-    let bin_width = narrowest_bin(interp, cell);
+    let bin_width = narrowest_bin(lead, cell);
     // Octant 0 <= dy <= dx <= half.
-    let octant: Vec<(usize, usize, f64)> = (0..=half)
+    let octant: Vec<(usize, usize, Vec<f64>)> = (0..=half)
         .into_par_iter()
         .flat_map_iter(|dx| {
             (0..=dx).map(move |dy| {
                 let x0 = (dx as f64 - 0.5) * cell;
                 let y0 = (dy as f64 - 0.5) * cell;
                 let r_near = ((x0.max(0.0)).powi(2) + (y0.max(0.0)).powi(2)).sqrt();
-                if r_near > interp.r_max() {
-                    return (dx, dy, 0.0);
+                if r_near > lead.r_max() {
+                    return (dx, dy, vec![0.0; k]);
                 }
                 if dx == 0 {
-                    return (0, 0, centre_cell_integral(interp, cell / 2.0));
+                    let c = interps
+                        .iter()
+                        .map(|f| centre_cell_integral(f, cell / 2.0))
+                        .collect();
+                    return (0, 0, c);
                 }
                 let ss = supersampling(cell, r_near, dx, bin_width);
                 let h = cell / ss as f64;
-                let mut s = 0.0;
+                let mut s = vec![0.0; k];
                 for sy in 0..ss {
                     let y = y0 + (sy as f64 + 0.5) * h;
                     for sx in 0..ss {
                         let x = x0 + (sx as f64 + 0.5) * h;
-                        s += interp.eval((x * x + y * y).sqrt());
+                        let r = (x * x + y * y).sqrt();
+                        let place = lead.place(r);
+                        for (s, f) in s.iter_mut().zip(interps) {
+                            *s += f.eval_at(place, r);
+                        }
                     }
                 }
-                (dx, dy, s * h * h)
+                (dx, dy, s.into_iter().map(|s| s * h * h).collect())
             })
         })
         .collect();
-    let mut d = vec![0.0; size * size];
+    let mut d = vec![vec![0.0; size * size]; k];
     for (dx, dy, v) in octant {
         for (a, b) in [(dx, dy), (dy, dx)] {
             for sx in [half - a, half + a] {
                 for sy in [half - b, half + b] {
-                    d[sy * size + sx] = v;
+                    for (d, &v) in d.iter_mut().zip(&v) {
+                        d[sy * size + sx] = v;
+                    }
                 }
             }
         }

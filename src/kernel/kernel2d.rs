@@ -133,36 +133,57 @@ impl Kernel2D {
 
     /// Discretises `profile` (which must hold r, g and b).
     pub fn from_profile(profile: &Profile, spec: &Kernel2DSpec) -> Result<Kernel2D> {
-        let idx = rgb_indices(profile)?;
-        check_profile_values(profile, &idx)?;
-        let extent = match spec.extent_mm {
-            Some(e) => finite_positive("kernel", "extent_mm", e, " (mm)")?,
-            None => default_extent(profile, idx.iter().copied()),
-        };
-        if !(extent > 0.0) {
-            return Err(Error::invalid(
-                "kernel",
-                "extent_mm",
-                "none",
-                "the profile holds its reflectance at r = 0 only: give the extent",
-            ));
-        }
-        let size = match spec.size {
-            Some(n) if n % 2 == 1 && n <= MAX_SIZE => n,
-            Some(n) => {
-                return Err(Error::invalid(
-                    "kernel",
-                    "size",
-                    n,
-                    format!("must be odd and at most {MAX_SIZE}"),
-                ))
+        let mut k = Kernel2D::from_profiles(&[(profile, *spec)])?;
+        Ok(k.remove(0))
+    }
+
+    /// [`Self::from_profile`] of each (profile, spec), in order. Kernels of
+    /// one grid (cells and size) from profiles on one radial grid (a
+    /// profile's bootstrap replicates, `report::eval::advise_noise`) are
+    /// integrated together, every sample placed among the nodes once
+    /// (`cell_integrals`); each kernel is the one `from_profile` makes.
+    pub fn from_profiles(items: &[(&Profile, Kernel2DSpec)]) -> Result<Vec<Kernel2D>> {
+        let grids: Vec<Grid> = items
+            .iter()
+            .map(|(p, spec)| Grid::of(p, spec))
+            .collect::<Result<_>>()?;
+        let interps: Vec<Vec<RadialInterp>> = items
+            .iter()
+            .zip(&grids)
+            .map(|((p, _), g)| g.idx.iter().map(|&c| RadialInterp::new(p, c)).collect())
+            .collect();
+        let mut integrals: Vec<Option<Vec<Vec<f64>>>> = vec![None; items.len()];
+        for i in 0..items.len() {
+            if integrals[i].is_some() {
+                continue;
             }
-            None => default_kernel_size(profile, extent),
-        };
-        let cell = 2.0 * extent / size as f64;
-        normalised(profile, &idx, size, cell, &format!("+-{extent} mm"), |f| {
-            cell_integrals(f, size, cell)
-        })
+            // Every later kernel on this one's grid and nodes joins it.
+            let batch: Vec<usize> = (i..items.len())
+                .filter(|&j| {
+                    integrals[j].is_none()
+                        && grids[j].size == grids[i].size
+                        && grids[j].cell.to_bits() == grids[i].cell.to_bits()
+                        && interps[j][0].same_nodes(&interps[i][0])
+                })
+                .collect();
+            let all: Vec<RadialInterp> = batch
+                .iter()
+                .flat_map(|&j| interps[j].iter().cloned())
+                .collect();
+            let mut out = cell_integrals(&all, grids[i].size, grids[i].cell).into_iter();
+            for &j in &batch {
+                integrals[j] = Some(out.by_ref().take(interps[j].len()).collect());
+            }
+        }
+        items
+            .iter()
+            .zip(grids)
+            .zip(integrals)
+            .map(|(((p, _), g), d)| {
+                let what = format!("+-{} mm", g.extent);
+                normalised(p, &g.idx, g.size, g.cell, &what, d.unwrap_or_default())
+            })
+            .collect()
     }
 
     /// The kernel whose convolution with an image of pixel values gives the
@@ -198,33 +219,81 @@ impl Kernel2D {
         }
         finite_positive("kernel", "cell_mm", cell_mm, " (mm)")?;
         let extent = size as f64 * cell_mm / 2.0;
+        let integrals = idx
+            .iter()
+            .map(|&c| tent_integrals(&RadialInterp::new(profile, c), size, cell_mm))
+            .collect();
         normalised(
             profile,
             &idx,
             size,
             cell_mm,
             &format!("+-{extent} mm"),
-            |f| tent_integrals(f, size, cell_mm),
+            integrals,
         )
     }
 }
 
-/// The kernel of `profile`'s channels `idx` (r, g, b) from the integrals
-/// `integrate` gives on a grid of `size` cells of `cell` mm (`what`
-/// describes it in errors): each channel normalised to sum 1, `captured` the
-/// sum over the profile's tabulated total.
+/// The grid `from_profile` puts a profile on.
+struct Grid {
+    idx: [usize; 3],
+    extent: f64,
+    size: usize,
+    cell: f64,
+}
+
+impl Grid {
+    fn of(profile: &Profile, spec: &Kernel2DSpec) -> Result<Grid> {
+        let idx = rgb_indices(profile)?;
+        check_profile_values(profile, &idx)?;
+        let extent = match spec.extent_mm {
+            Some(e) => finite_positive("kernel", "extent_mm", e, " (mm)")?,
+            None => default_extent(profile, idx.iter().copied()),
+        };
+        if !(extent > 0.0) {
+            return Err(Error::invalid(
+                "kernel",
+                "extent_mm",
+                "none",
+                "the profile holds its reflectance at r = 0 only: give the extent",
+            ));
+        }
+        let size = match spec.size {
+            Some(n) if n % 2 == 1 && n <= MAX_SIZE => n,
+            Some(n) => {
+                return Err(Error::invalid(
+                    "kernel",
+                    "size",
+                    n,
+                    format!("must be odd and at most {MAX_SIZE}"),
+                ))
+            }
+            None => default_kernel_size(profile, extent),
+        };
+        Ok(Grid {
+            idx,
+            extent,
+            size,
+            cell: 2.0 * extent / size as f64,
+        })
+    }
+}
+
+/// The kernel of `profile`'s channels `idx` (r, g, b) from their
+/// `integrals` (in the order of `idx`) on a grid of `size` cells of `cell`
+/// mm (`what` describes it in errors): each channel normalised to sum 1,
+/// `captured` the sum over the profile's tabulated total.
 fn normalised(
     profile: &Profile,
     idx: &[usize; 3],
     size: usize,
     cell: f64,
     what: &str,
-    integrate: impl Fn(&RadialInterp) -> Vec<f64>,
+    integrals: Vec<Vec<f64>>,
 ) -> Result<Kernel2D> {
     let mut data: [Vec<f64>; 3] = Default::default();
     let mut captured = [0.0; 3];
-    for (k, &c) in idx.iter().enumerate() {
-        let mut d = integrate(&RadialInterp::new(profile, c));
+    for ((k, &c), mut d) in idx.iter().enumerate().zip(integrals) {
         let sum: f64 = d.iter().sum();
         captured[k] = sum / profile.tabulated_total(c);
         let name = profile.channels[c].name();
@@ -415,6 +484,44 @@ mod tests {
             let s: f64 = k.data[c].iter().sum();
             assert!((s - 1.0).abs() < 1e-12);
         }
+    }
+
+    /// Kernels made together ([`Kernel2D::from_profiles`]: profiles on one
+    /// radial grid, one cell grid, integrated in one sweep) are each the
+    /// kernel `from_profile` makes alone, bit for bit; a profile on other
+    /// nodes or another grid in the same call too.
+    #[test]
+    fn kernels_made_together_are_each_made_alone_bit_for_bit() {
+        let p = dipole(0.01, 3.0);
+        let mut q = p.clone();
+        for (c, rd) in q.rd.iter_mut().enumerate() {
+            for (i, v) in rd.iter_mut().enumerate() {
+                *v *= 1.0 + 0.01 * ((i * 7 + c) % 5) as f64;
+            }
+        }
+        let other = dipole(0.02, 2.0);
+        let spec = Kernel2DSpec {
+            size: Some(41),
+            extent_mm: Some(2.5),
+        };
+        let wide = Kernel2DSpec {
+            size: Some(21),
+            ..spec
+        };
+        let items = [(&p, spec), (&q, spec), (&other, spec), (&p, wide)];
+        let together = Kernel2D::from_profiles(&items).unwrap();
+        for ((prof, sp), t) in items.iter().zip(&together) {
+            let alone = Kernel2D::from_profile(prof, sp).unwrap();
+            for c in 0..3 {
+                let bits = |k: &Kernel2D| k.data[c].iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(t), bits(&alone));
+            }
+            assert_eq!(
+                t.captured.map(f64::to_bits),
+                alone.captured.map(f64::to_bits)
+            );
+        }
+        assert_ne!(together[0].data[0], together[1].data[0]);
     }
 
     /// A pixel much wider than the kernel: R_d is a delta at the centre of

@@ -5,7 +5,7 @@
 //! squares in kernel space (the kernel_rms metric of all channels).
 
 use super::factors::Factors;
-use super::gaussians::{gaussian_cells, gaussian_half_cells, half_dot, half_quad_form};
+use super::gaussians::{gaussian_cells, gaussian_half_cells, half_dot, HalfQuad};
 use super::Kernel2D;
 use crate::error::{Error, Result};
 use crate::numerics::nelder_mead;
@@ -100,9 +100,9 @@ pub fn manual(k: &Kernel2D, p: &ManualParams) -> Result<Factors> {
 
 /// ||R - a a^T||_F^2 up to the constant ||R||_F^2, for an even factor
 /// given by its half `a` (cells m = 0..=h) and R by its quadrant `q`.
-fn misfit(q: &[f64], a: &[f64]) -> f64 {
+fn misfit(q: &HalfQuad, a: &[f64]) -> f64 {
     let aa = half_dot(a, a);
-    aa * aa - 2.0 * half_quad_form(q, a)
+    aa * aa - 2.0 * q.form(a)
 }
 
 /// Half of the factor (cells m = 0..=h) of one channel.
@@ -119,7 +119,9 @@ fn channel_half(k: &Kernel2D, p: &ManualParams, c: usize) -> Vec<f64> {
 /// the three channels: Nelder-Mead over (logit w, log sqrt tau) from several
 /// starts spread between the kernel's cell size and extent.
 pub fn fit(k: &Kernel2D) -> Result<(ManualParams, serde_json::Value)> {
-    let quadrants: Vec<Vec<f64>> = (0..3).map(|c| k.quadrant(c)).collect();
+    let quadrants: Vec<HalfQuad> = (0..3)
+        .map(|c| HalfQuad::new(&k.quadrant(c), k.half() + 1))
+        .collect();
     let lo = (0.25 * k.cell_mm).ln();
     // A Gaussian much wider than the kernel would act as a constant floor
     // whose mass lies off the grid (and off any tap table): keep 3 sigma

@@ -155,15 +155,52 @@ impl RadialInterp {
     }
 
     pub fn eval(&self, r: f64) -> f64 {
+        self.eval_at(self.place(r), r)
+    }
+
+    /// Where `r` lies among the nodes: what [`Self::eval`] decides before
+    /// it evaluates, the same for every reconstruction on these nodes
+    /// ([`Self::same_nodes`]).
+    #[inline]
+    pub fn place(&self, r: f64) -> Place {
         let n = self.r.len();
         if !(r >= 0.0) || r > self.r[n - 1] {
-            return 0.0;
+            return Place::Outside;
         }
         if n == 1 || r <= self.r[0] {
-            return self.v[0];
+            return Place::First;
         }
-        self.eval_segment(self.segment(r), r)
+        Place::Segment(self.segment(r))
     }
+
+    /// The value at `r`, placed by [`Self::place`] of this reconstruction
+    /// or of one on the same nodes.
+    #[inline]
+    pub fn eval_at(&self, place: Place, r: f64) -> f64 {
+        match place {
+            Place::Outside => 0.0,
+            Place::First => self.v[0],
+            Place::Segment(i) => self.eval_segment(i, r),
+        }
+    }
+
+    /// Whether `other` has these nodes, so that a [`Place`] found by one
+    /// holds for the other (profiles on one radial grid: the channels of a
+    /// profile, the bootstrap replicates of one).
+    pub fn same_nodes(&self, other: &RadialInterp) -> bool {
+        self.r == other.r && self.origin == other.origin && self.uniform == other.uniform
+    }
+}
+
+/// Where a radius lies for a reconstruction ([`RadialInterp::place`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Place {
+    /// Below 0, beyond the last node or NaN: the value is 0.
+    Outside,
+    /// At or below the first node: its value.
+    First,
+    /// On segment i between nodes i and i + 1.
+    Segment(usize),
 }
 
 /// (first, spacing) if `r` is evenly spaced to 1e-9 relative.

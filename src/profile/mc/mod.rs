@@ -109,7 +109,7 @@ pub fn simulate_with(
         range,
     };
     progress.start(
-        photons_in(cap, range).saturating_mul(cfg.channels.len() as u64),
+        job.announced_photons(),
         &format!("{} photons", material.name),
     );
     let runs = pool.install(|| job.run(progress));

@@ -195,11 +195,48 @@ impl Job<'_> {
             self.add_round(&round, traced, &mut runs, &mut state.active)?;
             self.check_rounds_rule(&mut runs, &mut state)?;
             state.first = false;
+            if self.target().is_some() {
+                progress.set_total(self.projected_photons(&state));
+            }
         }
         if self.target().is_none() {
             runs.iter_mut().for_each(|r| r.converged = !r.work_capped);
         }
         Ok(runs)
+    }
+
+    /// The photons of every channel a run announces before it starts
+    /// (`Progress::start`): a fixed run's all, a target-error run's first
+    /// round (the work it can see before an error is measured).
+    pub(super) fn announced_photons(&self) -> u64 {
+        let chunks = match self.target() {
+            None => self.range.1 - self.range.0,
+            Some(_) => round_len(0, f64::INFINITY),
+        };
+        let end = (self.range.0 + chunks).min(self.range.1);
+        super::photons_in(self.cap, (self.range.0, end)).saturating_mul(self.stacks.len() as u64)
+    }
+
+    /// The photons a target-error run now expects to trace in all, every
+    /// channel (`Progress::set_total`): a stopped channel's traced, a going
+    /// one's traced times what error ~ N^-1/2 says it needs (the rule of
+    /// `round_len`, here not limited to doubling), within its chunks.
+    fn projected_photons(&self, state: &RoundState) -> u64 {
+        (0..self.stacks.len())
+            .map(|c| {
+                let done = state.next[c] - self.range.0;
+                let chunks = if !state.active[c] {
+                    done
+                } else if state.ratio[c].is_finite() {
+                    let r = state.ratio[c];
+                    ((done as f64 * 1.1 * r * r).ceil() as u64).max(done + 1)
+                } else {
+                    done + round_len(done, f64::INFINITY)
+                };
+                let end = self.range.0.saturating_add(chunks).min(self.range.1);
+                super::photons_in(self.cap, (self.range.0, end))
+            })
+            .sum()
     }
 
     /// The target error of the budget's rule (None: a fixed run).

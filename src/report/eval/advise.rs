@@ -408,11 +408,12 @@ pub fn advise_prepared(
         progress,
         fits: std::sync::Mutex::new(prepared.fits),
     };
-    progress.start(search.specs.len() as u64, "kernel models");
+    // A unit per model variant searched and one for the disk kernels.
+    let units = search.units();
+    progress.start(units, "advice: kernel models searched");
     let budget = cfg.budget;
     let (candidates, out_of_budget) =
         search.candidates(&|p, t, s| budget.allows(p, t, s), false)?;
-    progress.finish();
     let chosen = choose(&candidates).ok_or_else(|| {
         Error::invalid(
             "advise",
@@ -425,6 +426,9 @@ pub fn advise_prepared(
     let remedy = if c.verdict.meets {
         None
     } else {
+        // The remedy searches outside the budget and at up to every
+        // coarser scale: the work it may do.
+        progress.set_total(units * (2 + COARSER_SCALES.len() as u64));
         let mut r = search.remedy(&c)?;
         r.coarser = coarser_scale(&search)?;
         Some(r)
@@ -456,13 +460,14 @@ pub fn advise_prepared(
         Some((scene, render)) => Some(scene_check(&search, &candidates, chosen, scene, render)?),
         None => None,
     };
+    progress.finish();
     Ok(Advice {
         mm_per_pixel: cfg.mm_per_pixel,
         taps: cfg.taps.clone(),
         target: cfg.target,
         budget,
         out_of_budget,
-        replicates: search.refs.first().map_or(0, |r| r.replicates.len()),
+        replicates: search.refs.first().map_or(0, |r| r.replicates()),
         meets_target: c.verdict.meets,
         remedy,
         candidates,

@@ -39,7 +39,7 @@ use super::evaluate::{self, ImageErrors};
 use crate::error::{Error, Result};
 use crate::filter::disk::{apply_disk, DiskSetup};
 use crate::filter::disk_error::{disk_error_with_mean, truncated, view};
-use crate::filter::{diff, Image};
+use crate::filter::Image;
 use crate::kernel::disk::{fit_disk, DiskKernelFile, RadiusPdf};
 use crate::profile::radius::DEFAULT_HOLD;
 use crate::profile::Profile;
@@ -120,11 +120,10 @@ fn score(kernel: &DiskKernelFile, r: &Reference, frames: u32) -> Result<(f64, f6
     let setup = DiskSetup::new(kernel, view(case.mm_per_pixel), DISK_SEED, 1);
     let (e, mean) =
         disk_error_with_mean(&case.image, &setup, &r.exact_f32, WINDOWS * frames, frames)?;
-    let reps: Vec<f64> = r
-        .replicates
+    let reps: Vec<f64> = r.rel_rms_all(&mean)?[1..]
         .iter()
-        .map(|rep| Ok(combined(diff::compare(rep, &mean)?.rms_rel, e.noise_after)))
-        .collect::<Result<_>>()?;
+        .map(|&rms| combined(rms, e.noise_after))
+        .collect();
     Ok((
         combined(e.bias, e.noise_after),
         std_dev(&reps),
@@ -192,6 +191,7 @@ impl Search<'_> {
             .into_iter()
             .map(|(n, kernel, scored, scores)| self.disk_row(n, &kernel, &scored, scores))
             .collect();
+        self.progress.advance(1);
         Ok((out, skipped))
     }
 

@@ -22,9 +22,9 @@
 
 use super::evaluate::{round_f32, Exact, ImageCase};
 use crate::error::{Error, Result};
+use crate::filter::diff::RefStack;
 use crate::filter::exact::KernelBank;
-use crate::filter::{cpu, diff, Image, Scale, Setup, Taps};
-use crate::kernel::Kernel2D;
+use crate::filter::{cpu, Image, Scale, Setup, Taps};
 use crate::profile::Profile;
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -77,9 +77,10 @@ pub struct Reference {
     pub exact: Exact,
     /// `exact`'s image rounded to f32.
     pub exact_f32: Image,
-    /// The replicate profiles' exact images, rounded to f32 (empty for an
-    /// analytic profile).
-    pub replicates: Vec<Image>,
+    /// `exact_f32` and then the replicate profiles' exact images, rounded
+    /// to f32 (none for an analytic profile), packed to be scored in one
+    /// pass.
+    stack: RefStack,
 }
 
 /// A candidate's score on one test image.
@@ -91,13 +92,47 @@ pub struct Score {
     pub sigma: f64,
 }
 
-/// Largest relative RMS over channels of `filtered` against `exact`.
-fn rel_rms(exact: &Image, filtered: &Image) -> Result<f64> {
-    Ok(diff::compare(exact, filtered)?
-        .rms_rel
+/// Bytes the replicates' kernels and spectra may hold at once: the banks
+/// are made for a few replicates at a time within it (at 0.05 mm per pixel
+/// a skin1 kernel is 801 pixels wide, 15 MB, and a pair's spectra 44 MB).
+const REPLICATE_BYTES: usize = 160 << 20;
+
+/// Per case, the replicate profiles' exact images rounded to f32, in the
+/// order of `reps`: their kernels are integrated together (one radial grid,
+/// [`cpu::reference_kernels`]) and their convolutions share their
+/// transforms ([`KernelBank`], two kernels a spectrum), a group of
+/// replicates at a time within [`REPLICATE_BYTES`]. The groups hold whole
+/// pairs and pad as one bank of all would, so each image is the one bank's,
+/// bit for bit.
+fn replicate_images(reps: &[Profile], cases: &[ImageCase], scale: f64) -> Result<Vec<Vec<Image>>> {
+    let mut out: Vec<Vec<Image>> = cases.iter().map(|_| Vec::new()).collect();
+    let (Some(first), false) = (cases.first(), reps.is_empty()) else {
+        return Ok(out);
+    };
+    let (w, h) = (first.image.width, first.image.height);
+    let sizes: Vec<usize> = reps
         .iter()
-        .cloned()
-        .fold(0.0, f64::max))
+        .map(|p| cpu::reference_size(p, scale))
+        .collect::<Result<_>>()?;
+    let widest = sizes.iter().copied().max().unwrap_or(1);
+    let half = widest / 2;
+    // A replicate's kernel (three f64 planes) and half a pair's spectra.
+    let per = 3 * widest * widest * 8 + KernelBank::pair_bytes(w, h, half) / 2;
+    let group = (REPLICATE_BYTES / per.max(1)).max(2) & !1;
+    for chunk in reps.chunks(group) {
+        let kernels = cpu::reference_kernels(&chunk.iter().collect::<Vec<_>>(), scale)?;
+        let bank = KernelBank::with_half(&kernels.iter().collect::<Vec<_>>(), w, h, half);
+        drop(kernels);
+        for (images, case) in out.iter_mut().zip(cases) {
+            images.extend(bank.convolve(&case.image)?.iter().map(round_f32));
+        }
+    }
+    Ok(out)
+}
+
+/// The largest of a relative RMS over channels.
+fn largest(rms_rel: [f64; 3]) -> f64 {
+    rms_rel.iter().cloned().fold(0.0, f64::max)
 }
 
 impl Reference {
@@ -113,40 +148,41 @@ impl Reference {
                 "advise: the test images differ in scale".into(),
             ));
         }
-        // One reference kernel per profile serves every image; the
-        // replicates' convolutions share their transforms (KernelBank).
+        // One reference kernel per profile serves every image.
         let k0 = cpu::reference_kernel(profile, scale)?;
         let exact: Vec<Exact> = cases
             .par_iter()
             .map(|c| Exact::with_kernel(c, &k0))
             .collect();
-        let kernels: Vec<Kernel2D> = reps
-            .par_iter()
-            .map(|p| cpu::reference_kernel(p, scale))
-            .collect::<Result<_>>()?;
-        let bank = (!kernels.is_empty()).then(|| {
-            let (w, h) = cases
-                .first()
-                .map_or((0, 0), |c| (c.image.width, c.image.height));
-            KernelBank::new(&kernels.iter().collect::<Vec<_>>(), w, h)
-        });
+        drop(k0);
+        let replicates = replicate_images(&reps, cases, scale)?;
         let mut out = Vec::with_capacity(cases.len());
-        for exact in exact {
-            let replicates = match &bank {
-                Some(b) => b
-                    .convolve(&exact.case.image)?
-                    .iter()
-                    .map(round_f32)
-                    .collect(),
-                None => Vec::new(),
-            };
+        for (exact, replicates) in exact.into_iter().zip(replicates) {
+            let exact_f32 = round_f32(&exact.image);
+            let stack = RefStack::new(
+                &std::iter::once(&exact_f32)
+                    .chain(&replicates)
+                    .collect::<Vec<_>>(),
+            )?;
             out.push(Reference {
-                exact_f32: round_f32(&exact.image),
-                replicates,
+                exact_f32,
+                stack,
                 exact,
             });
         }
         Ok(out)
+    }
+
+    /// Replicate images scored against.
+    pub fn replicates(&self) -> usize {
+        self.stack.len() - 1
+    }
+
+    /// The largest relative RMS over channels of `image` against each
+    /// replicate's exact image (as `ssskit diff` takes it), and against the
+    /// exact image itself first.
+    pub fn rel_rms_all(&self, image: &Image) -> Result<Vec<[f64; 3]>> {
+        self.stack.rms_rel(image)
     }
 
     /// The image `passes` make of this reference's test image, rounded to
@@ -174,14 +210,10 @@ impl Reference {
     /// The score of `passes` with its bootstrap uncertainty.
     pub fn score(&self, passes: Vec<Taps>) -> Result<Score> {
         let f = self.filtered(passes)?;
-        let rel = rel_rms(&self.exact_f32, &f)?;
-        let reps: Vec<f64> = self
-            .replicates
-            .iter()
-            .map(|r| rel_rms(r, &f))
-            .collect::<Result<_>>()?;
+        let all = self.rel_rms_all(&f)?;
+        let reps: Vec<f64> = all[1..].iter().map(|&r| largest(r)).collect();
         Ok(Score {
-            rel_rms: rel,
+            rel_rms: largest(all[0]),
             sigma: std_dev(&reps),
         })
     }

@@ -146,6 +146,12 @@ pub(super) struct Search<'a> {
 type Scored = (String, f64, f64);
 
 impl Search<'_> {
+    /// Progress units of one search: a model variant each, and the disk
+    /// kernels one.
+    pub fn units(&self) -> u64 {
+        self.specs.len() as u64 + u64::from(self.with_disk())
+    }
+
     /// `spec` fitted to the truth, from the cache when it was before (or
     /// was handed in: [`super::advise::Prepared`]).
     pub fn fitted(&self, spec: &ModelSpec) -> Result<Fitted> {

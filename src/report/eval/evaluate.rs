@@ -171,6 +171,17 @@ pub struct Exact {
 
 impl Exact {
     pub fn new(profile: &Profile, case: &ImageCase) -> Result<Exact> {
+        Exact::checked(case)?;
+        let t0 = Instant::now();
+        let k: Kernel2D = cpu::reference_kernel(profile, case.mm_per_pixel)?;
+        let mut e = Exact::with_kernel(case, &k);
+        e.seconds = t0.elapsed().as_secs_f64();
+        Ok(e)
+    }
+
+    /// What [`Exact::new`] refuses of a case before its work: a bad scale,
+    /// an empty image.
+    pub fn checked(case: &ImageCase) -> Result<()> {
         check_scale(case.mm_per_pixel)?;
         if case.image.is_empty() {
             return Err(Error::Unsupported(format!(
@@ -178,11 +189,39 @@ impl Exact {
                 case.name
             )));
         }
-        let t0 = Instant::now();
-        let k: Kernel2D = cpu::reference_kernel(profile, case.mm_per_pixel)?;
-        let mut e = Exact::with_kernel(case, &k);
-        e.seconds = t0.elapsed().as_secs_f64();
-        Ok(e)
+        Ok(())
+    }
+
+    /// The exact image of every case: one reference kernel per scale
+    /// serves the cases at that scale ([`Exact::with_kernel`]); an error
+    /// is placed by `place` of the case it is about ([`Error::within`]).
+    pub fn per_scale(
+        profile: &Profile,
+        cases: &[ImageCase],
+        place: &dyn Fn(&ImageCase) -> String,
+    ) -> Result<Vec<Exact>> {
+        use rayon::prelude::*;
+        let failed = |c: &ImageCase, e: Error| e.within(&place(c));
+        // Per case, its kernel among those made (one per scale).
+        let mut kernels: Vec<(f64, Kernel2D)> = Vec::new();
+        let mut which = Vec::with_capacity(cases.len());
+        for c in cases {
+            Exact::checked(c).map_err(|e| failed(c, e))?;
+            match kernels.iter().position(|(mm, _)| *mm == c.mm_per_pixel) {
+                Some(i) => which.push(i),
+                None => {
+                    let k =
+                        cpu::reference_kernel(profile, c.mm_per_pixel).map_err(|e| failed(c, e))?;
+                    which.push(kernels.len());
+                    kernels.push((c.mm_per_pixel, k));
+                }
+            }
+        }
+        Ok(cases
+            .par_iter()
+            .zip(which)
+            .map(|(c, i)| Exact::with_kernel(c, &kernels[i].1))
+            .collect())
     }
 
     /// [`Exact::new`] with the reference kernel made already (one kernel

@@ -21,12 +21,11 @@ use crate::kernel::model::{assemble, fit_model, Fitted as ModelFit};
 use crate::kernel::preintegrate::PreMethod;
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile, Model};
 use crate::profile::Profile;
-use crate::progress::Progress;
+use crate::progress::{Clock, Progress};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::collections::BTreeMap;
-use std::time::Instant;
 
 /// The model families, spelled as the kernel fit spells them.
 pub const FAMILIES: [&str; 6] = [
@@ -268,6 +267,8 @@ pub struct CompareSeconds {
     pub truth: f64,
     pub fits: f64,
     pub images: f64,
+    /// CPU seconds of the same three stages, every thread.
+    pub cpu: [f64; 3],
 }
 
 pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
@@ -297,7 +298,7 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         .map(|m| model_specs(&cfg.families, &cfg.ranks, &m.name))
         .collect::<Result<_>>()?;
     let mut seconds = CompareSeconds::default();
-    let t = Instant::now();
+    let t = Clock::start();
     let truths: Vec<Kernel2D> = inputs
         .par_iter()
         .map(|m| {
@@ -311,7 +312,7 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
             .map_err(|e| named(&m.name, e))
         })
         .collect::<Result<_>>()?;
-    seconds.truth = t.elapsed().as_secs_f64();
+    (seconds.truth, seconds.cpu[0]) = t.elapsed();
     let tasks: Vec<(usize, &ModelSpec)> = specs
         .iter()
         .enumerate()
@@ -319,7 +320,7 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         .collect();
     // Each task advances once fitted and once evaluated.
     progress.start(2 * tasks.len() as u64, "material x model");
-    let t = Instant::now();
+    let t = Clock::start();
     let fits: Vec<ModelFit> = tasks
         .par_iter()
         .map(|&(i, spec)| {
@@ -330,8 +331,8 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
             Ok(f)
         })
         .collect::<Result<_>>()?;
-    seconds.fits = t.elapsed().as_secs_f64();
-    let t = Instant::now();
+    (seconds.fits, seconds.cpu[1]) = t.elapsed();
+    let t = Clock::start();
     let exact = exact_images(inputs, cfg)?;
     let fitted: Vec<Fitted> = tasks
         .par_iter()
@@ -345,7 +346,7 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         .into_iter()
         .flatten()
         .collect();
-    seconds.images = t.elapsed().as_secs_f64();
+    (seconds.images, seconds.cpu[2]) = t.elapsed();
     progress.finish();
     let mut by_label = vec![BTreeMap::new(); inputs.len()];
     for (&(i, spec), f) in tasks.iter().zip(fits) {
@@ -364,18 +365,13 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
     })
 }
 
-/// The exact image of every case, per material.
+/// The exact image of every case, per material ([`Exact::per_scale`]).
 fn exact_images(inputs: &[MaterialInput], cfg: &Config) -> Result<Vec<Vec<Exact>>> {
     inputs
         .par_iter()
         .map(|m| {
-            cfg.cases
-                .par_iter()
-                .map(|c| {
-                    Exact::new(&m.profile, c)
-                        .map_err(|e| e.within(&format!("material '{}', image {}", m.name, c.name)))
-                })
-                .collect::<Result<Vec<_>>>()
+            let place = |c: &ImageCase| format!("material '{}', image {}", m.name, c.name);
+            Exact::per_scale(&m.profile, &cfg.cases, &place)
         })
         .collect()
 }

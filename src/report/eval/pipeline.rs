@@ -17,7 +17,7 @@ use crate::kernel::emit::{emit, Lang};
 use crate::kernel::KernelFile;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
-use crate::progress::Progress;
+use crate::progress::{Clock, Progress};
 use crate::report::present::figures::{self, Figure};
 use crate::report::present::kernel_plots::{self, Recommended};
 use crate::report::present::kernel_report::{self, ReportContext};
@@ -264,9 +264,14 @@ pub struct StageTimes {
     pub advice: f64,
     pub preview: f64,
     pub files: f64,
-    /// The engine's fit and files, where asked.
-    pub engine: Option<f64>,
+    /// The engine's fit and files, where asked: wall and CPU seconds.
+    pub engine: Option<(f64, f64)>,
     pub total: f64,
+    /// CPU seconds of the stages of [`Self::stages`] and of the total,
+    /// every thread of the process ([`crate::progress::process_cpu_seconds`]);
+    /// the profile's are the process's before the pipeline starts (the
+    /// profile and the command's start-up).
+    pub cpu: [f64; 8],
 }
 
 impl StageTimes {
@@ -281,16 +286,30 @@ impl StageTimes {
             ("preview", self.preview),
             ("files", self.files),
         ];
-        v.extend(self.engine.map(|s| ("engine", s)));
+        v.extend(self.engine.map(|(s, _)| ("engine", s)));
         v
     }
 
-    /// The report's table: one row per stage and the total.
+    /// CPU seconds in the order of [`Self::stages`], then the total's.
+    fn cpu_seconds(&self) -> Vec<f64> {
+        let mut v = self.cpu[..7].to_vec();
+        v.extend(self.engine.map(|(_, c)| c));
+        v.push(self.cpu[7]);
+        v
+    }
+
+    /// The report's table: one row per stage and the total, wall and CPU
+    /// seconds.
     pub fn markdown(&self) -> String {
-        let mut t = crate::report::present::table::Table::new(&["stage", "wall s"]);
-        for (name, s) in self.stages().into_iter().chain([("total", self.total)]) {
+        let mut t = crate::report::present::table::Table::new(&["stage", "wall s", "CPU s"]);
+        let rows = self.stages().into_iter().chain([("total", self.total)]);
+        for ((name, s), cpu) in rows.zip(self.cpu_seconds()) {
             // Milliseconds, so that the rows add up as the numbers do.
-            t.push(vec![name.to_string(), format!("{s:.3}")]);
+            t.push(vec![
+                name.to_string(),
+                format!("{s:.3}"),
+                format!("{cpu:.3}"),
+            ]);
         }
         t.markdown()
     }
@@ -309,19 +328,20 @@ pub fn run(
     scene: Option<(&Scene, &Render)>,
     progress: &dyn Progress,
 ) -> Result<Outcome> {
-    let t0 = std::time::Instant::now();
+    let t0 = Clock::start();
     let mut times = StageTimes {
         profile: profile_seconds,
         ..StageTimes::default()
     };
+    times.cpu[0] = crate::progress::process_cpu_seconds();
     let mut files = Vec::new();
-    let t = std::time::Instant::now();
+    let t = Clock::start();
     std::fs::create_dir_all(dir.join("kernels"))
         .map_err(|e| Error::format(dir, format!("cannot create the output folder: {e}")))?;
     profile.write(&dir.join("profile.json"))?;
     Profile::read(&dir.join("profile.json"))?;
     files.push("profile.json".to_string());
-    times.files += t.elapsed().as_secs_f64();
+    let files_clock = t.elapsed();
     let name = profile.material.name.clone();
     let cases: Vec<ImageCase> = [Signal::Edge, Signal::Shapes]
         .iter()
@@ -347,7 +367,8 @@ pub fn run(
     let cmp = kernel_compare::run(std::slice::from_ref(&input), &cfg, progress)?;
     (times.truth, times.fits, times.images) =
         (cmp.seconds.truth, cmp.seconds.fits, cmp.seconds.images);
-    let t = std::time::Instant::now();
+    times.cpu[1..4].copy_from_slice(&cmp.seconds.cpu);
+    let t = Clock::start();
     let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
     acfg.size = settings.size;
     acfg.budget = settings.budget;
@@ -355,22 +376,21 @@ pub fn run(
         truth: cmp.truths[0].clone(),
         fits: cmp.fits[0].clone(),
     };
-    let advice = advise::advise_prepared(
-        profile,
-        &acfg,
-        scene,
-        Some(prepared),
-        &crate::progress::NoProgress,
-    )?;
-    times.advice = t.elapsed().as_secs_f64();
-    let t = std::time::Instant::now();
+    let advice = advise::advise_prepared(profile, &acfg, scene, Some(prepared), progress)?;
+    (times.advice, times.cpu[4]) = t.elapsed();
+    let t = Clock::start();
     let preview = if settings.plots {
-        Some(preview_of(profile, &advice)?)
+        progress.start(1, "preview");
+        let p = preview_of(profile, &advice)?;
+        progress.advance(1);
+        progress.finish();
+        Some(p)
     } else {
         None
     };
-    times.preview = t.elapsed().as_secs_f64();
-    let t = std::time::Instant::now();
+    (times.preview, times.cpu[5]) = t.elapsed();
+    let t = Clock::start();
+    progress.start(0, "report and files");
     let ctx = ReportContext {
         command,
         signals: &signal_names,
@@ -386,9 +406,11 @@ pub fn run(
             .insert(0, preview_panel::figure(p, PREVIEW_PNG));
         files.push(PREVIEW_PNG.into());
     }
-    times.files += t.elapsed().as_secs_f64();
+    let (wall, cpu) = t.elapsed();
+    (times.files, times.cpu[6]) = (files_clock.0 + wall, files_clock.1 + cpu);
     let engine = engine_files(settings, profile, dir, progress, &mut times, &mut files)?;
-    times.total = profile_seconds + t0.elapsed().as_secs_f64();
+    let (wall, cpu) = t0.elapsed();
+    (times.total, times.cpu[7]) = (profile_seconds + wall, times.cpu[0] + cpu);
     let engine_md = engine
         .as_ref()
         .map(|step| engine_section::section(&step.fit, &step.files));
@@ -407,6 +429,9 @@ pub fn run(
         stage_times: &times.markdown(),
     };
     write_report(&advice, &ship_report::report(&report), dir, &mut files)?;
+    progress.set_total(files.len() as u64);
+    progress.advance(files.len() as u64);
+    progress.finish();
     Ok(Outcome {
         comparison: cmp,
         advice,
@@ -429,10 +454,10 @@ fn engine_files(
     let Some(e) = settings.engine else {
         return Ok(None);
     };
-    let t = std::time::Instant::now();
+    let t = Clock::start();
     let step = super::engine_step::run(e, profile, dir, progress)?;
     files.extend(step.files.iter().map(|f| f.0.clone()));
-    times.engine = Some(t.elapsed().as_secs_f64());
+    times.engine = Some(t.elapsed());
     Ok(Some(step))
 }
 

@@ -114,8 +114,9 @@ pub fn report(r: &ShipReport) -> String {
     }
     s += &demoted(r.comparison);
     s += &format!(
-        "\n## Stage times\n\nWall seconds of this run's stages; the truth and each fit \
-         were made once, for the comparison, and the advice scored those same fits.\n\n{}",
+        "\n## Stage times\n\nWall and CPU seconds of this run's stages (CPU: every thread; \
+         the profile's include the command's start-up); the truth and each fit were made once, \
+         for the comparison, and the advice scored those same fits.\n\n{}",
         r.stage_times
     );
     s
