@@ -263,8 +263,9 @@ fn scale_of(mm_per_pixel: Option<f64>, fov_y: Option<f64>, units_per_mm: f64) ->
 /// Separable kernels: full_factors (the fit's full-resolution factors
 /// instead of the real-time tap table, the CLI's default), jitter,
 /// precision "f32" or "f64" (CPU fixed-kernel path). Disk kernels:
-/// frames (rotations accumulated), frame_seed (the first frame's index),
-/// accumulate "mean" or "ema:W". A kernel with angular entry and exit
+/// frames (rotations accumulated) and frame_seed (the first frame's
+/// index), by default those the kernel's predicted error assumes (its
+/// recorded accumulation), else 1 and 0; accumulate "mean" or "ema:W". A kernel with angular entry and exit
 /// factors applies them given normals ((H, W, 3) view-space unit normals)
 /// and the light: light_toward (x, y, z), n_dot_l ((H, W)), or
 /// entry_weighted=True; factors=False leaves them out. backend: "cpu" or
@@ -274,7 +275,7 @@ fn scale_of(mm_per_pixel: Option<f64>, fov_y: Option<f64>, units_per_mm: f64) ->
 #[pyo3(signature = (kernel, irradiance, mm_per_pixel=None, *, fov_y=None,
     units_per_mm=ssskit::engine::Scene::default().units_per_mm, depth=None, specular=None,
     strength=None, follow_surface=None, sanitize=false, full_factors=false, jitter=false,
-    precision="f32", frames=1, frame_seed=0, accumulate="mean", normals=None,
+    precision="f32", frames=None, frame_seed=None, accumulate="mean", normals=None,
     light_toward=None, n_dot_l=None, entry_weighted=false, factors=true, backend="cpu"))]
 fn apply<'py>(
     py: Python<'py>,
@@ -291,8 +292,8 @@ fn apply<'py>(
     full_factors: bool,
     jitter: bool,
     precision: &str,
-    frames: u32,
-    frame_seed: u32,
+    frames: Option<u32>,
+    frame_seed: Option<u32>,
     accumulate: &str,
     normals: Option<&Bound<'py, PyAny>>,
     light_toward: Option<[f64; 3]>,
@@ -340,6 +341,7 @@ fn apply<'py>(
                  samples are its table, turned per pixel and frame",
             ));
         }
+        let (frames, frame_seed) = disk.get().inner.frames_to_run(frames, frame_seed);
         let frames = (frame_seed, frames, accumulate);
         let out = run_disk(
             py,
@@ -355,7 +357,10 @@ fn apply<'py>(
     let kernel = kernel.cast::<PyKernel>().map_err(|_| {
         PyTypeError::new_err("kernel: expected an ssskit.Kernel or ssskit.DiskKernel")
     })?;
-    if frames != 1 || accumulate != Accumulate::Mean || frame_seed != 0 {
+    if frames.is_some_and(|n| n != 1)
+        || accumulate != Accumulate::Mean
+        || frame_seed.is_some_and(|n| n != 0)
+    {
         return Err(PyValueError::new_err(
             "frames, frame_seed and accumulate apply to disk kernels; a separable kernel is the \
              same every frame",

@@ -21,13 +21,9 @@ use super::image::par_planes;
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
 use crate::kernel::disk::DiskKernelFile;
+use crate::kernel::disk::MAX_FRAMES;
 use rayon::prelude::*;
 use std::f64::consts::PI;
-
-/// Most frames one filtering may accumulate: a temporal filter's history
-/// is a few dozen frames; 4096 leaves room for measuring the mean over
-/// rotations, and the work cap bounds the product with the image anyway.
-pub const MAX_FRAMES: u32 = 4096;
 
 /// One sample as the pass uses it: unrotated position in mm, RGB weight.
 #[derive(Clone, Copy, Debug, PartialEq)]

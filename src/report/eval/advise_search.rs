@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::filter::{resample_to_pixels, Taps};
 use crate::kernel::model::{assemble_with, fit_model, tap_table, Fitted, Model};
 use crate::kernel::taps::{auto_extent, factor_radius_holding};
-use crate::kernel::{Factors, Kernel2D, KernelFile};
+use crate::kernel::{Factors, Kernel2D, KernelFile, Pass, TapTable};
 use crate::profile::Profile;
 use crate::progress::Progress;
 use rayon::prelude::*;
@@ -69,6 +69,40 @@ pub fn scored_passes(kernel: &KernelFile, full: bool, mm_per_pixel: f64) -> Vec<
             }
         })
         .collect()
+}
+
+/// The tap table of full factors resampled to whole pixels (`passes`, at
+/// `mm` per pixel), so that the file's default table (what `apply` and an
+/// engine run) is what the advice scored: offsets j x `mm`, every pass
+/// padded with zero weights to one odd count centred on 0 (a zero tap
+/// adds nothing; an engine may skip it).
+fn pixel_table(passes: &[Taps], mm: f64) -> TapTable {
+    let pixel = |o: f64| (o / mm).round() as i64;
+    let half = passes
+        .iter()
+        .flat_map(|t| t.offsets_mm.iter())
+        .map(|&o| pixel(o).unsigned_abs())
+        .max()
+        .unwrap_or(0) as i64;
+    let count = (2 * half + 1) as usize;
+    let passes = passes
+        .iter()
+        .map(|t| {
+            let mut weights = vec![[0.0; 3]; count];
+            for (&o, w) in t.offsets_mm.iter().zip(&t.weights) {
+                weights[(pixel(o) + half) as usize] = *w;
+            }
+            Pass {
+                offsets_mm: (-half..=half).map(|j| j as f64 * mm).collect(),
+                weights,
+            }
+        })
+        .collect();
+    TapTable {
+        count,
+        passes,
+        extent_mm: Some(half as f64 * mm),
+    }
 }
 
 /// One tap layout of one model.
@@ -331,7 +365,7 @@ impl Search<'_> {
             Some(n) => (n, Some(c.extent_mm)),
             None => (crate::kernel::taps::DEFAULT_TAPS, None),
         };
-        let kernel = assemble_with(
+        let mut kernel = assemble_with(
             self.profile,
             &self.truth,
             &spec.model,
@@ -346,6 +380,9 @@ impl Search<'_> {
                 "advise: the kernel file of {} runs other passes than the ones scored",
                 c.describe()
             )));
+        }
+        if c.taps.is_none() {
+            kernel.taps = pixel_table(&passes, self.cfg.mm_per_pixel);
         }
         Ok((kernel, passes))
     }

@@ -39,6 +39,11 @@ pub struct Settings {
     /// Side of the test signals, pixels.
     pub size: usize,
     pub plots: bool,
+    /// Frames a disk kernel is scored on (`advise::Config::frames`).
+    pub frames: u32,
+    /// The model families the kernel to ship is chosen from
+    /// (`advise::Config::families`); the comparison fits every model.
+    pub families: Vec<String>,
 }
 
 /// What the pipeline produced.
@@ -292,6 +297,8 @@ pub fn run(
     let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
     acfg.size = settings.size;
     acfg.budget = settings.budget;
+    acfg.frames = settings.frames;
+    acfg.families = settings.families.clone();
     let prepared = advise::Prepared {
         truth: cmp.truths[0].clone(),
         fits: cmp.fits[0].clone(),
