@@ -319,3 +319,155 @@ fn apply_accumulates_by_an_ema_when_asked() {
         );
     }
 }
+
+/// The rotations a disk kernel's predicted error assumes, as its file
+/// records them (`accumulation`, written by advise and kernels; here added
+/// to a fitted kernel as they write it).
+const RECORDED_FRAMES: u32 = 4;
+const RECORDED_FIRST: u32 = 9;
+
+/// `apply` runs the frames a disk kernel records when --frames is not
+/// given (the image of `--frames 4 --frame-seed 9`, bit for bit, and the
+/// library's disk pass) and says so; --frames wins and is said, with the
+/// assumption it departs from; a kernel that records none runs one frame
+/// from seed 0 and says that it is assumed. The shader arrays carry the
+/// count (`sss_disk_frames`, naga-validated) and the static camera; a file
+/// whose record is not a static camera's plain mean is refused.
+#[test]
+fn apply_runs_the_frames_the_kernel_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (bare, rec, img) = (d.join("bare.json"), d.join("rec.json"), d.join("e.exr"));
+    ok(&[
+        "fit",
+        "--profile",
+        SKIN,
+        "--model",
+        "disk",
+        "--samples",
+        "8",
+        "--out",
+        s(&bare),
+    ]);
+    let mut j = read_json(&bare);
+    assert!(j.get("accumulation").is_none(), "fit predicts nothing: {j}");
+    j["accumulation"] = serde_json::json!({
+        "frames": RECORDED_FRAMES, "first_frame": RECORDED_FIRST, "accumulate": "mean",
+        "camera": "static"
+    });
+    std::fs::write(&rec, serde_json::to_string(&j).unwrap()).unwrap();
+    ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
+    let apply = |kernel: &Path, out: &str, extra: &[&str]| {
+        let out = d.join(out);
+        let mut args = vec![
+            "apply",
+            "--kernel",
+            s(kernel),
+            "--input",
+            s(&img),
+            "--out",
+            s(&out),
+            "--mm-per-pixel",
+            "0.1",
+            "--backend",
+            "cpu",
+        ];
+        args.extend(extra);
+        let (_, err) = common::ok_both(&args);
+        (read_image(&out, None).unwrap().0, err)
+    };
+    let (by_default, err) = apply(&rec, "d.exr", &[]);
+    assert!(
+        err.contains("frames: 4 from frame seed 9: the plain mean of 4 frames")
+            && err.contains("static camera, as the kernel's predicted error assumes"),
+        "{err}"
+    );
+    let (explicit, _) = apply(&rec, "x.exr", &["--frames", "4", "--frame-seed", "9"]);
+    assert_eq!(by_default.rgb, explicit.rgb);
+    let (input, _) = read_image(&img, None).unwrap();
+    let kernel = DiskKernelFile::read(&rec).unwrap();
+    let want = apply_disk(
+        &input,
+        &DiskSetup::new(&kernel, view(0.1), RECORDED_FIRST, RECORDED_FRAMES),
+    )
+    .unwrap();
+    for c in 0..3 {
+        for (a, b) in by_default.rgb[c].iter().zip(&want.rgb[c]) {
+            // EXR stores f32.
+            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
+        }
+    }
+    let (one, err) = apply(&rec, "1.exr", &["--frames", "1"]);
+    assert!(
+        err.contains(
+            "frames: 1 from frame seed 9 (--frames), where the kernel's predicted error \
+                      assumes the plain mean of 4 frames"
+        ),
+        "{err}"
+    );
+    assert_ne!(one.rgb, by_default.rgb);
+    let (old, err) = apply(&bare, "o.exr", &[]);
+    assert!(
+        err.contains("frames: 1 from frame seed 0: the kernel records no frames"),
+        "{err}"
+    );
+    let (old_one, _) = apply(&bare, "o1.exr", &["--frames", "1", "--frame-seed", "0"]);
+    assert_eq!(old.rgb, old_one.rgb);
+
+    let wgsl = ok(&["fit", "--kernel", s(&rec), "--emit", "wgsl", "--quiet"]);
+    assert!(wgsl.contains("const sss_disk_frames: u32 = 4u;"), "{wgsl}");
+    // The header's comment lines wrap with "//   ".
+    let header = wgsl.replace("\n//   ", " ");
+    assert!(
+        header.contains("static camera") && header.contains("frame = 9 + k"),
+        "{wgsl}"
+    );
+    let src = format!(
+        "{wgsl}\n@group(0) @binding(0) var<storage, read_write> o: array<u32>;\n\
+         @compute @workgroup_size(1)\nfn main() {{ o[0] = sss_disk_frames; }}\n"
+    );
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("WGSL: {}", e.emit_to_string(&src)));
+    validate(&module, "wgsl");
+    let glsl = ok(&["fit", "--kernel", s(&rec), "--emit", "glsl", "--quiet"]);
+    assert!(glsl.contains("const uint sss_disk_frames = 4u;"), "{glsl}");
+    validate(&parse_glsl(&glsl_shader(&glsl), "glsl"), "glsl");
+    let hlsl = ok(&["fit", "--kernel", s(&rec), "--emit", "hlsl", "--quiet"]);
+    assert!(
+        hlsl.contains("static const uint sss_disk_frames = 4u;"),
+        "{hlsl}"
+    );
+    let none = ok(&["fit", "--kernel", s(&bare), "--emit", "hlsl", "--quiet"]);
+    assert!(
+        !none.contains("sss_disk_frames") && none.contains("Frames: none recorded"),
+        "{none}"
+    );
+
+    for (field, value, needle) in [
+        ("frames", serde_json::json!(0), "accumulation.frames is 0"),
+        (
+            "camera",
+            serde_json::json!("moving"),
+            "under a 'moving' camera",
+        ),
+    ] {
+        let mut bad = j.clone();
+        bad["accumulation"][field] = value;
+        let path = d.join(format!("bad-{field}.json"));
+        std::fs::write(&path, serde_json::to_string(&bad).unwrap()).unwrap();
+        fails_with(
+            &[
+                "apply",
+                "--kernel",
+                s(&path),
+                "--input",
+                s(&img),
+                "--out",
+                s(&d.join("bad.exr")),
+                "--mm-per-pixel",
+                "0.1",
+            ],
+            &[needle, s(&path)],
+        );
+    }
+}

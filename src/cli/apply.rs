@@ -524,8 +524,11 @@ fn run_reference(
             "direct"
         },
         match sampling {
-            cpu::PixelSampling::Average => "averaged over each pixel",
-            cpu::PixelSampling::Centre => "at pixel centres",
+            cpu::PixelSampling::Average =>
+                "averaged over each pixel; compare, advise and kernels score against \
+                 --reference-sampling centre, another discretisation, which diff then \
+                 reproduces",
+            cpu::PixelSampling::Centre => "at pixel centres, as compare, advise and kernels score",
         }
     );
     Ok(cpu::convolve_2d(image, &k))

@@ -17,8 +17,8 @@ use ssskit::report::eval::pipeline::{self, Settings};
 )]
 #[command(mut_arg("image_error", args::alias("--target-error")))]
 #[command(mut_arg("models", |a| args::default(FAMILIES.join(","))(a)
-    .help("Kernel models: the families the kernel to ship is chosen from (every model is \
-           compared)")))]
+    .help("Kernel models, comma-separated, or all: what ships is chosen from these (every \
+           model is compared)")))]
 #[command(mut_arg("mm_per_pixel", |a| a
     .default_value(None::<&str>)
     .help("Scale: surface millimetres per pixel [default: 0.1, or the scene's with --scene]")))]

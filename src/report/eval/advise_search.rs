@@ -440,3 +440,58 @@ impl Search<'_> {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::disk_error::view;
+    use crate::filter::kernel_setup::kernel_setup;
+    use crate::filter::signals::{generate, Signal};
+    use crate::filter::{cpu, Setup};
+    use crate::kernel::preintegrate::PreMethod;
+
+    /// A full-factor answer's file runs by default what was scored: its
+    /// pixel table, as `apply` runs a tap table, gives the image of the
+    /// full factors resampled to pixels (`apply --full-factors`), and the
+    /// file it makes is a valid kernel file.
+    #[test]
+    fn a_full_factor_answer_ships_the_passes_scored() {
+        let m = crate::material::preset("skin1").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
+        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let model = Model::Preintegrate {
+            method: PreMethod::Abel,
+        };
+        let mm = 0.5;
+        let mut kernel = crate::kernel::fit_kernel_file(
+            &profile,
+            &crate::kernel::Kernel2DSpec::default(),
+            &model,
+            17,
+        )
+        .unwrap();
+        let passes = scored_passes(&kernel, true, mm);
+        let full = kernel.clone();
+        kernel.taps = pixel_table(&passes, mm);
+        assert_eq!(kernel.taps.count % 2, 1);
+        kernel.validate("pixel table").unwrap();
+        let image = generate(Signal::Shapes, 40, 40, 3).unwrap();
+        let run = |k: &KernelFile, full_factors: bool| {
+            let v: Setup = view(mm);
+            let (setup, _) = kernel_setup(k, full_factors, v, &image).unwrap();
+            cpu::apply_with(&image, &setup, cpu::Precision::F64).unwrap()
+        };
+        let (table, scored) = (run(&kernel, false), run(&full, true));
+        for c in 0..3 {
+            for (a, b) in table.rgb[c].iter().zip(&scored.rgb[c]) {
+                assert!((a - b).abs() <= 1e-12, "{a} {b}");
+            }
+        }
+        // The stored 17-tap table runs something else.
+        let stored = run(&full, false);
+        assert!(stored.rgb[0]
+            .iter()
+            .zip(&scored.rgb[0])
+            .any(|(a, b)| (a - b).abs() > 1e-6));
+    }
+}

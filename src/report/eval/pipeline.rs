@@ -439,6 +439,14 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
     if let Some(r) = &a.remedy {
         let _ = writeln!(s, "  {}", advice_text::remedy_text(r));
     }
+    if let Some(acc) = a.disk_kernel.as_ref().and_then(|k| k.accumulation.as_ref()) {
+        let _ = writeln!(
+            s,
+            "  recommended.json records what the prediction assumes, {}: `ssskit apply` runs it \
+             by default",
+            acc.describe()
+        );
+    }
     match &a.scene {
         Some(sc) => {
             let _ = writeln!(s, "  {}", sc.sentence());
