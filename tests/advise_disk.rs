@@ -4,7 +4,6 @@
 //! `--frames` frames, run as a user runs them.
 
 use serde_json::Value;
-use std::path::{Path, PathBuf};
 
 mod common;
 use common::{ok_both as ok, p as s, read_json as read};
@@ -15,26 +14,10 @@ const SEPARABLE: &str = "svd,preintegrate,guided,manual,gaussians";
 /// The advice's target (its default, 5%).
 const TARGET: f64 = 0.05;
 
-fn committed_profile(material: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("profiles/reference/{material}.json"))
-}
-
-/// Largest relative RMS over channels of `ssskit diff A B --json`.
-fn diff_rel(a: &Path, b: &Path) -> f64 {
-    let (out, _) = ok(&["diff", s(a), s(b), "--json"]);
-    let v: Value = serde_json::from_str(out.trim()).unwrap();
-    v["rms_rel"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .fold(0.0, f64::max)
-}
-
 /// `advise` on the committed skin1 profile at 0.1 mm per pixel, 64-pixel
 /// signals, JSON.
 fn advise(extra: &[&str]) -> (Value, String) {
-    let profile = committed_profile("skin1");
+    let profile = common::committed_profile("skin1");
     let mut args = vec![
         "advise",
         "--profile",
@@ -119,7 +102,7 @@ fn advise_chooses_a_disk_kernel_that_holds_through_apply() {
     assert_eq!(k["accumulation"]["frames"], 8, "{k}");
     assert_eq!(k["samples"].as_array().unwrap().len() as u64, n);
 
-    let profile = committed_profile("skin1");
+    let profile = common::committed_profile("skin1");
     let held_out: [(&str, Vec<&str>); 3] = [
         ("shapes", vec!["shapes"]),
         ("checker5px", vec!["checker", "--checker-mm", "0.5"]),
@@ -139,19 +122,7 @@ fn advise_chooses_a_disk_kernel_that_holds_through_apply() {
         ]);
         ok(&args);
         let exact = d.join(format!("exact-{name}.exr"));
-        ok(&[
-            "apply",
-            "--reference",
-            s(&profile),
-            "--reference-sampling",
-            "centre",
-            "--input",
-            s(&input),
-            "--mm-per-pixel",
-            "0.1",
-            "--out",
-            s(&exact),
-        ]);
+        common::centre_reference(&profile, &input, "0.1", &exact);
         let blurred = d.join(format!("disk-{name}.exr"));
         ok(&[
             "apply",
@@ -170,7 +141,7 @@ fn advise_chooses_a_disk_kernel_that_holds_through_apply() {
             "--out",
             s(&blurred),
         ]);
-        let e = diff_rel(&exact, &blurred);
+        let e = common::diff_rel(&exact, &blurred);
         assert!(e <= TARGET, "{name}: {e} > {TARGET}: {a}");
     }
 }

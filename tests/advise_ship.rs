@@ -44,21 +44,6 @@ const F32_SWEEP: f64 = 1e-5;
 /// Monte Carlo tests' 4 sigma.
 const FRAME_SIGMAS: f64 = 4.0;
 
-/// The PBD profile of skin1 (analytic: no bootstrap, every score exact).
-fn profile(dir: &Path) -> PathBuf {
-    let p = dir.join("skin1-pbd.json");
-    ok(&[
-        "profile",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--out",
-        s(&p),
-    ]);
-    p
-}
-
 /// `signal` as advise makes its test image `name` (a checker's cells in
 /// pixels become --checker-mm at the scale).
 fn signal(dir: &Path, name: &str) -> PathBuf {
@@ -91,13 +76,6 @@ fn signal(dir: &Path, name: &str) -> PathBuf {
     path
 }
 
-/// `ssskit diff A B --json`'s relative RMS per channel.
-fn diff(a: &Path, b: &Path) -> [f64; 3] {
-    let (out, _) = ok(&["diff", s(a), s(b), "--json"]);
-    let v: Value = serde_json::from_str(out.trim()).unwrap();
-    std::array::from_fn(|c| v["rms_rel"][c].as_f64().unwrap())
-}
-
 /// `apply --kernel K` with no flag beyond the scale, and `extra`.
 fn apply(kernel: &Path, input: &Path, out: &Path, extra: &[&str]) -> String {
     let mut args = vec![
@@ -124,7 +102,7 @@ fn apply(kernel: &Path, input: &Path, out: &Path, extra: &[&str]) -> String {
 fn every_family_measures_what_the_advice_predicts() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let profile = profile(d);
+    let profile = common::pbd_profile(d, "skin1");
     let size = SIZE.to_string();
     for (family, passes) in FAMILIES {
         let kernel = d.join(format!("{family}.json"));
@@ -159,22 +137,10 @@ fn every_family_measures_what_the_advice_predicts() {
         for name in [worst.as_str(), "shapes"] {
             let input = signal(d, name);
             let exact = d.join(format!("exact-{name}.exr"));
-            ok(&[
-                "apply",
-                "--reference",
-                s(&profile),
-                "--reference-sampling",
-                "centre",
-                "--input",
-                s(&input),
-                "--mm-per-pixel",
-                MM,
-                "--out",
-                s(&exact),
-            ]);
+            common::centre_reference(&profile, &input, MM, &exact);
             let blurred = d.join(format!("{family}-{name}.exr"));
             let err = apply(&kernel, &input, &blurred, &[]);
-            let measured = diff(&exact, &blurred);
+            let measured = common::diff_channels(&exact, &blurred);
             let predicted = &a["predicted"]["signals"][name]["rel_rms"];
             for (c, m) in measured.iter().enumerate() {
                 let p = predicted[c].as_f64().unwrap();
@@ -201,7 +167,7 @@ fn every_family_measures_what_the_advice_predicts() {
             assert!(sd > 0.0, "{row}");
             let later = d.join(format!("disk-{name}-later.exr"));
             apply(&kernel, &input, &later, &["--frame-seed", "1000"]);
-            let m = diff(&exact, &later)[c];
+            let m = common::diff_channels(&exact, &later)[c];
             let p = row["error"].as_f64().unwrap();
             assert!(
                 (m - p).abs() <= FRAME_SIGMAS * sd,
@@ -222,18 +188,7 @@ fn kernels_ships_what_it_predicts() {
     let d = dir.path();
     let out = d.join("k");
     let size = SIZE.to_string();
-    let (stdout, _) = ok(&[
-        "kernels",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--signal-size",
-        &size,
-        "--no-plots",
-        "--out-dir",
-        s(&out),
-    ]);
+    let stdout = common::skin1_kernels(&out, &size, &["--no-plots"]).0;
     let a = read(&out.join("advice.json"));
     let worst = a["worst_case"]["signal"].as_str().unwrap();
     // "  worst case 3.47% +- 0.01% on checker3px, ..." and the row
@@ -262,22 +217,10 @@ fn kernels_ships_what_it_predicts() {
     let profile = out.join("profile.json");
     let input = signal(d, worst);
     let exact = d.join("exact.exr");
-    ok(&[
-        "apply",
-        "--reference",
-        s(&profile),
-        "--reference-sampling",
-        "centre",
-        "--input",
-        s(&input),
-        "--mm-per-pixel",
-        MM,
-        "--out",
-        s(&exact),
-    ]);
+    common::centre_reference(&profile, &input, MM, &exact);
     let blurred = d.join("shipped.exr");
     apply(&out.join("recommended.json"), &input, &blurred, &[]);
-    let measured = diff(&exact, &blurred);
+    let measured = common::diff_channels(&exact, &blurred);
     for (c, m) in measured.iter().enumerate() {
         let p = a["predicted"]["signals"][worst]["rel_rms"][c]
             .as_f64()
@@ -286,22 +229,11 @@ fn kernels_ships_what_it_predicts() {
     }
 
     let one = d.join("one");
-    ok(&[
-        "kernels",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--signal-size",
+    common::skin1_kernels(
+        &one,
         "32",
-        "--no-plots",
-        "--models",
-        "disk",
-        "--frames",
-        "1",
-        "--out-dir",
-        s(&one),
-    ]);
+        &["--no-plots", "--models", "disk", "--frames", "1"],
+    );
     let a = read(&one.join("advice.json"));
     assert_eq!(
         (a["model"].as_str(), a["frames"].as_u64()),

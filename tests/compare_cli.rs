@@ -381,16 +381,7 @@ fn compare_rows_reproduce_with_the_centre_sampled_reference() {
         p(&out),
     ]);
     let rows: Vec<Value> = serde_json::from_value(read_json(&out.join("compare.json"))).unwrap();
-    let (profile, input) = (d.join("skin1.json"), d.join("shapes.exr"));
-    ok(&[
-        "profile",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--out",
-        p(&profile),
-    ]);
+    let (profile, input) = (common::pbd_profile(d, "skin1"), d.join("shapes.exr"));
     ok(&[
         "signal",
         "shapes",

@@ -6,7 +6,8 @@
 
 mod common;
 
-use common::{fails_with, ok, read_json};
+use common::shader::{parse_glsl, validate};
+use common::{fails_with, ok, p as s, read_json};
 use naga::{Expression, Literal};
 use ssskit::filter::disk::{apply_disk, DiskSetup};
 use ssskit::filter::disk_error::view;
@@ -16,19 +17,6 @@ use std::path::Path;
 
 const SKIN: &str = "profiles/reference/skin1.json";
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn validate(m: &naga::Module, what: &str) {
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(m)
-    .unwrap_or_else(|e| panic!("{what}: naga validation failed: {e:?}"));
-}
-
 /// A GLSL fragment shader that reads every point and weight.
 fn glsl_shader(arrays: &str) -> String {
     format!(
@@ -36,14 +24,6 @@ fn glsl_shader(arrays: &str) -> String {
          vec3 s = vec3(0.0);\n    for (uint i = 0u; i < sss_disk_count; i++) {{ s += \
          sss_disk_weights[i] * sss_disk_points[i].x; }}\n    o = vec4(s, 1.0);\n}}\n"
     )
-}
-
-fn parse_glsl(src: &str, what: &str) -> naga::Module {
-    let mut front = naga::front::glsl::Frontend::default();
-    let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
-    front
-        .parse(&options, src)
-        .unwrap_or_else(|e| panic!("{what}: GLSL parse failed: {e:?}\n{src}"))
 }
 
 /// The vectors of the WGSL constant `name`.
@@ -72,23 +52,29 @@ fn wgsl_array(module: &naga::Module, name: &str) -> Vec<Vec<f32>> {
         .collect()
 }
 
-#[test]
-fn fit_writes_the_sample_table_and_shader_arrays_that_naga_accepts() {
-    let dir = tempfile::tempdir().unwrap();
-    let k = dir.path().join("disk.json");
-    let wgsl = ok(&[
+/// `ssskit fit --model disk` of the committed skin1 profile with
+/// `samples` into `out`, and `extra`; its stdout.
+fn fit_disk_file(out: &Path, samples: &str, extra: &[&str]) -> String {
+    let mut args = vec![
         "fit",
         "--profile",
         SKIN,
         "--model",
         "disk",
         "--samples",
-        "32",
+        samples,
         "--out",
-        s(&k),
-        "--emit",
-        "wgsl",
-    ]);
+        s(out),
+    ];
+    args.extend(extra);
+    ok(&args)
+}
+
+#[test]
+fn fit_writes_the_sample_table_and_shader_arrays_that_naga_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = dir.path().join("disk.json");
+    let wgsl = fit_disk_file(&k, "32", &["--emit", "wgsl"]);
     let j = read_json(&k);
     assert_eq!(j["schema"], "ssskit.disk/1");
     let samples = j["samples"].as_array().unwrap();
@@ -172,17 +158,7 @@ fn apply_accumulates_frames_as_the_library_does() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
-    ok(&[
-        "fit",
-        "--profile",
-        SKIN,
-        "--model",
-        "disk",
-        "--samples",
-        "16",
-        "--out",
-        s(&k),
-    ]);
+    fit_disk_file(&k, "16", &[]);
     ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
     ok(&[
         "apply",
@@ -252,17 +228,7 @@ fn apply_accumulates_by_an_ema_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
-    ok(&[
-        "fit",
-        "--profile",
-        SKIN,
-        "--model",
-        "disk",
-        "--samples",
-        "8",
-        "--out",
-        s(&k),
-    ]);
+    fit_disk_file(&k, "8", &[]);
     ok(&["signal", "edge", "--size", "24x16", "--out", s(&img)]);
     let apply = |extra: &[&str]| -> Vec<String> {
         let mut a: Vec<String> = [
@@ -338,17 +304,7 @@ fn apply_runs_the_frames_the_kernel_records() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (bare, rec, img) = (d.join("bare.json"), d.join("rec.json"), d.join("e.exr"));
-    ok(&[
-        "fit",
-        "--profile",
-        SKIN,
-        "--model",
-        "disk",
-        "--samples",
-        "8",
-        "--out",
-        s(&bare),
-    ]);
+    fit_disk_file(&bare, "8", &[]);
     let mut j = read_json(&bare);
     assert!(j.get("accumulation").is_none(), "fit predicts nothing: {j}");
     j["accumulation"] = serde_json::json!({
