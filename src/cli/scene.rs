@@ -430,6 +430,8 @@ pub(super) struct CompareArgs<'a> {
     pub follow_mm: Option<f64>,
     /// Photons per channel and incidence of the angular factors (0: none).
     pub angular_photons: u64,
+    /// Thickness table of the scene's object: the back-lit rows.
+    pub transmission: Option<&'a Path>,
     pub seed: u64,
     pub plots: bool,
     pub out: &'a Path,
@@ -500,8 +502,23 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         cmp.follow_mm,
         cmp.follow_constant
     );
-    let tables = named_tables(&cmp);
-    ssskit::io::write_atomic(&dir.join("scene.md"), page(&cmp, &head).as_bytes())?;
+    let back = match a.transmission {
+        Some(t) => Some(super::transmission::scene_block(
+            &scene,
+            &r,
+            profile,
+            t,
+            a.pixels_per_degree,
+        )?),
+        None => None,
+    };
+    let mut tables = named_tables(&cmp);
+    let mut md = page(&cmp, &head);
+    if let Some((b, t)) = &back {
+        md = format!("{}\n\n{}\n\n{md}", b.headline, t.markdown());
+        tables.push(("transmission", t.clone()));
+    }
+    ssskit::io::write_atomic(&dir.join("scene.md"), md.as_bytes())?;
     let json = serde_json::json!({
         "scene": a.scene.display().to_string(),
         "dominance": dominance(&cmp),
@@ -513,6 +530,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         "angular_note": cmp.angular_note,
         "spp": r.info.spp,
         "rows": cmp.rows,
+        "transmission": back.as_ref().map(|b| &b.0),
     });
     let text = serde_json::to_string_pretty(&json)? + "\n";
     ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
@@ -528,8 +546,21 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
             |n| n.to_string_lossy().into(),
         );
         contact_sheet(&cmp, &name, &dir.join("contact-sheet.png"))?;
+        if let Some((b, _)) = &back {
+            ssskit::report::present::transmission_plots::scene_sheet(
+                b,
+                &cmp.truth,
+                &format!(
+                    "{name}: lit from behind, each way to show it above |image - path traced|"
+                ),
+                &dir.join("transmission-sheet.png"),
+            )?;
+        }
     }
     staged.commit()?;
+    if let Some((b, t)) = &back {
+        outln!("{}\n\n{}\n", b.headline, t.markdown())?;
+    }
     let d = dominance(&cmp);
     if let Some(h) = d.as_ref().and_then(|d| d.headline()) {
         outln!("{h}")?;

@@ -48,7 +48,7 @@
 
 use super::advise_decide::{choose, Cost};
 pub use super::advise_decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};
-use super::advise_disk::{check_frames, disk_kernel, DISK};
+use super::advise_disk::{check_frames, disk_kernel, with_frames, DISK};
 use super::advise_noise::{Reference, BOOTSTRAP_SEED};
 use super::advise_scene::{check_on_scene, SceneCandidate, SceneCheck, ScenePass};
 use super::advise_search::Search;
@@ -256,17 +256,29 @@ fn validate(cfg: &Config) -> Result<()> {
             "advise needs at least one signal and one tap count".into(),
         ));
     }
-    // The cheapest kernel there is: one term, one tap, two passes.
-    for (field, v) in [
-        ("max_passes", cfg.budget.max_passes),
-        ("max_samples", cfg.budget.max_samples),
+    // The cheapest kernels there are: a disk kernel runs one pass; a
+    // separable one two (one tap each, two samples per pixel).
+    for (field, v, least, why) in [
+        (
+            "max_passes",
+            cfg.budget.max_passes,
+            1,
+            "a disk kernel runs one pass, a separable kernel two (horizontal and vertical)",
+        ),
+        (
+            "max_samples",
+            cfg.budget.max_samples,
+            2,
+            "the cheapest kernel, one tap in each of two passes, takes 2 samples per pixel",
+        ),
+        ("max_taps", cfg.budget.max_taps, 1, "every pass has a tap"),
     ] {
-        if v.is_some_and(|v| v < 2) {
+        if v.is_some_and(|v| v < least) {
             return Err(Error::invalid(
                 "advise",
                 field,
                 v.unwrap_or(0),
-                "must be >= 2: a separable kernel runs a horizontal and a vertical pass",
+                format!("must be >= {least}: {why}"),
             ));
         }
     }
@@ -482,10 +494,10 @@ fn scene_check(
         .map(|&i| {
             let c = &candidates[i];
             let pass = if c.disk.is_some() {
-                ScenePass::Disk {
-                    kernel: Box::new(disk_kernel(search.profile, c.cost)?),
-                    frames: search.cfg.frames,
-                }
+                ScenePass::Disk(Box::new(with_frames(
+                    disk_kernel(search.profile, c.cost)?,
+                    search.cfg.frames,
+                )))
             } else {
                 ScenePass::Separable(search.chosen_kernel(c)?.1)
             };

@@ -100,6 +100,21 @@ fn worst(v: [f64; 3]) -> (usize, f64) {
     (0..3).fold((0, v[0]), |b, c| if v[c] > b.1 { (c, v[c]) } else { b })
 }
 
+/// `kernel` recording the frames advise scores it after, the plain mean
+/// of `frames` frames from [`DISK_SEED`] under a static camera: what
+/// `apply` then runs by default.
+pub fn with_frames(mut kernel: DiskKernelFile, frames: u32) -> DiskKernelFile {
+    kernel.accumulation = Some(Accumulation::static_mean(frames, DISK_SEED));
+    kernel
+}
+
+/// (first frame's seed, frames) that `kernel` records, as
+/// `screen_space_disk_pass` and `DiskSetup` take them.
+pub fn first_and_frames(kernel: &DiskKernelFile) -> (u32, u32) {
+    let (frames, first) = kernel.frames_to_run(None, None);
+    (first, frames)
+}
+
 /// Checks the frames to accumulate.
 pub fn check_frames(frames: u32) -> Result<()> {
     if (1..=MAX_FRAMES).contains(&frames) {
@@ -264,7 +279,7 @@ impl Search<'_> {
         &self,
         c: &Candidate,
     ) -> Result<(DiskKernelFile, BTreeMap<String, ImageErrors>)> {
-        let mut kernel = disk_kernel(self.profile, c.cost)?;
+        let kernel = disk_kernel(self.profile, c.cost)?;
         if c.fingerprint.as_deref() != Some(disk_fingerprint(&kernel).as_str()) {
             return Err(Error::Unsupported(format!(
                 "advise: the disk kernel of {} differs from the one scored",
@@ -272,7 +287,7 @@ impl Search<'_> {
             )));
         }
         // The frames the prediction below is made on travel with the file.
-        kernel.accumulation = Some(Accumulation::static_mean(self.cfg.frames, DISK_SEED));
+        let kernel = with_frames(kernel, self.cfg.frames);
         let mut predicted = BTreeMap::new();
         for r in &self.refs {
             let e = &r.exact;
