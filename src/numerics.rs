@@ -86,6 +86,16 @@ pub fn nearest_rank(sorted: &[f64], q: f64) -> f64 {
     sorted[((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1]
 }
 
+/// Sample standard deviation (n - 1), 0 below two values.
+pub fn std_dev(v: &[f64]) -> f64 {
+    if v.len() < 2 {
+        return 0.0;
+    }
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+}
+
 /// Area of the annulus between radii `a` and `b`.
 pub fn annulus_area(a: f64, b: f64) -> f64 {
     std::f64::consts::PI * (b * b - a * a)
@@ -568,6 +578,12 @@ mod tests {
         assert_eq!(nearest_rank(&[1.0, 2.0, 3.0], 0.5), 2.0);
         assert_eq!(nearest_rank(&[1.0, 2.0, 3.0], 0.0), 1.0);
         assert_eq!(nearest_rank(&[7.0], 0.99), 7.0);
+    }
+
+    #[test]
+    fn std_dev_of_known_values() {
+        assert_eq!(std_dev(&[1.0]), 0.0);
+        assert!((std_dev(&[1.0, 3.0]) - 2f64.sqrt()).abs() < 1e-15);
     }
 
     #[test]

@@ -2,40 +2,10 @@
 //! kernel-to-pixel warnings of `apply`, run as a user runs them.
 
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 mod common;
 use common::{ok_both as ok, p as s, read_json as read, EXACT};
-
-fn pbd_profile(dir: &Path, material: &str) -> PathBuf {
-    let p = dir.join(format!("{material}-pbd.json"));
-    ok(&[
-        "profile",
-        "--material",
-        material,
-        "--profile-model",
-        "pbd",
-        "--out",
-        s(&p),
-    ]);
-    p
-}
-
-fn committed_profile(material: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("profiles/reference/{material}.json"))
-}
-
-/// Largest relative RMS over channels of `ssskit diff A B --json`.
-fn diff_rel(a: &Path, b: &Path) -> f64 {
-    let (out, _) = ok(&["diff", s(a), s(b), "--json"]);
-    let v: Value = serde_json::from_str(out.trim()).unwrap();
-    v["rms_rel"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .fold(0.0, f64::max)
-}
 
 /// skin1 at 0.02, 0.2 and 2 mm per pixel: three different configurations,
 /// more work where the kernel spans more pixels, each meeting the target on
@@ -45,7 +15,7 @@ fn diff_rel(a: &Path, b: &Path) -> f64 {
 fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let profile = pbd_profile(d, "skin1");
+    let profile = common::pbd_profile(d, "skin1");
     let target = 0.08;
     let mut answers = Vec::new();
     for mm in ["0.02", "0.2", "2"] {
@@ -129,19 +99,7 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
             ]);
             ok(&args);
             let exact = d.join(format!("exact-{name}{mm}.exr"));
-            ok(&[
-                "apply",
-                "--reference",
-                s(&profile),
-                "--reference-sampling",
-                "centre",
-                "--input",
-                s(&input),
-                "--mm-per-pixel",
-                mm,
-                "--out",
-                s(&exact),
-            ]);
+            common::centre_reference(&profile, &input, mm, &exact);
             let blurred = d.join(format!("blurred-{name}{mm}.exr"));
             let mut args = vec![
                 "apply",
@@ -160,7 +118,7 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
                 args.push("--full-factors");
             }
             ok(&args);
-            let held_out = diff_rel(&exact, &blurred);
+            let held_out = common::diff_rel(&exact, &blurred);
             assert!(
                 held_out <= target,
                 "{mm} mm/px: {name} error {held_out} > {target}: {a}"
@@ -194,7 +152,7 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
 #[test]
 fn advise_from_a_perspective_view_matches_the_filter_scale() {
     let dir = tempfile::tempdir().unwrap();
-    let profile = pbd_profile(dir.path(), "marble");
+    let profile = common::pbd_profile(dir.path(), "marble");
     let (out, _) = ok(&[
         "advise",
         "--profile",
@@ -255,7 +213,7 @@ fn advise_from_a_perspective_view_matches_the_filter_scale() {
 fn fit_records_the_tap_extent() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let profile = pbd_profile(d, "skin1");
+    let profile = common::pbd_profile(d, "skin1");
     let extent_of = |extra: &[&str]| {
         let k = d.join("k.json");
         let mut args = vec![
@@ -314,7 +272,7 @@ fn fit_records_the_tap_extent() {
 fn apply_warns_about_the_kernel_at_the_pixel_scale() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let profile = pbd_profile(d, "skin1");
+    let profile = common::pbd_profile(d, "skin1");
     let k = d.join("k.json");
     ok(&[
         "fit",
@@ -375,17 +333,7 @@ fn apply_warns_about_the_kernel_at_the_pixel_scale() {
 fn kernels_runs_the_main_job_in_one_command() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("skin1");
-    let (stdout, _) = ok(&[
-        "kernels",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--signal-size",
-        "32",
-        "--out-dir",
-        s(&out),
-    ]);
+    let (stdout, _) = common::skin1_kernels(&out, "32", &[]);
     assert!(stdout.contains("ship: "), "{stdout}");
     assert!(stdout.contains("skin1 at 0.1 mm per pixel"), "{stdout}");
     assert!(stdout.lines().count() < 40, "one screen: {stdout}");
@@ -550,7 +498,7 @@ fn study_measures_the_trade_of_every_knob() {
     ok(&[
         "study",
         "--profile",
-        s(&committed_profile("skin1")),
+        s(&common::committed_profile("skin1")),
         "--sweep-photons",
         "4000,64000",
         "--signal-size",
@@ -690,7 +638,7 @@ fn advise_skin1(extra: &[&str]) -> (Value, String) {
 
 /// [`advise_skin1`] at `mm_per_pixel`.
 fn advise_skin1_at(mm_per_pixel: &str, extra: &[&str]) -> (Value, String) {
-    let profile = committed_profile("skin1");
+    let profile = common::committed_profile("skin1");
     let mut args = vec![
         "advise",
         "--profile",

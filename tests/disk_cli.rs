@@ -6,7 +6,8 @@
 
 mod common;
 
-use common::{fails_with, ok, read_json};
+use common::shader::{parse_glsl, validate};
+use common::{fails_with, ok, p as s, read_json};
 use naga::{Expression, Literal};
 use ssskit::filter::disk::{apply_disk, DiskSetup};
 use ssskit::filter::disk_error::view;
@@ -16,19 +17,6 @@ use std::path::Path;
 
 const SKIN: &str = "profiles/reference/skin1.json";
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn validate(m: &naga::Module, what: &str) {
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(m)
-    .unwrap_or_else(|e| panic!("{what}: naga validation failed: {e:?}"));
-}
-
 /// A GLSL fragment shader that reads every point and weight.
 fn glsl_shader(arrays: &str) -> String {
     format!(
@@ -36,14 +24,6 @@ fn glsl_shader(arrays: &str) -> String {
          vec3 s = vec3(0.0);\n    for (uint i = 0u; i < sss_disk_count; i++) {{ s += \
          sss_disk_weights[i] * sss_disk_points[i].x; }}\n    o = vec4(s, 1.0);\n}}\n"
     )
-}
-
-fn parse_glsl(src: &str, what: &str) -> naga::Module {
-    let mut front = naga::front::glsl::Frontend::default();
-    let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
-    front
-        .parse(&options, src)
-        .unwrap_or_else(|e| panic!("{what}: GLSL parse failed: {e:?}\n{src}"))
 }
 
 /// The vectors of the WGSL constant `name`.
@@ -72,23 +52,29 @@ fn wgsl_array(module: &naga::Module, name: &str) -> Vec<Vec<f32>> {
         .collect()
 }
 
-#[test]
-fn fit_writes_the_sample_table_and_shader_arrays_that_naga_accepts() {
-    let dir = tempfile::tempdir().unwrap();
-    let k = dir.path().join("disk.json");
-    let wgsl = ok(&[
+/// `ssskit fit --model disk` of the committed skin1 profile with
+/// `samples` into `out`, and `extra`; its stdout.
+fn fit_disk_file(out: &Path, samples: &str, extra: &[&str]) -> String {
+    let mut args = vec![
         "fit",
         "--profile",
         SKIN,
         "--model",
         "disk",
         "--samples",
-        "32",
+        samples,
         "--out",
-        s(&k),
-        "--emit",
-        "wgsl",
-    ]);
+        s(out),
+    ];
+    args.extend(extra);
+    ok(&args)
+}
+
+#[test]
+fn fit_writes_the_sample_table_and_shader_arrays_that_naga_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let k = dir.path().join("disk.json");
+    let wgsl = fit_disk_file(&k, "32", &["--emit", "wgsl"]);
     let j = read_json(&k);
     assert_eq!(j["schema"], "ssskit.disk/1");
     let samples = j["samples"].as_array().unwrap();
@@ -172,17 +158,7 @@ fn apply_accumulates_frames_as_the_library_does() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
-    ok(&[
-        "fit",
-        "--profile",
-        SKIN,
-        "--model",
-        "disk",
-        "--samples",
-        "16",
-        "--out",
-        s(&k),
-    ]);
+    fit_disk_file(&k, "16", &[]);
     ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
     ok(&[
         "apply",
@@ -252,17 +228,7 @@ fn apply_accumulates_by_an_ema_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
-    ok(&[
-        "fit",
-        "--profile",
-        SKIN,
-        "--model",
-        "disk",
-        "--samples",
-        "8",
-        "--out",
-        s(&k),
-    ]);
+    fit_disk_file(&k, "8", &[]);
     ok(&["signal", "edge", "--size", "24x16", "--out", s(&img)]);
     let apply = |extra: &[&str]| -> Vec<String> {
         let mut a: Vec<String> = [
@@ -316,6 +282,148 @@ fn apply_accumulates_by_an_ema_when_asked() {
         fails_with(
             &args.iter().map(String::as_str).collect::<Vec<_>>(),
             &needles,
+        );
+    }
+}
+
+/// The rotations a disk kernel's predicted error assumes, as its file
+/// records them (`accumulation`, written by advise and kernels; here added
+/// to a fitted kernel as they write it).
+const RECORDED_FRAMES: u32 = 4;
+const RECORDED_FIRST: u32 = 9;
+
+/// `apply` runs the frames a disk kernel records when --frames is not
+/// given (the image of `--frames 4 --frame-seed 9`, bit for bit, and the
+/// library's disk pass) and says so; --frames wins and is said, with the
+/// assumption it departs from; a kernel that records none runs one frame
+/// from seed 0 and says that it is assumed. The shader arrays carry the
+/// count (`sss_disk_frames`, naga-validated) and the static camera; a file
+/// whose record is not a static camera's plain mean is refused.
+#[test]
+fn apply_runs_the_frames_the_kernel_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (bare, rec, img) = (d.join("bare.json"), d.join("rec.json"), d.join("e.exr"));
+    fit_disk_file(&bare, "8", &[]);
+    let mut j = read_json(&bare);
+    assert!(j.get("accumulation").is_none(), "fit predicts nothing: {j}");
+    j["accumulation"] = serde_json::json!({
+        "frames": RECORDED_FRAMES, "first_frame": RECORDED_FIRST, "accumulate": "mean",
+        "camera": "static"
+    });
+    std::fs::write(&rec, serde_json::to_string(&j).unwrap()).unwrap();
+    ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
+    let apply = |kernel: &Path, out: &str, extra: &[&str]| {
+        let out = d.join(out);
+        let mut args = vec![
+            "apply",
+            "--kernel",
+            s(kernel),
+            "--input",
+            s(&img),
+            "--out",
+            s(&out),
+            "--mm-per-pixel",
+            "0.1",
+            "--backend",
+            "cpu",
+        ];
+        args.extend(extra);
+        let (_, err) = common::ok_both(&args);
+        (read_image(&out, None).unwrap().0, err)
+    };
+    let (by_default, err) = apply(&rec, "d.exr", &[]);
+    assert!(
+        err.contains("frames: 4 from frame seed 9: the plain mean of 4 frames")
+            && err.contains("static camera, as the kernel's predicted error assumes"),
+        "{err}"
+    );
+    let (explicit, _) = apply(&rec, "x.exr", &["--frames", "4", "--frame-seed", "9"]);
+    assert_eq!(by_default.rgb, explicit.rgb);
+    let (input, _) = read_image(&img, None).unwrap();
+    let kernel = DiskKernelFile::read(&rec).unwrap();
+    let want = apply_disk(
+        &input,
+        &DiskSetup::new(&kernel, view(0.1), RECORDED_FIRST, RECORDED_FRAMES),
+    )
+    .unwrap();
+    for c in 0..3 {
+        for (a, b) in by_default.rgb[c].iter().zip(&want.rgb[c]) {
+            // EXR stores f32.
+            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
+        }
+    }
+    let (one, err) = apply(&rec, "1.exr", &["--frames", "1"]);
+    assert!(
+        err.contains(
+            "frames: 1 from frame seed 9 (--frames), where the kernel's predicted error \
+                      assumes the plain mean of 4 frames"
+        ),
+        "{err}"
+    );
+    assert_ne!(one.rgb, by_default.rgb);
+    let (old, err) = apply(&bare, "o.exr", &[]);
+    assert!(
+        err.contains("frames: 1 from frame seed 0: the kernel records no frames"),
+        "{err}"
+    );
+    let (old_one, _) = apply(&bare, "o1.exr", &["--frames", "1", "--frame-seed", "0"]);
+    assert_eq!(old.rgb, old_one.rgb);
+
+    let wgsl = ok(&["fit", "--kernel", s(&rec), "--emit", "wgsl", "--quiet"]);
+    assert!(wgsl.contains("const sss_disk_frames: u32 = 4u;"), "{wgsl}");
+    // The header's comment lines wrap with "//   ".
+    let header = wgsl.replace("\n//   ", " ");
+    assert!(
+        header.contains("static camera") && header.contains("frame = 9 + k"),
+        "{wgsl}"
+    );
+    let src = format!(
+        "{wgsl}\n@group(0) @binding(0) var<storage, read_write> o: array<u32>;\n\
+         @compute @workgroup_size(1)\nfn main() {{ o[0] = sss_disk_frames; }}\n"
+    );
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("WGSL: {}", e.emit_to_string(&src)));
+    validate(&module, "wgsl");
+    let glsl = ok(&["fit", "--kernel", s(&rec), "--emit", "glsl", "--quiet"]);
+    assert!(glsl.contains("const uint sss_disk_frames = 4u;"), "{glsl}");
+    validate(&parse_glsl(&glsl_shader(&glsl), "glsl"), "glsl");
+    let hlsl = ok(&["fit", "--kernel", s(&rec), "--emit", "hlsl", "--quiet"]);
+    assert!(
+        hlsl.contains("static const uint sss_disk_frames = 4u;"),
+        "{hlsl}"
+    );
+    let none = ok(&["fit", "--kernel", s(&bare), "--emit", "hlsl", "--quiet"]);
+    assert!(
+        !none.contains("sss_disk_frames") && none.contains("Frames: none recorded"),
+        "{none}"
+    );
+
+    for (field, value, needle) in [
+        ("frames", serde_json::json!(0), "accumulation.frames is 0"),
+        (
+            "camera",
+            serde_json::json!("moving"),
+            "under a 'moving' camera",
+        ),
+    ] {
+        let mut bad = j.clone();
+        bad["accumulation"][field] = value;
+        let path = d.join(format!("bad-{field}.json"));
+        std::fs::write(&path, serde_json::to_string(&bad).unwrap()).unwrap();
+        fails_with(
+            &[
+                "apply",
+                "--kernel",
+                s(&path),
+                "--input",
+                s(&img),
+                "--out",
+                s(&d.join("bad.exr")),
+                "--mm-per-pixel",
+                "0.1",
+            ],
+            &[needle, s(&path)],
         );
     }
 }

@@ -6,6 +6,7 @@
 //! carries the integration notes; SVD factors sum to positive values.
 
 mod filter_support;
+use filter_support::shader::{parse_glsl, validate};
 use filter_support::*;
 use naga::{Expression, Literal};
 use ssskit::filter::{cpu, gpu, taps_for, Scale, Setup, Taps, Which};
@@ -15,23 +16,6 @@ use std::path::Path;
 
 fn kernel(name: &str) -> KernelFile {
     KernelFile::read(Path::new(&format!("kernels/{name}.json"))).unwrap()
-}
-
-fn validate(module: &naga::Module, what: &str) {
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(module)
-    .unwrap_or_else(|e| panic!("{what}: naga validation failed: {e:?}"));
-}
-
-fn parse_glsl(src: &str, what: &str) -> naga::Module {
-    let mut front = naga::front::glsl::Frontend::default();
-    let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
-    front
-        .parse(&options, src)
-        .unwrap_or_else(|e| panic!("{what}: GLSL parse failed: {e:?}\n{src}"))
 }
 
 /// A fragment shader that reads every tap of every pass, so nothing is

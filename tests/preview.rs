@@ -20,7 +20,7 @@ use common::skin1::{profile, root};
 use ssskit::filter::{taps_for, Image, Which};
 use ssskit::kernel::angular::{simulate_factors, AngularFactors};
 use ssskit::kernel::KernelFile;
-use ssskit::report::eval::advise_disk::disk_kernel;
+use ssskit::report::eval::advise_disk::{disk_kernel, with_frames};
 use ssskit::report::eval::advise_scene::ScenePass;
 use ssskit::report::eval::preview::{
     preview, preview_sized, Preview, PreviewImages, PreviewKernel, PreviewRow, PREVIEW_SIDE,
@@ -88,10 +88,10 @@ fn what_ships_beats_no_blur_on_the_lit_sphere() {
     ships_closer_than_no_blur(&preview(&profile, &separable).unwrap());
     let disk = PreviewKernel {
         label: "disk".into(),
-        pass: ScenePass::Disk {
-            kernel: Box::new(disk_kernel(&profile, DISK_SAMPLES).unwrap()),
-            frames: DISK_FRAMES,
-        },
+        pass: ScenePass::Disk(Box::new(with_frames(
+            disk_kernel(&profile, DISK_SAMPLES).unwrap(),
+            DISK_FRAMES,
+        ))),
         factors: Some(f),
     };
     ships_closer_than_no_blur(&preview(&profile, &disk).unwrap());

@@ -51,8 +51,9 @@ const DEFAULT_BACKEND: Backend = Backend::Cpu;
 /// of refusing. Separable kernels: full_factors (the fit's full-resolution
 /// factors instead of the real-time tap table, the CLI's default), jitter,
 /// precision "f32" or "f64" (CPU fixed-kernel path). Disk kernels: frames
-/// (rotations accumulated), frame_seed (the first frame's index),
-/// accumulate "mean" or "ema:W". A kernel with angular entry and exit
+/// (rotations accumulated) and frame_seed (the first frame's index), by
+/// default those the kernel's predicted error assumes (its recorded
+/// accumulation), else 1 and 0; accumulate "mean" or "ema:W". A kernel with angular entry and exit
 /// factors applies them given normals ((H, W, 3) view-space unit normals)
 /// and the light: light_toward (x, y, z), n_dot_l ((H, W)), or
 /// entry_weighted=True; factors=False leaves them out. backend: "cpu"
@@ -70,7 +71,7 @@ const DEFAULT_BACKEND: Backend = Backend::Cpu;
     text_signature = "(kernel, irradiance, mm_per_pixel=None, *, options=None, out=None, \
     fov_y=None, units_per_mm=None, depth=None, specular=None, strength=None, \
     follow_surface=None, sanitize=False, full_factors=False, jitter=False, precision='f32', \
-    frames=None, frame_seed=0, accumulate=None, normals=None, light_toward=None, n_dot_l=None, \
+    frames=None, frame_seed=None, accumulate=None, normals=None, light_toward=None, n_dot_l=None, \
     entry_weighted=False, factors=True, backend='cpu')"
 )]
 fn apply<'py>(
@@ -99,7 +100,7 @@ fn apply<'py>(
     })?;
     let d = &o.disk;
     let weighed = d.accumulate.is_some_and(|a| a != Accumulate::Mean);
-    if d.frames.is_some_and(|n| n != 1) || weighed || d.frame_seed != 0 {
+    if d.frames.is_some_and(|n| n != 1) || weighed || d.frame_seed.is_some_and(|n| n != 0) {
         return Err(PyValueError::new_err(
             "frames, frame_seed and accumulate apply to disk kernels; a separable kernel is the \
              same every frame",
@@ -396,8 +397,8 @@ fn apply_disk<'py>(
         )));
     }
     let (p, view) = prepare(py, target, o, scale, k.angular.as_ref())?;
-    let frames = o.disk.frames.unwrap_or(1);
-    let setup = DiskSetup::new(k, view, o.disk.frame_seed, frames).accumulated_by(accumulate);
+    let (frames, first) = k.frames_to_run(o.disk.frames, o.disk.frame_seed);
+    let setup = DiskSetup::new(k, view, first, frames).accumulated_by(accumulate);
     setup.validate(&p.image).map_err(to_py)?;
     run(py, p, target, |mut img| {
         if gpu_backend {

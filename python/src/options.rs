@@ -62,12 +62,13 @@ impl Default for SeparableOptions {
     }
 }
 
-/// The settings of a disk kernel's pass: frames (None: the CLI's
-/// default), the first frame's index, how frames accumulate.
+/// The settings of a disk kernel's pass: frames and the first frame's
+/// index (None: the CLI's default, the kernel's recorded accumulation, else
+/// 1 and 0), how frames accumulate.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct DiskOptions {
     pub(crate) frames: Option<u32>,
-    pub(crate) frame_seed: u32,
+    pub(crate) frame_seed: Option<u32>,
     pub(crate) accumulate: Option<Accumulate>,
 }
 

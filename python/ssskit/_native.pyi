@@ -231,7 +231,7 @@ class _ApplyKeywords(TypedDict, total=False):
     jitter: bool
     precision: Literal["f32", "f64"]
     frames: Optional[int]
-    frame_seed: int
+    frame_seed: Optional[int]
     accumulate: Optional[str]
     normals: Optional[_FloatArray]
     light_toward: Optional[Tuple[float, float, float]]
@@ -263,7 +263,7 @@ def apply(
     jitter: bool = False,
     precision: Literal["f32", "f64"] = "f32",
     frames: Optional[int] = None,
-    frame_seed: int = 0,
+    frame_seed: Optional[int] = None,
     accumulate: Optional[str] = None,
     normals: Optional[_FloatArray] = None,
     light_toward: Optional[Tuple[float, float, float]] = None,

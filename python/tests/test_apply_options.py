@@ -150,6 +150,22 @@ def test_disk_frames_equal_the_cli(files, tmp_path, cli, accumulate):
     assert not same_bits(mine, other)
 
 
+def test_disk_frames_default_to_the_kernels(files, tmp_path, cli):
+    """A disk kernel that records the frames its predicted error assumes
+    (`accumulation`, written by advise and kernels) runs them by default,
+    as `ssskit apply` does; one without runs one frame from seed 0."""
+    rec = json.loads((files / "disk.json").read_text())
+    rec["accumulation"] = {"frames": FRAMES, "first_frame": FRAME_SEED, "accumulate": "mean",
+                           "camera": "static"}
+    (tmp_path / "rec.json").write_text(json.dumps(rec))
+    k = ssskit.load(tmp_path / "rec.json")
+    mine = ssskit.apply(k, irradiance(), MM_PER_PIXEL)
+    assert same_bits(mine, cli_apply(cli, files, tmp_path, tmp_path / "rec.json"))
+    assert same_bits(mine, ssskit.apply(k, irradiance(), MM_PER_PIXEL, frames=FRAMES, frame_seed=FRAME_SEED))
+    bare = ssskit.apply(ssskit.load(files / "disk.json"), irradiance(), MM_PER_PIXEL)
+    assert same_bits(bare, ssskit.apply(k, irradiance(), MM_PER_PIXEL, frames=1, frame_seed=0))
+
+
 def test_disk_and_separable_settings_are_kept_apart(files):
     disk = ssskit.load(files / "disk.json")
     sep = ssskit.load(files / "pre.json")

@@ -2,8 +2,8 @@
 //! image-space error at a pixel scale.
 
 use super::args::{
-    self, count, BudgetArgs, FovYArg, ImageErrorArg, JsonArg, MmPerPixelArg, ModelsArg, OutFile,
-    ProfileModel, ProfileSourceArgs, SceneCheckArgs, SignalSizeArg, UnitsPerMmArg,
+    self, count, BudgetArgs, FovYArg, FramesArg, ImageErrorArg, JsonArg, MmPerPixelArg, ModelsArg,
+    OutFile, ProfileModel, ProfileSourceArgs, SceneCheckArgs, SignalSizeArg, UnitsPerMmArg,
 };
 use super::out::{out, outln};
 use anyhow::bail;
@@ -57,18 +57,8 @@ pub struct Args {
     factors: args::FactorsArg,
     #[command(flatten)]
     signal_size: SignalSizeArg,
-    /// Frames: disk kernels are scored on their noise after this many, 1 to 64.
-    ///
-    /// A temporal filter accumulates them under a static camera; a disk
-    /// kernel's image changes every frame (its per-pixel rotation).
-    /// Its score on a signal is, in its worst channel, sqrt(bias^2 +
-    /// noise_K^2): the bias (the mean over 4 K rotations against the exact
-    /// image, which errs high by that mean's own noise) and the RMS noise
-    /// of the mean of K frames, relative to the exact image's peak.
-    /// Separable kernels are the same every frame.
-    #[arg(long, value_name = "N", value_parser = count::<u32>,
-          default_value_t = ssskit::report::eval::advise_types::DEFAULT_FRAMES)]
-    frames: u32,
+    #[command(flatten)]
+    frames: FramesArg,
     #[command(flatten)]
     models: ModelsArg,
     #[command(flatten)]
@@ -104,7 +94,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(m) = scene_mm {
         super::scene::agrees_with_scene(mm, m)?;
     }
-    ssskit::report::eval::advise_disk::check_frames(a.frames)?;
+    ssskit::report::eval::advise_disk::check_frames(a.frames.frames)?;
     let target = a.target.fraction()?;
     let (profile, source) = a
         .profile
@@ -130,7 +120,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     cfg.size = a.signal_size.signal_size;
     cfg.budget = a.budget.budget();
     cfg.families = a.models.families();
-    cfg.frames = a.frames;
+    cfg.frames = a.frames.frames;
     let advice = advise::advise_on_scene(
         &profile,
         &cfg,

@@ -185,13 +185,16 @@ pub struct Args {
     /// PNG output bit depth [default: the input PNG's, else 8].
     #[arg(long, value_enum, value_name = "BITS")]
     png_bits: Option<PngBits>,
-    /// Frames: with a disk kernel, rotations accumulated (plain mean), 1 to 4096.
+    /// Frames: with a disk kernel, rotations accumulated (plain mean), 1 to 4096 [default: the kernel's, else 1].
     ///
     /// A static camera's temporal accumulation: frame k turns the samples
     /// by its own per-pixel angle (--frame-seed + k), and the output is the
-    /// mean of the frames. Separable kernels take 1 (the same every frame).
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = count::<u32>)]
-    frames: u32,
+    /// mean of the frames. By default the frames the kernel's predicted
+    /// error assumes (its `accumulation`, recorded by advise and kernels),
+    /// else 1; stderr says which ran. Separable kernels take 1 (the same
+    /// every frame).
+    #[arg(long, value_name = "N", value_parser = count::<u32>)]
+    frames: Option<u32>,
     /// Disk kernels: how the frames are accumulated, mean or ema:W (W in (0, 1]).
     ///
     /// mean: the plain mean of the frames. ema:W: an exponential moving
@@ -201,9 +204,9 @@ pub struct Args {
     /// W)) (docs/kernels.md). Runs on the CPU.
     #[arg(long, value_name = "HOW", default_value = "mean", value_parser = accumulate)]
     accumulate: ssskit::filter::accumulate::Accumulate,
-    /// Disk kernels: index of the first frame, which picks its rotation.
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = count::<u32>)]
-    frame_seed: u32,
+    /// Disk kernels: index of the first frame, which picks its rotation [default: the kernel's, else 0].
+    #[arg(long, value_name = "N", value_parser = count::<u32>)]
+    frame_seed: Option<u32>,
     /// View-space unit normals in R, G, B: x right, y up, z toward the camera [default: the input EXR's N.X, N.Y, N.Z].
     ///
     /// With a kernel that carries the angular entry and exit factors: the
@@ -291,15 +294,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let factors = angular::kernel_factors(kernel_path)?;
     let around = angular::view(&args, factors.as_ref(), &image, &scale)?;
     if ssskit::kernel::disk::is_disk_file(kernel_path) {
+        let kernel = disk::read(&args, kernel_path)?;
+        let (frames, first) = kernel.frames_to_run(args.frames, args.frame_seed);
+        eprintln!("{}", disk::frames_note(&kernel, args.frames, frames, first));
         let mut view = view_of(&args, scale, depth, &image)?;
         let specular = take_specular(&mut view, around.is_some());
         let out = around_pass(around.as_ref(), image, specular, |img| {
-            disk::run(&args, kernel_path, view, img)
+            disk::run(&args, kernel_path, &kernel, (frames, first), view, img)
         })?;
         write_image(out_path, &out, png_depth)?;
         eprintln!(
-            "disk pass, {} frame(s): {:.3} s -> {}",
-            args.frames,
+            "disk pass, {frames} frame(s): {:.3} s -> {}",
             start.elapsed().as_secs_f64(),
             out_path.display()
         );
@@ -312,7 +317,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             kernel_path.display()
         );
     }
-    if args.frames != 1 {
+    if args.frames.is_some_and(|n| n != 1) {
         anyhow::bail!(
             "--frames accumulates the rotations of a disk kernel; {} is separable (the same \
              every frame)",
@@ -530,8 +535,11 @@ fn run_reference(
             "direct"
         },
         match sampling {
-            cpu::PixelSampling::Average => "averaged over each pixel",
-            cpu::PixelSampling::Centre => "at pixel centres",
+            cpu::PixelSampling::Average =>
+                "averaged over each pixel; compare, advise and kernels score against \
+                 --reference-sampling centre, another discretisation, which diff then \
+                 reproduces",
+            cpu::PixelSampling::Centre => "at pixel centres, as compare, advise and kernels score",
         }
     );
     Ok(cpu::convolve_2d(image, &k))

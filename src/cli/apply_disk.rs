@@ -11,8 +11,9 @@ use ssskit::filter::{Image, Setup};
 use ssskit::kernel::disk::DiskKernelFile;
 use std::path::Path;
 
-/// The disk pass over `image`: the CPU filters it in place (docs/filter.md).
-pub fn run(args: &Args, path: &Path, view: Setup, image: Image) -> anyhow::Result<Image> {
+/// The disk kernel at `path`, after refusing the flags of separable
+/// kernels.
+pub fn read(args: &Args, path: &Path) -> anyhow::Result<DiskKernelFile> {
     let separable_only = [
         ("--taps-only", args.taps_only),
         ("--full-factors", args.full_factors),
@@ -25,9 +26,46 @@ pub fn run(args: &Args, path: &Path, view: Setup, image: Image) -> anyhow::Resul
             path.display()
         );
     }
-    let kernel = DiskKernelFile::read(path)?;
-    let setup =
-        DiskSetup::new(&kernel, view, args.frame_seed, args.frames).accumulated_by(args.accumulate);
+    Ok(DiskKernelFile::read(path)?)
+}
+
+/// Which frames run and why: `given` by --frames, or the kernel's
+/// recorded accumulation, or one frame where it records none.
+pub fn frames_note(kernel: &DiskKernelFile, given: Option<u32>, frames: u32, first: u32) -> String {
+    let run = format!("frames: {frames} from frame seed {first}");
+    match (given, &kernel.accumulation) {
+        (None, Some(a)) => format!(
+            "{run}: {}, as the kernel's predicted error assumes (--frames N to change)",
+            a.describe()
+        ),
+        (None, None) => format!(
+            "{run}: the kernel records no frames (it carries no predicted error), one frame is \
+             assumed (--frames N accumulates N)"
+        ),
+        (Some(_), Some(a)) if a.frames == frames => {
+            format!("{run} (--frames), as the kernel's predicted error assumes")
+        }
+        (Some(_), Some(a)) => format!(
+            "{run} (--frames), where the kernel's predicted error assumes {}: the noise differs \
+             from the prediction's by about sqrt({} / {frames})",
+            a.describe(),
+            a.frames
+        ),
+        (Some(_), None) => format!("{run} (--frames)"),
+    }
+}
+
+/// The disk pass over `image` for (frames, first frame seed): the CPU
+/// filters it in place (docs/filter.md).
+pub fn run(
+    args: &Args,
+    path: &Path,
+    kernel: &DiskKernelFile,
+    (frames, first): (u32, u32),
+    view: Setup,
+    image: Image,
+) -> anyhow::Result<Image> {
+    let setup = DiskSetup::new(kernel, view, first, frames).accumulated_by(args.accumulate);
     let ema = setup.accumulate != Accumulate::Mean;
     setup
         .validate(&image)

@@ -2,11 +2,12 @@
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
 use super::args::{
-    self, BudgetArgs, EngineChoice, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs,
-    SceneCheckArgs, TapsArg,
+    self, BudgetArgs, EngineChoice, FramesArg, ImageErrorArg, ModelsArg, ProfileModel,
+    ProfileSourceArgs, ReportArgs, SceneCheckArgs, TapsArg,
 };
 use super::out::out;
 use super::profile_source::command_line;
+use ssskit::report::eval::advise::FAMILIES;
 use ssskit::report::eval::pipeline::{self, Settings};
 
 #[derive(clap::Args)]
@@ -15,6 +16,9 @@ use ssskit::report::eval::pipeline::{self, Settings};
     mut_args(args::report())
 )]
 #[command(mut_arg("image_error", args::alias("--target-error")))]
+#[command(mut_arg("models", |a| args::default(FAMILIES.join(","))(a)
+    .help("Kernel models, comma-separated, or all: what ships is chosen from these (every \
+           model is compared)")))]
 #[command(mut_arg("mm_per_pixel", |a| a
     .default_value(None::<&str>)
     .help("Scale: surface millimetres per pixel [default: 0.1, or the scene's with --scene]")))]
@@ -41,6 +45,10 @@ pub struct Args {
     factors: args::FactorsArg,
     #[command(flatten)]
     engine: EngineChoice,
+    #[command(flatten)]
+    frames: FramesArg,
+    #[command(flatten)]
+    models: ModelsArg,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -64,6 +72,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(e) = engine {
         ssskit::report::eval::engine_step::check(e)?;
     }
+    ssskit::report::eval::advise_disk::check_frames(a.frames.frames)?;
     let out_dir = a.report.out_dir.path()?;
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(out_dir)?;
@@ -81,6 +90,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         size: a.report.signal_size.signal_size,
         plots: !a.report.no_plots.no_plots,
         engine,
+        frames: a.frames.frames,
+        families: a.models.families(),
     };
     let outcome = pipeline::run(
         &profile,

@@ -21,14 +21,10 @@ use super::disk_lanes::{self, Packed, Planes, Texels};
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
 use crate::kernel::disk::DiskKernelFile;
+use crate::kernel::disk::MAX_FRAMES;
 use crate::progress::{NoProgress, Progress};
 use rayon::prelude::*;
 use std::f64::consts::PI;
-
-/// Most frames one filtering may accumulate: a temporal filter's history
-/// is a few dozen frames; 4096 leaves room for measuring the mean over
-/// rotations, and the work cap bounds the product with the image anyway.
-pub const MAX_FRAMES: u32 = 4096;
 
 /// One sample as the pass uses it: unrotated position in mm, RGB weight.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -9,11 +9,12 @@
 //! [`score_disk`] is the whole measure from a profile, for the advice and
 //! the comparisons: cost (samples per pixel), bias, noise.
 
-use super::disk::{disk_frames, DiskSetup, MAX_FRAMES};
+use super::accumulate::Accumulate;
+use super::disk::{disk_frames, DiskSetup};
 use super::exact::convolve_2d;
 use super::{Image, Scale, Setup};
 use crate::error::{Error, Result};
-use crate::kernel::disk::{fit_disk, RadiusPdf};
+use crate::kernel::disk::{fit_disk, RadiusPdf, MAX_FRAMES};
 use crate::kernel::Kernel2D;
 use crate::profile::radius::DEFAULT_HOLD;
 use crate::profile::Profile;
@@ -52,26 +53,43 @@ pub fn disk_error(
     rotations: u32,
     frames: u32,
 ) -> Result<DiskError> {
-    Ok(disk_error_with_mean(image, setup, reference, rotations, frames)?.0)
+    Ok(disk_error_with_first(image, setup, reference, rotations, frames)?.0)
 }
 
-/// [`disk_error`] and the mean over the `rotations` frames (what the bias
-/// is measured on), so that other references (the advice's bootstrap
-/// replicates) can be compared with it.
-pub fn disk_error_with_mean(
+/// [`disk_error`] and the first accumulation of `frames` frames
+/// ([`FirstAccumulation`]), so that other references (the advice's
+/// bootstrap replicates) can be compared with it.
+pub fn disk_error_with_first(
     image: &Image,
     setup: &DiskSetup,
     reference: &Image,
     rotations: u32,
     frames: u32,
-) -> Result<(DiskError, Image)> {
+) -> Result<(DiskError, FirstAccumulation)> {
     frames_error(image, reference, setup.taps.len(), rotations, frames, |k| {
         let s = setup.with_frames(setup.seed.wrapping_add(k), 1);
         Ok(disk_frames(image, &s)?.swap_remove(0))
     })
 }
 
-/// [`disk_error_with_mean`] for any stochastic pass: `frame(k)` is the
+/// The first accumulation of K frames (frames seed .. seed + K - 1, the
+/// image `apply --frames K` makes) and its error as `ssskit diff` reports
+/// it: what a user who accumulates K frames under a static camera sees,
+/// the one figure the advice scores and predicts a disk kernel by.
+#[derive(Clone, Debug)]
+pub struct FirstAccumulation {
+    /// The mean of the first K frames.
+    pub image: Image,
+    /// Per channel, RMS over pixels of (`image` - reference), relative to
+    /// the reference's peak.
+    pub error: [f64; 3],
+    /// Per channel, the sample standard deviation of that error over the
+    /// rotations / K windows of K consecutive frames: how far the error of
+    /// an accumulation that starts on another frame may lie from `error`.
+    pub error_sd: [f64; 3],
+}
+
+/// [`disk_error_with_first`] for any stochastic pass: `frame(k)` is the
 /// pass's diffuse image of frame k (k < `rotations`), `samples_per_pixel`
 /// its fetches per pixel and frame (an engine's own sampling, the disk
 /// kernels).
@@ -82,7 +100,7 @@ pub fn frames_error(
     rotations: u32,
     frames: u32,
     mut frame: impl FnMut(u32) -> Result<Image>,
-) -> Result<(DiskError, Image)> {
+) -> Result<(DiskError, FirstAccumulation)> {
     if frames == 0
         || rotations > MAX_FRAMES
         || !rotations.is_multiple_of(frames)
@@ -104,6 +122,13 @@ pub fn frames_error(
     let mut sumsq = sum.clone();
     let mut win = sum.clone();
     let (mut wsum, mut wsumsq) = (sum.clone(), sum.clone());
+    // Per window and channel: the sum of squares of (window mean - reference).
+    let mut werr: Vec<[f64; 3]> = Vec::new();
+    let mut first = image.clone();
+    // The plain mean's weight per frame, added frame by frame in order as
+    // the disk pass accumulates (`Accumulate::weights`), so that the first
+    // window is bit for bit the image `apply --frames K` makes.
+    let wf = Accumulate::Mean.weights(frames)[0];
     // Frame by frame: memory of a few images whatever the rotations.
     for k in 0..rotations {
         let f = &frame(k)?;
@@ -112,18 +137,24 @@ pub fn frames_error(
             for (i, &v) in f.rgb[c].iter().enumerate() {
                 sum[c][i] += v;
                 sumsq[c][i] += v * v;
-                win[c][i] += v;
+                win[c][i] += wf * v;
             }
         }
         if (k + 1) % frames == 0 {
-            for c in 0..3 {
+            let mut e = [0.0; 3];
+            for (c, e) in e.iter_mut().enumerate() {
                 for i in 0..n {
-                    let m = win[c][i] / frames as f64;
+                    let m = win[c][i];
                     wsum[c][i] += m;
                     wsumsq[c][i] += m * m;
+                    *e += (m - reference.rgb[c][i]).powi(2);
+                    if k + 1 == frames {
+                        first.rgb[c][i] = m;
+                    }
                     win[c][i] = 0.0;
                 }
             }
+            werr.push(e);
         }
     }
     let peak = reference.peak();
@@ -150,12 +181,12 @@ pub fn frames_error(
     let noise: [f64; 3] = std::array::from_fn(|c| rel(c, spread(&sum[c], &sumsq[c], m)));
     let noise_after: [f64; 3] =
         std::array::from_fn(|c| rel(c, spread(&wsum[c], &wsumsq[c], windows)));
-    let mut mean = image.clone();
-    for (c, plane) in mean.rgb.iter_mut().enumerate() {
-        for (v, s) in plane.iter_mut().zip(&sum[c]) {
-            *v = s / m;
-        }
-    }
+    let window_errors = |c: usize| -> Vec<f64> { werr.iter().map(|e| rel(c, e[c])).collect() };
+    let first = FirstAccumulation {
+        image: first,
+        error: std::array::from_fn(|c| rel(c, werr[0][c])),
+        error_sd: std::array::from_fn(|c| crate::numerics::std_dev(&window_errors(c))),
+    };
     let e = DiskError {
         samples_per_pixel,
         rotations,
@@ -165,7 +196,7 @@ pub fn frames_error(
         noise,
         noise_after,
     };
-    Ok((e, mean))
+    Ok((e, first))
 }
 
 /// The disk kernel of `profile` with `samples` per channel (radii from

@@ -49,6 +49,19 @@ pub const DEFAULT_SAMPLES: usize = 32;
 /// bias the oracles state; more costs fetches no renderer spends.
 pub const MAX_SAMPLES: usize = 1024;
 
+/// Most frames one filtering may accumulate (and a kernel may record): a
+/// temporal filter's history is a few dozen frames; 4096 leaves room for
+/// measuring the mean over rotations, and the work cap bounds the product
+/// with the image anyway.
+pub const MAX_FRAMES: u32 = 4096;
+
+/// The camera an [`Accumulation`] assumes: static, the same surface point
+/// under a pixel in every frame (no motion, nothing to reproject).
+pub const STATIC_CAMERA: &str = "static";
+
+/// How an [`Accumulation`] weighs its frames: the plain mean.
+pub const MEAN: &str = "mean";
+
 /// The golden angle pi (3 - sqrt 5) in radians: consecutive samples turn by
 /// it, so any run of them covers the circle evenly (Vogel 1979).
 pub const GOLDEN_ANGLE: f64 = 2.399_963_229_728_653;
@@ -101,6 +114,63 @@ pub struct DiskSample {
     pub weight: [f64; 3],
 }
 
+/// What a disk kernel's predicted error assumes of the renderer
+/// (`ssskit advise` and the `recommended.json` of `ssskit kernels` record
+/// it; a kernel without it predicts nothing): the plain mean of `frames`
+/// frames, frame k (from `first_frame`) turning the samples by its own
+/// angle, under a static camera. One frame alone shows about sqrt(frames)
+/// times the noise; a moving camera without reprojection, more too.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Accumulation {
+    /// Frames averaged (K).
+    pub frames: u32,
+    /// The rotation seed of the first (`apply --frame-seed`).
+    pub first_frame: u32,
+    /// [`MEAN`].
+    pub accumulate: String,
+    /// [`STATIC_CAMERA`].
+    pub camera: String,
+}
+
+impl Accumulation {
+    /// The plain mean of `frames` frames from `first_frame`, static camera.
+    pub fn static_mean(frames: u32, first_frame: u32) -> Accumulation {
+        Accumulation {
+            frames,
+            first_frame,
+            accumulate: MEAN.into(),
+            camera: STATIC_CAMERA.into(),
+        }
+    }
+
+    /// "the plain mean of 8 frames (frames 0 to 7) under a static camera".
+    pub fn describe(&self) -> String {
+        format!(
+            "the plain mean of {} frames (frame seeds {} to {}) under a static camera",
+            self.frames,
+            self.first_frame,
+            self.first_frame as u64 + self.frames as u64 - 1
+        )
+    }
+
+    fn validate(&self) -> std::result::Result<(), String> {
+        if !(1..=MAX_FRAMES).contains(&self.frames) {
+            return Err(format!(
+                "accumulation.frames is {}: must be in 1..={MAX_FRAMES}",
+                self.frames
+            ));
+        }
+        if self.accumulate != MEAN || self.camera != STATIC_CAMERA {
+            return Err(format!(
+                "accumulation is '{}' under a '{}' camera: the one recorded is '{MEAN}' under a \
+                 '{STATIC_CAMERA}' camera",
+                self.accumulate, self.camera
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// How an engine runs a disk kernel, recomputed on every write.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DiskUsage {
@@ -140,6 +210,10 @@ pub struct DiskKernelFile {
     /// The profile's angular entry and exit factors, when it has them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angular: Option<super::angular::AngularFactors>,
+    /// What its predicted error assumes (None: no prediction was made,
+    /// `fit --model disk`, or a file written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accumulation: Option<Accumulation>,
 }
 
 /// The profile's three normalised kernels as continuous radial functions
@@ -369,6 +443,7 @@ pub fn fit_disk(profile: &Profile, n: usize, radii: RadiusPdf) -> Result<DiskKer
         raw_weight_sum,
         usage: None,
         angular: super::angular::AngularFactors::from_profile(profile)?,
+        accumulation: None,
     };
     file.validate("fitted disk kernel")?;
     Ok(file)
@@ -435,6 +510,9 @@ impl DiskKernelFile {
             }
         }
         self.check_raw_sums().or_else(bad)?;
+        if let Some(a) = &self.accumulation {
+            a.validate().or_else(bad)?;
+        }
         check_profile_total(&self.profile, &self.total_rd).or_else(bad)?;
         if let Some(a) = &self.angular {
             a.validate("angular").or_else(bad)?;
@@ -486,6 +564,17 @@ impl DiskKernelFile {
             depth: DEPTH_DISK.into(),
             total_rd: super::format::TOTAL_RD.into(),
         }
+    }
+
+    /// The frames to accumulate and the first frame's seed: `frames` and
+    /// `first` where given, else the recorded [`Accumulation`]'s (what the
+    /// kernel's predicted error assumes), else one frame from seed 0.
+    pub fn frames_to_run(&self, frames: Option<u32>, first: Option<u32>) -> (u32, u32) {
+        let a = self.accumulation.as_ref();
+        (
+            frames.or(a.map(|a| a.frames)).unwrap_or(1),
+            first.or(a.map(|a| a.first_frame)).unwrap_or(0),
+        )
     }
 
     pub fn read(path: &Path) -> Result<DiskKernelFile> {

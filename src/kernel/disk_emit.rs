@@ -49,6 +49,7 @@ pub fn emit_disk(k: &DiskKernelFile, lang: Lang) -> Result<String> {
     comment(&mut out, &format!("Rotation: {}.", usage.rotation));
     comment(&mut out, &format!("Pixels: {}.", usage.pixels_per_mm));
     comment(&mut out, &format!("Weights: {}.", usage.weights));
+    comment(&mut out, &frames_text(k));
     comment(&mut out, &format!("Depth: {}.", usage.depth));
     comment(
         &mut out,
@@ -68,6 +69,18 @@ pub fn emit_disk(k: &DiskKernelFile, lang: Lang) -> Result<String> {
         ),
     };
     let _ = writeln!(out, "{decl_n}");
+    if let Some(a) = &k.accumulation {
+        let f = a.frames;
+        let _ = writeln!(
+            out,
+            "{}",
+            match lang {
+                Lang::Hlsl => format!("static const uint sss_disk_frames = {f}u;"),
+                Lang::Glsl => format!("const uint sss_disk_frames = {f}u;"),
+                Lang::Wgsl => format!("const sss_disk_frames: u32 = {f}u;"),
+            }
+        );
+    }
     let points: Vec<String> = k
         .samples
         .iter()
@@ -102,4 +115,24 @@ pub fn emit_disk(k: &DiskKernelFile, lang: Lang) -> Result<String> {
         super::emit::emit_angular(&mut out, a, lang)?;
     }
     Ok(out)
+}
+
+/// The header's "Frames:" line: what the kernel's predicted error assumes
+/// (its [`Accumulation`](super::disk::Accumulation)), or that it records
+/// none.
+fn frames_text(k: &DiskKernelFile) -> String {
+    match &k.accumulation {
+        Some(a) => format!(
+            "Frames: the predicted error (ssskit advise) is that of {}: accumulate \
+             sss_disk_frames frames with frame = {} + k in the rotation (ssskit apply runs them \
+             by default); one frame shows about sqrt({}) times the noise, and a moving camera \
+             without reprojection more.",
+            a.describe(),
+            a.first_frame,
+            a.frames
+        ),
+        None => "Frames: none recorded (no predicted error; ssskit apply runs 1 frame unless \
+                 --frames): accumulate frames with a changing `frame`."
+            .to_string(),
+    }
 }

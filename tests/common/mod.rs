@@ -11,6 +11,7 @@ pub mod adding_doubling;
 pub mod backlit_meshes;
 pub mod golden;
 pub mod half_space;
+pub mod shader;
 pub mod skin1;
 
 /// Standard errors a statistical check allows: a correct estimate with
@@ -144,6 +145,77 @@ pub fn read_json(p: &Path) -> serde_json::Value {
 /// A path as a command-line argument.
 pub fn p(path: &Path) -> &str {
     path.to_str().expect("UTF-8 path")
+}
+
+/// `ssskit profile --material M --profile-model pbd` into `dir`: an
+/// analytic profile in milliseconds, without Monte Carlo noise.
+pub fn pbd_profile(dir: &Path, material: &str) -> std::path::PathBuf {
+    let out = dir.join(format!("{material}-pbd.json"));
+    ok(&[
+        "profile",
+        "--material",
+        material,
+        "--profile-model",
+        "pbd",
+        "--out",
+        p(&out),
+    ]);
+    out
+}
+
+/// `ssskit apply --reference PROFILE --reference-sampling centre`: the
+/// exact image `compare` and `advise` score kernels against; its stderr.
+pub fn centre_reference(profile: &Path, input: &Path, mm_per_pixel: &str, out: &Path) -> String {
+    ok_both(&[
+        "apply",
+        "--reference",
+        p(profile),
+        "--reference-sampling",
+        "centre",
+        "--input",
+        p(input),
+        "--mm-per-pixel",
+        mm_per_pixel,
+        "--out",
+        p(out),
+    ])
+    .1
+}
+
+/// A profile committed under profiles/reference/ (`material`.json).
+pub fn committed_profile(material: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("profiles/reference/{material}.json"))
+}
+
+/// `ssskit diff A B --json`'s relative RMS per channel.
+pub fn diff_channels(a: &Path, b: &Path) -> [f64; 3] {
+    let (out, _) = ok_both(&["diff", p(a), p(b), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    std::array::from_fn(|c| v["rms_rel"][c].as_f64().unwrap())
+}
+
+/// The largest of `diff_channels`: the relative RMS a target bounds.
+pub fn diff_rel(a: &Path, b: &Path) -> f64 {
+    diff_channels(a, b).into_iter().fold(0.0, f64::max)
+}
+
+/// `ssskit kernels --material skin1 --profile-model pbd` (the analytic
+/// profile: no Monte Carlo noise) into `out` with `size`-pixel signals and
+/// `extra`; its stdout and stderr.
+pub fn skin1_kernels(out: &Path, size: &str, extra: &[&str]) -> (String, String) {
+    let mut args = vec![
+        "kernels",
+        "--material",
+        "skin1",
+        "--profile-model",
+        "pbd",
+        "--signal-size",
+        size,
+        "--out-dir",
+        p(out),
+    ];
+    args.extend(extra);
+    ok_both(&args)
 }
 
 /// README.md and docs/*.md (sorted): the files that hold generated blocks.

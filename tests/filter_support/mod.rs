@@ -9,7 +9,7 @@ use ssskit::profile::{Profile, RadialGrid};
 #[path = "../common/mod.rs"]
 mod common;
 #[allow(unused_imports)] // each test file uses some of them
-pub use common::{assert_fails, bin, p, run, stderr};
+pub use common::{assert_fails, bin, p, run, shader, stderr};
 
 /// The dipole profile of a preset over a uniform radial grid.
 pub fn dipole_profile(material: &str, dr: f64, r_max: f64) -> Profile {

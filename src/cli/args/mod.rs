@@ -520,6 +520,22 @@ impl ModelsArg {
     }
 }
 
+/// `--frames` of the commands that choose a kernel to ship (`advise`,
+/// `kernels`): the frames a temporal filter accumulates.
+#[derive(clap::Args)]
+pub struct FramesArg {
+    /// Frames: disk kernels are scored on the mean of this many, 1 to 64.
+    ///
+    /// A temporal filter accumulates them under a static camera; a disk kernel's image changes
+    /// every frame (its per-pixel rotation). Its score on a signal is the relative RMS, in its
+    /// worst channel, of the first accumulation of N frames against the exact image: what `apply`
+    /// makes of the kernel written, which records N and runs it by default. Its uncertainty adds
+    /// the spread over 4 such accumulations to the bootstrap's. Separable kernels are the same
+    /// every frame.
+    #[arg(long, value_name = "N", value_parser = count::<u32>, default_value_t = ssskit::report::eval::advise_types::DEFAULT_FRAMES)]
+    pub frames: u32,
+}
+
 /// `--taps` (one count; `compare` takes a list).
 #[derive(clap::Args)]
 pub struct TapsArg {

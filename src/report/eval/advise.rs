@@ -48,7 +48,7 @@
 
 use super::advise_decide::{choose, Cost};
 pub use super::advise_decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};
-use super::advise_disk::{check_frames, disk_kernel, DISK};
+use super::advise_disk::{check_frames, disk_kernel, with_frames, DISK};
 use super::advise_noise::{Reference, BOOTSTRAP_SEED};
 use super::advise_scene::{check_on_scene, SceneCandidate, SceneCheck, ScenePass};
 use super::advise_search::Search;
@@ -499,10 +499,10 @@ fn scene_check(
         .map(|&i| {
             let c = &candidates[i];
             let pass = if c.disk.is_some() {
-                ScenePass::Disk {
-                    kernel: Box::new(disk_kernel(search.profile, c.cost)?),
-                    frames: search.cfg.frames,
-                }
+                ScenePass::Disk(Box::new(with_frames(
+                    disk_kernel(search.profile, c.cost)?,
+                    search.cfg.frames,
+                )))
             } else {
                 ScenePass::Separable(search.chosen_kernel(c)?.1)
             };

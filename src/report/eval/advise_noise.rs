@@ -219,16 +219,6 @@ impl Reference {
     }
 }
 
-/// Sample standard deviation (n - 1), 0 below two values.
-pub fn std_dev(v: &[f64]) -> f64 {
-    if v.len() < 2 {
-        return 0.0;
-    }
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -246,11 +236,5 @@ mod tests {
         let n = N as f64;
         assert!(mean.abs() < 4.0 / n.sqrt(), "mean {mean}");
         assert!((var - 1.0).abs() < 4.0 * (2.0 / n).sqrt(), "variance {var}");
-    }
-
-    #[test]
-    fn std_dev_of_known_values() {
-        assert_eq!(std_dev(&[1.0]), 0.0);
-        assert!((std_dev(&[1.0, 3.0]) - 2f64.sqrt()).abs() < 1e-15);
     }
 }

@@ -44,7 +44,7 @@
 //!   the user asked for.
 
 use super::advise_decide::NOISE_K;
-use super::advise_disk::DISK_SEED;
+use super::advise_disk::first_and_frames;
 use super::scene_compare::{angular_obstacle, cosines};
 use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
 use super::scene_compare::{screen_space_disk_pass, screen_space_pass};
@@ -204,14 +204,11 @@ pub struct SceneCandidate {
 }
 
 /// What a configuration runs: separable taps as `advise` scored them, or
-/// a disk kernel accumulated over the frames `advise` scored it after
-/// (from the advice's own rotation seed, [`DISK_SEED`]).
+/// a disk kernel accumulated over the frames it records (those `advise`
+/// scored it after, [`with_frames`](super::advise_disk::with_frames)), as `apply` runs it by default.
 pub enum ScenePass {
     Separable(Vec<Taps>),
-    Disk {
-        kernel: Box<DiskKernelFile>,
-        frames: u32,
-    },
+    Disk(Box<DiskKernelFile>),
 }
 
 /// Photons per channel and incidence of the factors' run when the profile
@@ -398,11 +395,11 @@ pub fn check_on_scene(
                 ScenePass::Separable(taps) => {
                     screen_space_pass(scene, &depth, taps, img, Some(follow_c))
                 }
-                ScenePass::Disk { kernel, frames } => screen_space_disk_pass(
+                ScenePass::Disk(kernel) => screen_space_disk_pass(
                     scene,
                     &depth,
                     kernel,
-                    (DISK_SEED, *frames),
+                    first_and_frames(kernel),
                     img,
                     Some(follow_c),
                 ),

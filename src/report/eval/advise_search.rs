@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::filter::{resample_to_pixels, Taps};
 use crate::kernel::model::{assemble_with, fit_model, tap_table, Fitted, Model};
 use crate::kernel::taps::{auto_extent, factor_radius_holding};
-use crate::kernel::{Factors, Kernel2D, KernelFile};
+use crate::kernel::{Factors, Kernel2D, KernelFile, Pass, TapTable};
 use crate::profile::Profile;
 use crate::progress::Progress;
 use rayon::prelude::*;
@@ -69,6 +69,40 @@ pub fn scored_passes(kernel: &KernelFile, full: bool, mm_per_pixel: f64) -> Vec<
             }
         })
         .collect()
+}
+
+/// The tap table of full factors resampled to whole pixels (`passes`, at
+/// `mm` per pixel), so that the file's default table (what `apply` and an
+/// engine run) is what the advice scored: offsets j x `mm`, every pass
+/// padded with zero weights to one odd count centred on 0 (a zero tap
+/// adds nothing; an engine may skip it).
+fn pixel_table(passes: &[Taps], mm: f64) -> TapTable {
+    let pixel = |o: f64| (o / mm).round() as i64;
+    let half = passes
+        .iter()
+        .flat_map(|t| t.offsets_mm.iter())
+        .map(|&o| pixel(o).unsigned_abs())
+        .max()
+        .unwrap_or(0) as i64;
+    let count = (2 * half + 1) as usize;
+    let passes = passes
+        .iter()
+        .map(|t| {
+            let mut weights = vec![[0.0; 3]; count];
+            for (&o, w) in t.offsets_mm.iter().zip(&t.weights) {
+                weights[(pixel(o) + half) as usize] = *w;
+            }
+            Pass {
+                offsets_mm: (-half..=half).map(|j| j as f64 * mm).collect(),
+                weights,
+            }
+        })
+        .collect();
+    TapTable {
+        count,
+        passes,
+        extent_mm: Some(half as f64 * mm),
+    }
 }
 
 /// One tap layout of one model.
@@ -337,7 +371,7 @@ impl Search<'_> {
             Some(n) => (n, Some(c.extent_mm)),
             None => (crate::kernel::taps::DEFAULT_TAPS, None),
         };
-        let kernel = assemble_with(
+        let mut kernel = assemble_with(
             self.profile,
             &self.truth,
             &spec.model,
@@ -352,6 +386,9 @@ impl Search<'_> {
                 "advise: the kernel file of {} runs other passes than the ones scored",
                 c.describe()
             )));
+        }
+        if c.taps.is_none() {
+            kernel.taps = pixel_table(&passes, self.cfg.mm_per_pixel);
         }
         Ok((kernel, passes))
     }
@@ -407,5 +444,60 @@ impl Search<'_> {
             searched_outside,
             coarser: None,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::disk_error::view;
+    use crate::filter::kernel_setup::kernel_setup;
+    use crate::filter::signals::{generate, Signal};
+    use crate::filter::{cpu, Setup};
+    use crate::kernel::preintegrate::PreMethod;
+
+    /// A full-factor answer's file runs by default what was scored: its
+    /// pixel table, as `apply` runs a tap table, gives the image of the
+    /// full factors resampled to pixels (`apply --full-factors`), and the
+    /// file it makes is a valid kernel file.
+    #[test]
+    fn a_full_factor_answer_ships_the_passes_scored() {
+        let m = crate::material::preset("skin1").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
+        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let model = Model::Preintegrate {
+            method: PreMethod::Abel,
+        };
+        let mm = 0.5;
+        let mut kernel = crate::kernel::fit_kernel_file(
+            &profile,
+            &crate::kernel::Kernel2DSpec::default(),
+            &model,
+            17,
+        )
+        .unwrap();
+        let passes = scored_passes(&kernel, true, mm);
+        let full = kernel.clone();
+        kernel.taps = pixel_table(&passes, mm);
+        assert_eq!(kernel.taps.count % 2, 1);
+        kernel.validate("pixel table").unwrap();
+        let image = generate(Signal::Shapes, 40, 40, 3).unwrap();
+        let run = |k: &KernelFile, full_factors: bool| {
+            let v: Setup = view(mm);
+            let (setup, _) = kernel_setup(k, full_factors, v, &image).unwrap();
+            cpu::apply_with(&image, &setup, cpu::Precision::F64).unwrap()
+        };
+        let (table, scored) = (run(&kernel, false), run(&full, true));
+        for c in 0..3 {
+            for (a, b) in table.rgb[c].iter().zip(&scored.rgb[c]) {
+                assert!((a - b).abs() <= 1e-12, "{a} {b}");
+            }
+        }
+        // The stored 17-tap table runs something else.
+        let stored = run(&full, false);
+        assert!(stored.rgb[0]
+            .iter()
+            .zip(&scored.rgb[0])
+            .any(|(a, b)| (a - b).abs() > 1e-6));
     }
 }

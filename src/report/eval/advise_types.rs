@@ -257,11 +257,20 @@ pub const FAMILIES: [&str; 6] = [
 /// few percent of its limit.
 pub const DEFAULT_FRAMES: u32 = 8;
 
-/// A disk row's bias and noise on one signal, each the largest over the
-/// channels, relative to the exact image's peak.
+/// A disk row's measures on one signal, all in the channel of its score
+/// (the largest error), relative to the exact image's peak
+/// ([`super::advise_disk`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DiskScore {
-    /// The bias, with the residual noise of the mean (module doc).
+    /// The score's channel: r, g or b.
+    pub channel: String,
+    /// The score: the error of the first accumulation of `frames` frames.
+    pub error: f64,
+    /// The standard deviation of that error over the accumulations of
+    /// `frames` consecutive frames measured.
+    pub error_sd: f64,
+    /// The bias: the mean of every rotation against the exact image, with
+    /// that mean's residual noise.
     pub bias: f64,
     /// One frame.
     pub noise: f64,

@@ -46,6 +46,11 @@ pub struct Settings {
     /// The engine whose files are written beside recommended.json
     /// ([`super::engine_step`]).
     pub engine: Option<crate::engine::Engine>,
+    /// Frames a disk kernel is scored on (`advise::Config::frames`).
+    pub frames: u32,
+    /// The model families the kernel to ship is chosen from
+    /// (`advise::Config::families`); the comparison fits every model.
+    pub families: Vec<String>,
 }
 
 /// What the pipeline produced.
@@ -372,6 +377,8 @@ pub fn run(
     let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
     acfg.size = settings.size;
     acfg.budget = settings.budget;
+    acfg.frames = settings.frames;
+    acfg.families = settings.families.clone();
     let prepared = advise::Prepared {
         truth: cmp.truths[0].clone(),
         fits: cmp.fits[0].clone(),
@@ -582,6 +589,14 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
     let _ = writeln!(s, "  {}", advice_text::worst_case_text(a));
     if let Some(r) = &a.remedy {
         let _ = writeln!(s, "  {}", advice_text::remedy_text(r));
+    }
+    if let Some(acc) = a.disk_kernel.as_ref().and_then(|k| k.accumulation.as_ref()) {
+        let _ = writeln!(
+            s,
+            "  recommended.json records what the prediction assumes, {}: `ssskit apply` runs it \
+             by default",
+            acc.describe()
+        );
     }
     match &a.scene {
         Some(sc) => {

@@ -18,7 +18,7 @@
 //!   samples' variance over their count, an unbiased estimate).
 //! - The pass: what `advise --scene` runs for the chosen configuration
 //!   ([`super::advise_scene`]): its taps as scored, or its disk kernel over
-//!   the advice's frames from [`DISK_SEED`], scaled per pixel by the depth
+//!   the frames the kernel file records (as `apply` runs it), scaled per pixel by the depth
 //!   (Freude 2014, eq. 4.11), the depth-aware lerp (Freude 2014, eq. 4.12)
 //!   completing at the kernel's reach; with the kernel file's entry and
 //!   exit factors around it where the file carries them (the sphere has
@@ -32,7 +32,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::advise::Advice;
-use super::advise_disk::DISK_SEED;
+use super::advise_disk::first_and_frames;
 use super::advise_scene::ScenePass;
 use super::advise_search::scored_passes;
 use super::evaluate::Options;
@@ -66,18 +66,12 @@ pub struct PreviewKernel {
 
 impl PreviewKernel {
     /// The advice's chosen configuration as it ships: the kernel file's
-    /// passes as scored (a disk kernel over the advice's frames) and the
+    /// passes as scored (a disk kernel over the frames it records) and the
     /// factors the file carries.
     pub fn shipped(advice: &Advice) -> PreviewKernel {
         let c = advice.chosen();
         let (pass, factors) = match &advice.disk_kernel {
-            Some(k) => (
-                ScenePass::Disk {
-                    kernel: Box::new(k.clone()),
-                    frames: advice.frames,
-                },
-                k.angular.clone(),
-            ),
+            Some(k) => (ScenePass::Disk(Box::new(k.clone())), k.angular.clone()),
             None => (
                 ScenePass::Separable(scored_passes(
                     &advice.kernel,
@@ -258,9 +252,14 @@ pub fn preview_sized(
     let follow = Some(follow_constant(&scene, kernel_reach_mm(profile)));
     let pass = |img: &Image| match &kernel.pass {
         ScenePass::Separable(taps) => screen_space_pass(&scene, &depth, taps, img, follow),
-        ScenePass::Disk { kernel, frames } => {
-            screen_space_disk_pass(&scene, &depth, kernel, (DISK_SEED, *frames), img, follow)
-        }
+        ScenePass::Disk(kernel) => screen_space_disk_pass(
+            &scene,
+            &depth,
+            kernel,
+            first_and_frames(kernel),
+            img,
+            follow,
+        ),
     };
     let shipped = match &kernel.factors {
         Some(f) => {

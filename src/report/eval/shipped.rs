@@ -4,7 +4,7 @@
 //! result.
 
 use super::advise::Advice;
-use super::advise_disk::DISK_SEED;
+use super::advise_disk::first_and_frames;
 use super::evaluate::{self, ImageCase, Which};
 use crate::error::Result;
 use crate::filter::disk::{apply_disk, DiskSetup};
@@ -20,18 +20,21 @@ pub struct Shipped {
 }
 
 /// The advice's chosen configuration applied to each case: a disk kernel
-/// as the user sees it after the advice's frames (rotations from
-/// [`DISK_SEED`], as advise scored it), a separable kernel with the tap
+/// as the user sees it after the frames it records (those advise scored
+/// it after, what `apply` runs by default), a separable kernel with the tap
 /// table it chose (or its full factors resampled to pixels).
 pub fn shipped(advice: &Advice, cases: &[&ImageCase]) -> Result<Shipped> {
     let c = advice.chosen();
     let images = cases
         .iter()
         .map(|case| match &advice.disk_kernel {
-            Some(k) => apply_disk(
-                &case.image,
-                &DiskSetup::new(k, view(case.mm_per_pixel), DISK_SEED, advice.frames),
-            ),
+            Some(k) => {
+                let (first, frames) = first_and_frames(k);
+                apply_disk(
+                    &case.image,
+                    &DiskSetup::new(k, view(case.mm_per_pixel), first, frames),
+                )
+            }
             None => {
                 let which = match c.taps {
                     Some(_) => Which::stored(&advice.kernel),

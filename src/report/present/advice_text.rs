@@ -9,8 +9,9 @@ use crate::numerics::Bounded;
 use crate::report::eval::advise::{
     Advice, Candidate, ExtentRule, Remedy, COARSER_SCALES, FULL_MAX_PIXELS, NOISE_K,
 };
-use crate::report::eval::advise_decide::tie;
+use crate::report::eval::advise_decide::{tie, Cost};
 use crate::report::eval::advise_disk::{disk_text, DISK_SAMPLES};
+use std::cmp::Ordering;
 
 /// The rule behind the automatic extent, for the record.
 pub fn extent_rule_text(taps: usize) -> String {
@@ -75,25 +76,63 @@ fn worst_text(c: &Candidate) -> String {
 
 /// Why a row is not the chosen one (or that it is).
 fn why(b: &Candidate, chosen: &Candidate, a: &Advice) -> String {
-    let v = &b.verdict;
     if std::ptr::eq(b, chosen) {
         return "chosen".into();
     }
+    why_not(b, chosen, a.meets_target, a.target)
+}
+
+/// Why `b` lost to `chosen` (the search met `target` or not): what it
+/// misses, and how it stands to the chosen in accuracy and in cost, both
+/// as the choice weighs them (samples per pixel, then passes:
+/// [`Cost::cost_order`]).
+fn why_not(b: &Candidate, chosen: &Candidate, meets_target: bool, target: f64) -> String {
+    let v = &b.verdict;
+    let cost = match b.cost_order(chosen) {
+        Ordering::Greater => format!(
+            "costs more ({} against {} samples per pixel{})",
+            b.cost,
+            chosen.cost,
+            if b.cost == chosen.cost {
+                format!(", {} passes against {}", b.passes, chosen.passes)
+            } else {
+                String::new()
+            }
+        ),
+        Ordering::Less => format!(
+            "costs less ({} against {} samples per pixel)",
+            b.cost, chosen.cost
+        ),
+        Ordering::Equal => "costs the same".to_string(),
+    };
     if v.meets {
-        return "meets it, costs more".into();
+        return if b.cost_order(chosen) == Ordering::Equal {
+            format!("meets it, {cost}, less accurate")
+        } else {
+            format!("meets it, {cost}")
+        };
     }
     let miss = format!(
         "misses on {}: {:.3}% - {NOISE_K} sd > {:.2}%",
         v.deciding_signal,
         Bounded(100.0 * v.per_signal[&v.deciding_signal]),
-        Bounded(100.0 * a.target)
+        Bounded(100.0 * target)
     );
-    if a.meets_target {
-        miss
-    } else if tie(v, &chosen.verdict) {
-        format!("{miss}; ties the chosen (within {NOISE_K} sd), costs more")
-    } else {
-        format!("{miss}; less accurate than the chosen")
+    if meets_target {
+        return miss;
+    }
+    if !tie(v, &chosen.verdict) {
+        return format!("{miss}; less accurate than the chosen");
+    }
+    match b.cost_order(chosen) {
+        // Cheaper and tied with the chosen, yet not chosen: the chosen is
+        // the cheapest row that ties the most accurate one; this one does
+        // not.
+        Ordering::Less => format!(
+            "{miss}; ties the chosen (within {NOISE_K} sd) and {cost}, but not the most \
+             accurate row"
+        ),
+        _ => format!("{miss}; ties the chosen (within {NOISE_K} sd), {cost}"),
     }
 }
 
@@ -352,6 +391,60 @@ pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::eval::advise::Verdict;
+
+    /// A separable row of `samples` per pixel in 2 passes scoring `worst`
+    /// +- `sd` on one signal, at the default 5% target.
+    fn row(label: &str, samples: usize, worst: f64, sd: f64) -> Candidate {
+        let v = Verdict::new(&[("checker2px".into(), worst, sd)], 0.05, true);
+        Candidate {
+            label: label.into(),
+            model: label.into(),
+            params: serde_json::json!({}),
+            rank: 1,
+            passes: 2,
+            taps: Some(samples / 2),
+            taps_per_pass: samples / 2,
+            extent_rule: None,
+            extent_mm: 1.0,
+            cost: samples,
+            signed: false,
+            verdict: v,
+            disk: None,
+            fingerprint: None,
+        }
+    }
+
+    /// "costs more" and "costs less" say how the row's samples per pixel
+    /// stand to the chosen's: where none meets the target, a 10-sample row
+    /// tied with a chosen 32-sample one costs less (it lost because it is
+    /// not within the noise of the most accurate row), a 64-sample one
+    /// costs more; a row that meets the target costs more than the
+    /// cheapest that does.
+    #[test]
+    fn costs_more_compares_samples_per_pixel() {
+        let chosen = row("disk", 32, 0.060, 0.002);
+        let cheap = row("preintegrate", 10, 0.063, 0.002);
+        let dear = row("svd2", 64, 0.061, 0.002);
+        assert!(tie(&cheap.verdict, &chosen.verdict) && tie(&dear.verdict, &chosen.verdict));
+        let t = why_not(&cheap, &chosen, false, 0.05);
+        assert!(
+            t.contains("costs less (10 against 32 samples per pixel)") && !t.contains("more"),
+            "{t}"
+        );
+        let t = why_not(&dear, &chosen, false, 0.05);
+        assert!(
+            t.contains("costs more (64 against 32 samples per pixel)"),
+            "{t}"
+        );
+        let met = row("guided", 34, 0.040, 0.001);
+        let cheaper = row("preintegrate", 26, 0.045, 0.001);
+        let t = why_not(&met, &cheaper, true, 0.05);
+        assert_eq!(t, "meets it, costs more (34 against 26 samples per pixel)");
+        let far = row("svd1", 10, 0.2, 0.001);
+        let t = why_not(&far, &chosen, false, 0.05);
+        assert!(t.ends_with("less accurate than the chosen"), "{t}");
+    }
 
     /// The note reads the committed record of the path-traced sphere and
     /// says which error is the larger.
