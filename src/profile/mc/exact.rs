@@ -441,6 +441,9 @@ impl ExactTally {
             truncated: v[12],
             truncated_photons: self.truncated_photons,
             exit: self.exit.to_f64(),
+            // Not held in exact sums: only `angular::ahead` reads them, from
+            // its own chunk tallies.
+            ..ChunkTally::default()
         }
     }
 }
