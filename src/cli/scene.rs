@@ -433,6 +433,33 @@ pub(super) struct CompareArgs<'a> {
     pub seed: u64,
     pub plots: bool,
     pub out: &'a Path,
+    /// The light-space directional method's rows (None: not run).
+    pub directional: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
+}
+
+/// The light-space method's checks on the scene, before any work: its
+/// warnings, or (the method refused) the reason, said on stderr, and the
+/// comparison then runs without it.
+fn directional_preflight(
+    scene: &Scene,
+    r: &Render,
+    cfg: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
+) -> Option<ssskit::report::eval::directional_scene::DirectionalConfig> {
+    let d = cfg?;
+    let most = d.samples.iter().copied().max().unwrap_or(1);
+    let side = r.info.config.gbuffer_side;
+    match ssskit::filter::light_space::preflight(scene, d.map_side, side, most) {
+        Ok(warnings) => {
+            for w in warnings {
+                super::errors::warn(&format!("light-space directional method: {w}"));
+            }
+            Some(d)
+        }
+        Err(e) => {
+            super::errors::warn(&format!("no light-space directional rows: {e}"));
+            None
+        }
+    }
 }
 
 /// The entry and exit factors of the scene's material from `photons` per
@@ -470,6 +497,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
             a.render.display()
         );
     };
+    let directional = directional_preflight(&scene, &r, a.directional);
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(a.out)
         .with_context(|| format!("--out-dir {}", a.out.display()))?;
@@ -486,6 +514,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         signal_size: a.size,
         keep_images: a.plots,
         angular: angular_factors(&scene, a.angular_photons, a.seed)?,
+        directional,
     };
     let cmp = compare_scene(&scene, &r, profile, &cfg, &Bar::new())?;
     let head = format!(
@@ -500,8 +529,11 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         cmp.follow_mm,
         cmp.follow_constant
     );
-    let tables = named_tables(&cmp);
-    ssskit::io::write_atomic(&dir.join("scene.md"), page(&cmp, &head).as_bytes())?;
+    use ssskit::report::present::directional_tables as dt;
+    let mut tables = named_tables(&cmp);
+    tables.extend(dt::named_table(&cmp));
+    let text = page(&cmp, &head) + &dt::section(&cmp);
+    ssskit::io::write_atomic(&dir.join("scene.md"), text.as_bytes())?;
     let json = serde_json::json!({
         "scene": a.scene.display().to_string(),
         "dominance": dominance(&cmp),
@@ -513,6 +545,11 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         "angular_note": cmp.angular_note,
         "spp": r.info.spp,
         "rows": cmp.rows,
+        "directional": match &cmp.directional {
+            Some(Ok(b)) => serde_json::to_value(b)?,
+            Some(Err(why)) => serde_json::json!({ "refused": why }),
+            None => serde_json::Value::Null,
+        },
     });
     let text = serde_json::to_string_pretty(&json)? + "\n";
     ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
@@ -530,11 +567,20 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         contact_sheet(&cmp, &name, &dir.join("contact-sheet.png"))?;
     }
     staged.commit()?;
+    if let Some(h) = dt::headline(&cmp) {
+        outln!("{h}\n")?;
+    }
     let d = dominance(&cmp);
     if let Some(h) = d.as_ref().and_then(|d| d.headline()) {
         outln!("{h}")?;
     }
     outln!("{head}\n\n{}", tables[0].1.markdown())?;
+    if let Some((_, t)) = tables.iter().find(|(n, _)| *n == "directional") {
+        outln!(
+            "Light-space directional method beside the screen-space passes:\n\n{}",
+            t.markdown()
+        )?;
+    }
     if let Some(d) = d {
         outln!("{}", d.sentence())?;
     }

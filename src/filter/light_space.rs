@@ -54,7 +54,8 @@ use crate::profile::analytic::directional_dipole::{DirectionalDipole, Incidence}
 use crate::profile::fresnel::{fresnel_dielectric, FresnelMode};
 use crate::profile::mc::gpu::philox4x32_10;
 use crate::scene::{
-    light_map, surface_points, LightMap, LightSource, Measure, Scene, SurfacePoints, LIGHT_SPACE,
+    check_light, light_map, surface_points, LightMap, LightSource, Measure, Scene, SurfacePoints,
+    LIGHT_SPACE,
 };
 use rayon::prelude::*;
 use std::f64::consts::TAU;
@@ -168,20 +169,37 @@ fn dipoles_of(scene: &Scene) -> Result<(Vec<[DirectionalDipole; 3]>, Vec<String>
     Ok((out, warnings))
 }
 
+/// Everything [`LightSpaceInput::new`] refuses, checked before any work
+/// (the caps, every light, every material); the warnings of materials the
+/// dipole describes poorly.
+pub fn preflight(
+    scene: &Scene,
+    map_side: usize,
+    surface_side: usize,
+    samples: usize,
+) -> Result<Vec<String>> {
+    let cam = &scene.camera;
+    let positions = cam.width * cam.height * surface_side * surface_side;
+    let lights = scene.lights.len();
+    crate::limits::check_light_space(LIGHT_SPACE, map_side, samples, positions, lights)?;
+    for i in 0..lights {
+        check_light(scene, i)?;
+    }
+    dipoles_of(scene).map(|(_, w)| w)
+}
+
 impl LightSpaceInput {
     /// The maps of every directional and point light at `map_side`, the
-    /// camera's surface points at `surface_side` per pixel side, checked
-    /// against the caps for `samples` before anything is allocated.
+    /// camera's surface points at `surface_side` per pixel side, after
+    /// [`preflight`].
     pub fn new(
         scene: &Scene,
         map_side: usize,
         surface_side: usize,
         samples: usize,
     ) -> Result<LightSpaceInput> {
-        let cam = &scene.camera;
-        let positions = cam.width * cam.height * surface_side * surface_side;
+        preflight(scene, map_side, surface_side, samples)?;
         let lights = scene.lights.len();
-        crate::limits::check_light_space(LIGHT_SPACE, map_side, samples, positions, lights)?;
         let (dipoles, warnings) = dipoles_of(scene)?;
         let (lo, hi) = scene.bounds();
         let radius = 0.5 * (hi - lo).norm();
@@ -205,7 +223,7 @@ impl LightSpaceInput {
             surface: surface_points(scene, surface_side)?,
             dipoles,
             sigma,
-            measure: cam.measure,
+            measure: scene.camera.measure,
             warnings,
         })
     }

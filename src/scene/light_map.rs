@@ -185,6 +185,13 @@ fn view_of(scene: &Scene, source: &LightSource) -> Result<(V3, V3, V3, V3, f64)>
     Ok((centre, forward, u, v, half))
 }
 
+/// Why the scene's light `index` cannot have a light map (an environment
+/// light, a point light the objects' bounding sphere holds), before any
+/// work.
+pub fn check_light(scene: &Scene, index: usize) -> Result<()> {
+    view_of(scene, &source_of(scene, index)?).map(drop)
+}
+
 /// What a texel's ray meets: the object, the point, its normal and the
 /// transmitted irradiance.
 type Texel = (usize, V3, V3, [f64; 3]);

@@ -49,7 +49,8 @@ pub use frame::frame;
 pub use gbuffer::{GBuffer, ENV_RAYS};
 pub use geometry::Shape;
 pub use light_map::{
-    light_map, surface_points, LightMap, LightSource, SurfacePoints, CONTEXT as LIGHT_SPACE,
+    check_light, light_map, surface_points, LightMap, LightSource, SurfacePoints,
+    CONTEXT as LIGHT_SPACE,
 };
 pub use ray::V3;
 pub use render::{

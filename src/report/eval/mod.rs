@@ -12,6 +12,8 @@ pub mod advise_search;
 pub mod advise_types;
 pub mod claims;
 pub mod colour_shift;
+pub mod directional_advise;
+pub mod directional_scene;
 pub mod disk_compare;
 pub mod evaluate;
 pub mod kernel_compare;

@@ -78,6 +78,8 @@ pub struct SceneConfig {
     /// Entry and exit factors to apply around the pass (extra rows), when
     /// the scene allows them ([`angular_obstacle`]).
     pub angular: Option<AngularFactors>,
+    /// The light-space directional method's block (None: not run).
+    pub directional: Option<super::directional_scene::DirectionalConfig>,
 }
 
 /// One variant of one model on the scene.
@@ -133,6 +135,10 @@ pub struct SceneComparison {
     /// The path-traced image, and each row's image when kept.
     pub truth: Image,
     pub images: Vec<(String, Image)>,
+    /// The light-space directional method beside the screen-space passes,
+    /// or why the scene allows it none.
+    pub directional:
+        Option<std::result::Result<super::directional_scene::DirectionalBlock, String>>,
 }
 
 /// The screen-space pass's scale for the scene's camera: perspective with
@@ -320,6 +326,45 @@ impl Stage<'_> {
     }
 }
 
+impl Stage<'_> {
+    /// The light-space directional block (its own module); its images join
+    /// the contact sheet. A scene the method refuses (an environment
+    /// light, a material outside the dipole) gets the reason instead.
+    fn directional(
+        &mut self,
+        profile: &Profile,
+        render: &Render,
+        flat: &Comparison,
+        follow_c: f64,
+        cfg: &super::directional_scene::DirectionalConfig,
+    ) -> std::result::Result<super::directional_scene::DirectionalBlock, String> {
+        let nl = self.cosines.n_dot_l.as_deref().unwrap_or(&[]);
+        let inputs = super::directional_scene::SceneInputs {
+            scene: self.scene,
+            render,
+            profile,
+            scorer: &self.scorer,
+            irradiance: &self.irradiance,
+            depth: &self.depth,
+            follow_c,
+            angular: self
+                .angular
+                .map(|f| (nl, self.cosines.n_dot_v.as_slice(), f)),
+            kernels: flat
+                .fitted
+                .iter()
+                .map(|f| (f.spec.label.as_str(), &f.kernel))
+                .collect(),
+        };
+        let (block, images) = super::directional_scene::directional_block(&inputs, cfg, &self.rows)
+            .map_err(|e| e.to_string())?;
+        if self.cfg.keep_images {
+            self.images.extend(images);
+        }
+        Ok(block)
+    }
+}
+
 /// The screen-space pass of `passes` over `img` on the scene's camera: the
 /// scale per pixel from `depth` (Freude 2014, eq. 4.11) and, with
 /// `follow` (the constant C of [`follow_constant`]), the depth-aware lerp
@@ -465,6 +510,10 @@ pub fn compare_scene(
         let errs = ["edge", "shapes"].map(|s| flat_error(&flat, label, s, stored));
         stage.model(f, errs, follow_c)?;
     }
+    let directional = cfg
+        .directional
+        .as_ref()
+        .map(|d| stage.directional(profile, render, &flat, follow_c, d));
     let (rows, images) = (stage.rows, stage.images);
     Ok(SceneComparison {
         mm_per_pixel,
@@ -477,6 +526,7 @@ pub fn compare_scene(
         flat,
         truth,
         images,
+        directional,
     })
 }
 
