@@ -211,11 +211,28 @@ fn refusals_come_with_the_reason() {
         ("--light-map-side", "0", "--light-map-side"),
         ("--light-map-side", "5000", "1..=4096"),
         ("--directional-spp", "70000", "--directional-spp"),
+        ("--directional-spp", "0,34", "at least one"),
     ] {
         let mut args = base.to_vec();
         args.extend([flag, value]);
         common::fails_with(&args, &[needle]);
     }
+    // A point light inside the sphere: the scene file is refused before
+    // anything is rendered, and nothing is written.
+    let inside = dir.path().join("inside.toml");
+    let text = std::fs::read_to_string(&toml).unwrap()
+        + "[[light]]\ntype = \"point\"\nposition = [0, 0, 3]\nintensity = 1\n";
+    std::fs::write(&inside, text).unwrap();
+    let never = dir.path().join("never.exr");
+    common::fails_with(
+        &["scene", p(&inside), "--out", p(&never), "--spp", "1"],
+        &["the light is inside object[0]"],
+    );
+    assert!(!never.exists());
+    let cmp = dir.path().join("never-cmp");
+    let args = ["compare", "--scene", p(&inside), "--render", p(&exr), "--out-dir", p(&cmp)];
+    common::fails_with(&args, &["the light is inside object[0]"]);
+    assert!(!cmp.exists());
 }
 
 /// The library's refusals, before anything is allocated: a material
@@ -247,6 +264,15 @@ fn the_method_refuses_what_it_cannot_do() {
     assert!(e.contains("light_map_side"), "{e}");
     let e = err(&scene("skin1", sun), 64, 0);
     assert!(e.contains("at least one"), "{e}");
+    // 4 x 4 pixels x 2000^2 positions each x 1000 samples x 3 channels:
+    // 4.8e11 dipole evaluations, refused before the 6.4e7 surface points
+    // are allocated (and a side that would wrap the count, too).
+    for surface_side in [2000, usize::MAX / 2] {
+        let e = LightSpaceInput::new(&scene("skin1", sun), 64, surface_side, 1000)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("dipole evaluations"), "{e}");
+    }
     let ok = LightSpaceInput::new(&scene("ketchup", sun), 64, 1, 8).unwrap();
     assert!(
         ok.warnings.iter().any(|w| w.contains("below 0.5")),

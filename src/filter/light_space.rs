@@ -179,7 +179,9 @@ pub fn preflight(
     samples: usize,
 ) -> Result<Vec<String>> {
     let cam = &scene.camera;
-    let positions = cam.width * cam.height * surface_side * surface_side;
+    // Saturating: a side large enough to wrap must still meet the cap.
+    let positions = (cam.width.saturating_mul(cam.height))
+        .saturating_mul(surface_side.saturating_mul(surface_side));
     let lights = scene.lights.len();
     crate::limits::check_light_space(LIGHT_SPACE, map_side, samples, positions, lights)?;
     for i in 0..lights {
