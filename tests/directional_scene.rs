@@ -280,3 +280,30 @@ fn the_method_refuses_what_it_cannot_do() {
         ok.warnings
     );
 }
+
+/// The prose of docs/directional.md about the recorded scenes follows the
+/// record: it says no scene reaches the bar only while none does, and it
+/// states the bar the code uses.
+#[test]
+fn the_page_s_verdict_follows_its_record() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = read_json(&root.join("docs/records/directional-scene.json"));
+    let md = std::fs::read_to_string(root.join("docs/directional.md")).unwrap();
+    let data = rec["data"].as_object().unwrap();
+    assert_eq!(data.len(), 4, "{data:?}");
+    let any_needs = data
+        .values()
+        .any(|d| d["needs_light_space"].as_bool().unwrap());
+    assert_eq!(
+        md.contains("None of these scenes reaches the"),
+        !any_needs,
+        "docs/directional.md's reading of the record is stale"
+    );
+    let bar = format!("at most {:.0}% of the best screen-space", 100.0 * NEEDS_RATIO);
+    assert!(md.contains(&bar), "docs/directional.md must state the bar: {bar}");
+    for (scene, d) in data {
+        let first = d["verdict"].as_str().unwrap();
+        let needs = d["needs_light_space"].as_bool().unwrap();
+        assert_eq!(first.starts_with("This scene needs"), needs, "{scene}: {first}");
+    }
+}
