@@ -98,9 +98,8 @@ fn compare_scene_states_which_method_each_scene_needs() {
             // the camera sees is 0): its mean is 100% short; the method
             // brings part of that light (the mean is robust to the
             // render's noise, which the RMS at 8 samples is not).
-            let bias = |row: &serde_json::Value, c: usize| {
-                row["regions"][0]["bias"][c].as_f64().unwrap()
-            };
+            let bias =
+                |row: &serde_json::Value, c: usize| row["regions"][0]["bias"][c].as_f64().unwrap();
             for c in 0..3 {
                 assert!((bias(&r[2], c) + 1.0).abs() < 1e-9, "{}", r[2]);
                 assert!(bias(&r[0], c).abs() < 0.9, "channel {c}: {}", r[0]);
@@ -178,7 +177,10 @@ fn advise_scene_gives_the_method_s_line() {
     ]);
     let a: serde_json::Value = serde_json::from_str(&out).unwrap();
     let d = &a["directional"];
-    assert!(d["sentence"].as_str().unwrap().starts_with("Light-space directional"));
+    assert!(d["sentence"]
+        .as_str()
+        .unwrap()
+        .starts_with("Light-space directional"));
     let row = &d["rows"][0];
     assert_eq!(row["samples"], 16);
     for c in 0..3 {
@@ -199,14 +201,29 @@ fn refusals_come_with_the_reason() {
     let exr = dir.path().join("env.exr");
     render_scene(&env, &exr, "4", "20000", &[]);
     let out = dir.path().join("cmp");
-    let flags = ["--models", "preintegrate", "--ranks", "1", "--angular-photons", "0"];
+    let flags = [
+        "--models",
+        "preintegrate",
+        "--ranks",
+        "1",
+        "--angular-photons",
+        "0",
+    ];
     let (_, err) = compare_scene(&env, &exr, &out, &flags);
     assert!(
         err.contains("no light-space directional rows") && err.contains("environment light"),
         "{err}"
     );
     assert!(read_json(&out.join("scene.json"))["directional"].is_null());
-    let base = ["compare", "--scene", p(&env), "--render", p(&exr), "--out-dir", p(&out)];
+    let base = [
+        "compare",
+        "--scene",
+        p(&env),
+        "--render",
+        p(&exr),
+        "--out-dir",
+        p(&out),
+    ];
     for (flag, value, needle) in [
         ("--light-map-side", "0", "--light-map-side"),
         ("--light-map-side", "5000", "1..=4096"),
@@ -230,7 +247,15 @@ fn refusals_come_with_the_reason() {
     );
     assert!(!never.exists());
     let cmp = dir.path().join("never-cmp");
-    let args = ["compare", "--scene", p(&inside), "--render", p(&exr), "--out-dir", p(&cmp)];
+    let args = [
+        "compare",
+        "--scene",
+        p(&inside),
+        "--render",
+        p(&exr),
+        "--out-dir",
+        p(&cmp),
+    ];
     common::fails_with(&args, &["the light is inside object[0]"]);
     assert!(!cmp.exists());
 }
@@ -255,8 +280,18 @@ fn the_method_refuses_what_it_cannot_do() {
         LightSpaceInput::new(s, side, 1, n).unwrap_err().to_string()
     };
     let e = err(&scene("wine", sun), 64, 8);
-    assert!(e.contains("object[0].material") && e.contains("reduced albedo"), "{e}");
-    let e = err(&scene("skin1", "type = \"point\"\nposition = [0, 0, 5]\nintensity = 1"), 64, 8);
+    assert!(
+        e.contains("object[0].material") && e.contains("reduced albedo"),
+        "{e}"
+    );
+    let e = err(
+        &scene(
+            "skin1",
+            "type = \"point\"\nposition = [0, 0, 5]\nintensity = 1",
+        ),
+        64,
+        8,
+    );
     assert!(e.contains("bounding sphere"), "{e}");
     let e = err(&scene("skin1", sun), 0, 8);
     assert!(e.contains("light_map_side"), "{e}");
@@ -299,11 +334,21 @@ fn the_page_s_verdict_follows_its_record() {
         !any_needs,
         "docs/directional.md's reading of the record is stale"
     );
-    let bar = format!("at most {:.0}% of the best screen-space", 100.0 * NEEDS_RATIO);
-    assert!(md.contains(&bar), "docs/directional.md must state the bar: {bar}");
+    let bar = format!(
+        "at most {:.0}% of the best screen-space",
+        100.0 * NEEDS_RATIO
+    );
+    assert!(
+        md.contains(&bar),
+        "docs/directional.md must state the bar: {bar}"
+    );
     for (scene, d) in data {
         let first = d["verdict"].as_str().unwrap();
         let needs = d["needs_light_space"].as_bool().unwrap();
-        assert_eq!(first.starts_with("This scene needs"), needs, "{scene}: {first}");
+        assert_eq!(
+            first.starts_with("This scene needs"),
+            needs,
+            "{scene}: {first}"
+        );
     }
 }
