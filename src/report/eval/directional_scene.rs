@@ -28,7 +28,7 @@
 //!   rows here), else screen-space scattering.
 
 use super::advise_disk::DISK_SEED;
-use super::scene_compare::{screen_space_disk_pass, screen_space_pass, SceneRow};
+use super::scene_pass::{screen_space_disk_pass, screen_space_pass, SceneRow};
 use super::scene_score::{RegionError, Scorer};
 use crate::error::{Error, Result};
 use crate::filter::light_space::{light_space_cpu, LightSpaceInput, LightSpaceSetup};

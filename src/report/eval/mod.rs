@@ -20,6 +20,7 @@ pub mod kernel_compare;
 pub mod pipeline;
 pub mod profile_compare;
 pub mod scene_compare;
+pub mod scene_pass;
 pub mod scene_score;
 pub mod shipped;
 pub mod study;
