@@ -217,8 +217,8 @@ fn directional_config(
     a: &Args,
 ) -> anyhow::Result<Option<ssskit::report::eval::directional_scene::DirectionalConfig>> {
     let samples = a.directional.samples()?;
-    Ok((!samples.is_empty()).then(
-        || ssskit::report::eval::directional_scene::DirectionalConfig {
+    Ok((!samples.is_empty()).then_some(
+        ssskit::report::eval::directional_scene::DirectionalConfig {
             samples,
             map_side: a.directional.light_map_side,
             seed: a.seed.seed,
