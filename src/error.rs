@@ -145,12 +145,52 @@ impl Error {
             source,
         }
     }
+
+    /// This error with where it happened (`material 'skin1', image edge`):
+    /// a bad parameter stays a bad parameter, so that a caller still names
+    /// it by its own spelling (a flag), the place said after its reason;
+    /// any other error is prefixed with the place.
+    pub fn within(self, place: &str) -> Error {
+        match self {
+            Error::Invalid {
+                context,
+                field,
+                value,
+                reason,
+            } if !reason.contains(place) => Error::Invalid {
+                context,
+                field,
+                value,
+                reason: format!("{reason} ({place})"),
+            },
+            e @ Error::Invalid { .. } => e,
+            e => Error::Unsupported(format!("{place}: {e}")),
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     /// The shared checks pass a good value through and refuse the edge,
     /// the wrong sign, NaN and infinity with the one reason.
+    /// A bad parameter keeps its kind and says where; other errors are
+    /// prefixed.
+    #[test]
+    fn errors_within_a_place() {
+        let e = super::Error::invalid("kernel scale", "mm_per_pixel", 0.001, "too fine")
+            .within("material 'skin1', image edge")
+            .within("material 'skin1', image edge");
+        match &e {
+            super::Error::Invalid { field, reason, .. } => {
+                assert_eq!(field, "mm_per_pixel");
+                assert_eq!(reason, "too fine (material 'skin1', image edge)");
+            }
+            other => panic!("{other:?}"),
+        }
+        let e = super::Error::Unsupported("no".into()).within("material 'x'");
+        assert_eq!(e.to_string(), "material 'x': no");
+    }
+
     #[test]
     fn positive_and_non_negative_checks() {
         assert_eq!(super::finite_positive("c", "f", 2.5, "").unwrap(), 2.5);

@@ -5,5 +5,6 @@
 mod cli;
 
 fn main() {
-    std::process::exit(cli::main());
+    // After any signal clean-up under way (it ends the process itself).
+    ssskit::io::exit(cli::main());
 }

@@ -360,7 +360,7 @@ fn apply_warns_about_the_kernel_at_the_pixel_scale() {
     // The whole kernel inside 0.4 px at 10 mm per pixel.
     let err = run("10", true);
     assert!(
-        err.contains("warning: the kernel is under a pixel"),
+        err.contains("warning: 99% of the kernel's weight lies within"),
         "{err}"
     );
     assert!(err.contains("px"), "{err}");
@@ -423,6 +423,54 @@ fn kernels_runs_the_main_job_in_one_command() {
     );
     recommended_is_what_was_scored(&out, &advice);
     stage_times_add_up(&md);
+    report_leads_with_what_to_ship(&out, &md, &advice);
+}
+
+/// The lines of report.md a reader sees first: one screen.
+const FIRST_SCREEN_LINES: usize = 40;
+
+/// report.md's first screen holds what ships (the kernel file and its
+/// configuration as advice.json names it), its worst case (advice.json's
+/// number and signal), the preview and the contact sheet; every PNG the
+/// job wrote is linked with a one-line caption.
+fn report_leads_with_what_to_ship(out: &Path, md: &str, advice: &Value) {
+    let head: Vec<&str> = md.lines().take(FIRST_SCREEN_LINES).collect();
+    let head = head.join("\n");
+    let worst = &advice["worst_case"];
+    for want in [
+        "**Ship [recommended.json](recommended.json)**".to_string(),
+        format!(
+            "worst case {:.2}%",
+            100.0 * worst["rel_rms"].as_f64().unwrap()
+        ),
+        format!("on {}", worst["signal"].as_str().unwrap()),
+        format!("{} mm per pixel", advice["mm_per_pixel"]),
+        "![the preview: path trace, what ships, no blur](preview.png)".into(),
+        "**Contact sheet** ([sheet_skin1_shapes.png](sheet_skin1_shapes.png))".into(),
+        "| no blur |".into(),
+    ] {
+        assert!(
+            head.contains(&want),
+            "no '{want}' on the first screen:\n{head}"
+        );
+    }
+    let ship = head.lines().find(|l| l.starts_with("**Ship")).unwrap();
+    let label = advice["label"].as_str().unwrap();
+    assert!(ship.contains(label), "{ship}");
+    let pngs: Vec<String> = std::fs::read_dir(out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.ends_with(".png"))
+        .collect();
+    assert!(pngs.len() >= 5, "{pngs:?}");
+    for n in &pngs {
+        let item = format!("- [{n}]({n}): ");
+        let line = md
+            .lines()
+            .find(|l| l.starts_with(&item))
+            .unwrap_or_else(|| panic!("{n} is not listed with a caption"));
+        assert!(line.len() > item.len() + 20, "{line}");
+    }
 }
 
 /// recommended.json runs exactly what the advice scored: the fingerprint
@@ -446,18 +494,20 @@ fn recommended_is_what_was_scored(out: &Path, advice: &Value) {
 }
 
 /// Seconds the report's rounding to milliseconds can add to the sum of
-/// the six stages against the total: half a millisecond for each of the
-/// seven numbers.
-const STAGE_ROUNDING_S: f64 = 7.0 * 0.0005;
+/// the seven stages against the total: half a millisecond for each of the
+/// eight numbers.
+const STAGE_ROUNDING_S: f64 = 8.0 * 0.0005;
 
 /// The main job's stages in report.md's table, in order.
 /// 16x the photons divide a noise-dominated error by sqrt(16) = 4: it must
 /// at least halve, the factor 2 left to the bias the noise uncovers.
 const NOISE_FALL: f64 = 0.5;
 
-const STAGES: [&str; 6] = ["profile", "truth", "fits", "images", "advice", "files"];
+const STAGES: [&str; 7] = [
+    "profile", "truth", "fits", "images", "advice", "preview", "files",
+];
 
-/// report.md's "Stage times": the six stages in order, each a positive
+/// report.md's "Stage times": the seven stages in order, each a positive
 /// number of seconds, their sum at most the total (a structure check, not
 /// a timing test).
 fn stage_times_add_up(report: &str) {

@@ -301,11 +301,14 @@ fn scene_check_refuses_a_mismatched_material_or_scale() {
     common::fails_with(&base, &["--mm-per-pixel", "would span", "use at least"]);
 }
 
+/// The lines of report.md a reader sees first: one screen.
+const FIRST_SCREEN_LINES: usize = 40;
+
 /// The main job on a scene: `kernels --scene --render` puts the chosen
 /// kernel's scene error without and with the entry and exit factors (per
 /// channel, with the scene and its scale) in advice.json, both in one line
 /// of the summary, and the ranking (no blur, best without the factors,
-/// best with them, lowest first) in report.md's first lines; `advise
+/// best with them, lowest first) on report.md's first screen; `advise
 /// --scene` on the same scene gives the same numbers.
 #[test]
 fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
@@ -359,7 +362,7 @@ fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
         "{line}"
     );
     let md = std::fs::read_to_string(out_dir.join("report.md")).unwrap();
-    let head: Vec<&str> = md.lines().take(8).collect();
+    let head: Vec<&str> = md.lines().take(FIRST_SCREEN_LINES).collect();
     assert!(head.iter().any(|l| l.starts_with("Ranking")), "{md}");
     let ranked = common::ranked_fractions(head.iter().copied());
     assert_eq!(ranked.len(), 3, "{md}");

@@ -169,6 +169,17 @@ fn sibling_edges(
     siblings: &BTreeMap<String, String>,
     module_file: &str,
 ) -> BTreeMap<String, Vec<String>> {
+    sibling_edges_by(siblings, module_file, "super::")
+}
+
+/// [`sibling_edges`] with the paths that name a sibling starting with
+/// `prefix`: `super::` in a folder of the library, `crate::` in a crate
+/// whose files all sit beside its root (the Python binding).
+fn sibling_edges_by(
+    siblings: &BTreeMap<String, String>,
+    module_file: &str,
+    prefix: &str,
+) -> BTreeMap<String, Vec<String>> {
     let reexports = reexported_items(module_file);
     let resolve = |name: &str| -> Option<String> {
         if siblings.contains_key(name) {
@@ -184,8 +195,8 @@ fn sibling_edges(
         for line in code.lines() {
             let line = line.split("//").next().unwrap_or("");
             let mut rest = line;
-            while let Some(k) = rest.find("super::") {
-                rest = &rest[k + "super::".len()..];
+            while let Some(k) = rest.find(prefix) {
+                rest = &rest[k + prefix.len()..];
                 for name in first_names(rest) {
                     if let Some(t) = resolve(&name).filter(|t| t != file) {
                         to.push(t);
@@ -366,6 +377,47 @@ fn no_files_import_each_other_in_a_circle_inside_a_folder() {
         "files of one folder that import each other in a circle (move what both \
          need into a leaf file):\n{}",
         bad.join("\n")
+    );
+}
+
+/// The Python binding (`python/src`) under the same rule as a folder of the
+/// library: its files import each other (`crate::FILE`) in one direction
+/// only, with `lib.rs` as the module file that only declares them.
+#[test]
+fn the_binding_files_import_each_other_one_way() {
+    let dir = Path::new(REPO).join("python/src");
+    let mut siblings = BTreeMap::new();
+    let mut module_file = String::new();
+    for p in common::rust_sources(&dir) {
+        let text = std::fs::read_to_string(&p).unwrap();
+        let stem = p.file_stem().unwrap().to_string_lossy().into_owned();
+        if stem == "lib" {
+            module_file = text;
+        } else {
+            siblings.insert(stem, text);
+        }
+    }
+    // lib.rs declares the modules and builds the Python module: it holds
+    // the one `#[pymodule]` function and no other.
+    let fns = module_file
+        .lines()
+        .filter(|l| l.trim_start().starts_with("fn ") || l.contains(" fn "))
+        .count();
+    assert_eq!(fns, 1, "python/src/lib.rs only declares and registers");
+    let edges = sibling_edges_by(&siblings, &module_file, "crate::");
+    let edge_count: usize = edges.values().map(Vec::len).sum();
+    // The binding's files lean on the argument and call helpers: today
+    // about 35 edges.
+    const BINDING_EDGES_AT_LEAST: usize = 20;
+    assert!(
+        edge_count >= BINDING_EDGES_AT_LEAST,
+        "only {edge_count} edges between the binding's files"
+    );
+    let bad = cycles(&edges);
+    assert!(
+        bad.is_empty(),
+        "python/src: files that import each other in a circle (move what both need into \
+         call.rs or args.rs):\n{bad:?}"
     );
 }
 

@@ -153,7 +153,23 @@ fn bad_merges_and_shards_are_refused() {
     fails_with(
         d,
         &["merge", "a1.json", "--out", "m.json"],
-        &["missing shard(s) 2 of 2"],
+        &["missing shard(s) 2 (a2.json) of 2"],
+    );
+    // An empty part (a shard killed before an atomic write could not leave
+    // one, but a copy can) and a part of an older schema are refused by name.
+    std::fs::write(d.join("a2.json"), "").unwrap();
+    fails_with(
+        d,
+        &["merge", "a1.json", "a2.json", "--out", "m.json"],
+        &["a2.json"],
+    );
+    let mut old: serde_json::Value = common::read_json(&d.join("a1.json"));
+    old["schema"] = "ssskit.profile/0".into();
+    std::fs::write(d.join("old.json"), old.to_string()).unwrap();
+    fails_with(
+        d,
+        &["merge", "old.json", "seed.json", "--out", "m.json"],
+        &["old.json", "schema"],
     );
     fails_with(
         d,

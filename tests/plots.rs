@@ -11,11 +11,14 @@ mod common;
 
 use common::golden;
 use common::skin1::{comparison, profile, TAPS};
+use ssskit::kernel::disk::DiskKernelFile;
 use ssskit::kernel::KernelFile;
 use ssskit::profile::analytic::Model;
 use ssskit::profile::source::{make_profile_on, ProfileSource};
 use ssskit::profile::Profile;
+use ssskit::report::eval::advise_disk::disk_kernel;
 use ssskit::report::eval::kernel_compare::Comparison;
+use ssskit::report::present::kernel_plots::Recommended;
 use ssskit::report::present::layout::{collisions, Rect, TextBox};
 use ssskit::report::present::pareto::{self, ParetoPanel, Point, Series};
 use ssskit::report::present::{kernel_plots, plot, profile_tables};
@@ -29,6 +32,9 @@ struct Data {
     marble: Profile,
     analytic: Vec<Profile>,
     cmp: Comparison,
+    /// The disk kernel the advice would ship for skin1 (32 samples): the
+    /// slices show it as the recommended kernel.
+    disk: DiskKernelFile,
 }
 
 fn data() -> Data {
@@ -46,6 +52,7 @@ fn data() -> Data {
         })
         .collect();
     Data {
+        disk: disk_kernel(&skin1, 32).unwrap(),
         skin1,
         marble,
         analytic,
@@ -111,7 +118,15 @@ fn draw(kind: &str, d: &Data, out: &Path) -> Vec<TextBox> {
             "skin1: analytic models vs Monte Carlo",
             out,
         ),
-        "slices" => kernel_plots::kernel_slices(&d.cmp, "skin1", out),
+        "slices" => kernel_plots::kernel_slices(
+            &d.cmp,
+            "skin1",
+            Some(&Recommended::Disk {
+                label: "disk, 32 samples".into(),
+                kernel: &d.disk,
+            }),
+            out,
+        ),
         "spectra" => kernel_plots::spectra(&d.cmp, out),
         "pareto" => pareto::render(&pareto_panels(&d.cmp), 1, "skin1: cost", out),
         _ => unreachable!("{kind}"),
@@ -158,5 +173,13 @@ fn every_plot_reads_and_matches_its_golden() {
             boxes = draw(kind, &d, out);
             assert_layout_reads(kind, &boxes, out);
         });
+        if kind == "slices" {
+            // Every panel's legend names the recommended kernel.
+            let n = boxes
+                .iter()
+                .filter(|b| b.text == "recommended: disk, 32 samples")
+                .count();
+            assert_eq!(n, 6, "{boxes:?}");
+        }
     }
 }

@@ -2,8 +2,9 @@
 //! table as arrays, shader emission; `fit(profile, "disk", ...)` builds
 //! one and `apply` runs it over frames.
 
+use crate::args::lang_of;
+use crate::call::{pretty_json, save, to_py};
 use crate::material::PyMaterial;
-use crate::{path_of, pretty_json, to_py};
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -72,15 +73,19 @@ impl PyDiskKernel {
     /// The sample table as shader constants: lang "hlsl", "glsl" or "wgsl"
     /// (`ssskit fit --model disk --emit LANG`).
     fn emit(&self, lang: &str) -> PyResult<String> {
-        emit_disk(&self.inner, crate::lang_of(lang)?).map_err(to_py)
+        emit_disk(&self.inner, lang_of(lang)?).map_err(to_py)
     }
-    /// Writes the kernel file (JSON), as `ssskit fit --model disk --out` does.
-    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.inner.write(&path_of(path)?).map_err(to_py)
+    /// Writes the kernel file (JSON), as `ssskit fit --model disk --out`
+    /// does (without the GIL).
+    fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        save(py, path, |p| self.inner.write(p))
     }
-    /// The kernel file's text.
+    /// The kernel file's text, as `save` writes it (with the usage notes
+    /// the library's writer adds).
     fn to_json(&self) -> PyResult<String> {
-        pretty_json(&self.inner)
+        let mut k = self.inner.clone();
+        k.usage = Some(self.inner.usage());
+        pretty_json(&k)
     }
     fn __repr__(&self) -> String {
         format!(
@@ -100,4 +105,8 @@ pub(crate) fn radii_of(name: &str) -> PyResult<RadiusPdf> {
             "radii: invalid value '{other}': expected widest, mean or per-channel"
         ))),
     }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyDiskKernel>()
 }

@@ -1,9 +1,10 @@
 //! Kernels: `fit` for every separable model the CLI fits, the tap table
 //! and factors as arrays, shader emission, the engines' parameters.
 
-use crate::material::{rgb, PyMaterial};
-use crate::profile::PyProfile;
-use crate::{interruptible, json_to_py, path_of, pretty_json, to_py};
+use crate::args::{kw, lang_of, rgb, Strict};
+use crate::call::{interruptible, json_to_py, pretty_json, save, to_py};
+use crate::material::PyMaterial;
+use crate::profile::profile_of;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -16,7 +17,6 @@ use ssskit::kernel::jimenez::JimenezParams;
 use ssskit::kernel::manual::ManualParams;
 use ssskit::kernel::preintegrate::PreMethod;
 use ssskit::kernel::{fit_kernel_file_with, Kernel2DSpec, KernelFile, Model, Pass};
-use ssskit::profile::Profile;
 
 /// A separable screen-space kernel (ssskit.kernel/1): per separable term
 /// (pass) its 1D factor on the kernel grid and its real-time tap table.
@@ -92,15 +92,19 @@ impl PyKernel {
     /// The tap table as a shader constant array: lang "hlsl", "glsl" or
     /// "wgsl" (`ssskit fit --emit LANG`).
     fn emit(&self, lang: &str) -> PyResult<String> {
-        emit(&self.inner, crate::lang_of(lang)?).map_err(to_py)
+        emit(&self.inner, lang_of(lang)?).map_err(to_py)
     }
-    /// Writes the kernel file (JSON), as `ssskit fit --out` does.
-    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.inner.write(&path_of(path)?).map_err(to_py)
+    /// Writes the kernel file (JSON), as `ssskit fit --out` does (without
+    /// the GIL).
+    fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        save(py, path, |p| self.inner.write(p))
     }
-    /// The kernel file's text.
+    /// The kernel file's text, as `save` writes it (with the usage notes
+    /// the library's writer adds).
     fn to_json(&self) -> PyResult<String> {
-        pretty_json(&self.inner)
+        let mut k = self.inner.clone();
+        k.usage = Some(self.inner.usage());
+        pretty_json(&k)
     }
     fn __repr__(&self) -> String {
         format!(
@@ -110,19 +114,6 @@ impl PyKernel {
             self.inner.taps.count
         )
     }
-}
-
-/// A profile argument: a `Profile`, or the path of a profile file.
-pub(crate) fn profile_of(obj: &Bound<'_, PyAny>) -> PyResult<Profile> {
-    if let Ok(p) = obj.cast::<PyProfile>() {
-        return Ok(p.get().inner.clone());
-    }
-    if obj.extract::<std::path::PathBuf>().is_ok() {
-        return Profile::read(&path_of(obj)?).map_err(to_py);
-    }
-    Err(PyTypeError::new_err(
-        "profile: expected an ssskit.Profile or the path of a profile file",
-    ))
 }
 
 /// The model's parameters as `fit` takes them (the flags of `ssskit fit`).
@@ -193,23 +184,30 @@ impl ModelArgs {
                 _ => Ok(None),
             }
         }
+        // Numbers as the CLI's flags take them (no bools; named errors).
+        fn num<T: Strict>(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Option<T>> {
+            match d.get_item(key)? {
+                Some(v) => Option::<T>::strict(&v, key),
+                None => Ok(None),
+            }
+        }
         Ok(ModelArgs {
-            rank: get(d, "rank")?,
+            rank: num(d, "rank")?,
             renormalize: get(d, "renormalize")?,
             method: get(d, "method")?,
-            k: get(d, "k")?,
-            b: get(d, "b")?,
-            max_iters: get(d, "max_iters")?,
-            w: get(d, "w")?,
+            k: num(d, "k")?,
+            b: num(d, "b")?,
+            max_iters: num(d, "max_iters")?,
+            w: num(d, "w")?,
             near: get(d, "near")?,
             far: get(d, "far")?,
             preset: get(d, "preset")?,
             manual_fit: get(d, "manual_fit")?,
-            count: get(d, "count")?,
-            jimenez_width: get(d, "jimenez_width")?,
+            count: num(d, "count")?,
+            jimenez_width: num(d, "jimenez_width")?,
             jimenez_strength: get(d, "jimenez_strength")?,
             jimenez_falloff: get(d, "jimenez_falloff")?,
-            samples: get(d, "samples")?,
+            samples: num(d, "samples")?,
             radii: get(d, "radii")?,
         })
     }
@@ -330,14 +328,15 @@ const DISK_SAMPLES: usize = 32;
 #[pyfunction]
 #[pyo3(signature = (profile, model="preintegrate", *, taps=None,
     tap_extent=None, grid_size=None, extent=None, **params))]
+#[allow(clippy::too_many_arguments)] // the keywords of a Python function
 fn fit(
     py: Python<'_>,
     profile: &Bound<'_, PyAny>,
     model: &str,
-    taps: Option<usize>,
-    tap_extent: Option<f64>,
-    grid_size: Option<usize>,
-    extent: Option<f64>,
+    #[pyo3(from_py_with = kw::taps)] taps: Option<usize>,
+    #[pyo3(from_py_with = kw::tap_extent)] tap_extent: Option<f64>,
+    #[pyo3(from_py_with = kw::grid_size)] grid_size: Option<usize>,
+    #[pyo3(from_py_with = kw::extent)] extent: Option<f64>,
     params: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Py<PyAny>> {
     let profile = profile_of(profile)?;
@@ -388,7 +387,7 @@ fn engine_params<'py>(
     profile: &Bound<'_, PyAny>,
     engine: &str,
     version: Option<&str>,
-    units_per_mm: Option<f64>,
+    #[pyo3(from_py_with = kw::units_per_mm)] units_per_mm: Option<f64>,
     subsurface_method: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let profile = profile_of(profile)?;

@@ -1,6 +1,7 @@
 //! Materials: the presets, TOML files, and materials from coefficients.
 
-use crate::{json_to_py, pretty_json, to_py};
+use crate::args::{kw, real, rgb};
+use crate::call::{file_op, json_to_py, path_of, pretty_json, to_py};
 use numpy::PyArray1;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -16,35 +17,17 @@ pub struct PyMaterial {
     pub inner: Material,
 }
 
-/// A colour argument: one number for all channels or three (r, g, b).
-pub(crate) fn rgb(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<[f64; 3]> {
-    if let Ok(v) = obj.extract::<f64>() {
-        return Ok([v; 3]);
-    }
-    let v: Vec<f64> = obj.extract().map_err(|_| {
-        PyTypeError::new_err(format!(
-            "{what}: expected a number or three numbers (r, g, b)"
-        ))
-    })?;
-    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
-        PyValueError::new_err(format!(
-            "{what}: expected three values (r, g, b), got {}",
-            v.len()
-        ))
-    })
-}
-
 fn layer_of(d: &Bound<'_, PyAny>) -> PyResult<Layer> {
     let get = |k: &str| d.get_item(k);
     let thickness = match d.get_item("thickness") {
-        Ok(t) if !t.is_none() => Some(t.extract::<f64>()?),
+        Ok(t) if !t.is_none() => Some(real(&t, "thickness")?),
         _ => None,
     };
     Ok(Layer {
         sigma_a: rgb(&get("sigma_a")?, "sigma_a")?,
         sigma_s: rgb(&get("sigma_s")?, "sigma_s")?,
         g: rgb(&get("g")?, "g")?,
-        eta: get("eta")?.extract()?,
+        eta: real(&get("eta")?, "eta")?,
         thickness,
     })
 }
@@ -68,15 +51,16 @@ impl PyMaterial {
     /// Checked as the CLI checks a material file (ValueError).
     #[new]
     #[pyo3(signature = (sigma_a, sigma_s, g, eta, *, name="custom", thickness=None, eta_above=1.0, eta_below=1.0))]
+    #[allow(clippy::too_many_arguments)] // the keywords of a Python constructor
     fn new(
         sigma_a: &Bound<'_, PyAny>,
         sigma_s: &Bound<'_, PyAny>,
         g: &Bound<'_, PyAny>,
-        eta: f64,
+        #[pyo3(from_py_with = kw::eta)] eta: f64,
         name: &str,
-        thickness: Option<f64>,
-        eta_above: f64,
-        eta_below: f64,
+        #[pyo3(from_py_with = kw::thickness)] thickness: Option<f64>,
+        #[pyo3(from_py_with = kw::eta_above)] eta_above: f64,
+        #[pyo3(from_py_with = kw::eta_below)] eta_below: f64,
     ) -> PyResult<Self> {
         let layer = Layer {
             sigma_a: rgb(sigma_a, "sigma_a")?,
@@ -95,8 +79,8 @@ impl PyMaterial {
     fn layered(
         layers: &Bound<'_, PyAny>,
         name: &str,
-        eta_above: f64,
-        eta_below: f64,
+        #[pyo3(from_py_with = kw::eta_above)] eta_above: f64,
+        #[pyo3(from_py_with = kw::eta_below)] eta_below: f64,
     ) -> PyResult<Self> {
         let layers = layers
             .try_iter()?
@@ -180,7 +164,8 @@ impl PyMaterial {
     }
 }
 
-/// A material argument: a `Material`, or a preset name or TOML path.
+/// A material argument: a `Material`, or a preset name or TOML path (read
+/// without the GIL).
 pub(crate) fn material_of(obj: &Bound<'_, PyAny>) -> PyResult<Material> {
     if let Ok(m) = obj.cast::<PyMaterial>() {
         return Ok(m.get().inner.clone());
@@ -188,7 +173,7 @@ pub(crate) fn material_of(obj: &Bound<'_, PyAny>) -> PyResult<Material> {
     let spec: String = obj.extract().map_err(|_| {
         PyTypeError::new_err("material: expected an ssskit.Material, a preset name or a TOML path")
     })?;
-    Material::load(&spec).map_err(to_py)
+    file_op(obj.py(), || Material::load(&spec))
 }
 
 /// The preset materials, in the order `ssskit materials` lists them.
@@ -203,11 +188,10 @@ fn materials() -> Vec<PyMaterial> {
 
 /// A preset by name ("skin1", "marble", ...) or a material TOML file.
 #[pyfunction]
-fn material(spec: &Bound<'_, PyAny>) -> PyResult<PyMaterial> {
-    let spec = crate::path_of(spec)?;
-    Material::load(&spec.to_string_lossy())
-        .map(|m| PyMaterial { inner: m })
-        .map_err(to_py)
+fn material(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<PyMaterial> {
+    let spec = path_of(spec)?.to_string_lossy().into_owned();
+    let inner = file_op(py, || Material::load(&spec))?;
+    Ok(PyMaterial { inner })
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

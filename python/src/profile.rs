@@ -1,14 +1,15 @@
 //! Reflectance profiles: Monte Carlo (`simulate`) and analytic (`profile`).
 
+use crate::args::kw;
+use crate::call::{file_op, interruptible, json_to_py, path_of, pretty_json, save, to_py};
 use crate::material::{material_of, PyMaterial};
-use crate::{interruptible, json_to_py, path_of, pretty_json, to_py};
 use numpy::{PyArray1, PyArray2};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use ssskit::material::Channel;
 use ssskit::profile::analytic::{self, Options};
 use ssskit::profile::fresnel::FresnelMode;
-use ssskit::profile::mc::{self, McConfig, McOptions, PhotonBudget};
+use ssskit::profile::mc::{self, McConfig, McOptions, PhotonBudget, Shard};
 use ssskit::profile::{GridSpec, Profile};
 
 /// A radial reflectance profile R_d(r) per channel (ssskit.profile/1).
@@ -91,13 +92,29 @@ impl PyProfile {
     fn warnings(&self) -> PyResult<Vec<String>> {
         self.inner.warnings().map_err(to_py)
     }
-    /// Writes the profile file (JSON), as `ssskit simulate --out` does.
-    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.inner.write(&path_of(path)?).map_err(to_py)
+    /// Writes the profile file (JSON), as `ssskit simulate --out` does
+    /// (without the GIL).
+    fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        save(py, path, |p| self.inner.write(p))
     }
     /// The profile file's text.
     fn to_json(&self) -> PyResult<String> {
         pretty_json(&self.inner)
+    }
+    /// The profile of a profile file's text, checked as `load` checks the
+    /// file.
+    #[staticmethod]
+    fn from_json(text: &str) -> PyResult<PyProfile> {
+        let inner: Profile = serde_json::from_str(text)
+            .map_err(|e| PyValueError::new_err(format!("not a profile: {e}")))?;
+        inner.validate("the profile text").map_err(to_py)?;
+        Ok(PyProfile { inner })
+    }
+    /// Pickled as its file's text (which round-trips every number exactly),
+    /// so a profile crosses processes (multiprocessing, Dask) unchanged.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let from_json = slf.get_type().getattr("from_json")?;
+        Ok((from_json, (slf.get().to_json()?,)))
     }
     fn __repr__(&self) -> String {
         format!(
@@ -108,6 +125,20 @@ impl PyProfile {
             self.inner.r_edges.last().copied().unwrap_or(0.0)
         )
     }
+}
+
+/// A profile argument: a `Profile`, or the path of a profile file (read
+/// without the GIL).
+pub(crate) fn profile_of(obj: &Bound<'_, PyAny>) -> PyResult<Profile> {
+    if let Ok(p) = obj.cast::<PyProfile>() {
+        return Ok(p.get().inner.clone());
+    }
+    if let Ok(path) = path_of(obj) {
+        return file_op(obj.py(), || Profile::read(&path));
+    }
+    Err(PyTypeError::new_err(
+        "profile: expected an ssskit.Profile or the path of a profile file",
+    ))
 }
 
 fn grid_spec(dr: Option<f64>, rmax: Option<f64>, log_bins: bool) -> GridSpec {
@@ -148,27 +179,34 @@ fn budget(
 /// error of total R_d and profile), or `kernel_error` (the kernel-factor
 /// rule, the default); `max_photons` caps the error targets. The same
 /// `seed` gives the same profile, bit for bit, for any `threads`, and the
-/// same as the CLI with the same flags. Releases the GIL; Ctrl-C stops it
-/// with KeyboardInterrupt.
+/// same as the CLI with the same flags. `shard=(k, n)` traces part k of n
+/// of a fixed `photons` run (`--shard K/N`; `merge` adds the parts),
+/// `max_work` caps each channel's events (`--max-work`; every shard of a
+/// run needs the same). Releases the GIL; Ctrl-C stops it with
+/// KeyboardInterrupt.
 #[pyfunction]
 #[pyo3(signature = (material, *, photons=None, mc_error=None, kernel_error=None,
     max_photons=mc::DEFAULT_MAX_PHOTONS, seed=mc::DEFAULT_SEED, threads=None, channels="rgb",
-    dr=None, rmax=None, log_bins=false))]
+    dr=None, rmax=None, log_bins=false, shard=None, max_work=mc::DEFAULT_MAX_WORK))]
+#[allow(clippy::too_many_arguments)] // the keywords of a Python function
 fn simulate(
     py: Python<'_>,
     material: &Bound<'_, PyAny>,
-    photons: Option<u64>,
-    mc_error: Option<f64>,
-    kernel_error: Option<f64>,
-    max_photons: u64,
-    seed: u64,
-    threads: Option<usize>,
+    #[pyo3(from_py_with = kw::photons)] photons: Option<u64>,
+    #[pyo3(from_py_with = kw::mc_error)] mc_error: Option<f64>,
+    #[pyo3(from_py_with = kw::kernel_error)] kernel_error: Option<f64>,
+    #[pyo3(from_py_with = kw::max_photons)] max_photons: u64,
+    #[pyo3(from_py_with = kw::seed)] seed: u64,
+    #[pyo3(from_py_with = kw::threads)] threads: Option<usize>,
     channels: &str,
-    dr: Option<f64>,
-    rmax: Option<f64>,
+    #[pyo3(from_py_with = kw::dr)] dr: Option<f64>,
+    #[pyo3(from_py_with = kw::rmax)] rmax: Option<f64>,
     log_bins: bool,
+    #[pyo3(from_py_with = kw::shard)] shard: Option<Vec<u64>>,
+    #[pyo3(from_py_with = kw::max_work)] max_work: u64,
 ) -> PyResult<PyProfile> {
     let material = material_of(material)?;
+    let shard = shard.map(shard_of).transpose()?;
     let channels = Channel::parse_list(channels).map_err(to_py)?;
     let spec = grid_spec(dr, rmax, log_bins);
     let grid = if spec == GridSpec::default() {
@@ -183,11 +221,53 @@ fn simulate(
         channels,
         grid,
     };
-    let opts = McOptions::default();
+    let opts = McOptions {
+        shard,
+        max_work,
+        ..McOptions::default()
+    };
     let p = interruptible(py, |progress| {
         mc::simulate_with(&material, &cfg, &opts, progress)
     })?;
     Ok(PyProfile { inner: p })
+}
+
+/// `shard=(k, n)`: part k of n (1 <= k <= n), as `--shard K/N`.
+fn shard_of(v: Vec<u64>) -> PyResult<Shard> {
+    match v[..] {
+        [k, n] => Ok(Shard { k, n }),
+        _ => Err(PyValueError::new_err(format!(
+            "shard: expected (k, n), part k of n, got {} values",
+            v.len()
+        ))),
+    }
+}
+
+/// The profile of the single run from all its shards (`ssskit merge`):
+/// `parts` are `Profile`s or paths of part files, in any order, read and
+/// added one at a time without the GIL; the result equals the single run
+/// bit for bit but for `elapsed_s` (the parts' sum). Refused, naming the
+/// part: parts of different runs, a shard given twice or missing, a part
+/// that is not a shard or was changed after it was written.
+#[pyfunction]
+fn merge(py: Python<'_>, parts: &Bound<'_, PyAny>) -> PyResult<PyProfile> {
+    let mut merger = mc::ShardMerger::new();
+    for (i, part) in parts.try_iter()?.enumerate() {
+        let part = part?;
+        let (name, p) = match part.cast::<PyProfile>() {
+            Ok(p) => (format!("parts[{i}]"), p.get().inner.clone()),
+            Err(_) => {
+                let path = path_of(&part)?;
+                (
+                    path.display().to_string(),
+                    file_op(py, || Profile::read(&path))?,
+                )
+            }
+        };
+        py.detach(|| merger.add(&name, p)).map_err(to_py)?;
+    }
+    let inner = py.detach(|| merger.finish()).map_err(to_py)?;
+    Ok(PyProfile { inner })
 }
 
 /// Analytic reflectance profile (`ssskit profile`): model "dipole", "pbd",
@@ -200,8 +280,8 @@ fn profile(
     material: &Bound<'_, PyAny>,
     model: &str,
     channels: &str,
-    dr: Option<f64>,
-    rmax: Option<f64>,
+    #[pyo3(from_py_with = kw::dr)] dr: Option<f64>,
+    #[pyo3(from_py_with = kw::rmax)] rmax: Option<f64>,
     fresnel: &str,
 ) -> PyResult<PyProfile> {
     let material = material_of(material)?;
@@ -229,5 +309,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyProfile>()?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(profile, m)?)?;
+    m.add_function(wrap_pyfunction!(merge, m)?)?;
     Ok(())
 }

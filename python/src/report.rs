@@ -1,13 +1,17 @@
 //! `compare` and `advise` as plain data: the rows of compare.json and the
 //! answer of `advise --json`, computed by the same library calls.
 
-use crate::kernel::{profile_of, PyKernel};
-use crate::{interruptible, json_to_py, to_py};
+use crate::args::kw;
+use crate::call::{interruptible, json_to_py, to_py};
+use crate::disk::PyDiskKernel;
+use crate::kernel::PyKernel;
+use crate::profile::profile_of;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::filter::signals::Signal;
 use ssskit::report::eval::advise::{self, Budget};
+use ssskit::report::eval::advise_types::DEFAULT_FRAMES;
 use ssskit::report::eval::evaluate::{self, ImageCase, Options};
 use ssskit::report::eval::kernel_compare::{self, parse_ranks, Config, MaterialInput};
 
@@ -27,6 +31,36 @@ fn signal_of(name: &str) -> PyResult<Signal> {
 
 fn to_value<T: serde::Serialize>(v: &T) -> PyResult<serde_json::Value> {
     serde_json::to_value(v).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// A `models` argument: one name, names separated by commas (as
+/// `--models` takes them), or a list of names; "all" stands for every
+/// family of the comparison, as `--models all` does. None: `default`.
+fn models_of(obj: Option<&Bound<'_, PyAny>>, default: &[&str]) -> PyResult<Vec<String>> {
+    let names: Vec<String> = match obj {
+        None => return Ok(default.iter().map(|s| s.to_string()).collect()),
+        Some(o) if o.is_none() => return Ok(default.iter().map(|s| s.to_string()).collect()),
+        Some(o) => match o.extract::<String>() {
+            Ok(s) => s.split(',').map(|m| m.trim().to_string()).collect(),
+            Err(_) => o.extract::<Vec<String>>().map_err(|_| {
+                PyTypeError::new_err(
+                    "models: expected a model name, names separated by commas, or a list of names",
+                )
+            })?,
+        },
+    };
+    if names.iter().any(|m| m.is_empty()) || names.is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "models: invalid value {names:?}: an empty model name"
+        )));
+    }
+    if names.iter().any(|m| m == "all") {
+        return Ok(kernel_compare::FAMILIES
+            .iter()
+            .map(|s| s.to_string())
+            .collect());
+    }
+    Ok(names)
 }
 
 /// The profiles to compare: a dict {name: Profile} or a list of profiles
@@ -64,17 +98,18 @@ fn inputs(obj: &Bound<'_, PyAny>) -> PyResult<Vec<MaterialInput>> {
 #[pyo3(signature = (profiles, *, models=None, ranks="1-3", taps=vec![ssskit::kernel::taps::DEFAULT_TAPS],
     signals=vec!["edge".to_string(), "shapes".to_string()], mm_per_pixel=evaluate::DEFAULT_MM_PER_PIXEL,
     signal_size=evaluate::DEFAULT_SIGNAL_SIZE, extent=None, pixels_per_degree=None))]
+#[allow(clippy::too_many_arguments)] // the keywords of a Python function
 fn compare<'py>(
     py: Python<'py>,
     profiles: &Bound<'py, PyAny>,
-    models: Option<Vec<String>>,
+    models: Option<&Bound<'py, PyAny>>,
     ranks: &str,
-    taps: Vec<usize>,
+    #[pyo3(from_py_with = kw::taps)] taps: Vec<usize>,
     signals: Vec<String>,
-    mm_per_pixel: f64,
-    signal_size: usize,
-    extent: Option<f64>,
-    pixels_per_degree: Option<f64>,
+    #[pyo3(from_py_with = kw::mm_per_pixel)] mm_per_pixel: f64,
+    #[pyo3(from_py_with = kw::signal_size)] signal_size: usize,
+    #[pyo3(from_py_with = kw::extent)] extent: Option<f64>,
+    #[pyo3(from_py_with = kw::pixels_per_degree)] pixels_per_degree: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let inputs = inputs(profiles)?;
     let mut cases = Vec::new();
@@ -83,12 +118,7 @@ fn compare<'py>(
     }
     let defaults = Options::default();
     let cfg = Config {
-        families: models.unwrap_or_else(|| {
-            kernel_compare::FAMILIES
-                .iter()
-                .map(|s| s.to_string())
-                .collect()
-        }),
+        families: models_of(models, &kernel_compare::FAMILIES)?,
         ranks: parse_ranks(ranks).map_err(to_py)?,
         cases,
         taps,
@@ -103,43 +133,66 @@ fn compare<'py>(
     json_to_py(py, &to_value(&cmp.rows)?)
 }
 
+/// The chosen kernel, as the class of its model: a `DiskKernel` where the
+/// answer is a disk kernel, else a `Kernel`.
+fn chosen_kernel(py: Python<'_>, advice: advise::Advice) -> PyResult<Py<PyAny>> {
+    Ok(match advice.disk_kernel {
+        Some(inner) => Py::new(py, PyDiskKernel { inner })?.into_any(),
+        None => Py::new(
+            py,
+            PyKernel {
+                inner: advice.kernel,
+            },
+        )?
+        .into_any(),
+    })
+}
+
 /// The cheapest kernel configuration that meets an image-space error at a
 /// pixel scale (`ssskit advise`): returns (answer, candidates, kernel):
 /// the dict `advise --json` prints, every configuration evaluated (list of
-/// dicts), and the chosen kernel.
+/// dicts), and the chosen kernel, a `DiskKernel` where the answer is
+/// "disk", else a `Kernel` (what `advise --out` writes). models: a name,
+/// names separated by commas, or a list (default: the CLI's, disk
+/// included); frames: the frames a disk kernel's noise is scored after
+/// (a temporal filter's history, 1 to 64); max_passes, max_samples,
+/// max_taps: the budget (None or 0: no limit). Releases the GIL; Ctrl-C
+/// stops it with KeyboardInterrupt.
 #[pyfunction]
 #[pyo3(signature = (profile, mm_per_pixel, *, image_error=advise::DEFAULT_TARGET, models=None,
     max_passes=Some(advise::DEFAULT_MAX_PASSES), max_samples=None, max_taps=None,
-    signal_size=evaluate::DEFAULT_SIGNAL_SIZE))]
+    signal_size=evaluate::DEFAULT_SIGNAL_SIZE, frames=DEFAULT_FRAMES))]
 #[pyo3(name = "advise")]
+#[allow(clippy::too_many_arguments)] // the keywords of a Python function
 fn advise_kernel<'py>(
     py: Python<'py>,
     profile: &Bound<'py, PyAny>,
-    mm_per_pixel: f64,
-    image_error: f64,
-    models: Option<Vec<String>>,
-    max_passes: Option<usize>,
-    max_samples: Option<usize>,
-    max_taps: Option<usize>,
-    signal_size: usize,
-) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, PyKernel)> {
+    #[pyo3(from_py_with = kw::mm_per_pixel)] mm_per_pixel: f64,
+    #[pyo3(from_py_with = kw::image_error)] image_error: f64,
+    models: Option<&Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = kw::max_passes)] max_passes: Option<usize>,
+    #[pyo3(from_py_with = kw::max_samples)] max_samples: Option<usize>,
+    #[pyo3(from_py_with = kw::max_taps)] max_taps: Option<usize>,
+    #[pyo3(from_py_with = kw::signal_size)] signal_size: usize,
+    #[pyo3(from_py_with = kw::frames)] frames: u32,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Py<PyAny>)> {
     // `advise --image-error`'s checks: a fraction in (0, 1).
     if !(image_error > 0.0 && image_error < 1.0) {
         return Err(PyValueError::new_err(format!(
             "image_error: invalid value {image_error}: a fraction in (0, 1): 0.05 is 5%"
         )));
     }
+    ssskit::report::eval::advise_disk::check_frames(frames).map_err(to_py)?;
     let profile = profile_of(profile)?;
     let mut cfg = advise::Config::new(mm_per_pixel, image_error);
     cfg.size = signal_size;
+    cfg.frames = frames;
     cfg.budget = Budget {
         max_passes: max_passes.filter(|&n| n > 0),
         max_samples: max_samples.filter(|&n| n > 0),
         max_taps: max_taps.filter(|&n| n > 0),
     };
-    if let Some(m) = models {
-        cfg.families = m;
-    }
+    cfg.families = models_of(models, &advise::FAMILIES)?;
     let advice = interruptible(py, |progress| advise::advise(&profile, &cfg, progress))?;
     if !advice.warnings.is_empty() {
         let warn = py.import("warnings")?;
@@ -147,13 +200,9 @@ fn advise_kernel<'py>(
             warn.call_method1("warn", (w.to_string(),))?;
         }
     }
-    Ok((
-        json_to_py(py, &advice.to_json())?,
-        json_to_py(py, &to_value(&advice.candidates)?)?,
-        PyKernel {
-            inner: advice.kernel,
-        },
-    ))
+    let answer = json_to_py(py, &advice.to_json())?;
+    let candidates = json_to_py(py, &to_value(&advice.candidates)?)?;
+    Ok((answer, candidates, chosen_kernel(py, advice)?))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

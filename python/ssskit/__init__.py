@@ -14,6 +14,7 @@ Data flow::
 
 from ._native import (  # noqa: F401
     MODELS,
+    ApplyOptions,
     DiskKernel,
     Kernel,
     Material,
@@ -22,11 +23,13 @@ from ._native import (  # noqa: F401
     advise,
     apply,
     compare,
+    diff,
     engine_params,
     fit,
     load,
     material,
     materials,
+    merge,
     profile,
     read_image,
     reference,
@@ -35,12 +38,11 @@ from ._native import (  # noqa: F401
 )
 
 
-
 def to_frame(rows):
     """A list of dicts (``compare``'s rows, ``advise``'s candidates) as a
     pandas DataFrame; pandas is optional and needed only here."""
     try:
-        import pandas
+        import pandas  # type: ignore[import-not-found,import-untyped,unused-ignore]
     except ImportError as e:
         raise ImportError("ssskit.to_frame needs pandas (pip install pandas); the rows are plain dicts") from e
     return pandas.DataFrame(rows)
@@ -48,6 +50,7 @@ def to_frame(rows):
 
 __all__ = [
     "MODELS",
+    "ApplyOptions",
     "DiskKernel",
     "Kernel",
     "Material",
@@ -55,6 +58,8 @@ __all__ = [
     "advise",
     "apply",
     "compare",
+    "diff",
+    "merge",
     "engine_params",
     "fit",
     "load",

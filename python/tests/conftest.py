@@ -1,4 +1,5 @@
-"""Shared fixtures: the CLI binary the package is compared with."""
+"""Shared fixtures and helpers: the CLI binary the package is compared
+with, and JSON without its timings."""
 
 import os
 import subprocess
@@ -25,3 +26,17 @@ def cli():
         return done.stdout
 
     return run
+
+
+# Keys of the library's JSON that hold wall-clock measurements, the only
+# ones allowed to differ between two runs of the same computation.
+TIMING_KEYS = {"fit_seconds", "ms_per_megapixel", "elapsed_s"}
+
+
+def untimed(value):
+    """A JSON value without its wall-clock fields (keys in TIMING_KEYS)."""
+    if isinstance(value, dict):
+        return {k: untimed(v) for k, v in value.items() if k not in TIMING_KEYS}
+    if isinstance(value, list):
+        return [untimed(v) for v in value]
+    return value

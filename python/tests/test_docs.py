@@ -14,8 +14,11 @@ def python_blocks():
 
 
 def test_the_worked_example_runs(tmp_path, monkeypatch):
+    # The worked example, then the Dask recipe (python/examples/dask_shards.py,
+    # printed by a file: block that tests/docs_files.rs checks and
+    # test_shards.py runs).
     blocks = python_blocks()
-    assert len(blocks) == 1
+    assert len(blocks) == 2
     monkeypatch.chdir(tmp_path)
     exec(compile(blocks[0], "docs/python.md", "exec"), {})
     assert (tmp_path / "skin1-preintegrate.json").exists()

@@ -7,20 +7,11 @@ import warnings
 import pytest
 
 import ssskit
+from conftest import untimed
 
-# Keys that hold wall-clock measurements, the only ones allowed to differ.
-TIMING_KEYS = {"fit_seconds", "ms_per_megapixel", "elapsed_s"}
 # Two cheap model families, ranks 1 and 2, one signal: a comparison of a
 # few seconds that still has several variants and tap tables.
 MODELS = ["svd", "preintegrate"]
-
-
-def untimed(value):
-    if isinstance(value, dict):
-        return {k: untimed(v) for k, v in value.items() if k not in TIMING_KEYS}
-    if isinstance(value, list):
-        return [untimed(v) for v in value]
-    return value
 
 
 @pytest.fixture(scope="module")
@@ -30,15 +21,25 @@ def profile_file(tmp_path_factory, cli):
     return d / "skin1.json"
 
 
-def test_compare_rows_equal_compare_json(profile_file, cli):
-    out = profile_file.parent / "cmp"
-    cli("compare", "--profiles", profile_file.parent, "--materials", "skin1", "--models", ",".join(MODELS),
-        "--ranks", "1-2", "--signals", "edge", "--no-plots", "--out-dir", out)
-    rows = ssskit.compare({"skin1": ssskit.load(profile_file)}, models=MODELS, ranks="1-2", signals=["edge"])
+@pytest.mark.parametrize(
+    "models, ranks, signals, taps, labels",
+    [
+        # svd ranks 1 and 2, each plain and renormalised, and preintegrate.
+        (MODELS, "1-2", ["edge"], [17], {"svd1", "svd1-renorm", "svd2", "svd2-renorm", "preintegrate"}),
+        # One model as a string (as --models takes it), two signals, two tap tables.
+        ("preintegrate", "1", ["checker", "shapes"], [11, 25], {"preintegrate"}),
+    ],
+)
+def test_compare_rows_equal_compare_json(profile_file, cli, models, ranks, signals, taps, labels):
+    out = profile_file.parent / f"cmp-{len(labels)}"
+    flag = models if isinstance(models, str) else ",".join(models)
+    cli("compare", "--profiles", profile_file.parent, "--materials", "skin1", "--models", flag,
+        "--ranks", ranks, "--signals", ",".join(signals), "--taps", ",".join(map(str, taps)), "--no-plots",
+        "--out-dir", out)
+    rows = ssskit.compare({"skin1": ssskit.load(profile_file)}, models=models, ranks=ranks, signals=signals,
+                          taps=taps)
     theirs = json.loads((out / "compare.json").read_text())
-    # svd ranks 1 and 2, each plain and renormalised, and preintegrate,
-    # each for r, g and b.
-    labels = {"svd1", "svd1-renorm", "svd2", "svd2-renorm", "preintegrate"}
+    # Each label for r, g and b.
     assert {r["label"] for r in rows} == labels and len(rows) == 3 * len(labels)
     assert untimed(rows) == untimed(theirs)
 

@@ -489,18 +489,29 @@ fn run_reference(
     let Scale::MmPerPixel(m) = scale else {
         anyhow::bail!("--reference needs --mm-per-pixel (the exact 2D kernel has one scale)");
     };
-    if args.depth.is_some()
-        || args.strength.is_some()
-        || follow(args).is_some()
-        || args.specular.is_some()
-        || args.taps_only
-        || args.full_factors
-        || args.jitter
-        || angular::any_flag(args).is_some()
-    {
+    let kernel_only = [
+        ("--depth", args.depth.is_some()),
+        ("--strength", args.strength.is_some()),
+        ("--follow-surface", args.follow_surface.is_some()),
+        (
+            "--follow-surface-scene-units",
+            args.follow_surface_scene_units.is_some(),
+        ),
+        ("--specular", args.specular.is_some()),
+        ("--taps-only", args.taps_only),
+        ("--full-factors", args.full_factors),
+        ("--jitter", args.jitter),
+    ];
+    let given = kernel_only
+        .iter()
+        .find(|(_, g)| *g)
+        .map(|(f, _)| *f)
+        .or_else(|| angular::any_flag(args));
+    if let Some(flag) = given {
         anyhow::bail!(
-            "--reference is the plain exact 2D convolution: it takes no --depth, --strength, \
-             --follow-surface, --specular, --full-factors, --jitter or angular factor flags"
+            "{flag} applies to a kernel; --reference is the plain exact 2D convolution of the \
+             profile, which takes none of --depth, --strength, --follow-surface, --specular, \
+             --full-factors, --jitter or the angular factors' flags"
         );
     }
     if args.backend.backend == Backend::Gpu {

@@ -5,7 +5,8 @@
 use super::Args;
 use anyhow::{bail, Context};
 use ssskit::filter::angular::{
-    angular_view, factor_plan, AngularView, FactorArgs, FactorPlan, Light,
+    angular_view, check_cosines, check_normals, factor_plan, AngularView, FactorArgs, FactorPlan,
+    Light,
 };
 use ssskit::filter::image::{read_exr_channels, read_plane};
 use ssskit::filter::{Image, Scale};
@@ -76,6 +77,13 @@ pub fn view<'a>(
     let (FactorPlan::With, Some(f), Some(normals)) = (plan, factors, normals) else {
         return Ok(None);
     };
+    let what = args
+        .normals
+        .as_deref()
+        .unwrap_or(&args.input)
+        .display()
+        .to_string();
+    check_normals(&what, &normals, w, h)?;
     let light = light(args, w, h)?;
     eprintln!(
         "angular factors: {}the exit factor at N.V after the pass",
@@ -85,15 +93,8 @@ pub fn view<'a>(
             "the entry factor at N.L before the pass, "
         }
     );
-    let what = args
-        .normals
-        .as_deref()
-        .unwrap_or(&args.input)
-        .display()
-        .to_string();
-    Ok(Some(
-        angular_view(f, &normals, light, (w, h), scale).with_context(|| what)?,
-    ))
+    // The normals and N.L were checked, each naming its own file.
+    Ok(Some(angular_view(f, &normals, light, (w, h), scale)?))
 }
 
 /// The view-space normals: --normals (R, G, B), else the input EXR's
@@ -139,7 +140,9 @@ fn light(args: &Args, w: usize, h: usize) -> anyhow::Result<Light> {
                  (the view-space direction toward the light)"
             );
         }
-        return Ok(Light::Toward([v[0], v[1], v[2]]));
+        let v = [v[0], v[1], v[2]];
+        ssskit::filter::angular::unit_direction(v)?;
+        return Ok(Light::Toward(v));
     }
     let (path, channel) = match &args.n_dot_l {
         Some(p) => (p.as_path(), None),
@@ -160,6 +163,11 @@ fn light(args: &Args, w: usize, h: usize) -> anyhow::Result<Light> {
             p.height
         );
     }
+    let what = match channel {
+        Some(c) => format!("{} (channel {c})", path.display()),
+        None => format!("{} (--n-dot-l)", path.display()),
+    };
+    check_cosines("N.L", &p.data, w, h).with_context(|| what)?;
     Ok(Light::Cosines(p.data))
 }
 

@@ -5,7 +5,7 @@ use super::Args;
 use crate::cli::args::Backend;
 use anyhow::{bail, Context};
 use ssskit::filter::accumulate::Accumulate;
-use ssskit::filter::disk::{apply_disk_in_place, DiskSetup};
+use ssskit::filter::disk::{apply_disk_in_place_with, check_cpu_work, DiskSetup};
 use ssskit::filter::disk_gpu::DiskGpu;
 use ssskit::filter::{Image, Setup};
 use ssskit::kernel::disk::DiskKernelFile;
@@ -13,10 +13,15 @@ use std::path::Path;
 
 /// The disk pass over `image`: the CPU filters it in place (docs/filter.md).
 pub fn run(args: &Args, path: &Path, view: Setup, image: Image) -> anyhow::Result<Image> {
-    if args.taps_only || args.full_factors || args.jitter {
+    let separable_only = [
+        ("--taps-only", args.taps_only),
+        ("--full-factors", args.full_factors),
+        ("--jitter", args.jitter),
+    ];
+    if let Some((flag, _)) = separable_only.iter().find(|(_, given)| *given) {
         bail!(
-            "--full-factors and --jitter apply to separable kernels; {} is a disk kernel (its \
-             samples are its table, turned per pixel and frame)",
+            "{flag} applies to separable kernels (their tap table or full factors); {} is a \
+             disk kernel: its samples are its table, turned per pixel and frame",
             path.display()
         );
     }
@@ -29,8 +34,9 @@ pub fn run(args: &Args, path: &Path, view: Setup, image: Image) -> anyhow::Resul
         .with_context(|| format!("applying {}", path.display()))?;
     let n = kernel.samples_per_pixel();
     let cpu = |mut image: Image, why: &str| -> anyhow::Result<Image> {
+        check_cpu_work(&image, &setup)?;
         eprintln!("backend: cpu (disk, f64{why}), {n} samples per pixel");
-        apply_disk_in_place(&mut image, &setup)?;
+        apply_disk_in_place_with(&mut image, &setup, &crate::cli::progress::Bar::new())?;
         Ok(image)
     };
     match args.backend.backend {

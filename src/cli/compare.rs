@@ -317,7 +317,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         staged.path(),
         !no_plots,
         &format!("{}-tap tables", taps[0]),
-        None,
     )?;
     pipeline::write_fitted_kernels(&cmp, &staged.path().join("kernels"), false)?;
     let disk = if with_disk {

@@ -152,17 +152,44 @@ pub struct ModelOpts {
     /// jimenez: falloff f per channel, "R,G,B".
     #[arg(long, value_name = "R,G,B", alias = "falloff", default_value = args::rgb_text(JimenezParams::default().falloff), value_parser = args::rgb)]
     jimenez_falloff: [f64; 3],
-    /// disk: samples per pixel (per channel with --radii per-channel), 4 to 1024.
-    #[arg(long, value_name = "N", default_value_t = 32, value_parser = count::<usize>)]
-    samples: usize,
-    /// disk: the density the radii are drawn from.
+    #[arg(long, value_name = "N", value_parser = count::<usize>, help = samples_help())]
+    samples: Option<usize>,
+    /// disk: the density the radii are drawn from [default: widest].
     ///
     /// widest: one set from the widest channel (the engines' choice, the
     /// least noise in the worst channel, measured in docs/kernels.md);
     /// mean: one set from the mean of the channels' kernels, weights below
     /// 3; per-channel: N radii per channel, 3 N fetches.
-    #[arg(long, value_enum, value_name = "PDF", default_value_t = super::fit_disk::RadiiArg::Widest)]
-    radii: super::fit_disk::RadiiArg,
+    #[arg(long, value_enum, value_name = "PDF")]
+    radii: Option<super::fit_disk::RadiiArg>,
+}
+
+/// `--samples`' help, with the library's bounds and default.
+fn samples_help() -> String {
+    use ssskit::kernel::disk::{DEFAULT_SAMPLES, MAX_SAMPLES, MIN_SAMPLES};
+    format!(
+        "disk: samples per pixel (per channel with --radii per-channel), {MIN_SAMPLES} to \
+         {MAX_SAMPLES} [default: {DEFAULT_SAMPLES}]"
+    )
+}
+
+/// The first flag of a disk kernel (`--samples`, `--radii`) given to a
+/// separable model, or of a separable kernel given to a disk one: each
+/// kind refuses the other's settings rather than ignore them.
+fn other_kinds_flag(a: &Args, disk: bool) -> Option<&'static str> {
+    let given = if disk {
+        vec![
+            ("--grid-size", a.grid_size.is_some()),
+            ("--extent", a.extent.extent.is_some()),
+            ("--tap-extent", a.tap_extent.is_some()),
+        ]
+    } else {
+        vec![
+            ("--samples", a.opts.samples.is_some()),
+            ("--radii", a.opts.radii.is_some()),
+        ]
+    };
+    given.into_iter().find(|(_, g)| *g).map(|(f, _)| f)
 }
 
 fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
@@ -226,15 +253,33 @@ fn model(a: &Args, m: ModelArg) -> anyhow::Result<Model> {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let lang = a.emit.map(Lang::from);
-    if matches!(a.model, Some(ModelArg::Disk))
-        || a.kernel.kernel.as_deref().is_some_and(is_disk_file)
-    {
+    let disk = matches!(a.model, Some(ModelArg::Disk))
+        || a.kernel.kernel.as_deref().is_some_and(is_disk_file);
+    if let Some(flag) = other_kinds_flag(&a, disk) {
+        match a.model {
+            Some(m) => bail!(
+                "{flag}: a setting of {} kernels; --model {} is {}",
+                if disk { "separable" } else { "disk" },
+                args::flag_value(&m),
+                if disk { "a disk kernel" } else { "separable" }
+            ),
+            None if a.profile.profile.is_none() => bail!(
+                "{flag}: a setting of a fit (--profile with --model); --kernel reads a kernel \
+                 file as it is"
+            ),
+            None => {}
+        }
+    }
+    if disk {
         let disk = super::fit_disk::Disk {
             profile: a.profile.profile.as_deref(),
             kernel: a.kernel.kernel.as_deref(),
             out: a.out.out.as_deref(),
-            samples: a.opts.samples,
-            radii: a.opts.radii,
+            samples: a
+                .opts
+                .samples
+                .unwrap_or(ssskit::kernel::disk::DEFAULT_SAMPLES),
+            radii: a.opts.radii.unwrap_or(super::fit_disk::RadiiArg::Widest),
             quiet: a.quiet,
         };
         return super::fit_disk::run(&disk, lang);

@@ -103,8 +103,26 @@ enum Command {
     Scene(scene::Args),
 }
 
+/// Turns off Mesa's Vulkan device-select layer unless the user set it up:
+/// the layer only reorders the adapters for the display's compositor
+/// (ssskit picks its adapter itself: `ssskit::gpu`), and to find the
+/// display it connects to Wayland, whose client library prints "error:
+/// XDG_RUNTIME_DIR is invalid or not set in the environment" on every run
+/// without a session (twice per `apply`). Set before any thread starts, so
+/// nothing reads the environment meanwhile.
+fn quiet_vulkan_loader() {
+    const LAYER_OFF: &str = "NODEVICE_SELECT";
+    let chosen = [LAYER_OFF, "MESA_VK_DEVICE_SELECT", "DRI_PRIME"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some());
+    if !chosen {
+        std::env::set_var(LAYER_OFF, "1");
+    }
+}
+
 /// Runs the CLI; returns the process exit code (0 ok, 2 error).
 pub fn main() -> i32 {
+    quiet_vulkan_loader();
     out::install_panic_hook();
     if let Err(e) = ssskit::io::remove_temps_on_signals() {
         eprintln!("warning: {e}: an interrupted write may leave a .ssskit-*.tmp file");
@@ -213,7 +231,7 @@ fn check_output_files(path: &[String], m: &clap::ArgMatches) -> anyhow::Result<(
 
 /// The whole command line interface, built (help subcommands and all).
 fn top_command() -> clap::Command {
-    let mut c = args::long_help_opens_with_help(Cli::command());
+    let mut c = args::negative_numbers_are_values(args::long_help_opens_with_help(Cli::command()));
     c.build();
     c
 }

@@ -217,6 +217,68 @@ pub enum Light {
     EntryWeighted,
 }
 
+/// The unit vector along `v`, scaled by its largest component first so
+/// that a long vector (1e200, 0, 0) has a length (its square overflowed).
+pub fn unit_direction(v: [f64; 3]) -> Result<[f64; 3]> {
+    let bad = |why: &str| {
+        Error::invalid(
+            "angular factors",
+            "light direction",
+            format!("{v:?}"),
+            format!("{why} (the view-space direction toward the light)"),
+        )
+    };
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(bad("three finite numbers expected"));
+    }
+    let big = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if big == 0.0 {
+        return Err(bad("all three are 0: no direction"));
+    }
+    let s = v.map(|x| x / big);
+    let len = s.iter().map(|x| x * x).sum::<f64>().sqrt();
+    Ok(s.map(|x| x / len))
+}
+
+/// How far beyond [-1, 1] a stored cosine may be: a G-buffer's N.L in f16
+/// (relative step 1e-3) or computed from normals of that precision; as
+/// [`NORMAL_LENGTH_TOLERANCE`]. Within it a cosine is rounding and is
+/// clamped; beyond it, it is no cosine (a channel of another meaning, a
+/// scaled or unnormalised product) and is refused rather than clamped,
+/// which would turn every such pixel into a light at the normal or behind.
+pub const COSINE_TOLERANCE: f64 = NORMAL_LENGTH_TOLERANCE;
+
+/// Checks a plane of cosines read from a file (`what`: N.L): one per pixel
+/// of a `width` x `height` image, finite, within [-1, 1] up to
+/// [`COSINE_TOLERANCE`].
+pub fn check_cosines(what: &str, nl: &[f64], width: usize, height: usize) -> Result<()> {
+    if nl.len() != width * height {
+        return Err(Error::Unsupported(format!(
+            "{what} has {} values for a {width}x{height} image",
+            nl.len()
+        )));
+    }
+    let at = |i: usize| {
+        format!(
+            "{what} at pixel ({}, {}) is {}",
+            i % width,
+            i / width,
+            nl[i]
+        )
+    };
+    if let Some(i) = nl.iter().position(|x| !x.is_finite()) {
+        return Err(Error::Unsupported(format!("{}: must be finite", at(i))));
+    }
+    if let Some(i) = nl.iter().position(|x| x.abs() > 1.0 + COSINE_TOLERANCE) {
+        return Err(Error::Unsupported(format!(
+            "{}: a cosine lies in [-1, 1] (a normal and a light direction both of length 1); \
+             is this the N.L channel?",
+            at(i)
+        )));
+    }
+    Ok(())
+}
+
 /// The cosines `factors` take around a pass over a `width` x `height`
 /// image: N.V from the view-space `normals` (checked) on `scale`'s camera,
 /// N.L from `light`.
@@ -230,33 +292,9 @@ pub fn angular_view<'a>(
     check_normals("normals", normals, width, height)?;
     let n_dot_l = match light {
         Light::EntryWeighted => None,
-        Light::Toward(v) => {
-            let len = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if !(len > 0.0 && len.is_finite()) {
-                return Err(Error::invalid(
-                    "angular factors",
-                    "light direction",
-                    format!("{v:?}"),
-                    "three finite numbers, not all 0 (the view-space direction toward the light)",
-                ));
-            }
-            Some(n_dot_l(normals, [v[0] / len, v[1] / len, v[2] / len]))
-        }
+        Light::Toward(v) => Some(n_dot_l(normals, unit_direction(v)?)),
         Light::Cosines(nl) => {
-            if nl.len() != width * height {
-                return Err(Error::Unsupported(format!(
-                    "N.L has {} values for a {width}x{height} image",
-                    nl.len()
-                )));
-            }
-            if let Some(i) = nl.iter().position(|x| !x.is_finite()) {
-                return Err(Error::Unsupported(format!(
-                    "N.L at pixel ({}, {}) is {}: must be finite",
-                    i % width,
-                    i / width,
-                    nl[i]
-                )));
-            }
+            check_cosines("N.L", &nl, width, height)?;
             Some(nl)
         }
     };

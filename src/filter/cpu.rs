@@ -17,7 +17,7 @@ pub use super::screen_space::{apply_screen_space, apply_screen_space_in_place};
 use super::separable::apply_separable_in;
 pub use super::separable::{
     apply_separable, apply_separable_f32, apply_separable_in_place, apply_separable_into,
-    PixelKernel, Precision,
+    apply_separable_plane_in_place, PixelKernel, Precision,
 };
 use super::{Image, Setup};
 use crate::error::Result;
@@ -57,9 +57,39 @@ pub fn apply_in_place(image: &mut Image, setup: &Setup, precision: Precision) ->
     Ok(())
 }
 
+/// [`apply_in_place`] at [`Precision::F32`] for channel `c` of a `w` x `h`
+/// image held as one f32 plane (a caller's buffer, as the Python binding
+/// holds each channel of a numpy image in turn): the same samples, bit for
+/// bit, with a third of the memory of the f64 image's plane. The
+/// fixed-kernel path only (a uniform scale, no specular, whose sum would
+/// be rounded once more in f32): any other setup is an error. `halo` is
+/// reused from one plane to the next. The caller has checked `setup`
+/// ([`Setup::validate`]) against a `w` x `h` image.
+pub fn apply_plane_f32_in_place(
+    plane: &mut [f32],
+    halo: &mut Vec<f32>,
+    (w, h): (usize, usize),
+    setup: &Setup,
+    c: usize,
+) -> Result<()> {
+    if !setup.is_uniform() || setup.specular.is_some() || plane.len() != w * h || c > 2 {
+        return Err(crate::error::Error::Unsupported(
+            "one f32 plane is filtered under a uniform scale, without specular, w x h samples"
+                .into(),
+        ));
+    }
+    let kernels = fixed_kernels_at(setup, h);
+    apply_separable_plane_in_place::<f32, f32>(plane, halo, (w, h), &kernels, c);
+    Ok(())
+}
+
 /// Every rank as a fixed pixel kernel at the uniform step.
 fn fixed_kernels(image: &Image, setup: &Setup) -> Vec<PixelKernel> {
-    let step = setup.scale.step_base(image.height);
+    fixed_kernels_at(setup, image.height)
+}
+
+fn fixed_kernels_at(setup: &Setup, height: usize) -> Vec<PixelKernel> {
+    let step = setup.scale.step_base(height);
     setup
         .passes
         .iter()
@@ -120,5 +150,47 @@ mod tests {
                 assert!((x - y).abs() < 1e-12, "{x} {y}");
             }
         }
+    }
+
+    /// One channel at a time in f32 samples gives the f32 path's samples
+    /// of the whole f64 image, bit for bit, on an f32-valued image (what a
+    /// float32 array holds); a setup the plane path does not run is refused.
+    #[test]
+    fn an_f32_plane_gives_the_f32_path_bit_for_bit() {
+        let mut img = noise(37, 29, 7);
+        for plane in img.rgb.iter_mut() {
+            plane.iter_mut().for_each(|v| *v = f64::from(*v as f32));
+        }
+        let taps = Taps {
+            offsets_mm: vec![-1.3, -0.4, 0.0, 0.35, 1.2],
+            weights: vec![
+                [0.1, 0.2, 0.05],
+                [0.2; 3],
+                [0.4, 0.2, 0.5],
+                [0.2; 3],
+                [0.1; 3],
+            ],
+        };
+        let mut setup = Setup {
+            passes: vec![taps.clone(), taps],
+            scale: Scale::MmPerPixel(0.21),
+            depth: None,
+            strength: None,
+            follow_surface: None,
+            specular: None,
+            jitter: false,
+        };
+        let mut whole = img.clone();
+        apply_in_place(&mut whole, &setup, Precision::F32).unwrap();
+        let mut halo = Vec::new();
+        for c in 0..3 {
+            let mut plane: Vec<f32> = img.rgb[c].iter().map(|&v| v as f32).collect();
+            apply_plane_f32_in_place(&mut plane, &mut halo, (37, 29), &setup, c).unwrap();
+            let got: Vec<f64> = plane.iter().map(|&v| f64::from(v)).collect();
+            assert_eq!(got, whole.rgb[c], "channel {c}");
+        }
+        setup.jitter = true;
+        let mut plane = vec![0.0f32; 37 * 29];
+        assert!(apply_plane_f32_in_place(&mut plane, &mut halo, (37, 29), &setup, 0).is_err());
     }
 }

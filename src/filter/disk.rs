@@ -21,6 +21,7 @@ use super::image::par_planes;
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
 use crate::kernel::disk::DiskKernelFile;
+use crate::progress::{NoProgress, Progress};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -137,14 +138,69 @@ pub fn apply_disk(image: &Image, setup: &DiskSetup) -> Result<Image> {
     Ok(out)
 }
 
+/// Most sample fetches (pixels x samples x frames) one disk pass on the
+/// CPU may take: each costs about 350 instructions (callgrind on `ssskit
+/// apply --frames`, one thread: the rotated offset, the clamped bilinear
+/// fetch of three channels, the weights), some 1.6e7 fetches a second on
+/// two cores, so the cap is about two minutes of work there. The filter's
+/// own cap ([`crate::limits::MAX_FILTER_WORK`]) counted a fetch as 12
+/// multiply-adds and let a pass run for two hours. The GPU pass, far
+/// faster, is held to the filter's cap only.
+pub const MAX_CPU_FETCHES: f64 = 2e9;
+
+/// Refuses a CPU disk pass beyond [`MAX_CPU_FETCHES`], saying how many
+/// frames fit.
+pub fn check_cpu_work(image: &Image, setup: &DiskSetup) -> Result<()> {
+    let per_frame = image.len() as f64 * setup.taps.len() as f64;
+    let fetches = per_frame * setup.frames as f64;
+    if fetches <= MAX_CPU_FETCHES {
+        return Ok(());
+    }
+    let fit = (MAX_CPU_FETCHES / per_frame).floor();
+    Err(Error::invalid(
+        "disk pass",
+        "frames",
+        setup.frames,
+        format!(
+            "{} samples over {} frame(s) of a {}x{} image take {fetches:.2e} fetches on the \
+             CPU, above its cap of {MAX_CPU_FETCHES:.0e} (about two minutes on two cores): {}; \
+             or use fewer samples, a smaller image, or the GPU pass",
+            setup.taps.len(),
+            setup.frames,
+            image.width,
+            image.height,
+            if fit >= 1.0 {
+                format!("at most {fit} frames fit")
+            } else {
+                "not even one frame fits".to_string()
+            }
+        ),
+    ))
+}
+
 /// [`apply_disk`] overwriting `image`, as `ssskit apply` runs it: bands of
 /// output rows wait in a buffer until no later band's samples reach them
 /// (the vertical reach of the widest rotated sample), then replace their
 /// input rows. Besides the image it holds about three reaches of rows, not
 /// a full-size output (796 MB at 8K in f64) nor the plane of steps.
 pub fn apply_disk_in_place(image: &mut Image, setup: &DiskSetup) -> Result<()> {
+    apply_disk_in_place_with(image, setup, &NoProgress)
+}
+
+/// [`apply_disk_in_place`] reporting the rows done to `progress`.
+pub fn apply_disk_in_place_with(
+    image: &mut Image,
+    setup: &DiskSetup,
+    progress: &dyn Progress,
+) -> Result<()> {
     setup.validate(image)?;
-    sweep(image, setup, None);
+    check_cpu_work(image, setup)?;
+    progress.start(
+        image.height as u64,
+        &format!("disk pass, {} frame(s): rows", setup.frames),
+    );
+    sweep(image, setup, None, progress);
+    progress.finish();
     if let Some(s) = &setup.view.specular {
         for c in 0..3 {
             image.rgb[c]
@@ -169,7 +225,7 @@ const BAND_PER_REACH: usize = 2;
 const REACH_MARGIN_ROWS: f64 = 2.0;
 
 /// The in-place sweep in bands of `band` rows (None: from the reach).
-fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>) {
+fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>, progress: &dyn Progress) {
     let (w, h) = (image.width, image.height);
     let widest = setup.view.steps_iter(w, h).fold(0.0, f64::max);
     let radius = setup
@@ -217,6 +273,7 @@ fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>) {
             plane.copy_within(n..(b - pending) * w, 0);
         }
         pending = done;
+        progress.advance((b - a) as u64);
         a = b;
     }
 }
@@ -225,6 +282,7 @@ fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>) {
 /// specular): what the error measures of `disk_error` average.
 pub fn disk_frames(image: &Image, setup: &DiskSetup) -> Result<Vec<Image>> {
     setup.validate(image)?;
+    check_cpu_work(image, setup)?;
     let pass = Pass::new(image, setup);
     Ok((0..setup.frames)
         .map(|k| pass.run(setup.seed.wrapping_add(k), 1))
@@ -362,7 +420,7 @@ mod tests {
         };
         // Reach: 2.4 mm x 2 px/mm + 2 = 7 rows, well under the height.
         crate::filter::band_check::assert_bands_agree(&img, &[1, 3, 8, 20], |out, band| {
-            sweep(out, &setup, Some(band))
+            sweep(out, &setup, Some(band), &NoProgress)
         });
     }
 }

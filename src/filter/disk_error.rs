@@ -197,6 +197,18 @@ pub fn score_disk(
     disk_error(signal, &setup, &reference, rotations, frames)
 }
 
+/// The finest scale (mm per pixel) at which [`full_reference`]'s grid over
+/// `r_max` fits in [`crate::kernel::kernel2d::MAX_SIZE`] pixels (its size
+/// is 2 (ceil(r_max / m) + 1) + 1).
+/// Rounded up to three significant digits, so that the scale said fits.
+fn coarsest_needed(r_max: f64) -> String {
+    let half = ((crate::kernel::kernel2d::MAX_SIZE - 1) / 2 - 1) as f64;
+    let m = r_max / half;
+    let digits = 2 - m.log10().floor() as i32;
+    let step = 10f64.powi(-digits);
+    format!("{:.*}", digits.max(0) as usize, (m / step).ceil() * step)
+}
+
 /// `signal` convolved with the whole of `profile`'s kernel averaged over
 /// each pixel: a grid that covers the profile's last edge, so nothing the
 /// disk samples is outside it.
@@ -210,8 +222,11 @@ pub fn full_reference(profile: &Profile, signal: &Image, mm_per_pixel: f64) -> R
             "mm_per_pixel",
             mm_per_pixel,
             format!(
-                "the reference over the profile's {r_max} mm would be {size} pixels wide, at                  most {}: use a coarser scale",
-                crate::kernel::kernel2d::MAX_SIZE
+                "the exact image the disk kernel's error is measured against covers the \
+                 profile's {r_max:.4} mm radius: {size} pixels wide at this scale, at most {}: \
+                 use a scale of at least {} mm per pixel",
+                crate::kernel::kernel2d::MAX_SIZE,
+                coarsest_needed(r_max)
             ),
         ));
     }

@@ -15,7 +15,7 @@ pub fn read_exr_plane(path: &Path, names: &[&str]) -> Result<((usize, usize), Ve
     use exr::prelude::{read, ReadChannels, ReadLayers, ReadSpecificChannel, Vec2};
     let unreadable =
         |e: exr::error::Error| Error::format(path, format!("unreadable OpenEXR file: {e}"));
-    let buffered = |path: &Path| crate::io::open_input(path).map(std::io::BufReader::new);
+    let buffered = |path: &Path| crate::io::open_seekable_input(path).map(std::io::BufReader::new);
     let meta =
         exr::meta::MetaData::read_from_buffered(buffered(path)?, false).map_err(unreadable)?;
     check_exr_headers(&path.display().to_string(), &meta.headers)?;

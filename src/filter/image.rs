@@ -343,7 +343,7 @@ fn exr_channels(path: &Path) -> Result<Channels> {
     use exr::prelude::{read, Vec2};
     let unreadable =
         |e: exr::error::Error| Error::format(path, format!("unreadable OpenEXR file: {e}"));
-    let buffered = |path: &Path| crate::io::open_input(path).map(std::io::BufReader::new);
+    let buffered = |path: &Path| crate::io::open_seekable_input(path).map(std::io::BufReader::new);
     // The headers state the sizes: refuse them before any pixel is read.
     let meta =
         exr::meta::MetaData::read_from_buffered(buffered(path)?, false).map_err(unreadable)?;

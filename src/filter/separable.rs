@@ -118,13 +118,27 @@ pub fn apply_separable_in_place<T: Sample>(image: &mut Image, kernels: &[PixelKe
     let (w, h) = (image.width, image.height);
     let mut halo = Vec::new();
     for c in 0..3 {
-        if kernels.is_empty() || w == 0 || h == 0 {
-            image.rgb[c].fill(0.0);
-            continue;
-        }
-        let job = Job::<T>::new(kernels, c, w, h);
-        sweep::plane_in_place(&job, &mut image.rgb[c], &mut halo);
+        apply_separable_plane_in_place::<T, f64>(&mut image.rgb[c], &mut halo, (w, h), kernels, c);
     }
+}
+
+/// [`apply_separable_in_place`] for the plane of channel `c` alone (`w` x
+/// `h` samples, row-major), computing in `T` and storing in `S`: with `T`
+/// f32, f32 samples give what f64 ones holding the same values give, bit
+/// for bit (the sweep computes in `T` either way, and `T`'s results are
+/// stored exactly in either).
+pub fn apply_separable_plane_in_place<T: Sample, S: Sample>(
+    plane: &mut [S],
+    halo: &mut Vec<S>,
+    (w, h): (usize, usize),
+    kernels: &[PixelKernel],
+    c: usize,
+) {
+    if kernels.is_empty() || w == 0 || h == 0 {
+        plane.fill(S::default());
+        return;
+    }
+    sweep::plane_in_place(&Job::<T>::new(kernels, c, w, h), plane, halo);
 }
 
 /// One f32 plane `src` (`w` x `h`, row-major) filtered into `out` with

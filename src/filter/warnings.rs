@@ -58,10 +58,10 @@ impl std::fmt::Display for ScaleWarning {
                 extent_px,
             } => write!(
                 f,
-                "the kernel is under a pixel: its factor holds {:.0}% of its weight within \
-                 {radius_mm:.4} mm = {radius_px:.2} px (taps reach {extent_mm:.4} mm = \
-                 {extent_px:.2} px); the blur leaves the image almost unchanged: nothing to blur \
-                 at this scale",
+                "{:.0}% of the kernel's weight lies within {radius_px:.2} px of its centre \
+                 ({radius_mm:.4} mm), though its taps reach {extent_px:.1} px ({extent_mm:.4} \
+                 mm): at this scale the blur moves almost no light to another pixel and leaves \
+                 the image almost unchanged",
                 RADIUS_HOLD * 100.0
             ),
             ScaleWarning::TapGap {

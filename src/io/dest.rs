@@ -6,6 +6,7 @@
 //! refused. A symbolic link to a regular file is written through: the file
 //! it names is replaced atomically and the link stays a link.
 
+use super::read::open_without_waiting;
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -115,6 +116,24 @@ fn through_proc(path: &Path) -> bool {
     false
 }
 
+/// Opens the device or pipe at `path` for writing without waiting: a named
+/// pipe that no program has open for reading is refused at once (as an
+/// input pipe with no writer reads as empty), so no call ever waits,
+/// unbounded and uninterruptible, for a reader that may never come.
+fn open_in_place(path: &Path) -> Result<std::fs::File> {
+    open_without_waiting(std::fs::OpenOptions::new().write(true), path).map_err(|e| {
+        #[cfg(unix)]
+        if e.raw_os_error() == Some(libc::ENXIO) {
+            return refuse(
+                path,
+                "is a named pipe that no program reads: start its reader first (an output \
+                 is written to a pipe only while it is read, never waited for)",
+            );
+        }
+        Error::io(path, e)
+    })
+}
+
 /// Writes `fill`'s output into the device or pipe at `path` as it is:
 /// first into an unnamed temporary file (writers such as OpenEXR's seek
 /// back, which a pipe cannot), then copied; the device is opened only
@@ -132,10 +151,7 @@ pub(super) fn write_in_place(
         w.flush().map_err(io)?;
     }
     staged.rewind().map_err(io)?;
-    let mut file = std::fs::OpenOptions::new()
-        .write(true)
-        .open(path)
-        .map_err(io)?;
+    let mut file = open_in_place(path)?;
     std::io::copy(&mut staged, &mut file).map_err(io)?;
     file.flush().map_err(io)
 }
@@ -178,5 +194,44 @@ mod tests {
         let _listener = std::os::unix::net::UnixListener::bind(&sock).unwrap();
         let e = destination(&sock).unwrap_err().to_string();
         assert!(e.contains("is a socket"), "{e}");
+    }
+
+    /// A named pipe with no reader is refused at once, not waited for
+    /// (the write runs on a thread, so a wait fails the test instead of
+    /// hanging it); with a reader, the output goes through the pipe.
+    #[test]
+    fn a_pipe_without_a_reader_is_refused_not_waited_for() {
+        use std::io::{Read, Write};
+        use std::os::unix::fs::OpenOptionsExt;
+        // Far longer than a refused open takes, on any machine.
+        const NO_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("out.json");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: a NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let (tx, rx) = std::sync::mpsc::channel();
+        let p = fifo.clone();
+        std::thread::spawn(move || {
+            let r = write_in_place(&p, |w| w.write_all(b"{}"));
+            let _ = tx.send(r.map_err(|e| e.to_string()));
+        });
+        let e = rx
+            .recv_timeout(NO_WAIT)
+            .expect("the write waited for a reader")
+            .unwrap_err();
+        assert!(
+            e.contains("out.json") && e.contains("no program reads"),
+            "{e}"
+        );
+        let mut reader = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(&fifo)
+            .unwrap();
+        write_in_place(&fifo, |w| w.write_all(b"{\"a\": 1}")).unwrap();
+        let mut got = String::new();
+        reader.read_to_string(&mut got).unwrap();
+        assert_eq!(got, "{\"a\": 1}");
     }
 }

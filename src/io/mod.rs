@@ -36,8 +36,12 @@ pub use atomic::{write_atomic, write_atomic_with, write_json_atomic, AtomicGroup
 pub use check::{check_extension, check_output_file};
 pub use dest::writes_in_place;
 pub use names::{file_stem, join_inside};
-pub use read::{decode_png, open_input, read_bytes_capped, read_json, read_text, read_text_capped};
-pub use signals::remove_temps_on_signals;
+pub use read::{
+    decode_png, open_input, open_seekable_input, read_bytes_capped, read_json, read_text,
+    read_text_capped, Input,
+};
 #[cfg(unix)]
 pub use signals::CLEANUP_SIGNALS;
-pub use staged_dir::{StagedDir, OUTPUT_MARKER};
+pub use signals::{exit, remove_temps_on_signals};
+pub use staged_dir::StagedDir;
+pub use temps::OUTPUT_MARKER;

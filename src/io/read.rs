@@ -6,10 +6,103 @@ use crate::error::{Error, Result};
 use serde::de::DeserializeOwned;
 use std::path::Path;
 
+/// An input opened by [`open_input`]: a file, with the byte a probe of a
+/// pipe read first given back before the rest.
+pub struct Input {
+    file: std::fs::File,
+    first: Option<u8>,
+}
+
+impl std::io::Read for Input {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        match (self.first.take(), buf.is_empty()) {
+            (Some(b), false) => {
+                buf[0] = b;
+                Ok(1)
+            }
+            (first, _) => {
+                self.first = first;
+                self.file.read(buf)
+            }
+        }
+    }
+}
+
+impl std::io::Seek for Input {
+    fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+        if self.first.is_some() {
+            return Err(std::io::Error::other("a pipe cannot seek"));
+        }
+        self.file.seek(pos)
+    }
+}
+
+fn refuse(path: &Path, msg: &str) -> Error {
+    Error::io(path, std::io::Error::other(msg.to_string()))
+}
+
+/// Refuses, by what it is, an input that is not a regular file and cannot
+/// be read as one (as outputs are refused by what sits at their path): a
+/// folder, a device, a socket; and, where `seekable` (images are read
+/// twice, their headers first), a pipe.
+fn check_input_kind(path: &Path, seekable: bool) -> Result<()> {
+    let Ok(meta) = std::fs::metadata(path) else {
+        // The open says why.
+        return Ok(());
+    };
+    let ft = meta.file_type();
+    if ft.is_file() {
+        return Ok(());
+    }
+    if ft.is_dir() {
+        return Err(refuse(path, "is a folder: give a file"));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if ft.is_fifo() {
+            return if seekable {
+                Err(refuse(
+                    path,
+                    "is a pipe: an image is read twice (its headers, then its pixels), so it \
+                     must be a regular file",
+                ))
+            } else {
+                Ok(())
+            };
+        }
+        let what = if ft.is_socket() {
+            "a socket"
+        } else if ft.is_block_device() {
+            "a block device"
+        } else {
+            "a device (a terminal, /dev/null, /dev/zero, ...)"
+        };
+        return Err(refuse(
+            path,
+            &format!("is {what}, not a file: give a regular file (or a pipe with a writer)"),
+        ));
+    }
+    #[allow(unreachable_code)]
+    Ok(())
+}
+
 /// Opens an input for reading without waiting: a named pipe with no writer
-/// reads as empty (an error about its content) instead of blocking the open
+/// is refused as such (it would read as empty) instead of blocking the open
 /// forever; a pipe with a writer (`/dev/stdin` from a shell) reads as usual.
-pub fn open_input(path: &Path) -> Result<std::fs::File> {
+/// Folders, devices and sockets are refused by what they are.
+pub fn open_input(path: &Path) -> Result<Input> {
+    open_checked(path, false)
+}
+
+/// [`open_input`] for a file read with seeks (an image): a regular file
+/// only.
+pub fn open_seekable_input(path: &Path) -> Result<Input> {
+    open_checked(path, true)
+}
+
+fn open_checked(path: &Path, seekable: bool) -> Result<Input> {
+    check_input_kind(path, seekable)?;
     let mut options = std::fs::OpenOptions::new();
     options.read(true);
     #[cfg(unix)]
@@ -18,18 +111,67 @@ pub fn open_input(path: &Path) -> Result<std::fs::File> {
         options.custom_flags(libc::O_NONBLOCK);
     }
     let file = options.open(path).map_err(|e| Error::io(path, e))?;
+    #[allow(unused_mut)]
+    let mut input = Input { file, first: None };
     #[cfg(unix)]
     {
+        use std::io::Read;
         use std::os::fd::AsRawFd;
-        let fd = file.as_raw_fd();
-        // SAFETY: fcntl on a descriptor we own; reads block again from here.
-        unsafe {
-            let flags = libc::fcntl(fd, libc::F_GETFL);
-            if flags >= 0 {
-                libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK);
+        let is_pipe = input
+            .file
+            .metadata()
+            .is_ok_and(|m| std::os::unix::fs::FileTypeExt::is_fifo(&m.file_type()));
+        if is_pipe {
+            // Without a writer a non-blocking read ends at once (0 bytes);
+            // with one it has a byte or would wait.
+            let mut b = [0u8; 1];
+            match input.file.read(&mut b) {
+                Ok(0) => {
+                    return Err(refuse(
+                        path,
+                        "is a pipe that nothing writes to (and nothing is in it): give a regular \
+                         file, or start the writer first",
+                    ))
+                }
+                Ok(_) => input.first = Some(b[0]),
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                Err(e) => return Err(Error::io(path, e)),
             }
         }
+        clear_nonblock(input.file.as_raw_fd());
     }
+    Ok(input)
+}
+
+/// Clears O_NONBLOCK on a descriptor opened with it: reads and writes block
+/// again as usual.
+#[cfg(unix)]
+fn clear_nonblock(fd: std::os::fd::RawFd) {
+    // SAFETY: fcntl on a descriptor the caller owns.
+    unsafe {
+        let flags = libc::fcntl(fd, libc::F_GETFL);
+        if flags >= 0 {
+            libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK);
+        }
+    }
+}
+
+/// Opens `path` with `options` and O_NONBLOCK, then clears O_NONBLOCK:
+/// the open itself never waits on a named pipe (for its writer, or for its
+/// reader: then it fails with ENXIO), and reads and writes block again as
+/// usual. Elsewhere than Unix, a plain open.
+pub(super) fn open_without_waiting(
+    options: &mut std::fs::OpenOptions,
+    path: &Path,
+) -> std::io::Result<std::fs::File> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path)?;
+    #[cfg(unix)]
+    clear_nonblock(std::os::fd::AsRawFd::as_raw_fd(&file));
     Ok(file)
 }
 
@@ -112,15 +254,7 @@ impl<R: std::io::Read> std::io::Read for Capped<R> {
 /// [`crate::limits::MAX_JSON_BYTES`]; parse errors carry line and column.
 pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
     let max = crate::limits::MAX_JSON_BYTES;
-    let file = open_input(path)?;
-    let reader = std::io::BufReader::with_capacity(
-        1 << 16,
-        Capped {
-            inner: file,
-            left: max,
-        },
-    );
-    serde_json::from_reader(reader).map_err(|e| {
+    serde_json::from_reader(capped_json(open_input(path)?)).map_err(|e| {
         if e.is_io() {
             let over = std::error::Error::source(&e)
                 .and_then(|s| s.downcast_ref::<std::io::Error>())
@@ -129,8 +263,39 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
                 return too_large(path, max, "JSON file");
             }
         }
+        // serde_json says "trailing characters" both after the document
+        // and in an array longer than the field it fills; the document
+        // read again without a type (nothing kept) tells them apart.
+        let well_formed = || {
+            open_input(path).is_ok_and(|f| {
+                serde_json::from_reader::<_, serde::de::IgnoredAny>(capped_json(f)).is_ok()
+            })
+        };
+        if e.to_string().starts_with("trailing characters") && well_formed() {
+            return Error::format(
+                path,
+                format!(
+                    "line {} column {}: this array has more entries than its field takes (a \
+                     row of 4 numbers where [r, g, b] takes 3?)",
+                    e.line(),
+                    e.column()
+                ),
+            );
+        }
         Error::format(path, format!("malformed JSON: {e}"))
     })
+}
+
+/// A JSON input read through a buffer, failing past
+/// [`crate::limits::MAX_JSON_BYTES`].
+fn capped_json(file: Input) -> std::io::BufReader<Capped<Input>> {
+    std::io::BufReader::with_capacity(
+        1 << 16,
+        Capped {
+            inner: file,
+            left: crate::limits::MAX_JSON_BYTES,
+        },
+    )
 }
 
 /// Decodes a PNG within the caps: its size is checked from the header
@@ -138,7 +303,7 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
 /// [`crate::limits::PNG_DECODE_BYTES`].
 pub fn decode_png(path: &Path) -> Result<image::DynamicImage> {
     let open = || -> Result<_> {
-        let file = std::io::BufReader::new(open_input(path)?);
+        let file = std::io::BufReader::new(open_seekable_input(path)?);
         image::ImageReader::new(file)
             .with_guessed_format()
             .map_err(|e| Error::io(path, e))
@@ -173,14 +338,18 @@ mod tests {
         assert!(e.contains("m.toml") && e.contains("material TOML"), "{e}");
         #[cfg(unix)]
         {
-            let e = read_text_capped(Path::new("/dev/zero"), 1000, "t")
+            // A device is refused by what it is (it would read forever, or
+            // as empty); a folder too.
+            for dev in ["/dev/zero", "/dev/null"] {
+                let e = read_text_capped(Path::new(dev), 1000, "t")
+                    .unwrap_err()
+                    .to_string();
+                assert!(e.contains(dev) && e.contains("is a device"), "{e}");
+            }
+            let e = read_json::<serde_json::Value>(dir.path())
                 .unwrap_err()
                 .to_string();
-            assert!(e.contains("larger than 1000 bytes"), "{e}");
-            let e = read_json::<serde_json::Value>(Path::new("/dev/zero"))
-                .unwrap_err()
-                .to_string();
-            assert!(e.contains("malformed JSON"), "{e}");
+            assert!(e.contains("is a folder"), "{e}");
         }
         std::fs::write(&p, b"\xff\xfe").unwrap();
         let e = read_text_capped(&p, 100, "t").unwrap_err().to_string();
@@ -201,7 +370,10 @@ mod tests {
         assert!(serde_json::from_reader::<_, serde_json::Value>(r).is_err());
     }
 
-    /// A named pipe nobody writes to is read as empty, not waited for.
+    /// A named pipe nobody writes to is refused as such, not waited for
+    /// nor read as empty; one with a writer is read whole, its first byte
+    /// (read to see whether there is a writer) included; an image from a
+    /// pipe is refused (it is read twice).
     #[cfg(unix)]
     #[test]
     fn a_pipe_without_a_writer_does_not_block() {
@@ -211,8 +383,33 @@ mod tests {
         // SAFETY: a NUL-terminated path.
         assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
         let e = read_json::<serde_json::Value>(&p).unwrap_err().to_string();
-        assert!(e.contains("p.json") && e.contains("EOF"), "{e}");
-        assert_eq!(read_text_capped(&p, 10, "t").unwrap(), "");
+        assert!(
+            e.contains("p.json") && e.contains("nothing writes to"),
+            "{e}"
+        );
+        let e = read_text_capped(&p, 10, "t").unwrap_err().to_string();
+        assert!(e.contains("nothing writes to"), "{e}");
+        let e = decode_png(&p).unwrap_err().to_string();
+        assert!(e.contains("p.json") && e.contains("regular file"), "{e}");
+        let writer = {
+            let p = p.clone();
+            // A reader that gave up between the writer's open and its
+            // write makes the write fail (a broken pipe): write again.
+            std::thread::spawn(move || while std::fs::write(&p, "[1, 2]").is_err() {})
+        };
+        // The writer's open waits for a reader: keep trying until it is in.
+        let start = std::time::Instant::now();
+        let v = loop {
+            match read_json::<serde_json::Value>(&p) {
+                Ok(v) => break v,
+                Err(_) if start.elapsed() < std::time::Duration::from_secs(60) => {
+                    std::thread::sleep(std::time::Duration::from_millis(5))
+                }
+                Err(e) => panic!("{e}"),
+            }
+        };
+        writer.join().unwrap();
+        assert_eq!(v, serde_json::json!([1, 2]));
         let e = StagedDir::new(Path::new(".")).err().unwrap().to_string();
         assert!(e.contains("a name, not '.'"), "{e}");
         let cwd = std::env::current_dir().unwrap();

@@ -1,7 +1,7 @@
 //! Clean-up on a terminating signal: the temporary files and staged
 //! folders of unfinished writes are removed before the process ends.
 
-use super::temps::{live_temps, remove_temp};
+use super::temps::{live_temps, remove_registered};
 use crate::error::{Error, Result};
 
 /// The signals whose default action ends the process and that a process
@@ -51,10 +51,10 @@ pub fn remove_temps_on_signals() -> Result<()> {
                     // The write that crossed the limit fails with EFBIG.
                     continue;
                 }
-                let held = live_temps();
-                for p in held.iter() {
-                    remove_temp(p);
-                }
+                // Held to the end: a swap in progress finishes first, and
+                // no temporary is made or swapped in after the removal.
+                let mut held = live_temps();
+                remove_registered(&mut held, |_| true, &|_| {});
                 std::process::exit(128 + sig);
             }
         })
@@ -65,4 +65,47 @@ pub fn remove_temps_on_signals() -> Result<()> {
 #[cfg(not(unix))]
 pub fn remove_temps_on_signals() -> Result<()> {
     Ok(())
+}
+
+/// Ends the process with `code` once no signal clean-up is under way: one
+/// that began is not cut short by the exit (it would leave the rest of a
+/// staged folder behind); the clean-up ends the process itself, with its
+/// own status.
+pub fn exit(code: i32) -> ! {
+    let _held = wait_for_cleanup();
+    std::process::exit(code)
+}
+
+/// The lock of the clean-up, once no removal holds it.
+fn wait_for_cleanup() -> std::sync::MutexGuard<'static, Vec<std::path::PathBuf>> {
+    live_temps()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    /// An exit waits for a clean-up in progress (here one holding the lock
+    /// for a moment), and goes on once it is over.
+    #[test]
+    fn an_exit_waits_for_the_cleanup() {
+        // How long the exit must still be waiting: far longer than taking
+        // a free lock, far shorter than the test's patience.
+        const STILL_WAITING: Duration = Duration::from_millis(300);
+        let _serial = super::super::temps::long_hold();
+        let held = live_temps();
+        let (tx, rx) = std::sync::mpsc::channel();
+        let exiting = std::thread::spawn(move || {
+            let _g = wait_for_cleanup();
+            tx.send(()).unwrap();
+        });
+        assert!(
+            rx.recv_timeout(STILL_WAITING).is_err(),
+            "the exit went on while the clean-up held the lock"
+        );
+        drop(held);
+        rx.recv_timeout(Duration::from_secs(60)).unwrap();
+        exiting.join().unwrap();
+    }
 }

@@ -2,31 +2,30 @@
 //! whole ([`StagedDir`]).
 
 use super::atomic::{cannot_write, folder_of, write_atomic, FolderLock};
-use super::temps::{sweep_stale_temps, temp_builder, temp_prefix, LiveTemp};
+use super::temps::{
+    live_temps, sweep_stale_temps, temp_builder, temp_prefix, LiveTemp, OUTPUT_MARKER,
+};
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
-/// The marker file of a folder [`StagedDir`] wrote: a folder holding it is
-/// one ssskit may replace as a whole.
-pub const OUTPUT_MARKER: &str = ".ssskit-output";
-
-/// A folder of outputs written under a temporary name next to its
-/// destination (`.ssskit-<pid>-<random>.tmp`, removed on a signal or a
-/// failure) and swapped in as a whole by [`StagedDir::commit`]: an
-/// interrupted run leaves the previous folder as it was, never a mix of two
-/// runs. The destination must be absent, empty, or a folder an earlier run
-/// wrote (it holds [`OUTPUT_MARKER`]): a folder of other files is refused
-/// before any work, since it would be replaced.
+/// A folder of outputs written under a temporary name
+/// (`.ssskit-<pid>-<random>.tmp`, removed on a signal or a failure) and
+/// swapped in as a whole by [`StagedDir::commit`]: an interrupted run
+/// leaves the previous folder as it was, never a mix of two runs. The
+/// destination must be absent, empty, or a folder an earlier run wrote (it
+/// holds [`OUTPUT_MARKER`]): a folder of other files is refused before any
+/// work, since it would be replaced. Missing parent folders of the
+/// destination are made at the commit only: the staging folder waits in the
+/// nearest folder that exists, so a run that fails makes none.
 pub struct StagedDir {
     target: PathBuf,
     tmp: tempfile::TempDir,
-    _live: LiveTemp,
+    live: LiveTemp,
 }
 
 impl StagedDir {
-    /// Checks the destination and creates the staging folder (and the
-    /// destination's parent folders): everything that can fail about the
-    /// place fails here, before the work.
+    /// Checks the destination and creates the staging folder: everything
+    /// that can fail about the place fails here, before the work.
     pub fn new(target: &Path) -> Result<StagedDir> {
         use std::path::Component;
         let bad = |msg: &str| Error::io(target, std::io::Error::other(msg.to_string()));
@@ -48,17 +47,16 @@ impl StagedDir {
             ));
         }
         check_replaceable(target)?;
-        let parent = folder_of(target);
-        std::fs::create_dir_all(parent).map_err(|e| cannot_write(target, parent, &e))?;
-        sweep_stale_temps(parent);
+        let home = nearest_folder(target)?;
+        sweep_stale_temps(&home);
         let prefix = temp_prefix();
         let (tmp, live) =
-            LiveTemp::create(|| temp_builder(&prefix).tempdir_in(parent), |t| t.path())
-                .map_err(|e| cannot_write(target, parent, &e))?;
+            LiveTemp::create(|| temp_builder(&prefix).tempdir_in(&home), |t| t.path())
+                .map_err(|e| cannot_write(target, &home, &e))?;
         Ok(StagedDir {
             target: target.to_path_buf(),
             tmp,
-            _live: live,
+            live,
         })
     }
 
@@ -75,46 +73,169 @@ impl StagedDir {
     /// Marks the staged folder as ssskit's and swaps it in for the
     /// destination (atomically where the system can exchange two names;
     /// otherwise the old folder is moved aside first and restored if the
-    /// second rename fails); the old folder is then removed.
+    /// second rename fails); the old folder is then removed. The swap and
+    /// the registry of temporaries change together under the lock the
+    /// signal clean-up takes: a signal during the swap waits for it, then
+    /// removes the old folder only.
     pub fn commit(self) -> Result<()> {
-        let StagedDir { target, tmp, _live } = self;
+        let StagedDir { target, tmp, live } = self;
         write_atomic(
             &tmp.path().join(OUTPUT_MARKER),
             b"ssskit output folder: the next run writing here replaces it as a whole\n",
         )?;
         let parent = folder_of(&target).to_path_buf();
-        let _lock = FolderLock::new(&parent)?;
+        let home = folder_of(tmp.path()).to_path_buf();
+        let _lock = FolderLock::new(&home)?;
         // Checked again under the lock: files may have appeared since.
         check_replaceable(&target)?;
-        let staged = tmp.path().to_path_buf();
         let err = |e: std::io::Error| Error::io(&target, e);
-        if std::fs::symlink_metadata(&target).is_err() {
-            std::fs::rename(&staged, &target).map_err(err)?;
-            // The staged path is gone; the TempDir must not remove the result.
-            let _ = tmp.keep();
-            return Ok(());
+        // An empty folder to move the old one into where there is no
+        // exchange (made now: its registration takes the lock held below).
+        let aside = match std::fs::symlink_metadata(&target) {
+            Ok(_) => Some(
+                LiveTemp::create(
+                    || temp_builder(&temp_prefix()).tempdir_in(&parent),
+                    |t| t.path(),
+                )
+                .map_err(|e| cannot_write(&target, &parent, &e))?,
+            ),
+            Err(_) => None,
+        };
+        hooks::at(hooks::Point::Swapping);
+        let mut held = live_temps();
+        let swapped = swap(
+            tmp.path(),
+            &target,
+            &parent,
+            aside.as_ref().map(|a| a.0.path()),
+        );
+        let how = swapped.map_err(err)?;
+        if how != Swap::Exchanged {
+            // The staged folder is the destination now: no longer debris.
+            live.forget_in(&mut held);
         }
-        if exchange(&staged, &target).is_ok() {
-            // `staged` now holds the old folder: TempDir removes it.
-            drop(tmp);
-            return Ok(());
+        drop(held);
+        // The old folder is removed (at the staged path after an exchange,
+        // in `aside` after two renames), then unregistered.
+        match how {
+            Swap::Exchanged => drop(tmp),
+            _ => {
+                let _ = tmp.keep();
+            }
         }
-        let prefix = temp_prefix();
-        let (aside, aside_live) =
-            LiveTemp::create(|| temp_builder(&prefix).tempdir_in(&parent), |t| t.path())
-                .map_err(|e| cannot_write(&target, &parent, &e))?;
-        let aside_path = aside.path().to_path_buf();
-        // An empty folder to rename over: rename replaces an empty folder.
-        std::fs::rename(&target, &aside_path).map_err(err)?;
-        if let Err(e) = std::fs::rename(&staged, &target) {
-            let _ = std::fs::rename(&aside_path, &target);
-            let _ = aside.keep();
-            return Err(err(e));
-        }
-        let _ = tmp.keep();
         drop(aside);
-        drop(aside_live);
         Ok(())
+    }
+}
+
+/// How [`swap`] put the staged folder in place.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Swap {
+    /// Renamed to the destination, which did not exist.
+    Renamed,
+    /// Exchanged with the old folder, now at the staged path.
+    Exchanged,
+    /// Renamed after the old folder was moved aside.
+    MovedAside,
+}
+
+/// Puts `staged` at `target`: a rename (making the missing parent folders)
+/// where nothing is there, else an atomic exchange, else the old folder
+/// renamed to `aside` (an empty folder) and the staged one to `target`,
+/// the old folder put back if that fails. The caller holds the clean-up's
+/// lock: a signal cannot fall between the two renames.
+fn swap(
+    staged: &Path,
+    target: &Path,
+    parent: &Path,
+    aside: Option<&Path>,
+) -> std::io::Result<Swap> {
+    let Some(aside) = aside else {
+        std::fs::create_dir_all(parent)?;
+        std::fs::rename(staged, target)?;
+        return Ok(Swap::Renamed);
+    };
+    if !hooks::no_exchange() && exchange(staged, target).is_ok() {
+        return Ok(Swap::Exchanged);
+    }
+    std::fs::rename(target, aside)?;
+    hooks::at(hooks::Point::BetweenRenames);
+    if let Err(e) = std::fs::rename(staged, target) {
+        let _ = std::fs::rename(aside, target);
+        return Err(e);
+    }
+    Ok(Swap::MovedAside)
+}
+
+/// The folder the staging folder of `target` is made in: its parent, or
+/// the nearest of the parent's ancestors that exists (the missing ones are
+/// made at the commit); refused when that is not a folder.
+fn nearest_folder(target: &Path) -> Result<PathBuf> {
+    let parent = folder_of(target);
+    let found = parent
+        .ancestors()
+        .map(|a| {
+            if a.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                a
+            }
+        })
+        .find_map(|a| std::fs::metadata(a).ok().map(|m| (a, m)));
+    match found {
+        Some((a, m)) if m.is_dir() => Ok(a.to_path_buf()),
+        Some((a, _)) => Err(Error::io(
+            target,
+            std::io::Error::other(format!(
+                "cannot write in folder '{}': '{}' is not a folder",
+                parent.display(),
+                a.display()
+            )),
+        )),
+        None => Err(cannot_write(
+            target,
+            parent,
+            &std::io::Error::from(std::io::ErrorKind::NotFound),
+        )),
+    }
+}
+
+/// Pauses of the commit that tests hold at the dangerous moments
+/// (`staged_dir_tests.rs`); nothing outside test builds.
+pub(super) mod hooks {
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Point {
+        /// Before the clean-up's lock is taken for the swap.
+        Swapping,
+        /// Without an exchange: the old folder moved aside, the staged
+        /// one not yet in place.
+        BetweenRenames,
+    }
+
+    #[cfg(test)]
+    thread_local! {
+        pub static ON: std::cell::RefCell<Option<Box<dyn Fn(Point)>>> =
+            const { std::cell::RefCell::new(None) };
+        pub static NO_EXCHANGE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    }
+
+    pub fn at(p: Point) {
+        #[cfg(test)]
+        ON.with(|h| {
+            if let Some(f) = &*h.borrow() {
+                f(p)
+            }
+        });
+        let _ = p;
+    }
+
+    /// Whether the commit is to go without the atomic exchange (the
+    /// systems and filesystems that lack it).
+    pub fn no_exchange() -> bool {
+        #[cfg(test)]
+        return NO_EXCHANGE.with(|n| n.get());
+        #[cfg(not(test))]
+        false
     }
 }
 
@@ -257,3 +378,7 @@ mod tests {
         assert!(empty.join(OUTPUT_MARKER).exists());
     }
 }
+
+#[cfg(test)]
+#[path = "staged_dir_tests.rs"]
+mod race_tests;

@@ -147,6 +147,25 @@ pub struct AngularFactors {
 /// Largest node count a file may carry.
 pub const MAX_NODES: usize = 1024;
 
+/// How far the entry factor at N.L = 1 may be from 1: tables are written
+/// with every digit (the node is exactly 1), or typed with at least six.
+pub const UNIT_ENTRY_TOLERANCE: f64 = 1e-6;
+
+/// How far the exit table's Lambertian mean may be from 1: a table ssskit
+/// writes meets it to rounding (each node averages the bins' pi L / M over
+/// its interval, and the bins' shares of R_d sum to 1); the tolerance
+/// admits tables typed to four significant digits and is a 0.1% change of
+/// brightness, a twentieth of an 8-bit sRGB step at mid-grey.
+pub const EXIT_MEAN_TOLERANCE: f64 = 1e-3;
+
+/// How far E(mu) x total_rd may exceed 1: the entry factor's R_d(theta_in)
+/// and R_d(0) come from a factor run of at least
+/// [`MIN_PHOTONS`] photons and `total_rd` from the profile's own run, each
+/// with a relative standard error of at most about 1% where R_d nears 1
+/// (there nearly every photon comes back); 5% is far beyond their noise,
+/// far below the factors of 10 and more a wrong table gives.
+pub const ENTRY_ENERGY_SLACK: f64 = 0.05;
+
 impl AngularFactors {
     /// The entry factor at N.L = `mu`.
     pub fn entry_at(&self, mu: f64) -> [f64; 3] {
@@ -197,6 +216,66 @@ impl AngularFactors {
                 }
             }
         }
+        for (c, ch) in ["r", "g", "b"].iter().enumerate() {
+            // E(1) = R_d(0) / R_d(0).
+            let e1 = self.entry[n - 1][c];
+            if !((e1 - 1.0).abs() <= UNIT_ENTRY_TOLERANCE) {
+                return Err(format!(
+                    "{what}.entry[{}][{c}] = {e1}: the entry factor at N.L = 1 is 1 by \
+                     definition (R_d(0) / R_d(0), channel {ch})",
+                    n - 1
+                ));
+            }
+            let mean = self.exit_lambertian_mean(c);
+            if !((mean - 1.0).abs() <= EXIT_MEAN_TOLERANCE) {
+                return Err(format!(
+                    "{what}.exit: channel {ch} averages {mean:.6e} over the hemisphere with the \
+                     Lambertian weight 2 N.V dN.V; pi L / M averages 1 by definition (M is the \
+                     exitance L integrates to), so the exit factor would {} the light by that \
+                     factor",
+                    if mean > 1.0 { "multiply" } else { "divide" }
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The exit table of channel `c` averaged with the Lambertian weight
+    /// 2 mu dmu: each node stands for the cosines within half a spacing of
+    /// it (the intervals [`from_angular`] averages the bins over), so the
+    /// weighted sum of the nodes is the integral of pi L / M over the
+    /// hemisphere's projected solid angle, 1.
+    pub fn exit_lambertian_mean(&self, c: usize) -> f64 {
+        let n = self.mu.len();
+        let h = 0.5 / (n - 1) as f64;
+        (0..n)
+            .map(|k| {
+                let m = k as f64 / (n - 1) as f64;
+                let (lo, hi) = ((m - h).max(0.0), (m + h).min(1.0));
+                (hi * hi - lo * lo) * self.exit[k][c]
+            })
+            .sum()
+    }
+
+    /// Checks the entry table against the kernel's colour: R_d(theta_in) =
+    /// E(mu) x R_d(0) is light that came back, at most the light that
+    /// arrived (Fresnel transmittance keeps it below 1 at every angle), so
+    /// E(mu) x `total_rd` may not exceed 1 beyond the Monte Carlo noise
+    /// ([`ENTRY_ENERGY_SLACK`]).
+    pub fn check_energy(&self, what: &str, total_rd: &[f64; 3]) -> std::result::Result<(), String> {
+        for (k, row) in self.entry.iter().enumerate() {
+            for c in 0..3 {
+                let back = row[c] * total_rd[c];
+                if !(back <= 1.0 + ENTRY_ENERGY_SLACK) {
+                    return Err(format!(
+                        "{what}.entry[{k}][{c}] = {}: with total_rd {} the light coming back at \
+                         N.L = {} would be {back:.4e} of the light arriving (at most 1: the entry \
+                         factor is R_d(theta_in) / R_d(0))",
+                        row[c], total_rd[c], self.mu[k]
+                    ));
+                }
+            }
+        }
         Ok(())
     }
 
@@ -230,6 +309,10 @@ fn stored(p: &Profile) -> Result<Option<AngularFactors>> {
     let bad = |why: String| Error::Unsupported(format!("profile extra.{PROFILE_KEY}: {why}"));
     let f: AngularFactors = serde_json::from_value(v.clone()).map_err(|e| bad(e.to_string()))?;
     f.validate(&format!("extra.{PROFILE_KEY}")).map_err(bad)?;
+    if let Ok(rgb) = <[f64; 3]>::try_from(p.total_rd.as_slice()) {
+        f.check_energy(&format!("extra.{PROFILE_KEY}"), &rgb)
+            .map_err(bad)?;
+    }
     Ok(Some(f))
 }
 
@@ -473,19 +556,22 @@ mod tests {
     #[test]
     fn the_exit_average_weighs_bins_by_their_lambertian_share_inside() {
         // Two bins, [0, 45] and [45, 90] degrees: cosines [c, 1] and [0, c].
-        let f = from_angular(&record(vec![3.0, 1.0], vec![0.0, 60.0], vec![1.0, 1.2]), 1).unwrap();
+        // Each bin holds half the Lambertian weight: factors 1.5 and 0.5
+        // average 1, as pi L / M does.
+        let f = from_angular(&record(vec![1.5, 0.5], vec![0.0, 60.0], vec![1.0, 1.2]), 1).unwrap();
         // Node mu = 0.75 averages [0.6875, 0.8125]: weights c^2 - 0.6875^2
-        // (factor 1) and 0.8125^2 - c^2 (factor 3).
+        // (factor 0.5) and 0.8125^2 - c^2 (factor 1.5).
         let c2 = 0.5;
         let (w1, w3) = (c2 - 0.6875f64.powi(2), 0.8125f64.powi(2) - c2);
-        let want = (w1 + 3.0 * w3) / (w1 + w3);
+        let want = (0.5 * w1 + 1.5 * w3) / (w1 + w3);
         assert!(
             (f.exit[6][0] - want).abs() < 1e-12,
             "{} vs {want}",
             f.exit[6][0]
         );
-        assert!((f.exit[0][1] - 1.0).abs() < 1e-12);
-        assert!((f.exit[8][2] - 3.0).abs() < 1e-12);
+        assert!((f.exit[0][1] - 0.5).abs() < 1e-12);
+        assert!((f.exit[8][2] - 1.5).abs() < 1e-12);
+        assert!((f.exit_lambertian_mean(0) - 1.0).abs() < 1e-12);
     }
 
     #[test]
@@ -507,8 +593,30 @@ mod tests {
         let mut g = f.clone();
         g.mu[2] = 0.3;
         assert!(g.validate("k").unwrap_err().contains("k.mu[2]"));
-        let mut g = f;
+        let mut g = f.clone();
         g.entry.pop();
         assert!(g.validate("k").unwrap_err().contains("k.entry"));
+        // Out of their physical range: E(1) is 1, the exit table averages
+        // 1, and E x total_rd is light that came back, at most 1.
+        let mut g = f.clone();
+        g.entry[NODES - 1][2] = 5.0;
+        let e = g.validate("k").unwrap_err();
+        assert!(
+            e.contains("k.entry[8][2] = 5") && e.contains("1 by definition"),
+            "{e}"
+        );
+        let mut g = f.clone();
+        g.exit.iter_mut().for_each(|r| r[1] = 1e-300);
+        let e = g.validate("k").unwrap_err();
+        assert!(e.contains("k.exit: channel g averages"), "{e}");
+        let mut g = f.clone();
+        g.entry[0][0] = 1e30;
+        g.validate("k").unwrap();
+        let e = g.check_energy("k", &[0.4; 3]).unwrap_err();
+        assert!(
+            e.contains("k.entry[0][0] = 1000000000000000000000000000000"),
+            "{e}"
+        );
+        f.check_energy("k", &[0.8; 3]).unwrap();
     }
 }

@@ -25,11 +25,11 @@
 //! widest channel's noise in every channel but cost three fetches per
 //! sample a channel uses.
 
-use super::format::{MAX_KERNEL_SUM, MIN_KERNEL_SUM};
+use super::format::{agrees, check_profile_total, STATED_SUM_TOLERANCE};
 use super::kernel2d::{check_profile_values, rgb_indices};
 use super::ModelInfo;
 use crate::error::{Error, Result};
-use crate::material::Material;
+use crate::material::{Channel, Material};
 use crate::numerics::{bisect, gauss_legendre};
 use crate::profile::{Profile, RadialInterp};
 use serde::{Deserialize, Serialize};
@@ -37,11 +37,14 @@ use serde_json::json;
 use std::f64::consts::PI;
 use std::path::Path;
 
-pub const DISK_SCHEMA: &str = "ssskit.disk/1";
+pub use super::format::DISK_SCHEMA;
 
 /// Fewest samples per channel a disk kernel may have: below 4 the spiral
 /// covers no angle twice and the estimate is a handful of spikes.
 pub const MIN_SAMPLES: usize = 4;
+/// Samples per channel of `ssskit fit --model disk` unless told: 32
+/// fetches, the cost of a 17-tap separable pair (34 samples per pixel).
+pub const DEFAULT_SAMPLES: usize = 32;
 /// Most samples per channel: 1024 reaches the exact convolution within the
 /// bias the oracles state; more costs fetches no renderer spends.
 pub const MAX_SAMPLES: usize = 1024;
@@ -280,6 +283,26 @@ fn sample_set(pdf: &DiskPdf, mix: [f64; 3], n: usize, only: Option<usize>) -> Ve
         .collect()
 }
 
+/// Refuses samples beyond [`MAX_RADIUS_MM`], which no file may hold,
+/// saying why they are there: the material scatters over a kilometre.
+fn check_reach(profile: &Profile, samples: &[DiskSample]) -> Result<()> {
+    let far = samples.iter().map(|s| s.radius_mm).fold(0.0, f64::max);
+    if far <= MAX_RADIUS_MM {
+        return Ok(());
+    }
+    let mfp = Channel::ALL
+        .iter()
+        .map(|&c| 1.0 / profile.material.top(c).sigma_t_reduced())
+        .fold(0.0, f64::max);
+    Err(Error::Unsupported(format!(
+        "disk kernel of {}: its samples reach {far:.3e} mm from the centre, beyond the \
+         {MAX_RADIUS_MM:.0e} mm (a kilometre) a disk kernel holds: the material scatters that far \
+         (a transport mean free path of {mfp:.3e} mm); check its coefficients and their unit \
+         (mm^-1, or `unit = \"cm\"` for cm^-1)",
+        profile.material.name
+    )))
+}
+
 /// Checks a sample count per channel.
 pub fn check_samples(n: usize) -> Result<()> {
     if (MIN_SAMPLES..=MAX_SAMPLES).contains(&n) {
@@ -314,6 +337,7 @@ pub fn fit_disk(profile: &Profile, n: usize, radii: RadiusPdf) -> Result<DiskKer
             })
             .collect(),
     };
+    check_reach(profile, &samples)?;
     let raw_weight_sum: [f64; 3] =
         std::array::from_fn(|c| samples.iter().map(|s| s.weight[c]).sum());
     for s in &mut samples {
@@ -402,15 +426,54 @@ impl DiskKernelFile {
         }
         for (c, name) in ["r", "g", "b"].iter().enumerate() {
             let sum: f64 = self.samples.iter().map(|s| s.weight[c]).sum();
-            if !(MIN_KERNEL_SUM..=MAX_KERNEL_SUM).contains(&sum) {
+            if !agrees(1.0, sum) {
                 return bad(format!(
-                    "the weights of channel {name} sum to {sum:.3e}: a disk kernel's sum to 1 \
-                     (at least {MIN_KERNEL_SUM:.0e}, at most {MAX_KERNEL_SUM:.0e})"
+                    "samples[*].weight: channel {name} sums to {sum:.9}; a disk kernel's weights \
+                     sum to 1 per channel (they are normalised: a constant image stays constant; \
+                     tolerance {STATED_SUM_TOLERANCE:.0e})"
                 ));
             }
         }
+        self.check_raw_sums().or_else(bad)?;
+        check_profile_total(&self.profile, &self.total_rd).or_else(bad)?;
         if let Some(a) = &self.angular {
             a.validate("angular").or_else(bad)?;
+            a.check_energy("angular", &self.total_rd).or_else(bad)?;
+        }
+        Ok(())
+    }
+
+    /// `raw_weight_sum` against the radii the file names: the raw weights
+    /// K_c / (N q) of the mixture q = sum mix_c K_c sum, over the channels
+    /// mixed, to sum_c mix_c raw_c = 1 exactly (each sample adds 1 / N):
+    /// every channel's sum is 1 with per-channel radii, the widest
+    /// channel's with the widest, their mean with the mean.
+    fn check_raw_sums(&self) -> std::result::Result<(), String> {
+        let raw = self.raw_weight_sum;
+        if let Some(x) = raw.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
+            return Err(format!(
+                "raw_weight_sum holds {x}: the weights' sums before normalising are finite and > 0"
+            ));
+        }
+        let radii = self.model.params.get("radii").and_then(|v| v.as_str());
+        let (ok, rule) = match radii {
+            Some("per-channel") => (raw.iter().all(|&x| agrees(1.0, x)), "each channel's is 1"),
+            Some("widest") => (
+                raw.iter().any(|&x| agrees(1.0, x)),
+                "the widest channel's is 1",
+            ),
+            Some("mean") => (
+                agrees(1.0, raw.iter().sum::<f64>() / 3.0),
+                "their mean is 1",
+            ),
+            _ => return Ok(()),
+        };
+        if !ok {
+            return Err(format!(
+                "raw_weight_sum is {raw:?}: with radii '{}' {rule} (each sample adds 1 / N to the \
+                 density it was drawn from)",
+                radii.unwrap_or_default()
+            ));
         }
         Ok(())
     }
@@ -426,7 +489,7 @@ impl DiskKernelFile {
     }
 
     pub fn read(path: &Path) -> Result<DiskKernelFile> {
-        let k: DiskKernelFile = crate::io::read_json(path)?;
+        let k: DiskKernelFile = super::format::read_kernel(path, DISK_SCHEMA)?;
         k.validate(&path.display().to_string())?;
         Ok(k)
     }

@@ -12,6 +12,52 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 pub const KERNEL_SCHEMA: &str = "ssskit.kernel/1";
+/// The schema of a disk kernel file (`kernel::disk`).
+pub const DISK_SCHEMA: &str = "ssskit.disk/1";
+
+/// Reads a kernel file of `schema`: a file that does not parse as one is
+/// first asked for its schema, so that another kind of file (a disk kernel
+/// given where a separable one is read, a schema of another version) is
+/// named as such rather than by the first field it lacks.
+pub(super) fn read_kernel<T: serde::de::DeserializeOwned>(path: &Path, schema: &str) -> Result<T> {
+    #[derive(Deserialize)]
+    struct Schema {
+        schema: serde_json::Value,
+    }
+    let e = match crate::io::read_json::<T>(path) {
+        Ok(k) => return Ok(k),
+        Err(e) => e,
+    };
+    let found = match crate::io::read_json::<Schema>(path) {
+        Ok(s) => s.schema,
+        Err(_) => return Err(e),
+    };
+    if found.as_str() == Some(schema) {
+        return Err(e);
+    }
+    let kind = |s: &str| {
+        if s == DISK_SCHEMA {
+            "a disk kernel"
+        } else {
+            "a separable kernel"
+        }
+    };
+    Err(Error::format(
+        path,
+        format!(
+            "schema is {found}: this reads {} ('{schema}'){}",
+            kind(schema),
+            match found.as_str() {
+                Some(s) if s == KERNEL_SCHEMA || s == DISK_SCHEMA =>
+                    format!(", and the file is {}", kind(s)),
+                _ => format!(
+                    "; ssskit's kernel files are '{KERNEL_SCHEMA}' (separable) and \
+                     '{DISK_SCHEMA}' (disk)"
+                ),
+            }
+        ),
+    ))
+}
 
 /// One separable term: a 1D factor sampled at `offsets_mm`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -156,6 +202,47 @@ impl Pass {
     }
 }
 
+/// Relative tolerance of a sum a file states against the one its numbers
+/// give: written by ssskit they agree to rounding (about 1e-13 for the
+/// largest tables); a file typed by hand with seven significant digits
+/// still agrees.
+pub const STATED_SUM_TOLERANCE: f64 = 1e-6;
+
+/// Whether a stated sum agrees with the computed one within
+/// [`STATED_SUM_TOLERANCE`].
+pub(super) fn agrees(stated: f64, computed: f64) -> bool {
+    (stated - computed).abs() <= STATED_SUM_TOLERANCE * stated.abs().max(computed.abs()).max(1e-300)
+        || stated == computed
+}
+
+/// `total_rd` against the summary of the profile the kernel came from
+/// (`profile.total_rd`, where it holds three numbers): the colour of the
+/// kernel is the profile's total reflectance.
+pub(super) fn check_profile_total(
+    profile: &serde_json::Value,
+    total_rd: &[f64; 3],
+) -> std::result::Result<(), String> {
+    let Some(p) = profile.get("total_rd").and_then(|v| v.as_array()) else {
+        return Ok(());
+    };
+    let mut p: Vec<f64> = p.iter().filter_map(|v| v.as_f64()).collect();
+    if p.len() != 3 {
+        return Ok(());
+    }
+    // The summary lists the profile's channels in its own order.
+    let mut k = total_rd.to_vec();
+    p.sort_by(f64::total_cmp);
+    k.sort_by(f64::total_cmp);
+    if let Some(i) = (0..3).find(|&i| !agrees(p[i], k[i])) {
+        return Err(format!(
+            "total_rd is {total_rd:?} but the profile it came from has {p:?} \
+             (profile.total_rd; {} against {}): the kernel's colour is the profile's reflectance",
+            k[i], p[i]
+        ));
+    }
+    Ok(())
+}
+
 /// Most steps of its finest spacing a factor's offsets may span.
 pub const MAX_STEPS: f64 = 1e7;
 
@@ -240,8 +327,10 @@ impl KernelFile {
         if self.model.name.trim().is_empty() {
             return bad("model.name is empty".into());
         }
+        check_profile_total(&self.profile, &self.total_rd).or_else(bad)?;
         if let Some(a) = &self.angular {
             a.validate("angular").or_else(bad)?;
+            a.check_energy("angular", &self.total_rd).or_else(bad)?;
         }
         let m = &self.metrics;
         if let Some(x) = m
@@ -275,9 +364,48 @@ impl KernelFile {
         Ok(())
     }
 
+    /// The sums `usage` states (written with the file) against those of
+    /// the taps: a table whose weights were scaled after the file was
+    /// written would filter with another brightness than it says.
+    fn check_usage(&self, u: &Usage) -> std::result::Result<(), String> {
+        let sums = self.pass_weight_sums();
+        let kernel: [f64; 3] = std::array::from_fn(|c| sums.iter().map(|s| s[c] * s[c]).sum());
+        let stated = u
+            .pass_weight_sums
+            .iter()
+            .enumerate()
+            .flat_map(|(i, s)| (0..3).map(move |c| (format!("pass_weight_sums[{i}][{c}]"), s[c])))
+            .chain((0..3).map(|c| (format!("kernel_sum[{c}]"), u.kernel_sum[c])));
+        let actual = sums.iter().flatten().chain(&kernel);
+        if u.pass_weight_sums.len() != sums.len() {
+            return Err(format!(
+                "usage.pass_weight_sums has {} passes, the tap table {}",
+                u.pass_weight_sums.len(),
+                sums.len()
+            ));
+        }
+        for ((name, said), &is) in stated.zip(actual) {
+            if !agrees(said, is) {
+                return Err(format!(
+                    "usage.{name} says {said} but the tap weights sum to {is}: the weights were \
+                     changed after the file was written (restore them, or remove `usage` to \
+                     have it recomputed)"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads and checks a kernel file; what its `usage` states is checked
+    /// against its taps here (a kernel changed in memory states nothing:
+    /// `write` recomputes `usage`).
     pub fn read(path: &Path) -> Result<KernelFile> {
-        let k: KernelFile = crate::io::read_json(path)?;
-        k.validate(&path.display().to_string())?;
+        let k: KernelFile = read_kernel(path, KERNEL_SCHEMA)?;
+        let context = path.display().to_string();
+        k.validate(&context)?;
+        if let Some(u) = &k.usage {
+            k.check_usage(u).map_err(|m| Error::format(&context, m))?;
+        }
         Ok(k)
     }
 

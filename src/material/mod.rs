@@ -306,9 +306,58 @@ pub const MAX_MFP: f64 = 1e9;
 /// Longest material name, in bytes.
 pub const MAX_NAME_BYTES: usize = 200;
 
+/// The characters of Unicode's general category Cf (format): invisible,
+/// they change how the text around them is shown or joined (direction
+/// overrides and marks, zero-width spaces and joiners, the soft hyphen,
+/// invisible operators, interlinear annotation, tags), so that two names
+/// that look alike differ. The code points of category Cf in the Unicode
+/// Character Database as Python's `unicodedata` (Unicode 14.0) lists
+/// them, with U+13439..U+1343F, the Egyptian hieroglyph format controls
+/// Unicode 15.0 added; the tag block U+E0000..U+E007F is taken whole (its
+/// unassigned points included).
+const FORMAT_CHARACTERS: &[(u32, u32)] = &[
+    (0x00AD, 0x00AD),
+    (0x0600, 0x0605),
+    (0x061C, 0x061C),
+    (0x06DD, 0x06DD),
+    (0x070F, 0x070F),
+    (0x0890, 0x0891),
+    (0x08E2, 0x08E2),
+    (0x180E, 0x180E),
+    (0x200B, 0x200F),
+    (0x202A, 0x202E),
+    (0x2060, 0x2064),
+    (0x2066, 0x206F),
+    (0xFEFF, 0xFEFF),
+    (0xFFF9, 0xFFFB),
+    (0x110BD, 0x110BD),
+    (0x110CD, 0x110CD),
+    (0x13430, 0x1343F),
+    (0x1BCA0, 0x1BCA3),
+    (0x1D173, 0x1D17A),
+    (0xE0000, 0xE007F),
+];
+
+/// What makes `c` unfit for a label: a control character (Cc: an escape
+/// sequence would drive the terminal), a format character (Cf,
+/// [`FORMAT_CHARACTERS`]) or a line or paragraph separator (Zl, Zp: they
+/// break the line a label is printed on).
+fn unprintable(c: char) -> Option<&'static str> {
+    let u = c as u32;
+    if c.is_control() {
+        Some("the control character")
+    } else if FORMAT_CHARACTERS.iter().any(|&(a, b)| (a..=b).contains(&u)) {
+        Some("the invisible format character (Unicode category Cf)")
+    } else if matches!(c, '\u{2028}' | '\u{2029}') {
+        Some("the line or paragraph separator")
+    } else {
+        None
+    }
+}
+
 /// A name is a label printed on terminals, in reports and plots: no
-/// control characters (an escape sequence would drive the terminal) and
-/// no invisible direction overrides, at most [`MAX_NAME_BYTES`].
+/// control, format or separator characters ([`unprintable`]), at most
+/// [`MAX_NAME_BYTES`].
 fn check_name(context: &str, name: &str) -> Result<()> {
     let shown = || {
         format!(
@@ -316,18 +365,14 @@ fn check_name(context: &str, name: &str) -> Result<()> {
             name.chars().take(60).collect::<String>().escape_debug()
         )
     };
-    let bad = name.chars().find(|&c| {
-        c.is_control()
-            || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' | '\u{feff}')
-    });
-    if let Some(c) = bad {
+    if let Some((c, what)) = name.chars().find_map(|c| unprintable(c).map(|w| (c, w))) {
         return Err(Error::invalid(
             context,
             "name",
             shown(),
             format!(
-                "holds the control or formatting character U+{:04X}: a name is a label for \
-                 screens and file names, printable text only",
+                "holds {what} U+{:04X}: a name is a label for screens and file names, printable \
+                 text only",
                 c as u32
             ),
         ));
@@ -371,6 +416,15 @@ mod tests {
             ("tab\there", "U+0009"),
             ("new\nline", "U+000A"),
             ("rtl\u{202e}txt", "U+202E"),
+            // Format characters beyond the zero-width block (Cf).
+            ("a\u{061c}b", "character (Unicode category Cf) U+061C"),
+            ("soft\u{00ad}hyphen", "U+00AD"),
+            ("word\u{2060}joiner", "U+2060"),
+            ("mongolian\u{180e}", "U+180E"),
+            ("anchor\u{fff9}", "U+FFF9"),
+            ("tag\u{e0041}", "U+E0041"),
+            ("tag\u{e0000}", "U+E0000"),
+            ("line\u{2028}sep", "U+2028"),
             ("", "empty"),
             ("  ", "empty"),
         ] {

@@ -103,25 +103,26 @@ pub(crate) fn sphere_entries(q: V3, r: f64, toward: V3, eta: f64) -> Vec<Entry> 
         frame(toward).0
     };
     let inv = 1.0 / eta;
-    // (P, t) in the plane, coordinates along (toward, e2).
-    let ray = |th: f64| -> ((f64, f64), (f64, f64)) {
-        let (s, c) = th.sin_cos();
+    // (P, t) in the plane, coordinates along (toward, e2), from the sine
+    // and cosine of the incidence angle.
+    let ray_sc = |(s, c): (f64, f64)| -> ((f64, f64), (f64, f64)) {
         let sin_t = s * inv;
         let cos_t = (1.0 - sin_t * sin_t).max(0.0).sqrt();
         let k = inv * c - cos_t;
         ((r * c, r * s), (-inv + k * c, k * s))
     };
-    let f = |th: f64| -> f64 {
-        let ((px, py), (tx, ty)) = ray(th);
+    let ray = |th: f64| ray_sc(th.sin_cos());
+    let f_sc = |sc: (f64, f64)| -> f64 {
+        let ((px, py), (tx, ty)) = ray_sc(sc);
         (a - px) * ty - (b - py) * tx
     };
-    let top = std::f64::consts::FRAC_PI_2 * (1.0 - 1e-12);
+    let f = |th: f64| f_sc(th.sin_cos());
+    let nodes = scan_nodes();
     let mut out = Vec::new();
-    let mut lo = -top;
-    let mut f_lo = f(lo);
-    for i in 1..=SPHERE_SCAN {
-        let hi = top * (2.0 * i as f64 / SPHERE_SCAN as f64 - 1.0);
-        let f_hi = f(hi);
+    let (mut lo, s, c) = nodes[0];
+    let mut f_lo = f_sc((s, c));
+    for &(hi, s, c) in &nodes[1..] {
+        let f_hi = f_sc((s, c));
         if (f_lo < 0.0) != (f_hi < 0.0) {
             let th = illinois(&f, (lo, f_lo), (hi, f_hi), 1e-13 * r);
             if let Some(e) = sphere_ray(th, q, r, a, b, toward, e2, eta, &ray) {
@@ -131,6 +132,26 @@ pub(crate) fn sphere_entries(q: V3, r: f64, toward: V3, eta: f64) -> Vec<Entry> 
         (lo, f_lo) = (hi, f_hi);
     }
     out
+}
+
+/// The scan's nodes of `sphere_entries`: each incidence angle with its
+/// sine and cosine, the same for every point, radius and index (computed
+/// once: the sines and cosines were most of a refracting sphere's render).
+fn scan_nodes() -> &'static [(f64, f64, f64); SPHERE_SCAN + 1] {
+    static NODES: std::sync::OnceLock<[(f64, f64, f64); SPHERE_SCAN + 1]> =
+        std::sync::OnceLock::new();
+    NODES.get_or_init(|| {
+        let top = std::f64::consts::FRAC_PI_2 * (1.0 - 1e-12);
+        std::array::from_fn(|i| {
+            let th = if i == 0 {
+                -top
+            } else {
+                top * (2.0 * i as f64 / SPHERE_SCAN as f64 - 1.0)
+            };
+            let (s, c) = th.sin_cos();
+            (th, s, c)
+        })
+    })
 }
 
 /// The root of `f` in a bracket [(x0, f0), (x1, f1)] of opposite signs

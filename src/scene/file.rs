@@ -211,13 +211,7 @@ fn check_point_lights(ck: &Check, lights: &[Light], objects: &[Object], unit: Un
 fn check_beams_traceable(ck: &Check, objects: &[Object]) -> Result<()> {
     for (i, o) in objects.iter().enumerate() {
         let eta = o.eta();
-        let ok = eta == 1.0
-            || match o.shape {
-                Shape::Cuboid { .. } => true,
-                Shape::Sphere { .. } => eta > 1.0 && eta <= SPHERE_MAX_ETA,
-                _ => false,
-            };
-        if !ok {
+        if !beam_traceable(&o.shape, eta) {
             return Err(ck.err(
                 &format!("object[{i}].eta"),
                 eta,
@@ -232,4 +226,15 @@ fn check_beams_traceable(ck: &Check, objects: &[Object]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Whether the tracer follows a directional light's beam into `shape` of
+/// index `eta` (see [`check_beams_traceable`]).
+pub(super) fn beam_traceable(shape: &Shape, eta: f64) -> bool {
+    eta == 1.0
+        || match shape {
+            Shape::Cuboid { .. } => true,
+            Shape::Sphere { .. } => eta > 1.0 && eta <= SPHERE_MAX_ETA,
+            _ => false,
+        }
 }

@@ -41,6 +41,7 @@ mod ray;
 mod render;
 mod rounds;
 mod samples;
+mod sphere;
 mod trace;
 
 pub use camera::{Camera, Measure, Projection};
@@ -58,6 +59,9 @@ pub use render::{
     DEFAULT_GBUFFER_SIDE, DEFAULT_MAX_SPP, DEFAULT_MAX_WORK, DEFAULT_SCENE_ERROR, RENDER_SCHEMA,
 };
 pub use samples::{SampleBudget, FIRST_ROUND_SPP};
+pub use sphere::{
+    lit_sphere, CAMERA_DISTANCE_MM, FOV_Y_DEG, LIGHT_FROM_VIEW_DEG, SPHERE_RADIUS_MM,
+};
 
 use crate::error::Result;
 use crate::material::Material;

@@ -110,16 +110,25 @@ pub fn h_iterated(a: f64) -> (Vec<(f64, f64)>, Vec<f64>) {
 }
 
 /// Unpolarised Fresnel reflectance from index 1 into `eta` (or out of it
-/// for `eta` < 1) at cosine `c`; 1 beyond the critical angle.
+/// for `eta` < 1) at cosine `c`; 1 beyond the critical angle. Written in
+/// the angles' form (Born and Wolf 1999, sec. 1.5.3:
+/// R_s = sin^2(i - t) / sin^2(i + t), R_p = tan^2(i - t) / tan^2(i + t)),
+/// not the cosines' form ssskit uses, so the two share no algebra.
 pub fn fresnel(c: f64, eta: f64) -> f64 {
-    let s2 = (1.0 - c * c) / (eta * eta);
-    if s2 >= 1.0 {
+    let i = c.clamp(-1.0, 1.0).acos();
+    let sin_t = i.sin() / eta;
+    if sin_t >= 1.0 {
         return 1.0;
     }
-    let ct = (1.0 - s2).sqrt();
-    let rs = (c - eta * ct) / (c + eta * ct);
-    let rp = (eta * c - ct) / (eta * c + ct);
-    0.5 * (rs * rs + rp * rp)
+    let t = sin_t.asin();
+    if i == 0.0 {
+        // Normal incidence, the limit of both ratios.
+        return ((eta - 1.0) / (eta + 1.0)).powi(2);
+    }
+    let rs = ((i - t).sin() / (i + t).sin()).powi(2);
+    // At i + t = 90 degrees (Brewster) tan(i + t) is infinite: R_p = 0.
+    let rp = ((i - t).tan() / (i + t).tan()).powi(2);
+    0.5 * (rs + rp)
 }
 
 /// The half-space of albedo `a` and relative index `n` under air, lit by a

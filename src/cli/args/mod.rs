@@ -25,7 +25,10 @@ mod values;
 pub use deprecated::{deprecated_spellings, running_command};
 pub use directional::DirectionalArgs;
 pub use model::ModelArg;
-pub use settings::{alias, default, default_enum, help, long_help_opens_with_help, required};
+pub use settings::{
+    alias, default, default_enum, help, long_help_opens_with_help, negative_numbers_are_values,
+    required,
+};
 pub use values::{
     channel_item, count, count_text, counts_text, flag_value, image_size, name_item, rank_item,
     real, rgb, rgb_text, signal_size, taps, value_or,
@@ -397,7 +400,12 @@ impl ImageErrorArg {
             return Err(super::errors::invalid(
                 "--image-error",
                 e,
-                &format!("a fraction, not a percent: for {e}% give {}", e / 100.0),
+                &format!(
+                    "the target is a relative RMS, a fraction of the exact image's peak between \
+                     0 and 1 (0.05 is 5%); {e} would be {}%: for {e}% give {}",
+                    e * 100.0,
+                    e / 100.0
+                ),
             ));
         }
         if !(e > 0.0 && e.is_finite()) {
@@ -424,13 +432,17 @@ impl std::fmt::Display for Limit {
     }
 }
 
-/// A [`Limit`]: `none` (or 0) lifts it, else a count.
+/// A [`Limit`]: `none` lifts it, else a count of at least 1 (0 would
+/// allow no kernel at all; it once meant no limit, which nothing said).
 pub fn limit(s: &str) -> Result<Limit, String> {
     if s.trim().eq_ignore_ascii_case("none") {
         return Ok(Limit(None));
     }
     let n: usize = count(s).map_err(|e| format!("{e}, or none for no limit"))?;
-    Ok(Limit((n > 0).then_some(n)))
+    if n == 0 {
+        return Err("0 allows no kernel: give a count of at least 1, or none for no limit".into());
+    }
+    Ok(Limit(Some(n)))
 }
 
 /// `--max-passes`, `--max-samples`, `--max-taps`: what a recommended kernel
@@ -441,8 +453,9 @@ pub struct BudgetArgs {
     ///
     /// A separable kernel of r terms runs a horizontal and a vertical pass
     /// per term, 2r one-dimensional passes. The default, 2, is one rank-1
-    /// pair, what every engine in `ssskit engine` runs. none (or 0) lifts
-    /// the limit; the search then tries ranks 1 to 3.
+    /// pair, what every engine in `ssskit engine` runs; 1 allows only a
+    /// disk kernel (one pass). none lifts the limit; the search then tries
+    /// ranks 1 to 3.
     #[arg(long, value_name = "N", value_parser = limit,
           default_value_t = Limit(Some(ssskit::report::eval::advise::DEFAULT_MAX_PASSES)))]
     pub max_passes: Limit,

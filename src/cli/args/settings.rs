@@ -57,3 +57,17 @@ pub fn long_help_opens_with_help(cmd: clap::Command) -> clap::Command {
     })
     .mut_subcommands(long_help_opens_with_help)
 }
+
+/// Every flag that takes a value takes a negative number as its value
+/// (`--samples -1`), to be refused by its parser with the flag named,
+/// rather than read as an unknown flag `-1`.
+pub fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|a| {
+        if a.get_num_args().is_some_and(|n| n.takes_values()) || a.get_action().takes_values() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    })
+    .mut_subcommands(negative_numbers_are_values)
+}

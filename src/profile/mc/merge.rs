@@ -181,7 +181,7 @@ impl ShardMerger {
 
     /// The profile of the single run, once every shard was added.
     pub fn finish(self) -> Result<Profile> {
-        let Some((_, p0, r0)) = self.first else {
+        let Some((name0, p0, r0)) = self.first else {
             return Err(Error::Unsupported("no shards to merge".into()));
         };
         let n = r0.n;
@@ -189,7 +189,10 @@ impl ShardMerger {
             let missing: Vec<String> = (1..=n)
                 .filter(|k| !self.seen.contains_key(k))
                 .take(10)
-                .map(|k| k.to_string())
+                .map(|k| match part_name(&name0, r0.k, k) {
+                    Some(file) => format!("{k} ({file})"),
+                    None => k.to_string(),
+                })
                 .collect();
             return Err(Error::Unsupported(format!(
                 "missing shard(s) {}{} of {n}: a merge needs all {n} parts of the run",
@@ -236,6 +239,28 @@ impl ShardMerger {
         p.source.params = shard_params(&p0);
         Ok(p)
     }
+}
+
+/// The name the part of shard `k` would have, when the name of the part of
+/// shard `k0` holds `k0` as its one free-standing number (`part-7.json`,
+/// `out/7/p.json`): a missing shard is then named as the file the recipe
+/// expected, not only by number.
+pub(super) fn part_name(name0: &str, k0: u64, k: u64) -> Option<String> {
+    let digits = k0.to_string();
+    let b = name0.as_bytes();
+    let mut found = None;
+    for (i, _) in name0.match_indices(&digits) {
+        let j = i + digits.len();
+        let free =
+            (i == 0 || !b[i - 1].is_ascii_digit()) && (j == b.len() || !b[j].is_ascii_digit());
+        if free {
+            if found.is_some() {
+                return None;
+            }
+            found = Some(i);
+        }
+    }
+    found.map(|i| format!("{}{k}{}", &name0[..i], &name0[i + digits.len()..]))
 }
 
 /// A shard's `source.params` without its part number.
@@ -312,4 +337,29 @@ pub(super) fn check_same_run(
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::part_name;
+
+    #[test]
+    fn a_missing_part_is_named_after_the_others() {
+        assert_eq!(
+            part_name("part-1.json", 1, 3).as_deref(),
+            Some("part-3.json")
+        );
+        assert_eq!(
+            part_name("out/12/p.json", 12, 7).as_deref(),
+            Some("out/7/p.json")
+        );
+        // 1 inside 11 or 21 is not the shard number; two free-standing 1s
+        // leave the pattern ambiguous.
+        assert_eq!(
+            part_name("run11-1.json", 1, 2).as_deref(),
+            Some("run11-2.json")
+        );
+        assert_eq!(part_name("1-part-1.json", 1, 2), None);
+        assert_eq!(part_name("part.json", 1, 2), None);
+    }
 }

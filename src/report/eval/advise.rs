@@ -256,17 +256,29 @@ fn validate(cfg: &Config) -> Result<()> {
             "advise needs at least one signal and one tap count".into(),
         ));
     }
-    // The cheapest kernel there is: one term, one tap, two passes.
-    for (field, v) in [
-        ("max_passes", cfg.budget.max_passes),
-        ("max_samples", cfg.budget.max_samples),
+    // The cheapest kernels there are: a disk kernel runs one pass; a
+    // separable one two (one tap each, two samples per pixel).
+    for (field, v, least, why) in [
+        (
+            "max_passes",
+            cfg.budget.max_passes,
+            1,
+            "a disk kernel runs one pass, a separable kernel two (horizontal and vertical)",
+        ),
+        (
+            "max_samples",
+            cfg.budget.max_samples,
+            2,
+            "the cheapest kernel, one tap in each of two passes, takes 2 samples per pixel",
+        ),
+        ("max_taps", cfg.budget.max_taps, 1, "every pass has a tap"),
     ] {
-        if v.is_some_and(|v| v < 2) {
+        if v.is_some_and(|v| v < least) {
             return Err(Error::invalid(
                 "advise",
                 field,
                 v.unwrap_or(0),
-                "must be >= 2: a separable kernel runs a horizontal and a vertical pass",
+                format!("must be >= {least}: {why}"),
             ));
         }
     }

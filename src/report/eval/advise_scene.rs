@@ -27,11 +27,10 @@
 //!   record, else [`simulate_factors`] of its material
 //!   ([`ANGULAR_PHOTONS`] photons per channel and incidence).
 //! - Uncertainty of a difference: the path-traced image t carries a
-//!   per-pixel standard error s. For two passes a and b, RMS_a^2 - RMS_b^2
-//!   = mean((a - b)(a + b - 2t)), whose standard deviation from t's noise
-//!   is 2 sqrt(sum (a - b)^2 s^2) / N; divided by RMS_a + RMS_b it is that
-//!   of RMS_a - RMS_b. The noise common to both scores cancels, so two
-//!   kernels are told apart far below the render's own noise.
+//!   per-pixel standard error s; the standard deviation of RMS_a - RMS_b
+//!   from it is [`rms_difference_sigma`]'s. The noise common to both
+//!   scores cancels, so two kernels are told apart far below the render's
+//!   own noise.
 //! - Ranking: by the worst channel of what ships, the pass with the
 //!   factors around it where the scene allows them (the kernel files carry
 //!   them), else the bare pass.
@@ -49,7 +48,7 @@ use super::advise_disk::DISK_SEED;
 use super::scene_compare::{angular_obstacle, cosines};
 use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
 use super::scene_pass::{screen_space_disk_pass, screen_space_pass};
-use super::scene_score::{percentile99, ranking};
+use super::scene_score::{percentile99, ranking, rms_difference_sigma};
 use crate::error::{Error, Result};
 use crate::filter::{angular, Image, Plane, Taps};
 use crate::kernel::angular::{simulate_factors, AngularFactors};
@@ -322,18 +321,13 @@ impl Truth<'_> {
     /// The standard deviation of RMS_a - RMS_b on channel `c` from the
     /// truth's noise (module docs).
     fn gap_sigma(&self, a: &Image, b: &Image, rms: [f64; 2], c: usize) -> f64 {
-        let n = self.pixels.len() as f64;
-        let var: f64 = self
-            .pixels
-            .iter()
-            .map(|&i| ((a.rgb[c][i] - b.rgb[c][i]) * self.stderr[c][i]).powi(2))
-            .sum();
-        let sum = rms[0] + rms[1];
-        if sum > 0.0 {
-            2.0 * var.sqrt() / n / self.peak[c].powi(2) / sum
-        } else {
-            0.0
-        }
+        let planes = [a.rgb[c].as_slice(), b.rgb[c].as_slice(), &self.stderr[c]];
+        rms_difference_sigma(
+            planes,
+            self.pixels.iter().copied(),
+            self.peak[c],
+            rms[0] + rms[1],
+        )
     }
 }
 

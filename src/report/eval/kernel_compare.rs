@@ -274,11 +274,10 @@ pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
 
 /// An error about material `name`, naming it unless it already does.
 fn named(name: &str, e: Error) -> Error {
-    let text = e.to_string();
-    if text.contains(&format!("'{name}'")) {
+    if e.to_string().contains(&format!("'{name}'")) {
         e
     } else {
-        Error::Unsupported(format!("material '{name}': {text}"))
+        e.within(&format!("material '{name}'"))
     }
 }
 
@@ -373,12 +372,8 @@ fn exact_images(inputs: &[MaterialInput], cfg: &Config) -> Result<Vec<Vec<Exact>
             cfg.cases
                 .par_iter()
                 .map(|c| {
-                    Exact::new(&m.profile, c).map_err(|e| {
-                        named(
-                            &m.name,
-                            Error::Unsupported(format!("image {}: {e}", c.name)),
-                        )
-                    })
+                    Exact::new(&m.profile, c)
+                        .map_err(|e| e.within(&format!("material '{}', image {}", m.name, c.name)))
                 })
                 .collect::<Result<Vec<_>>>()
         })

@@ -18,6 +18,7 @@ pub mod disk_compare;
 pub mod evaluate;
 pub mod kernel_compare;
 pub mod pipeline;
+pub mod preview;
 pub mod profile_compare;
 pub mod scene_compare;
 pub mod scene_pass;

@@ -7,6 +7,7 @@
 use super::advise::{self, Advice};
 use super::evaluate::{ImageCase, Options, Which};
 use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row, FAMILIES};
+use super::preview::{self, Preview, PreviewKernel};
 use super::shipped::{shipped, Shipped};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
@@ -17,8 +18,11 @@ use crate::kernel::KernelFile;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::Progress;
+use crate::report::present::figures::{self, Figure};
+use crate::report::present::kernel_plots::{self, Recommended};
 use crate::report::present::kernel_report::{self, ReportContext};
-use crate::report::present::{advice_text, kernel_plots, plot};
+use crate::report::present::ship_report::{self, ShipReport};
+use crate::report::present::{advice_text, plot, preview_panel};
 use crate::scene::{Render, Scene};
 use std::path::Path;
 
@@ -50,24 +54,29 @@ pub struct Outcome {
     pub stages: StageTimes,
 }
 
-/// The comparison's written form in `dir`: report.md, compare.csv,
-/// compare.json (read back), and with `plots` the kernel slices, one
-/// contact sheet per signal (opening with `shipped` where given, else the
-/// best model; tiles of the wrong colour listed in report.md) and the
-/// singular value spectra. Returns the file names written.
-pub fn write_comparison(
+/// The comparison's files in `dir` but report.md: compare.csv,
+/// compare.json (read back), and with `plots` the kernel slices (with
+/// `recommended` where given), one contact sheet per signal (opening with
+/// `shipped` where given, else the best model) and the singular value
+/// spectra; with the report's markdown (tiles of the wrong colour listed)
+/// and each figure's caption.
+pub struct Written {
+    pub files: Vec<String>,
+    pub figures: Vec<Figure>,
+    pub markdown: String,
+}
+
+/// Writes the comparison's files (see [`Written`]).
+pub fn comparison_files(
     cmp: &Comparison,
     ctx: &ReportContext,
     dir: &Path,
     plots: bool,
     sheet_factor: &str,
-    shipped: Option<&Shipped>,
-) -> Result<Vec<String>> {
-    let mut files = vec![
-        "report.md".to_string(),
-        "compare.csv".into(),
-        "compare.json".into(),
-    ];
+    (shipped, recommended): (Option<&Shipped>, Option<&Recommended>),
+) -> Result<Written> {
+    let mut files = vec!["compare.csv".to_string(), "compare.json".into()];
+    let mut figs = Vec::new();
     let mut md = kernel_report::report(cmp, ctx);
     let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
@@ -82,27 +91,65 @@ pub fn write_comparison(
     }
     if plots {
         let mut flags = Vec::new();
+        let lead = if shipped.is_some() {
+            "what ships"
+        } else {
+            "the model of lowest error on it"
+        };
         for m in &cmp.materials {
             let stem = file_stem(m);
-            let name = names.claim(format!("slices_{stem}.png"), m)?;
-            kernel_plots::kernel_slices(cmp, m, &join_inside(dir, &name)?)?;
-            files.push(name);
             for (ci, s) in ctx.signals.iter().enumerate() {
                 let label = format!("{m} {s}");
                 let name = names.claim(format!("sheet_{stem}_{}.png", file_stem(s)), &label)?;
                 let path = join_inside(dir, &name)?;
                 let sheet = kernel_plots::contact_sheet(cmp, m, ci, sheet_factor, shipped, &path)?;
                 flags.extend(sheet.flags);
+                let mm = cmp
+                    .exact
+                    .first()
+                    .and_then(|e| e.get(ci))
+                    .map_or(f64::NAN, |e| e.case.mm_per_pixel);
+                figs.push(figures::sheet(&name, s, mm, lead, sheet_factor));
                 files.push(name);
             }
+            let name = names.claim(format!("slices_{stem}.png"), m)?;
+            kernel_plots::kernel_slices(cmp, m, recommended, &join_inside(dir, &name)?)?;
+            let disk = recommended.map(|r| matches!(r, Recommended::Disk { .. }));
+            figs.push(figures::slices(&name, m, disk));
+            files.push(name);
         }
         if cmp.fitted.iter().any(|f| f.kernel.model.name == "svd") {
             kernel_plots::spectra(cmp, &dir.join("spectra.png"))?;
+            figs.push(figures::spectra("spectra.png"));
             files.push("spectra.png".into());
         }
         md.push_str(&kernel_plots::flags_markdown(&flags));
     }
+    Ok(Written {
+        files,
+        figures: figs,
+        markdown: md,
+    })
+}
+
+/// The comparison's written form in `dir` (`compare`): its files
+/// ([`comparison_files`]) and report.md with the list of its figures.
+/// Returns the file names written.
+pub fn write_comparison(
+    cmp: &Comparison,
+    ctx: &ReportContext,
+    dir: &Path,
+    plots: bool,
+    sheet_factor: &str,
+) -> Result<Vec<String>> {
+    let w = comparison_files(cmp, ctx, dir, plots, sheet_factor, (None, None))?;
+    let mut md = w.markdown;
+    if !w.figures.is_empty() {
+        md.push_str(&figures::markdown(&w.figures));
+    }
     crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
+    let mut files = vec!["report.md".to_string()];
+    files.extend(w.files);
     Ok(files)
 }
 
@@ -209,19 +256,21 @@ pub struct StageTimes {
     pub fits: f64,
     pub images: f64,
     pub advice: f64,
+    pub preview: f64,
     pub files: f64,
     pub total: f64,
 }
 
 impl StageTimes {
     /// The stages in order, with their seconds.
-    pub fn stages(&self) -> [(&'static str, f64); 6] {
+    pub fn stages(&self) -> [(&'static str, f64); 7] {
         [
             ("profile", self.profile),
             ("truth", self.truth),
             ("fits", self.fits),
             ("images", self.images),
             ("advice", self.advice),
+            ("preview", self.preview),
             ("files", self.files),
         ]
     }
@@ -305,6 +354,13 @@ pub fn run(
     )?;
     times.advice = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
+    let preview = if settings.plots {
+        Some(preview_of(profile, &advice)?)
+    } else {
+        None
+    };
+    times.preview = t.elapsed().as_secs_f64();
+    let t = std::time::Instant::now();
     let ctx = ReportContext {
         command,
         signals: &signal_names,
@@ -312,10 +368,30 @@ pub fn run(
         ranks: &ranks,
         options: &options,
     };
-    write_files(&cmp, &advice, &ctx, settings, dir, &mut files)?;
+    let mut pieces = write_files(&cmp, &advice, &ctx, settings, dir, &mut files)?;
+    if let Some(Ok(p)) = &preview {
+        preview_panel::preview_panel(p, &dir.join(PREVIEW_PNG))?;
+        pieces
+            .figures
+            .insert(0, preview_panel::figure(p, PREVIEW_PNG));
+        files.push(PREVIEW_PNG.into());
+    }
     times.files += t.elapsed().as_secs_f64();
     times.total = profile_seconds + t0.elapsed().as_secs_f64();
-    write_report(&advice, &times, dir, &mut files)?;
+    let report = ShipReport {
+        advice: &advice,
+        material: &name,
+        command,
+        stem: RECOMMENDED,
+        preview: preview
+            .as_ref()
+            .map(|p| p.as_ref().map(|p| (p, PREVIEW_PNG)).map_err(Clone::clone)),
+        sheet: pieces.sheet.as_ref(),
+        figures: &pieces.figures,
+        comparison: &pieces.markdown,
+        stage_times: &times.markdown(),
+    };
+    write_report(&advice, &ship_report::report(&report), dir, &mut files)?;
     Ok(Outcome {
         comparison: cmp,
         advice,
@@ -324,9 +400,34 @@ pub fn run(
     })
 }
 
-/// Every file but the report's last form: the kernels, the comparison
-/// (report.md's first form, tables, plots), the profile plot, the
-/// recommended kernel.
+/// The recommended kernel's file stem.
+const RECOMMENDED: &str = "recommended";
+/// The preview's file.
+const PREVIEW_PNG: &str = "preview.png";
+
+/// The material's preview with what ships, or why the scene tracer cannot
+/// render the material.
+fn preview_of(profile: &Profile, advice: &Advice) -> Result<std::result::Result<Preview, String>> {
+    if let Some(why) = preview::obstacle(profile) {
+        return Ok(Err(why));
+    }
+    Ok(Ok(preview::preview(
+        profile,
+        &PreviewKernel::shipped(advice),
+    )?))
+}
+
+/// What report.md is made of besides the advice: the comparison's
+/// markdown, the figures with their captions and the sheet its first
+/// screen points to.
+struct Pieces {
+    markdown: String,
+    figures: Vec<Figure>,
+    sheet: Option<Figure>,
+}
+
+/// Every file but report.md and advice.json: the kernels, the comparison
+/// (tables, plots), the profile plot, the recommended kernel.
 fn write_files(
     cmp: &Comparison,
     advice: &Advice,
@@ -334,27 +435,37 @@ fn write_files(
     settings: &Settings,
     dir: &Path,
     files: &mut Vec<String>,
-) -> Result<()> {
+) -> Result<Pieces> {
     files.extend(
         write_fitted_kernels(cmp, &dir.join("kernels"), true)?
             .into_iter()
             .map(|f| format!("kernels/{f}")),
     );
-    // The sheets open with what ships.
+    // The sheets open with what ships, the slices show it.
     let ship = if settings.plots {
         let cases: Vec<&ImageCase> = cmp.exact[0].iter().map(|e| &e.case).collect();
         Some(shipped(advice, &cases)?)
     } else {
         None
     };
-    files.extend(write_comparison(
+    let label = advice.chosen().describe();
+    let recommended = match &advice.disk_kernel {
+        Some(kernel) => Recommended::Disk { label, kernel },
+        None => Recommended::Separable {
+            label,
+            kernel: &advice.kernel,
+        },
+    };
+    let w = comparison_files(
         cmp,
         ctx,
         dir,
         settings.plots,
         &format!("{}-tap tables", settings.taps),
-        ship.as_ref(),
-    )?);
+        (ship.as_ref(), Some(&recommended)),
+    )?;
+    files.extend(w.files);
+    let mut figs = w.figures;
     if settings.plots {
         let (name, profile) = (&cmp.materials[0], &cmp.profiles[0]);
         let panels = plot::profile_panels(&[(name.clone(), profile.clone())]);
@@ -364,38 +475,29 @@ fn write_files(
             &format!("R_d(r) of {name}"),
             &dir.join("profile.png"),
         )?;
+        figs.push(figures::profile("profile.png", name));
         files.push("profile.png".into());
     }
     match &advice.disk_kernel {
-        Some(k) => write_disk_kernel(k, dir, "recommended", files),
-        None => write_kernel(&advice.kernel, dir, "recommended", true, files),
+        Some(k) => write_disk_kernel(k, dir, RECOMMENDED, files)?,
+        None => write_kernel(&advice.kernel, dir, RECOMMENDED, true, files)?,
     }
+    let sheet = figs
+        .iter()
+        .find(|f| f.file.starts_with("sheet_") && f.file.ends_with("_shapes.png"))
+        .or_else(|| figs.iter().find(|f| f.file.starts_with("sheet_")))
+        .cloned();
+    Ok(Pieces {
+        markdown: w.markdown,
+        figures: figs,
+        sheet,
+    })
 }
 
-/// report.md with the scene's ranking under its title, the advice and
-/// why, and the stage times; advice.json (read back).
-fn write_report(
-    advice: &Advice,
-    times: &StageTimes,
-    dir: &Path,
-    files: &mut Vec<String>,
-) -> Result<()> {
-    let mut md = std::fs::read_to_string(dir.join("report.md"))
-        .map_err(|e| Error::format(dir.join("report.md"), e.to_string()))?;
-    if let Some(sc) = &advice.scene {
-        let at = md.find('\n').map_or(md.len(), |i| i + 1);
-        md.insert_str(at, &format!("\n{}\n", sc.headline()));
-    }
-    md.push_str(&format!(
-        "\n## What to ship (recommended.json, advice.json)\n\n```text\n{}```\n",
-        advice_text::explain(advice)
-    ));
-    md.push_str(&format!(
-        "\n## Stage times\n\nWall seconds of this run's stages; the truth and each fit \
-         were made once, for the comparison, and the advice scored those same fits.\n\n{}",
-        times.markdown()
-    ));
+/// report.md (`md`) and advice.json (read back).
+fn write_report(advice: &Advice, md: &str, dir: &Path, files: &mut Vec<String>) -> Result<()> {
     crate::io::write_atomic(&dir.join("report.md"), md.as_bytes())?;
+    files.push("report.md".into());
     crate::io::write_json_atomic(&dir.join("advice.json"), &advice.to_json())?;
     let _: serde_json::Value = crate::io::read_json(&dir.join("advice.json"))?;
     files.push("advice.json".into());
@@ -407,7 +509,6 @@ fn write_report(
 pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> String {
     use std::fmt::Write as _;
     let a = &o.advice;
-    let c = a.chosen();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -416,19 +517,8 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         settings.mm_per_pixel
     );
     let rel = |e: &super::evaluate::ImageErrors| e.rel_rms.iter().cloned().fold(0.0, f64::max);
-    let _ = writeln!(s, "ship: {} ({})", c.describe(), advice_text::cost_text(c));
-    let _ = writeln!(
-        s,
-        "  worst case {:.2}% +- {:.2}% on {}, deciding signal {}; target {:.1}% {} within the \
-         budget ({})",
-        Bounded(100.0 * c.verdict.rel_rms),
-        Bounded(100.0 * c.verdict.rel_rms_sigma),
-        c.verdict.worst_signal,
-        c.verdict.deciding_signal,
-        Bounded(100.0 * a.target),
-        if a.meets_target { "met" } else { "NOT met" },
-        a.budget.describe()
-    );
+    let _ = writeln!(s, "ship: {}", advice_text::ship_text(a));
+    let _ = writeln!(s, "  {}", advice_text::worst_case_text(a));
     if let Some(r) = &a.remedy {
         let _ = writeln!(s, "  {}", advice_text::remedy_text(r));
     }

@@ -104,6 +104,31 @@ pub(super) fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
     crate::numerics::nearest_rank(&x, 0.99)
 }
 
+/// The standard deviation of RMS_a - RMS_b, both relative to `peak`
+/// over `pixels`, from the noise of the truth t they are scored against
+/// (`[a, b, stderr of t]`, `rms_sum` = RMS_a + RMS_b): RMS_a^2 - RMS_b^2 =
+/// mean((a - b)(a + b - 2t)), whose standard deviation from t's noise is
+/// 2 sqrt(sum (a - b)^2 s^2) / N; divided by RMS_a + RMS_b it is that of
+/// RMS_a - RMS_b. The noise common to both scores cancels, so two passes
+/// are told apart far below the render's own noise.
+pub(super) fn rms_difference_sigma(
+    [a, b, stderr]: [&[f64]; 3],
+    pixels: impl Iterator<Item = usize>,
+    peak: f64,
+    rms_sum: f64,
+) -> f64 {
+    let (mut n, mut var) = (0usize, 0.0f64);
+    for i in pixels {
+        n += 1;
+        var += ((a[i] - b[i]) * stderr[i]).powi(2);
+    }
+    if rms_sum > 0.0 && n > 0 {
+        2.0 * var.sqrt() / n as f64 / peak.powi(2) / rms_sum
+    } else {
+        0.0
+    }
+}
+
 /// Scores images against one path-traced truth.
 pub(super) struct Scorer<'a> {
     truth: &'a Image,
@@ -139,6 +164,22 @@ impl<'a> Scorer<'a> {
             truth_ldr,
             ppd: ppd as f32,
         }
+    }
+
+    /// The exposure of the tone mapping FLIP sees (the path-traced image's).
+    pub(super) fn exposure(&self) -> f64 {
+        self.exposure
+    }
+
+    /// Per channel, the standard deviation from the truth's noise of
+    /// RMS_a - RMS_b over the region `all` ([`rms_difference_sigma`]);
+    /// `rms` holds both images' relative RMS there.
+    pub(super) fn difference_sigma(&self, a: &Image, b: &Image, rms: [[f64; 3]; 2]) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            let pixels = (0..self.masks[0].len()).filter(|&i| self.masks[0][i]);
+            let planes = [a.rgb[c].as_slice(), b.rgb[c].as_slice(), &self.stderr[c]];
+            rms_difference_sigma(planes, pixels, self.peak[c], rms[0][c] + rms[1][c])
+        })
     }
 
     pub(super) fn score(&self, img: &Image) -> Vec<RegionError> {

@@ -39,6 +39,30 @@ pub fn cost_text(c: &Candidate) -> String {
     )
 }
 
+/// What ships and its cost: "disk, 32 samples within 12.366 mm, mean of 8
+/// frames (1 pass of 32 samples = 32 samples per pixel, unsigned target)".
+pub fn ship_text(a: &Advice) -> String {
+    let c = a.chosen();
+    format!("{} ({})", c.describe(), cost_text(c))
+}
+
+/// The chosen configuration's worst case, its deciding signal and whether
+/// it meets the target within the budget.
+pub fn worst_case_text(a: &Advice) -> String {
+    let c = a.chosen();
+    format!(
+        "worst case {:.2}% +- {:.2}% on {}, deciding signal {}; target {:.1}% {} within the \
+         budget ({})",
+        Bounded(100.0 * c.verdict.rel_rms),
+        Bounded(100.0 * c.verdict.rel_rms_sigma),
+        c.verdict.worst_signal,
+        c.verdict.deciding_signal,
+        Bounded(100.0 * a.target),
+        if a.meets_target { "met" } else { "NOT met" },
+        a.budget.describe()
+    )
+}
+
 /// "5.050% +- 0.040% on checker2px".
 fn worst_text(c: &Candidate) -> String {
     format!(

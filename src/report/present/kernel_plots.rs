@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::filter::diff::{self, false_colour};
 use crate::filter::image::linear_to_srgb;
 use crate::filter::Image;
+use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::metrics::reconstruct;
 use crate::kernel::{Factors, Kernel2D, KernelFile};
 use crate::report::eval::claims::RANK1;
@@ -37,7 +38,7 @@ fn factors_of(k: &KernelFile) -> Factors {
 }
 
 /// Points (distance mm, density 1/mm^2).
-type Slice = Vec<(f64, f64)>;
+pub type Slice = Vec<(f64, f64)>;
 
 /// Slices along the axis and the diagonal of a row-major n x n kernel with
 /// cells of `cell` mm.
@@ -67,10 +68,96 @@ fn colour(i: usize) -> RGBColor {
     }
 }
 
+/// The kernel a report recommends, for its plots.
+pub enum Recommended<'a> {
+    /// A separable kernel: its full factors (what its tap table samples).
+    Separable {
+        label: String,
+        kernel: &'a KernelFile,
+    },
+    /// A disk kernel: its samples' weights per annulus ([`disk_annuli`]).
+    Disk {
+        label: String,
+        kernel: &'a DiskKernelFile,
+    },
+}
+
+/// The recommended kernel's colour in the plots: a purple no model uses.
+const RECOMMENDED: RGBColor = RGBColor(130, 0, 220);
+
+/// A disk kernel's radial density of channel `c` as a step curve (mm,
+/// 1/mm^2): each sample's weight spread over the ring from halfway to the
+/// previous sample's radius to halfway to the next (the first ring from
+/// the centre, the last as wide outside as inside), weight / ring area.
+/// Samples of one radius pool their weights; those with no weight in `c`
+/// (per-channel radii) are left out. After the per-pixel rotation a disk
+/// kernel is the same in every direction, so one curve serves the axis and
+/// the diagonal.
+pub fn disk_annuli(kernel: &DiskKernelFile, c: usize) -> Slice {
+    let mut rings: Vec<(f64, f64)> = Vec::new();
+    let mut samples: Vec<(f64, f64)> = kernel
+        .samples
+        .iter()
+        .filter(|s| s.weight[c] != 0.0)
+        .map(|s| (s.radius_mm, s.weight[c]))
+        .collect();
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (r, w) in samples {
+        match rings.last_mut() {
+            Some(last) if last.0 == r => last.1 += w,
+            _ => rings.push((r, w)),
+        }
+    }
+    let n = rings.len();
+    let edge = |i: usize| -> f64 {
+        match i {
+            0 => 0.0,
+            i if i == n && n >= 2 => rings[n - 1].0 + 0.5 * (rings[n - 1].0 - rings[n - 2].0),
+            i if i == n => 2.0 * rings[0].0,
+            i => 0.5 * (rings[i - 1].0 + rings[i].0),
+        }
+    };
+    let mut points = Vec::with_capacity(2 * n);
+    for (i, &(_, w)) in rings.iter().enumerate() {
+        let (a, b) = (edge(i), edge(i + 1));
+        let d = w / (std::f64::consts::PI * (b * b - a * a));
+        points.extend([(a, d), (b, d)]);
+    }
+    points
+}
+
+/// The recommended kernel's slice curve of channel `c` (`which`: 0 the
+/// axis, 1 the diagonal).
+fn recommended_curve(r: &Recommended, c: usize, which: usize) -> Curve {
+    let (label, points) = match r {
+        Recommended::Separable { label, kernel } => {
+            let offsets = &kernel.passes[0].offsets_mm;
+            let n = offsets.len();
+            let cell = if n > 1 { offsets[1] - offsets[0] } else { 1.0 };
+            let (axis, diag) = slices(&reconstruct(&factors_of(kernel), n, c), n, cell);
+            (label, if which == 0 { axis } else { diag })
+        }
+        Recommended::Disk { label, kernel } => (label, disk_annuli(kernel, c)),
+    };
+    Curve {
+        label: format!("recommended: {label}"),
+        color: RECOMMENDED,
+        points,
+        band: None,
+        dashed: false,
+    }
+}
+
 /// Axis and diagonal slices of the rank-1 models of `material` (and the
-/// highest-rank renormalised SVD) against the ground truth, log scale.
-/// Returns the boxes of the texts drawn.
-pub fn kernel_slices(cmp: &Comparison, material: &str, out: &Path) -> Result<Vec<TextBox>> {
+/// highest-rank renormalised SVD) against the ground truth, log scale,
+/// with the `recommended` kernel where given. Returns the boxes of the
+/// texts drawn.
+pub fn kernel_slices(
+    cmp: &Comparison,
+    material: &str,
+    recommended: Option<&Recommended>,
+    out: &Path,
+) -> Result<Vec<TextBox>> {
     let Some(mi) = cmp.materials.iter().position(|m| m == material) else {
         return Err(Error::Unsupported(format!("no material {material}")));
     };
@@ -93,6 +180,7 @@ pub fn kernel_slices(cmp: &Comparison, material: &str, out: &Path) -> Result<Vec
                 band: None,
                 dashed: true,
             }];
+            curves.extend(recommended.map(|r| recommended_curve(r, c, which)));
             for (i, f) in models.iter().enumerate() {
                 let a = reconstruct(&factors_of(&f.kernel), n, c);
                 let (sa, sd) = slices(&a, n, truth.cell_mm);
@@ -114,12 +202,19 @@ pub fn kernel_slices(cmp: &Comparison, material: &str, out: &Path) -> Result<Vec
             });
         }
     }
-    plot::render(
-        &panels,
-        3,
-        &format!("{material}: kernel slices, ground truth dashed"),
-        out,
-    )
+    let title = match recommended {
+        Some(Recommended::Disk { .. }) => format!(
+            "{material}: kernel slices, ground truth dashed; the recommended disk kernel \
+             (purple) as its samples' weights per ring"
+        ),
+        Some(Recommended::Separable { .. }) => {
+            format!(
+                "{material}: kernel slices, ground truth dashed, the recommended kernel in purple"
+            )
+        }
+        None => format!("{material}: kernel slices, ground truth dashed"),
+    };
+    plot::render(&panels, 3, &title, out)
 }
 
 /// Singular values sigma_i / sigma_1 of each material's ground truth per
@@ -460,4 +555,45 @@ pub fn flags_markdown(flags: &[ColourFlag]) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::disk::{fit_disk, RadiusPdf};
+
+    /// The rings of [`disk_annuli`] tile the disk from the centre outward,
+    /// each sample's ring holds it, and density x ring area gives back
+    /// the weights: their sum per channel, 1, for one set of radii and for
+    /// radii per channel.
+    #[test]
+    fn disk_rings_hold_the_weights() {
+        let m = crate::material::preset("skin1").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
+        let p = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        for radii in [RadiusPdf::Widest, RadiusPdf::PerChannel] {
+            let k = fit_disk(&p, 16, radii).unwrap();
+            for c in 0..3 {
+                let pts = disk_annuli(&k, c);
+                assert_eq!(pts[0].0, 0.0);
+                let mut mass = 0.0;
+                for ring in pts.chunks(2) {
+                    let ((a, d), (b, d2)) = (ring[0], ring[1]);
+                    assert!(b > a && d == d2, "{radii:?} {c}: {ring:?}");
+                    mass += d * std::f64::consts::PI * (b * b - a * a);
+                }
+                for w in pts.windows(2) {
+                    assert!(w[1].0 >= w[0].0, "{radii:?} {c}: {pts:?}");
+                }
+                for s in k.samples.iter().filter(|s| s.weight[c] != 0.0) {
+                    let inside = pts
+                        .chunks(2)
+                        .any(|r| r[0].0 <= s.radius_mm && s.radius_mm <= r[1].0);
+                    assert!(inside, "{radii:?} {c}: {}", s.radius_mm);
+                }
+                let sum: f64 = k.samples.iter().map(|s| s.weight[c]).sum();
+                assert!((mass - sum).abs() < 1e-12 && (sum - 1.0).abs() < 1e-9);
+            }
+        }
+    }
 }

@@ -130,27 +130,40 @@ pub struct SheetLayout {
 /// atomically and returns where everything went.
 pub(crate) fn draw_sheet(
     tiles: &[SheetTile],
-    (w, h): (usize, usize),
+    size: (usize, usize),
     title: &str,
     bar: Option<&ColourBar>,
     out: &Path,
 ) -> Result<SheetLayout> {
+    draw_sheet_in(tiles, size, COLS, title, bar, out)
+}
+
+/// [`draw_sheet`] with `cols` tiles to a row.
+pub(crate) fn draw_sheet_in(
+    tiles: &[SheetTile],
+    (w, h): (usize, usize),
+    cols: usize,
+    title: &str,
+    bar: Option<&ColourBar>,
+    out: &Path,
+) -> Result<SheetLayout> {
+    let cols = cols.max(1);
     let line = |n: usize| n * (LABEL_PX + LEADING) as usize;
     let col_w = w.max(MIN_COLUMN_W);
     let cell_w = col_w + GAP;
-    // Wide enough for six tiles, the colour bar and its caption.
+    // Wide enough for a row of tiles, the colour bar and its caption.
     let bar_w = bar.map_or(0, |b| {
         let caption = text_size(&colour_bar::caption(b), colour_bar::TEXT_PX).0 as usize;
         colour_bar::MIN_PAGE_W.max(caption + 2 * GAP)
     });
-    let sw = (COLS * cell_w).max(bar_w);
+    let sw = (cols * cell_w).max(bar_w);
     let title_lines = wrap(title, TITLE_PX, (sw - 2 * GAP) as u32);
     let head = GAP + title_lines.len() * (TITLE_PX + LEADING) as usize + GAP;
     let lines: Vec<_> = tiles.iter().map(|t| tile_lines(t, col_w as u32)).collect();
     // Per row of tiles: the label height above the top and above the
     // bottom images (the most lines any tile of the row has).
     let rows: Vec<(usize, usize)> = lines
-        .chunks(COLS)
+        .chunks(cols)
         .map(|r| {
             let top = r.iter().map(|l| l.0.len() + l.1.len()).max().unwrap_or(1);
             let bottom = r.iter().map(|l| l.2.len()).max().unwrap_or(0);
@@ -176,8 +189,8 @@ pub(crate) fn draw_sheet(
     );
     let mut y0 = head;
     for (r, row) in rows.iter().enumerate() {
-        for (k, t) in tiles.iter().enumerate().skip(r * COLS).take(COLS) {
-            let x0 = (k % COLS) * cell_w + GAP / 2;
+        for (k, t) in tiles.iter().enumerate().skip(r * cols).take(cols) {
+            let x0 = (k % cols) * cell_w + GAP / 2;
             let (top, flag, bottom) = &lines[k];
             stack(&mut texts, top, LABEL_PX, BLACK, (x0 as i32, y0 as i32));
             let yf = y0 + line(top.len());
