@@ -142,6 +142,15 @@ pub struct Args {
     angular_photons: u64,
     #[command(flatten)]
     directional: DirectionalArgs,
+    /// Thickness table of the scene's object (`ssskit transmission --out`) [default: none].
+    ///
+    /// For a scene lit from behind: the screen-space input alone, the same
+    /// plus each engine's transmission fitted to the table (the thickness
+    /// from the shadow map or a thickness map, as the engine reads it), and
+    /// the same plus the table itself, against the path-traced image; the
+    /// first lines say what is lost without transmission.
+    #[arg(long, value_name = "TABLE.json", requires = "scene")]
+    transmission: Option<PathBuf>,
 }
 
 fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
@@ -266,6 +275,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             size: a.signal_size.signal_size,
             follow_mm: a.follow_mm,
             angular_photons: a.angular_photons,
+            transmission: a.transmission.as_deref(),
             seed: a.seed.seed,
             plots: !a.no_plots.no_plots,
             out: a.out_dir.path()?,

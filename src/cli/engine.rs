@@ -105,6 +105,15 @@ pub struct Args {
     units_per_mm: Option<f64>,
     #[command(flatten)]
     mm_per_pixel: MmPerPixelArg,
+    /// Thickness table (`ssskit transmission --out`): also fit the engine's transmission to it.
+    ///
+    /// unreal, unity-hdrp and godot: the settings of the engine's thin-object
+    /// transmission (from its diffusion profile and the thickness it reads)
+    /// fitted to the table's T per thickness, printed with the error at
+    /// every thickness and written into --out and the --out-dir files
+    /// [default: none].
+    #[arg(long, value_name = "TABLE.json")]
+    transmission: Option<PathBuf>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -127,6 +136,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .as_deref()
         .ok_or_else(|| anyhow::anyhow!("give --profile"))?;
     let profile = Profile::read(profile_path)?;
+    let table = match &a.transmission {
+        Some(t) => Some(ssskit::profile::transmission::ThicknessTable::read(t)?),
+        None => None,
+    };
     let scene = a
         .units_per_mm
         .map_or(Scene::native(e), |units_per_mm| Scene { units_per_mm });
@@ -184,12 +197,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for line in engine::factors_place::lines(e, v, &profile)? {
         outln!("{line}")?;
     }
+    let tfit = match &table {
+        Some(t) => engine::transmission::fit(e, &fit, t, scene)?,
+        None => None,
+    };
+    super::transmission::print_engine(e, table.is_some(), tfit.as_ref())?;
+    let json = super::transmission::with_transmission(&fit, tfit.as_ref())?;
     if let Some(out) = &a.out.out {
-        ssskit::io::write_json_atomic(out, &fit)?;
+        ssskit::io::write_json_atomic(out, &json)?;
         eprintln!("wrote {}", out.display());
     }
     if let Some(staged) = staged {
-        write_files(staged, e, &fit, &profile)?;
+        write_files(staged, e, &fit, &profile, &json, tfit.as_ref())?;
     }
     if let Some(png) = &a.plot {
         let panels = plot::profile_panels(&[
@@ -214,11 +233,16 @@ fn write_files(
     e: Engine,
     fit: &engine::EngineFit,
     profile: &Profile,
+    value: &serde_json::Value,
+    tfit: Option<&engine::transmission::TransmissionFit>,
 ) -> anyhow::Result<()> {
     let stem = ssskit::io::file_stem(&profile.material.name);
-    let files = engine::files::files(e, fit, &stem)?;
+    let mut files = engine::files::files(e, fit, &stem)?;
+    if let Some(t) = tfit {
+        engine::transmission::files::add(e, t, &mut files)?;
+    }
     let json = format!("{stem}-{}.json", e.name());
-    ssskit::io::write_json_atomic(&ssskit::io::join_inside(staged.path(), &json)?, fit)?;
+    ssskit::io::write_json_atomic(&ssskit::io::join_inside(staged.path(), &json)?, value)?;
     for f in &files {
         let path = ssskit::io::join_inside(staged.path(), &f.name)?;
         ssskit::io::write_atomic(&path, f.text.as_bytes())?;

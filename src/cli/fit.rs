@@ -14,6 +14,7 @@ use ssskit::kernel::manual::ManualParams;
 use ssskit::kernel::preintegrate::PreMethod;
 use ssskit::kernel::{fit_kernel_file_with, Kernel2DSpec, KernelFile, Model};
 use ssskit::profile::Profile;
+use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum MethodArg {
@@ -96,6 +97,13 @@ pub struct Args {
     /// Print the tap table as a shader constant array [default: not printed].
     #[arg(long, value_enum, value_name = "LANG", ignore_case = true)]
     emit: Option<LangArg>,
+    /// Thickness table (`ssskit transmission --out`) to fit for shaders [default: none].
+    ///
+    /// The kernel file carries the transmittance through a thickness as two
+    /// exponentials per channel fitted to the table, with the fit's error;
+    /// --emit writes it as sss_transmittance(thickness_mm).
+    #[arg(long, value_name = "TABLE.json")]
+    transmission: Option<PathBuf>,
     #[command(flatten)]
     opts: Box<ModelOpts>,
     /// Do not print the summary.
@@ -297,13 +305,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ssskit::io::check_extension(out, &["json"], "kernel")?;
         }
         let profile = Profile::read(pp)?;
+        let table = match &a.transmission {
+            Some(t) => Some(ssskit::profile::transmission::ThicknessTable::read(t)?),
+            None => None,
+        };
         let spec = Kernel2DSpec {
             size: a.grid_size,
             extent_mm: a.extent.extent,
         };
         let m = model(&a, m)?;
-        let k = fit_kernel_file_with(&profile, &spec, &m, a.taps.taps, a.tap_extent)
+        let mut k = fit_kernel_file_with(&profile, &spec, &m, a.taps.taps, a.tap_extent)
             .with_context(|| format!("fitting a kernel to {}", pp.display()))?;
+        if let Some(t) = &table {
+            k.transmission =
+                Some(ssskit::kernel::transmission::fit_table(t).context("--transmission")?);
+        }
         if let Some(out) = &a.out.out {
             k.write(out)?;
             // Read back what was written: the file must load as is (a

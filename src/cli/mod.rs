@@ -28,6 +28,7 @@ mod scene;
 mod signal;
 mod simulate;
 mod study;
+mod transmission;
 #[cfg(test)]
 mod walk;
 
@@ -101,6 +102,8 @@ enum Command {
     Man(generate::ManArgs),
     /// Path-trace a scene (TOML) to an EXR: radiance, its standard error and the G-buffer.
     Scene(scene::Args),
+    /// Light through slabs of a material lit from behind, per thickness; the engines' formulas.
+    Transmission(transmission::Args),
 }
 
 /// Turns off Mesa's Vulkan device-select layer unless the user set it up:
@@ -206,6 +209,7 @@ pub fn main() -> i32 {
         Command::Completions(a) => generate::completions(a),
         Command::Man(a) => generate::man(a),
         Command::Scene(a) => scene::run(a),
+        Command::Transmission(a) => transmission::run(a),
     };
     match result.and_then(|()| out::flush()) {
         Ok(()) => 0,

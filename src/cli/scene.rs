@@ -430,6 +430,8 @@ pub(super) struct CompareArgs<'a> {
     pub follow_mm: Option<f64>,
     /// Photons per channel and incidence of the angular factors (0: none).
     pub angular_photons: u64,
+    /// Thickness table of the scene's object: the back-lit rows.
+    pub transmission: Option<&'a Path>,
     pub seed: u64,
     pub plots: bool,
     pub out: &'a Path,
@@ -530,10 +532,24 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         cmp.follow_constant
     );
     use ssskit::report::present::directional_tables as dt;
+    let back = match a.transmission {
+        Some(t) => Some(super::transmission::scene_block(
+            &scene,
+            &r,
+            profile,
+            t,
+            a.pixels_per_degree,
+        )?),
+        None => None,
+    };
     let mut tables = named_tables(&cmp);
     tables.extend(dt::named_table(&cmp));
-    let text = page(&cmp, &head) + &dt::section(&cmp);
-    ssskit::io::write_atomic(&dir.join("scene.md"), text.as_bytes())?;
+    let mut md = page(&cmp, &head) + &dt::section(&cmp);
+    if let Some((b, t)) = &back {
+        md = format!("{}\n\n{}\n\n{md}", b.headline, t.markdown());
+        tables.push(("transmission", t.clone()));
+    }
+    ssskit::io::write_atomic(&dir.join("scene.md"), md.as_bytes())?;
     let json = serde_json::json!({
         "scene": a.scene.display().to_string(),
         "dominance": dominance(&cmp),
@@ -550,6 +566,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
             Some(Err(why)) => serde_json::json!({ "refused": why }),
             None => serde_json::Value::Null,
         },
+        "transmission": back.as_ref().map(|b| &b.0),
     });
     let text = serde_json::to_string_pretty(&json)? + "\n";
     ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
@@ -565,10 +582,25 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
             |n| n.to_string_lossy().into(),
         );
         contact_sheet(&cmp, &name, &dir.join("contact-sheet.png"))?;
+        if let Some((b, _)) = &back {
+            ssskit::report::present::transmission_plots::scene_sheet(
+                b,
+                &cmp.truth,
+                &format!(
+                    "{name}: lit from behind, each way to show it above |image - path traced|"
+                ),
+                &dir.join("transmission-sheet.png"),
+            )?;
+        }
     }
     staged.commit()?;
+    // The directional verdict first; a transmission table asked for by
+    // flag after it.
     if let Some(h) = dt::headline(&cmp) {
         outln!("{h}\n")?;
+    }
+    if let Some((b, t)) = &back {
+        outln!("{}\n\n{}\n", b.headline, t.markdown())?;
     }
     let d = dominance(&cmp);
     if let Some(h) = d.as_ref().and_then(|d| d.headline()) {

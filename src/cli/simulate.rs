@@ -216,7 +216,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Fail before the simulation, not after it, on an unwritable destination.
     check_outputs(&args, &cfg, &out)?;
     let bar = Bar::new();
-    let mut profile = match open_gpu(args.backend.backend, &opts)? {
+    let finite = material
+        .layers
+        .last()
+        .is_some_and(|l| l.thickness.is_some());
+    let mut profile = match open_gpu(args.backend.backend, &opts, finite)? {
         Some(g) => g.simulate(&material, &cfg, &opts, g.default_dispatch(), &bar)?,
         None => mc::simulate_with(&material, &cfg, &opts, &bar)?,
     };
@@ -437,7 +441,7 @@ fn write_outputs(args: &Flags, profile: &Profile, out: &Path) -> anyhow::Result<
 
 /// The GPU tracer when the backend asks for it (printing the adapter), None
 /// for the CPU; `auto` falls back to the CPU, saying why.
-fn open_gpu(backend: Backend, opts: &McOptions) -> anyhow::Result<Option<McGpu>> {
+fn open_gpu(backend: Backend, opts: &McOptions, finite: bool) -> anyhow::Result<Option<McGpu>> {
     let open = || McGpu::new().context("--backend gpu");
     match backend {
         Backend::Cpu => Ok(None),
@@ -449,6 +453,12 @@ fn open_gpu(backend: Backend, opts: &McOptions) -> anyhow::Result<Option<McGpu>>
                 ""
             };
             eprintln!("backend: gpu, adapter {}{kind}", g.describe());
+            if finite {
+                eprintln!(
+                    "warning: the GPU tracer tallies total T only, no T_d(r): the profile has no \
+                     transmittance profile (--backend cpu has it)"
+                );
+            }
             Ok(Some(g))
         }
         Backend::Auto => {
@@ -458,6 +468,10 @@ fn open_gpu(backend: Backend, opts: &McOptions) -> anyhow::Result<Option<McGpu>>
             }
             if opts.angular.is_some() {
                 eprintln!("backend: cpu (auto: the GPU tracer has no angle-resolved tallies)");
+                return Ok(None);
+            }
+            if finite {
+                eprintln!("backend: cpu (auto: the GPU tracer tallies no transmittance profile)");
                 return Ok(None);
             }
             match open() {
@@ -505,9 +519,15 @@ pub(super) fn write_csv(
     use std::io::Write;
     outputs
         .add_with(path, |w| {
+            let tp = p.transmittance_profile().ok().flatten();
             write!(w, "r_inner_mm,r_outer_mm,r_mm")?;
             for c in &p.channels {
                 write!(w, ",rd_{0},rd_{0}_stderr", c.name())?;
+            }
+            if tp.is_some() {
+                for c in &p.channels {
+                    write!(w, ",td_{0},td_{0}_stderr", c.name())?;
+                }
             }
             writeln!(w)?;
             for i in 0..p.r.len() {
@@ -515,6 +535,11 @@ pub(super) fn write_csv(
                 for c in 0..p.channels.len() {
                     let e = p.rd_stderr.as_ref().map_or(0.0, |e| e[c][i]);
                     write!(w, ",{:e},{:e}", p.rd[c][i], e)?;
+                }
+                if let Some(t) = &tp {
+                    for c in 0..p.channels.len() {
+                        write!(w, ",{:e},{:e}", t.td[c][i], t.td_stderr[c][i])?;
+                    }
                 }
                 writeln!(w)?;
             }

@@ -29,6 +29,7 @@ pub mod jimenez;
 pub mod printed;
 pub mod sampled;
 pub mod sampling;
+pub mod transmission;
 pub mod unreal;
 
 use crate::error::{Error, Result};

@@ -2,6 +2,7 @@
 //! and offset in mm (the layout of Jimenez's separable SSS shader), the
 //! centre tap first as that shader expects.
 
+use super::transmission::ThicknessFit;
 use super::KernelFile;
 use crate::error::{Error, Result};
 use std::fmt::Write;
@@ -211,10 +212,20 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
             ),
         };
     }
-    if let Some(a) = &k.angular {
-        emit_angular(&mut out, a, lang)?;
-    }
+    extras(&mut out, k, lang)?;
     Ok(out)
+}
+
+/// What a kernel file carries beside its taps: the angular factors and the
+/// thickness function.
+fn extras(out: &mut String, k: &KernelFile, lang: Lang) -> Result<()> {
+    if let Some(a) = &k.angular {
+        emit_angular(out, a, lang)?;
+    }
+    if let Some(t) = &k.transmission {
+        transmittance_fn(out, t, lang)?;
+    }
+    Ok(())
 }
 
 /// The angular factor tables and their lookups (linear between the nodes
@@ -307,5 +318,78 @@ pub(crate) fn emit_angular(
             ),
         };
     }
+    Ok(())
+}
+
+/// The shader function `sss_transmittance(thickness_mm)` of `f` in `lang`,
+/// with its fit in the header; refused when a coefficient does not fit an
+/// f32.
+fn transmittance_fn(out: &mut String, f: &ThicknessFit, lang: Lang) -> Result<()> {
+    for (c, t) in f.terms.iter().enumerate() {
+        if let Some(v) = t.iter().find(|v| !(v.abs() <= f32::MAX as f64)) {
+            return Err(Error::invalid(
+                "shader",
+                format!("transmission.terms[{c}]"),
+                v,
+                "shader constants are f32: values must be finite and at most f32::MAX",
+            ));
+        }
+    }
+    let pct = |v: [f64; 3]| v.map(|x| format!("{:.1}%", 100.0 * x)).join(", ");
+    comment(
+        out,
+        &format!(
+            "Transmittance through a thickness: sss_transmittance(t) = the scattered light \
+             leaving the unlit face of a slab of {} t mm thick lit from behind (normal beam), per \
+             incident light, RGB; a1 exp(-b1 t) + a2 exp(-b2 t) fitted to `ssskit transmission` over {} \
+             to {} mm (clamped there); relative error over the table's rows (r, g, b): max {}, \
+             RMS {}. Multiply by the light behind and give it a Lambertian exit (divide by pi \
+             for radiance).",
+            f.material,
+            num(f.range_mm[0]),
+            num(f.range_mm[1]),
+            pct(f.max_rel_error),
+            pct(f.rms_rel_error)
+        ),
+    );
+    let term = |c: usize, exp: &str| {
+        let [a1, b1, a2, b2] = f.terms[c];
+        format!(
+            "{} * {exp}(-{} * t) + {} * {exp}(-{} * t)",
+            num(a1),
+            num(b1),
+            num(a2),
+            num(b2)
+        )
+    };
+    let (lo, hi) = (num(f.range_mm[0]), num(f.range_mm[1]));
+    let body = |ctor: &str| {
+        format!(
+            "{ctor}(\n        {},\n        {},\n        {})",
+            term(0, "exp"),
+            term(1, "exp"),
+            term(2, "exp")
+        )
+    };
+    let _ = match lang {
+        Lang::Hlsl => writeln!(
+            out,
+            "float3 sss_transmittance(float thickness_mm) {{\n    float t = clamp(thickness_mm, \
+             {lo}, {hi});\n    return {};\n}}",
+            body("float3")
+        ),
+        Lang::Glsl => writeln!(
+            out,
+            "vec3 sss_transmittance(float thickness_mm) {{\n    float t = clamp(thickness_mm, \
+             {lo}, {hi});\n    return {};\n}}",
+            body("vec3")
+        ),
+        Lang::Wgsl => writeln!(
+            out,
+            "fn sss_transmittance(thickness_mm: f32) -> vec3<f32> {{\n    let t = \
+             clamp(thickness_mm, {lo}, {hi});\n    return {};\n}}",
+            body("vec3<f32>")
+        ),
+    };
     Ok(())
 }

@@ -153,6 +153,10 @@ pub struct KernelFile {
     /// after), when the profile carried the angle-resolved tables.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angular: Option<super::angular::AngularFactors>,
+    /// The transmittance through a thickness for shaders (`fit
+    /// --transmission`), fitted to a thickness table.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmission: Option<super::transmission::ThicknessFit>,
 }
 
 impl Pass {
@@ -307,6 +311,12 @@ impl KernelFile {
         }
         if self.passes.is_empty() {
             return bad("kernel has no passes".into());
+        }
+        if let Some(t) = &self.transmission {
+            let finite = t.terms.iter().flatten().all(|v| v.is_finite() && *v >= 0.0);
+            if !(finite && t.range_mm[0] > 0.0 && t.range_mm[1] >= t.range_mm[0]) {
+                return bad("transmission: expected terms >= 0 and a range 0 < lo <= hi mm".into());
+            }
         }
         if let Some(m) = &self.material {
             m.validate(context)?;

@@ -21,6 +21,7 @@ pub mod reference;
 pub mod svd;
 pub mod tap_kernel;
 pub mod taps;
+pub mod transmission;
 
 pub use factors::Factors;
 pub use format::{KernelFile, Metrics, ModelInfo, Pass, TapTable, Usage, KERNEL_SCHEMA};

@@ -228,6 +228,7 @@ pub fn assemble_with(
         },
         usage: None,
         angular: super::angular::AngularFactors::from_profile(profile)?,
+        transmission: None,
     };
     file.validate("fitted kernel")?;
     Ok(file)

@@ -11,6 +11,7 @@ pub mod mc;
 pub mod metrics;
 pub mod radius;
 pub mod source;
+pub mod transmission;
 
 pub use grid::RadialGrid;
 pub use grid_spec::GridSpec;
@@ -191,6 +192,34 @@ impl Profile {
     /// angles, oblique incidence); `None` when it recorded none.
     pub fn angular(&self) -> Result<Option<mc::Angular>> {
         self.extra_record("angular", "the angle-resolved tables of `ssskit simulate`")
+    }
+
+    /// The transmitted light of a simulated finite stack
+    /// (`extra.transmittance_profile`: T_d(r) with standard errors, exit
+    /// angles when tallied); `None` when it recorded none.
+    pub fn transmittance_profile(&self) -> Result<Option<mc::TransmittanceProfile>> {
+        let t: Option<mc::TransmittanceProfile> = self.extra_record(
+            "transmittance_profile",
+            "the transmittance profile of `ssskit simulate`",
+        )?;
+        if let Some(t) = &t {
+            let n = self.r.len();
+            let ok = t.td.len() == self.channels.len()
+                && t.td_stderr.len() == self.channels.len()
+                && t.beyond_rmax.len() == self.channels.len()
+                && t.td
+                    .iter()
+                    .chain(&t.td_stderr)
+                    .all(|v| v.len() == n && v.iter().all(|x| x.is_finite() && *x >= 0.0));
+            if !ok {
+                return Err(self.bad_record(
+                    "transmittance_profile",
+                    &self.extra["transmittance_profile"],
+                    "expected td and td_stderr of one finite value >= 0 per channel and bin",
+                ));
+            }
+        }
+        Ok(t)
     }
 
     /// `extra[key]` read as a `T`; `None` when absent.

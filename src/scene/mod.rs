@@ -42,6 +42,7 @@ mod render;
 mod rounds;
 mod samples;
 mod sphere;
+pub mod thickness;
 mod trace;
 
 pub use camera::{Camera, Measure, Projection};

@@ -7,6 +7,8 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+pub mod adding_doubling;
+pub mod backlit_meshes;
 pub mod golden;
 pub mod half_space;
 pub mod skin1;
@@ -84,6 +86,28 @@ pub fn ok(args: &[&str]) -> String {
 /// `ok` in the working directory `dir`.
 pub fn ok_in(dir: &Path, args: &[&str]) -> String {
     assert_ok(&run_in(dir, args), args).0
+}
+
+/// `ssskit transmission` of skin1 index-matched (`--eta 1`, as the
+/// back-lit scenes' objects), 6 slabs from 0.5 to 10 mm, written to
+/// DIR/t.json (its path); `extra` adds flags (photons, seed, engines).
+pub fn skin1_table(dir: &Path, extra: &[&str]) -> std::path::PathBuf {
+    let mut args = vec![
+        "transmission",
+        "--material",
+        "skin1",
+        "--eta",
+        "1",
+        "--thickness",
+        "0.5..10",
+        "--steps",
+        "6",
+        "--out",
+        "t.json",
+    ];
+    args.extend_from_slice(extra);
+    ok_in(dir, &args);
+    dir.join("t.json")
 }
 
 /// Runs a command that must succeed; returns (stdout, stderr).

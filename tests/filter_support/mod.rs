@@ -75,6 +75,7 @@ fn kernel_file(name: &str, passes: Vec<Pass>, taps: Vec<Pass>, n: usize) -> Kern
         },
         usage: None,
         angular: None,
+        transmission: None,
     }
 }
 

@@ -62,6 +62,10 @@ pub(super) fn build_profile(
     if opts.single_scatter {
         extra["single_scatter"] = json!(single);
     }
+    let tr_status: Vec<_> = runs.iter().map(|r| r.status.tr).collect();
+    if let Some(t) = transmit::record(&ts, &tr_status, &areas) {
+        extra["transmittance_profile"] = json!(t);
+    }
     Profile {
         schema: PROFILE_SCHEMA.into(),
         material: material.clone(),

@@ -155,6 +155,36 @@ impl ExactBins {
         ok
     }
 
+    /// Adds a chunk's sums, taking their size on first use (a tally kept
+    /// only by some runs: the transmittance of a finite stack).
+    #[must_use]
+    fn add_chunk_sized(&mut self, b: &BinSums) -> bool {
+        if b.sum.is_empty() {
+            return true;
+        }
+        if self.sum.is_empty() {
+            *self = ExactBins::new(b.sum.len());
+        }
+        self.sum.len() == b.sum.len() && self.add_chunk(b)
+    }
+
+    /// `add` taking the other's size when this one is empty.
+    #[must_use]
+    fn add_sized(&mut self, o: &ExactBins) -> bool {
+        if o.sum.is_empty() {
+            return true;
+        }
+        if self.sum.is_empty() {
+            *self = o.clone();
+            return true;
+        }
+        self.sum.len() == o.sum.len() && self.add(o)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.sum.is_empty()
+    }
+
     fn to_f64(&self) -> BinSums {
         BinSums {
             sum: self.sum.iter().map(|x| x.to_f64()).collect(),
@@ -274,6 +304,14 @@ pub struct ExactTally {
     /// Exit-angle sums (angle-resolved runs only).
     #[serde(default, skip_serializing_if = "ExactExit::is_empty")]
     pub exit: ExactExit,
+    /// Transmittance per radial bin, the last entry beyond r_max (finite
+    /// stacks only).
+    #[serde(default, skip_serializing_if = "ExactBins::is_empty")]
+    pub tr_bins: ExactBins,
+    /// Exit-angle sums of the transmitted light (angle-resolved runs of a
+    /// finite stack only).
+    #[serde(default, skip_serializing_if = "ExactExit::is_empty")]
+    pub tr_exit: ExactExit,
 }
 
 impl ExactTally {
@@ -306,6 +344,8 @@ impl ExactTally {
         ok &= self.rd_bins.add_chunk(&t.rd_bins);
         ok &= self.single_bins.add_chunk(&t.single_bins);
         ok &= self.exit.add_chunk(&t.exit);
+        ok &= self.tr_bins.add_chunk_sized(&t.tr_bins);
+        ok &= self.tr_exit.add_chunk(&t.tr_exit);
         if !ok {
             return Err("a chunk sum is negative, not finite or beyond 2^64".into());
         }
@@ -323,6 +363,8 @@ impl ExactTally {
         ok &= self.rd_bins.add(&o.rd_bins);
         ok &= self.single_bins.add(&o.single_bins);
         ok &= self.exit.add(&o.exit);
+        ok &= self.tr_bins.add_sized(&o.tr_bins);
+        ok &= self.tr_exit.add(&o.tr_exit);
         if !ok {
             return Err("an exact sum overflows its 192 bits".into());
         }
@@ -403,6 +445,9 @@ impl ExactTally {
             ("single_bins", &self.single_bins),
             ("exit.ra", &self.exit.ra),
             ("exit.a", &self.exit.a),
+            ("tr_bins", &self.tr_bins),
+            ("tr_exit.ra", &self.tr_exit.ra),
+            ("tr_exit.a", &self.tr_exit.a),
         ] {
             for (i, (s, q)) in b.sum.iter().zip(&b.sum_sq).enumerate() {
                 moments(&format!("{label}[{i}]"), s.to_f64(), q.to_f64())?;
@@ -414,6 +459,24 @@ impl ExactTally {
                 "rd_bins and rd beyond r_max sum to {binned:e}, the total rd is {:e}",
                 v[1]
             ));
+        }
+        if !self.tr_bins.is_empty() {
+            // The radial bins and the one beyond r_max; the last entry is
+            // the scattered part of them.
+            let n = self.tr_bins.sum.len().saturating_sub(1);
+            let tr: f64 = self.tr_bins.sum[..n].iter().map(|x| x.to_f64()).sum();
+            let scattered = self.tr_bins.sum[n].to_f64();
+            if !(scattered <= tr * (1.0 + 1e-9)) {
+                return Err(format!(
+                    "tr_bins: the scattered transmittance {scattered:e} exceeds the whole {tr:e}"
+                ));
+            }
+            if !((tr - v[3]).abs() <= 1e-9 * v[3].max(f64::MIN_POSITIVE)) {
+                return Err(format!(
+                    "tr_bins sum to {tr:e}, the total transmittance is {:e}",
+                    v[3]
+                ));
+            }
         }
         Ok(())
     }
@@ -441,6 +504,8 @@ impl ExactTally {
             truncated: v[12],
             truncated_photons: self.truncated_photons,
             exit: self.exit.to_f64(),
+            tr_bins: self.tr_bins.to_f64(),
+            tr_exit: self.tr_exit.to_f64(),
             // Not held in exact sums: only `angular::ahead` reads them, from
             // its own chunk tallies.
             ..ChunkTally::default()

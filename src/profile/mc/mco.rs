@@ -1,17 +1,22 @@
 //! MCML's ASCII output (.mco, MCML 1.2 manual, section 6): the input
-//! parameters, the totals (RAT), Rd_r and, when the run tallied exit angles,
-//! Rd_a and Rd_ra, so that a run diffs line by line with an MCML run of the
-//! same .mci file. Units are MCML's: cm, cm^-1, cm^-2 and sr^-1. A_l, A_z,
-//! Tt_r, Tt_a, A_rz and Tt_ra are not tallied here and not written.
+//! parameters, the totals (RAT), Rd_r and, for a finite stack, Tt_r; when
+//! the run tallied exit angles, Rd_a and Rd_ra (and Tt_a, Tt_ra), so that a
+//! run diffs line by line with an MCML run of the same .mci file, in
+//! MCML's order (mcmlio.c `WriteResult`: Rd_r, Rd_a, Tt_r, Tt_a, then
+//! Rd_ra, Tt_ra). Units are MCML's: cm, cm^-1, cm^-2 and sr^-1. A_l, A_z
+//! and A_rz are not tallied here and not written.
 //!
 //! Where it follows MCML rather than the profile JSON: weight that leaves
-//! beyond the grid is added to the last Rd_r bin (MCML's convention, its
-//! RecordR clamps the radius index), and to the last row of Rd_ra; the JSON
-//! keeps it apart (`rd_beyond_rmax`) so that kernels see no spike there. The
-//! angular arrays are scaled as MCML's ScaleRdTt does (mcmlgo.c, MCML
-//! 1.2.2): Rd_a by 2 pi da sin(a) (its approximation of the solid angle)
-//! and Rd_ra by the annulus 2 pi (i + 1/2) dr^2 times 4 pi sin(a) sin(da/2)
-//! cos(a), a at the bin centre.
+//! beyond the grid is added to the last Rd_r (Tt_r) bin (MCML's convention,
+//! its RecordR and RecordT clamp the radius index), and to the last row of
+//! Rd_ra (Tt_ra); the JSON keeps it apart (`rd_beyond_rmax`,
+//! `transmittance_profile.beyond_rmax`) so that kernels see no spike there.
+//! The arrays are scaled as MCML's ScaleRdTt does (mcmlio.c, MCML 1.2.2):
+//! Rd_r and Tt_r by the annulus 2 pi (i + 1/2) dr^2, Rd_a and Tt_a by
+//! 2 pi da sin(a) (its approximation of the solid angle), Rd_ra and Tt_ra
+//! by the annulus times 4 pi sin(a) sin(da/2) cos(a), a at the bin centre.
+//! Tt_a bins the transmitted direction below the stack (RecordT:
+//! acos(uz) of the refracted packet).
 
 use crate::error::{Error, Result};
 use crate::numerics::annulus_area;
@@ -68,16 +73,9 @@ fn c_e(x: f64) -> String {
     )
 }
 
-/// The .mco text of a one-channel profile on a uniform grid.
-pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
-    if p.channels.len() != 1 {
-        return Err(Error::Unsupported(format!(
-            "an .mco file holds one wavelength (MCML is monochrome); this run has {} channels: \
-             simulate one channel",
-            p.channels.len()
-        )));
-    }
-    let n = p.r.len();
+/// The bin width of `p`'s radial grid, refused unless uniform (MCML's
+/// dr, nr).
+fn uniform_dr(p: &Profile) -> Result<f64> {
     let dr = p.r_edges[1] - p.r_edges[0];
     if p.r_edges
         .iter()
@@ -89,6 +87,20 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
                 .into(),
         ));
     }
+    Ok(dr)
+}
+
+/// The .mco text of a one-channel profile on a uniform grid.
+pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
+    if p.channels.len() != 1 {
+        return Err(Error::Unsupported(format!(
+            "an .mco file holds one wavelength (MCML is monochrome); this run has {} channels: \
+             simulate one channel",
+            p.channels.len()
+        )));
+    }
+    let n = p.r.len();
+    let dr = uniform_dr(p)?;
     let photons = p
         .source
         .photons
@@ -106,14 +118,35 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
     let na = exit.map_or(1, |(a, _)| a.angle_bins);
     let mut s = String::new();
     let _ = writeln!(s, "A1 \t# Version number of the file format.\n");
-    let (cats, only) = if exit.is_some() {
-        (
-            "InParm, RAT, \n# Rd_r, Rd_a, \n# Rd_ra",
-            "InParm, RAT, Rd_r, Rd_a and Rd_ra",
-        )
-    } else {
-        ("InParm, RAT, Rd_r", "InParm, RAT and Rd_r")
+    let tt = p.transmittance_profile()?;
+    let tt_angles = tt.as_ref().and_then(|t| t.angular.as_ref());
+    let mut ones = vec!["Rd_r"];
+    let mut twos = vec![];
+    if exit.is_some() {
+        ones.push("Rd_a");
+        twos.push("Rd_ra");
+    }
+    if tt.is_some() {
+        ones.push("Tt_r");
+    }
+    if tt_angles.is_some() && exit.is_some() {
+        ones.push("Tt_a");
+        twos.push("Tt_ra");
+    }
+    let mut all = vec!["InParm", "RAT"];
+    all.extend(&ones);
+    all.extend(&twos);
+    let only = match all.split_last() {
+        Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+        None => String::new(),
     };
+    let mut cats = format!("InParm, RAT, \n# {}, ", ones.join(", "));
+    if !twos.is_empty() {
+        cats.push_str(&format!("\n# {}", twos.join(", ")));
+    }
+    if ones.len() == 1 {
+        cats = "InParm, RAT, Rd_r".into();
+    }
     let _ = writeln!(s, "####\n# Data categories include: \n# {cats} \n####\n");
     let _ = writeln!(
         s,
@@ -154,8 +187,33 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
     );
     let _ = writeln!(s, "Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]");
     let beyond = p.rd_beyond_rmax()?.map_or(0.0, |b| b[0]);
+    write_radial(&mut s, p, &p.rd[0], beyond);
+    if let Some((a, x)) = exit {
+        write_rd_a(&mut s, a, x);
+    }
+    if let Some(t) = &tt {
+        let _ = writeln!(s, "Tt_r #Tt[0], [1],..Tt[nr-1]. [1/cm2]");
+        write_radial(&mut s, p, &t.td[0], t.beyond_rmax[0]);
+    }
+    let tt_a = tt_angles.filter(|_| exit.is_some());
+    if let Some(ta) = tt_a {
+        write_tt_a(&mut s, ta);
+    }
+    if let Some((a, x)) = exit {
+        write_rd_ra(&mut s, p, a, x, cm(dr));
+    }
+    if let Some(ta) = tt_a {
+        write_tt_ra(&mut s, ta, cm(dr));
+    }
+    Ok(s)
+}
+
+/// A radial array in 1/cm^2, one value a line, the light beyond the grid
+/// in the last bin (MCML's WriteRd_r and WriteTt_r).
+fn write_radial(s: &mut String, p: &Profile, v: &[f64], beyond: f64) {
+    let n = p.r.len();
     let last_area = annulus_area(p.r_edges[n - 1], p.r_edges[n]);
-    for (i, v) in p.rd[0].iter().enumerate() {
+    for (i, v) in v.iter().enumerate() {
         let mm2 = if i + 1 == n {
             v + beyond / last_area
         } else {
@@ -164,67 +222,109 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
         let _ = writeln!(s, "{}", c_e(mm2 * 100.0));
     }
     s.push('\n');
-    if let Some((a, x)) = exit {
-        write_angular(&mut s, p, a, x, cm(dr));
-    }
-    Ok(s)
 }
 
-/// Rd_a (one value a line) and Rd_ra (five a line, `%12.4E ` each, a line
-/// break after every fifth value counted over the whole array), as MCML's
-/// WriteRd_a and WriteRd_ra, scaled as its ScaleRdTt.
-fn write_angular(
-    s: &mut String,
-    p: &Profile,
-    a: &crate::profile::mc::Angular,
-    x: &crate::profile::mc::angular::ExitTable,
-    dr_cm: f64,
-) {
+/// MCML's solid angle of exit bin `ia` of `na` (ScaleRdTt): 2 pi da sin(a)
+/// at the bin centre, and the bin centre.
+fn solid_angle(ia: usize, na: usize) -> (f64, f64) {
     use std::f64::consts::PI;
-    let na = a.angle_bins;
-    let nr = p.r.len();
     let da = PI / (2.0 * na as f64);
-    let centre = |ia: usize| (ia as f64 + 0.5) * da;
-    let _ = writeln!(s, "Rd_a #Rd[0], [1],..Rd[na-1]. [sr-1]");
-    for ia in 0..na {
-        let _ = writeln!(
-            s,
-            "{}",
-            c_e(x.fraction[0][ia] / (2.0 * PI * da * centre(ia).sin()))
-        );
-    }
-    s.push('\n');
-    let _ = writeln!(
-        s,
-        "# Rd[r][angle]. [1/(cm2sr)].\n# Rd[0][0], [0][1],..[0][na-1]\n\
-         # Rd[1][0], [1][1],..[1][na-1]\n# ...\n# Rd[nr-1][0], [nr-1][1],..[nr-1][na-1]\nRd_ra"
-    );
-    let area_mm2 = |ir: usize| annulus_area(p.r_edges[ir], p.r_edges[ir + 1]);
+    let a = (ia as f64 + 0.5) * da;
+    (2.0 * PI * da * a.sin(), a)
+}
+
+/// MCML's scale of a radius x angle cell (ScaleRdTt): the annulus
+/// 2 pi (i + 1/2) dr^2 times 4 pi sin(a) sin(da/2) cos(a).
+fn cell_scale(ir: usize, ia: usize, na: usize, dr_cm: f64) -> f64 {
+    use std::f64::consts::PI;
+    let da = PI / (2.0 * na as f64);
+    let t = (ia as f64 + 0.5) * da;
+    2.0 * PI * (ir as f64 + 0.5) * dr_cm * dr_cm * 4.0 * PI * t.sin() * (da / 2.0).sin() * t.cos()
+}
+
+/// Five `%12.4E ` values a line, counted over the whole array (MCML's
+/// WriteRd_ra and WriteTt_ra); `cell(ir, ia)` is the part of the incident
+/// light in the cell.
+fn write_cells(
+    s: &mut String,
+    nr: usize,
+    na: usize,
+    dr_cm: f64,
+    cell: impl Fn(usize, usize) -> f64,
+) {
     for ir in 0..nr {
         for ia in 0..na {
-            // The part of the incident light in the cell: pi L x area x share.
-            let mut w = x.radiance[0][ir][ia] * area_mm2(ir) * a.lambert_share[ia];
-            if ir + 1 == nr {
-                w += x.beyond_rmax[0][ia];
-            }
-            let t = centre(ia);
-            let scale = 2.0
-                * PI
-                * (ir as f64 + 0.5)
-                * dr_cm
-                * dr_cm
-                * 4.0
-                * PI
-                * t.sin()
-                * (da / 2.0).sin()
-                * t.cos();
-            let _ = write!(s, "{} ", c_e(w / scale));
+            let _ = write!(s, "{} ", c_e(cell(ir, ia) / cell_scale(ir, ia, na, dr_cm)));
             if (ir * na + ia + 1).is_multiple_of(5) {
                 s.push('\n');
             }
         }
     }
     s.push('\n');
+}
+
+/// Tt_a, one value a line (MCML's WriteTt_a).
+fn write_tt_a(s: &mut String, t: &crate::profile::mc::TransmittedAngles) {
+    let na = t.angle_bins;
+    let _ = writeln!(s, "Tt_a #Tt[0], [1],..Tt[na-1]. [sr-1]");
+    for ia in 0..na {
+        let _ = writeln!(s, "{}", c_e(t.fraction[0][ia] / solid_angle(ia, na).0));
+    }
+    s.push('\n');
+}
+
+/// Tt_ra (MCML's WriteTt_ra), the row beyond r_max added to the last.
+fn write_tt_ra(s: &mut String, t: &crate::profile::mc::TransmittedAngles, dr_cm: f64) {
+    let cells = &t.cell[0];
+    let nr = cells.len() - 1;
+    let _ = writeln!(
+        s,
+        "# Tt[r][angle]. [1/(cm2sr)].\n# Tt[0][0], [0][1],..[0][na-1]\n\
+         # Tt[1][0], [1][1],..[1][na-1]\n# ...\n# Tt[nr-1][0], [nr-1][1],..[nr-1][na-1]\nTt_ra"
+    );
+    write_cells(s, nr, t.angle_bins, dr_cm, |ir, ia| {
+        cells[ir][ia] + if ir + 1 == nr { cells[nr][ia] } else { 0.0 }
+    });
+}
+
+/// Rd_a, one value a line (MCML's WriteRd_a).
+fn write_rd_a(
+    s: &mut String,
+    a: &crate::profile::mc::Angular,
+    x: &crate::profile::mc::angular::ExitTable,
+) {
+    let na = a.angle_bins;
+    let _ = writeln!(s, "Rd_a #Rd[0], [1],..Rd[na-1]. [sr-1]");
+    for ia in 0..na {
+        let _ = writeln!(s, "{}", c_e(x.fraction[0][ia] / solid_angle(ia, na).0));
+    }
+    s.push('\n');
+}
+
+/// Rd_ra (MCML's WriteRd_ra), the light beyond r_max in the last row.
+fn write_rd_ra(
+    s: &mut String,
+    p: &Profile,
+    a: &crate::profile::mc::Angular,
+    x: &crate::profile::mc::angular::ExitTable,
+    dr_cm: f64,
+) {
+    let nr = p.r.len();
+    let _ = writeln!(
+        s,
+        "# Rd[r][angle]. [1/(cm2sr)].\n# Rd[0][0], [0][1],..[0][na-1]\n\
+         # Rd[1][0], [1][1],..[1][na-1]\n# ...\n# Rd[nr-1][0], [nr-1][1],..[nr-1][na-1]\nRd_ra"
+    );
+    let area_mm2 = |ir: usize| annulus_area(p.r_edges[ir], p.r_edges[ir + 1]);
+    write_cells(s, nr, a.angle_bins, dr_cm, |ir, ia| {
+        // The part of the incident light in the cell: pi L x area x share.
+        let w = x.radiance[0][ir][ia] * area_mm2(ir) * a.lambert_share[ia];
+        w + if ir + 1 == nr {
+            x.beyond_rmax[0][ia]
+        } else {
+            0.0
+        }
+    });
 }
 
 /// Writes `mco_text` atomically.

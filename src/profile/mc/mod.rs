@@ -25,6 +25,7 @@ mod merge;
 mod rounds;
 mod tally;
 pub(crate) mod tracer;
+pub mod transmit;
 
 pub use angular::{Angular, AngularOptions};
 pub use balance::EnergyBalance;
@@ -34,6 +35,7 @@ pub use tracer::{
     BoundaryMode, DEFAULT_EVENT_ROULETTE, DEFAULT_ROULETTE_THRESHOLD, EVENT_ROULETTE_SURVIVAL,
     ROULETTE_CHANCE, ROULETTE_THRESHOLD,
 };
+pub use transmit::{require_finite, TransmittanceProfile, TransmittedAngles};
 
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};

@@ -2,6 +2,8 @@
 //! inside a round, the budget rules checked between rounds, and each
 //! channel's convergence.
 
+use super::tally::{convergence_of, densities};
+use super::transmit::{tr_floor_ratio, tr_rule_error, tr_statuses, TrStatus};
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -40,6 +42,8 @@ pub(super) struct Status {
     /// Total R_d and its standard error.
     pub(super) rd: f64,
     pub(super) rd_stderr: f64,
+    /// The transmitted light's errors (finite stacks only).
+    pub(super) tr: Option<TrStatus>,
 }
 
 /// A finished channel: its tally and how the run ended.
@@ -363,16 +367,18 @@ impl Job<'_> {
         } else {
             rule_error(&self.cfg.budget, &run.status)
         };
-        let floor = floor_ratio(
+        let (r, by_floor) = channel_ratio(
             &self.cfg.budget,
             self.opts.abs_floor,
+            rel,
             &run.status,
+            err,
             run.tally.photons,
         );
-        *ratio = (err / rel).min(floor);
-        if err <= rel || floor <= 1.0 {
+        *ratio = r;
+        if r <= 1.0 {
             run.converged = true;
-            run.by_floor = err > rel;
+            run.by_floor = by_floor;
             false
         } else if work >= self.opts.max_work {
             run.work_capped = true;
@@ -503,12 +509,6 @@ pub(super) fn rule_error(budget: &PhotonBudget, s: &Status) -> f64 {
     }
 }
 
-/// R_d per bin (mm^-2) of a tally.
-pub(super) fn densities(sum: &[f64], n: u64, areas: &[f64]) -> Vec<f64> {
-    let nf = n.max(1) as f64;
-    sum.iter().zip(areas).map(|(s, a)| s / (nf * a)).collect()
-}
-
 /// The status of every channel and the default kernel grid they imply
 /// (all channels together, as `Kernel2D::from_profile` sees them).
 pub(super) fn statuses(
@@ -549,9 +549,11 @@ pub(super) fn statuses(
     };
     let geometry = kernel_geometry(&provisional);
     let projection = geometry.map(|g| Projection::new(&grid.edges, &g));
+    let tr = tr_statuses(material, channels, grid, &t);
     let s = t
         .iter()
-        .map(|t| {
+        .zip(tr)
+        .map(|(t, tr)| {
             let (rel_total, rel_profile, r99) = convergence(t, grid);
             let rel_factor = projection.as_ref().map_or(0.0, |p| {
                 p.factor_rel_error(&t.rd_bins.sum, &t.rd_bins.sum_sq, t.photons)
@@ -563,6 +565,7 @@ pub(super) fn statuses(
                 rel_factor,
                 rd: t.rd.mean(t.photons),
                 rd_stderr: t.rd.stderr(t.photons),
+                tr,
             }
         })
         .collect();
@@ -578,28 +581,41 @@ pub(super) fn statuses(
 /// sum_i s_i / sum_i W_i, where W_i is the reflectance scored in bin i and
 /// s_i its standard error. A zero R_d (nothing comes back) counts as exact.
 pub(super) fn convergence(t: &ChunkTally, grid: &RadialGrid) -> (f64, f64, f64) {
-    let n = t.photons;
-    let total = t.rd.mean(n);
-    if total <= 0.0 {
-        return (0.0, 0.0, 0.0);
-    }
-    let rel_total = t.rd.stderr(n) / total;
-    let goal = 0.99 * t.rd.sum;
-    let mut acc = 0.0;
-    let mut err = 0.0;
-    for i in 0..grid.len() {
-        let m = Moments {
-            sum: t.rd_bins.sum[i],
-            sum_sq: t.rd_bins.sum_sq[i],
-        };
-        acc += t.rd_bins.sum[i];
-        err += m.stderr(n) * n as f64;
-        if acc >= goal {
-            break;
+    convergence_of(&t.rd, &t.rd_bins, t.photons, grid)
+}
+
+/// The larger of how far the reflected and the transmitted light are from
+/// the target (`err / rel`) and from the floor, each part met either way:
+/// a channel stops when both its reflected and its transmitted light meet
+/// the target or the floor.
+pub(super) fn channel_ratio(
+    budget: &PhotonBudget,
+    floor: f64,
+    rel: f64,
+    s: &Status,
+    rd_err: f64,
+    photons: u64,
+) -> (f64, bool) {
+    let r = (rd_err / rel).min(floor_ratio(budget, floor, s, photons));
+    let mut by_floor = rd_err > rel;
+    let t = match &s.tr {
+        Some(t) => {
+            // No light through yet is not an exact zero (the slab is
+            // finite): only the floor's photon minimum may stop it.
+            let e = if t.t > 0.0 {
+                tr_rule_error(budget, t) / rel
+            } else {
+                f64::INFINITY
+            };
+            let f = if matches!(budget, PhotonBudget::KernelFactor { .. }) && floor > 0.0 {
+                tr_floor_ratio(floor, t, photons)
+            } else {
+                f64::INFINITY
+            };
+            by_floor |= e > 1.0 && f <= 1.0;
+            e.min(f)
         }
-    }
-    let r99 =
-        crate::profile::radius::radius_reaching(&grid.edges, t.rd_bins.sum.iter().copied(), goal);
-    let rel_profile = if acc > 0.0 { err / acc } else { 0.0 };
-    (rel_total, rel_profile, r99)
+        None => 0.0,
+    };
+    (r.max(t), by_floor)
 }

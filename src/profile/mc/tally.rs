@@ -100,7 +100,7 @@ impl BinSums {
         self.sum_sq[i] += v * v;
     }
 
-    fn new(n: usize) -> BinSums {
+    pub(super) fn new(n: usize) -> BinSums {
         BinSums {
             sum: vec![0.0; n],
             sum_sq: vec![0.0; n],
@@ -136,6 +136,13 @@ pub struct ChunkTally {
     pub truncated_photons: u64,
     /// Exit-angle tallies (empty unless `WalkSettings::angular`).
     pub exit: ExitSums,
+    /// Transmittance per radial bin at the bottom surface, then the
+    /// entry for exits beyond r_max, then the part of all of it that
+    /// scattered at least once (empty for a semi-infinite stack).
+    pub tr_bins: BinSums,
+    /// Exit-angle tallies of the transmitted light (empty unless the stack
+    /// is finite and the walk tallies angles).
+    pub tr_exit: ExitSums,
 }
 
 impl ChunkTally {
@@ -153,10 +160,15 @@ impl ChunkTally {
         let single_bins = std::mem::take(&mut self.single_bins);
         let mut exit = std::mem::take(&mut self.exit);
         exit.fill_zero();
+        let tr_bins = std::mem::take(&mut self.tr_bins);
+        let mut tr_exit = std::mem::take(&mut self.tr_exit);
+        tr_exit.fill_zero();
         *self = ChunkTally {
             rd_bins,
             single_bins,
             exit,
+            tr_bins,
+            tr_exit,
             ..Default::default()
         };
         for v in [
@@ -164,6 +176,8 @@ impl ChunkTally {
             &mut self.rd_bins.sum_sq,
             &mut self.single_bins.sum,
             &mut self.single_bins.sum_sq,
+            &mut self.tr_bins.sum,
+            &mut self.tr_bins.sum_sq,
         ] {
             v.fill(0.0);
         }
@@ -292,6 +306,11 @@ pub struct PhotonScratch {
     single: f64,
     /// Exit-angle scores (empty unless the walk tallies them).
     pub exit: ExitScratch,
+    /// Transmittance per radial bin and beyond (empty for a semi-infinite
+    /// stack), and its exit-angle scores.
+    cur_tr: Vec<f64>,
+    touched_tr: Vec<u32>,
+    pub tr_exit: ExitScratch,
 }
 
 impl PhotonScratch {
@@ -304,6 +323,42 @@ impl PhotonScratch {
             beyond: 0.0,
             single: 0.0,
             exit: ExitScratch::default(),
+            cur_tr: Vec::new(),
+            touched_tr: Vec::new(),
+            tr_exit: ExitScratch::default(),
+        }
+    }
+
+    /// Makes room for the transmittance tally of `bins` radial bins (plus
+    /// the one beyond r_max) in this scratch and in `t`, and for its angle
+    /// bins when `angles` is given (a finite stack's walk).
+    pub fn transmitting(&mut self, t: &mut ChunkTally, bins: usize, angles: Option<AngleLayout>) {
+        if self.cur_tr.len() != bins + 2 {
+            self.cur_tr = vec![0.0; bins + 2];
+            self.touched_tr.clear();
+        }
+        if t.tr_bins.sum.len() != bins + 2 {
+            t.tr_bins = BinSums::new(bins + 2);
+        }
+        if let Some(l) = angles {
+            if t.tr_exit.a.sum.len() != l.angle_bins
+                || t.tr_exit.ra.sum.len() != l.radial * l.angle_bins
+            {
+                t.tr_exit = ExitSums::new(l);
+                self.tr_exit = ExitScratch::new(l);
+            }
+        }
+    }
+
+    /// Scores weight `w` transmitted through the bottom at radius `r`
+    /// (the entry after the bins beyond r_max), and in the last entry too
+    /// when the packet scattered on its way.
+    #[inline(always)]
+    pub fn score_transmittance(&mut self, bins: &BinIndex, r: f64, w: f64, scatters: u32) {
+        let i = bins.bin(r).unwrap_or(bins.len());
+        add_sparse(&mut self.cur_tr, &mut self.touched_tr, i, w);
+        if scatters > 0 {
+            add_sparse(&mut self.cur_tr, &mut self.touched_tr, bins.len() + 1, w);
         }
     }
 
@@ -328,6 +383,11 @@ impl PhotonScratch {
             t.rd_bins.add_square(i, v)
         });
         t.rd_beyond += std::mem::take(&mut self.beyond);
+        if !self.touched_tr.is_empty() {
+            drain_sparse(&mut self.cur_tr, &mut self.touched_tr, |i, v| {
+                t.tr_bins.add_square(i, v)
+            });
+        }
         if single_scatter {
             drain_sparse(&mut self.cur_single, &mut self.touched_single, |i, v| {
                 t.single_bins.add_square(i, v)
@@ -356,6 +416,44 @@ fn drain_sparse(v: &mut [f64], touched: &mut Vec<u32>, mut add: impl FnMut(usize
         add(i as usize, std::mem::take(&mut v[i as usize]));
     }
     touched.clear();
+}
+
+/// R_d per bin (mm^-2) of a tally.
+pub(super) fn densities(sum: &[f64], n: u64, areas: &[f64]) -> Vec<f64> {
+    let nf = n.max(1) as f64;
+    sum.iter().zip(areas).map(|(s, a)| s / (nf * a)).collect()
+}
+
+/// `convergence` of any radial tally: its total's moments and its bins'
+/// sums over `n` photons (R_d, or the transmittance of a finite stack).
+pub(super) fn convergence_of(
+    total_m: &Moments,
+    bins: &BinSums,
+    n: u64,
+    grid: &RadialGrid,
+) -> (f64, f64, f64) {
+    let total = total_m.mean(n);
+    if total <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let rel_total = total_m.stderr(n) / total;
+    let goal = 0.99 * total_m.sum;
+    let mut acc = 0.0;
+    let mut err = 0.0;
+    for i in 0..grid.len() {
+        let m = Moments {
+            sum: bins.sum[i],
+            sum_sq: bins.sum_sq[i],
+        };
+        acc += bins.sum[i];
+        err += m.stderr(n) * n as f64;
+        if acc >= goal {
+            break;
+        }
+    }
+    let r99 = crate::profile::radius::radius_reaching(&grid.edges, bins.sum.iter().copied(), goal);
+    let rel_profile = if acc > 0.0 { err / acc } else { 0.0 };
+    (rel_total, rel_profile, r99)
 }
 
 #[cfg(test)]

@@ -139,6 +139,11 @@ impl Stack {
         s.launch = (sin_t, (1.0 - sin_t * sin_t).max(0.0).sqrt());
         s
     }
+
+    /// Whether light can leave through the bottom (the last layer is finite).
+    pub fn finite(&self) -> bool {
+        self.layers.last().is_some_and(|l| l.z_bottom.is_finite())
+    }
 }
 
 impl LayerOptics {
@@ -283,6 +288,9 @@ pub(crate) fn trace_photons(
         az: Azimuths::new(),
         log: LogTable::new(),
     };
+    if stack.finite() {
+        scratch.transmitting(tally, bins.len(), set.angular);
+    }
     // The angular tally is a separate instance of the walk, so that the
     // default one carries none of its code.
     match set.angular {
@@ -400,6 +408,9 @@ fn trace_one<const ANGULAR: bool>(
     scratch.flush(tally, set.single_scatter);
     if ANGULAR {
         scratch.exit.flush(&mut tally.exit, scores.rd);
+        if !tally.tr_exit.is_empty() {
+            scratch.tr_exit.flush(&mut tally.tr_exit, scores.tr);
+        }
     }
 }
 

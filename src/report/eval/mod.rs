@@ -23,5 +23,6 @@ pub mod profile_compare;
 pub mod scene_compare;
 pub mod scene_pass;
 pub mod scene_score;
+pub mod scene_transmission;
 pub mod shipped;
 pub mod study;

@@ -23,3 +23,4 @@ pub mod sheet;
 pub mod ship_report;
 pub mod study_report;
 pub mod table;
+pub mod transmission_plots;

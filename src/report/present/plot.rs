@@ -81,8 +81,8 @@ const ENTRY_GAP: i32 = 16;
 /// Space kept right of and above a chart's plotting area, pixels (room
 /// for the last x tick label's right half and the top y label's upper
 /// half).
-const CHART_RIGHT: u32 = 24;
-const CHART_TOP: u32 = 10;
+pub(super) const CHART_RIGHT: u32 = 24;
+pub(super) const CHART_TOP: u32 = 10;
 /// Left and right margin of titles and legends inside their area, pixels.
 const MARGIN: i32 = 12;
 
@@ -166,7 +166,7 @@ pub fn draw_title(w: &mut Writer, title: &str, width: u32) -> Result<u32> {
 
 /// One legend entry placed: its curve, its lines of text and the
 /// top-left corner of its sample, relative to the legend's top-left.
-struct Entry<'a> {
+pub(super) struct Entry<'a> {
     curve: &'a Curve,
     lines: Vec<String>,
     at: (i32, i32),
@@ -176,7 +176,11 @@ struct Entry<'a> {
 /// wide: entries left to right, a new row where the next one does not
 /// fit, an entry wider than the row wrapped onto lines of its own.
 /// Returns the entries and the legend's height.
-fn legend_layout<'a>(w: &Writer, curves: &'a [Curve], width: u32) -> Result<(Vec<Entry<'a>>, u32)> {
+pub(super) fn legend_layout<'a>(
+    w: &Writer,
+    curves: &'a [Curve],
+    width: u32,
+) -> Result<(Vec<Entry<'a>>, u32)> {
     let line_h = LEGEND_PX as i32 + 5;
     let room = width as i32 - 2 * MARGIN;
     let text_room = (room - SAMPLE - 6).max(1) as u32;
@@ -209,7 +213,7 @@ fn legend_layout<'a>(w: &Writer, curves: &'a [Curve], width: u32) -> Result<(Vec
 
 /// Draws the legend laid out by [`legend_layout`] with its top-left at
 /// image pixel `origin`.
-fn draw_legend(w: &mut Writer, entries: &[Entry], origin: (i32, i32)) -> Result<()> {
+pub(super) fn draw_legend(w: &mut Writer, entries: &[Entry], origin: (i32, i32)) -> Result<()> {
     let line_h = LEGEND_PX as i32 + 5;
     let e = |e| plot_err(w.out, e);
     for en in entries {
@@ -342,8 +346,8 @@ type Chart<'a, 'b, Y> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCo
 
 /// Dash and gap lengths of dashed curves, pixels (short enough that the
 /// legend's sample shows two dashes).
-const DASH: u32 = 6;
-const GAP: u32 = 4;
+pub(super) const DASH: u32 = 6;
+pub(super) const GAP: u32 = 4;
 
 fn draw_curves<Y>(chart: &mut Chart<Y>, panel: &Panel, floor: f64, out: &Path) -> Result<()>
 where

@@ -257,7 +257,22 @@ fn obj_shape(at: &Site, o: &RawObject) -> Result<Shape> {
         }
         moved.push(m);
     }
-    mesh_shape(ck, &f("file"), &path.display().to_string(), &moved, &tris)
+    let what = path.display().to_string();
+    let shape = mesh_shape(ck, &f("file"), &what, &moved, &tris)?;
+    if let Shape::Mesh(m) = &shape {
+        if let Some(k) = super::overlap::self_crossing(m) {
+            return Err(ck.err(
+                &f("file"),
+                what,
+                format!(
+                    "crosses itself: triangle {k} and another triangle that shares no vertex with \
+                     it pass through each other (a medium needs a surface that does not cross \
+                     itself)"
+                ),
+            ));
+        }
+    }
+    Ok(shape)
 }
 
 /// The hierarchy of a closed mesh, built on a thread with room for its

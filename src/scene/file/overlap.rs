@@ -299,6 +299,21 @@ fn segment_crosses(p: V3, q: V3, t: &[V3; 3]) -> bool {
     f > 0.0 && f < 1.0
 }
 
+/// The first triangle of `m` that an edge of another triangle, sharing no
+/// vertex with it, passes through (or whose edge passes through that one):
+/// a surface crossing itself, which bounds no medium (two sheets of one
+/// object's boundary through each other). Triangles that share a vertex
+/// are not tested against each other (they meet there by construction).
+pub(super) fn self_crossing(m: &Mesh) -> Option<usize> {
+    m.tris().iter().position(|t| {
+        let (lo, hi) = triangle_box(t);
+        m.any_near(lo, hi, |u| {
+            let shares = t.iter().any(|a| u.contains(a));
+            !shares && triangles_cross(t, u)
+        })
+    })
+}
+
 /// A box as a closed mesh of twelve triangles (for the mesh tests).
 fn box_mesh(s: &Shape) -> Option<Mesh> {
     let Shape::Cuboid { min, max } = s else {

@@ -92,6 +92,7 @@ impl McGpu {
                 rel_factor: f64::INFINITY,
                 rd: 0.0,
                 rd_stderr: f64::INFINITY,
+                tr: None,
             },
             converged: false,
             by_floor: false,

@@ -1,0 +1,283 @@
+//! The light a finite stack transmits, as a profile: T_d(r) at the bottom
+//! surface per radial bin (MCML's Tt_r; Wang et al. 1995) with standard
+//! errors from the per-photon second moments, its exit angles when the run
+//! resolves them (Tt_a, Tt_ra), and its part in the stopping rule: a run of
+//! a finite stack stops when the transmitted light meets the same rule as
+//! the reflected light (relative errors of the total and of the
+//! pre-integrated 1D factor, or the absolute floor).
+
+use super::consumer::{kernel_geometry, Projection};
+use super::tally::{convergence_of, densities, BinSums, ChunkTally, ExitSums, Moments};
+use super::{PhotonBudget, CONTEXT};
+use crate::error::{Error, Result};
+use crate::material::{Channel, Material};
+use crate::profile::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
+use serde::{Deserialize, Serialize};
+
+/// How far a channel's transmitted light is from the rule.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct TrStatus {
+    /// Relative standard error of total T.
+    pub(super) rel_total: f64,
+    /// T-weighted mean relative error of the bins inside the radius holding
+    /// 99% of T (the `total-and-profile` rule).
+    pub(super) rel_profile: f64,
+    /// Relative L2 standard error of T_d's pre-integrated 1D factor on its
+    /// own default kernel grid (the `kernel-factor` rule).
+    pub(super) rel_factor: f64,
+    pub(super) t: f64,
+    pub(super) t_stderr: f64,
+}
+
+/// The transmittance status of each channel (None for a channel whose
+/// tally holds no transmittance: a semi-infinite stack).
+pub(super) fn tr_statuses(
+    material: &Material,
+    channels: &[Channel],
+    grid: &RadialGrid,
+    t: &[ChunkTally],
+) -> Vec<Option<TrStatus>> {
+    if t.iter().all(|t| t.tr_bins.sum.is_empty()) {
+        return vec![None; t.len()];
+    }
+    let n = grid.len();
+    let areas = grid.areas();
+    let provisional = Profile {
+        schema: PROFILE_SCHEMA.into(),
+        material: material.clone(),
+        units: "mm".into(),
+        source: Source {
+            kind: "monte-carlo".into(),
+            photons: None,
+            seed: None,
+            model: None,
+            params: serde_json::Value::Null,
+        },
+        channels: channels.to_vec(),
+        r_edges: grid.edges.clone(),
+        r: grid.centres(),
+        rd: t
+            .iter()
+            .map(|t| match t.tr_bins.sum.get(..n) {
+                Some(s) => densities(s, t.photons, &areas),
+                None => vec![0.0; n],
+            })
+            .collect(),
+        rd_stderr: None,
+        total_rd: t.iter().map(|t| t.transmittance.mean(t.photons)).collect(),
+        total_rd_stderr: None,
+        specular: vec![],
+        transmittance: None,
+        transmittance_stderr: None,
+        absorbed: None,
+        extra: serde_json::Value::Null,
+        elapsed_s: 0.0,
+    };
+    let projection = kernel_geometry(&provisional).map(|g| Projection::new(&grid.edges, &g));
+    t.iter()
+        .map(|t| {
+            if t.tr_bins.sum.len() != n + 2 {
+                return None;
+            }
+            let inside = BinSums {
+                sum: t.tr_bins.sum[..n].to_vec(),
+                sum_sq: t.tr_bins.sum_sq[..n].to_vec(),
+            };
+            let (rel_total, rel_profile, _) =
+                convergence_of(&t.transmittance, &inside, t.photons, grid);
+            let total = t.transmittance.mean(t.photons);
+            let rel_factor = match &projection {
+                Some(p) if total > 0.0 => {
+                    p.factor_rel_error(&inside.sum, &inside.sum_sq, t.photons)
+                }
+                _ => 0.0,
+            };
+            Some(TrStatus {
+                rel_total,
+                rel_profile,
+                rel_factor,
+                t: total,
+                t_stderr: t.transmittance.stderr(t.photons),
+            })
+        })
+        .collect()
+}
+
+/// The error a target rule compares with its target for the transmitted
+/// light (0 for a fixed budget).
+pub(super) fn tr_rule_error(budget: &PhotonBudget, s: &TrStatus) -> f64 {
+    match budget {
+        PhotonBudget::Fixed(_) => 0.0,
+        PhotonBudget::TargetError { .. } => s.rel_total.max(s.rel_profile),
+        PhotonBudget::KernelFactor { .. } => s.rel_total.max(s.rel_factor),
+    }
+}
+
+/// How far the transmitted light is from the absolute floor (as
+/// `rounds::floor_ratio` for the reflected light).
+pub(super) fn tr_floor_ratio(floor: f64, s: &TrStatus, photons: u64) -> f64 {
+    let shape = if s.t > 0.0 { s.t * s.rel_factor } else { 0.0 };
+    let noise = s.t_stderr.max(shape) / floor;
+    let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
+    noise.max(minimum)
+}
+
+/// The transmitted light of one run as a profile records it
+/// (`extra.transmittance_profile`): T_d(r) in mm^-2 per channel and bin with
+/// standard errors, what left beyond r_max, and the exit angles when
+/// tallied (`Profile::transmittance_profile` reads it).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TransmittanceProfile {
+    /// T_d per bin of the profile's radial grid, `[channel][bin]`, mm^-2.
+    pub td: Vec<Vec<f64>>,
+    pub td_stderr: Vec<Vec<f64>>,
+    /// Part of the incident light transmitted beyond r_max (in the total).
+    pub beyond_rmax: Vec<f64>,
+    /// The part of total T that scattered at least once on its way (what
+    /// leaves the unlit face spread out; the rest left unscattered, on the
+    /// beam's axis), per channel, and its standard error.
+    #[serde(default)]
+    pub diffuse: Vec<f64>,
+    #[serde(default)]
+    pub diffuse_stderr: Vec<f64>,
+    /// Achieved relative errors of total T and of T_d's 1D factor.
+    pub rel_error_total: Vec<f64>,
+    pub rel_error_kernel_factor: Vec<f64>,
+    /// Exit angles of the transmitted light (angle-resolved runs only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular: Option<TransmittedAngles>,
+}
+
+/// The transmitted light by exit angle (bins of `Angular::theta_edges_deg`
+/// in the ambient medium below), MCML's Tt_a and Tt_ra.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TransmittedAngles {
+    pub angle_bins: usize,
+    /// Part of the incident light through each angle bin: `[channel][bin]`.
+    pub fraction: Vec<Vec<f64>>,
+    pub fraction_stderr: Vec<Vec<f64>>,
+    /// Part of the incident light per radial row (the last beyond r_max)
+    /// and angle bin: `[channel][row][bin]`.
+    pub cell: Vec<Vec<Vec<f64>>>,
+    pub cell_stderr: Vec<Vec<Vec<f64>>>,
+}
+
+/// The record of the transmitted light of `t` (one tally per channel), None
+/// when no channel tallied it.
+pub(super) fn record(
+    t: &[ChunkTally],
+    status: &[Option<TrStatus>],
+    areas: &[f64],
+) -> Option<TransmittanceProfile> {
+    if t.iter().any(|t| t.tr_bins.sum.len() != areas.len() + 2) {
+        return None;
+    }
+    let n = areas.len();
+    let bin = |t: &ChunkTally, i: usize| Moments {
+        sum: t.tr_bins.sum[i],
+        sum_sq: t.tr_bins.sum_sq[i],
+    };
+    let td = t
+        .iter()
+        .map(|t| {
+            (0..n)
+                .map(|i| bin(t, i).mean(t.photons) / areas[i])
+                .collect()
+        })
+        .collect();
+    let td_stderr = t
+        .iter()
+        .map(|t| {
+            (0..n)
+                .map(|i| bin(t, i).stderr(t.photons) / areas[i])
+                .collect()
+        })
+        .collect();
+    let angular = t.iter().all(|t| !t.tr_exit.is_empty()).then(|| angles(t));
+    let st = |f: &dyn Fn(&TrStatus) -> f64| -> Vec<f64> {
+        status.iter().map(|s| s.as_ref().map_or(0.0, f)).collect()
+    };
+    Some(TransmittanceProfile {
+        td,
+        td_stderr,
+        beyond_rmax: t.iter().map(|t| bin(t, n).mean(t.photons)).collect(),
+        diffuse: t.iter().map(|t| bin(t, n + 1).mean(t.photons)).collect(),
+        diffuse_stderr: t.iter().map(|t| bin(t, n + 1).stderr(t.photons)).collect(),
+        rel_error_total: st(&|s| s.rel_total),
+        rel_error_kernel_factor: st(&|s| s.rel_factor),
+        angular,
+    })
+}
+
+fn angles(t: &[ChunkTally]) -> TransmittedAngles {
+    let per_bin = |e: &ExitSums, n: u64| -> (Vec<f64>, Vec<f64>) {
+        (0..e.a.sum.len())
+            .map(|i| {
+                let m = Moments {
+                    sum: e.a.sum[i],
+                    sum_sq: e.a.sum_sq[i],
+                };
+                (m.mean(n), m.stderr(n))
+            })
+            .unzip()
+    };
+    let cells = |e: &ExitSums, n: u64, se: bool| -> Vec<Vec<f64>> {
+        let na = e.a.sum.len();
+        e.ra.sum
+            .chunks(na)
+            .zip(e.ra.sum_sq.chunks(na))
+            .map(|(s, q)| {
+                s.iter()
+                    .zip(q)
+                    .map(|(s, q)| {
+                        let m = Moments {
+                            sum: *s,
+                            sum_sq: *q,
+                        };
+                        if se {
+                            m.stderr(n)
+                        } else {
+                            m.mean(n)
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let (fraction, fraction_stderr) = t.iter().map(|t| per_bin(&t.tr_exit, t.photons)).unzip();
+    TransmittedAngles {
+        angle_bins: t[0].tr_exit.a.sum.len(),
+        fraction,
+        fraction_stderr,
+        cell: t
+            .iter()
+            .map(|t| cells(&t.tr_exit, t.photons, false))
+            .collect(),
+        cell_stderr: t
+            .iter()
+            .map(|t| cells(&t.tr_exit, t.photons, true))
+            .collect(),
+    }
+}
+
+/// Refuses a transmittance request on a stack without a finite bottom:
+/// nothing is transmitted there, and no thickness was given to make it so.
+pub fn require_finite(material: &Material, what: &str) -> Result<()> {
+    let finite = material
+        .layers
+        .last()
+        .is_some_and(|l| l.thickness.is_some());
+    if finite {
+        return Ok(());
+    }
+    Err(Error::invalid(
+        CONTEXT,
+        "thickness",
+        "none",
+        format!(
+            "{what} needs light to leave through the bottom, but the last layer of '{}' is \
+             semi-infinite: give it a finite thickness",
+            material.name
+        ),
+    ))
+}
