@@ -485,6 +485,35 @@ fn angular_factors(
     Ok(Some(f))
 }
 
+/// scene.json of `compare --scene`: the comparison's numbers, the
+/// light-space block (or why the scene has none) and the transmission's.
+fn scene_json(
+    scene: &std::path::Path,
+    cmp: &ssskit::report::eval::scene_compare::SceneComparison,
+    r: &ssskit::scene::Render,
+    transmission: Option<serde_json::Value>,
+) -> anyhow::Result<serde_json::Value> {
+    use ssskit::report::eval::scene_compare::dominance;
+    Ok(serde_json::json!({
+        "scene": scene.display().to_string(),
+        "dominance": dominance(cmp),
+        "mm_per_pixel": cmp.mm_per_pixel,
+        "follow_mm": cmp.follow_mm,
+        "follow_constant": cmp.follow_constant,
+        "noise": cmp.noise,
+        "angular": cmp.angular,
+        "angular_note": cmp.angular_note,
+        "spp": r.info.spp,
+        "rows": cmp.rows,
+        "directional": match &cmp.directional {
+            Some(Ok(b)) => serde_json::to_value(b)?,
+            Some(Err(why)) => serde_json::json!({ "refused": why }),
+            None => serde_json::Value::Null,
+        },
+        "transmission": transmission,
+    }))
+}
+
 /// `compare --scene`: the screen-space error of every kernel model on the
 /// scene's G-buffer against its path-traced image; writes scene.md,
 /// scene.json, record.json and the contact sheet.
@@ -532,16 +561,10 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         cmp.follow_constant
     );
     use ssskit::report::present::directional_tables as dt;
-    let back = match a.transmission {
-        Some(t) => Some(super::transmission::scene_block(
-            &scene,
-            &r,
-            profile,
-            t,
-            a.pixels_per_degree,
-        )?),
-        None => None,
-    };
+    let back = a
+        .transmission
+        .map(|t| super::transmission::scene_block(&scene, &r, profile, t, a.pixels_per_degree))
+        .transpose()?;
     let mut tables = named_tables(&cmp);
     tables.extend(dt::named_table(&cmp));
     let mut md = page(&cmp, &head) + &dt::section(&cmp);
@@ -550,24 +573,11 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         tables.push(("transmission", t.clone()));
     }
     ssskit::io::write_atomic(&dir.join("scene.md"), md.as_bytes())?;
-    let json = serde_json::json!({
-        "scene": a.scene.display().to_string(),
-        "dominance": dominance(&cmp),
-        "mm_per_pixel": cmp.mm_per_pixel,
-        "follow_mm": cmp.follow_mm,
-        "follow_constant": cmp.follow_constant,
-        "noise": cmp.noise,
-        "angular": cmp.angular,
-        "angular_note": cmp.angular_note,
-        "spp": r.info.spp,
-        "rows": cmp.rows,
-        "directional": match &cmp.directional {
-            Some(Ok(b)) => serde_json::to_value(b)?,
-            Some(Err(why)) => serde_json::json!({ "refused": why }),
-            None => serde_json::Value::Null,
-        },
-        "transmission": back.as_ref().map(|b| &b.0),
-    });
+    let transmission = back
+        .as_ref()
+        .map(|b| serde_json::to_value(&b.0))
+        .transpose()?;
+    let json = scene_json(a.scene, &cmp, &r, transmission)?;
     let text = serde_json::to_string_pretty(&json)? + "\n";
     ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
     let mut rec = Record::new(&super::profile_source::command_line(a.out), &machine_line());
