@@ -604,13 +604,13 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         }
     }
     staged.commit()?;
-    // The directional verdict first; a transmission table asked for by
-    // flag after it.
-    if let Some(h) = dt::headline(&cmp) {
-        outln!("{h}\n")?;
-    }
+    // A transmission table asked for by flag first, then the directional
+    // verdict (the first line when no table is asked for).
     if let Some((b, t)) = &back {
         outln!("{}\n\n{}\n", b.headline, t.markdown())?;
+    }
+    if let Some(h) = dt::headline(&cmp) {
+        outln!("{h}\n")?;
     }
     let d = dominance(&cmp);
     if let Some(h) = d.as_ref().and_then(|d| d.headline()) {
