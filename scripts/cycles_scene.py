@@ -4,16 +4,16 @@ Run by scripts/engine-cycles inside Blender's Python module (PyPI `bpy`):
 
     python scripts/cycles_scene.py JOB.json
 
-JOB.json holds the Principled BSDF values to type (under the node's socket
-names), the render settings, the output path and `material_script`: the
-Blender script `ssskit engine --engine blender --out-dir DIR` wrote. Every
-subsurface material is made BY RUNNING that script (its make_material()):
-with the script's own values where the job's are the ones it holds, with
-the job's otherwise; each of the job's values is then read back from the
-node and must be what the job asked for. The script writes one
-linear EXR per render (read with the OpenEXR package: Blender's own
-image loader rounds the pixels it hands back to Python to 1e-4) and a
-JSON of their timings.
+JOB.json holds the render settings, the output paths and, per render, the
+`script` a Blender script `ssskit engine --engine blender --out-dir DIR`
+wrote. Every subsurface material is the one that script makes: its
+make_material() as the user runs it, nothing set beside it; every socket
+and the method are then read back from the node and must be the script's
+VALUES and METHOD. Only the unclaimed Random Walk (Skin) render passes
+make_material() other values (the script's with Subsurface IOR) and
+another method. The script writes one linear EXR per render (read with
+the OpenEXR package: Blender's own image loader rounds the pixels it hands
+back to Python to 1e-4) and a JSON of their timings.
 
 The scene (all in scene units, 1 unit = 1 metre as Blender's default):
 a thick slab whose top face is the plane z = 0, an orthographic camera
@@ -58,16 +58,6 @@ def box(name, lo, hi):
     return obj
 
 
-# Only the subsurface layer: no specular, coat, sheen, metal or
-# transmission (each takes its share of the weight, closure.h).
-SCENE_ONLY = {
-    "Metallic": 0.0,
-    "Specular IOR Level": 0.0,
-    "Coat Weight": 0.0,
-    "Sheen Weight": 0.0,
-    "Transmission Weight": 0.0,
-    "Roughness": 0.0,
-}
 # A socket holds 32-bit floats: what it reads back is the value to this.
 FLOAT32_REL = 1e-6
 
@@ -96,13 +86,6 @@ def socket_value(v, sock):
     return v
 
 
-def without_alpha(v, like):
-    """The script's colour (r, g, b, 1) as the job writes it, [r, g, b]."""
-    if hasattr(v, "__len__") and hasattr(like, "__len__") and len(v) == 4 and len(like) == 3:
-        return list(v)[:3]
-    return v
-
-
 def check_node(bsdf, values, method):
     """Reads every value back from the node: the script must have set
     what was asked for."""
@@ -117,28 +100,19 @@ def check_node(bsdf, values, method):
                      f"not {want}")
 
 
-def principled(values, method, script):
-    """The slab's material, made by the written script: its own VALUES and
-    METHOD when the job's values include them unchanged (the script's
-    values are what renders), else the job's values through its
-    make_material(); then the scene-only settings and the job's other
-    values, and every one read back."""
-    mod = load_script(script)
-    own = mod["VALUES"]
-    as_written = method == mod["METHOD"] and all(
-        k in values and same(values[k], without_alpha(v, values[k]))
-        for k, v in own.items())
-    if as_written:
-        mat = mod["make_material"]("slab")
+def principled(render):
+    """The slab's material, made by the written script `render["script"]`:
+    its own VALUES and METHOD, or (an unclaimed variant) its values with
+    `render["extra"]` and `render["method"]`; every socket read back."""
+    mod = load_script(render["script"])
+    values, method = dict(mod["VALUES"]), mod["METHOD"]
+    if render.get("extra") or render.get("method", method) != method:
+        values.update(render.get("extra", {}))
+        method = render["method"]
+        mat = mod["make_material"]("slab", values=values, method=method)
     else:
-        mat = mod["make_material"]("slab", values=dict(values), method=method)
-    bsdf = mod["principled_node"](mat)
-    rest = dict(SCENE_ONLY)
-    rest.update({k: v for k, v in values.items() if k not in own or not as_written})
-    for name, v in rest.items():
-        sock = bsdf.inputs[name]
-        sock.default_value = socket_value(v, sock)
-    check_node(bsdf, {**SCENE_ONLY, **values}, method)
+        mat = mod["make_material"]("slab")
+    check_node(mod["principled_node"](mat), values, method)
     return mat
 
 
@@ -234,10 +208,10 @@ def render(path):
 
 def main():
     job = json.load(open(sys.argv[1]))
-    script = job.get("material_script")
-    if not script or not os.path.isfile(script):
-        sys.exit("the job needs material_script: the script `ssskit engine --engine blender "
-                 "--out-dir DIR` wrote (DIR/NAME-blender.py)")
+    for r in job["renders"]:
+        if r["material"] != "white" and not os.path.isfile(r.get("script", "")):
+            sys.exit("each slab render needs `script`: the script `ssskit engine --engine "
+                     "blender --out-dir DIR` wrote (DIR/NAME-blender.py)")
     times = {}
     for r in job["renders"]:
         job["seed"] = r["seed"]
@@ -245,7 +219,7 @@ def main():
             mat_fn = white
         else:
             def mat_fn():
-                return principled(r["values"], r["method"], script)
+                return principled(r)
         scene(job, None)
         # The material after the factory reset that scene() does.
         bpy.data.objects["slab"].data.materials.append(mat_fn())

@@ -36,6 +36,17 @@ A claim agrees with the render when the render's RMS against it is within
 AGREE_FACTOR times the noise (the RMS of pure noise over N columns
 scatters by about sqrt(1 / (2 N)) of itself: 5% at 200 columns; the
 factor leaves room for the noise estimate from only two renders).
+
+The colour: the mean of the render over the lit plateau (the columns
+beyond PLATEAU of the half width, where the edge response is within a few
+percent of the total) against the material's edge response there, signed:
+what a user sees as the material's colour, darker or lighter.
+
+Every slab is the material the Blender script `ssskit engine --out-dir`
+writes makes (scripts/cycles_scene.py runs it): Christensen-Burley's
+script from `--subsurface-method christensen-burley`, Random Walk's from
+the default; Random Walk (Skin) runs the Random Walk script's
+make_material() with that method and Subsurface IOR = the material's eta.
 """
 
 import argparse
@@ -68,6 +79,9 @@ HALF_WIDTH_DIFFUSION_LENGTHS = 4.0
 WHITE_STEP_TOL = 1e-3
 # Samples per pixel column averaged for the box filter.
 SUBPIXELS = 16
+# The lit plateau, for the colour: the columns beyond this fraction of the
+# half width (3.2 diffusion lengths and more from the edge).
+PLATEAU = 0.8
 # Blender's units: metres (its default): 0.001 scene units per mm.
 UNITS_PER_MM = 0.001
 
@@ -157,9 +171,6 @@ def walk_claim(fit, cols):
     return mean, err
 
 
-RW_KEYS = ["Base Color", "Subsurface Radius", "Subsurface Scale", "Subsurface Weight",
-           "Subsurface Anisotropy", "IOR", "Roughness"]
-
 
 # ---------------------------------------------------------------- running
 
@@ -207,20 +218,17 @@ def main():
         layer = prof["material"]["layers"][0]
         if len(prof["material"]["layers"]) != 1 or len(set(layer["g"])) != 1:
             sys.exit(f"{name}: one layer with one g is what Cycles' walk takes")
-        out = os.path.join(tmp, f"{name}-blender.json")
-        files = os.path.join(tmp, f"{name}-blender-files")
-        ssskit(["engine", "--profile", prof_path, "--engine", "blender",
-                "--subsurface-method", "christensen-burley", "--out", out,
-                "--out-dir", files], a.bin)
-        fit = json.load(open(out))
-        printed = {k: fit["params"][k] for k in
-                   ["Base Color", "Subsurface Radius", "Subsurface Scale", "Subsurface Weight"]}
-        rw_out = os.path.join(tmp, f"{name}-blender-rw.json")
-        rw = None
-        if any(m.startswith("random-walk") for m in a.methods.split(",")):
-            ssskit(["engine", "--profile", prof_path, "--engine", "blender",
-                    "--subsurface-method", "random-walk", "--out", rw_out], a.bin)
-            rw = json.load(open(rw_out))
+        scripts, fits = {}, {}
+        for key, flags in (("cb", ["--subsurface-method", "christensen-burley"]), ("rw", [])):
+            out = os.path.join(tmp, f"{name}-{key}.json")
+            files = os.path.join(tmp, f"{name}-{key}-files")
+            if key == "rw" and not any(m.startswith("random-walk")
+                                       for m in a.methods.split(",")):
+                continue
+            ssskit(["engine", "--profile", prof_path, "--engine", "blender", *flags,
+                    "--out", out, "--out-dir", files], a.bin)
+            fits[key] = json.load(open(out))
+            scripts[key] = os.path.join(files, f"{prof['material']['name']}-blender.py")
         sa, ss = np.array(layer["sigma_a"]), np.array(layer["sigma_s"]) * (1 - layer["g"][0])
         sigma_tr = np.sqrt(3 * sa * (sa + ss))
         width_mm = 2.0 * HALF_WIDTH_DIFFUSION_LENGTHS / sigma_tr.min()
@@ -232,37 +240,35 @@ def main():
         cases = []
         for m in a.methods.split(","):
             if m == "burley":
-                b = fit["rendered"]
+                b = fits["cb"]["rendered"]
                 claim = [pixel_edge(*burley_bins(b["albedo"][c], b["d_mm"][c],
                                                  b.get("truncate_d")), cols)
                          for c in range(3)]
-                cases.append(("Christensen-Burley", "ssskit engine", "BURLEY",
-                              dict(printed, IOR=layer["eta"]), claim, None))
+                cases.append(("Christensen-Burley",
+                              "ssskit engine --subsurface-method christensen-burley",
+                              dict(script=scripts["cb"]), fits["cb"]["params"], claim, None))
             elif m == "random-walk":
-                v = {k: rw["params"][k] for k in RW_KEYS}
-                claim, claim_err = walk_claim(rw, cols)
-                cases.append(("Random Walk", "ssskit engine --subsurface-method random-walk",
-                              "RANDOM_WALK", v, claim, claim_err))
+                claim, claim_err = walk_claim(fits["rw"], cols)
+                cases.append(("Random Walk", "ssskit engine", dict(script=scripts["rw"]),
+                              fits["rw"]["params"], claim, claim_err))
             elif m == "random-walk-skin":
                 # Skin reads the radius through a dipole fit of the albedo
                 # (bssrdf.h `bssrdf_setup_radius`) and starts half of the
                 # walks cosine-weighted, the rest through a GGX facet of
                 # roughness 1 (subsurface.h `subsurface_entry_bounce`):
                 # ssskit's Random Walk values rendered, unclaimed.
-                v = dict({k: rw["params"][k] for k in RW_KEYS},
-                         **{"Subsurface IOR": layer["eta"]})
-                cases.append(("Random Walk (Skin)", "ssskit engine --subsurface-method random-walk",
-                              "RANDOM_WALK_SKIN", v, None, None))
+                extra = {"Subsurface IOR": layer["eta"]}
+                cases.append(("Random Walk (Skin)", "ssskit engine, Subsurface IOR = eta",
+                              dict(script=scripts["rw"], method="RANDOM_WALK_SKIN", extra=extra),
+                              dict(fits["rw"]["params"], **extra), None, None))
             else:
                 sys.exit(f"unknown method {m}")
         job = dict(spp=a.spp, threads=a.threads, width_px=a.width_px, height_px=a.height_px,
                    width_m=width_mm * UNITS_PER_MM, timing_out=os.path.join(tmp, "t.json"),
-                   material_script=os.path.join(files, f"{prof['material']['name']}-blender.py"),
                    renders=[dict(material="white", seed=1, path=os.path.join(tmp, "white.exr"))])
-        for i, (_, _, method, values, _, _) in enumerate(cases):
+        for i, (_, _, render, _, _, _) in enumerate(cases):
             for seed in (1, 2):
-                job["renders"].append(dict(material="slab", method=method, values=values,
-                                           seed=seed,
+                job["renders"].append(dict(render, material="slab", seed=seed,
                                            path=os.path.join(tmp, f"{name}-{i}-{seed}.exr")))
         jpath = os.path.join(tmp, f"{name}-job.json")
         json.dump(job, open(jpath, "w"))
@@ -278,7 +284,8 @@ def main():
         if (white[:half].max() > WHITE_STEP_TOL * lit.max()
                 or np.ptp(white[half:], axis=0).max() > WHITE_STEP_TOL * lit.max()):
             sys.exit("white render: the shadow edge is not a clean step at the centre")
-        for i, (label, values_from, method, values, claim, claim_err) in enumerate(cases):
+        plateau = cols[0] >= PLATEAU * 0.5 * width_mm
+        for i, (label, values_from, _, values, claim, claim_err) in enumerate(cases):
             r = [read_rgb(os.path.join(tmp, f"{name}-{i}-{s}.exr")).mean(axis=0) / lit
                  for s in (1, 2)]
             mean = 0.5 * (r[0] + r[1])
@@ -289,9 +296,11 @@ def main():
                 step = total[c]
                 noise = float(np.sqrt(np.mean(((r[0][:, c] - r[1][:, c]) / 2.0) ** 2))) / step
                 rendered = rms(mean[:, c] - material_edge[c]) / step
+                colour = float(mean[plateau, c].mean() / material_edge[c][plateau].mean() - 1.0)
                 e = dict(noise=noise, rendered=rendered, rendered_beyond_noise=beyond(
-                    rendered, noise), render_plateau=float(mean[-1, c]), total=float(step))
-                row = [name, label, values_from, ch]
+                    rendered, noise), render_plateau=float(mean[-1, c]), total=float(step),
+                    rendered_colour=colour)
+                row = [name, label, values_from, ch, pct_signed(colour)]
                 if claim is not None:
                     claimed = rms(claim[c] - material_edge[c]) / step
                     vs = rms(mean[:, c] - claim[c]) / step
@@ -299,7 +308,9 @@ def main():
                     cn = 0.0 if claim_err is None else rms(claim_err[c]) / step
                     both = math.hypot(noise, cn)
                     e.update(claimed=claimed, render_vs_claim=vs, claim_noise=cn,
-                             agrees=bool(vs <= AGREE_FACTOR * both))
+                             agrees=bool(vs <= AGREE_FACTOR * both),
+                             claimed_colour=float(claim[c][plateau].mean()
+                                                  / material_edge[c][plateau].mean() - 1.0))
                     row += [pct(claimed), pct(rendered), pct(both), pct(vs),
                             "yes" if vs <= AGREE_FACTOR * both else "NO"]
                 else:
@@ -309,7 +320,8 @@ def main():
             data.setdefault(name, []).append(entry)
             print(" | ".join(rows[-3][:2]) + ": " + "; ".join(
                 " ".join(x[3:]) for x in rows[-3:]), flush=True)
-    header = ["material", "method", "values from", "channel", "claimed edge error %",
+    header = ["material", "method", "values from", "channel", "rendered colour vs material %",
+              "claimed edge error %",
               "rendered edge error %", "noise (render and claim) %", "render vs claim %",
               f"claim within {AGREE_FACTOR} x noise"]
     command = "scripts/engine-cycles " + " ".join(shlex.quote(x) for x in sys.argv[1:])
@@ -349,6 +361,10 @@ def beyond(x, noise):
 
 def pct(x):
     return f"{100.0 * x:.2f}"
+
+
+def pct_signed(x):
+    return f"{100.0 * x:+.2f}"
 
 
 if __name__ == "__main__":

@@ -77,6 +77,11 @@ fn linear(s: f64) -> f64 {
     }
 }
 
+/// An sRGB value typed to 4 significant digits (5e-4 relative) moves
+/// its linear value by at most 2.4 times that (d ln L / d ln S <= 2.4 on
+/// the sRGB curve), with margin.
+const SRGB_TYPED_REL: f64 = 1.3e-3;
+
 /// A value written as a 32-bit float (the shortest text that reads back):
 /// equal to float32's resolution, 2^-24 relative, with margin.
 const FLOAT32_REL: f64 = 2e-7;
@@ -288,7 +293,7 @@ fn read_asset(text: &str) -> std::collections::BTreeMap<String, Vec<(String, f64
             .unwrap_or_else(|| panic!("'{got}' is not '{key}: ...'"));
         let name = key.trim().to_string();
         match form {
-            "$" => assert!(!value.is_empty() && !value.contains(['\'', '"', ':'])),
+            "$" => assert!(matches!(yaml11_scalar(value), Yaml::Str(_)), "{value}"),
             "#" => {
                 fields.insert(name, vec![(String::new(), value.parse::<f64>().unwrap())]);
             }
@@ -309,7 +314,7 @@ fn unity_asset_is_a_diffusion_profile_with_the_printed_values() {
     let (_tmp, dir) = write("unity-hdrp", &[]);
     let fit = fit(&dir, "unity-hdrp");
     let text = std::fs::read_to_string(dir.join("skin1.asset")).unwrap();
-    assert!(text.contains("  m_Name: skin1\n"));
+    assert!(text.contains("  m_Name: 'skin1'\n"));
     let f = read_asset(&text);
     let params = &fit["params"];
     let one = |k: &str| f[k][0].1;
@@ -562,14 +567,25 @@ fn godot_material(dir: &Path, fit: &Value) {
     let GdValue::Call(_, rgba) = get("albedo_color") else {
         unreachable!()
     };
-    let albedo = numbers(&fit["params"]["albedo"]);
+    // source_color: the inspector shows, and the file holds, the sRGB
+    // colour; ssskit printed it so.
+    let shown = numbers(&fit["params"]["albedo_color"]);
+    let total = numbers(&read_json(Path::new(SKIN))["total_rd"]);
+    let mut hex = String::from("#");
     for c in 0..3 {
-        // source_color: the file holds the sRGB encoding of the albedo.
+        assert!(close(real(&rgba[c]), shown[c], FLOAT32_REL), "channel {c}");
+        // Decoded as Godot decodes a source_color, the printed colour is
+        // the profile's total (the colour kept), to its 4 digits.
         assert!(
-            close(real(&rgba[c]), srgb(albedo[c]), FLOAT32_REL),
-            "channel {c}"
+            close(linear(shown[c]), total[c], SRGB_TYPED_REL),
+            "channel {c}: {} decodes to {}, the profile reflects {}",
+            shown[c],
+            linear(shown[c]),
+            total[c]
         );
+        hex += &format!("{:02X}", (srgb(total[c]) * 255.0).round() as u8);
     }
+    assert_eq!(fit["params"]["albedo_color hex"], hex.as_str());
     assert_eq!(real(&rgba[3]), 1.0);
 }
 
@@ -639,20 +655,18 @@ fn godot_parser_reads_what_godot_writes() {
 fn engines_without_a_file_are_refused_before_any_work() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("files");
-    for e in ["unreal", "iryoku"] {
-        fails_with(
-            &[
-                "engine",
-                "--profile",
-                SKIN,
-                "--engine",
-                e,
-                "--out-dir",
-                p(&out),
-            ],
-            &["--engine", e, "no file to import"],
-        );
-    }
+    fails_with(
+        &[
+            "engine",
+            "--profile",
+            SKIN,
+            "--engine",
+            "iryoku",
+            "--out-dir",
+            p(&out),
+        ],
+        &["--engine", "iryoku", "no file to import"],
+    );
     fails_with(
         &[
             "engine",
@@ -752,4 +766,446 @@ fn a_second_run_replaces_the_folder_as_a_whole() {
     );
     let left: Vec<_> = std::fs::read_dir(tmp.path()).unwrap().collect();
     assert_eq!(left.len(), 1, "temporaries left beside the folder");
+}
+
+// ---- Names no engine's reader mistakes -----------------------------------
+
+/// A scalar as a YAML 1.1 reader resolves it (the YAML 1.1
+/// specification: the single-quoted style, where a doubled quote is the
+/// only escape and a line break folds; a plain scalar's implicit types
+/// from the tag repository: bool, null, int, float, merge and value; a
+/// plain scalar cannot start with an indicator).
+#[derive(Clone, Debug, PartialEq)]
+enum Yaml {
+    Str(String),
+    /// Another type, or no scalar at all.
+    Other(&'static str),
+}
+
+fn yaml11_scalar(text: &str) -> Yaml {
+    if let Some(body) = text.strip_prefix('\'') {
+        let Some(inner) = body.strip_suffix('\'') else {
+            return Yaml::Other("an unterminated quote");
+        };
+        // A lone quote inside ends the scalar early: not one scalar.
+        if inner.replace("''", "").contains('\'') {
+            return Yaml::Other("two scalars");
+        }
+        if inner.contains(['\n', '\r']) {
+            return Yaml::Other("a folded line");
+        }
+        return Yaml::Str(inner.replace("''", "'"));
+    }
+    if text.starts_with('"') {
+        return Yaml::Other("a double-quoted scalar (escapes not read here)");
+    }
+    let first = text.chars().next();
+    let next_blank = text.chars().nth(1).is_none_or(char::is_whitespace);
+    match first {
+        None => return Yaml::Other("null (empty)"),
+        Some('-' | '?' | ':') if next_blank => return Yaml::Other("an indicator"),
+        Some(
+            ',' | '[' | ']' | '{' | '}' | '#' | '&' | '*' | '!' | '|' | '>' | '\'' | '"' | '%'
+            | '@' | '`',
+        ) => return Yaml::Other("an indicator"),
+        _ => {}
+    }
+    let bools = [
+        "y", "Y", "yes", "Yes", "YES", "n", "N", "no", "No", "NO", "true", "True", "TRUE", "false",
+        "False", "FALSE", "on", "On", "ON", "off", "Off", "OFF",
+    ];
+    if bools.contains(&text) {
+        return Yaml::Other("bool");
+    }
+    if ["~", "null", "Null", "NULL"].contains(&text) {
+        return Yaml::Other("null");
+    }
+    if text == "<<" {
+        return Yaml::Other("merge");
+    }
+    if text == "=" {
+        return Yaml::Other("value");
+    }
+    if yaml11_int(text) {
+        return Yaml::Other("int");
+    }
+    if yaml11_float(text) {
+        return Yaml::Other("float");
+    }
+    Yaml::Str(text.to_string())
+}
+
+/// Every char of `s` (not empty) passes `ok`.
+fn all_of(s: &str, ok: impl Fn(char) -> bool) -> bool {
+    !s.is_empty() && s.chars().all(ok)
+}
+
+/// The tag repository's int: [-+]?0b[0-1_]+ | [-+]?0[0-7_]+ |
+/// [-+]?(0|[1-9][0-9_]*) | [-+]?0x[0-9a-fA-F_]+ |
+/// [-+]?[1-9][0-9_]*(:[0-5]?[0-9])+.
+fn yaml11_int(t: &str) -> bool {
+    let u = t.strip_prefix(['-', '+']).unwrap_or(t);
+    if let Some(r) = u.strip_prefix("0b") {
+        return all_of(r, |c| matches!(c, '0' | '1' | '_'));
+    }
+    if let Some(r) = u.strip_prefix("0x") {
+        return all_of(r, |c| c.is_ascii_hexdigit() || c == '_');
+    }
+    if u == "0" {
+        return true;
+    }
+    if let Some(r) = u.strip_prefix('0') {
+        return all_of(r, |c| matches!(c, '0'..='7' | '_'));
+    }
+    let mut parts = u.split(':');
+    let head = parts.next().unwrap_or("");
+    head.starts_with(|c: char| matches!(c, '1'..='9'))
+        && all_of(head, |c| c.is_ascii_digit() || c == '_')
+        && parts.all(sexagesimal)
+}
+
+/// [0-5]?[0-9]: one place of a base-60 number.
+fn sexagesimal(p: &str) -> bool {
+    let b = p.as_bytes();
+    match b.len() {
+        1 => b[0].is_ascii_digit(),
+        2 => (b'0'..=b'5').contains(&b[0]) && b[1].is_ascii_digit(),
+        _ => false,
+    }
+}
+
+/// The tag repository's float: [-+]?([0-9][0-9_]*)?\.[0-9.]*([eE][-+][0-9]+)?
+/// | [-+]?[0-9][0-9_]*(:[0-5]?[0-9])+\.[0-9_]* | [-+]?\.(inf|Inf|INF) |
+/// \.(nan|NaN|NAN).
+fn yaml11_float(t: &str) -> bool {
+    if [".nan", ".NaN", ".NAN"].contains(&t) {
+        return true;
+    }
+    let u = t.strip_prefix(['-', '+']).unwrap_or(t);
+    if [".inf", ".Inf", ".INF"].contains(&u) {
+        return true;
+    }
+    let Some((whole, frac)) = u.split_once('.') else {
+        return false;
+    };
+    if whole.contains(':') {
+        let mut parts = whole.split(':');
+        let head = parts.next().unwrap_or("");
+        return head.starts_with(|c: char| c.is_ascii_digit())
+            && all_of(head, |c| c.is_ascii_digit() || c == '_')
+            && parts.all(sexagesimal)
+            && frac.chars().all(|c| c.is_ascii_digit() || c == '_');
+    }
+    let whole_ok = whole.is_empty()
+        || (whole.starts_with(|c: char| c.is_ascii_digit())
+            && all_of(whole, |c| c.is_ascii_digit() || c == '_'));
+    let (digits, exp) = match frac.find(['e', 'E']) {
+        Some(i) => (&frac[..i], Some(&frac[i + 1..])),
+        None => (frac, None),
+    };
+    let exp_ok = exp.is_none_or(|e| {
+        e.strip_prefix(['-', '+'])
+            .is_some_and(|d| all_of(d, |c| c.is_ascii_digit()))
+    });
+    whole_ok && digits.chars().all(|c| c.is_ascii_digit() || c == '.') && exp_ok
+}
+
+/// Names that a plain YAML scalar would read as something else, names
+/// with a quote, a backslash or a non-ASCII letter, and names a Python or
+/// Godot string literal must escape.
+const HOSTILE: [&str; 24] = [
+    "-",
+    "true",
+    "null",
+    "1e3",
+    "0x10",
+    ".inf",
+    "-.inf",
+    "yes",
+    "NO",
+    "on",
+    "Null",
+    "~",
+    "1_000",
+    "0b101",
+    "+12",
+    "1:20",
+    "<<",
+    "=",
+    "it's",
+    "a\"b",
+    "back\\slash",
+    "ÿé",
+    "-5",
+    "1.5e+3",
+];
+
+#[test]
+fn the_yaml_reader_resolves_plain_scalars_as_yaml_1_1_does() {
+    for (text, want) in [
+        ("true", Yaml::Other("bool")),
+        ("-", Yaml::Other("an indicator")),
+        ("1e3", Yaml::Str("1e3".into())),
+        ("1.5e+3", Yaml::Other("float")),
+        ("017", Yaml::Other("int")),
+        ("0x10", Yaml::Other("int")),
+        (".inf", Yaml::Other("float")),
+        ("~", Yaml::Other("null")),
+        ("1:20", Yaml::Other("int")),
+        ("skin1", Yaml::Str("skin1".into())),
+        ("'true'", Yaml::Str("true".into())),
+        ("'it''s'", Yaml::Str("it's".into())),
+        ("'a'b'", Yaml::Other("two scalars")),
+    ] {
+        assert_eq!(yaml11_scalar(text), want, "{text}");
+    }
+}
+
+/// A stand-in fit of each engine, to write files under any name.
+fn fits() -> Vec<(&'static str, ssskit::engine::EngineFit)> {
+    use ssskit::engine::method::SubsurfaceMethod;
+    use ssskit::engine::{fit, fit_method, Engine, Scene};
+    let profile = ssskit::profile::Profile::read(Path::new(SKIN)).unwrap();
+    let native = |e| Scene::native(e);
+    vec![
+        (
+            "unity-hdrp",
+            fit(Engine::UnityHdrp, &profile, native(Engine::UnityHdrp)).unwrap(),
+        ),
+        (
+            "godot",
+            fit(Engine::Godot, &profile, native(Engine::Godot)).unwrap(),
+        ),
+        (
+            "unreal",
+            fit(Engine::Unreal, &profile, native(Engine::Unreal)).unwrap(),
+        ),
+        (
+            "blender",
+            fit_method(
+                Engine::Blender,
+                &profile,
+                native(Engine::Blender),
+                None,
+                SubsurfaceMethod::ChristensenBurley,
+            )
+            .unwrap(),
+        ),
+    ]
+}
+
+/// What Python prints running `code` with `input` on its stdin.
+fn python_stdin(code: &str, input: &str) -> String {
+    let mut child = std::process::Command::new("python3")
+        .args(["-c", code])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    use std::io::Write as _;
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(input.as_bytes())
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success());
+    String::from_utf8(o.stdout).unwrap()
+}
+
+/// The name a Python script's NAME holds, by Python's own `ast`.
+fn python_names(scripts: &[String]) -> Vec<String> {
+    let code = "import ast, json, sys\nout = []\nfor text in json.load(sys.stdin):\n    \
+                for node in ast.parse(text).body:\n        \
+                if isinstance(node, ast.Assign) and getattr(node.targets[0], 'id', '') == 'NAME':\n            \
+                out.append(ast.literal_eval(node.value))\nprint(json.dumps(out))\n";
+    let out = python_stdin(code, &serde_json::to_string(scripts).unwrap());
+    serde_json::from_str(&out).unwrap()
+}
+
+/// The characters an Unreal object's name may not hold: the asset is
+/// named with each made '_' (Epic's UnrealEngine Core/Public/UObject/
+/// NameTypes.h, INVALID_OBJECTNAME_CHARACTERS).
+const INVALID_OBJECTNAME: &str = "\"' ,/.:|&!~\n\r\t@#(){}[]=;^%$`";
+
+/// Every name reads back as itself in each engine's reader: the file stem
+/// the CLI writes (`io::file_stem` of the material's name), and the raw
+/// names with quotes and backslashes the library's writers take.
+#[test]
+fn every_name_reads_back_as_itself_in_each_engines_reader() {
+    use ssskit::engine::files::files;
+    let fits = fits();
+    let engine_of = |name: &str| {
+        name.parse::<ssskit::engine::Engine>()
+            .unwrap_or_else(|_| panic!("{name}"))
+    };
+    let mut scripts = Vec::new();
+    let mut want = Vec::new();
+    for raw in HOSTILE {
+        for name in [ssskit::io::file_stem(raw), raw.to_string()] {
+            for (engine, fit) in &fits {
+                let written = files(engine_of(engine), fit, &name).unwrap();
+                let text = &written[0].text;
+                match *engine {
+                    "unity-hdrp" => {
+                        let line = text.lines().find(|l| l.starts_with("  m_Name: ")).unwrap();
+                        let value = &line["  m_Name: ".len()..];
+                        assert_eq!(yaml11_scalar(value), Yaml::Str(name.clone()), "{line}");
+                    }
+                    "godot" => {
+                        let s = sections(text);
+                        let got = &s[1].2.iter().find(|p| p.0 == "resource_name").unwrap().1;
+                        assert_eq!(got, &GdValue::Str(name.clone()));
+                    }
+                    "unreal" => {
+                        scripts.push(text.clone());
+                        let asset: String = name
+                            .chars()
+                            .map(|c| {
+                                if INVALID_OBJECTNAME.contains(c) {
+                                    '_'
+                                } else {
+                                    c
+                                }
+                            })
+                            .collect();
+                        want.push(asset);
+                    }
+                    _ => {
+                        scripts.push(text.clone());
+                        want.push(name.clone());
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(python_names(&scripts), want);
+}
+
+/// A line break in a name: refused where the format cannot hold it as
+/// itself (a YAML single-quoted scalar folds it, a Godot line ends),
+/// escaped in a Python string.
+#[test]
+fn a_line_break_is_refused_where_a_format_would_change_it() {
+    use ssskit::engine::files::files;
+    for (engine, fit) in fits() {
+        let e: ssskit::engine::Engine = engine.parse().unwrap();
+        let got = files(e, &fit, "two\nlines");
+        match engine {
+            "unity-hdrp" | "godot" => {
+                let err = got.unwrap_err().to_string();
+                assert!(err.contains("U+000A"), "{engine}: {err}");
+            }
+            _ => {
+                let text = &got.unwrap()[0].text;
+                assert_eq!(python_names(std::slice::from_ref(text)).len(), 1);
+            }
+        }
+    }
+}
+
+/// A fitted value beyond the 32-bit floats the engines store is refused,
+/// the field named, never written as infinity.
+#[test]
+fn a_value_beyond_32_bit_floats_is_refused_with_its_field() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (engine, field) in [
+        ("unity-hdrp", "Multiplier"),
+        ("godot", "subsurf_scatter_strength"),
+    ] {
+        let out = tmp.path().join(engine);
+        fails_with(
+            &[
+                "engine",
+                "--profile",
+                SKIN,
+                "--engine",
+                engine,
+                "--units-per-mm",
+                "1e40",
+                "--out-dir",
+                p(&out),
+            ],
+            &[field, "32-bit"],
+        );
+        assert!(!out.exists());
+    }
+}
+
+/// The Blender script sets every layer the fit needs at 0 (closure.h
+/// `principled`: each takes its share of the subsurface weight), Specular
+/// IOR Level among them, whose default `node_declare` makes 0.5.
+#[test]
+fn blender_script_zeroes_every_layer_above_the_subsurface() {
+    for extra in [&[][..], &["--subsurface-method", "christensen-burley"][..]] {
+        let (_tmp, dir) = write("blender", extra);
+        let s = read_script(&dir.join("skin1-blender.py"));
+        for layer in [
+            "Metallic",
+            "Specular IOR Level",
+            "Transmission Weight",
+            "Coat Weight",
+            "Sheen Weight",
+        ] {
+            assert_eq!(s["VALUES"][layer], 0.0, "{layer} in {extra:?}");
+        }
+    }
+}
+
+/// A fit that cannot match its profile is still written (the best the
+/// engine can do), with the verdict at the top of every file that takes a
+/// comment, in the scripts' WARNING (which they print when run), and on
+/// stderr: never silently.
+#[test]
+fn a_fit_that_cannot_match_says_so_in_its_files() {
+    use ssskit::engine::files::files;
+    for (engine, mut fit) in fits() {
+        fit.error.shape = [0.6, 0.2, 0.2];
+        let verdict = fit.cannot_match().expect("over CANNOT_MATCH_SHAPE");
+        let e: ssskit::engine::Engine = engine.parse().unwrap();
+        let written = files(e, &fit, "skin1").unwrap();
+        let text = &written[0].text;
+        let first = text.lines().next().unwrap();
+        match engine {
+            // The editor's own YAML layout: the warning goes to stderr.
+            "unity-hdrp" => assert!(first.starts_with("%YAML"), "{first}"),
+            "godot" => {
+                assert!(first.starts_with("; WARNING from ssskit: godot cannot match"));
+                // Still Godot's grammar: the comment is skipped.
+                assert_eq!(sections(text)[0].0, "gd_resource");
+            }
+            _ => {
+                assert!(first.starts_with("# WARNING from ssskit"), "{first}");
+                let warning = python_warnings(text);
+                assert!(warning.contains(&verdict), "{warning}");
+            }
+        }
+    }
+    // Godot cannot match skin1: the CLI says so on stderr as it writes.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("g");
+    let o = run(&[
+        "engine",
+        "--profile",
+        SKIN,
+        "--engine",
+        "godot",
+        "--out-dir",
+        p(&out),
+    ]);
+    assert!(o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("cannot match this profile") && err.contains("the files are written"),
+        "{err}"
+    );
+}
+
+/// The WARNING a Python script holds, by Python's own `ast`.
+fn python_warnings(script: &str) -> String {
+    let code = "import ast, sys\nfor node in ast.parse(sys.stdin.read()).body:\n    \
+                if isinstance(node, ast.Assign) and getattr(node.targets[0], 'id', '') == 'WARNING':\n        \
+                print(ast.literal_eval(node.value))\n";
+    python_stdin(code, script)
 }

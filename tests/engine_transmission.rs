@@ -122,7 +122,9 @@ fn rgb_pair(p: &Map<String, Value>, k: &str) -> (f64, f64) {
 
 /// Godot's pi L / E through `t_m` metres of shadow-map thickness.
 fn godot(refl: &Map<String, Value>, tr: &Map<String, Value>, t_m: f64) -> [f64; 3] {
-    let albedo = rgb(refl, "albedo");
+    // albedo_color as the inspector shows it (sRGB); the shader reads it as
+    // a source_color, decoded to linear (BaseMaterial3D's shader).
+    let albedo = rgb(refl, "albedo_color").map(srgb_decode);
     let c = tr["subsurf_scatter_transmittance_color"]
         .as_array()
         .unwrap();

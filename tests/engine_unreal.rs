@@ -244,7 +244,10 @@ fn a_profile_reflecting_more_than_one_keeps_every_colour_inside_the_label() {
     }
     let bright = dir.path().join("bright.json");
     std::fs::write(&bright, serde_json::to_string(&v).unwrap()).unwrap();
-    let (fit, text) = engine_json(p(&bright), "unreal", &[]);
+    // The shape first: d is then the least squares' for the colour the
+    // cap leaves, what this test is about (with the colour kept the
+    // capped colour is 1 by construction).
+    let (fit, text) = engine_json(p(&bright), "unreal", &["--priority", "shape"]);
     let p = params(&fit);
     assert_inside_the_ui("bright", p);
     assert!(
@@ -267,7 +270,11 @@ fn a_profile_reflecting_more_than_one_keeps_every_colour_inside_the_label() {
     // d is fitted for the capped colour: its shape error beats the d the
     // uncapped fit of the same shape (skin1's) would give at that colour.
     let bright_profile = ssskit::profile::Profile::read(&bright).unwrap();
-    let (plain, _) = engine_json("profiles/reference/skin1.json", "unreal", &[]);
+    let (plain, _) = engine_json(
+        "profiles/reference/skin1.json",
+        "unreal",
+        &["--priority", "shape"],
+    );
     let uncapped_d = unreal_chain(params(&plain), 0.1, false).d_mm;
     let (_, capped) = score(&chain, &bright_profile);
     let (_, naive) = score(

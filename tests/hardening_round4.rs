@@ -47,8 +47,8 @@ fn angular() -> Value {
 /// An image of `w` x `h` pixels whose every pixel is `rgb`.
 fn constant(path: &Path, w: usize, h: usize, rgb: [f64; 3]) {
     let mut img = Image::new(w, h);
-    for c in 0..3 {
-        img.rgb[c].iter_mut().for_each(|v| *v = rgb[c]);
+    for (plane, v) in img.rgb.iter_mut().zip(rgb) {
+        plane.iter_mut().for_each(|x| *x = v);
     }
     write_exr(path, &img, None).unwrap();
 }

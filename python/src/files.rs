@@ -11,13 +11,6 @@ use ssskit::kernel::disk::{DiskKernelFile, DISK_SCHEMA};
 use ssskit::kernel::{KernelFile, KERNEL_SCHEMA};
 use ssskit::profile::{Profile, PROFILE_SCHEMA};
 
-/// A file the CLI writes, as the class that holds it.
-enum Loaded {
-    Profile(Profile),
-    Kernel(KernelFile),
-    Disk(DiskKernelFile),
-}
-
 /// Reads any JSON file the CLI writes, by its `schema`: a `Profile`
 /// (`ssskit.profile/1`), a `Kernel` (`ssskit.kernel/1`) or a `DiskKernel`
 /// (`ssskit.disk/1`). Reads without the GIL.
@@ -26,10 +19,19 @@ fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
     let path = path_of(path)?;
     let value: serde_json::Value = file_op(py, || ssskit::io::read_json(&path))?;
     let schema = value.get("schema").and_then(|s| s.as_str()).unwrap_or("");
-    let loaded = match schema {
-        PROFILE_SCHEMA => Loaded::Profile(file_op(py, || Profile::read(&path))?),
-        KERNEL_SCHEMA => Loaded::Kernel(file_op(py, || KernelFile::read(&path))?),
-        DISK_SCHEMA => Loaded::Disk(file_op(py, || DiskKernelFile::read(&path))?),
+    Ok(match schema {
+        PROFILE_SCHEMA => {
+            let inner = file_op(py, || Profile::read(&path))?;
+            Py::new(py, PyProfile { inner })?.into_any()
+        }
+        KERNEL_SCHEMA => {
+            let inner = file_op(py, || KernelFile::read(&path))?;
+            Py::new(py, PyKernel { inner })?.into_any()
+        }
+        DISK_SCHEMA => {
+            let inner = file_op(py, || DiskKernelFile::read(&path))?;
+            Py::new(py, PyDiskKernel { inner })?.into_any()
+        }
         other => {
             return Err(PyValueError::new_err(format!(
                 "{}: schema '{other}' is not one ssskit.load reads ({PROFILE_SCHEMA}, \
@@ -37,11 +39,6 @@ fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
                 path.display(),
             )))
         }
-    };
-    Ok(match loaded {
-        Loaded::Profile(inner) => Py::new(py, PyProfile { inner })?.into_any(),
-        Loaded::Kernel(inner) => Py::new(py, PyKernel { inner })?.into_any(),
-        Loaded::Disk(inner) => Py::new(py, PyDiskKernel { inner })?.into_any(),
     })
 }
 

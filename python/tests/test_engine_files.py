@@ -112,3 +112,22 @@ def test_the_asset_holds_the_printed_values_linear(written):
     for c, ch in enumerate("rgb"):
         d = float(p["scatteringDistanceMultiplier"]) * float(p["scatteringDistance"][ch])
         assert d == pytest.approx(fit["rendered"]["d_mm"][c], rel=1e-6)
+
+
+# Names a plain YAML scalar reads as something else (a sequence entry, a
+# bool, a null, an int, a float): each must read back as the string it is.
+HOSTILE_NAMES = ["-", "true", "null", "0x10", "-.inf", "1_000"]
+
+
+@pytest.mark.parametrize("name", HOSTILE_NAMES)
+def test_any_name_reads_back_as_the_assets_name(cli, tmp_path, name):
+    profile = json.loads((ROOT / "profiles" / "reference" / "skin1.json").read_text())
+    profile["material"]["name"] = name
+    src = tmp_path / "p.json"
+    src.write_text(json.dumps(profile))
+    out = tmp_path / "files"
+    cli("engine", "--profile", src, "--engine", "unity-hdrp", "--out-dir", out)
+    (asset,) = out.glob("*.asset")
+    e = UnityDocument.load_yaml(str(asset)).entry
+    # Unity names an asset after its file.
+    assert isinstance(e.m_Name, str) and e.m_Name == asset.stem, repr(e.m_Name)

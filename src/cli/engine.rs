@@ -1,40 +1,18 @@
 //! `ssskit engine`: the parameters of an engine's own diffusion model
 //! fitted to a profile, with the fit's error and a plot.
 
-use super::args::{self, MmPerPixelArg, OutDir, OutFile, ProfileFile};
+use super::args::{
+    self, EngineChoice, FactorsArg, MmPerPixelArg, OutDir, OutFile, ProfileModel, ProfileSourceArgs,
+};
 use super::out::outln;
 use anyhow::Context;
-use ssskit::engine::{self, burley, Engine, Scene, SubsurfaceMethod};
+use ssskit::engine::method::SubsurfaceMethod;
+use ssskit::engine::request::{fit_with, Priority, Request, COLOUR_TOL};
+use ssskit::engine::{self, burley, Engine, EngineFit, Scene};
 use ssskit::numerics::Bounded;
 use ssskit::profile::Profile;
 use ssskit::report::present::plot;
 use std::path::PathBuf;
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(super) enum EngineArg {
-    /// Unreal Engine's Subsurface Profile (Burley).
-    Unreal,
-    /// Unity HDRP's Diffusion Profile (Burley normalized diffusion).
-    UnityHdrp,
-    /// Blender's Principled BSDF, Christensen-Burley subsurface.
-    Blender,
-    /// Godot's screen-space subsurface scattering (one width).
-    Godot,
-    /// Jimenez's separable SSS (strength and falloff per channel).
-    Iryoku,
-}
-
-impl From<EngineArg> for Engine {
-    fn from(e: EngineArg) -> Engine {
-        match e {
-            EngineArg::Unreal => Engine::Unreal,
-            EngineArg::UnityHdrp => Engine::UnityHdrp,
-            EngineArg::Blender => Engine::Blender,
-            EngineArg::Godot => Engine::Godot,
-            EngineArg::Iryoku => Engine::Iryoku,
-        }
-    }
-}
 
 /// Blender's subsurface method the values are for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -54,10 +32,28 @@ impl From<MethodArg> for SubsurfaceMethod {
     }
 }
 
+/// What the fit keeps first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum PriorityArg {
+    /// Each channel's total (the colour seen) within 1% of the profile's.
+    Colour,
+    /// The best shape of r R_d, the colour free (it moves by a few %).
+    Shape,
+}
+
+impl From<PriorityArg> for Priority {
+    fn from(p: PriorityArg) -> Priority {
+        match p {
+            PriorityArg::Colour => Priority::Colour,
+            PriorityArg::Shape => Priority::Shape,
+        }
+    }
+}
+
 #[derive(clap::Args)]
 #[command(
-    mut_arg("profile", |a| args::required()(a)
-        .help("Reflectance profile file (ssskit.profile/1 JSON): with r, g, b channels")),
+    mut_args(args::profile_source(ProfileModel::Mc)),
+    mut_arg("engine", |a| a.required(true)),
     mut_arg("mm_per_pixel", |a| args::default(ssskit::report::eval::evaluate::DEFAULT_MM_PER_PIXEL)(a)
         .help("Scale: surface mm per pixel of the plane the engine's sampling is scored on")
         .long_help("Scale: surface millimetres per pixel of the flat plane the unreal and \
@@ -67,10 +63,11 @@ impl From<MethodArg> for SubsurfaceMethod {
     )),
     mut_arg("out_dir", |a| a.required(false).help(
         "Output folder (created): the JSON of --out and the file the engine imports \
-         (blender, unity-hdrp, godot) [default: not written]"
+         (unreal, blender, unity-hdrp, godot) [default: not written]"
     ).long_help(
         "Output folder (created, replaced as a whole): NAME-ENGINE.json (what --out writes) and \
-         the file the engine imports, NAME after the profile's material: blender NAME-blender.py \
+         the file the engine imports, NAME after the profile's material: unreal NAME-unreal.py \
+         (an editor script that makes the Subsurface Profile asset), blender NAME-blender.py \
          (a script that makes the material), unity-hdrp NAME.asset (a Diffusion Profile), godot \
          NAME.tres (a StandardMaterial3D) and NAME-project.godot (project settings) \
          [default: not written]"
@@ -78,10 +75,11 @@ impl From<MethodArg> for SubsurfaceMethod {
 )]
 pub struct Args {
     #[command(flatten)]
-    profile: ProfileFile,
-    /// The engine whose model is fitted.
-    #[arg(long, value_enum, value_name = "ENGINE", ignore_case = true)]
-    engine: EngineArg,
+    profile: ProfileSourceArgs,
+    #[command(flatten)]
+    factors: FactorsArg,
+    #[command(flatten)]
+    engine: EngineChoice,
     /// The engine version whose conversion chain to follow (unreal: 5.4,
     /// 5.0; unity-hdrp: 17; blender: 4, eevee, 2.93) [default: the newest].
     #[arg(long, value_name = "VERSION")]
@@ -92,6 +90,11 @@ pub struct Args {
     /// christensen-burley].
     #[arg(long, value_enum, value_name = "METHOD")]
     subsurface_method: Option<MethodArg>,
+    /// What the fit keeps first: colour keeps each channel's total within 1% of the
+    /// profile's and fits the shape for it; shape fits r R_d by least squares with the
+    /// colour free. The other's error is printed beside, with what the choice costs.
+    #[arg(long, value_enum, value_name = "WHAT", default_value = "colour")]
+    priority: PriorityArg,
     #[command(flatten)]
     out: OutFile,
     #[command(flatten)]
@@ -120,7 +123,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(out) = &a.out.out {
         ssskit::io::check_extension(out, &["json"], "engine parameters")?;
     }
-    let e = Engine::from(a.engine);
+    let e = Engine::from(
+        a.engine
+            .engine
+            .ok_or_else(|| anyhow::anyhow!("give --engine"))?,
+    );
     // Before any work: an engine without a file, or a folder that may
     // not be replaced, fails here.
     let staged = match &a.out_dir.out_dir {
@@ -130,12 +137,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let profile_path = a
-        .profile
-        .profile
-        .as_deref()
-        .ok_or_else(|| anyhow::anyhow!("give --profile"))?;
-    let profile = Profile::read(profile_path)?;
+    if !a.profile.given() {
+        anyhow::bail!("give --material NAME (a preset or a TOML file) or --profile FILE.json");
+    }
     let table = match &a.transmission {
         Some(t) => Some(ssskit::profile::transmission::ThicknessTable::read(t)?),
         None => None,
@@ -147,52 +151,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let subsurface_method =
         SubsurfaceMethod::resolve(e, version, a.subsurface_method.map(SubsurfaceMethod::from))
             .context("--subsurface-method")?;
-    let fit = engine::fit_method(e, &profile, scene, version, subsurface_method)?;
-    let verdict = fit
-        .cannot_match()
-        .map_or(String::new(), |s| format!(": {s}"));
-    let method = match e {
-        Engine::Blender => format!(", {}", subsurface_method.ui_name()),
-        _ => String::new(),
+    // A profile read is used as it is (the factors' lines say whether it
+    // has the angular tables); one made from a material gets them as in
+    // the main job.
+    let (profile, source) = if a.profile.profile.profile.is_some() {
+        a.profile.load()?
+    } else {
+        a.profile.load_with_factors(&a.factors)?
     };
-    outln!(
-        "engine: {}{method} (profile {}){verdict}",
-        fit.engine,
-        profile_path.display()
-    )?;
-    outln!("version: {}", fit.version)?;
-    outln!("scene: {} units per mm", scene.units_per_mm)?;
-    for (name, v) in &fit.params {
-        let unit = fit.units.get(name).map_or("", String::as_str);
-        outln!("  {name} = {v}    [{unit}]")?;
-    }
-    let pct = |v: [f64; 3]| v.map(|x| format!("{:.2}%", Bounded(100.0 * x))).join(", ");
-    outln!(
-        "error against the profile (r, g, b): total {}; shape (relative L2 of r R_d, r < r99) {}",
-        pct(fit.error.total),
-        pct(fit.error.shape)
-    )?;
-    match burley::forward_error(&profile) {
-        Ok(f) => outln!(
-            "forward Burley from the optical coefficients: total {}; shape {}",
-            pct(f.total),
-            pct(f.shape)
-        )?,
-        Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
-    }
+    let req = Request {
+        version,
+        method: Some(subsurface_method),
+        priority: a.priority.into(),
+        other: true,
+        ..Request::default()
+    };
+    let fit = fit_with(e, &profile, scene, &req, &super::progress::Bar::new())?;
+    print_fit(&fit, e, subsurface_method, &profile, &source, scene)?;
     if matches!(e, Engine::Unreal | Engine::UnityHdrp) {
         let v = e.version(a.engine_version.as_deref())?;
         sampled(&fit, e, scene, v, a.mm_per_pixel.or_default())?;
     }
-    if !fit.error_for.is_empty() {
-        outln!("the error is for: {}", fit.error_for)?;
-    }
-    for r in &fit.requirements {
-        outln!("requires: {r}")?;
-    }
-    for w in &fit.warnings {
-        outln!("warning: {w}")?;
-    }
+    print_conditions(&fit)?;
     let v = e.version(a.engine_version.as_deref())?;
     for line in engine::factors_place::lines(e, v, &profile)? {
         outln!("{line}")?;
@@ -218,10 +198,102 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         plot::render(
             &panels,
             2,
-            &format!("{} fitted to {}", fit.engine, profile_path.display()),
+            &format!("{} fitted to {}", fit.engine, profile.material.name),
             png,
         )?;
         eprintln!("wrote {}", png.display());
+    }
+    Ok(())
+}
+
+fn pct(v: [f64; 3]) -> String {
+    v.map(|x| format!("{:.2}%", Bounded(100.0 * x))).join(", ")
+}
+
+/// The first lines: what was fitted, the values to type, the errors and
+/// what the priority costs.
+fn print_fit(
+    fit: &EngineFit,
+    e: Engine,
+    method: SubsurfaceMethod,
+    profile: &Profile,
+    source: &str,
+    scene: Scene,
+) -> anyhow::Result<()> {
+    let verdict = fit
+        .cannot_match()
+        .map_or(String::new(), |s| format!(": {s}"));
+    let method = match e {
+        Engine::Blender => format!(", {}", method.ui_name()),
+        _ => String::new(),
+    };
+    outln!(
+        "engine: {}{method} (profile of {}: {source}){verdict}",
+        fit.engine,
+        profile.material.name
+    )?;
+    outln!("version: {}", fit.version)?;
+    outln!("scene: {} units per mm", scene.units_per_mm)?;
+    outln!("values to type:")?;
+    for (name, v) in &fit.params {
+        let unit = fit.units.get(name).map_or("", String::as_str);
+        outln!("  {name} = {v}    [{unit}]")?;
+    }
+    let noise = fit.walk.as_ref().map_or(String::new(), |w| {
+        format!(" (Monte Carlo standard error {})", pct(w.shape_noise))
+    });
+    outln!(
+        "error against the profile (r, g, b): total {}; shape (relative L2 of r R_d, \
+         r < r99) {}{noise}",
+        pct(fit.error.total),
+        pct(fit.error.shape)
+    )?;
+    if let Some(o) = &fit.other {
+        let how = o.note.as_ref().map_or(String::new(), |n| format!(" ({n})"));
+        match fit.priority {
+            Priority::Colour => outln!(
+                "colour kept (each channel's total within {}% of the profile's); the shape first \
+                 (--priority shape) would give shape {} and total {}{how}",
+                100.0 * COLOUR_TOL,
+                pct(o.error.shape),
+                pct(o.error.total)
+            )?,
+            Priority::Shape => outln!(
+                "shape first, the colour moved; keeping the colour (--priority colour) would give \
+                 shape {} and total {}{how}",
+                pct(o.error.shape),
+                pct(o.error.total)
+            )?,
+        }
+    }
+    match burley::forward_error(profile) {
+        Ok(f) => outln!(
+            "forward Burley from the optical coefficients: total {}; shape {}",
+            pct(f.total),
+            pct(f.shape)
+        )?,
+        Err(err) => outln!("forward Burley from the optical coefficients: not available ({err})")?,
+    }
+    Ok(())
+}
+
+/// What the error is for and assumes: the scene (not values to type),
+/// the engine's other settings, the warnings.
+fn print_conditions(fit: &EngineFit) -> anyhow::Result<()> {
+    if !fit.error_for.is_empty() {
+        outln!("the error is for: {}", fit.error_for)?;
+    }
+    if !fit.scene.is_empty() {
+        outln!("scene conditions the error assumes (not values to type):")?;
+        for line in &fit.scene {
+            outln!("  {line}")?;
+        }
+    }
+    for r in &fit.requirements {
+        outln!("requires: {r}")?;
+    }
+    for w in &fit.warnings {
+        outln!("warning: {w}")?;
     }
     Ok(())
 }
@@ -246,6 +318,13 @@ fn write_files(
     for f in &files {
         let path = ssskit::io::join_inside(staged.path(), &f.name)?;
         ssskit::io::write_atomic(&path, f.text.as_bytes())?;
+    }
+    if let Some(w) = fit.cannot_match() {
+        super::errors::warn(&format!(
+            "{} {w}: the files are written, the best the engine can do, with this warning at \
+             the top of each that takes a comment",
+            fit.engine
+        ));
     }
     let dir = staged.target().to_path_buf();
     staged.commit()?;

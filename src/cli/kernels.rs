@@ -2,8 +2,8 @@
 //! model, shader arrays, the comparison report with plots, and what to ship.
 
 use super::args::{
-    self, BudgetArgs, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs, SceneCheckArgs,
-    TapsArg,
+    self, BudgetArgs, EngineChoice, ImageErrorArg, ProfileModel, ProfileSourceArgs, ReportArgs,
+    SceneCheckArgs, TapsArg,
 };
 use super::out::out;
 use super::profile_source::command_line;
@@ -18,6 +18,12 @@ use ssskit::report::eval::pipeline::{self, Settings};
 #[command(mut_arg("mm_per_pixel", |a| a
     .default_value(None::<&str>)
     .help("Scale: surface millimetres per pixel [default: 0.1, or the scene's with --scene]")))]
+#[command(mut_arg("engine", |a| a
+    .help("Engine: its files are written beside recommended.json [default: none]")
+    .long_help("Engine: its own subsurface model is fitted to the profile as `ssskit engine` \
+                fits it by default, and its files (what `engine --out-dir` writes) are \
+                written beside recommended.json; report.md says how to import them \
+                [default: none]")))]
 pub struct Args {
     #[command(flatten)]
     profile: ProfileSourceArgs,
@@ -33,6 +39,8 @@ pub struct Args {
     scene: SceneCheckArgs,
     #[command(flatten)]
     factors: args::FactorsArg,
+    #[command(flatten)]
+    engine: EngineChoice,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -52,6 +60,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     ssskit::kernel::taps::check_count(a.taps.taps)?;
     let target = a.target.fraction()?;
+    let engine = a.engine.engine.map(ssskit::engine::Engine::from);
+    if let Some(e) = engine {
+        ssskit::report::eval::engine_step::check(e)?;
+    }
     let out_dir = a.report.out_dir.path()?;
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(out_dir)?;
@@ -68,6 +80,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         budget: a.budget.budget(),
         size: a.report.signal_size.signal_size,
         plots: !a.report.no_plots.no_plots,
+        engine,
     };
     let outcome = pipeline::run(
         &profile,

@@ -309,13 +309,13 @@ mod tests {
         let models = names::<args::ModelArg>();
         assert!(ADVISE.iter().all(|f| models.iter().any(|m| m == f)));
         let engines: Vec<&str> = Engine::ALL.iter().map(|e| e.name()).collect();
-        assert_eq!(names::<engine::EngineArg>(), engines);
+        assert_eq!(names::<args::engine::EngineArg>(), engines);
         let signals: Vec<String> = <signal::Kind as clap::ValueEnum>::value_variants()
             .iter()
             .map(|&k| signal_name(k.into()).to_string())
             .collect();
         assert_eq!(names::<signal::Kind>(), signals);
-        for &e in <engine::EngineArg as clap::ValueEnum>::value_variants() {
+        for &e in <args::engine::EngineArg as clap::ValueEnum>::value_variants() {
             assert_eq!(Engine::from(e).name(), flag_value(&e));
         }
         // --profile-model: Monte Carlo and every analytic model, each

@@ -32,7 +32,7 @@
 
 use super::burley::Burley;
 use super::printed::{
-    color, in_range, number, printed, require, srgb_hex, text, triple, typed, Printed,
+    color, in_range, number, printed, require, srgb_hex, text, triple, typed, units_line, Printed,
 };
 use super::{Scene, Version};
 use crate::error::{Error, Result};
@@ -200,15 +200,40 @@ pub(super) fn scale_and_radius(radius: [f64; 3], warnings: &mut Vec<String>) -> 
     (scale, radius.map(|r| clamp_radius(r / scale, warnings)))
 }
 
+/// The Principled BSDF's other layers in Blender 4.0 and later, each of
+/// which takes its share of the subsurface weight (closure.h `principled`:
+/// the metallic, transmission, coat and sheen weights, and the specular
+/// layer's `closure_layering_weight`): at 0 only the subsurface renders,
+/// as the fit assumes. Their defaults are 0 but for Specular IOR Level,
+/// 0.5 (node_shader_bsdf_principled.cc `node_declare`).
+pub const ZERO_LAYERS: [(&str, &str); 5] = [
+    ("Metallic", "0: a metal has no subsurface"),
+    (
+        "Specular IOR Level",
+        "0: no specular layer (default 0.5). At 0.5 the layer takes its Fresnel reflectance \
+         (about 4% at IOR 1.5, normal incidence) out of the subsurface weight, light the \
+         profile's total already leaves out: the diffuse renders that much darker. A highlight \
+         from another closure (a Glossy BSDF added) keeps the colour",
+    ),
+    (
+        "Transmission Weight",
+        "0: transmission takes its share of the weight",
+    ),
+    ("Coat Weight", "0: the coat takes its share of the weight"),
+    ("Sheen Weight", "0: the sheen takes its share of the weight"),
+];
+
 /// The rows every Blender 4 method prints: Base Color (`colour_note` says
-/// what it holds) and its hex, Subsurface Weight, Radius and Scale.
+/// what it holds) and its hex, Subsurface Weight, Radius and Scale, and
+/// the other layers at 0 ([`ZERO_LAYERS`]).
 pub(super) fn subsurface_rows(
     colour: [f64; 3],
     colour_note: &'static str,
     per_channel: [f64; 3],
     scale: f64,
 ) -> Vec<(&'static str, Value, &'static str)> {
-    vec![
+    let layers = ZERO_LAYERS.map(|(name, why)| (name, json!(0.0), why));
+    let mut rows = vec![
         ("Base Color", color(colour), colour_note),
         (
             "Base Color hex",
@@ -226,10 +251,36 @@ pub(super) fn subsurface_rows(
             "per channel, in [0, 100], times Subsurface Scale",
         ),
         ("Subsurface Scale", json!(scale), "scene units, in [0, 10]"),
-    ]
+    ];
+    rows.extend(layers);
+    rows
+}
+
+/// The other layers at 0, as printed (Blender 4.0 and later).
+pub(super) fn require_zero_layers(p: &Map<String, Value>) -> Result<()> {
+    for (name, why) in ZERO_LAYERS {
+        require(p, name, &json!(0.0), why)?;
+    }
+    Ok(())
 }
 
 const UI: &str = "Blender's socket";
+
+/// The printed Subsurface Radius (per channel) and Subsurface Scale, each
+/// checked against the range Blender's UI takes.
+pub(super) fn radius_and_scale(p: &Map<String, Value>) -> Result<([f64; 3], f64)> {
+    let r = triple(p, "Subsurface Radius")?;
+    let scale = in_range(
+        UI,
+        "Subsurface Scale",
+        number(p, "Subsurface Scale")?,
+        SCALE_RANGE,
+    )?;
+    for x in r {
+        in_range(UI, "Subsurface Radius", x, RADIUS_RANGE)?;
+    }
+    Ok((r, scale))
+}
 
 /// The profile Blender renders from the values `params` prints, by the
 /// chain of the module comment for version `v`.
@@ -263,17 +314,9 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
             &json!(1.0),
             "below 1 a diffuse BSDF takes the rest",
         )?;
+        require_zero_layers(p)?;
         let colour = triple(p, "Base Color")?.map(|c| c.clamp(0.0, 1.0));
-        let r = triple(p, "Subsurface Radius")?;
-        let scale = in_range(
-            UI,
-            "Subsurface Scale",
-            number(p, "Subsurface Scale")?,
-            SCALE_RANGE,
-        )?;
-        for x in r {
-            in_range(UI, "Subsurface Radius", x, RADIUS_RANGE)?;
-        }
+        let (r, scale) = radius_and_scale(p)?;
         (colour, r.map(|x| x * scale))
     };
     let s = albedo_fit(v, colour);
@@ -284,27 +327,34 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
     })
 }
 
-pub fn requirements(v: Version, scene: Scene) -> Vec<String> {
-    let mut r = vec![format!(
-        "scene units of {} mm (--units-per-mm {}): the radius is a distance in scene units",
-        1.0 / scene.units_per_mm,
-        scene.units_per_mm
+/// What the error assumes of the scene: its units; for Random Walk
+/// (`walk`) the view and the light too.
+pub fn scene_lines(scene: Scene, walk: bool) -> Vec<String> {
+    let mut r = vec![units_line(
+        scene,
+        "Subsurface Radius x Scale is a distance in them",
     )];
-    if v.key == "2.93" {
-        r.push("Metallic 0 and Transmission 0 (they take their share of the subsurface)".into());
-    } else {
+    if walk {
         r.push(
-            "Metallic 0, Transmission 0, Coat 0 and Sheen 0 (each layer takes its share of the \
-             subsurface weight)"
+            "a view along the surface's normal: Cycles starts the walk along the view ray \
+             refracted through a GGX facet of the Roughness (subsurface_entry_bounce), straight \
+             down at Roughness 0; a slanted view starts it slanted and the profile differs"
                 .into(),
         );
         r.push(
-            "the specular layer (IOR, Specular IOR Level) takes its reflectance out of the \
-             subsurface weight (closure_layering_weight), while the profile's total already \
-             leaves out the specular reflection at entry: the diffuse renders lower by that \
-             reflectance (about 4% at IOR 1.5 and normal incidence)"
+            "light from any direction: where the walk leaves, a Lambertian BSDF of weight 1 \
+             takes it (subsurface_shader_data_setup); scored with a sun at the zenith, as \
+             scripts/engine-cycles renders it"
                 .into(),
         );
     }
     r
+}
+
+pub fn requirements(v: Version) -> Vec<String> {
+    if v.key == "2.93" {
+        vec!["Metallic 0 and Transmission 0 (they take their share of the subsurface)".into()]
+    } else {
+        Vec::new()
+    }
 }

@@ -6,7 +6,8 @@
 //! from the profile itself; each engine file turns them into the values a
 //! user types, and back through that engine's own chain.
 
-use super::Target;
+use super::model::{modelled, Target};
+use super::request::Priority;
 use crate::error::{Error, Result};
 use crate::numerics::bin_averages_resolved;
 use crate::numerics::minimise_log;
@@ -61,20 +62,32 @@ impl Burley {
             })
             .collect()
     }
+
+    /// This model on `like`'s grid, as engine `engine` renders it.
+    pub fn profile(&self, like: &Profile, engine: &str) -> Profile {
+        let grid = RadialGrid {
+            edges: like.r_edges.clone(),
+        };
+        let rd = (0..3).map(|c| self.bins(c, &grid)).collect();
+        modelled(like, engine, "burley", rd, self.albedo.to_vec())
+    }
 }
 
 /// Least squares on r R_d(r) (the shape norm) per channel: for each d the
 /// best A is linear; d by a log-space search from 1e-4 to 10 times the
 /// radius holding 99% of the channel.
 pub fn fit(p: &Profile) -> Result<Burley> {
-    fit_capped(p, [f64::INFINITY; 3])
+    fit_for(p, [f64::INFINITY; 3], Priority::Shape)
 }
 
 /// `fit` with A at most `cap` per channel (an engine colour field that
-/// cannot exceed 1): where the best A for a d is above the cap, that d is
-/// scored with A = cap, so d is the best one for the colour the engine
-/// can take, not the best one for a colour it cannot.
-pub fn fit_capped(p: &Profile, cap: [f64; 3]) -> Result<Burley> {
+/// cannot exceed 1). With `Priority::Shape` A is the least-squares
+/// amplitude, and where it is above the cap that d is scored with A = cap,
+/// so d is the best one for the colour the engine can take, not for one it
+/// cannot. With `Priority::Colour` A is the profile's total (capped): the
+/// blur is normalised, so that is the total the engine renders, and d is
+/// the best one for it.
+pub fn fit_for(p: &Profile, cap: [f64; 3], priority: Priority) -> Result<Burley> {
     let mut albedo = [0.0; 3];
     let mut d_mm = [0.0; 3];
     for c in 0..3 {
@@ -89,8 +102,12 @@ pub fn fit_capped(p: &Profile, cap: [f64; 3]) -> Result<Burley> {
         };
         let shape =
             |d: f64| bin_averages_resolved(|r| normalized_diffusion(1.0, d, r), &grid.edges);
+        let kept = p.total_rd[c].min(cap[c]);
         let scored = |d: f64| {
             let s = shape(d);
+            if priority == Priority::Colour {
+                return (kept, t.residual_at(&s, kept));
+            }
             let (a, res) = t.scale_of(&s);
             if a > cap[c] {
                 (cap[c], t.residual_at(&s, cap[c]))
@@ -123,5 +140,5 @@ pub fn forward_error(p: &Profile) -> Result<super::FitError> {
         ..Options::default()
     };
     let forward = analytic::profile(&p.material, analytic::Model::Burley, &grid, &options)?;
-    super::error(&forward, p)
+    super::model::error(&forward, p)
 }

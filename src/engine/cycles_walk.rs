@@ -37,6 +37,7 @@
 //! exit weighted by the product of the alphas of its scatterings.
 
 use crate::error::{Error, Result};
+use crate::progress::{Progress, INTERRUPTED};
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
@@ -248,8 +249,16 @@ pub const MAX_WALKS: usize = 1 << 24;
 
 impl UnitWalk {
     /// `walks` walks with seed `seed`, for alpha (used only where g > 0:
-    /// the similarity medium's extinction) and anisotropy g.
-    pub fn run(walks: usize, alpha: f64, g: f64, seed: u64) -> Result<UnitWalk> {
+    /// the similarity medium's extinction) and anisotropy g; each chunk's
+    /// walks reported to `progress` as done, and none started once it
+    /// asks to stop.
+    pub fn run(
+        walks: usize,
+        alpha: f64,
+        g: f64,
+        seed: u64,
+        progress: &dyn Progress,
+    ) -> Result<UnitWalk> {
         if walks == 0 || walks > MAX_WALKS {
             return Err(Error::invalid(
                 "engine",
@@ -262,15 +271,20 @@ impl UnitWalk {
         let parts: Vec<Vec<(f64, u16)>> = (0..chunks)
             .into_par_iter()
             .map(|i| {
+                if progress.cancelled() {
+                    return Err(Error::Unsupported(INTERRUPTED.into()));
+                }
                 let n = CHUNK.min(walks - i * CHUNK);
                 let mut rng = Xoshiro256PlusPlus::seed_from_u64(
                     seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
                 );
-                (0..n)
+                let exits = (0..n)
                     .filter_map(|_| walk_one(alpha, g, &mut rng))
-                    .collect()
+                    .collect();
+                progress.advance(n as u64);
+                Ok(exits)
             })
-            .collect();
+            .collect::<Result<_>>()?;
         let half = chunks.div_ceil(2);
         let first_half = parts[..half].iter().map(Vec::len).sum();
         Ok(UnitWalk {
@@ -336,6 +350,7 @@ impl UnitWalk {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::progress::NoProgress;
 
     /// `subsurface_random_walk_remap` (Cycles v5.0.0,
     /// kernel/integrator/subsurface_random_walk.h) as the source writes
@@ -463,7 +478,7 @@ mod tests {
         assert!((single_scatter_share(0.0) - exact).abs() < 1e-12);
         let walks = 1 << 18;
         for g in [0.0, 0.5] {
-            let w = UnitWalk::run(walks, 1.0, g, 7).unwrap();
+            let w = UnitWalk::run(walks, 1.0, g, 7, &NoProgress).unwrap();
             let once = w.exits.iter().filter(|e| e.1 == 1).count() as f64 / walks as f64;
             let p = single_scatter_share(g);
             let se = (p * (1.0 - p) / walks as f64).sqrt();
@@ -479,7 +494,7 @@ mod tests {
         // Without absorption a walk in a half-space comes back: what does
         // not within MAX_BOUNCES flights is lost, and the longest exits
         // come after MAX_BOUNCES - 1 scatterings.
-        let w = UnitWalk::run(1 << 17, 1.0, 0.0, 3).unwrap();
+        let w = UnitWalk::run(1 << 17, 1.0, 0.0, 3, &NoProgress).unwrap();
         let longest = w.exits.iter().map(|e| e.1).max().unwrap();
         assert_eq!(longest as usize, MAX_BOUNCES - 1);
         assert!(w.exits.len() < w.walks);
@@ -509,7 +524,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| UnitWalk::run(3 * CHUNK + 5, 0.9, 0.3, 11).unwrap())
+                .install(|| UnitWalk::run(3 * CHUNK + 5, 0.9, 0.3, 11, &NoProgress).unwrap())
         };
         let (a, b) = (run(1), run(3));
         assert_eq!(a.exits, b.exits);

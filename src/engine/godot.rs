@@ -58,9 +58,11 @@
 //! distance over the screen's height, 1 / aspect of that in the scene.
 
 use super::jimenez::{self as sep, FitData, Separable};
-use super::printed::{color, number, table, triple, typed, Units, TYPED_REL};
+use super::printed::{color, number, srgb_hex, table, triple, typed, units_line, Units, TYPED_REL};
+use super::request::Priority;
 use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
+use crate::filter::image::{linear_to_srgb, srgb_to_linear};
 use crate::kernel::jimenez::{tap_table, JimenezParams};
 use crate::kernel::taps;
 use crate::numerics::Bounded;
@@ -339,9 +341,16 @@ pub fn params(k: &Godot, scene: Scene) -> (Map<String, Value>, Units) {
             "taps per pass of that table (USE_11/17/25_SAMPLES)",
         ),
         (
-            "albedo",
-            color(k.albedo.map(typed)),
-            "the material's albedo (linear RGB)",
+            "albedo_color",
+            color(k.albedo.map(|a| typed(linear_to_srgb(a.clamp(0.0, 1.0))))),
+            "the material's Albedo > Color as the inspector shows it (sRGB, 0 to 1: \
+             BaseMaterial3D's shader reads it as source_color and decodes it): the profile's \
+             total reflectance",
+        ),
+        (
+            "albedo_color hex",
+            json!(srgb_hex(k.albedo)),
+            "the same colour as the colour picker's 8-bit hex field",
         ),
     ])
 }
@@ -401,10 +410,14 @@ pub fn godot_from_params(p: &Map<String, Value>, scene: Scene) -> Result<Godot> 
             format!("the quality {label} selects the {samples}-tap table"),
         ));
     }
+    let shown = triple(p, "albedo_color")?;
+    for x in shown {
+        super::printed::in_range("Godot's inspector", "albedo_color", x, (0.0, 1.0))?;
+    }
     Ok(Godot {
         samples,
         mm_per_unit: w,
-        albedo: triple(p, "albedo")?,
+        albedo: shown.map(srgb_to_linear),
     })
 }
 
@@ -456,6 +469,7 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
     Ok(EngineFit {
         engine: "godot".into(),
         version: VERSION.into(),
+        priority: Priority::Colour,
         params,
         units,
         error,
@@ -465,8 +479,13 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
              1 / aspect of it)",
             k.samples
         ),
+        scene: vec![units_line(
+            scene,
+            "subsurf_scatter_strength is a length in them at subsurface_scattering_depth_scale 1",
+        )],
         requirements: requirements(&k),
         warnings,
+        other: None,
         rendered: None,
         walk: None,
         profile: model_profile,

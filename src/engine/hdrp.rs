@@ -29,7 +29,8 @@
 
 use super::burley::Burley;
 use super::printed::{
-    color, from_srgb_hex, in_range, number, printed, srgb_hex, text, triple, typed, Printed,
+    color, from_srgb_hex, in_range, number, printed, srgb_hex, text, triple, typed, units_line,
+    Printed,
 };
 use super::{Scene, Version};
 use crate::error::{Error, Result};
@@ -199,17 +200,17 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, _v: Version) -> Result<
     })
 }
 
-pub fn requirements(_v: Version, scene: Scene) -> Vec<String> {
+/// What the error assumes of the scene.
+pub fn scene_lines(scene: Scene) -> Vec<String> {
+    vec![units_line(scene, "World Scale tells HDRP the unit's size")]
+}
+
+pub fn requirements(_v: Version) -> Vec<String> {
     vec![
         "the Lit material's Material Type is Subsurface Scattering with this Diffusion \
          Profile, Subsurface Mask 1, and Base Map colour the Base Color printed here (no \
          texture, or one whose texels are that colour)"
             .to_string(),
-        format!(
-            "scene units of {} mm (--units-per-mm {}): World Scale tells HDRP the unit's size",
-            1.0 / scene.units_per_mm,
-            scene.units_per_mm
-        ),
         "the diffusion profile is in the Diffusion Profile List of the active Volume (or of the \
          HDRP asset)"
             .to_string(),

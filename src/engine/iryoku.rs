@@ -30,7 +30,9 @@
 //! from -3 to 3" holds for 25 taps; below 21 the table spans +-2 units.
 
 use super::jimenez::{self as sep, ChannelFit, FitData, Separable};
+use super::printed::units_line;
 use super::printed::{color, number, table, triple, typed, Units};
+use super::request::Priority;
 use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams, IRYOKU_FALLOFF, IRYOKU_STRENGTH};
@@ -107,11 +109,13 @@ impl Iryoku {
 }
 
 /// The best iryoku kernel with `samples` taps and its summed squared
-/// shape error.
-pub fn fit_samples(p: &Profile, samples: usize) -> Result<(Iryoku, f64)> {
+/// shape error; with `Priority::Colour` the albedo is the profile's total
+/// (the table sums to 1 per channel, so that is the total it renders).
+pub fn fit_samples(p: &Profile, samples: usize, priority: Priority) -> Result<(Iryoku, f64)> {
     let d = FitData::new(p)?;
-    let l = sep::best_unit(&d, |l| Ok(sep::fit_channels(&d, samples, l)?.1))?;
-    let (fits, cost) = sep::fit_channels(&d, samples, l)?;
+    let fixed = (priority == Priority::Colour).then(|| std::array::from_fn(|c| p.total_rd[c]));
+    let l = sep::best_unit(&d, |l| Ok(sep::fit_channels(&d, samples, l, fixed)?.1))?;
+    let (fits, cost) = sep::fit_channels(&d, samples, l, fixed)?;
     let pick = |f: fn(&ChannelFit) -> f64| -> [f64; 3] { std::array::from_fn(|c| f(&fits[c])) };
     Ok((
         Iryoku {
@@ -231,14 +235,15 @@ fn warnings(k: &Iryoku) -> Vec<String> {
 }
 
 /// Fits iryoku's kernel with each of its tap counts and keeps the best.
-pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
-    let k = sep::best_count(|n| fit_samples(profile, n))?;
+pub fn fit(profile: &Profile, scene: Scene, priority: Priority) -> Result<EngineFit> {
+    let k = sep::best_count(|n| fit_samples(profile, n, priority))?;
     let (params, units) = params(&k, scene);
     // The error of what the engine renders from the values as written.
     let (model_profile, error) = sep::rendered(&from_params(&params, scene)?, profile, "iryoku")?;
     Ok(EngineFit {
         engine: "iryoku".into(),
         version: VERSION.into(),
+        priority,
         params,
         units,
         error,
@@ -247,8 +252,10 @@ pub fn fit(profile: &Profile, scene: Scene) -> Result<EngineFit> {
              tap's weight spread over its footprint, at the vertical pass's step",
             k.samples
         ),
+        scene: vec![units_line(scene, "sssWidth is a length in them")],
         requirements: requirements(),
         warnings: warnings(&k),
+        other: None,
         rendered: None,
         walk: None,
         profile: model_profile,

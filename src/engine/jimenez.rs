@@ -13,7 +13,8 @@
 //! r R_d(r) over r < r99 (the shape error `profiles compare` reports),
 //! summed over the channels.
 
-use super::{FitError, Model, Target};
+use super::model::{error, modelled, Target};
+use super::FitError;
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{offsets_mm, scattered_weights};
 use crate::kernel::tap_kernel::{radial_bins, SeparableBins};
@@ -56,6 +57,15 @@ impl Separable {
     }
 }
 
+impl Binned {
+    /// This kernel as a profile on `like`'s grid (the grid it was binned
+    /// on), as engine `engine` renders it.
+    pub fn profile(&self, like: &Profile, engine: &str) -> Profile {
+        let (rd, total) = (self.rd.to_vec(), self.total.to_vec());
+        modelled(like, engine, "separable taps", rd, total)
+    }
+}
+
 /// The best of the fits with each of [`TAP_COUNTS`] taps: the first of
 /// the smallest cost, the same answer whatever the threads.
 pub(crate) fn best_count<K: Send>(fit: impl Fn(usize) -> Result<(K, f64)> + Sync) -> Result<K> {
@@ -75,9 +85,8 @@ pub(crate) fn rendered(
     like: &Profile,
     engine: &str,
 ) -> Result<(Profile, FitError)> {
-    let binned = kernel.on_grid(&like.r_edges)?;
-    let model_profile = Model::Separable(binned).profile(like, engine);
-    let error = super::error(&model_profile, like)?;
+    let model_profile = kernel.on_grid(&like.r_edges)?.profile(like, engine);
+    let error = error(&model_profile, like)?;
     Ok((model_profile, error))
 }
 
@@ -172,8 +181,9 @@ impl StrengthFit {
         StrengthFit { y, gram, yy }
     }
 
-    /// (amplitude, squared relative residual) at strength `s`.
-    fn at(&self, s: f64) -> (f64, f64) {
+    /// (amplitude, squared relative residual) at strength `s`: the best
+    /// amplitude, or `fixed` where given.
+    fn at(&self, s: f64, fixed: Option<f64>) -> (f64, f64) {
         let c = [s * s, 2.0 * s * (1.0 - s), (1.0 - s) * (1.0 - s)];
         let ys: f64 = (0..3).map(|i| c[i] * self.y[i]).sum();
         let ss: f64 = (0..3)
@@ -181,7 +191,14 @@ impl StrengthFit {
             .map(|(i, j)| c[i] * c[j] * self.gram[i][j])
             .sum();
         if !(self.yy > 0.0) {
-            return (0.0, 0.0);
+            return (fixed.unwrap_or(0.0), 0.0);
+        }
+        if let Some(a) = fixed {
+            // |a s - y|^2 / |y|^2.
+            return (
+                a,
+                ((self.yy - 2.0 * a * ys + a * a * ss) / self.yy).max(0.0),
+            );
         }
         if !(ys > 0.0 && ss > 0.0) {
             return (0.0, 1.0);
@@ -189,20 +206,23 @@ impl StrengthFit {
         (ys / ss, (1.0 - ys * ys / (ss * self.yy)).max(0.0))
     }
 
-    fn best(&self) -> (f64, f64, f64) {
-        let s = minimise_log(|s| self.at(s).1, 1e-3, 1.0, 21);
-        let (a, r) = self.at(s);
+    fn best(&self, fixed: Option<f64>) -> (f64, f64, f64) {
+        let s = minimise_log(|s| self.at(s, fixed).1, 1e-3, 1.0, 21);
+        let (a, r) = self.at(s, fixed);
         (s, a, r)
     }
 }
 
 /// iryoku's channel `t` at a geometry: falloff in [0, 1] (the demo's
-/// slider), strength in [0, 1] and amplitude (the albedo) by least squares.
+/// slider), strength in [0, 1] and amplitude (the albedo) by least squares,
+/// or the albedo `fixed` where given (the table sums to 1, so the albedo is
+/// the kernel's total: the colour kept).
 pub(crate) fn fit_channel(
     t: &Target,
     offsets: &[f64],
     g: &SeparableBins,
     mm_per_unit: f64,
+    fixed: Option<f64>,
 ) -> ChannelFit {
     let centre = offsets.len() / 2;
     let mut e0 = vec![0.0; offsets.len()];
@@ -212,7 +232,7 @@ pub(crate) fn fit_channel(
     let at = |rho: f64| {
         let p = scattered_weights(offsets, mm_per_unit, rho - 0.001);
         let (pp, pe) = (g.bilinear(&p, &p), g.bilinear(&p, &e0));
-        StrengthFit::new(t, [&pp, &pe, &ee], support, yy).best()
+        StrengthFit::new(t, [&pp, &pe, &ee], support, yy).best(fixed)
     };
     // rho = 0.001 + falloff, searched in log space.
     let rho = minimise_log(|rho| at(rho).2, 0.001, 1.001, 21);
@@ -225,15 +245,24 @@ pub(crate) fn fit_channel(
     }
 }
 
-/// One fit per channel at `mm_per_unit`, and their summed residual.
+/// One fit per channel at `mm_per_unit`, and their summed residual; the
+/// albedo per channel `fixed` where given.
 pub(crate) fn fit_channels(
     d: &FitData,
     count: usize,
     mm_per_unit: f64,
+    fixed: Option<[f64; 3]>,
 ) -> Result<([ChannelFit; 3], f64)> {
     let (offsets, g) = d.geometry(count, mm_per_unit)?;
-    let fits: [ChannelFit; 3] =
-        std::array::from_fn(|c| fit_channel(&d.targets[c], &offsets, &g, mm_per_unit));
+    let fits: [ChannelFit; 3] = std::array::from_fn(|c| {
+        fit_channel(
+            &d.targets[c],
+            &offsets,
+            &g,
+            mm_per_unit,
+            fixed.map(|f| f[c]),
+        )
+    });
     let total = fits.iter().map(|f| f.residual).sum();
     Ok((fits, total))
 }
@@ -286,7 +315,7 @@ mod tests {
             apply_strength(&mut w, 8, s);
             let k = g.bilinear(&w, &w);
             let (a, _) = t.scale_of(&k);
-            let (a2, rel) = f.at(s);
+            let (a2, rel) = f.at(s, None);
             assert!((a - a2).abs() < 1e-9 * a);
             assert!((relative_residual(&t, &k, a) - rel).abs() < 1e-9);
         }

@@ -2,6 +2,7 @@
 //! with its units, values rounded as typed, sRGB hex colours, and the
 //! readers that take a printed table back with the engine's ranges.
 
+use super::Scene;
 use crate::error::{Error, Result};
 use crate::filter::image::{linear_to_srgb, srgb_to_linear};
 use serde_json::{Map, Value};
@@ -150,4 +151,14 @@ pub(crate) fn require(
         )),
         None => Err(Error::Unsupported(format!("parameter '{name}' is missing"))),
     }
+}
+
+/// The scene line of every engine: the unit its printed lengths are in,
+/// and `what` depends on it.
+pub(crate) fn units_line(scene: Scene, what: &str) -> String {
+    format!(
+        "scene units of {} mm (--units-per-mm {}): {what}",
+        1.0 / scene.units_per_mm,
+        scene.units_per_mm
+    )
 }

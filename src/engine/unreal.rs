@@ -43,7 +43,9 @@
 //! perpendicular-searchlight and diffuse-mean-free-path fits.
 
 use super::burley::Burley;
-use super::printed::{color, in_range, number, printed, require, triple, typed, Printed};
+use super::printed::{
+    color, in_range, number, printed, require, srgb_hex, triple, typed, units_line, Printed,
+};
 use super::{Scene, Version};
 use crate::error::Result;
 use crate::profile::analytic::burley::{dmfp_scale, searchlight_scale};
@@ -246,7 +248,14 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
         (
             "Base Color",
             color(base),
-            "the material's Base Color, linear RGB in [0, 1]: the profile's total reflectance",
+            "the material's Base Color, linear RGB in [0, 1] (the colour picker's R, G, B \
+             fields): the profile's total reflectance",
+        ),
+        (
+            "Base Color hex",
+            json!(srgb_hex(base)),
+            "the same colour as the colour picker's Hex sRGB field (SColorPicker's \
+             EColorPickerHexMode::SRGB)",
         ),
     ];
     if v.key != "5.0" {
@@ -303,18 +312,21 @@ pub fn from_params(p: &Map<String, Value>, scene: Scene, v: Version) -> Result<B
     })
 }
 
-pub fn requirements(v: Version, scene: Scene) -> Vec<String> {
+/// What the error assumes of the scene.
+pub fn scene_lines(scene: Scene) -> Vec<String> {
+    vec![units_line(
+        scene,
+        "WorldUnitScale maps the profile's mm to them (CalculateBurleyScale); Unreal's own \
+         unit is the cm",
+    )]
+}
+
+pub fn requirements(v: Version) -> Vec<String> {
     let mut r = vec![
         "the material's Shading Model is Subsurface Profile with this profile, and its Base \
          Color is the Base Color printed here: the recombine pass multiplies the normalised \
          blur by it (SubsurfaceRecombinePS); SurfaceAlbedo only shapes the profile"
             .to_string(),
-        format!(
-            "world units of {} mm (--units-per-mm {}): WorldUnitScale maps the profile's mm to \
-             them (CalculateBurleyScale); Unreal's own unit is the cm",
-            1.0 / scene.units_per_mm,
-            scene.units_per_mm
-        ),
         "r.SSS.Scale 1 (it multiplies the radius) and r.SubsurfaceScattering 1".to_string(),
         "a profile with Burley and mean free path enabled (bEnableBurley, \
          bEnableMeanFreePath), as every profile Unreal 5 creates or loads is \

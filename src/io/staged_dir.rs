@@ -212,9 +212,13 @@ pub(super) mod hooks {
         BetweenRenames,
     }
 
+    /// What a test runs at each point.
+    #[cfg(test)]
+    pub type Hook = Box<dyn Fn(Point)>;
+
     #[cfg(test)]
     thread_local! {
-        pub static ON: std::cell::RefCell<Option<Box<dyn Fn(Point)>>> =
+        pub static ON: std::cell::RefCell<Option<Hook>> =
             const { std::cell::RefCell::new(None) };
         pub static NO_EXCHANGE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
     }

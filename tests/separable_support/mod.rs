@@ -58,10 +58,15 @@ pub fn engine_text(m: &str, engine: &str) -> String {
 
 /// `ssskit engine --engine <engine> --out` on a reference profile: the JSON.
 pub fn engine_json(m: &str, engine: &str) -> serde_json::Value {
+    engine_json_with(m, engine, &[])
+}
+
+/// [`engine_json`] with `extra` arguments.
+pub fn engine_json_with(m: &str, engine: &str, extra: &[&str]) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("e.json");
     let profile = format!("profiles/reference/{m}.json");
-    ok(&[
+    let mut args = vec![
         "engine",
         "--profile",
         &profile,
@@ -69,7 +74,9 @@ pub fn engine_json(m: &str, engine: &str) -> serde_json::Value {
         engine,
         "--out",
         p(&out),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    ok(&args);
     read_json(&out)
 }
 

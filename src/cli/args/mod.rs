@@ -18,12 +18,14 @@
 
 mod deprecated;
 mod directional;
+pub mod engine;
 mod model;
 mod settings;
 mod values;
 
 pub use deprecated::{deprecated_spellings, running_command};
 pub use directional::DirectionalArgs;
+pub use engine::EngineChoice;
 pub use model::ModelArg;
 pub use settings::{
     alias, default, default_enum, help, long_help_opens_with_help, negative_numbers_are_values,

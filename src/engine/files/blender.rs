@@ -18,7 +18,7 @@ use serde_json::Value;
 /// with whether the socket is a colour (RGBA: the script appends alpha 1).
 /// node_shader_bsdf_principled.cc `node_declare`: `decl::Color` for Base
 /// Color, `decl::Vector` for Subsurface Radius, `decl::Float` for the rest.
-pub const SOCKETS: [(&str, bool); 9] = [
+pub const SOCKETS: [(&str, bool); 13] = [
     ("Base Color", true),
     ("Metallic", false),
     ("Roughness", false),
@@ -28,6 +28,10 @@ pub const SOCKETS: [(&str, bool); 9] = [
     ("Subsurface Scale", false),
     ("Subsurface IOR", false),
     ("Subsurface Anisotropy", false),
+    ("Specular IOR Level", false),
+    ("Transmission Weight", false),
+    ("Coat Weight", false),
+    ("Sheen Weight", false),
 ];
 
 /// The method's UI name (what ssskit prints) -> the RNA enum identifier
@@ -44,7 +48,9 @@ fn not_a_socket(name: &str) -> bool {
     name.ends_with(" hex") || name == "Subsurface Method"
 }
 
-/// A Python literal for a JSON number or [r, g, b] (colour: with alpha 1).
+/// A Python literal for a JSON number or [r, g, b] (colour: with alpha
+/// 1); a socket holds 32-bit floats, so a value beyond their range is
+/// refused.
 fn literal(name: &str, v: &Value, colour: bool) -> Result<String> {
     let bad = || {
         Error::Unsupported(format!(
@@ -52,10 +58,9 @@ fn literal(name: &str, v: &Value, colour: bool) -> Result<String> {
         ))
     };
     let num = |v: &Value| {
-        v.as_f64()
-            .filter(|x| x.is_finite())
-            .map(|x| format!("{x:?}"))
-            .ok_or_else(bad)
+        let x = v.as_f64().filter(|x| x.is_finite()).ok_or_else(bad)?;
+        super::f32_value("Blender socket", name, x)?;
+        Ok(format!("{x:?}"))
     };
     match v {
         Value::Array(a) if a.len() == 3 => {
@@ -99,18 +104,25 @@ pub fn script(fit: &EngineFit, name: &str) -> Result<String> {
         values.push_str(&format!("    {key_lit}: {},\n", literal(key, v, colour)?));
     }
     let q = |s: &str| serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into());
+    let warning = super::warning_of(fit);
+    let banner = warning
+        .as_ref()
+        .map_or(String::new(), |w| super::comment_block("# ", w));
     Ok(format!(
-        r#""""ssskit: a Blender material whose Principled BSDF holds the values
+        r#"{banner}"""ssskit: a Blender material whose Principled BSDF holds the values
 `ssskit engine --engine blender` printed ({version}).
 
 Run it in Blender 4.0 or later (Scripting > Text Editor > Run Script, or
 `blender --python THIS_FILE`): it adds the material {name_lit}. Or import it
 and call make_material(), which returns the material. Assign it to the
-object; the requirements ssskit printed (Metallic 0, scene units) still hold.
+object; the scene conditions ssskit printed (scene units, view) still hold.
 """
 
 import bpy
 
+# ssskit's warning about these values (None: none), printed when the
+# material is made.
+WARNING = {warning_lit}
 NAME = {name_lit}
 # The Principled BSDF's subsurface_method (UI: {ui}).
 METHOD = {method_lit}
@@ -131,6 +143,8 @@ def make_material(name=NAME, values=None, method=METHOD):
     """A new node material with a Principled BSDF set to `values`
     (default: VALUES) and `method` (default: METHOD); returns it."""
     values = VALUES if values is None else values
+    if WARNING:
+        print("ssskit warning: " + WARNING)
     mat = bpy.data.materials.new(name)
     if mat.node_tree is None:
         mat.use_nodes = True
@@ -150,5 +164,6 @@ if __name__ == "__main__":
         version = fit.version,
         name_lit = q(name),
         method_lit = q(method),
+        warning_lit = warning.as_deref().map_or("None".to_string(), q),
     ))
 }

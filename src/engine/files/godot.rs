@@ -21,42 +21,69 @@
 //! `albedo_color` is an sRGB colour: BaseMaterial3D's shader declares
 //! `uniform vec4 albedo : source_color` (`BaseMaterial3D::_update_shader`),
 //! which Godot 4 converts from sRGB to linear before the shader reads it;
-//! ssskit's `albedo` is linear, so the file holds its sRGB encoding.
+//! ssskit prints it as the inspector shows it, sRGB, and the file holds
+//! the printed value.
+//!
+//! Strings are written as `VariantWriter` writes a String (double quotes,
+//! `\\` and `\"` escaped, `String::c_escape_multiline`); numbers are 32-bit
+//! floats in Godot (`BaseMaterial3D`'s `float` members, the setting's
+//! `float`), so a value beyond that range is refused rather than written
+//! as `inf`.
 
 use super::super::godot::QUALITIES;
 use super::super::printed::{number, text, triple};
 use super::super::EngineFit;
 use crate::error::{Error, Result};
-use crate::filter::image::linear_to_srgb;
 
 /// The setting's prefix in project.godot's `[rendering]` section.
 pub const SSS_SETTINGS: &str = "environment/subsurface_scattering/";
 
 /// A float as Godot's `VariantWriter` writes a real (`rtos_fix`: the
-/// shortest text that reads back, with ".0" on a whole number).
-fn real(x: f64) -> String {
+/// shortest text that reads back, with ".0" on a whole number), refused
+/// beyond the 32-bit range of the property `field`.
+fn real(field: &str, x: f64) -> Result<String> {
+    super::f32_value(".tres", field, x)?;
     let s = format!("{x:?}");
-    if s.contains(['.', 'e', 'i', 'N']) {
+    Ok(if s.contains(['.', 'e']) {
         s
     } else {
         format!("{s}.0")
-    }
+    })
 }
 
 /// A colour component as `VariantWriter` writes a `Color`'s (32-bit
 /// floats: the shortest text that reads back as the same float).
-fn colour(x: f64) -> String {
-    format!("{}", x as f32)
+fn colour(x: f64) -> Result<String> {
+    Ok(format!("{}", super::f32_value(".tres", "albedo_color", x)?))
+}
+
+/// `s` as `VariantWriter` writes a String: double quotes, with `\` and
+/// `"` escaped (`c_escape_multiline`), a line break refused (the name
+/// check lets none through; one would end the line here).
+fn string(field: &str, s: &str) -> Result<String> {
+    if let Some(c) = s.chars().find(|c| c.is_control()) {
+        return Err(Error::invalid(
+            "engine files",
+            field,
+            s.escape_debug(),
+            format!("holds the control character U+{:04X}", c as u32),
+        ));
+    }
+    Ok(format!(
+        "\"{}\"",
+        s.replace('\\', "\\\\").replace('"', "\\\"")
+    ))
 }
 
 /// The `.tres` for `fit` (Godot's printed values), `resource_name` =
 /// `name`.
 pub fn tres(fit: &EngineFit, name: &str) -> Result<String> {
-    let albedo = triple(&fit.params, "albedo")?.map(|c| linear_to_srgb(c.clamp(0.0, 1.0)));
+    let albedo = triple(&fit.params, "albedo_color")?;
     let strength = number(&fit.params, "subsurf_scatter_strength")?;
-    let name_lit = serde_json::to_string(name).map_err(|e| Error::Unsupported(e.to_string()))?;
+    let name_lit = string("resource_name", name)?;
+    let banner = super::warning_of(fit).map_or(String::new(), |w| super::comment_block("; ", &w));
     Ok(format!(
-        "[gd_resource type=\"StandardMaterial3D\" format=3]
+        "{banner}[gd_resource type=\"StandardMaterial3D\" format=3]
 
 [resource]
 resource_name = {name_lit}
@@ -65,10 +92,10 @@ subsurf_scatter_enabled = true
 subsurf_scatter_strength = {}
 subsurf_scatter_skin_mode = false
 ",
-        colour(albedo[0]),
-        colour(albedo[1]),
-        colour(albedo[2]),
-        real(strength),
+        colour(albedo[0])?,
+        colour(albedo[1])?,
+        colour(albedo[2])?,
+        real("subsurf_scatter_strength", strength)?,
     ))
 }
 
@@ -103,6 +130,6 @@ pub fn project_settings(fit: &EngineFit) -> Result<String> {
 {SSS_SETTINGS}subsurface_scattering_quality={quality}
 {SSS_SETTINGS}subsurface_scattering_depth_scale={}
 ",
-        real(depth_scale)
+        real("subsurface_scattering_depth_scale", depth_scale)?
     ))
 }

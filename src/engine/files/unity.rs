@@ -24,9 +24,37 @@ use crate::filter::image::srgb_to_linear;
 pub const SCRIPT_GUID: &str = "b2686e09ec7aef44bad2843e4416f057";
 
 /// A float as Unity's YAML writes one: the shortest text that reads back
-/// as the same 32-bit float ("1", "0.7490196").
-fn f32_text(x: f64) -> String {
-    format!("{}", x as f32)
+/// as the same 32-bit float ("1", "0.7490196"); a value beyond the 32-bit
+/// range (which Unity would store as infinity) refused, naming `field`.
+fn f32_text(field: &str, x: f64) -> Result<String> {
+    Ok(format!("{}", super::f32_value(".asset", field, x)?))
+}
+
+/// `s` as a YAML single-quoted scalar (YAML 1.1, "Single Quoted"
+/// flow scalars: a quote doubled, nothing else escaped), so that no name
+/// reads back as anything but this string (a plain `true`, `null`, `1e3`,
+/// `0x10`, `-` or `.inf` would resolve to a boolean, a null, a number or a
+/// sequence). Refused: a character a single-quoted scalar cannot hold as
+/// itself (a line break folds into a space; outside the YAML printable set
+/// nothing is allowed).
+pub(super) fn single_quoted(field: &str, s: &str) -> Result<String> {
+    // YAML 1.1 c-printable, less the line breaks.
+    let printable = |c: char| {
+        matches!(c, '\u{9}' | '\u{20}'..='\u{7E}' | '\u{A0}'..='\u{D7FF}' | '\u{E000}'..='\u{FFFD}' | '\u{10000}'..='\u{10FFFF}')
+            && !matches!(c, '\u{2028}' | '\u{2029}')
+    };
+    if let Some(c) = s.chars().find(|&c| !printable(c)) {
+        return Err(Error::invalid(
+            "engine files",
+            field,
+            s.escape_debug(),
+            format!(
+                "holds U+{:04X}, which a YAML single-quoted scalar cannot hold as itself",
+                c as u32
+            ),
+        ));
+    }
+    Ok(format!("'{}'", s.replace('\'', "''")))
 }
 
 /// `TexturingMode` (DiffusionProfileSettings.cs): PreAndPostScatter = 0,
@@ -44,16 +72,21 @@ fn texturing_mode(printed: &str) -> Result<u32> {
     }
 }
 
-/// The `.asset` for `fit` (HDRP's printed values), `m_Name` = `name`: a
-/// file stem (`io::file_stem`: no space, colon, quote or line break that
-/// YAML would read otherwise), as Unity names an asset after its file.
+/// The `.asset` for `fit` (HDRP's printed values), `m_Name` = `name` (as
+/// Unity names an asset after its file), single-quoted: every scalar
+/// ssskit did not make itself is quoted, whatever the name.
 pub fn asset(fit: &EngineFit, name: &str) -> Result<String> {
     let shown = triple(&fit.params, "Scattering Color")?;
     let linear = shown.map(srgb_to_linear);
     let multiplier = number(&fit.params, "Multiplier")?;
     let world_scale = number(&fit.params, "World Scale")?;
     let mode = texturing_mode(text(&fit.params, "Texturing Mode")?)?;
-    let [r, g, b] = linear.map(f32_text);
+    let mut rgb = Vec::new();
+    for x in linear {
+        rgb.push(f32_text("Scattering Color", x)?);
+    }
+    let [r, g, b] = [&rgb[0], &rgb[1], &rgb[2]];
+    let name = single_quoted("m_Name", name)?;
     Ok(format!(
         "%YAML 1.1
 %TAG !u! tag:unity3d.com,2011:
@@ -84,7 +117,7 @@ MonoBehaviour:
     hash: 0
   m_Version: 2
 ",
-        multiplier = f32_text(multiplier),
-        world_scale = f32_text(world_scale),
+        multiplier = f32_text("Multiplier", multiplier)?,
+        world_scale = f32_text("World Scale", world_scale)?,
     ))
 }

@@ -69,8 +69,11 @@ pub(crate) fn fit(
     target: &Target,
     scene: Scene,
 ) -> Result<(Scored, Vec<[f64; 3]>, super::Model)> {
-    // The albedo Godot's reflection fit prints (linear), at most 1.
-    let albedo = triple(&reflect.params, "albedo")?.map(|a| a.clamp(0.0, 1.0));
+    // The albedo Godot's reflection fit prints as the inspector shows it
+    // (sRGB), decoded to the linear value the shader multiplies by, as
+    // Godot decodes a source_color; at most 1.
+    let albedo = triple(&reflect.params, "albedo_color")?
+        .map(|a| crate::filter::image::srgb_to_linear(a.clamp(0.0, 1.0)));
     let model = |depth: f64, colour: [f64; 3]| -> Vec<[f64; 3]> {
         target
             .thickness

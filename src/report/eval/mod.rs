@@ -15,6 +15,8 @@ pub mod colour_shift;
 pub mod directional_advise;
 pub mod directional_scene;
 pub mod disk_compare;
+pub mod engine_step;
+pub mod engine_tables;
 pub mod evaluate;
 pub mod kernel_compare;
 pub mod pipeline;

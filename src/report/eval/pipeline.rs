@@ -22,7 +22,7 @@ use crate::report::present::figures::{self, Figure};
 use crate::report::present::kernel_plots::{self, Recommended};
 use crate::report::present::kernel_report::{self, ReportContext};
 use crate::report::present::ship_report::{self, ShipReport};
-use crate::report::present::{advice_text, plot, preview_panel};
+use crate::report::present::{advice_text, engine_section, plot, preview_panel};
 use crate::scene::{Render, Scene};
 use std::path::Path;
 
@@ -43,6 +43,9 @@ pub struct Settings {
     /// Side of the test signals, pixels.
     pub size: usize,
     pub plots: bool,
+    /// The engine whose files are written beside recommended.json
+    /// ([`super::engine_step`]).
+    pub engine: Option<crate::engine::Engine>,
 }
 
 /// What the pipeline produced.
@@ -52,6 +55,8 @@ pub struct Outcome {
     /// Files written, relative to the output folder.
     pub files: Vec<String>,
     pub stages: StageTimes,
+    /// The engine step, where asked.
+    pub engine: Option<super::engine_step::EngineStep>,
 }
 
 /// The comparison's files in `dir` but report.md: compare.csv,
@@ -77,7 +82,8 @@ pub fn comparison_files(
 ) -> Result<Written> {
     let mut files = vec!["compare.csv".to_string(), "compare.json".into()];
     let mut figs = Vec::new();
-    let mut md = kernel_report::report(cmp, ctx);
+    let engines = super::engine_tables::engine_tables(&cmp.materials, &cmp.profiles);
+    let mut md = kernel_report::report(cmp, ctx, &engines);
     let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
     let json = dir.join("compare.json");
@@ -258,13 +264,15 @@ pub struct StageTimes {
     pub advice: f64,
     pub preview: f64,
     pub files: f64,
+    /// The engine's fit and files, where asked.
+    pub engine: Option<f64>,
     pub total: f64,
 }
 
 impl StageTimes {
-    /// The stages in order, with their seconds.
-    pub fn stages(&self) -> [(&'static str, f64); 7] {
-        [
+    /// The stages in order, with their seconds (the engine's where it ran).
+    pub fn stages(&self) -> Vec<(&'static str, f64)> {
+        let mut v = vec![
             ("profile", self.profile),
             ("truth", self.truth),
             ("fits", self.fits),
@@ -272,7 +280,9 @@ impl StageTimes {
             ("advice", self.advice),
             ("preview", self.preview),
             ("files", self.files),
-        ]
+        ];
+        v.extend(self.engine.map(|s| ("engine", s)));
+        v
     }
 
     /// The report's table: one row per stage and the total.
@@ -377,7 +387,11 @@ pub fn run(
         files.push(PREVIEW_PNG.into());
     }
     times.files += t.elapsed().as_secs_f64();
+    let engine = engine_files(settings, profile, dir, progress, &mut times, &mut files)?;
     times.total = profile_seconds + t0.elapsed().as_secs_f64();
+    let engine_md = engine
+        .as_ref()
+        .map(|step| engine_section::section(&step.fit, &step.files));
     let report = ShipReport {
         advice: &advice,
         material: &name,
@@ -389,6 +403,7 @@ pub fn run(
         sheet: pieces.sheet.as_ref(),
         figures: &pieces.figures,
         comparison: &pieces.markdown,
+        engine: engine_md.as_deref(),
         stage_times: &times.markdown(),
     };
     write_report(&advice, &ship_report::report(&report), dir, &mut files)?;
@@ -397,7 +412,28 @@ pub fn run(
         advice,
         files,
         stages: times,
+        engine,
     })
+}
+
+/// The engine's fit and files beside the kernel where asked (`kernels
+/// --engine`, [`super::engine_step`]), timed as the engine stage.
+fn engine_files(
+    settings: &Settings,
+    profile: &Profile,
+    dir: &Path,
+    progress: &dyn Progress,
+    times: &mut StageTimes,
+    files: &mut Vec<String>,
+) -> Result<Option<super::engine_step::EngineStep>> {
+    let Some(e) = settings.engine else {
+        return Ok(None);
+    };
+    let t = std::time::Instant::now();
+    let step = super::engine_step::run(e, profile, dir, progress)?;
+    files.extend(step.files.iter().map(|f| f.0.clone()));
+    times.engine = Some(t.elapsed().as_secs_f64());
+    Ok(Some(step))
 }
 
 /// The recommended kernel's file stem.
@@ -580,5 +616,15 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         o.comparison.fitted.len(),
         if settings.plots { ", PNG plots" } else { "" }
     );
+    if let Some(step) = &o.engine {
+        let names: Vec<&str> = step.files.iter().map(|f| f.0.as_str()).collect();
+        let _ = writeln!(
+            s,
+            "{} files: {} (how to import them: report.md, \"Into {}\")",
+            step.fit.engine,
+            names.join(", "),
+            step.fit.engine
+        );
+    }
     s
 }

@@ -12,8 +12,10 @@
 
 use super::number::sig;
 use super::table::Table;
+use crate::engine::method::SubsurfaceMethod;
 use crate::numerics::Bounded;
 use crate::report::eval::claims::{claims, Claim};
+use crate::report::eval::engine_tables::{EngineTables, Shape};
 use crate::report::eval::kernel_compare::{
     gaussians_rms, grouped, image_rms, Comparison, Factor, Row,
 };
@@ -222,13 +224,31 @@ pub fn blocks_of(text: &str, kind: &str) -> Vec<(String, String)> {
     out
 }
 
+/// Shape errors per channel, to a tenth of a point; a Monte Carlo one
+/// with its largest standard error.
+fn shape_cell(s: &Option<Shape>) -> String {
+    let Some(s) = s else {
+        return "-".into();
+    };
+    let pct = s
+        .shape
+        .iter()
+        .map(|x| format!("{:.1}%", Bounded(100.0 * x)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    match s.noise {
+        Some(n) => format!(
+            "{pct} (± {:.1})",
+            Bounded(100.0 * n.iter().fold(0.0, |m: f64, v| m.max(*v)))
+        ),
+        None => pct,
+    }
+}
+
 /// Per material, the shape errors of the engine models fitted to its
-/// profile (`crate::engine::fit`) and of the forward Burley model
-/// (`crate::engine::burley::forward_error`); "-" where a fit is refused
-/// (e.g. a profile without all of r, g, b).
-pub fn engine_table(cmp: &Comparison) -> Table {
-    use crate::engine::{self, Engine, Scene};
-    let mut t = Table::new(&[
+/// profile and of the forward Burley model (`report::eval::engine_tables`).
+pub fn engine_table(t: &EngineTables) -> Table {
+    let mut table = Table::new(&[
         "material",
         "Burley fitted",
         "Burley forward",
@@ -236,65 +256,43 @@ pub fn engine_table(cmp: &Comparison) -> Table {
         "Jimenez fitted (iryoku)",
         "Godot",
     ]);
-    let pct3 = |v: [f64; 3]| {
-        v.iter()
-            .map(|x| format!("{:.1}%", Bounded(100.0 * x)))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    for (m, p) in cmp.materials.iter().zip(&cmp.profiles) {
-        let shape = |e: Engine| engine::fit(e, p, Scene::native(e)).map(|f| f.error.shape);
-        let (fit, fwd) = (shape(Engine::Unreal), engine::burley::forward_error(p));
-        let ratio = match (&fit, &fwd) {
-            (Ok(a), Ok(b)) => (0..3)
-                .map(|c| format!("{:.1}x", b.shape[c] / a[c]))
+    for r in &t.rows {
+        let ratio = match (&r.burley_fitted, &r.burley_forward) {
+            (Some(a), Some(b)) => (0..3)
+                .map(|c| format!("{:.1}x", b.shape[c] / a.shape[c]))
                 .collect::<Vec<_>>()
                 .join(", "),
             _ => "-".into(),
         };
-        let cell = |r: &crate::error::Result<[f64; 3]>| r.as_ref().map_or("-".into(), |v| pct3(*v));
-        t.push(vec![
-            m.clone(),
-            cell(&fit),
-            fwd.as_ref().map_or("-".into(), |e| pct3(e.shape)),
+        table.push(vec![
+            r.material.clone(),
+            shape_cell(&r.burley_fitted),
+            shape_cell(&r.burley_forward),
             ratio,
-            cell(&shape(Engine::Iryoku)),
-            cell(&shape(Engine::Godot)),
+            shape_cell(&r.iryoku),
+            shape_cell(&r.godot),
         ]);
     }
-    t
+    table
 }
 
 /// Per material, the shape error of each Burley engine's export as that
-/// engine renders it (`crate::engine::fit_version`, every version, the
-/// engine's own scene unit); "-" where a fit is refused.
-pub fn burley_engine_table(cmp: &Comparison) -> Table {
-    use crate::engine::{self, Engine, Scene};
-    let columns: Vec<(Engine, &str)> = [Engine::Unreal, Engine::UnityHdrp, Engine::Blender]
-        .into_iter()
-        .flat_map(|e| e.versions().iter().map(move |v| (e, v.key)))
-        .collect();
+/// engine renders it (every version, the method fitted by default).
+pub fn burley_engine_table(t: &EngineTables) -> Table {
     let mut header = vec!["material".to_string()];
-    header.extend(columns.iter().map(|(e, v)| format!("{} {v}", e.name())));
-    let mut t = Table::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
-    for (m, p) in cmp.materials.iter().zip(&cmp.profiles) {
-        let mut row = vec![m.clone()];
-        for &(e, v) in &columns {
-            row.push(engine::fit_version(e, p, Scene::native(e), Some(v)).map_or(
-                "-".into(),
-                |f| {
-                    f.error
-                        .shape
-                        .iter()
-                        .map(|x| format!("{:.1}%", Bounded(100.0 * x)))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                },
-            ));
+    header.extend(t.columns.iter().map(|c| match c.method {
+        SubsurfaceMethod::RandomWalk => {
+            format!("{} {} ({})", c.engine.name(), c.version, c.method.ui_name())
         }
-        t.push(row);
+        SubsurfaceMethod::ChristensenBurley => format!("{} {}", c.engine.name(), c.version),
+    }));
+    let mut table = Table::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
+    for r in &t.rows {
+        let mut row = vec![r.material.clone()];
+        row.extend(r.burley_engines.iter().map(shape_cell));
+        table.push(row);
     }
-    t
+    table
 }
 
 /// What the report was made from, for its header.
@@ -306,8 +304,9 @@ pub struct ReportContext<'a> {
     pub options: &'a crate::report::eval::evaluate::Options,
 }
 
-/// The markdown report.
-pub fn report(cmp: &Comparison, ctx: &ReportContext) -> String {
+/// The markdown report; `engines` the engine tables measured on the same
+/// profiles.
+pub fn report(cmp: &Comparison, ctx: &ReportContext, engines: &EngineTables) -> String {
     let rows = &cmp.rows;
     let mut s = String::new();
     let _ = writeln!(s, "# Kernel comparison\n\n`{}`\n", ctx.command);
@@ -388,14 +387,17 @@ pub fn report(cmp: &Comparison, ctx: &ReportContext) -> String {
     s += &block("claims", &claims_table(&cl).markdown());
     s += "\n## Engine parameters fitted to the profiles (`ssskit engine`)\n\n\
           Shape error (relative L2 of r R_d(r), as `profiles compare`) per channel r, g, b \
-          of the Burley model fitted by least squares (the Unreal export as Unreal renders \
-          it) against the forward Burley model from the coefficients (the `burley` \
-          analytic profile), and of the fitted Jimenez models (iryoku per channel, Godot one kernel).\n\n";
-    s += &block("engines", &engine_table(cmp).markdown());
+          of the Burley model fitted with each channel's colour kept (the Unreal export as \
+          Unreal renders it) against the forward Burley model from the coefficients (the \
+          `burley` analytic profile), and of the fitted Jimenez models (iryoku per channel, \
+          Godot one kernel).\n\n";
+    s += &block("engines", &engine_table(engines).markdown());
     s += "\nThe Burley engines' exports, each as its engine renders it from the printed \
           values (shape error per channel, every version `ssskit engine --engine-version` \
-          takes).\n\n";
-    s += &block("burley-engines", &burley_engine_table(cmp).markdown());
+          takes, with the method `ssskit engine` fits by default; Random Walk from a Monte \
+          Carlo of Cycles' walk, the walk's own noise taken out of it, its standard error in \
+          brackets).\n\n";
+    s += &block("burley-engines", &burley_engine_table(engines).markdown());
     if let Some(signal) = ctx.signals.first() {
         let _ = writeln!(
             s,

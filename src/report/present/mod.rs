@@ -8,6 +8,7 @@ pub mod colour_bar;
 pub mod diff_png;
 pub mod directional_tables;
 pub mod disk_table;
+pub mod engine_section;
 pub mod figures;
 pub mod kernel_plots;
 pub mod kernel_report;

@@ -26,6 +26,9 @@ pub struct ShipReport<'a> {
     pub figures: &'a [Figure],
     /// The comparison's markdown (its own title first).
     pub comparison: &'a str,
+    /// The section on the engine whose files were written beside the
+    /// kernel (`kernels --engine`), where asked.
+    pub engine: Option<&'a str>,
     /// The stage times' table.
     pub stage_times: &'a str,
 }
@@ -106,6 +109,9 @@ pub fn report(r: &ShipReport) -> String {
         r.stem,
         advice_text::explain(r.advice)
     );
+    if let Some(e) = r.engine {
+        s += e;
+    }
     s += &demoted(r.comparison);
     s += &format!(
         "\n## Stage times\n\nWall seconds of this run's stages; the truth and each fit \
