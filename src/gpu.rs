@@ -179,6 +179,32 @@ impl GpuContext {
         })
     }
 
+    /// An encoder holding one compute pass of `pipeline`, its bind group 0
+    /// made of `buffers` (bindings 0, 1, ... in order), dispatched as
+    /// `groups` workgroups: what a filter pass submits before reading back.
+    pub fn dispatch(
+        &self,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+        groups: [u32; 3],
+    ) -> wgpu::CommandEncoder {
+        let group = self.bind_group(pipeline, buffers);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+        }
+        encoder
+    }
+
     /// Submits `encoder` with a copy of the first `size` bytes of `src` (a
     /// COPY_SRC buffer) appended, waits for the device and returns those
     /// bytes as `T`s.

@@ -21,7 +21,12 @@
 //!   all channels and parts, checked on the headers before any pixel;
 //! - radial grids: at most [`MAX_RADIAL_BINS`] bins; a Monte Carlo run's
 //!   tallies at most [`MAX_TALLY_BYTES`] (fewer worker threads where needed:
-//!   results never depend on their number).
+//!   results never depend on their number);
+//! - the light-space directional method: light maps of at most
+//!   [`MAX_LIGHT_MAP_SIDE`] texels per side, at most
+//!   [`MAX_LIGHT_SPACE_SAMPLES`] samples per pixel and channel, and at most
+//!   [`MAX_LIGHT_SPACE_WORK`] dipole evaluations per pass
+//!   ([`check_light_space`]).
 
 use crate::error::{Error, Result};
 
@@ -209,9 +214,85 @@ pub const MAX_RADIAL_BINS: usize = 1_000_000;
 /// per-thread scratch); see `profile::mc`.
 pub const MAX_TALLY_BYTES: u64 = 1 << 30;
 
+/// Longest side of a light map (the light-space G-buffer of the
+/// directional method): 4096, 2^24 texels of 80 bytes (position, normal,
+/// transmitted irradiance in f64, the object) is 1.3 GiB. Dal Corso et al.
+/// 2017 (section 5) use 512 and find 1024 enough in hard cases.
+pub const MAX_LIGHT_MAP_SIDE: usize = 4096;
+/// Most samples per pixel and channel of the light-space method.
+pub const MAX_LIGHT_SPACE_SAMPLES: usize = 1 << 16;
+/// Most directional-dipole evaluations of one light-space pass (positions
+/// x samples x channels x lights): about the multiply-adds of
+/// [`MAX_FILTER_WORK`] at a hundred per evaluation.
+pub const MAX_LIGHT_SPACE_WORK: f64 = 1e10;
+
+/// Refuses a light map side of 0 or above [`MAX_LIGHT_MAP_SIDE`], 0 samples
+/// or more than [`MAX_LIGHT_SPACE_SAMPLES`], and a pass of more than
+/// [`MAX_LIGHT_SPACE_WORK`] evaluations over `positions` surface positions
+/// and `lights` lights, before anything is allocated; `context` names the
+/// caller.
+pub fn check_light_space(
+    context: &str,
+    side: usize,
+    samples: usize,
+    positions: usize,
+    lights: usize,
+) -> Result<()> {
+    if side == 0 || side > MAX_LIGHT_MAP_SIDE {
+        return Err(Error::invalid(
+            context,
+            "light_map_side",
+            side,
+            format!(
+                "must be in 1..={MAX_LIGHT_MAP_SIDE} texels per side ({LIGHT_MAP_TEXEL_BYTES} \
+                 bytes per texel; Dal Corso et al. 2017 use 512 to 1024)"
+            ),
+        ));
+    }
+    if samples == 0 || samples > MAX_LIGHT_SPACE_SAMPLES {
+        return Err(Error::invalid(
+            context,
+            "samples",
+            samples,
+            format!(
+                "must be in 1..={MAX_LIGHT_SPACE_SAMPLES} samples per pixel and channel (the \
+                 estimator of scattered radiosity needs at least one)"
+            ),
+        ));
+    }
+    let work = positions as f64 * samples as f64 * 3.0 * lights as f64;
+    if work > MAX_LIGHT_SPACE_WORK {
+        return Err(Error::invalid(
+            context,
+            "samples",
+            samples,
+            format!(
+                "{positions} surface positions x {samples} samples x 3 channels x {lights} \
+                 light(s) = {work:.3e} dipole evaluations, above the cap of \
+                 {MAX_LIGHT_SPACE_WORK:e}: fewer samples or positions"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Bytes of one light-map texel: position, normal and transmitted
+/// irradiance (f64) and the object index.
+pub const LIGHT_MAP_TEXEL_BYTES: usize = 9 * 8 + 8;
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn light_space_caps_refuse_zero_and_too_much() {
+        assert!(check_light_space("m", 512, 32, 1 << 16, 1).is_ok());
+        let e = |r: Result<()>| r.unwrap_err().to_string();
+        assert!(e(check_light_space("m", 0, 32, 1, 1)).contains("light_map_side"));
+        assert!(e(check_light_space("m", MAX_LIGHT_MAP_SIDE + 1, 32, 1, 1)).contains("1..="));
+        assert!(e(check_light_space("m", 512, 0, 1, 1)).contains("at least one"));
+        assert!(e(check_light_space("m", 512, 1 << 16, 1 << 30, 1)).contains("cap"));
+    }
 
     #[test]
     fn thread_cap_scales_with_cores() {

@@ -2,8 +2,9 @@
 //! image-space error at a pixel scale.
 
 use super::args::{
-    self, count, BudgetArgs, FovYArg, FramesArg, ImageErrorArg, JsonArg, MmPerPixelArg, ModelsArg,
-    OutFile, ProfileModel, ProfileSourceArgs, SceneCheckArgs, SignalSizeArg, UnitsPerMmArg,
+    self, count, BudgetArgs, DirectionalArgs, FovYArg, FramesArg, ImageErrorArg, JsonArg,
+    MmPerPixelArg, ModelsArg, OutFile, ProfileModel, ProfileSourceArgs, SceneCheckArgs,
+    SignalSizeArg, UnitsPerMmArg,
 };
 use super::out::{out, outln};
 use anyhow::bail;
@@ -67,6 +68,43 @@ pub struct Args {
     out: OutFile,
     #[command(flatten)]
     scene: SceneCheckArgs,
+    #[command(flatten)]
+    directional: DirectionalArgs,
+}
+
+/// The light-space method's settings on the advice's scene, checked before
+/// any work (None for `--directional-spp 0` or a scene the method refuses,
+/// said on stderr with the reason; its warnings too).
+fn directional_config(
+    a: &Args,
+    scene: &ssskit::scene::Scene,
+    render: &ssskit::scene::Render,
+) -> anyhow::Result<Option<ssskit::report::eval::directional_scene::DirectionalConfig>> {
+    let samples = a.directional.samples()?;
+    let Some(&most) = samples.iter().max() else {
+        return Ok(None);
+    };
+    let side = render.info.config.gbuffer_side;
+    let map = a.directional.light_map_side;
+    match ssskit::filter::light_space::preflight(scene, map, side, most) {
+        Ok(warnings) => {
+            for w in warnings {
+                super::errors::warn(&format!("light-space directional method: {w}"));
+            }
+        }
+        Err(e) => {
+            super::errors::warn(&format!("no light-space directional rows: {e}"));
+            return Ok(None);
+        }
+    }
+    Ok(Some(
+        ssskit::report::eval::directional_scene::DirectionalConfig {
+            samples,
+            map_side: map,
+            seed: ssskit::profile::mc::DEFAULT_SEED,
+            frames: a.frames.frames,
+        },
+    ))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -121,6 +159,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     cfg.budget = a.budget.budget();
     cfg.families = a.models.families();
     cfg.frames = a.frames.frames;
+    let directional = match &scene {
+        Some((s, r, _)) => directional_config(&a, s, r)?,
+        None => None,
+    };
     let advice = advise::advise_on_scene(
         &profile,
         &cfg,
@@ -141,10 +183,25 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let c = advice.chosen();
-    let text = advice_text::explain(&advice);
+    let light_space = match (&scene, &advice.scene, &directional) {
+        (Some((s, r, _)), Some(check), Some(d)) => Some(
+            ssskit::report::eval::directional_advise::directional_on_advice(
+                s, r, &profile, check, d,
+            )?,
+        ),
+        _ => None,
+    };
+    let mut text = advice_text::explain(&advice);
+    if let Some(l) = &light_space {
+        text = format!("{}\n\n{text}", l.sentence);
+    }
     if a.json.json {
         eprint!("{text}");
-        outln!("{}", serde_json::to_string_pretty(&advice.to_json())?)?;
+        let mut json = advice.to_json();
+        if let (Some(l), Some(o)) = (&light_space, json.as_object_mut()) {
+            o.insert("directional".into(), serde_json::to_value(l)?);
+        }
+        outln!("{}", serde_json::to_string_pretty(&json)?)?;
     } else {
         out!("{text}")?;
     }

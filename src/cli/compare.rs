@@ -3,8 +3,8 @@
 //! and plots.
 
 use super::args::{
-    self, count, value_or, ExtentArg, MaterialsArg, MmPerPixelArg, ModelsArg, NoPlotsArg, OutDir,
-    PhotonsArg, ProfileModel, ProfileModelArg, SeedArg, SignalSizeArg,
+    self, count, value_or, DirectionalArgs, ExtentArg, MaterialsArg, MmPerPixelArg, ModelsArg,
+    NoPlotsArg, OutDir, PhotonsArg, ProfileModel, ProfileModelArg, SeedArg, SignalSizeArg,
 };
 use super::errors::{invalid, positive};
 use super::out::out;
@@ -140,6 +140,8 @@ pub struct Args {
         value_parser = args::count::<u64>
     )]
     angular_photons: u64,
+    #[command(flatten)]
+    directional: DirectionalArgs,
     /// Thickness table of the scene's object (`ssskit transmission --out`) [default: none].
     ///
     /// For a scene lit from behind: the screen-space input alone, the same
@@ -218,6 +220,22 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
         .collect()
 }
 
+/// The light-space directional block of `compare --scene` (None for
+/// `--directional-spp 0`).
+fn directional_config(
+    a: &Args,
+) -> anyhow::Result<Option<ssskit::report::eval::directional_scene::DirectionalConfig>> {
+    let samples = a.directional.samples()?;
+    Ok((!samples.is_empty()).then_some(
+        ssskit::report::eval::directional_scene::DirectionalConfig {
+            samples,
+            map_side: a.directional.light_map_side,
+            seed: a.seed.seed,
+            frames: a.frames,
+        },
+    ))
+}
+
 /// The tap counts in the order given, each once.
 fn distinct(v: &[usize]) -> Vec<usize> {
     let mut out: Vec<usize> = Vec::new();
@@ -261,6 +279,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             seed: a.seed.seed,
             plots: !a.no_plots.no_plots,
             out: a.out_dir.path()?,
+            directional: directional_config(&a)?,
         });
     }
     let (cases, signals) = test_cases(&a, size, mm_per_pixel)?;

@@ -79,6 +79,12 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("advise", "max_taps", &["--max-taps"]),
     ("advise", "frames", &["--frames"]),
     ("compare", "model", &["--models"]),
+    ("light-space method", "samples", &["--directional-spp"]),
+    (
+        "light-space method",
+        "light_map_side",
+        &["--light-map-side"],
+    ),
     ("compare", "ranks", &["--ranks"]),
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),
     ("engine", "scene units per mm", &["--units-per-mm"]),

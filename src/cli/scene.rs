@@ -435,6 +435,33 @@ pub(super) struct CompareArgs<'a> {
     pub seed: u64,
     pub plots: bool,
     pub out: &'a Path,
+    /// The light-space directional method's rows (None: not run).
+    pub directional: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
+}
+
+/// The light-space method's checks on the scene, before any work: its
+/// warnings, or (the method refused) the reason, said on stderr, and the
+/// comparison then runs without it.
+fn directional_preflight(
+    scene: &Scene,
+    r: &Render,
+    cfg: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
+) -> Option<ssskit::report::eval::directional_scene::DirectionalConfig> {
+    let d = cfg?;
+    let most = d.samples.iter().copied().max().unwrap_or(1);
+    let side = r.info.config.gbuffer_side;
+    match ssskit::filter::light_space::preflight(scene, d.map_side, side, most) {
+        Ok(warnings) => {
+            for w in warnings {
+                super::errors::warn(&format!("light-space directional method: {w}"));
+            }
+            Some(d)
+        }
+        Err(e) => {
+            super::errors::warn(&format!("no light-space directional rows: {e}"));
+            None
+        }
+    }
 }
 
 /// The entry and exit factors of the scene's material from `photons` per
@@ -458,6 +485,35 @@ fn angular_factors(
     Ok(Some(f))
 }
 
+/// scene.json of `compare --scene`: the comparison's numbers, the
+/// light-space block (or why the scene has none) and the transmission's.
+fn scene_json(
+    scene: &std::path::Path,
+    cmp: &ssskit::report::eval::scene_compare::SceneComparison,
+    r: &ssskit::scene::Render,
+    transmission: Option<serde_json::Value>,
+) -> anyhow::Result<serde_json::Value> {
+    use ssskit::report::eval::scene_compare::dominance;
+    Ok(serde_json::json!({
+        "scene": scene.display().to_string(),
+        "dominance": dominance(cmp),
+        "mm_per_pixel": cmp.mm_per_pixel,
+        "follow_mm": cmp.follow_mm,
+        "follow_constant": cmp.follow_constant,
+        "noise": cmp.noise,
+        "angular": cmp.angular,
+        "angular_note": cmp.angular_note,
+        "spp": r.info.spp,
+        "rows": cmp.rows,
+        "directional": match &cmp.directional {
+            Some(Ok(b)) => serde_json::to_value(b)?,
+            Some(Err(why)) => serde_json::json!({ "refused": why }),
+            None => serde_json::Value::Null,
+        },
+        "transmission": transmission,
+    }))
+}
+
 /// `compare --scene`: the screen-space error of every kernel model on the
 /// scene's G-buffer against its path-traced image; writes scene.md,
 /// scene.json, record.json and the contact sheet.
@@ -472,6 +528,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
             a.render.display()
         );
     };
+    let directional = directional_preflight(&scene, &r, a.directional);
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(a.out)
         .with_context(|| format!("--out-dir {}", a.out.display()))?;
@@ -488,6 +545,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         signal_size: a.size,
         keep_images: a.plots,
         angular: angular_factors(&scene, a.angular_photons, a.seed)?,
+        directional,
     };
     let cmp = compare_scene(&scene, &r, profile, &cfg, &Bar::new())?;
     let head = format!(
@@ -502,36 +560,24 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         cmp.follow_mm,
         cmp.follow_constant
     );
-    let back = match a.transmission {
-        Some(t) => Some(super::transmission::scene_block(
-            &scene,
-            &r,
-            profile,
-            t,
-            a.pixels_per_degree,
-        )?),
-        None => None,
-    };
+    use ssskit::report::present::directional_tables as dt;
+    let back = a
+        .transmission
+        .map(|t| super::transmission::scene_block(&scene, &r, profile, t, a.pixels_per_degree))
+        .transpose()?;
     let mut tables = named_tables(&cmp);
-    let mut md = page(&cmp, &head);
+    tables.extend(dt::named_table(&cmp));
+    let mut md = page(&cmp, &head) + &dt::section(&cmp);
     if let Some((b, t)) = &back {
         md = format!("{}\n\n{}\n\n{md}", b.headline, t.markdown());
         tables.push(("transmission", t.clone()));
     }
     ssskit::io::write_atomic(&dir.join("scene.md"), md.as_bytes())?;
-    let json = serde_json::json!({
-        "scene": a.scene.display().to_string(),
-        "dominance": dominance(&cmp),
-        "mm_per_pixel": cmp.mm_per_pixel,
-        "follow_mm": cmp.follow_mm,
-        "follow_constant": cmp.follow_constant,
-        "noise": cmp.noise,
-        "angular": cmp.angular,
-        "angular_note": cmp.angular_note,
-        "spp": r.info.spp,
-        "rows": cmp.rows,
-        "transmission": back.as_ref().map(|b| &b.0),
-    });
+    let transmission = back
+        .as_ref()
+        .map(|b| serde_json::to_value(&b.0))
+        .transpose()?;
+    let json = scene_json(a.scene, &cmp, &r, transmission)?;
     let text = serde_json::to_string_pretty(&json)? + "\n";
     ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
     let mut rec = Record::new(&super::profile_source::command_line(a.out), &machine_line());
@@ -558,14 +604,25 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         }
     }
     staged.commit()?;
+    // A transmission table asked for by flag first, then the directional
+    // verdict (the first line when no table is asked for).
     if let Some((b, t)) = &back {
         outln!("{}\n\n{}\n", b.headline, t.markdown())?;
+    }
+    if let Some(h) = dt::headline(&cmp) {
+        outln!("{h}\n")?;
     }
     let d = dominance(&cmp);
     if let Some(h) = d.as_ref().and_then(|d| d.headline()) {
         outln!("{h}")?;
     }
     outln!("{head}\n\n{}", tables[0].1.markdown())?;
+    if let Some((_, t)) = tables.iter().find(|(n, _)| *n == "directional") {
+        outln!(
+            "Light-space directional method beside the screen-space passes:\n\n{}",
+            t.markdown()
+        )?;
+    }
     if let Some(d) = d {
         outln!("{}", d.sentence())?;
     }

@@ -149,23 +149,16 @@ impl DiskGpu {
             ),
         ];
         let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();
-        let group = c.bind_group(&self.pipeline, &refs);
-        let mut encoder = c
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("disk"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(
+        let encoder = c.dispatch(
+            "disk",
+            &self.pipeline,
+            &refs,
+            [
                 (w as u32).div_ceil(WORKGROUP_SIDE),
                 (h as u32).div_ceil(WORKGROUP_SIDE),
                 1,
-            );
-        }
+            ],
+        );
         let data: Vec<[f32; 4]> = c.read_back(encoder, &buffers[6], (n * 16) as u64)?;
         let mut out = Image::new(w, h);
         out.alpha = image.alpha.clone();

@@ -34,6 +34,8 @@ pub mod gpu;
 pub mod image;
 pub mod jitter;
 pub mod kernel_setup;
+pub mod light_space;
+pub mod light_space_gpu;
 pub mod sample;
 pub mod screen_space;
 pub mod separable;

@@ -18,6 +18,10 @@
 //! [[light]]
 //! type = "environment"            # uniform radiance from every direction
 //! radiance = 0.1                  # or [r, g, b]
+//! [[light]]
+//! type = "point"                  # outside every object; index-matched objects only
+//! position = [0, 40, 0]
+//! intensity = 1600                # or [r, g, b]: irradiance x distance^2 (scene units)
 //! [[object]]
 //! shape = "sphere"                # center, radius
 //! center = [0, 0, 0]
@@ -93,13 +97,13 @@ pub fn parse_scene_toml(text: &str, context: &str, dir: &Path) -> Result<Scene> 
         "light",
         raw.light.len(),
         MAX_LIGHTS,
-        "give at least one [[light]] (directional or environment)",
+        "give at least one [[light]] (directional, environment or point)",
     )?;
     let lights = raw
         .light
         .into_iter()
         .enumerate()
-        .map(|(i, l)| parse_light(&ck, i, l))
+        .map(|(i, l)| parse_light(&ck, i, l, unit))
         .collect::<Result<Vec<_>>>()?;
     ck.count(
         "object",
@@ -120,6 +124,7 @@ pub fn parse_scene_toml(text: &str, context: &str, dir: &Path) -> Result<Scene> 
     {
         check_beams_traceable(&ck, &objects)?;
     }
+    check_point_lights(&ck, &lights, &objects, unit)?;
     let scene = Scene {
         unit,
         camera,
@@ -155,6 +160,47 @@ fn parse_unit(ck: &Check, unit: Option<&str>) -> Result<Unit> {
             "state the scene's length unit: unit = \"mm\", \"cm\" or \"m\"",
         )),
     }
+}
+
+/// Point lights: outside every object, and only with index-matched
+/// objects. The tracer reaches a point light from a scattering event along
+/// the straight line to it, which a refracting boundary would bend (a
+/// caustic path, as for the directional light, that the tracer solves for
+/// only under a directional light); and a light inside an object would
+/// need an omnidirectional light map for the light-space method (Dal Corso
+/// et al. 2017, section 3.3), which ssskit does not build.
+fn check_point_lights(ck: &Check, lights: &[Light], objects: &[Object], unit: Unit) -> Result<()> {
+    for (i, l) in lights.iter().enumerate() {
+        let Light::Point { position, .. } = l else {
+            continue;
+        };
+        if let Some((k, o)) = objects
+            .iter()
+            .enumerate()
+            .find(|(_, o)| o.shape.contains(*position))
+        {
+            return Err(ck.err(
+                &format!("light[{i}].position"),
+                format!("{:?}", (position / unit.mm()).as_slice()),
+                format!(
+                    "the light is inside object[{k}] ({}): a point light must be outside every \
+                     object (the tracer and the light-space method light a surface from \
+                     outside)",
+                    o.name
+                ),
+            ));
+        }
+        if let Some((k, o)) = objects.iter().enumerate().find(|(_, o)| o.eta() != 1.0) {
+            return Err(ck.err(
+                &format!("object[{k}].eta"),
+                o.eta(),
+                "a point light reaches the inside of an object only through an index-matched \
+                 boundary (the tracer does not solve for the rays a refracting one bends): \
+                 set eta = 1, or use a directional light",
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A delta light seen through a smooth boundary that refracts is a

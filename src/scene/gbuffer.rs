@@ -7,7 +7,9 @@
 //!
 //! Irradiance as a rasteriser computes it: a directional light gives
 //! E max(0, N.L) where the shadow ray towards it meets no object (shadow
-//! maps treat every object as opaque); the environment gives pi L times the
+//! maps treat every object as opaque), a point light of intensity I at
+//! distance d gives I max(0, N.L) / d^2 where the segment to it meets no
+//! object; the environment gives pi L times the
 //! cosine-weighted fraction of the hemisphere no object hides, estimated
 //! with [`ENV_RAYS`] rays per position.
 
@@ -44,6 +46,7 @@ pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, see
     let eps = 1e-9 * (1.0 + scene.reach());
     let env = scene.environment();
     let lights: Vec<(V3, [f64; 3])> = scene.directional().collect();
+    let points: Vec<(V3, [f64; 3])> = scene.points().collect();
     let unit = scene.unit.mm();
     let per_pixel: Vec<([f64; 3], f64, V3, f64)> = (0..w * h)
         .into_par_iter()
@@ -82,6 +85,26 @@ pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, see
                         {
                             for c in 0..3 {
                                 e[c] += ir[c] * cos;
+                            }
+                        }
+                    }
+                    for (at, intensity) in &points {
+                        let to = at - lifted;
+                        let dist = to.norm();
+                        let cos = hit.n.dot(&to) / dist;
+                        if cos > 0.0
+                            && scene
+                                .nearest(
+                                    &Ray {
+                                        o: lifted,
+                                        d: to / dist,
+                                    },
+                                    dist,
+                                )
+                                .is_none()
+                        {
+                            for c in 0..3 {
+                                e[c] += intensity[c] * cos / (dist * dist);
                             }
                         }
                     }

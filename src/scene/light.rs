@@ -73,15 +73,48 @@ impl ChannelScene<'_> {
         }
     }
 
+    /// The light of a point light of unit intensity at `at` scattered at
+    /// `x` inside object k towards -d, per unit albedo: p_HG(cos) e^{-tau}
+    /// / |at - x|^2, tau the optical depth of the straight segment to the
+    /// light through index-matched boundaries (the scene's validation
+    /// keeps point lights outside the objects and the objects
+    /// index-matched).
+    pub(super) fn direct_point(&self, x: V3, d: V3, at: V3, k: usize) -> f64 {
+        let to = at - x;
+        let dist = to.norm();
+        if !(dist > 0.0) {
+            return 0.0;
+        }
+        let toward = to / dist;
+        let ray = Ray { o: x, d: toward };
+        let Some(h) = self.scene.objects[k].shape.intersect(&ray, dist) else {
+            return 0.0;
+        };
+        let tau = self.optics[k].sigma_t() * h.t;
+        let out = self.outside_transmittance_within(
+            ray.at(h.t) + self.eps * h.n,
+            toward,
+            dist - h.t - self.eps,
+        );
+        phase_hg(d.dot(&toward), self.optics[k].g()) * (-tau).exp() * out / (dist * dist)
+    }
+
     /// Transmittance from `o` outside every object to a light along
     /// `toward`: e^{-sigma_t chord} through each index-matched object in
     /// the way, 0 through a refracting one.
     fn outside_transmittance(&self, o: V3, toward: V3) -> f64 {
+        self.outside_transmittance_within(o, toward, f64::INFINITY)
+    }
+
+    /// [`Self::outside_transmittance`] to a light at distance `reach`
+    /// along `toward` (infinite for a directional light).
+    fn outside_transmittance_within(&self, o: V3, toward: V3, reach: f64) -> f64 {
         let mut tau = 0.0f64;
         let mut o = o;
+        let mut left = reach;
         for _ in 0..MAX_SHADOW_CROSSINGS {
             let out = Ray { o, d: toward };
-            let Some((j, hj)) = self.scene.nearest(&out, f64::INFINITY) else {
+            let Some((j, hj)) = self.scene.nearest(&out, left) else {
                 return (-tau).exp();
             };
             if self.eta[j] != 1.0 {
@@ -99,6 +132,7 @@ impl ChannelScene<'_> {
                 return 0.0;
             }
             o = inner.at(hx.t) + self.eps * hx.n;
+            left -= hj.t + hx.t;
         }
         0.0
     }

@@ -35,6 +35,7 @@ mod gbuffer;
 pub mod geometry;
 mod heightfield;
 mod light;
+mod light_map;
 mod mesh;
 mod ray;
 mod render;
@@ -46,8 +47,13 @@ mod trace;
 
 pub use camera::{Camera, Measure, Projection};
 pub use file::{parse_scene_toml, CONTEXT};
+pub use frame::frame;
 pub use gbuffer::{GBuffer, ENV_RAYS};
 pub use geometry::Shape;
+pub use light_map::{
+    check_light, light_map, surface_points, LightMap, LightSource, SurfacePoints,
+    CONTEXT as LIGHT_SPACE,
+};
 pub use ray::V3;
 pub use render::{
     channel_names, material_profiles, render, Render, RenderConfig, RenderConfigRecord, RenderInfo,
@@ -97,6 +103,11 @@ pub enum Light {
     Directional { toward: V3, irradiance: [f64; 3] },
     /// Uniform radiance from every direction, per channel.
     Environment { radiance: [f64; 3] },
+    /// A point at `position` (mm) of radiant `intensity` per channel, in
+    /// irradiance times mm^2: a surface facing it at distance d mm gets
+    /// intensity / d^2. Outside every object, and only with index-matched
+    /// objects (the scene's validation).
+    Point { position: V3, intensity: [f64; 3] },
 }
 
 /// One closed object filled with a homogeneous medium.
@@ -184,6 +195,17 @@ impl Scene {
     pub fn directional(&self) -> impl Iterator<Item = (V3, [f64; 3])> + '_ {
         self.lights.iter().filter_map(|l| match l {
             Light::Directional { toward, irradiance } => Some((*toward, *irradiance)),
+            _ => None,
+        })
+    }
+
+    /// The point lights (position, intensity per channel).
+    pub fn points(&self) -> impl Iterator<Item = (V3, [f64; 3])> + '_ {
+        self.lights.iter().filter_map(|l| match l {
+            Light::Point {
+                position,
+                intensity,
+            } => Some((*position, *intensity)),
             _ => None,
         })
     }

@@ -297,6 +297,7 @@ fn validate(cfg: &RenderConfig, rd: Option<&[[f64; 3]]>, scene: &Scene) -> Resul
     // directional light, and the environment's visibility rays.
     let per_position = 1
         + scene.directional().count() as u64
+        + scene.points().count() as u64
         + if scene.environment().iter().any(|&v| v > 0.0) {
             super::gbuffer::ENV_RAYS as u64
         } else {

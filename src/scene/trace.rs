@@ -1,7 +1,7 @@
 //! One camera path in one channel: the MCML walk (Wang et al. 1995) inside
 //! each object, with next-event estimation of the directional lights at
-//! every scattering event and the environment picked up by paths that
-//! leave.
+//! every scattering event (and of the point lights, through index-matched
+//! boundaries) and the environment picked up by paths that leave.
 //!
 //! The estimator, per path: the weight w starts at 1; at a boundary the
 //! path is reflected with probability R (unpolarised Fresnel; 1 under
@@ -47,6 +47,8 @@ pub(crate) struct ChannelScene<'a> {
     pub(super) optics: Vec<LayerOptics>,
     pub(super) eta: Vec<f64>,
     pub(super) lights: Vec<(V3, f64)>,
+    /// Point lights: position and intensity (irradiance x mm^2).
+    pub(super) points: Vec<(V3, f64)>,
     pub(super) env: f64,
     /// Offset of a new ray from the surface it leaves, mm.
     pub(super) eps: f64,
@@ -67,6 +69,7 @@ impl<'a> ChannelScene<'a> {
             optics,
             eta: scene.objects.iter().map(|o| o.eta()).collect(),
             lights: scene.directional().map(|(d, e)| (d, e[c])).collect(),
+            points: scene.points().map(|(p, i)| (p, i[c])).collect(),
             env: scene.environment()[c],
             eps: 1e-9 * (1.0 + scene.reach()),
         }
@@ -148,6 +151,11 @@ impl<'a> ChannelScene<'a> {
                         for &(toward, e) in &self.lights {
                             if e > 0.0 {
                                 l += w * a * e * self.direct(x, ray.d, toward, k);
+                            }
+                        }
+                        for &(at, i) in &self.points {
+                            if i > 0.0 {
+                                l += w * a * i * self.direct_point(x, ray.d, at, k);
                             }
                         }
                         w *= a;

@@ -17,12 +17,14 @@
 //! name the flag as the user typed it (`errors::set_typed`).
 
 mod deprecated;
+mod directional;
 pub mod engine;
 mod model;
 mod settings;
 mod values;
 
 pub use deprecated::{deprecated_spellings, running_command};
+pub use directional::DirectionalArgs;
 pub use engine::EngineChoice;
 pub use model::ModelArg;
 pub use settings::{

@@ -30,7 +30,9 @@ use crate::profile::{Profile, RadialGrid};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
+mod ahead;
 mod incidence;
+pub use ahead::{ahead_share, AheadShare, MAX_AHEAD_PHOTONS};
 pub(super) use incidence::trace_incidences;
 
 /// Most exit-angle bins (0.1 degree).

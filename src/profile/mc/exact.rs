@@ -506,6 +506,9 @@ impl ExactTally {
             exit: self.exit.to_f64(),
             tr_bins: self.tr_bins.to_f64(),
             tr_exit: self.tr_exit.to_f64(),
+            // Not held in exact sums: only `angular::ahead` reads them, from
+            // its own chunk tallies.
+            ..ChunkTally::default()
         }
     }
 }

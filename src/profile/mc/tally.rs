@@ -116,6 +116,11 @@ pub struct ChunkTally {
     pub events: u64,
     pub specular: f64,
     pub rd: Moments,
+    /// Diffuse reflectance that left at x > 0, ahead of the entry point
+    /// along the plane of incidence, and the sum over packets of its
+    /// product with the packet's R_d (the covariance of the ahead share).
+    pub rd_ahead: Moments,
+    pub rd_ahead_cross: f64,
     pub transmittance: Moments,
     pub absorbed: Moments,
     /// Diffuse reflectance per radial bin (weights, not densities).

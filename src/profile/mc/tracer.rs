@@ -323,6 +323,9 @@ pub(crate) fn trace_photons(
 #[derive(Default)]
 struct PacketScores {
     rd: f64,
+    /// The part of `rd` that left ahead of the entry point along the plane
+    /// of incidence (x > 0, where an oblique beam runs).
+    rd_ahead: f64,
     tr: f64,
     absorbed: f64,
 }
@@ -398,6 +401,8 @@ fn trace_one<const ANGULAR: bool>(
     }
     tally.events += events;
     tally.rd.add(scores.rd);
+    tally.rd_ahead.add(scores.rd_ahead);
+    tally.rd_ahead_cross += scores.rd * scores.rd_ahead;
     tally.transmittance.add(scores.tr);
     tally.absorbed.add(scores.absorbed);
     scratch.flush(tally, set.single_scatter);

@@ -214,7 +214,7 @@ impl Reference {
         let reps: Vec<f64> = all[1..].iter().map(|&r| largest(r)).collect();
         Ok(Score {
             rel_rms: largest(all[0]),
-            sigma: std_dev(&reps),
+            sigma: crate::numerics::std_dev(&reps),
         })
     }
 }

@@ -47,7 +47,7 @@ use super::advise_decide::NOISE_K;
 use super::advise_disk::first_and_frames;
 use super::scene_compare::{angular_obstacle, cosines};
 use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
-use super::scene_compare::{screen_space_disk_pass, screen_space_pass};
+use super::scene_pass::{screen_space_disk_pass, screen_space_pass};
 use super::scene_score::{percentile99, ranking, rms_difference_sigma};
 use crate::error::{Error, Result};
 use crate::filter::{angular, Image, Plane, Taps};

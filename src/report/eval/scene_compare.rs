@@ -49,13 +49,15 @@ pub use super::scene_score::{
 use super::scene_score::{masks_of, ranking, Scorer};
 use crate::error::{finite_positive, Error, Result};
 use crate::filter::signals::Signal;
-use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Scale, Setup, Which};
+use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Which};
 use crate::kernel::angular::AngularFactors;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::Progress;
-use crate::scene::{Projection, Render, Scene};
+use crate::scene::{Render, Scene};
 use serde::{Deserialize, Serialize};
+
+pub use super::scene_pass::{scale_of, screen_space_disk_pass, screen_space_pass, SceneRow};
 
 /// What to compare.
 #[derive(Clone, Debug)]
@@ -78,37 +80,8 @@ pub struct SceneConfig {
     /// Entry and exit factors to apply around the pass (extra rows), when
     /// the scene allows them ([`angular_obstacle`]).
     pub angular: Option<AngularFactors>,
-}
-
-/// One variant of one model on the scene.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SceneRow {
-    /// The model's label in the flat-plane comparison ("svd1", ...), or the
-    /// baseline's name.
-    pub label: String,
-    /// "depth", "depth+follow", or "baseline".
-    pub variant: String,
-    /// Flat-plane relative RMS (largest over channels) on the edge and
-    /// shapes signals with the same tap table; None for the baselines.
-    pub flat_edge: Option<f64>,
-    pub flat_shapes: Option<f64>,
-    /// In [`REGIONS`] order.
-    pub regions: Vec<RegionError>,
-}
-
-impl SceneRow {
-    pub fn region(&self, name: &str) -> Option<&RegionError> {
-        self.regions.iter().find(|r| r.region == name)
-    }
-
-    /// "label" or "label, variant".
-    pub fn name(&self) -> String {
-        if self.variant == "baseline" {
-            self.label.clone()
-        } else {
-            format!("{} ({})", self.label, self.variant)
-        }
-    }
+    /// The light-space directional method's block (None: not run).
+    pub directional: Option<super::directional_scene::DirectionalConfig>,
 }
 
 /// Everything a scene comparison produced.
@@ -133,18 +106,10 @@ pub struct SceneComparison {
     /// The path-traced image, and each row's image when kept.
     pub truth: Image,
     pub images: Vec<(String, Image)>,
-}
-
-/// The screen-space pass's scale for the scene's camera: perspective with
-/// `sss_width` = scene units per millimetre, or the orthographic footprint.
-pub fn scale_of(scene: &Scene) -> Scale {
-    match scene.camera.projection {
-        Projection::Perspective { fov_y_deg } => Scale::Perspective {
-            fov_y_deg,
-            sss_width: 1.0 / scene.unit.mm(),
-        },
-        Projection::Orthographic { mm_per_pixel } => Scale::MmPerPixel(mm_per_pixel),
-    }
+    /// The light-space directional method beside the screen-space passes,
+    /// or why the scene allows it none.
+    pub directional:
+        Option<std::result::Result<super::directional_scene::DirectionalBlock, String>>,
 }
 
 /// The constant C of the depth-aware lerp that completes it at a depth
@@ -320,49 +285,42 @@ impl Stage<'_> {
     }
 }
 
-/// The screen-space pass of `passes` over `img` on the scene's camera: the
-/// scale per pixel from `depth` (Freude 2014, eq. 4.11) and, with
-/// `follow` (the constant C of [`follow_constant`]), the depth-aware lerp
-/// (Freude 2014, eq. 4.12); on the CPU in f64.
-pub fn screen_space_pass(
-    scene: &Scene,
-    depth: &Plane,
-    passes: &[crate::filter::Taps],
-    img: &Image,
-    follow: Option<f64>,
-) -> Result<Image> {
-    let setup = Setup {
-        passes: passes.to_vec(),
-        ..view_on(scene, depth, follow)
-    };
-    cpu::apply_with(img, &setup, cpu::Precision::F64)
-}
-
-/// [`screen_space_pass`] with a disk kernel: `frames` rotations from frame
-/// `seed` accumulated (plain mean), on the CPU in f64.
-pub fn screen_space_disk_pass(
-    scene: &Scene,
-    depth: &Plane,
-    kernel: &crate::kernel::disk::DiskKernelFile,
-    (seed, frames): (u32, u32),
-    img: &Image,
-    follow: Option<f64>,
-) -> Result<Image> {
-    let setup =
-        crate::filter::disk::DiskSetup::new(kernel, view_on(scene, depth, follow), seed, frames);
-    crate::filter::disk::apply_disk(img, &setup)
-}
-
-/// The scene camera's scale, depth and lerp, no passes yet.
-fn view_on(scene: &Scene, depth: &Plane, follow: Option<f64>) -> Setup {
-    Setup {
-        passes: Vec::new(),
-        scale: scale_of(scene),
-        depth: Some(depth.clone()),
-        strength: None,
-        follow_surface: follow.map(FollowSurface::InSceneUnits),
-        specular: None,
-        jitter: false,
+impl Stage<'_> {
+    /// The light-space directional block (its own module); its images join
+    /// the contact sheet. A scene the method refuses (an environment
+    /// light, a material outside the dipole) gets the reason instead.
+    fn directional(
+        &mut self,
+        profile: &Profile,
+        render: &Render,
+        flat: &Comparison,
+        follow_c: f64,
+        cfg: &super::directional_scene::DirectionalConfig,
+    ) -> std::result::Result<super::directional_scene::DirectionalBlock, String> {
+        let nl = self.cosines.n_dot_l.as_deref().unwrap_or(&[]);
+        let inputs = super::directional_scene::SceneInputs {
+            scene: self.scene,
+            render,
+            profile,
+            scorer: &self.scorer,
+            irradiance: &self.irradiance,
+            depth: &self.depth,
+            follow_c,
+            angular: self
+                .angular
+                .map(|f| (nl, self.cosines.n_dot_v.as_slice(), f)),
+            kernels: flat
+                .fitted
+                .iter()
+                .map(|f| (f.spec.label.as_str(), &f.kernel))
+                .collect(),
+        };
+        let (block, images) = super::directional_scene::directional_block(&inputs, cfg, &self.rows)
+            .map_err(|e| e.to_string())?;
+        if self.cfg.keep_images {
+            self.images.extend(images);
+        }
+        Ok(block)
     }
 }
 
@@ -465,6 +423,10 @@ pub fn compare_scene(
         let errs = ["edge", "shapes"].map(|s| flat_error(&flat, label, s, stored));
         stage.model(f, errs, follow_c)?;
     }
+    let directional = cfg
+        .directional
+        .as_ref()
+        .map(|d| stage.directional(profile, render, &flat, follow_c, d));
     let (rows, images) = (stage.rows, stage.images);
     Ok(SceneComparison {
         mm_per_pixel,
@@ -477,6 +439,7 @@ pub fn compare_scene(
         flat,
         truth,
         images,
+        directional,
     })
 }
 

@@ -6,6 +6,7 @@ pub mod advice_text;
 pub mod axes;
 pub mod colour_bar;
 pub mod diff_png;
+pub mod directional_tables;
 pub mod disk_table;
 pub mod engine_section;
 pub mod figures;

@@ -22,7 +22,7 @@ mod philox;
 mod shader;
 mod sums;
 
-pub use philox::philox4x32_10;
+pub use philox::{philox4x32_10, philox_wgsl_constants, PHILOX_WGSL};
 pub use sums::TALLY_RESOLUTION;
 
 use super::{build_profile, run_grid, validate_config, BoundaryMode, McConfig, McOptions, CHUNK};

@@ -9,6 +9,21 @@ pub(super) const PHILOX_M: [u32; 2] = [0xD251_1F53, 0xCD9E_8D57];
 /// and 2^32 (sqrt(3) - 1) (Random123's PHILOX_W32_0 and _1).
 pub(super) const PHILOX_W: [u32; 2] = [0x9E37_79B9, 0xBB67_AE85];
 
+/// shaders/mc_philox.wgsl: the generator, for every shader that draws
+/// from it (the tracer, the light-space pass); the host prepends
+/// `WGSL_WIDE_MUL` and [`philox_wgsl_constants`].
+pub const PHILOX_WGSL: &str = include_str!("../../../../shaders/mc_philox.wgsl");
+
+/// The constants mc_philox.wgsl reads, as `wgsl_u32_consts` takes them.
+pub fn philox_wgsl_constants() -> [(&'static str, u32); 4] {
+    [
+        ("PHILOX_M0", PHILOX_M[0]),
+        ("PHILOX_M1", PHILOX_M[1]),
+        ("PHILOX_W0", PHILOX_W[0]),
+        ("PHILOX_W1", PHILOX_W[1]),
+    ]
+}
+
 /// Philox4x32-10 on the CPU (Salmon et al. 2011, Random123's
 /// `philox4x32_R` with R = 10): the reference for the shader's generator.
 pub fn philox4x32_10(ctr: [u32; 4], key: [u32; 2]) -> [u32; 4] {

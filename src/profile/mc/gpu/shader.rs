@@ -4,14 +4,13 @@
 //! point, Philox's constants, the roulette's survival chance, the isotropic
 //! cut of the phase function), so the shaders declare none of their own.
 
-use super::philox::{PHILOX_M, PHILOX_W};
 use super::sums::*;
 use super::{Layer, Params};
 use crate::gpu::{wgsl_u32_consts, WGSL_WIDE_MUL};
 use crate::material::{Channel, Material};
 use crate::profile::mc::tracer::{HG_ISOTROPIC, ROULETTE_CHANCE};
 
-pub(super) const PHILOX: &str = include_str!("../../../../shaders/mc_philox.wgsl");
+pub(super) const PHILOX: &str = super::philox::PHILOX_WGSL;
 pub(super) const TRACE: &str = include_str!("../../../../shaders/mc_trace.wgsl");
 pub(super) const KAT: &str = include_str!("../../../../shaders/mc_kat.wgsl");
 
@@ -69,11 +68,8 @@ pub(super) fn shader_source(body: &str) -> String {
 /// workgroup size.
 fn u32_consts() -> Vec<(&'static str, u32)> {
     let word = |name, i: usize| (name, i as u32);
-    vec![
-        ("PHILOX_M0", PHILOX_M[0]),
-        ("PHILOX_M1", PHILOX_M[1]),
-        ("PHILOX_W0", PHILOX_W[0]),
-        ("PHILOX_W1", PHILOX_W[1]),
+    let mut v = super::philox::philox_wgsl_constants().to_vec();
+    v.extend([
         word("T_RD", T_RD),
         word("T_TR", T_TR),
         word("T_ABS", T_ABS),
@@ -91,7 +87,8 @@ fn u32_consts() -> Vec<(&'static str, u32)> {
         word("SUM_WORDS", SUM_WORDS),
         word("MOMENT_WORDS", MOMENT_WORDS),
         ("WORKGROUP", WORKGROUP),
-    ]
+    ]);
+    v
 }
 
 /// The f32 constants of the shaders, each the f32 rounding of the CPU

@@ -70,6 +70,9 @@ pub(super) fn meet_ambient<const ANGULAR: bool>(
     if escaping > 0.0 {
         if top {
             scores.rd += escaping;
+            if p.x > 0.0 {
+                scores.rd_ahead += escaping;
+            }
             let radius = (p.x * p.x + p.y * p.y).sqrt();
             scratch.score_reflectance(walk.bins, radius, escaping, p.scatters);
             if ANGULAR {
