@@ -759,7 +759,8 @@ fn advise_refuses_a_percent_and_a_folder_is_no_material() {
             &args,
             &[
                 "--image-error: invalid value 5",
-                "not a percent",
+                "between 0 and 1",
+                "5 would be 500%",
                 "give 0.05",
             ],
         );
