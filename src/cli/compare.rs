@@ -142,7 +142,7 @@ pub struct Args {
     angular_photons: u64,
     #[command(flatten)]
     directional: DirectionalArgs,
-    /// Thickness table of the scene's object (`ssskit transmission --out`) [default: none].
+    /// Thickness table (`ssskit transmission --out`): the scene's object's [default: none].
     ///
     /// For a scene lit from behind: the screen-space input alone, the same
     /// plus each engine's transmission fitted to the table (the thickness

@@ -99,7 +99,7 @@ pub struct Args {
     out: OutFile,
     #[command(flatten)]
     out_dir: OutDir,
-    /// Plot the input profile and the engine model's r R_d(r) [default: not written].
+    /// Also plot to a PNG: the input profile and the engine model's r R_d(r) [default: not written].
     #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
     /// Scene units per millimetre (0.001: a scene in metres; Jimenez's sssWidth) [default: the
@@ -108,13 +108,12 @@ pub struct Args {
     units_per_mm: Option<f64>,
     #[command(flatten)]
     mm_per_pixel: MmPerPixelArg,
-    /// Thickness table (`ssskit transmission --out`): also fit the engine's transmission to it.
+    /// Thickness table (`ssskit transmission --out`): the engine's transmission is fitted to it [default: none].
     ///
     /// unreal, unity-hdrp and godot: the settings of the engine's thin-object
     /// transmission (from its diffusion profile and the thickness it reads)
     /// fitted to the table's T per thickness, printed with the error at
-    /// every thickness and written into --out and the --out-dir files
-    /// [default: none].
+    /// every thickness and written into --out and the --out-dir files.
     #[arg(long, value_name = "TABLE.json")]
     transmission: Option<PathBuf>,
 }

@@ -97,7 +97,7 @@ pub struct Args {
     /// Print the tap table as a shader constant array [default: not printed].
     #[arg(long, value_enum, value_name = "LANG", ignore_case = true)]
     emit: Option<LangArg>,
-    /// Thickness table (`ssskit transmission --out`) to fit for shaders [default: none].
+    /// Thickness table (`ssskit transmission --out`): fitted for shaders [default: none].
     ///
     /// The kernel file carries the transmittance through a thickness as two
     /// exponentials per channel fitted to the table, with the fit's error;

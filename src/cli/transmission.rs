@@ -20,22 +20,22 @@ use std::path::PathBuf;
 #[command(
     mut_arg("material", |a| args::required()(a)),
     mut_arg("photons", |a| a.conflicts_with("table_error").help(
-        "Photons per channel of every slab: a fixed count (e.g. 1e5) [default: none: \
-         --table-error decides]"
+        "Photons per channel of the Monte Carlo run: every slab's, a fixed count (e.g. 1e5) \
+         [default: none: --table-error decides]"
     )),
     mut_arg("out", args::help(
         "Output file: the table (ssskit.transmission/1 JSON, with the engines' fits) \
          [default: not written]"
     )),
     mut_arg("profile", |a| a.help(
-        "Reflectance profile of the material (ssskit.profile/1 JSON) the engines' diffusion \
-         side is fitted to [default: simulated, the last layer semi-infinite]"
+        "Reflectance profile file (ssskit.profile/1 JSON): the engines' diffusion side is \
+         fitted to it [default: simulated, the last layer semi-infinite]"
     )),
 )]
 pub struct Args {
     #[command(flatten)]
     material: MaterialArg,
-    /// Slab thicknesses in mm: a range LO..HI (geometric steps) or a list.
+    /// Slab thicknesses in mm: a range LO..HI (geometric steps) or a list [default: a finite stack's own].
     ///
     /// The last layer of the material is cut so that the whole stack is
     /// this thick (the layers above keep theirs). Required for a stack
@@ -48,15 +48,16 @@ pub struct Args {
     steps: usize,
     #[command(flatten)]
     photons: PhotonsArg,
-    /// Monte Carlo target of every slab: relative error of T and of T_d's 1D factor.
+    /// Monte Carlo target of every slab: relative error of T and of T_d's 1D factor (without --photons).
     ///
     /// Each slab's run stops when, in every channel, the relative standard
     /// errors of its total transmittance and of its transmittance profile's
     /// pre-integrated 1D factor (and of its reflectance) are below E, or at
     /// the absolute floor of `simulate` (2e-6 of the light), or at
     /// --slab-max-work.
-    #[arg(long, value_name = "E", allow_hyphen_values = true, value_parser = args::real)]
-    table_error: Option<f64>,
+    #[arg(long, value_name = "E", allow_hyphen_values = true, value_parser = args::real,
+          default_value_t = tr::DEFAULT_TABLE_ERROR)]
+    table_error: f64,
     /// Work cap of every slab, per channel, in events (interactions + boundary hits).
     #[arg(long, value_name = "N", default_value = args::count_text(tr::DEFAULT_TABLE_MAX_WORK), allow_hyphen_values = true, value_parser = count::<u64>)]
     slab_max_work: u64,
@@ -69,11 +70,11 @@ pub struct Args {
     channels: ChannelsArg,
     #[command(flatten)]
     profile: ProfileFile,
-    /// Index of refraction of the slab relative to the air, replacing the material's.
+    /// Index of refraction of the slab relative to the air [default: the material's].
     ///
-    /// For a one-layer material: e.g. 1.0 for the index-matched object of a
-    /// scene whose object sets `eta = 1.0` [default: the material's].
-    #[arg(long, value_name = "ETA", allow_hyphen_values = true, value_parser = args::real)]
+    /// Replaces the material's, for a one-layer material: e.g. 1.0 for the
+    /// index-matched object of a scene whose object sets `eta = 1.0`.
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = args::real)]
     eta: Option<f64>,
     /// Engines whose transmission is fitted and scored: unreal, unity-hdrp, godot, or none.
     #[arg(
@@ -83,16 +84,16 @@ pub struct Args {
         default_value = "unreal,unity-hdrp,godot"
     )]
     engines: Vec<String>,
-    /// Scene units per millimetre for every engine [default: each engine's own unit: unreal
-    /// 0.1 (the cm), the others 0.001 (the metre)].
+    /// Scene units per millimetre (0.001: a scene in metres) for every engine [default: each
+    /// engine's own unit: unreal 0.1 (the cm), the others 0.001 (the metre)].
     #[arg(long, value_name = "UNITS", allow_negative_numbers = true, value_parser = args::real)]
     units_per_mm: Option<f64>,
     #[command(flatten)]
     out: OutFile,
-    /// Also write the table as CSV [default: not written].
+    /// Also write a CSV: the table [default: not written].
     #[arg(long, value_name = "FILE.csv")]
     csv: Option<PathBuf>,
-    /// Plot T and its radial spread against thickness, log-log [default: not written].
+    /// Also plot to a PNG: T and its radial spread against thickness, log-log [default: not written].
     #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
 }
@@ -190,7 +191,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let budget = match a.photons.photons {
         Some(n) => PhotonBudget::Fixed(n),
         None => PhotonBudget::KernelFactor {
-            rel: a.table_error.unwrap_or(tr::DEFAULT_TABLE_ERROR),
+            rel: a.table_error,
             max_photons: mc::DEFAULT_MAX_PHOTONS,
         },
     };

@@ -359,6 +359,7 @@ const OLD_SPELLINGS: &[(&str, &str, &str)] = &[
     ("apply", "--sss-width", "--units-per-mm"),
     ("compare", "--out", "--out-dir"),
     ("compare", "--size", "--signal-size"),
+    ("engine", "--mc-photons", "--max-photons"),
     ("fit", "--falloff", "--jimenez-falloff"),
     ("fit", "--size", "--grid-size"),
     ("fit", "--strength", "--jimenez-strength"),
@@ -463,8 +464,9 @@ fn one_default_seed() {
             seen += 1;
         }
     }
-    // kernels, advise, study, simulate, profiles compare, compare, scene.
-    assert_eq!(seen, 7);
+    // kernels, advise, study, simulate, profiles compare, compare, scene,
+    // engine (its --material), transmission.
+    assert_eq!(seen, 9);
 }
 
 /// Values that parse as an `f64` (Rust's `FromStr` reads all of them) but

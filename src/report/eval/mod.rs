@@ -27,4 +27,5 @@ pub mod scene_pass;
 pub mod scene_score;
 pub mod scene_transmission;
 pub mod shipped;
+pub mod stage_times;
 pub mod study;

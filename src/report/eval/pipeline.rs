@@ -9,6 +9,7 @@ use super::evaluate::{ImageCase, Options, Which};
 use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row, FAMILIES};
 use super::preview::{self, Preview, PreviewKernel};
 use super::shipped::{shipped, Shipped};
+use super::stage_times::StageTimes;
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::io::{file_stem, join_inside};
@@ -253,71 +254,6 @@ fn write_disk_kernel(
         files.push(name);
     }
     Ok(())
-}
-
-/// Wall seconds of the main job's stages, as report.md's "Stage times"
-/// shows them: the profile (made or read by the caller), the ground
-/// truth, the fits, the comparison's images (exact and filtered), the
-/// advice, and writing the files (before the report's last write); the
-/// total runs from the profile's start to that write.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StageTimes {
-    pub profile: f64,
-    pub truth: f64,
-    pub fits: f64,
-    pub images: f64,
-    pub advice: f64,
-    pub preview: f64,
-    pub files: f64,
-    /// The engine's fit and files, where asked: wall and CPU seconds.
-    pub engine: Option<(f64, f64)>,
-    pub total: f64,
-    /// CPU seconds of the stages of [`Self::stages`] and of the total,
-    /// every thread of the process ([`crate::progress::process_cpu_seconds`]);
-    /// the profile's are the process's before the pipeline starts (the
-    /// profile and the command's start-up).
-    pub cpu: [f64; 8],
-}
-
-impl StageTimes {
-    /// The stages in order, with their seconds (the engine's where it ran).
-    pub fn stages(&self) -> Vec<(&'static str, f64)> {
-        let mut v = vec![
-            ("profile", self.profile),
-            ("truth", self.truth),
-            ("fits", self.fits),
-            ("images", self.images),
-            ("advice", self.advice),
-            ("preview", self.preview),
-            ("files", self.files),
-        ];
-        v.extend(self.engine.map(|(s, _)| ("engine", s)));
-        v
-    }
-
-    /// CPU seconds in the order of [`Self::stages`], then the total's.
-    fn cpu_seconds(&self) -> Vec<f64> {
-        let mut v = self.cpu[..7].to_vec();
-        v.extend(self.engine.map(|(_, c)| c));
-        v.push(self.cpu[7]);
-        v
-    }
-
-    /// The report's table: one row per stage and the total, wall and CPU
-    /// seconds.
-    pub fn markdown(&self) -> String {
-        let mut t = crate::report::present::table::Table::new(&["stage", "wall s", "CPU s"]);
-        let rows = self.stages().into_iter().chain([("total", self.total)]);
-        for ((name, s), cpu) in rows.zip(self.cpu_seconds()) {
-            // Milliseconds, so that the rows add up as the numbers do.
-            t.push(vec![
-                name.to_string(),
-                format!("{s:.3}"),
-                format!("{cpu:.3}"),
-            ]);
-        }
-        t.markdown()
-    }
 }
 
 /// Runs the pipeline on `profile` (made in `profile_seconds`) into `dir`
