@@ -310,16 +310,7 @@ pub fn run(
         (cmp.seconds.truth, cmp.seconds.fits, cmp.seconds.images);
     times.cpu[1..4].copy_from_slice(&cmp.seconds.cpu);
     let t = Clock::start();
-    let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
-    acfg.size = settings.size;
-    acfg.budget = settings.budget;
-    acfg.frames = settings.frames;
-    acfg.families = settings.families.clone();
-    let prepared = advise::Prepared {
-        truth: cmp.truths[0].clone(),
-        fits: cmp.fits[0].clone(),
-    };
-    let advice = advise::advise_prepared(profile, &acfg, scene, Some(prepared), progress)?;
+    let advice = advice_on(profile, settings, &cmp, scene, progress)?;
     (times.advice, times.cpu[4]) = t.elapsed();
     let t = Clock::start();
     let preview = if settings.plots {
@@ -382,6 +373,26 @@ pub fn run(
         stages: times,
         engine,
     })
+}
+
+/// The advice on the comparison's own truth and fits (made once).
+fn advice_on(
+    profile: &Profile,
+    settings: &Settings,
+    cmp: &Comparison,
+    scene: Option<(&Scene, &Render)>,
+    progress: &dyn Progress,
+) -> Result<Advice> {
+    let mut acfg = advise::Config::new(settings.mm_per_pixel, settings.target);
+    acfg.size = settings.size;
+    acfg.budget = settings.budget;
+    acfg.frames = settings.frames;
+    acfg.families = settings.families.clone();
+    let prepared = advise::Prepared {
+        truth: cmp.truths[0].clone(),
+        fits: cmp.fits[0].clone(),
+    };
+    advise::advise_prepared(profile, &acfg, scene, Some(prepared), progress)
 }
 
 /// The engine's fit and files beside the kernel where asked (`kernels
