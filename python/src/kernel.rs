@@ -399,8 +399,16 @@ fn engine_params<'py>(
         .transpose()
         .map_err(to_py)?;
     let method = SubsurfaceMethod::resolve(e, version, asked).map_err(to_py)?;
+    // As `ssskit engine` fits: the default priority (colour), and the other
+    // priority's error beside it (what keeping one costs the other).
+    let req = engine::request::Request {
+        version,
+        method: Some(method),
+        other: true,
+        ..engine::request::Request::default()
+    };
     let fit = interruptible(py, |_| {
-        engine::fit_method(e, &profile, scene, version, method)
+        engine::request::fit_with(e, &profile, scene, &req, &ssskit::progress::NoProgress)
     })?;
     let v = serde_json::to_value(&fit).map_err(|e| PyValueError::new_err(e.to_string()))?;
     json_to_py(py, &v)

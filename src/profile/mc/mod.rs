@@ -47,8 +47,6 @@ pub use config::*;
 use consumer::Projection;
 use exact::ExactTally;
 pub use merge::*;
-use rand_core::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 use rounds::*;
 use serde::{Deserialize, Serialize};
