@@ -93,27 +93,6 @@ fn container(job: &Yaml) -> (Vec<String>, Vec<(String, String)>) {
     (command, env)
 }
 
-/// Checks that two profiles are the same run, bit for bit, but for the
-/// wall time; on a failure names the fields that differ (not the arrays).
-fn assert_same_run(a: &Path, b: &Path) {
-    let (mut x, mut y) = (common::read_json(a), common::read_json(b));
-    x["elapsed_s"] = 0.0.into();
-    y["elapsed_s"] = 0.0.into();
-    let keys: Vec<&String> = x
-        .as_object()
-        .unwrap()
-        .iter()
-        .filter(|(k, v)| y.get(k.as_str()) != Some(v))
-        .map(|(k, _)| k)
-        .collect();
-    assert!(
-        x == y,
-        "{} differs from {} in {keys:?}",
-        a.display(),
-        b.display()
-    );
-}
-
 /// How far the image's size may move from the size docs/mc.md states
 /// (record `image`) before the record must be renewed: Debian's point
 /// releases of the libraries move it by a few MiB; a change in what goes in
@@ -261,7 +240,7 @@ fn a_shard_in_the_image_merges_with_one_outside() {
             "single.json",
         ],
     );
-    assert_same_run(&parts.join("skin1.json"), &d.join("single.json"));
+    common::assert_same_run(&parts.join("skin1.json"), &d.join("single.json"));
 
     // The GPU path in the image: Mesa's software Vulkan, no GPU needed.
     let gpu = [

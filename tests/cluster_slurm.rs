@@ -62,27 +62,6 @@ fn submit(c: &slurm::Cluster, dir: &Path, ssskit: &Path) -> Vec<String> {
     ids
 }
 
-/// Checks that two profiles are the same run, bit for bit, but for the
-/// wall time; on a failure names the fields that differ (not the arrays).
-fn assert_same_run(a: &Path, b: &Path) {
-    let (mut x, mut y) = (common::read_json(a), common::read_json(b));
-    x["elapsed_s"] = 0.0.into();
-    y["elapsed_s"] = 0.0.into();
-    let keys: Vec<&String> = x
-        .as_object()
-        .unwrap()
-        .iter()
-        .filter(|(k, v)| y.get(k.as_str()) != Some(v))
-        .map(|(k, _)| k)
-        .collect();
-    assert!(
-        x == y,
-        "{} differs from {} in {keys:?}",
-        a.display(),
-        b.display()
-    );
-}
-
 #[test]
 fn the_docs_slurm_recipe_merges_to_the_single_run() {
     let c = slurm::Cluster::start();
@@ -122,7 +101,7 @@ fn the_docs_slurm_recipe_merges_to_the_single_run() {
             "part-{k}.json missing"
         );
     }
-    assert_same_run(&merged, &single.join("single.json"));
+    common::assert_same_run(&merged, &single.join("single.json"));
 
     // Shard 3 fails (its binary exits 1 under Slurm): the merge still runs
     // (afterany) and names the shard by number and by the part it expected.
@@ -227,7 +206,7 @@ fn record_scaling() {
         c.wait_jobs(&jobs, Duration::from_secs(24 * 3600));
         let wall = t0.elapsed().as_secs_f64();
         let merged = dir.join(format!("{material}.json"));
-        assert_same_run(&merged, &single.join("single.json"));
+        common::assert_same_run(&merged, &single.join("single.json"));
         let mut shard_s: Vec<f64> = (1..=n)
             .map(|k| {
                 common::read_json(&dir.join(format!("part-{k}.json")))["elapsed_s"]

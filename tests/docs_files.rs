@@ -67,11 +67,7 @@ fn printed_recipes_are_the_files_the_tests_run() {
                     continue;
                 }
                 if bless {
-                    let begin = format!("<!-- BEGIN {kind}:{name} -->\n");
-                    let end = format!("<!-- END {kind}:{name} -->");
-                    let i = text.find(&begin).unwrap() + begin.len();
-                    let j = i + text[i..].find(&end).unwrap();
-                    text.replace_range(i..j, &want);
+                    common::replace_block(&mut text, kind, &name, &want);
                     changed = true;
                 } else {
                     stale.push(format!("{}: {kind}:{name}", f.display()));

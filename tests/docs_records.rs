@@ -45,11 +45,7 @@ fn recorded_tables_match_their_records() {
             checked += 1;
             if fresh != body {
                 if bless {
-                    let begin = format!("<!-- BEGIN record:{name} -->\n");
-                    let end = format!("<!-- END record:{name} -->");
-                    let i = text.find(&begin).unwrap() + begin.len();
-                    let j = i + text[i..].find(&end).unwrap();
-                    text.replace_range(i..j, &fresh);
+                    common::replace_block(&mut text, "record", &name, &fresh);
                     changed = true;
                 } else {
                     stale.push(format!(

@@ -142,6 +142,37 @@ pub fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(p).expect("readable file")).expect("valid JSON")
 }
 
+/// Replaces the body of the `<!-- BEGIN KIND:NAME -->` block of `text`
+/// (as `blocks_of` reads it) with `body`: how the docs tests bless.
+pub fn replace_block(text: &mut String, kind: &str, name: &str, body: &str) {
+    let begin = format!("<!-- BEGIN {kind}:{name} -->\n");
+    let end = format!("<!-- END {kind}:{name} -->");
+    let i = text.find(&begin).unwrap() + begin.len();
+    let j = i + text[i..].find(&end).unwrap();
+    text.replace_range(i..j, body);
+}
+
+/// Checks that two profiles are the same run, bit for bit, but for the
+/// wall time; on a failure names the fields that differ (not the arrays).
+pub fn assert_same_run(a: &Path, b: &Path) {
+    let (mut x, mut y) = (read_json(a), read_json(b));
+    x["elapsed_s"] = 0.0.into();
+    y["elapsed_s"] = 0.0.into();
+    let keys: Vec<&String> = x
+        .as_object()
+        .unwrap()
+        .iter()
+        .filter(|(k, v)| y.get(k.as_str()) != Some(v))
+        .map(|(k, _)| k)
+        .collect();
+    assert!(
+        x == y,
+        "{} differs from {} in {keys:?}",
+        a.display(),
+        b.display()
+    );
+}
+
 /// A path as a command-line argument.
 pub fn p(path: &Path) -> &str {
     path.to_str().expect("UTF-8 path")
