@@ -32,7 +32,7 @@ fn horizontal_scene_units(sss_width: f64, fovy_deg: f64, depth: f64, aspect: f64
         * (0.5 * fovy_deg.to_radians()).tan()
 }
 
-/// The colour a kept-colour fit may leave: `engine::request::COLOUR_TOL`'s
+/// The colour a kept-colour fit may leave: `engine::priority::COLOUR_TOL`'s
 /// 1%, the rendered total against the profile's.
 const COLOUR_TOL: f64 = 0.01;
 

@@ -7,7 +7,8 @@ use super::args::{
 use super::out::outln;
 use anyhow::Context;
 use ssskit::engine::method::SubsurfaceMethod;
-use ssskit::engine::request::{fit_with, Priority, Request, COLOUR_TOL};
+use ssskit::engine::priority::{Priority, COLOUR_TOL};
+use ssskit::engine::request::{fit_with, Request};
 use ssskit::engine::{self, burley, Engine, EngineFit, Scene};
 use ssskit::numerics::Bounded;
 use ssskit::profile::Profile;

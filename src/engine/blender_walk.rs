@@ -19,7 +19,7 @@ use super::blender::{scale_and_radius, scene_lines, subsurface_rows};
 use super::cycles_walk::{self, UnitWalk, ANISOTROPY_RANGE};
 use super::model::{check, check_scene, error};
 use super::printed::{printed, triple, typed, Printed};
-use super::request::Priority;
+use super::priority::Priority;
 use super::walk_profile::{channels, rendered, METHOD, SEED};
 use super::walk_table::{fit_channel, Table};
 use super::{EngineFit, FitError, OtherFit, Scene};
@@ -486,7 +486,7 @@ mod tests {
     /// misses skin1's blue by about 4% at g = 0.9).
     #[test]
     fn the_colour_holds_where_g_is_above_0() {
-        use crate::engine::request::COLOUR_TOL;
+        use crate::engine::priority::COLOUR_TOL;
         let p = skin1_with_g(0.5);
         let o = Options {
             priority: Priority::Colour,

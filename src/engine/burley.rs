@@ -7,7 +7,7 @@
 //! user types, and back through that engine's own chain.
 
 use super::model::{modelled, Target};
-use super::request::Priority;
+use super::priority::Priority;
 use crate::error::{Error, Result};
 use crate::numerics::bin_averages_resolved;
 use crate::numerics::minimise_log;

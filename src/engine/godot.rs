@@ -59,7 +59,7 @@
 
 use super::jimenez::{self as sep, FitData, Separable};
 use super::printed::{color, number, srgb_hex, table, triple, typed, units_line, Units, TYPED_REL};
-use super::request::Priority;
+use super::priority::Priority;
 use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::filter::image::{linear_to_srgb, srgb_to_linear};

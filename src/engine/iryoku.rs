@@ -32,7 +32,7 @@
 use super::jimenez::{self as sep, ChannelFit, FitData, Separable};
 use super::printed::units_line;
 use super::printed::{color, number, table, triple, typed, Units};
-use super::request::Priority;
+use super::priority::Priority;
 use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::kernel::jimenez::{tap_table, JimenezParams, IRYOKU_FALLOFF, IRYOKU_STRENGTH};

@@ -29,6 +29,7 @@ pub mod jimenez;
 pub mod method;
 pub mod model;
 pub mod printed;
+pub mod priority;
 pub mod request;
 pub mod sampled;
 pub mod sampling;
@@ -42,7 +43,8 @@ use crate::profile::Profile;
 use crate::progress::NoProgress;
 use method::SubsurfaceMethod;
 use printed::Units;
-use request::{fit_with, Priority, Request};
+use priority::Priority;
+use request::{fit_with, Request};
 use serde::Serialize;
 use serde_json::{Map, Value};
 

@@ -6,7 +6,7 @@
 
 use super::cycles_walk::{self, UnitWalk, MAX_BOUNCES};
 use super::model::Target;
-use super::request::Priority;
+use super::priority::Priority;
 use crate::numerics::minimise_log;
 use crate::profile::Profile;
 use std::f64::consts::PI;

@@ -2,7 +2,7 @@
 //! (`kernels --engine`): the files and how to import them, the values,
 //! what they cost in colour and shape, and what the error assumes.
 
-use crate::engine::request::{Priority, COLOUR_TOL};
+use crate::engine::priority::{Priority, COLOUR_TOL};
 use crate::engine::EngineFit;
 use crate::numerics::Bounded;
 use std::fmt::Write as _;
