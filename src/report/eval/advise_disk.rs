@@ -47,6 +47,7 @@ use crate::numerics::std_dev;
 use crate::numerics::Bounded;
 use crate::profile::radius::DEFAULT_HOLD;
 use crate::profile::Profile;
+use rayon::prelude::*;
 use serde_json::json;
 use std::collections::BTreeMap;
 
@@ -133,9 +134,14 @@ pub fn check_frames(frames: u32) -> Result<()> {
 fn score(kernel: &DiskKernelFile, r: &Reference, frames: u32) -> Result<(f64, f64, DiskScore)> {
     let case = &r.exact.case;
     let setup = DiskSetup::new(kernel, view(case.mm_per_pixel), DISK_SEED, 1);
+    let t0 = std::time::Instant::now();
     let (e, first) =
         disk_error_with_first(&case.image, &setup, &r.exact_f32, WINDOWS * frames, frames)?;
+    let secs = t0.elapsed().as_secs_f64() / (WINDOWS * frames) as f64;
     let f32_image = round_f32(&first.image);
+    // The first accumulation is bit for bit the image `apply --frames K`
+    // makes (`FirstAccumulation`): the chosen row's prediction takes it.
+    r.keep_disk(disk_fingerprint(kernel), frames, first.image, secs);
     // The exact image's score first, then each replicate's (one pass).
     let all = r.rel_rms_all(&f32_image)?;
     let (c, s) = worst(all[0]);
@@ -286,17 +292,29 @@ impl Search<'_> {
         }
         // The frames the prediction below is made on travel with the file.
         let kernel = with_frames(kernel, self.cfg.frames);
-        let mut predicted = BTreeMap::new();
-        for r in &self.refs {
-            let e = &r.exact;
-            let t0 = std::time::Instant::now();
-            let img = accumulated(&kernel, &e.case.image, e.case.mm_per_pixel, self.cfg.frames)?;
-            let secs = t0.elapsed().as_secs_f64() / self.cfg.frames as f64;
-            let mut errs = evaluate::errors(e, &img, &self.cfg.options)?;
-            errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
-            errs.samples_per_pixel = c.cost;
-            predicted.insert(e.case.name.clone(), errs);
-        }
+        let key = disk_fingerprint(&kernel);
+        // Each signal on its own (FLIP runs on one thread): all at once.
+        let predicted = self
+            .refs
+            .par_iter()
+            .map(|r| {
+                let e = &r.exact;
+                // The accumulation scored last, where it is this kernel's.
+                let (img, secs) = match r.kept_disk(&key, self.cfg.frames) {
+                    Some(kept) => kept,
+                    None => {
+                        let t0 = std::time::Instant::now();
+                        let (mm, k) = (e.case.mm_per_pixel, self.cfg.frames);
+                        let img = accumulated(&kernel, &e.case.image, mm, k)?;
+                        (img, t0.elapsed().as_secs_f64() / k as f64)
+                    }
+                };
+                let mut errs = evaluate::errors(e, &img, &self.cfg.options)?;
+                errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
+                errs.samples_per_pixel = c.cost;
+                Ok((e.case.name.clone(), errs))
+            })
+            .collect::<Result<_>>()?;
         Ok((kernel, predicted))
     }
 }
@@ -331,6 +349,34 @@ pub fn disk_text(c: &Candidate) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The accumulation a score keeps for the prediction is bit for bit
+    /// the one the prediction made again before (`apply --frames K`'s
+    /// image), and is found only for its kernel and frames.
+    #[test]
+    fn the_kept_accumulation_is_the_one_apply_makes() {
+        let m = crate::material::preset("skin1").unwrap();
+        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
+        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let signal = crate::filter::signals::Signal::Shapes;
+        let case = super::super::evaluate::ImageCase::signal(signal, 24, 0.5).unwrap();
+        let refs = Reference::all(&profile, &[case]).unwrap();
+        let (k, r) = (disk_kernel(&profile, 8).unwrap(), &refs[0]);
+        score(&k, r, 2).unwrap();
+        let (kept, _) = r.kept_disk(&disk_fingerprint(&k), 2).unwrap();
+        let made = accumulated(&k, &r.exact.case.image, 0.5, 2).unwrap();
+        let bits = |i: &Image| {
+            i.rgb
+                .iter()
+                .flatten()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&kept), bits(&made));
+        assert!(r.kept_disk(&disk_fingerprint(&k), 3).is_none());
+        let other = disk_kernel(&profile, 4).unwrap();
+        assert!(r.kept_disk(&disk_fingerprint(&other), 2).is_none());
+    }
 
     /// The worst channel is the largest, the first of equals.
     #[test]

@@ -81,6 +81,11 @@ pub struct Reference {
     /// to f32 (none for an analytic profile), packed to be scored in one
     /// pass.
     stack: RefStack,
+    /// The last disk accumulation scored on this image, with its key
+    /// (the kernel's fingerprint and frames) and seconds per frame: the
+    /// chosen row's is the image its prediction filters again otherwise
+    /// ([`super::advise_disk`]).
+    last_disk: std::sync::Mutex<Option<(String, u32, Image, f64)>>,
 }
 
 /// A candidate's score on one test image.
@@ -168,9 +173,28 @@ impl Reference {
                 exact_f32,
                 stack,
                 exact,
+                last_disk: Default::default(),
             });
         }
         Ok(out)
+    }
+
+    /// Keeps `image`, the accumulation of `frames` frames of the disk
+    /// kernel of fingerprint `key`, made in `seconds` per frame (the last
+    /// one kept: one image per reference).
+    pub fn keep_disk(&self, key: String, frames: u32, image: Image, seconds: f64) {
+        *self.last_disk.lock().unwrap_or_else(|e| e.into_inner()) =
+            Some((key, frames, image, seconds));
+    }
+
+    /// The image [`Self::keep_disk`] kept for (`key`, `frames`) and its
+    /// seconds per frame.
+    pub fn kept_disk(&self, key: &str, frames: u32) -> Option<(Image, f64)> {
+        let kept = self.last_disk.lock().unwrap_or_else(|e| e.into_inner());
+        match &*kept {
+            Some((k, f, image, secs)) if k == key && *f == frames => Some((image.clone(), *secs)),
+            _ => None,
+        }
     }
 
     /// Replicate images scored against.

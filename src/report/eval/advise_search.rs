@@ -395,16 +395,18 @@ impl Search<'_> {
 
     /// The errors of `passes` on every signal, with FLIP and timing.
     pub fn predict(&self, passes: &[Taps], cost: usize) -> Result<BTreeMap<String, ImageErrors>> {
-        let mut predicted = BTreeMap::new();
-        for r in &self.refs {
-            let e = &r.exact;
-            let (img, secs) = evaluate::filter(&e.case, passes.to_vec())?;
-            let mut errs = evaluate::errors(e, &img, &self.cfg.options)?;
-            errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
-            errs.samples_per_pixel = cost;
-            predicted.insert(e.case.name.clone(), errs);
-        }
-        Ok(predicted)
+        // Each signal on its own (FLIP runs on one thread): all at once.
+        self.refs
+            .par_iter()
+            .map(|r| {
+                let e = &r.exact;
+                let (img, secs) = evaluate::filter(&e.case, passes.to_vec())?;
+                let mut errs = evaluate::errors(e, &img, &self.cfg.options)?;
+                errs.ms_per_megapixel = 1e3 * secs / (img.len() as f64 / 1e6);
+                errs.samples_per_pixel = cost;
+                Ok((e.case.name.clone(), errs))
+            })
+            .collect()
     }
 
     /// The same search at another scale: its configuration and test

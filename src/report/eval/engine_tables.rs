@@ -116,17 +116,28 @@ pub fn engine_tables(materials: &[String], profiles: &[Profile]) -> EngineTables
         .zip(profiles)
         .map(|(m, p)| {
             let exact = |shape: [f64; 3]| Shape { shape, noise: None };
-            let burley_engines: Vec<Option<Shape>> = columns
-                .par_iter()
-                .map(|c| shape(c.engine, Some(c.version), p))
-                .collect();
+            // Every fit on its own: all at once, none waiting for another.
+            let (burley_engines, (iryoku, godot)) = rayon::join(
+                || {
+                    columns
+                        .par_iter()
+                        .map(|c| shape(c.engine, Some(c.version), p))
+                        .collect::<Vec<Option<Shape>>>()
+                },
+                || {
+                    rayon::join(
+                        || shape(Engine::Iryoku, None, p),
+                        || shape(Engine::Godot, None, p),
+                    )
+                },
+            );
             Row {
                 material: m.clone(),
                 // The first column is Unreal's default version.
                 burley_fitted: burley_engines[0].clone(),
                 burley_forward: burley::forward_error(p).ok().map(|e| exact(e.shape)),
-                iryoku: shape(Engine::Iryoku, None, p),
-                godot: shape(Engine::Godot, None, p),
+                iryoku,
+                godot,
                 burley_engines,
             }
         })

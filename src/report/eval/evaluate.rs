@@ -76,6 +76,7 @@ pub use crate::filter::Which;
 use crate::filter::{cpu, diff, taps_for, Image, Scale, Setup, Taps};
 use crate::kernel::{Kernel2D, KernelFile};
 use crate::profile::Profile;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -167,6 +168,19 @@ pub struct Exact {
     pub exposure_rgb: f64,
     /// Time to build and apply the 2D kernel.
     pub seconds: f64,
+    /// The exact image's [`Tones`], made on first use, without and with
+    /// the rounding to f32: [`errors`] takes them for every filtered image.
+    tones: [std::sync::OnceLock<Tones>; 2],
+}
+
+/// An image's FLIP inputs, tone-mapped with the exact image's exposures
+/// ([`tone_map`]): each channel as a grey image, and the colour image.
+type Tones = ([Vec<u8>; 3], Vec<u8>);
+
+fn tones(img: &Image, exact: &Exact) -> Tones {
+    let grey = std::array::from_fn(|c| tone_map_grey(&img.rgb[c], exact.exposure[c]));
+    let rgb = |i| std::array::from_fn(|c| img.rgb[c][i] * exact.exposure_rgb);
+    (grey, tone_map(img, rgb))
 }
 
 impl Exact {
@@ -241,6 +255,7 @@ impl Exact {
             kernel_size: k.size,
             image,
             seconds,
+            tones: Default::default(),
         }
     }
 }
@@ -322,24 +337,22 @@ pub fn errors(exact: &Exact, filtered: &Image, options: &Options) -> Result<Imag
             "must be finite and > 0",
         ));
     }
-    let flip = std::array::from_fn(|c| {
-        let grey = |img: &Image| {
-            tone_map(img, |i| {
-                let v = img.rgb[c][i] * exact.exposure[c];
-                [v, v, v]
-            })
-        };
-        flip_mean(&grey(&e), &grey(&f), e.width, e.height, ppd)
-    });
-    let rgb = |img: &Image| {
-        tone_map(img, |i| {
-            std::array::from_fn(|c| img.rgb[c][i] * exact.exposure_rgb)
+    // The exact side's tone maps are the same for every filtered image.
+    let ours = exact.tones[usize::from(options.round_to_f32)].get_or_init(|| tones(&e, exact));
+    let theirs = tones(&f, exact);
+    // The four FLIP maps (each channel grey, then the colour image) are
+    // independent: made at once, each a pure function of its two images.
+    let means: Vec<f64> = (0..4)
+        .into_par_iter()
+        .map(|k| match k {
+            3 => flip_mean(&ours.1, &theirs.1, e.width, e.height, ppd),
+            c => flip_mean(&ours.0[c], &theirs.0[c], e.width, e.height, ppd),
         })
-    };
+        .collect();
     Ok(ImageErrors {
         rel_rms: stats.rms_rel,
-        flip,
-        flip_rgb: flip_mean(&rgb(&e), &rgb(&f), e.width, e.height, ppd),
+        flip: [means[0], means[1], means[2]],
+        flip_rgb: means[3],
         ms_per_megapixel: 0.0,
         samples_per_pixel: 0,
     })
@@ -363,6 +376,19 @@ pub(crate) fn tone_map(img: &Image, exposed: impl Fn(usize) -> [f64; 3]) -> Vec<
             let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
             out.push((linear_to_srgb(v) * 255.0).round() as u8);
         }
+    }
+    out
+}
+
+/// [`tone_map`] of one plane shown as a grey image (`v` x `exposure` in
+/// each of the three channels), each pixel encoded once.
+fn tone_map_grey(plane: &[f64], exposure: f64) -> Vec<u8> {
+    let mut out = Vec::with_capacity(3 * plane.len());
+    for &x in plane {
+        let v = x * exposure;
+        let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+        let b = (linear_to_srgb(v) * 255.0).round() as u8;
+        out.extend([b, b, b]);
     }
     out
 }
@@ -576,6 +602,39 @@ mod tests {
         let mut other = img.clone();
         other[3 * (16 * 48 + 24)] ^= 0x80;
         assert!(flip_mean(&img, &other, 48, 32, 67.0) > 0.0);
+    }
+
+    /// The grey tone map gives the bytes of the colour one of (v, v, v),
+    /// NaN, negatives and values past 1 included; the exact side's tone
+    /// maps, kept per rounding, score as made afresh.
+    #[test]
+    fn grey_and_kept_tone_maps_are_the_per_call_ones() {
+        let plane: Vec<f64> = (0..4000).map(|i| (i as f64 * 0.37).sin() * 1.3).collect();
+        let plane = [&plane[..], &[f64::NAN, -0.0, 1e-9, 0.0031308, 1.0, 2.5]].concat();
+        let mut img = Image::new(plane.len(), 1);
+        img.rgb = [plane.clone(), plane.clone(), plane.clone()];
+        for x in [1.0, 0.731, 3.2] {
+            let old = tone_map(&img, |i| [img.rgb[0][i] * x; 3]);
+            assert_eq!(tone_map_grey(&plane, x), old);
+        }
+        let p = profile();
+        let case = ImageCase::signal(Signal::Shapes, 32, scale(&p)).unwrap();
+        let (kept, blur) = (Exact::new(&p, &case).unwrap(), &case.image);
+        for round_to_f32 in [true, false, true] {
+            let o = Options {
+                round_to_f32,
+                ..Options::default()
+            };
+            let fresh = errors(&Exact::new(&p, &case).unwrap(), blur, &o).unwrap();
+            assert_eq!(errors(&kept, blur, &o).unwrap(), fresh, "{round_to_f32}");
+            let e = if round_to_f32 {
+                round_f32(&kept.image)
+            } else {
+                kept.image.clone()
+            };
+            let made = kept.tones[usize::from(round_to_f32)].get();
+            assert_eq!(made, Some(&tones(&e, &kept)), "{round_to_f32}");
+        }
     }
 
     #[test]

@@ -260,8 +260,10 @@ pub struct Comparison {
     pub seconds: CompareSeconds,
 }
 
-/// Wall seconds of the comparison's stages: the ground truths, the fits,
-/// the exact images and the evaluations of every fit on them.
+/// Wall seconds of the comparison's stages, one after the other: the
+/// ground truths (the exact images made beside them), the fits (until the
+/// last one ends: the first fits' evaluations run meanwhile) and the rest
+/// of the evaluations of every fit.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CompareSeconds {
     pub truth: f64,
@@ -299,19 +301,26 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
         .collect::<Result<_>>()?;
     let mut seconds = CompareSeconds::default();
     let t = Clock::start();
-    let truths: Vec<Kernel2D> = inputs
-        .par_iter()
-        .map(|m| {
-            Kernel2D::from_profile(
-                &m.profile,
-                &Kernel2DSpec {
-                    size: None,
-                    extent_mm: cfg.extent_mm,
-                },
-            )
-            .map_err(|e| named(&m.name, e))
-        })
-        .collect::<Result<_>>()?;
+    // The exact images need the profiles only: made beside the truths.
+    let (truths, exact) = rayon::join(
+        || {
+            inputs
+                .par_iter()
+                .map(|m| {
+                    Kernel2D::from_profile(
+                        &m.profile,
+                        &Kernel2DSpec {
+                            size: None,
+                            extent_mm: cfg.extent_mm,
+                        },
+                    )
+                    .map_err(|e| named(&m.name, e))
+                })
+                .collect::<Result<Vec<Kernel2D>>>()
+        },
+        || exact_images(inputs, cfg),
+    );
+    let (truths, exact) = (truths?, exact?);
     (seconds.truth, seconds.cpu[0]) = t.elapsed();
     let tasks: Vec<(usize, &ModelSpec)> = specs
         .iter()
@@ -321,33 +330,36 @@ pub fn run(inputs: &[MaterialInput], cfg: &Config, progress: &dyn Progress) -> R
     // Each task advances once fitted and once evaluated.
     progress.start(2 * tasks.len() as u64, "material x model");
     let t = Clock::start();
-    let fits: Vec<ModelFit> = tasks
+    // Each task is evaluated as soon as it is fitted, so that the long fits
+    // (manual-fit, guided) overlap the others' images instead of leaving a
+    // core idle at a barrier; the fits' stage ends when the last fit does.
+    let unfitted = std::sync::atomic::AtomicUsize::new(tasks.len());
+    let fits_end = std::sync::Mutex::new(None);
+    let done: Vec<(ModelFit, Vec<Fitted>)> = tasks
         .par_iter()
         .map(|&(i, spec)| {
             let m = &inputs[i];
             let f = fit_model(&truths[i], &m.profile, &spec.model)
                 .map_err(|e| Error::Unsupported(format!("{} {}: {e}", m.name, spec.label)))?;
             progress.advance(1);
-            Ok(f)
+            if unfitted.fetch_sub(1, std::sync::atomic::Ordering::SeqCst) == 1 {
+                *fits_end.lock().unwrap_or_else(|e| e.into_inner()) = Some(t.elapsed());
+            }
+            let out = evaluate_fit(m, &truths[i], &exact[i], spec, &f, cfg)?;
+            progress.advance(1);
+            Ok((f, out))
         })
         .collect::<Result<_>>()?;
-    (seconds.fits, seconds.cpu[1]) = t.elapsed();
-    let t = Clock::start();
-    let exact = exact_images(inputs, cfg)?;
-    let fitted: Vec<Fitted> = tasks
-        .par_iter()
-        .zip(&fits)
-        .map(|(&(i, spec), f)| {
-            let out = evaluate_fit(&inputs[i], &truths[i], &exact[i], spec, f, cfg);
-            progress.advance(1);
-            out
-        })
-        .collect::<Result<Vec<Vec<Fitted>>>>()?
-        .into_iter()
-        .flatten()
-        .collect();
-    (seconds.images, seconds.cpu[2]) = t.elapsed();
+    let (wall, cpu) = t.elapsed();
+    let (fits_wall, fits_cpu) = fits_end
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner())
+        .unwrap_or((wall, cpu));
+    (seconds.fits, seconds.cpu[1]) = (fits_wall, fits_cpu);
+    (seconds.images, seconds.cpu[2]) = (wall - fits_wall, cpu - fits_cpu);
     progress.finish();
+    let (fits, fitted): (Vec<ModelFit>, Vec<Vec<Fitted>>) = done.into_iter().unzip();
+    let fitted: Vec<Fitted> = fitted.into_iter().flatten().collect();
     let mut by_label = vec![BTreeMap::new(); inputs.len()];
     for (&(i, spec), f) in tasks.iter().zip(fits) {
         by_label[i].insert(spec.label.clone(), f);

@@ -5,6 +5,7 @@
 //! plots, and the configuration [`super::advise`] picks at the given scale.
 
 use super::advise::{self, Advice};
+use super::engine_tables::{engine_tables, EngineTables};
 use super::evaluate::{ImageCase, Options, Which};
 use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row, FAMILIES};
 use super::preview::{self, Preview, PreviewKernel};
@@ -85,11 +86,11 @@ pub fn comparison_files(
     plots: bool,
     sheet_factor: &str,
     (shipped, recommended): (Option<&Shipped>, Option<&Recommended>),
+    engines: &EngineTables,
 ) -> Result<Written> {
     let mut files = vec!["compare.csv".to_string(), "compare.json".into()];
     let mut figs = Vec::new();
-    let engines = super::engine_tables::engine_tables(&cmp.materials, &cmp.profiles);
-    let mut md = kernel_report::report(cmp, ctx, &engines);
+    let mut md = kernel_report::report(cmp, ctx, engines);
     let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
     let json = dir.join("compare.json");
@@ -154,7 +155,8 @@ pub fn write_comparison(
     plots: bool,
     sheet_factor: &str,
 ) -> Result<Vec<String>> {
-    let w = comparison_files(cmp, ctx, dir, plots, sheet_factor, (None, None))?;
+    let engines = engine_tables(&cmp.materials, &cmp.profiles);
+    let w = comparison_files(cmp, ctx, dir, plots, sheet_factor, (None, None), &engines)?;
     let mut md = w.markdown;
     if !w.figures.is_empty() {
         md.push_str(&figures::markdown(&w.figures));
@@ -204,6 +206,13 @@ pub fn write_fitted_kernels(cmp: &Comparison, dir: &Path, shaders: bool) -> Resu
     Ok(files)
 }
 
+/// The shader arrays written beside a kernel file, and their extensions.
+const SHADERS: [(Lang, &str); 3] = [
+    (Lang::Hlsl, "hlsl"),
+    (Lang::Glsl, "glsl"),
+    (Lang::Wgsl, "wgsl"),
+];
+
 /// Writes a kernel file (read back) and, with `shaders`, its three shader
 /// arrays next to it.
 fn write_kernel(
@@ -220,11 +229,7 @@ fn write_kernel(
     if !shaders {
         return Ok(());
     }
-    for (lang, ext) in [
-        (Lang::Hlsl, "hlsl"),
-        (Lang::Glsl, "glsl"),
-        (Lang::Wgsl, "wgsl"),
-    ] {
+    for (lang, ext) in SHADERS {
         let name = format!("{stem}.{ext}");
         crate::io::write_atomic(&join_inside(dir, &name)?, emit(kernel, lang)?.as_bytes())?;
         files.push(name);
@@ -243,11 +248,7 @@ fn write_disk_kernel(
     kernel.write(&path)?;
     DiskKernelFile::read(&path)?;
     files.push(format!("{stem}.json"));
-    for (lang, ext) in [
-        (Lang::Hlsl, "hlsl"),
-        (Lang::Glsl, "glsl"),
-        (Lang::Wgsl, "wgsl"),
-    ] {
+    for (lang, ext) in SHADERS {
         let name = format!("{stem}.{ext}");
         let text = crate::kernel::disk_emit::emit_disk(kernel, lang)?;
         crate::io::write_atomic(&join_inside(dir, &name)?, text.as_bytes())?;
@@ -310,21 +311,13 @@ pub fn run(
         (cmp.seconds.truth, cmp.seconds.fits, cmp.seconds.images);
     times.cpu[1..4].copy_from_slice(&cmp.seconds.cpu);
     let t = Clock::start();
-    let advice = advice_on(profile, settings, &cmp, scene, progress)?;
+    // The engine tables fill the cores the advice's serial steps leave.
+    let (advice, engines) = rayon::join(
+        || advice_on(profile, settings, &cmp, scene, progress),
+        || engine_tables(&cmp.materials, &cmp.profiles),
+    );
+    let advice = advice?;
     (times.advice, times.cpu[4]) = t.elapsed();
-    let t = Clock::start();
-    let preview = if settings.plots {
-        progress.start(1, "preview");
-        let p = preview_of(profile, &advice)?;
-        progress.advance(1);
-        progress.finish();
-        Some(p)
-    } else {
-        None
-    };
-    (times.preview, times.cpu[5]) = t.elapsed();
-    let t = Clock::start();
-    progress.start(0, "report and files");
     let ctx = ReportContext {
         command,
         signals: &signal_names,
@@ -332,7 +325,12 @@ pub fn run(
         ranks: &ranks,
         options: &options,
     };
-    let mut pieces = write_files(&cmp, &advice, &ctx, settings, dir, &mut files)?;
+    let t = Clock::start();
+    let ((preview, mut pieces, written), preview_clock) =
+        preview_and_files(&advice, &cmp, &ctx, settings, dir, &engines, progress)?;
+    (times.preview, times.cpu[5]) = preview_clock;
+    progress.start(0, "report and files");
+    files.extend(written);
     if let Some(Ok(p)) = &preview {
         preview_panel::preview_panel(p, &dir.join(PREVIEW_PNG))?;
         pieces
@@ -340,7 +338,9 @@ pub fn run(
             .insert(0, preview_panel::figure(p, PREVIEW_PNG));
         files.push(PREVIEW_PNG.into());
     }
+    // The files' stage runs on from the preview's end.
     let (wall, cpu) = t.elapsed();
+    let (wall, cpu) = (wall - times.preview, cpu - times.cpu[5]);
     (times.files, times.cpu[6]) = (files_clock.0 + wall, files_clock.1 + cpu);
     let engine = engine_files(settings, profile, dir, progress, &mut times, &mut files)?;
     let (wall, cpu) = t0.elapsed();
@@ -373,6 +373,37 @@ pub fn run(
         stages: times,
         engine,
     })
+}
+
+/// The preview or why not (None without plots), the files' pieces and names.
+type Made = (Option<Result<Preview, String>>, Pieces, Vec<String>);
+
+/// The preview (a path trace) and [`write_files`] (mostly serial) at once.
+fn preview_and_files(
+    advice: &Advice,
+    cmp: &Comparison,
+    ctx: &ReportContext,
+    settings: &Settings,
+    dir: &Path,
+    engines: &EngineTables,
+    progress: &dyn Progress,
+) -> Result<(Made, (f64, f64))> {
+    let t = Clock::start();
+    let mut written = Vec::new();
+    let ((preview, end), pieces) = rayon::join(
+        || {
+            let p = settings.plots.then(|| {
+                progress.start(1, "preview");
+                let p = preview_of(&cmp.profiles[0], advice);
+                progress.advance(1);
+                progress.finish();
+                p
+            });
+            (p.transpose(), t.elapsed())
+        },
+        || write_files(cmp, advice, ctx, settings, dir, engines, &mut written),
+    );
+    Ok(((preview?, pieces?, written), end))
 }
 
 /// The advice on the comparison's own truth and fits (made once).
@@ -422,7 +453,7 @@ const PREVIEW_PNG: &str = "preview.png";
 
 /// The material's preview with what ships, or why the scene tracer cannot
 /// render the material.
-fn preview_of(profile: &Profile, advice: &Advice) -> Result<std::result::Result<Preview, String>> {
+fn preview_of(profile: &Profile, advice: &Advice) -> Result<Result<Preview, String>> {
     if let Some(why) = preview::obstacle(profile) {
         return Ok(Err(why));
     }
@@ -449,6 +480,7 @@ fn write_files(
     ctx: &ReportContext,
     settings: &Settings,
     dir: &Path,
+    engines: &EngineTables,
     files: &mut Vec<String>,
 ) -> Result<Pieces> {
     files.extend(
@@ -478,6 +510,7 @@ fn write_files(
         settings.plots,
         &format!("{}-tap tables", settings.taps),
         (ship.as_ref(), Some(&recommended)),
+        engines,
     )?;
     files.extend(w.files);
     let mut figs = w.figures;

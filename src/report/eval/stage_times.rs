@@ -5,7 +5,12 @@
 /// shows them: the profile (made or read by the caller), the ground
 /// truth, the fits, the comparison's images (exact and filtered), the
 /// advice, and writing the files (before the report's last write); the
-/// total runs from the profile's start to that write.
+/// total runs from the profile's start to that write. The stages follow
+/// one another; work that waits for none runs beside one and counts in
+/// it: the exact images beside the truth, each fit's images as soon as it
+/// is fitted (the fits end with the last fit), the engine tables beside
+/// the advice, the files beside the preview (the files run on from its
+/// end).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StageTimes {
     pub profile: f64,
