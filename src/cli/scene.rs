@@ -256,8 +256,8 @@ fn write_gbuffer(path: &Path, scene: &Scene, r: &Render) -> anyhow::Result<()> {
         ("N.Y", &view[1]),
         ("N.Z", &view[2]),
     ];
-    let cos = ssskit::report::eval::scene_score::cosines(scene, r);
-    if ssskit::report::eval::scene_compare::angular_obstacle(scene).is_none() {
+    let cos = ssskit::report::eval::scene::score::cosines(scene, r);
+    if ssskit::report::eval::scene::compare::angular_obstacle(scene).is_none() {
         if let Some(nl) = &cos.n_dot_l {
             planes.push(("NdotL", nl));
         }
@@ -436,7 +436,7 @@ pub(super) struct CompareArgs<'a> {
     pub plots: bool,
     pub out: &'a Path,
     /// The light-space directional method's rows (None: not run).
-    pub directional: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
+    pub directional: Option<ssskit::report::eval::scene::directional::DirectionalConfig>,
 }
 
 /// The light-space method's checks on the scene, before any work: its
@@ -445,8 +445,8 @@ pub(super) struct CompareArgs<'a> {
 fn directional_preflight(
     scene: &Scene,
     r: &Render,
-    cfg: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
-) -> Option<ssskit::report::eval::directional_scene::DirectionalConfig> {
+    cfg: Option<ssskit::report::eval::scene::directional::DirectionalConfig>,
+) -> Option<ssskit::report::eval::scene::directional::DirectionalConfig> {
     let d = cfg?;
     let most = d.samples.iter().copied().max().unwrap_or(1);
     let side = r.info.config.gbuffer_side;
@@ -475,7 +475,7 @@ fn angular_factors(
     if photons == 0 {
         return Ok(None);
     }
-    if let Some(why) = ssskit::report::eval::scene_compare::angular_obstacle(scene) {
+    if let Some(why) = ssskit::report::eval::scene::compare::angular_obstacle(scene) {
         super::errors::warn(&format!("{why}: no angular rows"));
         return Ok(None);
     }
@@ -489,11 +489,11 @@ fn angular_factors(
 /// light-space block (or why the scene has none) and the transmission's.
 fn scene_json(
     scene: &std::path::Path,
-    cmp: &ssskit::report::eval::scene_compare::SceneComparison,
+    cmp: &ssskit::report::eval::scene::compare::SceneComparison,
     r: &ssskit::scene::Render,
     transmission: Option<serde_json::Value>,
 ) -> anyhow::Result<serde_json::Value> {
-    use ssskit::report::eval::scene_compare::dominance;
+    use ssskit::report::eval::scene::compare::dominance;
     Ok(serde_json::json!({
         "scene": scene.display().to_string(),
         "dominance": dominance(cmp),
@@ -518,7 +518,7 @@ fn scene_json(
 /// scene's G-buffer against its path-traced image; writes scene.md,
 /// scene.json, record.json and the contact sheet.
 pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
-    use ssskit::report::eval::scene_compare::{compare_scene, dominance, SceneConfig};
+    use ssskit::report::eval::scene::compare::{compare_scene, dominance, SceneConfig};
     use ssskit::report::present::record::{machine_line, Record};
     use ssskit::report::present::scene_tables::{contact_sheet, named_tables, page};
     let (scene, r, profiles) = scene_and_render(a.scene, a.render)?;

@@ -392,7 +392,7 @@ pub(super) fn scene_block(
     table: &std::path::Path,
     ppd: f64,
 ) -> anyhow::Result<(
-    ssskit::report::eval::scene_transmission::TransmissionComparison,
+    ssskit::report::eval::scene::transmission::TransmissionComparison,
     ssskit::report::present::table::Table,
 )> {
     let t = ThicknessTable::read(table)
@@ -403,7 +403,7 @@ pub(super) fn scene_block(
         let reflect = engine::fit(e, profile, s)?;
         fits.extend(et::fit(e, &reflect, &t, s)?);
     }
-    let cmp = ssskit::report::eval::scene_transmission::compare_transmission(
+    let cmp = ssskit::report::eval::scene::transmission::compare_transmission(
         scene, render, &t, &fits, ppd,
     )
     .with_context(|| format!("--transmission {}", table.display()))?;

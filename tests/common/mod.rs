@@ -570,7 +570,7 @@ pub fn compare_scene(toml: &Path, exr: &Path, out: &Path, extra: &[&str]) -> (St
     ok_both(&args)
 }
 
-/// The percentages of a ranking (`scene_score::ranking`'s numbered lines,
+/// The percentages of a ranking (`scene::score::ranking`'s numbered lines,
 /// "  1.  21.30%  what") among `lines`, in their order, as fractions.
 pub fn ranked_fractions<'a>(lines: impl IntoIterator<Item = &'a str>) -> Vec<f64> {
     lines
