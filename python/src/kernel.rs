@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::engine::method::SubsurfaceMethod;
 use ssskit::engine::{self, Engine, Scene};
-use ssskit::kernel::disk::fit_disk;
+use ssskit::kernel::disk_fit::fit_disk;
 use ssskit::kernel::emit::emit;
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;

@@ -8,7 +8,8 @@
 
 use crate::error::{Error, Result};
 use crate::filter::disk_error::truncated;
-use crate::kernel::disk::{fit_disk, Accumulation, DiskKernelFile, RadiusPdf};
+use crate::kernel::disk::{Accumulation, DiskKernelFile, RadiusPdf};
+use crate::kernel::disk_fit::fit_disk;
 use crate::profile::radius::DEFAULT_HOLD;
 use crate::profile::Profile;
 

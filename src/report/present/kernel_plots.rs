@@ -560,7 +560,8 @@ pub fn flags_markdown(flags: &[ColourFlag]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernel::disk::{fit_disk, RadiusPdf};
+    use crate::kernel::disk::RadiusPdf;
+    use crate::kernel::disk_fit::fit_disk;
 
     /// The rings of [`disk_annuli`] tile the disk from the centre outward,
     /// each sample's ring holds it, and density x ring area gives back

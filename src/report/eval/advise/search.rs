@@ -453,7 +453,7 @@ mod tests {
     use crate::filter::disk_error::view;
     use crate::filter::kernel_setup::kernel_setup;
     use crate::filter::signals::{generate, Signal};
-    use crate::filter::{cpu, Setup};
+    use crate::filter::{cpu, separable, Setup};
     use crate::kernel::preintegrate::PreMethod;
 
     /// A full-factor answer's file runs by default what was scored: its
@@ -485,7 +485,7 @@ mod tests {
         let run = |k: &KernelFile, full_factors: bool| {
             let v: Setup = view(mm);
             let (setup, _) = kernel_setup(k, full_factors, v, &image).unwrap();
-            cpu::apply_with(&image, &setup, cpu::Precision::F64).unwrap()
+            cpu::apply_with(&image, &setup, separable::Precision::F64).unwrap()
         };
         let (table, scored) = (run(&kernel, false), run(&full, true));
         for c in 0..3 {

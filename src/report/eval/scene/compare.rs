@@ -45,7 +45,7 @@ use super::pass::{scale_of, screen_space_pass, SceneRow};
 use super::score::{cosines, masks_of, ranking, Cosines, Scorer};
 use crate::error::{finite_positive, Error, Result};
 use crate::filter::signals::Signal;
-use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Which};
+use crate::filter::{angular, exact, taps_for, FollowSurface, Image, Plane, Which};
 use crate::kernel::angular::AngularFactors;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
@@ -240,9 +240,9 @@ impl Stage<'_> {
     fn baselines(&mut self, profile: &Profile, mm_per_pixel: f64) -> Result<()> {
         let irr = self.irradiance.clone();
         self.push("no-blur", "baseline", [None, None], irr);
-        let k = cpu::reference_kernel(profile, mm_per_pixel)?;
-        cpu::check_reference_fits(self.irradiance.width, self.irradiance.height, k.size)?;
-        let exact = |img: &Image| Ok(cpu::convolve_2d(img, &k));
+        let k = exact::reference_kernel(profile, mm_per_pixel)?;
+        exact::check_reference_fits(self.irradiance.width, self.irradiance.height, k.size)?;
+        let exact = |img: &Image| Ok(exact::convolve_2d(img, &k));
         let plain = exact(&self.irradiance)?;
         self.push("exact-2d", "baseline", [None, None], plain.clone());
         if let Some(f) = self.angular {

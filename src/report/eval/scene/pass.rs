@@ -5,7 +5,7 @@
 
 use super::score::RegionError;
 use crate::error::Result;
-use crate::filter::{cpu, FollowSurface, Image, Plane, Scale, Setup};
+use crate::filter::{cpu, separable, FollowSurface, Image, Plane, Scale, Setup};
 use crate::scene::{Projection, Scene};
 use serde::{Deserialize, Serialize};
 
@@ -67,7 +67,7 @@ pub fn screen_space_pass(
         passes: passes.to_vec(),
         ..view_on(scene, depth, follow)
     };
-    cpu::apply_with(img, &setup, cpu::Precision::F64)
+    cpu::apply_with(img, &setup, separable::Precision::F64)
 }
 
 /// [`screen_space_pass`] with a disk kernel: `frames` rotations from frame
