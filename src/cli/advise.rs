@@ -11,6 +11,7 @@ use anyhow::bail;
 use ssskit::report::eval::advise::{self, ViewScale, ADVISED_FAMILIES};
 use ssskit::report::present::advice_text;
 use ssskit::report::present::number::sig;
+use std::path::Path;
 
 /// The perspective scale's own flags (with --fov-y and --units-per-mm).
 #[derive(clap::Args)]
@@ -113,21 +114,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene_mm = scene
         .as_ref()
         .map(|(s, r, _)| ssskit::report::eval::scene::compare::median_mm_per_pixel(s, r));
-    let view = match (
-        a.mm_per_pixel.mm_per_pixel.or(scene_mm),
-        a.fov_y.fov_y,
-        a.view.view_depth,
-        a.view.image_height,
-    ) {
-        (Some(m), _, _, _) => ViewScale::MmPerPixel(m),
-        (None, Some(f), Some(d), Some(h)) => ViewScale::Perspective {
-            fov_y_deg: f,
-            depth: d,
-            height: h,
-            scene_units_per_mm: units_per_mm,
-        },
-        _ => bail!("give --mm-per-pixel, or --fov-y with --view-depth and --image-height"),
-    };
+    let view = view_of(&a, scene_mm)?;
     let mm = view.mm_per_pixel()?;
     if let Some(m) = scene_mm {
         super::scene::agrees_with_scene(mm, m)?;
@@ -171,16 +158,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )?;
     let out = a.out.out.as_ref();
     if let Some(out) = out {
-        match &advice.disk_kernel {
-            Some(k) => {
-                k.write(out)?;
-                ssskit::kernel::disk::DiskKernelFile::read(out)?;
-            }
-            None => {
-                advice.kernel.write(out)?;
-                ssskit::kernel::KernelFile::read(out)?;
-            }
-        }
+        write_kernel(&advice, out)?;
     }
     let c = advice.chosen();
     let light_space = match (&scene, &advice.scene, &directional) {
@@ -210,6 +188,42 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     if let Some(out) = out {
         eprintln!("kernel ({}) -> {}", c.describe(), out.display());
+    }
+    Ok(())
+}
+
+/// The view's scale: --mm-per-pixel (or the scene's median), else the
+/// perspective of --fov-y, --view-depth and --image-height.
+fn view_of(a: &Args, scene_mm: Option<f64>) -> anyhow::Result<ViewScale> {
+    let view = match (
+        a.mm_per_pixel.mm_per_pixel.or(scene_mm),
+        a.fov_y.fov_y,
+        a.view.view_depth,
+        a.view.image_height,
+    ) {
+        (Some(m), _, _, _) => ViewScale::MmPerPixel(m),
+        (None, Some(f), Some(d), Some(h)) => ViewScale::Perspective {
+            fov_y_deg: f,
+            depth: d,
+            height: h,
+            scene_units_per_mm: a.units_per_mm.units_per_mm,
+        },
+        _ => bail!("give --mm-per-pixel, or --fov-y with --view-depth and --image-height"),
+    };
+    Ok(view)
+}
+
+/// Writes the kernel the advice names to `out` and reads it back.
+fn write_kernel(advice: &advise::Advice, out: &Path) -> anyhow::Result<()> {
+    match &advice.disk_kernel {
+        Some(k) => {
+            k.write(out)?;
+            ssskit::kernel::disk::DiskKernelFile::read(out)?;
+        }
+        None => {
+            advice.kernel.write(out)?;
+            ssskit::kernel::KernelFile::read(out)?;
+        }
     }
     Ok(())
 }

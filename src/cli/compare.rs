@@ -24,7 +24,7 @@ use ssskit::report::eval::compare::kernel::{parse_ranks, Config, MaterialInput};
 use ssskit::report::eval::evaluate::{self, ImageCase, Options};
 use ssskit::report::pipeline;
 use ssskit::report::present::kernel_report;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `--signals`: a test signal as `signal` spells it, or "none" (also "")
 /// for kernel space only (None).
@@ -268,22 +268,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     positive("--pixels-per-degree", a.pixels_per_degree)?;
     let size = a.signal_size.signal_size;
     if let (Some(scene), Some(render)) = (&a.scene, &a.render) {
-        return super::scene::compare(super::scene::CompareArgs {
-            scene,
-            render,
-            families,
-            ranks,
-            taps,
-            pixels_per_degree: a.pixels_per_degree,
-            size: a.signal_size.signal_size,
-            follow_mm: a.follow_mm,
-            angular_photons: a.angular_photons,
-            transmission: a.transmission.as_deref(),
-            seed: a.seed.seed,
-            plots: !a.no_plots.no_plots,
-            out: a.out_dir.path()?,
-            directional: directional_config(&a)?,
-        });
+        return run_scene(&a, (scene, render), families, (ranks, taps));
     }
     let (cases, signals) = test_cases(&a, size, mm_per_pixel)?;
     if let Some(e) = a.extent.extent {
@@ -359,6 +344,31 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if no_plots { "" } else { ", PNG plots" }
     );
     Ok(())
+}
+
+/// `compare --scene --render`: the kernels scored on a path-traced scene.
+fn run_scene(
+    a: &Args,
+    (scene, render): (&Path, &Path),
+    families: Vec<String>,
+    (ranks, taps): (Vec<usize>, Vec<usize>),
+) -> anyhow::Result<()> {
+    super::scene::compare(super::scene::CompareArgs {
+        scene,
+        render,
+        families,
+        ranks,
+        taps,
+        pixels_per_degree: a.pixels_per_degree,
+        size: a.signal_size.signal_size,
+        follow_mm: a.follow_mm,
+        angular_photons: a.angular_photons,
+        transmission: a.transmission.as_deref(),
+        seed: a.seed.seed,
+        plots: !a.no_plots.no_plots,
+        out: a.out_dir.path()?,
+        directional: directional_config(a)?,
+    })
 }
 
 /// The test images: the named signals, then the given images (named by

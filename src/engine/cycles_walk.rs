@@ -341,7 +341,7 @@ impl UnitWalk {
         let rd = mass
             .iter()
             .zip(edges.windows(2))
-            .map(|(m, e)| k * m / (std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0])))
+            .map(|(m, e)| k * m / (crate::numerics::annulus_area(e[0], e[1])))
             .collect();
         (rd, k * total)
     }

@@ -283,6 +283,14 @@ pub struct SeedArg {
     pub seed: u64,
 }
 
+/// `--threads`: the worker threads of a Monte Carlo run.
+#[derive(clap::Args)]
+pub struct ThreadsArg {
+    /// Worker threads (results are identical for any count) [default: one per core].
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
+    pub threads: Option<usize>,
+}
+
 /// Where `kernels`, `advise` and `study` get their profile: a file, or
 /// made from a material by Monte Carlo or an analytic model.
 #[derive(clap::Args)]
