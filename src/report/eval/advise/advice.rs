@@ -372,6 +372,49 @@ pub struct Prepared {
     pub fits: BTreeMap<String, Fitted>,
 }
 
+/// What the chosen row ships: its kernel file (the best separable row's
+/// where a disk row wins, so `kernel` is always separable), its disk
+/// kernel, the errors predicted on the test images and the scale warnings
+/// of its passes.
+struct Shipped {
+    kernel: KernelFile,
+    disk_kernel: Option<DiskKernelFile>,
+    predicted: BTreeMap<String, ImageErrors>,
+    warnings: Vec<ScaleWarning>,
+}
+
+fn shipped_kernels(search: &Search, candidates: &[Candidate], c: &Candidate) -> Result<Shipped> {
+    // Where a disk row wins, the best separable row still gives `kernel`.
+    let separable: Vec<Candidate> = candidates
+        .iter()
+        .filter(|c| c.disk.is_none())
+        .cloned()
+        .collect();
+    let best_separable = choose(&separable).map(|i| &separable[i]);
+    let (kernel, passes) = match (c.disk.is_some(), best_separable) {
+        (false, _) => search.chosen_kernel(c)?,
+        (true, Some(s)) => search.chosen_kernel(s)?,
+        (true, None) => (separable_fallback(search)?, Vec::new()),
+    };
+    let (disk_kernel, predicted) = if c.disk.is_some() {
+        let (k, p) = search.predict_disk(c)?;
+        (Some(k), p)
+    } else {
+        (None, search.predict(&passes, c.cost)?)
+    };
+    let warnings = if c.disk.is_some() {
+        Vec::new()
+    } else {
+        scale_warnings(&passes, 1.0 / search.cfg.mm_per_pixel, c.taps.is_some())
+    };
+    Ok(Shipped {
+        kernel,
+        disk_kernel,
+        predicted,
+        warnings,
+    })
+}
+
 /// [`advise_on_scene`] on the truth and fits of `prepared` (None: made
 /// here).
 pub fn advise_prepared(
@@ -429,29 +472,7 @@ pub fn advise_prepared(
         r.coarser = coarser_scale(&search)?;
         Some(r)
     };
-    // Where a disk row wins, the best separable row still gives `kernel`.
-    let separable: Vec<Candidate> = candidates
-        .iter()
-        .filter(|c| c.disk.is_none())
-        .cloned()
-        .collect();
-    let best_separable = choose(&separable).map(|i| &separable[i]);
-    let (kernel, passes) = match (c.disk.is_some(), best_separable) {
-        (false, _) => search.chosen_kernel(&c)?,
-        (true, Some(s)) => search.chosen_kernel(s)?,
-        (true, None) => (separable_fallback(&search)?, Vec::new()),
-    };
-    let (disk_kernel, predicted) = if c.disk.is_some() {
-        let (k, p) = search.predict_disk(&c)?;
-        (Some(k), p)
-    } else {
-        (None, search.predict(&passes, c.cost)?)
-    };
-    let warnings = if c.disk.is_some() {
-        Vec::new()
-    } else {
-        scale_warnings(&passes, 1.0 / cfg.mm_per_pixel, c.taps.is_some())
-    };
+    let shipped = shipped_kernels(&search, &candidates, &c)?;
     let scene = match scene {
         Some((scene, render)) => Some(scene_check(&search, &candidates, chosen, scene, render)?),
         None => None,
@@ -468,11 +489,11 @@ pub fn advise_prepared(
         remedy,
         candidates,
         chosen,
-        kernel,
-        disk_kernel,
+        kernel: shipped.kernel,
+        disk_kernel: shipped.disk_kernel,
         frames: cfg.frames,
-        predicted,
-        warnings,
+        predicted: shipped.predicted,
+        warnings: shipped.warnings,
         kernel_radius_mm: kernel_radius(&search.truth),
         scene,
     })
