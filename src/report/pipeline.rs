@@ -220,13 +220,23 @@ fn write_kernel(
     if !shaders {
         return Ok(());
     }
+    write_shaders(dir, stem, files, |lang| emit(kernel, lang))
+}
+
+/// A kernel's shader arrays as `stem`.hlsl, .glsl and .wgsl.
+fn write_shaders(
+    dir: &Path,
+    stem: &str,
+    files: &mut Vec<String>,
+    emit: impl Fn(Lang) -> Result<String>,
+) -> Result<()> {
     for (lang, ext) in [
         (Lang::Hlsl, "hlsl"),
         (Lang::Glsl, "glsl"),
         (Lang::Wgsl, "wgsl"),
     ] {
         let name = format!("{stem}.{ext}");
-        crate::io::write_atomic(&join_inside(dir, &name)?, emit(kernel, lang)?.as_bytes())?;
+        crate::io::write_atomic(&join_inside(dir, &name)?, emit(lang)?.as_bytes())?;
         files.push(name);
     }
     Ok(())
@@ -243,17 +253,9 @@ fn write_disk_kernel(
     kernel.write(&path)?;
     DiskKernelFile::read(&path)?;
     files.push(format!("{stem}.json"));
-    for (lang, ext) in [
-        (Lang::Hlsl, "hlsl"),
-        (Lang::Glsl, "glsl"),
-        (Lang::Wgsl, "wgsl"),
-    ] {
-        let name = format!("{stem}.{ext}");
-        let text = crate::kernel::disk_emit::emit_disk(kernel, lang)?;
-        crate::io::write_atomic(&join_inside(dir, &name)?, text.as_bytes())?;
-        files.push(name);
-    }
-    Ok(())
+    write_shaders(dir, stem, files, |lang| {
+        crate::kernel::disk_emit::emit_disk(kernel, lang)
+    })
 }
 
 /// The output folder with its `kernels/` and the profile, read back.

@@ -387,20 +387,32 @@ where
             .filter(|&(x, y)| keep(x, y))
             .collect();
         let style = c.color.stroke_width(if c.band.is_some() { 1 } else { 2 });
-        if c.dashed {
-            chart
-                .draw_series(DashedLineSeries::new(pts, DASH, GAP, style))
-                .map_err(e)?;
-        } else {
-            // Segment by segment: plotters joins the segments of a wide
-            // polyline with miters, and a noisy Monte Carlo tail's sharp
-            // zigzags then shoot spikes far past their points (through the
-            // axis and its labels).
-            let segments = pts
-                .windows(2)
-                .map(|s| PathElement::new(vec![s[0], s[1]], style));
-            chart.draw_series(segments).map_err(e)?;
-        }
+        draw_line(chart, &pts, style, c.dashed).map_err(e)?;
+    }
+    Ok(())
+}
+
+/// A curve's line on `chart`, dashed or solid; solid segment by segment:
+/// plotters joins the segments of a wide polyline with miters, and a noisy
+/// Monte Carlo tail's sharp zigzags then shoot spikes far past their
+/// points (through the axis and its labels).
+pub(super) fn draw_line<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    pts: &[(f64, f64)],
+    style: ShapeStyle,
+    dashed: bool,
+) -> std::result::Result<(), plotters::drawing::DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB: DrawingBackend,
+    CT: plotters::coord::CoordTranslate<From = (f64, f64)>,
+{
+    if dashed {
+        chart.draw_series(DashedLineSeries::new(pts.to_vec(), DASH, GAP, style))?;
+    } else {
+        let segments = pts
+            .windows(2)
+            .map(|s| PathElement::new(vec![s[0], s[1]], style));
+        chart.draw_series(segments)?;
     }
     Ok(())
 }

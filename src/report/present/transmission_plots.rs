@@ -6,7 +6,7 @@
 use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
 use super::layout::TextBox;
 use super::plot::{
-    draw_legend, draw_title, legend_layout, render_grid, Curve, CHART_RIGHT, CHART_TOP, DASH, GAP,
+    draw_legend, draw_line, draw_title, legend_layout, render_grid, Curve, CHART_RIGHT, CHART_TOP,
     PALETTE,
 };
 use crate::error::Result;
@@ -211,17 +211,7 @@ fn draw(panel: &LogLog, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
             }
         }
         let pts: Vec<(f64, f64)> = c.points.iter().copied().filter(|&p| keep(p)).collect();
-        let style = c.color.stroke_width(2);
-        if c.dashed {
-            chart
-                .draw_series(DashedLineSeries::new(pts.clone(), DASH, GAP, style))
-                .map_err(e)?;
-        } else {
-            let segs = pts
-                .windows(2)
-                .map(|s| PathElement::new(vec![s[0], s[1]], style));
-            chart.draw_series(segs).map_err(e)?;
-        }
+        draw_line(&mut chart, &pts, c.color.stroke_width(2), c.dashed).map_err(e)?;
         if c.band.is_some() {
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.color.filled())))
