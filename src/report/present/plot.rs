@@ -172,6 +172,23 @@ pub(super) struct Entry<'a> {
     at: (i32, i32),
 }
 
+/// A panel's frame in `area`: its title drawn at the top, its legend laid
+/// out for the bottom, and the chart's area between them.
+pub(super) fn frame_panel<'a, 'b, 'c>(
+    area: &'a Area<'b>,
+    out: &'a Path,
+    title: &str,
+    curves: &'c [Curve],
+) -> Result<(Writer<'a, 'b>, Vec<Entry<'c>>, Area<'b>)> {
+    let (pw, ph) = area.dim_in_pixel();
+    let mut w = Writer::new(area, out);
+    let title_h = draw_title(&mut w, title, pw)?;
+    let (entries, legend_h) = legend_layout(&w, curves, pw)?;
+    let (_, rest) = area.split_vertically(title_h);
+    let (chart_area, _) = rest.split_vertically(ph.saturating_sub(title_h + legend_h));
+    Ok((w, entries, chart_area))
+}
+
 /// The legend of `curves` flowed in rows under a chart `width` pixels
 /// wide: entries left to right, a new row where the next one does not
 /// fit, an entry wider than the row wrapped onto lines of its own.
@@ -277,12 +294,7 @@ fn draw_panel(panel: &Panel, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
             ),
         ));
     }
-    let (pw, ph) = area.dim_in_pixel();
-    let mut w = Writer::new(area, out);
-    let title_h = draw_title(&mut w, &panel.title, pw)?;
-    let (entries, legend_h) = legend_layout(&w, &panel.curves, pw)?;
-    let (_, rest) = area.split_vertically(title_h);
-    let (chart_area, _) = rest.split_vertically(ph.saturating_sub(title_h + legend_h));
+    let (mut w, entries, chart_area) = frame_panel(area, out, &panel.title, &panel.curves)?;
     let y = if panel.log_y {
         // Six decades below the peak keep the tail readable without
         // letting the last noisy bins squash the plot.

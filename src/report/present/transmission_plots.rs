@@ -3,11 +3,10 @@
 //! its fitted settings, and the radial spread (radii holding 50% and 90% of
 //! T) against thickness; and the table as CSV.
 
-use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
+use super::axes::{plot_err, Area, Axis, Frame, Scale, X_AREA, Y_AREA};
 use super::layout::TextBox;
 use super::plot::{
-    draw_legend, draw_line, draw_title, legend_layout, render_grid, Curve, CHART_RIGHT, CHART_TOP,
-    PALETTE,
+    draw_legend, draw_line, frame_panel, render_grid, Curve, CHART_RIGHT, CHART_TOP, PALETTE,
 };
 use crate::error::Result;
 use crate::profile::transmission::ThicknessTable;
@@ -151,12 +150,7 @@ fn extent(vals: impl Iterator<Item = f64>) -> (f64, f64) {
 }
 
 fn draw(panel: &LogLog, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
-    let (pw, ph) = area.dim_in_pixel();
-    let mut w = Writer::new(area, out);
-    let title_h = draw_title(&mut w, &panel.title, pw)?;
-    let (entries, legend_h) = legend_layout(&w, &panel.curves, pw)?;
-    let (_, rest) = area.split_vertically(title_h);
-    let (chart_area, _) = rest.split_vertically(ph.saturating_sub(title_h + legend_h));
+    let (mut w, entries, chart_area) = frame_panel(area, out, &panel.title, &panel.curves)?;
     let xs = panel
         .curves
         .iter()
