@@ -594,7 +594,7 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         if let Some((b, _)) = &back {
             ssskit::report::present::transmission_plots::scene_sheet(
                 b,
-                &cmp.truth,
+                &cmp,
                 &format!(
                     "{name}: lit from behind, each way to show it above |image - path traced|"
                 ),

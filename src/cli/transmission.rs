@@ -14,6 +14,7 @@ use ssskit::numerics::Bounded;
 use ssskit::profile::mc::{self, McConfig, McOptions, PhotonBudget};
 use ssskit::profile::transmission::{self as tr, TableOptions, ThicknessTable};
 use ssskit::profile::Profile;
+use ssskit::report::present::transmission_plots::FittedCurve;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -277,7 +278,14 @@ fn write_outputs(
         eprintln!("wrote {}", csv.display());
     }
     if let Some(png) = &a.plot {
-        ssskit::report::present::transmission_plots::render(table, fits, png)?;
+        let curves: Vec<FittedCurve> = fits
+            .iter()
+            .map(|f| FittedCurve {
+                engine: &f.engine,
+                t: &f.engine_t,
+            })
+            .collect();
+        ssskit::report::present::transmission_plots::render(table, &curves, png)?;
         eprintln!("wrote {}", png.display());
     }
     Ok(())

@@ -15,8 +15,8 @@ use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::{Clock, Progress};
 use crate::report::eval::advise::{self, Advice};
-use crate::report::eval::compare;
 use crate::report::eval::compare::kernel::{Comparison, Config, MaterialInput, Row, FAMILIES};
+use crate::report::eval::compare::{self, claims};
 use crate::report::eval::evaluate::{ImageCase, Options};
 use crate::report::eval::ship::preview::{self, Preview, PreviewKernel};
 use crate::report::eval::ship::shipped::{shipped, Shipped};
@@ -88,7 +88,8 @@ pub fn comparison_files(
     let mut figs = Vec::new();
     let engines =
         crate::report::eval::compare::engine_tables::engine_tables(&cmp.materials, &cmp.profiles);
-    let mut md = kernel_report::report(cmp, ctx, &engines);
+    let claims = claims::claims(cmp, ctx.signals, ctx.factors, ctx.ranks);
+    let mut md = kernel_report::report(cmp, ctx, &engines, &claims);
     let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
     let json = dir.join("compare.json");
@@ -219,13 +220,23 @@ fn write_kernel(
     if !shaders {
         return Ok(());
     }
+    write_shaders(dir, stem, files, |lang| emit(kernel, lang))
+}
+
+/// A kernel's shader arrays as `stem`.hlsl, .glsl and .wgsl.
+fn write_shaders(
+    dir: &Path,
+    stem: &str,
+    files: &mut Vec<String>,
+    emit: impl Fn(Lang) -> Result<String>,
+) -> Result<()> {
     for (lang, ext) in [
         (Lang::Hlsl, "hlsl"),
         (Lang::Glsl, "glsl"),
         (Lang::Wgsl, "wgsl"),
     ] {
         let name = format!("{stem}.{ext}");
-        crate::io::write_atomic(&join_inside(dir, &name)?, emit(kernel, lang)?.as_bytes())?;
+        crate::io::write_atomic(&join_inside(dir, &name)?, emit(lang)?.as_bytes())?;
         files.push(name);
     }
     Ok(())
@@ -242,17 +253,38 @@ fn write_disk_kernel(
     kernel.write(&path)?;
     DiskKernelFile::read(&path)?;
     files.push(format!("{stem}.json"));
-    for (lang, ext) in [
-        (Lang::Hlsl, "hlsl"),
-        (Lang::Glsl, "glsl"),
-        (Lang::Wgsl, "wgsl"),
-    ] {
-        let name = format!("{stem}.{ext}");
-        let text = crate::kernel::disk_emit::emit_disk(kernel, lang)?;
-        crate::io::write_atomic(&join_inside(dir, &name)?, text.as_bytes())?;
-        files.push(name);
-    }
+    write_shaders(dir, stem, files, |lang| {
+        crate::kernel::disk_emit::emit_disk(kernel, lang)
+    })
+}
+
+/// The output folder with its `kernels/` and the profile, read back.
+fn write_profile(profile: &Profile, dir: &Path, files: &mut Vec<String>) -> Result<()> {
+    std::fs::create_dir_all(dir.join("kernels"))
+        .map_err(|e| Error::format(dir, format!("cannot create the output folder: {e}")))?;
+    profile.write(&dir.join("profile.json"))?;
+    Profile::read(&dir.join("profile.json"))?;
+    files.push("profile.json".to_string());
     Ok(())
+}
+
+/// The main job's comparison: the edge and shapes signals at the scale,
+/// every family, ranks 1 to 3, the stored tap count.
+fn comparison_config(settings: &Settings) -> Result<Config> {
+    let cases: Vec<ImageCase> = [Signal::Edge, Signal::Shapes]
+        .iter()
+        .map(|&s| ImageCase::signal(s, settings.size, settings.mm_per_pixel))
+        .collect::<Result<_>>()?;
+    Ok(Config {
+        families: FAMILIES.iter().map(|s| s.to_string()).collect(),
+        ranks: vec![1, 2, 3],
+        cases,
+        taps: vec![settings.taps],
+        options: Options::default(),
+        keep: settings.plots.then_some(Which::Taps(settings.taps)),
+        // The default grid: the one the advice's truth is made on.
+        extent_mm: None,
+    })
 }
 
 /// Runs the pipeline on `profile` (made in `profile_seconds`) into `dir`
@@ -276,30 +308,11 @@ pub fn run(
     times.cpu[0] = crate::progress::process_cpu_seconds();
     let mut files = Vec::new();
     let t = Clock::start();
-    std::fs::create_dir_all(dir.join("kernels"))
-        .map_err(|e| Error::format(dir, format!("cannot create the output folder: {e}")))?;
-    profile.write(&dir.join("profile.json"))?;
-    Profile::read(&dir.join("profile.json"))?;
-    files.push("profile.json".to_string());
+    write_profile(profile, dir, &mut files)?;
     let files_clock = t.elapsed();
     let name = profile.material.name.clone();
-    let cases: Vec<ImageCase> = [Signal::Edge, Signal::Shapes]
-        .iter()
-        .map(|&s| ImageCase::signal(s, settings.size, settings.mm_per_pixel))
-        .collect::<Result<_>>()?;
-    let signal_names: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
-    let options = Options::default();
-    let ranks = vec![1, 2, 3];
-    let cfg = Config {
-        families: FAMILIES.iter().map(|s| s.to_string()).collect(),
-        ranks: ranks.clone(),
-        cases,
-        taps: vec![settings.taps],
-        options,
-        keep: settings.plots.then_some(Which::Taps(settings.taps)),
-        // The default grid: the one the advice's truth is made on.
-        extent_mm: None,
-    };
+    let cfg = comparison_config(settings)?;
+    let signal_names: Vec<String> = cfg.cases.iter().map(|c| c.name.clone()).collect();
     let input = MaterialInput {
         name: name.clone(),
         profile: profile.clone(),
@@ -313,11 +326,7 @@ pub fn run(
     (times.advice, times.cpu[4]) = t.elapsed();
     let t = Clock::start();
     let preview = if settings.plots {
-        progress.start(1, "preview");
-        let p = preview_of(profile, &advice)?;
-        progress.advance(1);
-        progress.finish();
-        Some(p)
+        Some(preview_of(profile, &advice, progress)?)
     } else {
         None
     };
@@ -328,8 +337,8 @@ pub fn run(
         command,
         signals: &signal_names,
         factors: &[Which::Full, Which::Taps(settings.taps)],
-        ranks: &ranks,
-        options: &options,
+        ranks: &cfg.ranks,
+        options: &cfg.options,
     };
     let mut pieces = write_files(&cmp, &advice, &ctx, settings, dir, &mut files)?;
     if let Some(Ok(p)) = &preview {
@@ -346,7 +355,7 @@ pub fn run(
     (times.total, times.cpu[7]) = (profile_seconds + wall, times.cpu[0] + cpu);
     let engine_md = engine
         .as_ref()
-        .map(|step| engine_section::section(&step.fit, &step.files));
+        .map(|step| engine_section::section(&step.section()));
     let report = ShipReport {
         advice: &advice,
         material: &name,
@@ -421,14 +430,19 @@ const PREVIEW_PNG: &str = "preview.png";
 
 /// The material's preview with what ships, or why the scene tracer cannot
 /// render the material.
-fn preview_of(profile: &Profile, advice: &Advice) -> Result<std::result::Result<Preview, String>> {
-    if let Some(why) = preview::obstacle(profile) {
-        return Ok(Err(why));
-    }
-    Ok(Ok(preview::preview(
-        profile,
-        &PreviewKernel::shipped(advice),
-    )?))
+fn preview_of(
+    profile: &Profile,
+    advice: &Advice,
+    progress: &dyn Progress,
+) -> Result<std::result::Result<Preview, String>> {
+    progress.start(1, "preview");
+    let p = match preview::obstacle(profile) {
+        Some(why) => Err(why),
+        None => Ok(preview::preview(profile, &PreviewKernel::shipped(advice))?),
+    };
+    progress.advance(1);
+    progress.finish();
+    Ok(p)
 }
 
 /// What report.md is made of besides the advice: the comparison's

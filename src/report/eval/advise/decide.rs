@@ -135,12 +135,13 @@ impl Verdict {
     pub fn failed(&self, target: f64) -> bool {
         self.decided_at > target
     }
-}
 
-/// Whether worst cases `a` and `b` lie within [`NOISE_K`] combined
-/// standard deviations of each other.
-pub fn tie(a: &Verdict, b: &Verdict) -> bool {
-    (a.rel_rms - b.rel_rms).abs() <= NOISE_K * a.rel_rms_sigma.hypot(b.rel_rms_sigma)
+    /// Whether this worst case and `other` lie within [`NOISE_K`] combined
+    /// standard deviations of each other.
+    pub fn ties(&self, other: &Verdict) -> bool {
+        (self.rel_rms - other.rel_rms).abs()
+            <= NOISE_K * self.rel_rms_sigma.hypot(other.rel_rms_sigma)
+    }
 }
 
 /// What a candidate costs, cheapest first: samples per pixel (the GPU's
@@ -183,7 +184,7 @@ pub fn choose<C: Cost>(cands: &[C]) -> Option<usize> {
             .then(a.1.cost_order(b.1))
     })?;
     complete()
-        .filter(|(_, c)| tie(c.verdict(), best.verdict()))
+        .filter(|(_, c)| c.verdict().ties(best.verdict()))
         .min_by(by_cost)
         .map(|(i, _)| i)
 }

@@ -43,7 +43,6 @@ use crate::filter::disk_error::{disk_error_with_first, view};
 use crate::filter::Image;
 use crate::kernel::disk::{DiskKernelFile, RadiusPdf};
 use crate::numerics::std_dev;
-use crate::numerics::Bounded;
 use crate::report::eval::disk::{
     disk_fingerprint, disk_kernel, with_frames, DISK, DISK_SAMPLES, DISK_SEED, WINDOWS,
 };
@@ -232,33 +231,6 @@ impl Search<'_> {
     }
 }
 
-/// "on checker3px, channel r: one accumulation of 8 frames errs 3.474%
-/// ...": the disk row's score on its worst signal and where it comes from,
-/// every figure of the one channel the score is in.
-pub fn disk_text(c: &Candidate) -> Option<String> {
-    let d = c.disk.as_ref()?;
-    let s = d.signals.get(&c.verdict.worst_signal)?;
-    let pct = |v: f64| format!("{:.3}%", Bounded(100.0 * v));
-    Some(format!(
-        "on {}, channel {}: one accumulation of {k} frames errs {} (the first, frames {DISK_SEED} \
-         to {}, what apply --frames {k} makes; sd {} over the {} accumulations measured, in the \
-         +- with the bootstrap's); the mean of all {} rotations errs {} (the bias a converged \
-         filter shows, with that mean's own residual noise), the noise is {} in one frame and {} \
-         after {k} frames",
-        c.verdict.worst_signal,
-        s.channel,
-        pct(s.error),
-        DISK_SEED + d.frames - 1,
-        pct(s.error_sd),
-        d.rotations / d.frames,
-        d.rotations,
-        pct(s.bias),
-        pct(s.noise),
-        pct(s.noise_after),
-        k = d.frames,
-    ))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -268,33 +240,5 @@ mod tests {
     fn worst_is_the_largest_channel() {
         assert_eq!(worst([0.03, 0.05, 0.04]), (1, 0.05));
         assert_eq!(worst([0.02, 0.01, 0.02]), (0, 0.02));
-    }
-
-    /// The disk line's score is the row's worst case, printed as the table
-    /// prints it, and every figure beside it is of the same channel.
-    #[test]
-    fn the_disk_line_prints_the_score_of_its_row() {
-        let c: Candidate = serde_json::from_value(json!({
-            "label": "disk", "model": "disk", "params": {}, "rank": 1, "passes": 1,
-            "taps": 32, "taps_per_pass": 32, "extent_rule": null, "extent_mm": 12.0,
-            "cost": 32, "signed": false,
-            "per_signal": {"checker2px": 0.0338, "checker3px": 0.034737},
-            "per_signal_sigma": {"checker2px": 0.0, "checker3px": 0.00005},
-            "rel_rms": 0.034737, "rel_rms_sigma": 0.00005, "worst_signal": "checker3px",
-            "deciding_signal": "checker3px", "decided_at": 0.034637, "meets": true,
-            "complete": true,
-            "disk": {"frames": 8, "rotations": 32, "signals": {
-                "checker2px": {"channel": "b", "error": 0.0338, "error_sd": 0.0001,
-                               "bias": 0.02, "noise": 0.1, "noise_after": 0.035},
-                "checker3px": {"channel": "r", "error": 0.034737, "error_sd": 0.00005,
-                               "bias": 0.0144, "noise": 0.1024, "noise_after": 0.03644}}}
-        }))
-        .unwrap();
-        let t = disk_text(&c).unwrap();
-        assert!(t.starts_with("on checker3px, channel r: "), "{t}");
-        assert!(t.contains("errs 3.474% (the first, frames 0 to 7"), "{t}");
-        assert!(t.contains("sd 0.005% over the 4 accumulations"), "{t}");
-        assert!(t.contains("32 rotations errs 1.440%"), "{t}");
-        assert!(t.contains("10.240% in one frame and 3.644% after 8"), "{t}");
     }
 }

@@ -7,12 +7,14 @@ pub mod decide;
 pub mod directional;
 pub mod disk;
 pub mod noise;
+pub mod run;
 pub mod scene;
 pub mod search;
 pub mod types;
 
-pub use advice::{advise, advise_on_scene, advise_prepared, candidate_models, Advice, Prepared};
+pub use advice::Advice;
 pub use decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};
+pub use run::{advise, advise_on_scene, advise_prepared, candidate_models, Prepared};
 pub use types::{
     Candidate, CoarserScale, Config, ExtentRule, Remedy, ViewScale, ADVISED_FAMILIES, CHECKER_PX,
     COARSER_SCALES, DEFAULT_TARGET, FULL_MAX_PIXELS, TAP_COUNTS,

@@ -303,7 +303,46 @@ struct Truth<'a> {
     peak: [f64; 3],
 }
 
-impl Truth<'_> {
+impl<'a> Truth<'a> {
+    /// The path-traced image on the pixels where `profile`'s object is
+    /// seen, refused where it is black there.
+    fn on(scene: &Scene, render: &'a Render, profile: &Profile) -> Result<Truth<'a>> {
+        let pixels = scored_pixels(scene, render, profile)?;
+        let truth = Truth {
+            radiance: &render.radiance,
+            stderr: &render.stderr,
+            // The peak of `compare --scene`'s scores, over the scored pixels.
+            peak: {
+                let mut mask = vec![false; render.radiance[0].len()];
+                pixels.iter().for_each(|&i| mask[i] = true);
+                std::array::from_fn(|c| percentile99(&render.radiance[c], &mask))
+            },
+            pixels,
+        };
+        if truth.peak.iter().any(|&p| !(p > 0.0)) {
+            return Err(Error::Unsupported(format!(
+                "{}: the path-traced image is black where the object is seen",
+                scene.origin
+            )));
+        }
+        Ok(truth)
+    }
+
+    /// The best row (smallest worst channel), how far the chosen row lies
+    /// above it and that gap's standard deviation: the gap's channel is
+    /// the chosen one's worst, its uncertainty that of the difference on
+    /// that channel.
+    fn gap_to_best(&self, rows: &[SceneRow], images: &[Image], chosen: usize) -> (usize, f64, f64) {
+        let best = (0..rows.len())
+            .min_by(|&a, &b| rows[a].worst.total_cmp(&rows[b].worst))
+            .unwrap_or(chosen);
+        let gap = rows[chosen].worst - rows[best].worst;
+        let ranked = |r: &SceneRow| r.rel_rms_with_factors.unwrap_or(r.rel_rms);
+        let (wc, _) = worst(ranked(&rows[chosen]));
+        let rms = [ranked(&rows[chosen])[wc], ranked(&rows[best])[wc]];
+        let gap_sigma = self.gap_sigma(&images[chosen], &images[best], rms, wc);
+        (best, gap, gap_sigma)
+    }
     fn rel_rms(&self, img: &Image) -> [f64; 3] {
         let n = self.pixels.len() as f64;
         std::array::from_fn(|c| {
@@ -354,24 +393,7 @@ pub fn check_on_scene(
             "scene check: no chosen configuration".into(),
         ));
     }
-    let pixels = scored_pixels(scene, render, profile)?;
-    let truth = Truth {
-        radiance: &render.radiance,
-        stderr: &render.stderr,
-        // The peak of `compare --scene`'s scores, over the scored pixels.
-        peak: {
-            let mut mask = vec![false; render.radiance[0].len()];
-            pixels.iter().for_each(|&i| mask[i] = true);
-            std::array::from_fn(|c| percentile99(&render.radiance[c], &mask))
-        },
-        pixels,
-    };
-    if truth.peak.iter().any(|&p| !(p > 0.0)) {
-        return Err(Error::Unsupported(format!(
-            "{}: the path-traced image is black where the object is seen",
-            scene.origin
-        )));
-    }
+    let truth = Truth::on(scene, render, profile)?;
     let (w, h) = (render.width, render.height);
     let irradiance = Image {
         width: w,
@@ -430,16 +452,7 @@ pub fn check_on_scene(
         // allows them (the kernel files carry them), else the bare pass.
         images.push(factored.unwrap_or(img));
     }
-    let best = (0..rows.len())
-        .min_by(|&a, &b| rows[a].worst.total_cmp(&rows[b].worst))
-        .unwrap_or(chosen);
-    let gap = rows[chosen].worst - rows[best].worst;
-    // The gap's channel is the chosen one's worst; its uncertainty that of
-    // the difference on that channel.
-    let ranked = |r: &SceneRow| r.rel_rms_with_factors.unwrap_or(r.rel_rms);
-    let (wc, _) = worst(ranked(&rows[chosen]));
-    let rms = [ranked(&rows[chosen])[wc], ranked(&rows[best])[wc]];
-    let gap_sigma = truth.gap_sigma(&images[chosen], &images[best], rms, wc);
+    let (best, gap, gap_sigma) = truth.gap_to_best(&rows, &images, chosen);
     Ok(SceneCheck {
         scene: scene.origin.clone(),
         mm_per_pixel: median_mm_per_pixel(scene, render),

@@ -2,7 +2,7 @@
 //! on the rows of a kernel comparison ([`super::kernel`]): in how
 //! many cases each holds, with the measured figures behind the count.
 
-use super::kernel::{find, gaussians_rms, image_rms, Comparison};
+use super::kernel::{Comparison, Rows};
 use crate::filter::Which;
 use crate::report::present::number::sig;
 
@@ -67,23 +67,23 @@ fn table_6_3(cmp: &Comparison) -> Option<Claim> {
     let (mut holds, mut total) = (0, 0);
     let (mut pre, mut gk1) = (Vec::new(), Vec::new());
     for m in &cmp.materials {
-        let Some(s) = find(rows, m, "svd1") else {
+        let Some(s) = Rows(rows).find(m, "svd1") else {
             continue;
         };
         for c in 0..3 {
             let others: Vec<f64> = RANK1[1..]
                 .iter()
-                .filter_map(|l| find(rows, m, l).map(|r| r[c].kernel_rms))
+                .filter_map(|l| Rows(rows).find(m, l).map(|r| r[c].kernel_rms))
                 .collect();
             if others.is_empty() {
                 continue;
             }
             total += 1;
             holds += others.iter().all(|&o| s[c].kernel_rms < o) as usize;
-            if let Some(p) = find(rows, m, "preintegrate") {
+            if let Some(p) = Rows(rows).find(m, "preintegrate") {
                 pre.push(p[c].kernel_rms / s[c].kernel_rms);
             }
-            if let Some(g) = find(rows, m, "guided-k1") {
+            if let Some(g) = Rows(rows).find(m, "guided-k1") {
                 gk1.push(g[c].kernel_rms / s[c].kernel_rms);
             }
         }
@@ -116,7 +116,9 @@ fn table_6_4(cmp: &Comparison, signal: &str, f: Which) -> Option<Claim> {
             .iter()
             .enumerate()
             .filter_map(|(i, l)| {
-                image_rms(rows, m, l, signal, f).map(|v| (i, v.iter().sum::<f64>()))
+                Rows(rows)
+                    .image_rms(m, l, signal, f)
+                    .map(|v| (i, v.iter().sum::<f64>()))
             })
             .collect();
         if sums.len() < 2 || sums[0].0 != 0 {
@@ -159,9 +161,9 @@ fn table_6_5(cmp: &Comparison, signal: &str, f: Which, ranks: &[usize]) -> Optio
     let mut ratios = Vec::new();
     for m in &cmp.materials {
         for w in ranks.windows(2).filter(|w| w[1] == w[0] + 1) {
-            let svd = image_rms(rows, m, &format!("svd{}-renorm", w[0]), signal, f);
-            let g_next = gaussians_rms(rows, m, w[1], signal, f);
-            let g_same = gaussians_rms(rows, m, w[0], signal, f);
+            let svd = Rows(rows).image_rms(m, &format!("svd{}-renorm", w[0]), signal, f);
+            let g_next = Rows(rows).gaussians_rms(m, w[1], signal, f);
+            let g_same = Rows(rows).gaussians_rms(m, w[0], signal, f);
             if let (Some(s), Some(g)) = (svd, g_next) {
                 let (s, g) = (s.iter().sum::<f64>(), g.iter().sum::<f64>());
                 total += 1;

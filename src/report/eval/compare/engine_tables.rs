@@ -55,6 +55,24 @@ pub struct Column {
     pub method: SubsurfaceMethod,
 }
 
+impl Column {
+    /// The column's header: the engine and version, and the method where
+    /// it is not the radial Burley one.
+    pub fn label(&self) -> String {
+        match self.method {
+            SubsurfaceMethod::RandomWalk => format!(
+                "{} {} ({})",
+                self.engine.name(),
+                self.version,
+                self.method.ui_name()
+            ),
+            SubsurfaceMethod::ChristensenBurley => {
+                format!("{} {}", self.engine.name(), self.version)
+            }
+        }
+    }
+}
+
 /// One material's row; None where a fit is refused (e.g. a profile without
 /// all of r, g, b).
 #[derive(Clone, Debug, PartialEq)]
@@ -73,6 +91,8 @@ pub struct Row {
 #[derive(Clone, Debug, PartialEq)]
 pub struct EngineTables {
     pub columns: Vec<Column>,
+    /// Each column's header ([`Column::label`]).
+    pub labels: Vec<String>,
     pub rows: Vec<Row>,
 }
 
@@ -131,7 +151,12 @@ pub fn engine_tables(materials: &[String], profiles: &[Profile]) -> EngineTables
             }
         })
         .collect();
-    EngineTables { columns, rows }
+    let labels = columns.iter().map(Column::label).collect();
+    EngineTables {
+        columns,
+        labels,
+        rows,
+    }
 }
 
 #[cfg(test)]

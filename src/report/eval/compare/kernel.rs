@@ -505,55 +505,63 @@ impl Row {
     }
 }
 
-/// Per (material, label): the three channel rows, in row order.
-pub fn grouped(rows: &[Row]) -> Vec<(&str, &str, [&Row; 3])> {
-    rows.chunks(3)
-        .filter(|c| c.len() == 3)
-        .map(|c| {
-            (
-                c[0].material.as_str(),
-                c[0].label.as_str(),
-                [&c[0], &c[1], &c[2]],
-            )
-        })
-        .collect()
-}
+/// The rows of a comparison read as its tables read them: by (material,
+/// label), three channel rows each.
+#[derive(Clone, Copy)]
+pub struct Rows<'a>(pub &'a [Row]);
 
-/// The three channel rows of (material, label).
-pub(crate) fn find<'a>(rows: &'a [Row], material: &str, label: &str) -> Option<[&'a Row; 3]> {
-    grouped(rows)
-        .into_iter()
-        .find(|(m, l, _)| *m == material && *l == label)
-        .map(|x| x.2)
-}
+impl<'a> Rows<'a> {
+    /// Per (material, label): the three channel rows, in row order.
+    pub fn grouped(self) -> Vec<(&'a str, &'a str, [&'a Row; 3])> {
+        self.0
+            .chunks(3)
+            .filter(|c| c.len() == 3)
+            .map(|c| {
+                (
+                    c[0].material.as_str(),
+                    c[0].label.as_str(),
+                    [&c[0], &c[1], &c[2]],
+                )
+            })
+            .collect()
+    }
 
-/// Relative RMS of `signal`/`factor` per channel for (material, label).
-pub(crate) fn image_rms(
-    rows: &[Row],
-    material: &str,
-    label: &str,
-    signal: &str,
-    f: Which,
-) -> Option<[f64; 3]> {
-    let r = find(rows, material, label)?;
-    Some([
-        r[0].image_error(signal, f)?.rel_rms,
-        r[1].image_error(signal, f)?.rel_rms,
-        r[2].image_error(signal, f)?.rel_rms,
-    ])
-}
+    /// The three channel rows of (material, label).
+    pub fn find(self, material: &str, label: &str) -> Option<[&'a Row; 3]> {
+        self.grouped()
+            .into_iter()
+            .find(|(m, l, _)| *m == material && *l == label)
+            .map(|x| x.2)
+    }
 
-/// N Gaussians renormalised (as the SSSS renderer normalises every kernel)
-/// when the comparison has them, else as fitted.
-pub(crate) fn gaussians_rms(
-    rows: &[Row],
-    material: &str,
-    n: usize,
-    signal: &str,
-    f: Which,
-) -> Option<[f64; 3]> {
-    image_rms(rows, material, &format!("gaussians{n}-renorm"), signal, f)
-        .or_else(|| image_rms(rows, material, &format!("gaussians{n}"), signal, f))
+    /// Relative RMS of `signal`/`factor` per channel for (material, label).
+    pub fn image_rms(
+        self,
+        material: &str,
+        label: &str,
+        signal: &str,
+        f: Which,
+    ) -> Option<[f64; 3]> {
+        let r = self.find(material, label)?;
+        Some([
+            r[0].image_error(signal, f)?.rel_rms,
+            r[1].image_error(signal, f)?.rel_rms,
+            r[2].image_error(signal, f)?.rel_rms,
+        ])
+    }
+
+    /// N Gaussians renormalised (as the SSSS renderer normalises every
+    /// kernel) when the comparison has them, else as fitted.
+    pub fn gaussians_rms(
+        self,
+        material: &str,
+        n: usize,
+        signal: &str,
+        f: Which,
+    ) -> Option<[f64; 3]> {
+        self.image_rms(material, &format!("gaussians{n}-renorm"), signal, f)
+            .or_else(|| self.image_rms(material, &format!("gaussians{n}"), signal, f))
+    }
 }
 
 #[cfg(test)]

@@ -103,6 +103,12 @@ pub struct SceneComparison {
     /// The path-traced image, and each row's image when kept.
     pub truth: Image,
     pub images: Vec<(String, Image)>,
+    /// The exposure the images are shown at (the scoring's tone mapping)
+    /// and the path-traced image's peak, its largest channel.
+    pub exposure: f64,
+    pub peak: f64,
+    /// Which error dominates ([`dominance`]).
+    pub dominance: Option<Dominance>,
     /// The light-space directional method beside the screen-space passes,
     /// or why the scene allows it none.
     pub directional: Option<std::result::Result<super::directional::DirectionalBlock, String>>,
@@ -423,8 +429,10 @@ pub fn compare_scene(
         .directional
         .as_ref()
         .map(|d| stage.directional(profile, render, &flat, follow_c, d));
+    let exposure = stage.scorer.exposure();
     let (rows, images) = (stage.rows, stage.images);
-    Ok(SceneComparison {
+    let peak = truth.peak().iter().cloned().fold(0.0f64, f64::max);
+    let mut cmp = SceneComparison {
         mm_per_pixel,
         follow_mm,
         follow_constant: follow_c,
@@ -435,8 +443,13 @@ pub fn compare_scene(
         flat,
         truth,
         images,
+        exposure,
+        peak,
+        dominance: None,
         directional,
-    })
+    };
+    cmp.dominance = dominance(&cmp);
+    Ok(cmp)
 }
 
 /// Which error dominates on the scene: the best kernel model's (with the

@@ -140,6 +140,15 @@ pub(in crate::report::eval) struct Scorer<'a> {
     ppd: f32,
 }
 
+/// The exposure of a scene's tone mapping, FLIP's and the contact
+/// sheets': [`exposure_of`] the path-traced image's brightest channel.
+pub(in crate::report::eval) fn truth_exposure(truth: &Image) -> f64 {
+    let max_rgb: Vec<f64> = (0..truth.len())
+        .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
+        .collect();
+    exposure_of(&max_rgb)
+}
+
 impl<'a> Scorer<'a> {
     pub(in crate::report::eval) fn new(
         truth: &'a Image,
@@ -148,10 +157,7 @@ impl<'a> Scorer<'a> {
         ppd: f64,
     ) -> Self {
         let peak = std::array::from_fn(|c| percentile99(&truth.rgb[c], &masks[0]));
-        let max_rgb: Vec<f64> = (0..truth.len())
-            .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
-            .collect();
-        let exposure = exposure_of(&max_rgb);
+        let exposure = truth_exposure(truth);
         let truth_ldr = tone_map(truth, |i| {
             std::array::from_fn(|c| truth.rgb[c][i] * exposure)
         });

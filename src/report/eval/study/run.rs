@@ -106,17 +106,44 @@ pub struct Entry {
     pub seconds: f64,
 }
 
-/// The cost columns of an entry filtered with separable passes.
-fn filtered(
-    model: &str,
-    errs: &[ImageErrors],
+/// A model filtered with separable passes (`terms` terms, two passes
+/// each) and scored on the study's images.
+struct Separable<'a> {
+    model: &'a str,
+    errs: &'a [ImageErrors],
     terms: usize,
-) -> (Option<String>, Option<usize>, Option<usize>) {
-    (
-        Some(model.to_string()),
-        Some(2 * terms),
-        errs.iter().map(|e| e.samples_per_pixel).max(),
-    )
+}
+
+impl Separable<'_> {
+    /// Its entry: the worst relative RMS and FLIP over the images, passes
+    /// and samples per pixel; the cost is `cost` (value, unit), or where
+    /// None its samples per pixel.
+    fn entry(
+        &self,
+        section: &str,
+        config: String,
+        cost: Option<(f64, &str)>,
+        kernel_error: Option<f64>,
+        ms_per_megapixel: Option<f64>,
+        seconds: f64,
+    ) -> Entry {
+        let (rel, flip) = worst(self.errs);
+        let samples_per_pixel = self.errs.iter().map(|e| e.samples_per_pixel).max();
+        Entry {
+            section: section.into(),
+            config,
+            cost: cost.map_or(samples_per_pixel.unwrap_or(0) as f64, |c| c.0),
+            cost_unit: cost.map_or("samples/pixel", |c| c.1).into(),
+            profile_or_kernel_error: kernel_error,
+            rel_rms: Some(rel),
+            flip: Some(flip),
+            model: Some(self.model.to_string()),
+            passes: Some(2 * self.terms),
+            samples_per_pixel,
+            ms_per_megapixel,
+            seconds,
+        }
+    }
 }
 
 /// Everything the study measured.
@@ -270,23 +297,14 @@ impl<'a> Bench<'a> {
                 .fold(0.0, f64::max);
             let kf = crate::kernel::fit_kernel_file(&made.profile, &self.spec, &PREINTEGRATE, 17)?;
             let errs: Vec<ImageErrors> = self.eval(&kf, &[])?.into_iter().map(|e| e.full).collect();
-            let (rel, flip) = worst(&errs);
-            let (model, passes, samples_per_pixel) =
-                filtered("preintegrate", &errs, kf.taps.passes.len());
-            entries.push(Entry {
-                section: "profile_model".into(),
-                config: made.name.clone(),
-                cost: made.seconds,
-                cost_unit: "s".into(),
-                profile_or_kernel_error: Some(krms),
-                rel_rms: Some(rel),
-                flip: Some(flip),
-                model,
-                passes,
-                samples_per_pixel,
-                ms_per_megapixel: None,
-                seconds: made.seconds,
-            });
+            let scored = Separable {
+                model: "preintegrate",
+                errs: &errs,
+                terms: kf.taps.passes.len(),
+            };
+            let cost = Some((made.seconds, "s"));
+            let (config, secs) = (made.name.clone(), made.seconds);
+            entries.push(scored.entry("profile_model", config, cost, Some(krms), None, secs));
         }
         Ok(entries)
     }
@@ -309,26 +327,17 @@ impl<'a> Bench<'a> {
                     secs += t;
                     errs.push(evaluate::errors(e, &img, &self.options)?);
                 }
-                let (rel, flip) = worst(&errs);
-                let (model, passes, samples_per_pixel) =
-                    filtered("preintegrate", &errs, table.passes.len());
-                entries.push(Entry {
-                    section: "taps".into(),
-                    config: format!(
-                        "{n} taps, {label} (+-{:.2} mm)",
-                        table.extent_mm.unwrap_or(f64::NAN)
-                    ),
-                    cost: (2 * n) as f64,
-                    cost_unit: "samples/pixel".into(),
-                    profile_or_kernel_error: None,
-                    rel_rms: Some(rel),
-                    flip: Some(flip),
-                    model,
-                    passes,
-                    samples_per_pixel,
-                    ms_per_megapixel: None,
-                    seconds: secs,
-                });
+                let scored = Separable {
+                    model: "preintegrate",
+                    errs: &errs,
+                    terms: table.passes.len(),
+                };
+                let config = format!(
+                    "{n} taps, {label} (+-{:.2} mm)",
+                    table.extent_mm.unwrap_or(f64::NAN)
+                );
+                let cost = Some(((2 * n) as f64, "samples/pixel"));
+                entries.push(scored.entry("taps", config, cost, None, None, secs));
             }
         }
         Ok(entries)
@@ -352,7 +361,6 @@ impl<'a> Bench<'a> {
                 ),
                 ("17 taps", ev.iter().map(|e| e.taps[&17].clone()).collect()),
             ] {
-                let (rel, flip) = worst(&errs);
                 let ms = errs.iter().map(|e| e.ms_per_megapixel).sum::<f64>() / errs.len() as f64;
                 // The filter's wall time over the study's images, seconds
                 // (ms per megapixel times each image's megapixels).
@@ -361,22 +369,14 @@ impl<'a> Bench<'a> {
                     .zip(&self.exact)
                     .map(|(e, x)| 1e-3 * e.ms_per_megapixel * x.case.image.len() as f64 / 1e6)
                     .sum();
-                let (model, passes, samples_per_pixel) =
-                    filtered(&format!("svd{r}-renorm"), &errs, kf.taps.passes.len());
-                entries.push(Entry {
-                    section: "rank".into(),
-                    config: format!("svd rank {r} renormalised, {label}"),
-                    cost: samples_per_pixel.unwrap_or(0) as f64,
-                    cost_unit: "samples/pixel".into(),
-                    profile_or_kernel_error: Some(max3(&kf.metrics.kernel_rms)),
-                    rel_rms: Some(rel),
-                    flip: Some(flip),
-                    model,
-                    passes,
-                    samples_per_pixel,
-                    ms_per_megapixel: Some(ms),
-                    seconds: secs,
-                });
+                let scored = Separable {
+                    model: &format!("svd{r}-renorm"),
+                    errs: &errs,
+                    terms: kf.taps.passes.len(),
+                };
+                let config = format!("svd rank {r} renormalised, {label}");
+                let kernel_error = Some(max3(&kf.metrics.kernel_rms));
+                entries.push(scored.entry("rank", config, None, kernel_error, Some(ms), secs));
             }
         }
         Ok(entries)
@@ -402,24 +402,21 @@ impl<'a> Bench<'a> {
         let mut entries = Vec::new();
         for f in &cmp.fitted {
             let errs: Vec<ImageErrors> = f.images.iter().map(|e| e.taps[&17].clone()).collect();
-            let (rel, flip) = worst(&errs);
+            let scored = Separable {
+                model: &f.spec.label,
+                errs: &errs,
+                terms: f.kernel.taps.passes.len(),
+            };
+            let kernel_error = Some(max3(&f.kernel.metrics.kernel_rms));
             let secs = f.kernel.metrics.fit_seconds;
-            let (model, passes, samples_per_pixel) =
-                filtered(&f.spec.label, &errs, f.kernel.taps.passes.len());
-            entries.push(Entry {
-                section: "kernel_model".into(),
-                config: f.spec.label.clone(),
-                cost: samples_per_pixel.unwrap_or(0) as f64,
-                cost_unit: "samples/pixel".into(),
-                profile_or_kernel_error: Some(max3(&f.kernel.metrics.kernel_rms)),
-                rel_rms: Some(rel),
-                flip: Some(flip),
-                model,
-                passes,
-                samples_per_pixel,
-                ms_per_megapixel: None,
-                seconds: secs,
-            });
+            entries.push(scored.entry(
+                "kernel_model",
+                f.spec.label.clone(),
+                None,
+                kernel_error,
+                None,
+                secs,
+            ));
         }
         Ok(entries)
     }
