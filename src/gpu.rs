@@ -11,6 +11,10 @@ use wgpu::util::DeviceExt;
 /// generators, prepended to each shader that uses them.
 pub const WGSL_WIDE_MUL: &str = include_str!("../shaders/wide_mul.wgsl");
 
+/// shaders/fresnel.wgsl: the Fresnel reflectance of a dielectric interface,
+/// prepended to the tracer's and the light-space pass's shaders.
+pub const WGSL_FRESNEL: &str = include_str!("../shaders/fresnel.wgsl");
+
 /// WGSL declarations `const NAME: u32 = VALUEu;` of `consts`: an integer
 /// constant of a generator is defined once, in Rust, and given to both the
 /// CPU twin and the shader.

@@ -8,7 +8,7 @@
 use super::light_space::{LightSpaceInput, LightSpaceSetup};
 use super::Image;
 use crate::error::{Error, Result};
-use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_FRESNEL, WGSL_WIDE_MUL};
 use crate::profile::mc::gpu::{philox_wgsl_constants, PHILOX_WGSL};
 use crate::scene::{LightSource, Measure, V3};
 
@@ -305,6 +305,7 @@ fn shader_source() -> String {
     [
         &consts,
         WGSL_WIDE_MUL,
+        WGSL_FRESNEL,
         PHILOX_WGSL,
         LsParams::WGSL,
         LsMap::WGSL,
