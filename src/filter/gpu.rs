@@ -5,7 +5,7 @@
 
 use super::{Image, Setup};
 use crate::error::{Error, Result};
-use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
 
@@ -282,12 +282,14 @@ const WORKGROUP_SIDE: u32 = 8;
 /// ([`super::jitter`]), prepended to it as WGSL `const`s: the shader names
 /// them and never spells their values.
 fn shared_constants() -> Vec<(&'static str, u32)> {
-    let mut c = ign_constants().to_vec();
-    c.extend([
-        ("GOLDEN_U32", super::jitter::GOLDEN_U32),
-        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
-    ]);
-    c
+    [
+        &ign_constants()[..],
+        &[
+            ("GOLDEN_U32", super::jitter::GOLDEN_U32),
+            ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+        ],
+    ]
+    .concat()
 }
 
 /// The interleaved gradient noise's fixed-point constants, shared by the
@@ -343,15 +345,10 @@ pub(super) fn plane_or_ones(p: Option<&super::Plane>, n: usize) -> Vec<f32> {
 /// this file and the CPU twin (the noise constants, the workgroup size, the
 /// wide product, the uniform block).
 fn shader_source() -> String {
-    let consts = wgsl_u32_consts(&shared_constants());
-    [
-        &consts,
-        WGSL_WIDE_MUL,
-        SCREEN_COMMON_WGSL,
-        Params::WGSL,
-        SHADER,
-    ]
-    .join("\n")
+    assemble_wgsl(
+        &shared_constants(),
+        &[WGSL_WIDE_MUL, SCREEN_COMMON_WGSL, Params::WGSL, SHADER],
+    )
 }
 
 /// The bound resources of one image and setup.
