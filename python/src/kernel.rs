@@ -309,7 +309,7 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
 
 /// The separable models `fit` knows (those of `ssskit fit --model`): the
 /// comparison's families, from the library.
-const MODELS: [&str; 6] = ssskit::report::eval::kernel_compare::FAMILIES;
+const MODELS: [&str; 6] = ssskit::report::eval::compare::kernel::FAMILIES;
 
 /// `ssskit fit --model disk`'s default samples per pixel.
 const DISK_SAMPLES: usize = 32;

@@ -11,9 +11,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::filter::signals::Signal;
 use ssskit::report::eval::advise::{self, Budget};
-use ssskit::report::eval::advise_types::DEFAULT_FRAMES;
+use ssskit::report::eval::compare::kernel::{parse_ranks, Config, MaterialInput};
+use ssskit::report::eval::disk::DEFAULT_FRAMES;
 use ssskit::report::eval::evaluate::{self, ImageCase, Options};
-use ssskit::report::eval::kernel_compare::{self, parse_ranks, Config, MaterialInput};
 
 fn signal_of(name: &str) -> PyResult<Signal> {
     Ok(match name {
@@ -55,7 +55,7 @@ fn models_of(obj: Option<&Bound<'_, PyAny>>, default: &[&str]) -> PyResult<Vec<S
         )));
     }
     if names.iter().any(|m| m == "all") {
-        return Ok(kernel_compare::FAMILIES
+        return Ok(ssskit::report::eval::compare::kernel::FAMILIES
             .iter()
             .map(|s| s.to_string())
             .collect());
@@ -118,7 +118,7 @@ fn compare<'py>(
     }
     let defaults = Options::default();
     let cfg = Config {
-        families: models_of(models, &kernel_compare::FAMILIES)?,
+        families: models_of(models, &ssskit::report::eval::compare::kernel::FAMILIES)?,
         ranks: parse_ranks(ranks).map_err(to_py)?,
         cases,
         taps,
@@ -129,7 +129,9 @@ fn compare<'py>(
         keep: None,
         extent_mm: extent,
     };
-    let cmp = interruptible(py, |progress| kernel_compare::run(&inputs, &cfg, progress))?;
+    let cmp = interruptible(py, |progress| {
+        ssskit::report::eval::compare::kernel::run(&inputs, &cfg, progress)
+    })?;
     json_to_py(py, &to_value(&cmp.rows)?)
 }
 
@@ -182,7 +184,7 @@ fn advise_kernel<'py>(
             "image_error: invalid value {image_error}: a fraction in (0, 1): 0.05 is 5%"
         )));
     }
-    ssskit::report::eval::advise_disk::check_frames(frames).map_err(to_py)?;
+    ssskit::report::eval::disk::check_frames(frames).map_err(to_py)?;
     let profile = profile_of(profile)?;
     let mut cfg = advise::Config::new(mm_per_pixel, image_error);
     cfg.size = signal_size;
@@ -192,7 +194,7 @@ fn advise_kernel<'py>(
         max_samples: max_samples.filter(|&n| n > 0),
         max_taps: max_taps.filter(|&n| n > 0),
     };
-    cfg.families = models_of(models, &advise::FAMILIES)?;
+    cfg.families = models_of(models, &advise::ADVISED_FAMILIES)?;
     let advice = interruptible(py, |progress| advise::advise(&profile, &cfg, progress))?;
     if !advice.warnings.is_empty() {
         let warn = py.import("warnings")?;

@@ -259,15 +259,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let what = args.input.display().to_string();
     report_sanitized(&what, image.check_finite(&what, args.sanitize)?);
 
-    let scale = match (args.mm_per_pixel.mm_per_pixel, args.fov_y.fov_y) {
-        (Some(m), _) => Scale::MmPerPixel(m),
-        (None, Some(f)) => Scale::Perspective {
-            fov_y_deg: f,
-            sss_width: args.units_per_mm.units_per_mm,
-        },
-        _ => anyhow::bail!("give --mm-per-pixel or --fov-y"),
-    };
-    scale.validate()?;
+    let scale = scale_of(&args)?;
 
     let png_depth = match args.png_bits {
         Some(bits) => bits.into(),
@@ -278,13 +270,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     if let Some(reference) = &args.reference {
         let out = run_reference(&args, reference, &image, scale)?;
-        write_image(out_path, &out, png_depth)?;
-        eprintln!(
-            "exact 2D reference on the CPU: {:.3} s -> {}",
-            start.elapsed().as_secs_f64(),
-            out_path.display()
+        return written(
+            out_path,
+            &out,
+            png_depth,
+            "exact 2D reference on the CPU:",
+            start,
         );
-        return Ok(());
     }
 
     let Some(kernel_path) = &args.kernel.kernel else {
@@ -302,13 +294,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let out = around_pass(around.as_ref(), image, specular, |img| {
             disk::run(&args, kernel_path, &kernel, (frames, first), view, img)
         })?;
-        write_image(out_path, &out, png_depth)?;
-        eprintln!(
-            "disk pass, {frames} frame(s): {:.3} s -> {}",
-            start.elapsed().as_secs_f64(),
-            out_path.display()
-        );
-        return Ok(());
+        let what = format!("disk pass, {frames} frame(s):");
+        return written(out_path, &out, png_depth, &what, start);
     }
     if args.accumulate != ssskit::filter::accumulate::Accumulate::Mean {
         anyhow::bail!(
@@ -330,17 +317,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = around_pass(around.as_ref(), image, specular, |img| {
         filter(&args, img, &setup)
     })?;
-    write_image(out_path, &out, png_depth)?;
-    eprintln!(
-        "{} one-dimensional passes ({} separable term(s)) of up to {} taps, {:.3} s -> {}",
+    let taps = setup.passes.iter().map(|t| t.offsets_mm.len()).max();
+    let what = format!(
+        "{} one-dimensional passes ({} separable term(s)) of up to {} taps,",
         2 * setup.passes.len(),
         setup.passes.len(),
-        setup
-            .passes
-            .iter()
-            .map(|t| t.offsets_mm.len())
-            .max()
-            .unwrap_or(0),
+        taps.unwrap_or(0),
+    );
+    written(out_path, &out, png_depth, &what, start)
+}
+
+/// The pixel scale from --mm-per-pixel or --fov-y and --units-per-mm.
+fn scale_of(args: &Args) -> anyhow::Result<Scale> {
+    let scale = match (args.mm_per_pixel.mm_per_pixel, args.fov_y.fov_y) {
+        (Some(m), _) => Scale::MmPerPixel(m),
+        (None, Some(f)) => Scale::Perspective {
+            fov_y_deg: f,
+            sss_width: args.units_per_mm.units_per_mm,
+        },
+        _ => anyhow::bail!("give --mm-per-pixel or --fov-y"),
+    };
+    scale.validate()?;
+    Ok(scale)
+}
+
+/// Writes the result and says what made it, in how long, and where.
+fn written(
+    out_path: &Path,
+    out: &Image,
+    png_depth: PngDepth,
+    what: &str,
+    start: Instant,
+) -> anyhow::Result<()> {
+    write_image(out_path, out, png_depth)?;
+    eprintln!(
+        "{what} {:.3} s -> {}",
         start.elapsed().as_secs_f64(),
         out_path.display()
     );

@@ -4,7 +4,7 @@
 //! Also the `compare --scene` entry: every kernel model through the
 //! screen-space pass on that G-buffer, against the path-traced image.
 
-use super::args::{self, count, OutFile, SeedArg};
+use super::args::{self, count, OutFile, SeedArg, ThreadsArg};
 use super::out::outln;
 use super::progress::Bar;
 use anyhow::{bail, Context};
@@ -61,9 +61,8 @@ struct Flags {
     max_work: u64,
     #[command(flatten)]
     seed: SeedArg,
-    /// Worker threads (results are identical for any count) [default: one per core].
-    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
-    threads: Option<usize>,
+    #[command(flatten)]
+    threads: ThreadsArg,
     /// G-buffer positions per pixel side (box filter).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_GBUFFER_SIDE, value_parser = count::<usize>)]
     gbuffer_side: usize,
@@ -124,7 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let cfg = RenderConfig {
         budget,
         seed: a.seed.seed,
-        threads: a.threads,
+        threads: a.threads.threads,
         gbuffer_side: a.gbuffer_side,
         max_work: a.max_work,
     };
@@ -133,7 +132,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(n) => PhotonBudget::Fixed(n),
         None => default_budget(MC_MAX_PHOTONS),
     };
-    let profiles = material_profiles(&scene, photons, a.seed.seed, a.threads, &Bar::new())?;
+    let profiles = material_profiles(&scene, photons, a.seed.seed, a.threads.threads, &Bar::new())?;
     let rd: Vec<[f64; 3]> = profiles
         .iter()
         .map(|p| [p.total_rd[0], p.total_rd[1], p.total_rd[2]])
@@ -256,8 +255,8 @@ fn write_gbuffer(path: &Path, scene: &Scene, r: &Render) -> anyhow::Result<()> {
         ("N.Y", &view[1]),
         ("N.Z", &view[2]),
     ];
-    let cos = ssskit::report::eval::scene_score::cosines(scene, r);
-    if ssskit::report::eval::scene_compare::angular_obstacle(scene).is_none() {
+    let cos = ssskit::report::eval::scene::score::cosines(scene, r);
+    if ssskit::report::eval::scene::compare::angular_obstacle(scene).is_none() {
         if let Some(nl) = &cos.n_dot_l {
             planes.push(("NdotL", nl));
         }
@@ -436,7 +435,7 @@ pub(super) struct CompareArgs<'a> {
     pub plots: bool,
     pub out: &'a Path,
     /// The light-space directional method's rows (None: not run).
-    pub directional: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
+    pub directional: Option<ssskit::report::eval::scene::directional::DirectionalConfig>,
 }
 
 /// The light-space method's checks on the scene, before any work: its
@@ -445,8 +444,8 @@ pub(super) struct CompareArgs<'a> {
 fn directional_preflight(
     scene: &Scene,
     r: &Render,
-    cfg: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
-) -> Option<ssskit::report::eval::directional_scene::DirectionalConfig> {
+    cfg: Option<ssskit::report::eval::scene::directional::DirectionalConfig>,
+) -> Option<ssskit::report::eval::scene::directional::DirectionalConfig> {
     let d = cfg?;
     let most = d.samples.iter().copied().max().unwrap_or(1);
     let side = r.info.config.gbuffer_side;
@@ -475,7 +474,7 @@ fn angular_factors(
     if photons == 0 {
         return Ok(None);
     }
-    if let Some(why) = ssskit::report::eval::scene_compare::angular_obstacle(scene) {
+    if let Some(why) = ssskit::report::eval::scene::compare::angular_obstacle(scene) {
         super::errors::warn(&format!("{why}: no angular rows"));
         return Ok(None);
     }
@@ -489,11 +488,11 @@ fn angular_factors(
 /// light-space block (or why the scene has none) and the transmission's.
 fn scene_json(
     scene: &std::path::Path,
-    cmp: &ssskit::report::eval::scene_compare::SceneComparison,
+    cmp: &ssskit::report::eval::scene::compare::SceneComparison,
     r: &ssskit::scene::Render,
     transmission: Option<serde_json::Value>,
 ) -> anyhow::Result<serde_json::Value> {
-    use ssskit::report::eval::scene_compare::dominance;
+    use ssskit::report::eval::scene::compare::dominance;
     Ok(serde_json::json!({
         "scene": scene.display().to_string(),
         "dominance": dominance(cmp),
@@ -518,7 +517,7 @@ fn scene_json(
 /// scene's G-buffer against its path-traced image; writes scene.md,
 /// scene.json, record.json and the contact sheet.
 pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
-    use ssskit::report::eval::scene_compare::{compare_scene, dominance, SceneConfig};
+    use ssskit::report::eval::scene::compare::{compare_scene, SceneConfig};
     use ssskit::report::present::record::{machine_line, Record};
     use ssskit::report::present::scene_tables::{contact_sheet, named_tables, page};
     let (scene, r, profiles) = scene_and_render(a.scene, a.render)?;
@@ -604,15 +603,36 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
         }
     }
     staged.commit()?;
-    // A transmission table asked for by flag first, then the directional
-    // verdict (the first line when no table is asked for).
-    if let Some((b, t)) = &back {
+    print_compare(&cmp, back.as_ref(), &head, &tables)?;
+    eprintln!(
+        "-> {}/scene.md, scene.json, record.json{}",
+        a.out.display(),
+        if a.plots { ", contact-sheet.png" } else { "" }
+    );
+    Ok(())
+}
+
+/// `scene compare`'s answer on standard output: a transmission table asked
+/// for by flag first, then the directional verdict (the first line when no
+/// table is asked for), the head and the main table.
+fn print_compare(
+    cmp: &ssskit::report::eval::scene::compare::SceneComparison,
+    back: Option<&(
+        ssskit::report::eval::scene::transmission::TransmissionComparison,
+        ssskit::report::present::table::Table,
+    )>,
+    head: &str,
+    tables: &[(&str, ssskit::report::present::table::Table)],
+) -> anyhow::Result<()> {
+    use ssskit::report::eval::scene::compare::dominance;
+    use ssskit::report::present::directional_tables as dt;
+    if let Some((b, t)) = back {
         outln!("{}\n\n{}\n", b.headline, t.markdown())?;
     }
-    if let Some(h) = dt::headline(&cmp) {
+    if let Some(h) = dt::headline(cmp) {
         outln!("{h}\n")?;
     }
-    let d = dominance(&cmp);
+    let d = dominance(cmp);
     if let Some(h) = d.as_ref().and_then(|d| d.headline()) {
         outln!("{h}")?;
     }
@@ -626,10 +646,5 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
     if let Some(d) = d {
         outln!("{}", d.sentence())?;
     }
-    eprintln!(
-        "-> {}/scene.md, scene.json, record.json{}",
-        a.out.display(),
-        if a.plots { ", contact-sheet.png" } else { "" }
-    );
     Ok(())
 }

@@ -72,8 +72,7 @@
 use crate::error::{Error, Result};
 use crate::filter::image::linear_to_srgb;
 use crate::filter::signals::{generate, Signal};
-pub use crate::filter::Which;
-use crate::filter::{cpu, diff, exact, separable, taps_for, Image, Scale, Setup, Taps};
+use crate::filter::{cpu, diff, exact, separable, taps_for, Image, Scale, Setup, Taps, Which};
 use crate::kernel::{Kernel2D, KernelFile};
 use crate::profile::Profile;
 use serde::{Deserialize, Serialize};

@@ -20,12 +20,12 @@
 //! estimates to within its Monte Carlo error. Analytic profiles have no
 //! standard error: no replicates, zero uncertainty.
 
-use super::evaluate::{round_f32, Exact, ImageCase};
 use crate::error::{Error, Result};
 use crate::filter::diff::RefStack;
 use crate::filter::exact::KernelBank;
 use crate::filter::{exact, screen_space, Image, Scale, Setup, Taps};
 use crate::profile::Profile;
+use crate::report::eval::evaluate::{round_f32, Exact, ImageCase};
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
