@@ -4,13 +4,11 @@
 // samplers): rgba32float is not filterable on every adapter (lavapipe), so
 // the bilinear fetch is done here, positions clamped to the image. The host
 // prepends the struct DiskParams (src/filter/disk_gpu.rs, where its fields
-// are described), the noise (ign.wgsl, with mul_wide and its constants) and
-// the constants SILVER_U32 and WORKGROUP_SIDE (from src/filter/jitter.rs).
+// are described), what both screen-space passes share (screen_common.wgsl:
+// the image, depth and strength at bindings 1 to 3, the noise) and the
+// constants SILVER_U32 and WORKGROUP_SIDE (from src/filter/jitter.rs).
 
 @group(0) @binding(0) var<uniform> params: DiskParams;
-@group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> depth: array<f32>;
-@group(0) @binding(3) var<storage, read> strength: array<f32>;
 // Per sample: its unrotated position in kernel mm.
 @group(0) @binding(4) var<storage, read> points: array<vec2<f32>>;
 // Per sample: xyz the RGB weight.

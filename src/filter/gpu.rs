@@ -5,13 +5,14 @@
 
 use super::{Image, Setup};
 use crate::error::{Error, Result};
-use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
 
-/// The interleaved gradient noise of both screen-space passes' shaders
-/// (after `WGSL_WIDE_MUL` and [`ign_constants`]).
-pub(super) const IGN_WGSL: &str = include_str!("../../shaders/ign.wgsl");
+/// What both screen-space passes' shaders share: the image, depth and
+/// strength bindings and the interleaved gradient noise (after
+/// `WGSL_WIDE_MUL` and [`ign_constants`]).
+pub(super) const SCREEN_COMMON_WGSL: &str = include_str!("../../shaders/screen_common.wgsl");
 
 /// A device with the pass pipeline compiled.
 pub struct Gpu {
@@ -281,12 +282,14 @@ const WORKGROUP_SIDE: u32 = 8;
 /// ([`super::jitter`]), prepended to it as WGSL `const`s: the shader names
 /// them and never spells their values.
 fn shared_constants() -> Vec<(&'static str, u32)> {
-    let mut c = ign_constants().to_vec();
-    c.extend([
-        ("GOLDEN_U32", super::jitter::GOLDEN_U32),
-        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
-    ]);
-    c
+    [
+        &ign_constants()[..],
+        &[
+            ("GOLDEN_U32", super::jitter::GOLDEN_U32),
+            ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+        ],
+    ]
+    .concat()
 }
 
 /// The interleaved gradient noise's fixed-point constants, shared by the
@@ -342,8 +345,10 @@ pub(super) fn plane_or_ones(p: Option<&super::Plane>, n: usize) -> Vec<f32> {
 /// this file and the CPU twin (the noise constants, the workgroup size, the
 /// wide product, the uniform block).
 fn shader_source() -> String {
-    let consts = wgsl_u32_consts(&shared_constants());
-    [&consts, WGSL_WIDE_MUL, IGN_WGSL, Params::WGSL, SHADER].join("\n")
+    assemble_wgsl(
+        &shared_constants(),
+        &[WGSL_WIDE_MUL, SCREEN_COMMON_WGSL, Params::WGSL, SHADER],
+    )
 }
 
 /// The bound resources of one image and setup.
@@ -397,13 +402,13 @@ mod tests {
         bad
     }
 
-    /// sss_pass.wgsl with the noise it shares with the disk pass (ign.wgsl)
+    /// sss_pass.wgsl with what it shares with the disk pass (screen_common.wgsl)
     /// names every constant it shares with Rust and spells none of their
     /// values, so a constant changed on one side only cannot
     /// go unnoticed; the check itself catches a value written back in.
     #[test]
     fn the_shader_spells_no_shared_constant() {
-        let bodies = [super::IGN_WGSL, super::SHADER].join("\n");
+        let bodies = [super::SCREEN_COMMON_WGSL, super::SHADER].join("\n");
         assert_eq!(spelled_shared_constants(&bodies), Vec::<String>::new());
         for (from, to) in [
             ("IGN_WHOLE * inner", "52u * inner"),

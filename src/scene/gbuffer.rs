@@ -155,8 +155,8 @@ impl Lighting<'_> {
                 }
             }
             let f = open as f64 / ENV_RAYS as f64;
-            for c in 0..3 {
-                e[c] += std::f64::consts::PI * self.env[c] * f;
+            for (e, l) in e.iter_mut().zip(self.env) {
+                *e += std::f64::consts::PI * l * f;
             }
         }
         e

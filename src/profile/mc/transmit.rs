@@ -99,7 +99,7 @@ pub(super) fn budget_error(budget: &PhotonBudget, total: f64, profile: f64, fact
 }
 
 /// How far the transmitted light is from the absolute floor (as
-/// `rounds::floor_ratio` for the reflected light).
+/// `status::floor_ratio` for the reflected light).
 pub(super) fn tr_floor_ratio(floor: f64, s: &TrStatus, photons: u64) -> f64 {
     let shape = if s.t > 0.0 { s.t * s.rel_factor } else { 0.0 };
     let noise = s.t_stderr.max(shape) / floor;
