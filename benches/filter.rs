@@ -22,7 +22,7 @@
 //! README.md and `threads` for docs/filter.md). `SSSKIT_BENCH_REPS=N` sets
 //! the frames per case (default 9; other values do not write the record).
 
-use ssskit::filter::{cpu, Image, Plane, Scale, Setup, Taps};
+use ssskit::filter::{cpu, sample, separable, Image, Plane, Scale, Setup, Taps};
 use std::time::Instant;
 
 const W: usize = 1920;
@@ -216,7 +216,7 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
         ..table.clone()
     };
     let mut out = Vec::new();
-    let kernel = [cpu::PixelKernel::from_taps(&taps(true), 10.0)];
+    let kernel = [sample::PixelKernel::from_taps(&taps(true), 10.0)];
     // A renderer's frame: f32 planes in, f32 planes out, buffers reused
     // (what OpenCV's sepFilter2D computes on the same planes).
     let src: Vec<Vec<f32>> = (0..3)
@@ -227,7 +227,7 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
         "separable-f32-reused",
         median_ms(reps, || {
             for c in 0..3 {
-                cpu::apply_separable_f32(&src[c], &mut dst[c], (W, H), &kernel, c);
+                separable::apply_separable_f32(&src[c], &mut dst[c], (W, H), &kernel, c);
             }
         }),
     ));
@@ -236,12 +236,12 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
     out.push((
         "separable-reused",
         median_ms(reps, || {
-            cpu::apply_separable_into::<f64>(img, &kernel, &mut reused)
+            separable::apply_separable_into::<f64>(img, &kernel, &mut reused)
         }),
     ));
     // `ssskit apply` on the CPU: the f64 image filtered in place (each
     // frame blurs the last; a normalised kernel keeps it finite).
-    use cpu::Precision::{F32, F64};
+    use separable::Precision::{F32, F64};
     let mut work = img.clone();
     for (name, precision) in [("separable-f32", F32), ("separable", F64)] {
         out.push((

@@ -4,9 +4,8 @@
 // samplers): rgba32float is not filterable on every adapter (lavapipe), so
 // the bilinear fetch is done here, positions clamped to the image. The host
 // prepends the struct DiskParams (src/filter/disk_gpu.rs, where its fields
-// are described), mul_wide (wide_mul.wgsl) and the constants IGN_X, IGN_Y,
-// IGN_WHOLE, IGN_FRACTION, SILVER_U32, JITTER_BITS and WORKGROUP_SIDE (from
-// src/filter/jitter.rs).
+// are described), the noise (ign.wgsl, with mul_wide and its constants) and
+// the constants SILVER_U32 and WORKGROUP_SIDE (from src/filter/jitter.rs).
 
 @group(0) @binding(0) var<uniform> params: DiskParams;
 @group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
@@ -23,10 +22,7 @@
 // in 32-bit fixed point plus `frame` steps of sqrt 2 - 1, the same bits as
 // rotation_unit in src/filter/jitter.rs.
 fn rotation_unit(x: u32, y: u32, frame: u32) -> f32 {
-    let inner = IGN_X * x + IGN_Y * y;
-    let ign = IGN_WHOLE * inner + mul_wide(IGN_FRACTION, inner).y;
-    let n = ign + frame * SILVER_U32;
-    return f32(n >> (32u - JITTER_BITS)) / f32(1u << JITTER_BITS);
+    return jitter_fraction(ign_fixed(x, y) + frame * SILVER_U32);
 }
 
 // The bilinear fetch at (px, py), clamped: colour in xyz, depth in w.

@@ -425,18 +425,14 @@ fn report_leads_with_what_to_ship(out: &Path, md: &str, advice: &Value) {
 /// of its passes (a separable kernel's as scored, a disk kernel's
 /// samples) is the one advice.json carries for the chosen row.
 fn recommended_is_what_was_scored(out: &Path, advice: &Value) {
-    use ssskit::report::eval::{advise_disk, advise_search};
+    use ssskit::report::eval::{advise::search, disk};
     let path = out.join("recommended.json");
     let written = if advice["disk"].is_null() {
         let k = ssskit::kernel::KernelFile::read(&path).unwrap();
         let mm = advice["mm_per_pixel"].as_f64().unwrap();
-        advise_search::fingerprint(&advise_search::scored_passes(
-            &k,
-            advice["taps"].is_null(),
-            mm,
-        ))
+        search::fingerprint(&search::scored_passes(&k, advice["taps"].is_null(), mm))
     } else {
-        advise_disk::disk_fingerprint(&ssskit::kernel::disk::DiskKernelFile::read(&path).unwrap())
+        disk::disk_fingerprint(&ssskit::kernel::disk::DiskKernelFile::read(&path).unwrap())
     };
     assert_eq!(advice["fingerprint"].as_str(), Some(written.as_str()));
 }

@@ -13,7 +13,7 @@ mod common;
 use common::{ok_both as ok, p as s, read_json as read};
 
 /// The families advise chooses from by default
-/// (`ssskit::report::eval::advise::FAMILIES`), each alone, with the budget
+/// (`ssskit::report::eval::advise::ADVISED_FAMILIES`), each alone, with the budget
 /// it needs: a sum of Gaussians has two terms at least (advise leaves the
 /// single Gaussian out), four passes.
 const FAMILIES: [(&str, &str); 6] = [

@@ -35,7 +35,7 @@ fn channel(path: &Path, name: &str) -> Vec<f64> {
 
 /// The relative RMS per channel of `img` against the render's radiance
 /// over the covered pixels, over their 99th percentile: region "all" of
-/// `compare --scene` (report::eval::scene_score).
+/// `compare --scene` (report::eval::scene::score).
 fn scene_rms(img: &Path, render: &Path) -> [f64; 3] {
     let (a, _) = read_image(img, None).unwrap();
     let coverage = channel(render, "coverage");

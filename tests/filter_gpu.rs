@@ -5,7 +5,7 @@
 
 mod filter_support;
 use filter_support::*;
-use ssskit::filter::{cpu, gpu, taps_for, Image, Plane, Scale, Setup, Which};
+use ssskit::filter::{cpu, gpu, screen_space, taps_for, Image, Plane, Scale, Setup, Which};
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
@@ -56,7 +56,7 @@ fn depth_with_discontinuities(w: usize, h: usize) -> Plane {
 }
 
 fn check(g: &gpu::Gpu, image: &Image, setup: &Setup, what: &str) {
-    let c = cpu::apply_screen_space(image, setup);
+    let c = screen_space::apply_screen_space(image, setup);
     let mut c = c;
     if let Some(s) = &setup.specular {
         for ch in 0..3 {

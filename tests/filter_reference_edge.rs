@@ -9,7 +9,7 @@
 //! kernel code, and compared with the reference applied to a step image
 //! (clamped borders extend it to the half-plane).
 
-use ssskit::filter::cpu::{convolve_2d, reference_kernel_sampled, PixelSampling};
+use ssskit::filter::exact::{convolve_2d, reference_kernel_sampled, PixelSampling};
 use ssskit::filter::Image;
 use ssskit::kernel::Kernel2D;
 use ssskit::material::preset;

@@ -105,7 +105,7 @@ const FILTER_WRITE_EXTRA_BYTES_PER_PIXEL: f64 = 2.0;
 
 #[test]
 fn filtering_in_place_and_writing_add_little_to_the_image() {
-    use ssskit::filter::{cpu, Scale, Setup, Taps};
+    use ssskit::filter::{cpu, separable, Scale, Setup, Taps};
     let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (w, h) = (1024, 1024);
     let dir = tempfile::tempdir().unwrap();
@@ -123,7 +123,7 @@ fn filtering_in_place_and_writing_add_little_to_the_image() {
         specular: None,
         jitter: false,
     };
-    for precision in [cpu::Precision::F32, cpu::Precision::F64] {
+    for precision in [separable::Precision::F32, separable::Precision::F64] {
         let (_, peak) = peak_of(|| {
             cpu::apply_in_place(&mut img, &setup, precision).unwrap();
             write_image(&dir.path().join("o.exr"), &img, PngDepth::Eight).unwrap();
@@ -167,7 +167,7 @@ fn per_pixel_case() -> (ssskit::filter::Image, ssskit::filter::Setup) {
 
 #[test]
 fn the_depth_aware_path_filters_in_place() {
-    use ssskit::filter::{cpu, Setup, Taps};
+    use ssskit::filter::{cpu, separable, Setup, Taps};
     let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (mut img, view) = per_pixel_case();
     let n = 17;
@@ -183,7 +183,8 @@ fn the_depth_aware_path_filters_in_place() {
         "the per-pixel path, not the fixed kernels"
     );
     let before = img.rgb[0].clone();
-    let (_, peak) = peak_of(|| cpu::apply_in_place(&mut img, &setup, cpu::Precision::F64).unwrap());
+    let (_, peak) =
+        peak_of(|| cpu::apply_in_place(&mut img, &setup, separable::Precision::F64).unwrap());
     assert_ne!(img.rgb[0], before, "the image was filtered");
     let per_pixel = peak as f64 / img.len() as f64;
     eprintln!("depth-aware: filter peak {per_pixel:.2} bytes per pixel");

@@ -9,7 +9,7 @@ mod filter_support;
 use filter_support::shader::{parse_glsl, validate};
 use filter_support::*;
 use naga::{Expression, Literal};
-use ssskit::filter::{cpu, gpu, taps_for, Scale, Setup, Taps, Which};
+use ssskit::filter::{gpu, screen_space, taps_for, Scale, Setup, Taps, Which};
 use ssskit::kernel::emit::{emit, Lang};
 use ssskit::kernel::KernelFile;
 use std::path::Path;
@@ -279,7 +279,7 @@ fn emitted_wgsl_array_through_the_wgpu_pass_reproduces_the_cpu() {
         jitter: false,
     };
     let from_wgsl = g.apply(&image, &setup(passes)).unwrap();
-    let cpu = cpu::apply_screen_space(
+    let cpu = screen_space::apply_screen_space(
         &image,
         &setup(taps_for(&k, Which::stored(&k), None).unwrap()),
     );

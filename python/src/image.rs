@@ -12,7 +12,7 @@ use numpy::{
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use ssskit::filter::cpu::{self, PixelSampling};
+use ssskit::filter::exact::{self, PixelSampling};
 use ssskit::filter::image::{
     read_image as lib_read_image, write_image as lib_write_image, PngDepth,
 };
@@ -308,9 +308,9 @@ fn reference<'py>(
     Scale::MmPerPixel(mm_per_pixel).validate().map_err(to_py)?;
     let (image, dtype) = image_of(irradiance, "irradiance")?;
     let out = interruptible(py, |_| {
-        let k = cpu::reference_kernel_sampled(&profile, mm_per_pixel, sampling)?;
-        cpu::check_reference_fits(image.width, image.height, k.size)?;
-        Ok(cpu::convolve_2d(&image, &k))
+        let k = exact::reference_kernel_sampled(&profile, mm_per_pixel, sampling)?;
+        exact::check_reference_fits(image.width, image.height, k.size)?;
+        Ok(exact::convolve_2d(&image, &k))
     })?;
     array_of(py, &out, dtype, None)
 }

@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::engine::method::SubsurfaceMethod;
 use ssskit::engine::{self, Engine, Scene};
-use ssskit::kernel::disk::fit_disk;
+use ssskit::kernel::disk_fit::fit_disk;
 use ssskit::kernel::emit::emit;
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
@@ -307,7 +307,7 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
 
 /// The separable models `fit` knows (those of `ssskit fit --model`): the
 /// comparison's families, from the library.
-const MODELS: [&str; 6] = ssskit::report::eval::kernel_compare::FAMILIES;
+const MODELS: [&str; 6] = ssskit::report::eval::compare::kernel::FAMILIES;
 
 /// Fits a kernel to a profile (`ssskit fit`).
 ///

@@ -12,11 +12,10 @@ use pyo3::types::PyDict;
 use ssskit::engine::Scene;
 use ssskit::filter::signals::Signal;
 use ssskit::report::eval::advise::{self, Budget, ViewScale};
-use ssskit::report::eval::advise_disk::DISK;
-use ssskit::report::eval::advise_types::DEFAULT_FRAMES;
-use ssskit::report::eval::disk_compare::compare_rows;
+use ssskit::report::eval::compare::disk::compare_rows;
+use ssskit::report::eval::compare::kernel::{parse_ranks, Config, MaterialInput, FAMILIES};
+use ssskit::report::eval::disk::{check_frames, DEFAULT_FRAMES, DISK};
 use ssskit::report::eval::evaluate::{self, ImageCase, Options};
-use ssskit::report::eval::kernel_compare::{self, parse_ranks, Config, MaterialInput};
 
 fn signal_of(name: &str) -> PyResult<Signal> {
     let names = [
@@ -54,10 +53,7 @@ fn models_of(obj: Option<&Bound<'_, PyAny>>, default: &[&str]) -> PyResult<Vec<S
         )));
     }
     if names.iter().any(|m| m == "all") {
-        return Ok(kernel_compare::FAMILIES
-            .iter()
-            .map(|s| s.to_string())
-            .collect());
+        return Ok(FAMILIES.iter().map(|s| s.to_string()).collect());
     }
     Ok(names)
 }
@@ -118,10 +114,9 @@ fn compare<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let inputs = inputs(profiles)?;
     // Disk kernels are not separable: rows of their own, as the CLI's.
-    let (disks, families): (Vec<String>, Vec<String>) =
-        models_of(models, &kernel_compare::FAMILIES)?
-            .into_iter()
-            .partition(|f| f == DISK);
+    let (disks, families): (Vec<String>, Vec<String>) = models_of(models, &FAMILIES)?
+        .into_iter()
+        .partition(|f| f == DISK);
     let mut cases = Vec::new();
     for s in &signals {
         cases.push(ImageCase::signal(signal_of(s)?, signal_size, mm_per_pixel).map_err(to_py)?);
@@ -139,7 +134,9 @@ fn compare<'py>(
         keep: None,
         extent_mm: extent,
     };
-    let cmp = interruptible(py, |progress| kernel_compare::run(&inputs, &cfg, progress))?;
+    let cmp = interruptible(py, |progress| {
+        ssskit::report::eval::compare::kernel::run(&inputs, &cfg, progress)
+    })?;
     let mut rows: Vec<serde_json::Value> =
         cmp.rows.iter().map(to_value).collect::<PyResult<_>>()?;
     if !disks.is_empty() {
@@ -226,7 +223,7 @@ fn advise_kernel<'py>(
         }
     };
     let mm = view.mm_per_pixel().map_err(to_py)?;
-    ssskit::report::eval::advise_disk::check_frames(frames).map_err(to_py)?;
+    check_frames(frames).map_err(to_py)?;
     let mut profile = profile_of(profile)?;
     if !factors {
         // Said on the profile, as the CLI's --no-factors does, so that the
@@ -241,7 +238,7 @@ fn advise_kernel<'py>(
         max_samples: max_samples.filter(|&n| n > 0),
         max_taps: max_taps.filter(|&n| n > 0),
     };
-    cfg.families = models_of(models, &advise::FAMILIES)?;
+    cfg.families = models_of(models, &advise::ADVISED_FAMILIES)?;
     let advice = interruptible(py, |progress| advise::advise(&profile, &cfg, progress))?;
     if !advice.warnings.is_empty() {
         let warn = py.import("warnings")?;

@@ -9,7 +9,7 @@ use anyhow::Context;
 use ssskit::filter::angular::around_pass;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
 use ssskit::filter::kernel_setup::kernel_setup;
-use ssskit::filter::{cpu, gpu, FollowSurface, Image, Plane, Scale, Setup};
+use ssskit::filter::{cpu, exact, gpu, separable, FollowSurface, Image, Plane, Scale, Setup};
 use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
 use std::path::{Path, PathBuf};
@@ -22,11 +22,11 @@ pub enum Precision {
     F64,
 }
 
-impl From<Precision> for cpu::Precision {
-    fn from(p: Precision) -> cpu::Precision {
+impl From<Precision> for separable::Precision {
+    fn from(p: Precision) -> separable::Precision {
         match p {
-            Precision::F32 => cpu::Precision::F32,
-            Precision::F64 => cpu::Precision::F64,
+            Precision::F32 => separable::Precision::F32,
+            Precision::F64 => separable::Precision::F64,
         }
     }
 }
@@ -40,11 +40,11 @@ pub enum Sampling {
     Centre,
 }
 
-impl From<Sampling> for cpu::PixelSampling {
-    fn from(s: Sampling) -> cpu::PixelSampling {
+impl From<Sampling> for exact::PixelSampling {
+    fn from(s: Sampling) -> exact::PixelSampling {
         match s {
-            Sampling::Average => cpu::PixelSampling::Average,
-            Sampling::Centre => cpu::PixelSampling::Centre,
+            Sampling::Average => exact::PixelSampling::Average,
+            Sampling::Centre => exact::PixelSampling::Centre,
         }
     }
 }
@@ -449,7 +449,7 @@ fn view_of(
 /// else the CPU), saying which on stderr. The CPU filters the image in
 /// place (the peak stays near the image itself; docs/filter.md).
 fn filter(args: &Args, mut image: Image, setup: &Setup) -> anyhow::Result<Image> {
-    let precision = cpu::Precision::from(args.precision);
+    let precision = separable::Precision::from(args.precision);
     let cpu_path = if setup.is_uniform() {
         format!("fixed kernels, {precision:?}").to_lowercase()
     } else {
@@ -534,26 +534,27 @@ fn run_reference(
         anyhow::bail!("--reference runs on the CPU only (use --backend cpu or auto)");
     }
     let profile = Profile::read(reference)?;
-    let sampling = cpu::PixelSampling::from(args.reference_sampling.unwrap_or(Sampling::Average));
-    let k = cpu::reference_kernel_sampled(&profile, m, sampling)?;
-    cpu::check_reference_fits(image.width, image.height, k.size)?;
+    let sampling = exact::PixelSampling::from(args.reference_sampling.unwrap_or(Sampling::Average));
+    let k = exact::reference_kernel_sampled(&profile, m, sampling)?;
+    exact::check_reference_fits(image.width, image.height, k.size)?;
     eprintln!(
         "exact 2D kernel: {0}x{0} pixels of {m} mm ({1}; {2})",
         k.size,
-        if k.size > cpu::FFT_ABOVE {
+        if k.size > exact::FFT_ABOVE {
             "FFT"
         } else {
             "direct"
         },
         match sampling {
-            cpu::PixelSampling::Average =>
+            exact::PixelSampling::Average =>
                 "averaged over each pixel; compare, advise and kernels score against \
                  --reference-sampling centre, another discretisation, which diff then \
                  reproduces",
-            cpu::PixelSampling::Centre => "at pixel centres, as compare, advise and kernels score",
+            exact::PixelSampling::Centre =>
+                "at pixel centres, as compare, advise and kernels score",
         }
     );
-    Ok(cpu::convolve_2d(image, &k))
+    Ok(exact::convolve_2d(image, &k))
 }
 
 fn load_plane(path: Option<&Path>, sanitize: bool, what: &str) -> anyhow::Result<Option<Plane>> {

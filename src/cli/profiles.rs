@@ -12,7 +12,7 @@ use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model};
 use ssskit::profile::mc::{self, PhotonBudget};
 use ssskit::profile::source::{make_profile_on, ProfileSource};
-use ssskit::report::eval::profile_compare as compare;
+use ssskit::report::eval::compare::profile as compare;
 use ssskit::report::present::{plot, profile_tables};
 
 pub type Args = args::Group<What>;

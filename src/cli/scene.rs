@@ -255,8 +255,8 @@ fn write_gbuffer(path: &Path, scene: &Scene, r: &Render) -> anyhow::Result<()> {
         ("N.Y", &view[1]),
         ("N.Z", &view[2]),
     ];
-    let cos = ssskit::report::eval::scene_score::cosines(scene, r);
-    if ssskit::report::eval::scene_compare::angular_obstacle(scene).is_none() {
+    let cos = ssskit::report::eval::scene::score::cosines(scene, r);
+    if ssskit::report::eval::scene::compare::angular_obstacle(scene).is_none() {
         if let Some(nl) = &cos.n_dot_l {
             planes.push(("NdotL", nl));
         }

@@ -27,7 +27,7 @@ pub(super) struct CompareArgs<'a> {
     pub plots: bool,
     pub out: &'a Path,
     /// The light-space directional method's rows (None: not run).
-    pub directional: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
+    pub directional: Option<ssskit::report::eval::scene::directional::DirectionalConfig>,
 }
 
 /// The light-space method's checks on the scene, before any work: its
@@ -36,8 +36,8 @@ pub(super) struct CompareArgs<'a> {
 fn directional_preflight(
     scene: &Scene,
     r: &Render,
-    cfg: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
-) -> Option<ssskit::report::eval::directional_scene::DirectionalConfig> {
+    cfg: Option<ssskit::report::eval::scene::directional::DirectionalConfig>,
+) -> Option<ssskit::report::eval::scene::directional::DirectionalConfig> {
     let d = cfg?;
     let most = d.samples.iter().copied().max().unwrap_or(1);
     let side = r.info.config.gbuffer_side;
@@ -66,7 +66,7 @@ fn angular_factors(
     if photons == 0 {
         return Ok(None);
     }
-    if let Some(why) = ssskit::report::eval::scene_compare::angular_obstacle(scene) {
+    if let Some(why) = ssskit::report::eval::scene::compare::angular_obstacle(scene) {
         super::errors::warn(&format!("{why}: no angular rows"));
         return Ok(None);
     }
@@ -80,11 +80,11 @@ fn angular_factors(
 /// light-space block (or why the scene has none) and the transmission's.
 fn scene_json(
     scene: &std::path::Path,
-    cmp: &ssskit::report::eval::scene_compare::SceneComparison,
+    cmp: &ssskit::report::eval::scene::compare::SceneComparison,
     r: &ssskit::scene::Render,
     transmission: Option<serde_json::Value>,
 ) -> anyhow::Result<serde_json::Value> {
-    use ssskit::report::eval::scene_compare::dominance;
+    use ssskit::report::eval::scene::compare::dominance;
     Ok(serde_json::json!({
         "scene": scene.display().to_string(),
         "dominance": dominance(cmp),
@@ -109,7 +109,7 @@ fn scene_json(
 /// scene's G-buffer against its path-traced image; writes scene.md,
 /// scene.json, record.json and the contact sheet.
 pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
-    use ssskit::report::eval::scene_compare::{compare_scene, SceneConfig};
+    use ssskit::report::eval::scene::compare::{compare_scene, SceneConfig};
     use ssskit::report::present::record::{machine_line, Record};
     use ssskit::report::present::scene_tables::{contact_sheet, named_tables, page};
     let (scene, r, profiles) = scene_and_render(a.scene, a.render)?;
@@ -208,15 +208,15 @@ pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
 /// for by flag first, then the directional verdict (the first line when no
 /// table is asked for), the head and the main table.
 fn print_compare(
-    cmp: &ssskit::report::eval::scene_compare::SceneComparison,
+    cmp: &ssskit::report::eval::scene::compare::SceneComparison,
     back: Option<&(
-        ssskit::report::eval::scene_transmission::TransmissionComparison,
+        ssskit::report::eval::scene::transmission::TransmissionComparison,
         ssskit::report::present::table::Table,
     )>,
     head: &str,
     tables: &[(&str, ssskit::report::present::table::Table)],
 ) -> anyhow::Result<()> {
-    use ssskit::report::eval::scene_compare::dominance;
+    use ssskit::report::eval::scene::compare::dominance;
     use ssskit::report::present::directional_tables as dt;
     if let Some((b, t)) = back {
         outln!("{}\n\n{}\n", b.headline, t.markdown())?;

@@ -400,7 +400,7 @@ pub(super) fn scene_block(
     table: &std::path::Path,
     ppd: f64,
 ) -> anyhow::Result<(
-    ssskit::report::eval::scene_transmission::TransmissionComparison,
+    ssskit::report::eval::scene::transmission::TransmissionComparison,
     ssskit::report::present::table::Table,
 )> {
     let t = ThicknessTable::read(table)
@@ -411,7 +411,7 @@ pub(super) fn scene_block(
         let reflect = engine::fit(e, profile, s)?;
         fits.extend(et::fit(e, &reflect, &t, s)?);
     }
-    let cmp = ssskit::report::eval::scene_transmission::compare_transmission(
+    let cmp = ssskit::report::eval::scene::transmission::compare_transmission(
         scene, render, &t, &fits, ppd,
     )
     .with_context(|| format!("--transmission {}", table.display()))?;

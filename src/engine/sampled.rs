@@ -29,7 +29,7 @@ use super::sampling::{
 use super::{EngineFit, Scene, Version};
 use crate::error::{Error, Result};
 use crate::filter::disk_error::{frames_error, full_reference, truncated, DiskError};
-use crate::filter::image::par_planes;
+use crate::filter::rows::par_planes;
 use crate::filter::Image;
 use serde::Serialize;
 

@@ -4,7 +4,7 @@
 //! [`super::disk::apply_disk`] (f64) within [`disk_f32_tolerance`].
 
 use super::disk::DiskSetup;
-use super::gpu::{check_binding, ign_constants, plane_or_ones, rgba};
+use super::gpu::{check_binding, ign_constants, plane_or_ones, rgba, IGN_WGSL};
 use super::Image;
 use crate::error::Result;
 use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
@@ -184,7 +184,7 @@ fn shared_constants() -> Vec<(&'static str, u32)> {
 
 fn shader_source() -> String {
     let consts = wgsl_u32_consts(&shared_constants());
-    [&consts, WGSL_WIDE_MUL, DiskParams::WGSL, SHADER].join("\n")
+    [&consts, WGSL_WIDE_MUL, IGN_WGSL, DiskParams::WGSL, SHADER].join("\n")
 }
 
 #[cfg(test)]

@@ -9,6 +9,10 @@ use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
 
+/// The interleaved gradient noise of both screen-space passes' shaders
+/// (after `WGSL_WIDE_MUL` and [`ign_constants`]).
+pub(super) const IGN_WGSL: &str = include_str!("../../shaders/ign.wgsl");
+
 /// A device with the pass pipeline compiled.
 pub struct Gpu {
     ctx: GpuContext,
@@ -339,7 +343,7 @@ pub(super) fn plane_or_ones(p: Option<&super::Plane>, n: usize) -> Vec<f32> {
 /// wide product, the uniform block).
 fn shader_source() -> String {
     let consts = wgsl_u32_consts(&shared_constants());
-    [&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER].join("\n")
+    [&consts, WGSL_WIDE_MUL, IGN_WGSL, Params::WGSL, SHADER].join("\n")
 }
 
 /// The bound resources of one image and setup.
@@ -393,15 +397,14 @@ mod tests {
         bad
     }
 
-    /// sss_pass.wgsl names every constant it shares with Rust and spells
-    /// none of their values, so a constant changed on one side only cannot
+    /// sss_pass.wgsl with the noise it shares with the disk pass (ign.wgsl)
+    /// names every constant it shares with Rust and spells none of their
+    /// values, so a constant changed on one side only cannot
     /// go unnoticed; the check itself catches a value written back in.
     #[test]
     fn the_shader_spells_no_shared_constant() {
-        assert_eq!(
-            spelled_shared_constants(super::SHADER),
-            Vec::<String>::new()
-        );
+        let bodies = [super::IGN_WGSL, super::SHADER].join("\n");
+        assert_eq!(spelled_shared_constants(&bodies), Vec::<String>::new());
         for (from, to) in [
             ("IGN_WHOLE * inner", "52u * inner"),
             ("f32(1u << JITTER_BITS)", "16777216.0"),
@@ -410,8 +413,8 @@ mod tests {
                 "@workgroup_size(8, 8, 1)",
             ),
         ] {
-            assert!(super::SHADER.contains(from), "{from}");
-            let mutated = super::SHADER.replace(from, to);
+            assert!(bodies.contains(from), "{from}");
+            let mutated = bodies.replace(from, to);
             assert!(
                 !spelled_shared_constants(&mutated).is_empty(),
                 "{to} passed"

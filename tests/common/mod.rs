@@ -11,6 +11,7 @@ pub mod adding_doubling;
 pub mod backlit_meshes;
 pub mod golden;
 pub mod half_space;
+pub mod mcml;
 pub mod shader;
 pub mod skin1;
 
@@ -61,6 +62,51 @@ pub fn run_in(dir: &Path, args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("the binary runs")
+}
+
+/// The one spelling of a plain filter `Setup` the tests and benches
+/// share: `passes` at `mm_per_pixel`, no depth, strength, follow-surface,
+/// specular or jitter (change a field with `Setup { .., ..plain_setup() }`).
+pub fn plain_setup(passes: Vec<ssskit::filter::Taps>, mm_per_pixel: f64) -> ssskit::filter::Setup {
+    ssskit::filter::Setup {
+        passes,
+        scale: ssskit::filter::Scale::MmPerPixel(mm_per_pixel),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+        jitter: false,
+    }
+}
+
+/// A depth-aware `Setup`: `passes` under a perspective camera of vertical
+/// field of view `fov_y_deg` and SSS width `sss_width` (scene units per
+/// kernel mm), `depth` per pixel and the follow-surface lerp `follow`.
+pub fn perspective_setup(
+    passes: Vec<ssskit::filter::Taps>,
+    (fov_y_deg, sss_width): (f64, f64),
+    depth: ssskit::filter::Plane,
+    follow: ssskit::filter::FollowSurface,
+) -> ssskit::filter::Setup {
+    ssskit::filter::Setup {
+        scale: ssskit::filter::Scale::Perspective {
+            fov_y_deg,
+            sss_width,
+        },
+        depth: Some(depth),
+        follow_surface: Some(follow),
+        ..plain_setup(passes, 1.0)
+    }
+}
+
+/// Runs `cmd` (any program; `what` names it in messages), which must
+/// succeed; its output.
+pub fn output_ok(cmd: &mut Command, what: &str) -> Output {
+    let o = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what} does not run: {e}"));
+    assert!(o.status.success(), "{what} failed: {}", stderr(&o));
+    o
 }
 
 pub fn stderr(o: &Output) -> String {
@@ -219,6 +265,25 @@ pub fn committed_profile(material: &str) -> std::path::PathBuf {
 }
 
 /// `ssskit diff A B --json`'s relative RMS per channel.
+/// `ssskit advise --json` on the committed skin1 profile at
+/// `mm_per_pixel`, 64-pixel signals, and `extra`: its answer and stderr.
+pub fn advise_skin1_at(mm_per_pixel: &str, extra: &[&str]) -> (serde_json::Value, String) {
+    let profile = committed_profile("skin1");
+    let mut args = vec![
+        "advise",
+        "--profile",
+        p(&profile),
+        "--mm-per-pixel",
+        mm_per_pixel,
+        "--signal-size",
+        "64",
+        "--json",
+    ];
+    args.extend(extra);
+    let (out, err) = ok_both(&args);
+    (serde_json::from_str(&out).unwrap(), err)
+}
+
 pub fn diff_channels(a: &Path, b: &Path) -> [f64; 3] {
     let (out, _) = ok_both(&["diff", p(a), p(b), "--json"]);
     let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
@@ -570,7 +635,7 @@ pub fn compare_scene(toml: &Path, exr: &Path, out: &Path, extra: &[&str]) -> (St
     ok_both(&args)
 }
 
-/// The percentages of a ranking (`scene_score::ranking`'s numbered lines,
+/// The percentages of a ranking (`scene::score::ranking`'s numbered lines,
 /// "  1.  21.30%  what") among `lines`, in their order, as fractions.
 pub fn ranked_fractions<'a>(lines: impl IntoIterator<Item = &'a str>) -> Vec<f64> {
     lines

@@ -69,7 +69,7 @@ pub fn simulate_with(
     progress: &dyn Progress,
 ) -> Result<Profile> {
     let start = std::time::Instant::now();
-    material.validate(&format!("material '{}'", material.name))?;
+    material.validate_named()?;
     validate_config(cfg, opts)?;
     let (grid, grid_rule) = run_grid(material, cfg);
     grid.check_edges()?;

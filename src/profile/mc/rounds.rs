@@ -2,8 +2,9 @@
 //! [`super::streams`]): the work cap inside a round, the budget rules checked between rounds, and each
 //! channel's convergence.
 
+use super::consumer::provisional_geometry;
 use super::tally::{convergence_of, densities};
-use super::transmit::{tr_floor_ratio, tr_rule_error, tr_statuses, TrStatus};
+use super::transmit::{budget_error, tr_floor_ratio, tr_rule_error, tr_statuses, TrStatus};
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -519,11 +520,7 @@ pub(super) fn round_len(done: u64, ratio: f64) -> u64 {
 
 /// The error a target-error rule compares with its target.
 pub(super) fn rule_error(budget: &PhotonBudget, s: &Status) -> f64 {
-    match budget {
-        PhotonBudget::Fixed(_) => 0.0,
-        PhotonBudget::TargetError { .. } => s.rel_total.max(s.rel_profile),
-        PhotonBudget::KernelFactor { .. } => s.rel_total.max(s.rel_factor),
-    }
+    budget_error(budget, s.rel_total, s.rel_profile, s.rel_factor)
 }
 
 /// The status of every channel and the default kernel grid they imply
@@ -536,35 +533,15 @@ pub(super) fn statuses(
 ) -> (Vec<Status>, Option<KernelGeometry>) {
     let t: Vec<ChunkTally> = tallies.iter().map(ExactTally::to_f64).collect();
     let areas = grid.areas();
-    let provisional = Profile {
-        schema: PROFILE_SCHEMA.into(),
-        material: material.clone(),
-        units: "mm".into(),
-        source: Source {
-            kind: "monte-carlo".into(),
-            photons: None,
-            seed: None,
-            model: None,
-            params: serde_json::Value::Null,
-        },
-        channels: channels.to_vec(),
-        r_edges: grid.edges.clone(),
-        r: grid.centres(),
-        rd: t
-            .iter()
+    let geometry = provisional_geometry(
+        material,
+        channels,
+        grid,
+        t.iter()
             .map(|t| densities(&t.rd_bins.sum, t.photons, &areas))
             .collect(),
-        rd_stderr: None,
-        total_rd: t.iter().map(|t| t.rd.mean(t.photons)).collect(),
-        total_rd_stderr: None,
-        specular: vec![],
-        transmittance: None,
-        transmittance_stderr: None,
-        absorbed: None,
-        extra: serde_json::Value::Null,
-        elapsed_s: 0.0,
-    };
-    let geometry = kernel_geometry(&provisional);
+        t.iter().map(|t| t.rd.mean(t.photons)).collect(),
+    );
     let projection = geometry.map(|g| Projection::new(&grid.edges, &g));
     let tr = tr_statuses(material, channels, grid, &t);
     let s = t

@@ -6,11 +6,12 @@
 use super::number::sig;
 use crate::kernel::taps::hold_for_taps;
 use crate::numerics::Bounded;
+use crate::report::eval::advise::decide::{tie, Cost};
+use crate::report::eval::advise::disk::disk_text;
 use crate::report::eval::advise::{
     Advice, Candidate, ExtentRule, Remedy, COARSER_SCALES, FULL_MAX_PIXELS, NOISE_K,
 };
-use crate::report::eval::advise_decide::{tie, Cost};
-use crate::report::eval::advise_disk::{disk_text, DISK_SAMPLES};
+use crate::report::eval::disk::DISK_SAMPLES;
 use std::cmp::Ordering;
 
 /// The rule behind the automatic extent, for the record.

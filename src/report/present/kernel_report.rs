@@ -1,4 +1,4 @@
-//! The written results of a kernel comparison ([`crate::report::eval::kernel_compare`]):
+//! The written results of a kernel comparison ([`crate::report::eval::compare::kernel`]):
 //! tables raw and normalised the way Freude 2014 prints tables 6.3-6.5 (the
 //! largest per-channel error of a table is 1, the last column sums the
 //! three channels), the thesis's claims checked on the rows with the
@@ -13,12 +13,11 @@
 use super::number::sig;
 use super::table::Table;
 use crate::engine::method::SubsurfaceMethod;
+use crate::filter::Which;
 use crate::numerics::Bounded;
-use crate::report::eval::claims::{claims, Claim};
-use crate::report::eval::engine_tables::{EngineTables, Shape};
-use crate::report::eval::kernel_compare::{
-    gaussians_rms, grouped, image_rms, Comparison, Factor, Row,
-};
+use crate::report::eval::compare::claims::{claims, Claim};
+use crate::report::eval::compare::engine_tables::{EngineTables, Shape};
+use crate::report::eval::compare::kernel::{gaussians_rms, grouped, image_rms, Comparison, Row};
 use std::fmt::Write as _;
 
 /// Per (material, label), three channel values.
@@ -58,7 +57,7 @@ pub fn error_table(rows: &[Row], value: impl Fn(&Row) -> Option<f64>) -> Table {
 
 /// Image-space table for one signal and factor: relative RMS raw and
 /// normalised, FLIP per channel and of the colour image.
-pub fn image_table(rows: &[Row], signal: &str, factor: Factor) -> Table {
+pub fn image_table(rows: &[Row], signal: &str, factor: Which) -> Table {
     let rms = triples(rows, |r| r.image_error(signal, factor).map(|e| e.rel_rms));
     let flip = triples(rows, |r| r.image_error(signal, factor).map(|e| e.flip));
     let flip_rgb: Vec<f64> = grouped(rows)
@@ -99,13 +98,7 @@ pub fn image_table(rows: &[Row], signal: &str, factor: Factor) -> Table {
 /// SSSS renderer normalises every kernel) against N Gaussians (renormalised
 /// too when available), image-space
 /// relative RMS normalised over the table.
-pub fn ranks_table(
-    rows: &[Row],
-    material: &str,
-    ranks: &[usize],
-    signal: &str,
-    f: Factor,
-) -> Table {
+pub fn ranks_table(rows: &[Row], material: &str, ranks: &[usize], signal: &str, f: Which) -> Table {
     let mut t = Table::new(&[
         "rank / count",
         "SVD R",
@@ -167,7 +160,7 @@ pub fn claims_table(claims: &[Claim]) -> Table {
 
 /// Timings (outside the checked blocks): fit seconds and filter
 /// milliseconds per megapixel on the first signal.
-pub fn timing_table(rows: &[Row], signal: &str, factors: &[Factor]) -> Table {
+pub fn timing_table(rows: &[Row], signal: &str, factors: &[Which]) -> Table {
     let mut header = vec!["material".to_string(), "model".into(), "fit s".into()];
     header.extend(factors.iter().map(|f| format!("ms/MP {}", f.describe())));
     let mut t = Table {
@@ -246,7 +239,7 @@ fn shape_cell(s: &Option<Shape>) -> String {
 }
 
 /// Per material, the shape errors of the engine models fitted to its
-/// profile and of the forward Burley model (`report::eval::engine_tables`).
+/// profile and of the forward Burley model (`report::eval::compare::engine_tables`).
 pub fn engine_table(t: &EngineTables) -> Table {
     let mut table = Table::new(&[
         "material",
@@ -299,7 +292,7 @@ pub fn burley_engine_table(t: &EngineTables) -> Table {
 pub struct ReportContext<'a> {
     pub command: &'a str,
     pub signals: &'a [String],
-    pub factors: &'a [Factor],
+    pub factors: &'a [Which],
     pub ranks: &'a [usize],
     pub options: &'a crate::report::eval::evaluate::Options,
 }
@@ -409,10 +402,10 @@ pub fn report(cmp: &Comparison, ctx: &ReportContext, engines: &EngineTables) -> 
 }
 
 /// Block name of an image table: "image-edge-full", "image-edge-taps17".
-pub fn factor_block(signal: &str, f: Factor) -> String {
+pub fn factor_block(signal: &str, f: Which) -> String {
     match f {
-        Factor::Full => format!("image-{signal}-full"),
-        Factor::Taps(n) => format!("image-{signal}-taps{n}"),
+        Which::Full => format!("image-{signal}-full"),
+        Which::Taps(n) => format!("image-{signal}-taps{n}"),
     }
 }
 

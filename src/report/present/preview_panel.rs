@@ -1,4 +1,4 @@
-//! The material's preview ([`crate::report::eval::preview`]) as a
+//! The material's preview ([`crate::report::eval::ship::preview`]) as a
 //! reader sees it: one PNG of three tiles (the path trace, what ships
 //! through the screen-space pass, no blur), each above its difference from
 //! the path trace (the path trace above its own noise), and the lines of
@@ -11,7 +11,7 @@ use super::sheet::{draw_sheet_in, SheetLayout, SheetTile};
 use crate::error::Result;
 use crate::filter::diff::false_colour;
 use crate::filter::Image;
-use crate::report::eval::preview::{Preview, PreviewRow, WINDOW};
+use crate::report::eval::ship::preview::{Preview, PreviewRow, WINDOW};
 use std::path::Path;
 
 /// Each pixel of the preview becomes a MAGNIFY x MAGNIFY block (nearest

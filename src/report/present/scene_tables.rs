@@ -1,6 +1,6 @@
 //! The scene comparison as a reader sees it: its tables (summary, regions,
 //! noise, the angular factors), the markdown page that shows them and the
-//! contact sheet; the numbers come from [`super::scene_compare`].
+//! contact sheet; the numbers come from [`crate::report::eval::scene::compare`].
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
@@ -9,7 +9,8 @@ use super::table::Table;
 use crate::error::Result;
 use crate::kernel::angular::AngularFactors;
 use crate::report::eval::evaluate::exposure_of;
-use crate::report::eval::scene_compare::{dominance, SceneComparison, REGIONS};
+use crate::report::eval::scene::compare::{dominance, SceneComparison};
+use crate::report::eval::scene::score::REGIONS;
 
 fn pct(v: f64) -> String {
     if v.is_finite() {

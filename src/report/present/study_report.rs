@@ -160,7 +160,7 @@ pub fn panels(study: &Study) -> Vec<ParetoPanel> {
         ParetoPanel {
             title: format!(
                 "{m}: kernel model (17 taps; disk: after {} frames)",
-                crate::report::eval::advise_types::DEFAULT_FRAMES
+                crate::report::eval::disk::DEFAULT_FRAMES
             ),
             x_label: spp.into(),
             y_label: "image rel. RMS".into(),

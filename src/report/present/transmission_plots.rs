@@ -267,7 +267,7 @@ pub fn csv(t: &ThicknessTable) -> String {
 /// relative RMS and bias over the seen pixels (r / g / b) and FLIP, and the
 /// relative RMS where the surface faces away from the light.
 pub fn scene_table(
-    cmp: &crate::report::eval::scene_transmission::TransmissionComparison,
+    cmp: &crate::report::eval::scene::transmission::TransmissionComparison,
 ) -> super::table::Table {
     let mut t = super::table::Table::new(&[
         "back-lit object: what the camera gets",
@@ -305,7 +305,7 @@ pub fn scene_table(
 /// The back-lit block's images: the path-traced image, then each row above
 /// its difference from it (white = `SCENE_DIFF_SCALE` of the peak).
 pub fn scene_sheet(
-    cmp: &crate::report::eval::scene_transmission::TransmissionComparison,
+    cmp: &crate::report::eval::scene::transmission::TransmissionComparison,
     truth: &crate::filter::Image,
     title: &str,
     out: &Path,

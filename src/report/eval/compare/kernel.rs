@@ -2,7 +2,7 @@
 //! (Freude 2014, tables 6.3, 6.4 and 6.5): for every material x model x
 //! channel, the kernel metrics of the fit (kernel RMS, 1-norm error,
 //! asymmetry, passes, fit time) and the image-space errors of
-//! [`super::evaluate`] on each test image, with the full factors and each
+//! [`crate::report::eval::evaluate`] on each test image, with the full factors and each
 //! tap table.
 //!
 //! Work is spread over (material, model) pairs with rayon; every number
@@ -12,9 +12,9 @@
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use super::evaluate::{self, Exact, ImageCase, KernelImageErrors, Options, Which};
 use crate::error::{Error, Result};
 use crate::filter::Image;
+use crate::filter::Which;
 use crate::kernel::guided::GuidedParams;
 use crate::kernel::jimenez::JimenezParams;
 use crate::kernel::model::{assemble, fit_model, Fitted as ModelFit};
@@ -22,6 +22,7 @@ use crate::kernel::preintegrate::PreMethod;
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile, Model};
 use crate::profile::Profile;
 use crate::progress::{Clock, Progress};
+use crate::report::eval::evaluate::{self, Exact, ImageCase, KernelImageErrors, Options};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -493,17 +494,13 @@ fn rows_of(f: &Fitted) -> Vec<Row> {
         .collect()
 }
 
-/// Which image-space error a table shows: the one enum of the full
-/// factors or an N-tap table ([`evaluate::Which`]).
-pub use super::evaluate::Which as Factor;
-
 impl Row {
     /// The image-space errors of `signal` with `factor`, if evaluated.
-    pub fn image_error(&self, signal: &str, factor: Factor) -> Option<&ChannelImageError> {
+    pub fn image_error(&self, signal: &str, factor: Which) -> Option<&ChannelImageError> {
         let s = self.image.get(signal)?;
         match factor {
-            Factor::Full => Some(&s.full),
-            Factor::Taps(n) => s.taps.get(&n.to_string()),
+            Which::Full => Some(&s.full),
+            Which::Taps(n) => s.taps.get(&n.to_string()),
         }
     }
 }
@@ -536,7 +533,7 @@ pub(crate) fn image_rms(
     material: &str,
     label: &str,
     signal: &str,
-    f: Factor,
+    f: Which,
 ) -> Option<[f64; 3]> {
     let r = find(rows, material, label)?;
     Some([
@@ -553,7 +550,7 @@ pub(crate) fn gaussians_rms(
     material: &str,
     n: usize,
     signal: &str,
-    f: Factor,
+    f: Which,
 ) -> Option<[f64; 3]> {
     image_rms(rows, material, &format!("gaussians{n}-renorm"), signal, f)
         .or_else(|| image_rms(rows, material, &format!("gaussians{n}"), signal, f))

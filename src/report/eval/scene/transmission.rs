@@ -8,13 +8,13 @@
 //! thickness table (T of a slab as thick as the shadow map's or the
 //! thickness map's thickness). The transmitted radiance is E / pi x the
 //! formula's pi L / E at each pixel, times the pixel's coverage. Scored
-//! as `compare --scene` scores its rows (`scene_score`), in a block of its
+//! as `compare --scene` scores its rows (`scene::score`), in a block of its
 //! own.
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use super::scene_score::{region_masks, RegionError, Scorer};
+use super::score::{region_masks, RegionError, Scorer};
 use crate::engine::transmission::{ThicknessSource, TransmissionFit};
 use crate::error::{Error, Result};
 use crate::filter::Image;

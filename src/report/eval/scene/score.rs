@@ -1,13 +1,13 @@
 //! Scoring an image against the path-traced truth of a scene, by region:
 //! the pixels' cosines with the light and the view, the regions they
-//! define (see [`super::scene_compare`]'s definitions) and the per-region
+//! define (see [`super::compare`]'s definitions) and the per-region
 //! relative RMS, bias, noise floor and FLIP.
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use super::evaluate::{exposure_of, flip_map, tone_map};
 use crate::filter::Image;
+use crate::report::eval::evaluate::{exposure_of, flip_map, tone_map};
 use crate::scene::{Render, Scene};
 use serde::{Deserialize, Serialize};
 
@@ -71,7 +71,7 @@ pub fn region_masks(scene: &Scene, render: &Render) -> Vec<Vec<bool>> {
     masks_of(&cosines(scene, render), &render.gbuffer.coverage)
 }
 
-pub(super) fn masks_of(cos: &Cosines, coverage: &[f64]) -> Vec<Vec<bool>> {
+pub(in crate::report::eval) fn masks_of(cos: &Cosines, coverage: &[f64]) -> Vec<Vec<bool>> {
     let n = coverage.len();
     let mut masks = vec![vec![false; n]; REGIONS.len()];
     for i in 0..n {
@@ -90,7 +90,7 @@ pub(super) fn masks_of(cos: &Cosines, coverage: &[f64]) -> Vec<Vec<bool>> {
 }
 
 /// The 99th percentile of `v` over `mask` (0 when empty).
-pub(super) fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
+pub(in crate::report::eval) fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
     let mut x: Vec<f64> = v
         .iter()
         .zip(mask)
@@ -111,7 +111,7 @@ pub(super) fn percentile99(v: &[f64], mask: &[bool]) -> f64 {
 /// 2 sqrt(sum (a - b)^2 s^2) / N; divided by RMS_a + RMS_b it is that of
 /// RMS_a - RMS_b. The noise common to both scores cancels, so two passes
 /// are told apart far below the render's own noise.
-pub(super) fn rms_difference_sigma(
+pub(in crate::report::eval) fn rms_difference_sigma(
     [a, b, stderr]: [&[f64]; 3],
     pixels: impl Iterator<Item = usize>,
     peak: f64,
@@ -130,7 +130,7 @@ pub(super) fn rms_difference_sigma(
 }
 
 /// Scores images against one path-traced truth.
-pub(super) struct Scorer<'a> {
+pub(in crate::report::eval) struct Scorer<'a> {
     truth: &'a Image,
     stderr: &'a [Vec<f64>; 3],
     masks: Vec<Vec<bool>>,
@@ -141,7 +141,7 @@ pub(super) struct Scorer<'a> {
 }
 
 impl<'a> Scorer<'a> {
-    pub(super) fn new(
+    pub(in crate::report::eval) fn new(
         truth: &'a Image,
         stderr: &'a [Vec<f64>; 3],
         masks: Vec<Vec<bool>>,
@@ -167,14 +167,19 @@ impl<'a> Scorer<'a> {
     }
 
     /// The exposure of the tone mapping FLIP sees (the path-traced image's).
-    pub(super) fn exposure(&self) -> f64 {
+    pub(in crate::report::eval) fn exposure(&self) -> f64 {
         self.exposure
     }
 
     /// Per channel, the standard deviation from the truth's noise of
     /// RMS_a - RMS_b over the region `all` ([`rms_difference_sigma`]);
     /// `rms` holds both images' relative RMS there.
-    pub(super) fn difference_sigma(&self, a: &Image, b: &Image, rms: [[f64; 3]; 2]) -> [f64; 3] {
+    pub(in crate::report::eval) fn difference_sigma(
+        &self,
+        a: &Image,
+        b: &Image,
+        rms: [[f64; 3]; 2],
+    ) -> [f64; 3] {
         std::array::from_fn(|c| {
             let pixels = (0..self.masks[0].len()).filter(|&i| self.masks[0][i]);
             let planes = [a.rgb[c].as_slice(), b.rgb[c].as_slice(), &self.stderr[c]];
@@ -182,7 +187,7 @@ impl<'a> Scorer<'a> {
         })
     }
 
-    pub(super) fn score(&self, img: &Image) -> Vec<RegionError> {
+    pub(in crate::report::eval) fn score(&self, img: &Image) -> Vec<RegionError> {
         let ldr = tone_map(img, |i| {
             std::array::from_fn(|c| img.rgb[c][i] * self.exposure)
         });

@@ -3,7 +3,7 @@
 //!
 //! 1. Monte Carlo photons vs profile error vs time: simulations of growing
 //!    photon counts on the reference's radial grid; error = the relative L2
-//!    error of r R_d(r) inside r99 ([`super::profile_compare`]), largest channel.
+//!    error of r R_d(r) inside r99 ([`crate::report::eval::compare::profile`]), largest channel.
 //! 2. Profile model (Monte Carlo, photon beam diffusion, dipole, Burley) vs
 //!    kernel and image error vs time: each profile's 2D kernel on the
 //!    reference's kernel grid against the reference's (kernel RMS), and the
@@ -25,14 +25,8 @@
 //!
 //! Image errors: the largest relative RMS over channels (as `ssskit diff`)
 //! and the colour FLIP, on the edge and shapes signals at one scale
-//! ([`super::evaluate`]); reported as the larger of the two signals.
+//! ([`crate::report::eval::evaluate`]); reported as the larger of the two signals.
 
-use super::advise_disk::{disk_kernel, DISK_SAMPLES, DISK_SEED, WINDOWS};
-use super::advise_types::DEFAULT_FRAMES;
-use super::evaluate::{self, Exact, ImageCase, ImageErrors, Options};
-use super::kernel_compare::{self, Config as CompareConfig, MaterialInput, FAMILIES};
-use super::pipeline::{make_profile_on, ProfileSource};
-use super::profile_compare;
 use crate::error::Result;
 use crate::filter::disk::DiskSetup;
 use crate::filter::disk_error::{disk_error_with_first, view};
@@ -43,8 +37,14 @@ use crate::kernel::preintegrate::PreMethod;
 use crate::kernel::taps::tap_table_with;
 use crate::kernel::{metrics, Kernel2D, Kernel2DSpec, KernelFile, Model};
 use crate::profile::analytic::Model as AnalyticModel;
+use crate::profile::source::{make_profile_on, ProfileSource};
 use crate::profile::{Profile, RadialGrid};
 use crate::progress::{NoProgress, Progress};
+use crate::report::eval::compare;
+use crate::report::eval::compare::kernel::{Config as CompareConfig, MaterialInput, FAMILIES};
+use crate::report::eval::disk::DEFAULT_FRAMES;
+use crate::report::eval::disk::{disk_kernel, DISK_SAMPLES, DISK_SEED, WINDOWS};
+use crate::report::eval::evaluate::{self, Exact, ImageCase, ImageErrors, Options};
 use serde::{Deserialize, Serialize};
 
 /// What to measure.
@@ -143,7 +143,7 @@ fn grid_of(p: &Profile) -> RadialGrid {
     }
 }
 
-fn max_l2(rows: &[profile_compare::Row]) -> f64 {
+fn max_l2(rows: &[compare::profile::Row]) -> f64 {
     rows.iter().map(|r| r.rel_l2_error).fold(0.0, f64::max)
 }
 
@@ -216,7 +216,7 @@ impl<'a> Bench<'a> {
             let source = ProfileSource::photons(n, s.seed);
             let (p, secs) =
                 make_profile_on(&self.reference.material, &source, Some(&grid), &NoProgress)?;
-            let rows = profile_compare::compare(&p, self.reference, secs)?;
+            let rows = compare::profile::compare(&p, self.reference, secs)?;
             entries.push(Entry {
                 section: "photons".into(),
                 config: format!("{n} photons"),
@@ -398,7 +398,7 @@ impl<'a> Bench<'a> {
             name: self.reference.material.name.clone(),
             profile: self.reference.clone(),
         };
-        let cmp = kernel_compare::run(std::slice::from_ref(&input), &cfg, &NoProgress)?;
+        let cmp = compare::kernel::run(std::slice::from_ref(&input), &cfg, &NoProgress)?;
         let mut entries = Vec::new();
         for f in &cmp.fitted {
             let errs: Vec<ImageErrors> = f.images.iter().map(|e| e.taps[&17].clone()).collect();
@@ -429,7 +429,7 @@ impl Bench<'_> {
     /// 6. Disk kernels of [`DISK_SAMPLES`] samples (one pass): the image
     ///    error and FLIP a temporal filter shows after [`DEFAULT_FRAMES`]
     ///    frames, on the first accumulation of that many frames as
-    ///    advise scores it ([`super::advise_disk`]), with the bias and the
+    ///    advise scores it ([`crate::report::eval::advise::disk`]), with the bias and the
     ///    noise after K frames of its worst channel.
     fn disk(&self) -> Result<Vec<Entry>> {
         let k = DEFAULT_FRAMES;

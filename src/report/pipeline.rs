@@ -1,17 +1,12 @@
 //! The main job in one call: from a material to the kernels to ship. A
 //! profile (Monte Carlo to the default kernel-factor rule, or an analytic model), every
 //! kernel model fitted and compared in kernel and image space
-//! ([`super::kernel_compare`]), shader arrays for each, the report with its
-//! plots, and the configuration [`super::advise`] picks at the given scale.
+//! ([`crate::report::eval::compare::kernel`]), shader arrays for each, the report with its
+//! plots, and the configuration [`crate::report::eval::advise`] picks at the given scale.
 
-use super::advise::{self, Advice};
-use super::evaluate::{ImageCase, Options, Which};
-use super::kernel_compare::{self, Comparison, Config, Factor, MaterialInput, Row, FAMILIES};
-use super::preview::{self, Preview, PreviewKernel};
-use super::shipped::{shipped, Shipped};
-use super::stage_times::StageTimes;
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
+use crate::filter::Which;
 use crate::io::{file_stem, join_inside};
 use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::emit::{emit, Lang};
@@ -19,6 +14,13 @@ use crate::kernel::KernelFile;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::{Clock, Progress};
+use crate::report::eval::advise::{self, Advice};
+use crate::report::eval::compare;
+use crate::report::eval::compare::kernel::{Comparison, Config, MaterialInput, Row, FAMILIES};
+use crate::report::eval::evaluate::{ImageCase, Options};
+use crate::report::eval::ship::preview::{self, Preview, PreviewKernel};
+use crate::report::eval::ship::shipped::{shipped, Shipped};
+use crate::report::eval::ship::stage_times::StageTimes;
 use crate::report::present::figures::{self, Figure};
 use crate::report::present::kernel_plots::{self, Recommended};
 use crate::report::present::kernel_report::{self, ReportContext};
@@ -26,10 +28,6 @@ use crate::report::present::ship_report::{self, ShipReport};
 use crate::report::present::{advice_text, engine_section, plot, preview_panel};
 use crate::scene::{Render, Scene};
 use std::path::Path;
-
-pub use crate::profile::source::{
-    make_profile, make_profile_on, ProfileSource, MC_MAX_PHOTONS, MC_MAX_WORK, MC_SEED,
-};
 
 /// Settings of the pipeline.
 #[derive(Clone, Debug)]
@@ -45,7 +43,7 @@ pub struct Settings {
     pub size: usize,
     pub plots: bool,
     /// The engine whose files are written beside recommended.json
-    /// ([`super::engine_step`]).
+    /// ([`crate::report::eval::ship::engine_step`]).
     pub engine: Option<crate::engine::Engine>,
     /// Frames a disk kernel is scored on (`advise::Config::frames`).
     pub frames: u32,
@@ -62,7 +60,7 @@ pub struct Outcome {
     pub files: Vec<String>,
     pub stages: StageTimes,
     /// The engine step, where asked.
-    pub engine: Option<super::engine_step::EngineStep>,
+    pub engine: Option<crate::report::eval::ship::engine_step::EngineStep>,
 }
 
 /// The comparison's files in `dir` but report.md: compare.csv,
@@ -88,7 +86,8 @@ pub fn comparison_files(
 ) -> Result<Written> {
     let mut files = vec!["compare.csv".to_string(), "compare.json".into()];
     let mut figs = Vec::new();
-    let engines = super::engine_tables::engine_tables(&cmp.materials, &cmp.profiles);
+    let engines =
+        crate::report::eval::compare::engine_tables::engine_tables(&cmp.materials, &cmp.profiles);
     let mut md = kernel_report::report(cmp, ctx, &engines);
     let mut names = FileNames::default();
     kernel_report::csv(&cmp.rows).write_csv(&dir.join("compare.csv"))?;
@@ -305,7 +304,7 @@ pub fn run(
         name: name.clone(),
         profile: profile.clone(),
     };
-    let cmp = kernel_compare::run(std::slice::from_ref(&input), &cfg, progress)?;
+    let cmp = compare::kernel::run(std::slice::from_ref(&input), &cfg, progress)?;
     (times.truth, times.fits, times.images) =
         (cmp.seconds.truth, cmp.seconds.fits, cmp.seconds.images);
     times.cpu[1..4].copy_from_slice(&cmp.seconds.cpu);
@@ -328,7 +327,7 @@ pub fn run(
     let ctx = ReportContext {
         command,
         signals: &signal_names,
-        factors: &[Factor::Full, Factor::Taps(settings.taps)],
+        factors: &[Which::Full, Which::Taps(settings.taps)],
         ranks: &ranks,
         options: &options,
     };
@@ -396,7 +395,7 @@ fn advice_on(
 }
 
 /// The engine's fit and files beside the kernel where asked (`kernels
-/// --engine`, [`super::engine_step`]), timed as the engine stage.
+/// --engine`, [`crate::report::eval::ship::engine_step`]), timed as the engine stage.
 fn engine_files(
     settings: &Settings,
     profile: &Profile,
@@ -404,12 +403,12 @@ fn engine_files(
     progress: &dyn Progress,
     times: &mut StageTimes,
     files: &mut Vec<String>,
-) -> Result<Option<super::engine_step::EngineStep>> {
+) -> Result<Option<crate::report::eval::ship::engine_step::EngineStep>> {
     let Some(e) = settings.engine else {
         return Ok(None);
     };
     let t = Clock::start();
-    let step = super::engine_step::run(e, profile, dir, progress)?;
+    let step = crate::report::eval::ship::engine_step::run(e, profile, dir, progress)?;
     files.extend(step.files.iter().map(|f| f.0.clone()));
     times.engine = Some(t.elapsed());
     Ok(Some(step))
@@ -531,7 +530,9 @@ pub fn summary(o: &Outcome, settings: &Settings, source: &str, dir: &Path) -> St
         o.comparison.materials.join(", "),
         settings.mm_per_pixel
     );
-    let rel = |e: &super::evaluate::ImageErrors| e.rel_rms.iter().cloned().fold(0.0, f64::max);
+    let rel = |e: &crate::report::eval::evaluate::ImageErrors| {
+        e.rel_rms.iter().cloned().fold(0.0, f64::max)
+    };
     let _ = writeln!(s, "ship: {}", advice_text::ship_text(a));
     let _ = writeln!(s, "  {}", advice_text::worst_case_text(a));
     if let Some(r) = &a.remedy {

@@ -20,12 +20,12 @@
 //! estimates to within its Monte Carlo error. Analytic profiles have no
 //! standard error: no replicates, zero uncertainty.
 
-use super::evaluate::{round_f32, Exact, ImageCase};
 use crate::error::{Error, Result};
 use crate::filter::diff::RefStack;
 use crate::filter::exact::KernelBank;
-use crate::filter::{cpu, Image, Scale, Setup, Taps};
+use crate::filter::{exact, screen_space, Image, Scale, Setup, Taps};
 use crate::profile::Profile;
+use crate::report::eval::evaluate::{round_f32, Exact, ImageCase};
 use rand_core::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
@@ -99,7 +99,7 @@ const REPLICATE_BYTES: usize = 160 << 20;
 
 /// Per case, the replicate profiles' exact images rounded to f32, in the
 /// order of `reps`: their kernels are integrated together (one radial grid,
-/// [`cpu::reference_kernels`]) and their convolutions share their
+/// [`exact::reference_kernels`]) and their convolutions share their
 /// transforms ([`KernelBank`], two kernels a spectrum), a group of
 /// replicates at a time within [`REPLICATE_BYTES`]. The groups hold whole
 /// pairs and pad as one bank of all would, so each image is the one bank's,
@@ -112,7 +112,7 @@ fn replicate_images(reps: &[Profile], cases: &[ImageCase], scale: f64) -> Result
     let (w, h) = (first.image.width, first.image.height);
     let sizes: Vec<usize> = reps
         .iter()
-        .map(|p| cpu::reference_size(p, scale))
+        .map(|p| exact::reference_size(p, scale))
         .collect::<Result<_>>()?;
     let widest = sizes.iter().copied().max().unwrap_or(1);
     let half = widest / 2;
@@ -120,7 +120,7 @@ fn replicate_images(reps: &[Profile], cases: &[ImageCase], scale: f64) -> Result
     let per = 3 * widest * widest * 8 + KernelBank::pair_bytes(w, h, half) / 2;
     let group = (REPLICATE_BYTES / per.max(1)).max(2) & !1;
     for chunk in reps.chunks(group) {
-        let kernels = cpu::reference_kernels(&chunk.iter().collect::<Vec<_>>(), scale)?;
+        let kernels = exact::reference_kernels(&chunk.iter().collect::<Vec<_>>(), scale)?;
         let bank = KernelBank::with_half(&kernels.iter().collect::<Vec<_>>(), w, h, half);
         drop(kernels);
         for (images, case) in out.iter_mut().zip(cases) {
@@ -149,7 +149,7 @@ impl Reference {
             ));
         }
         // One reference kernel per profile serves every image.
-        let k0 = cpu::reference_kernel(profile, scale)?;
+        let k0 = exact::reference_kernel(profile, scale)?;
         let exact: Vec<Exact> = cases
             .par_iter()
             .map(|c| Exact::with_kernel(c, &k0))
@@ -201,7 +201,7 @@ impl Reference {
             jitter: false,
         };
         setup.validate(&self.exact.case.image)?;
-        Ok(round_f32(&cpu::apply_screen_space(
+        Ok(round_f32(&screen_space::apply_screen_space(
             &self.exact.case.image,
             &setup,
         )))

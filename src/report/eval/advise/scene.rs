@@ -37,24 +37,25 @@
 //! - Verdicts: the gap (the chosen configuration's scene error less the
 //!   best one's) is `significant` beyond [`NOISE_K`] of those standard
 //!   deviations (the margin of the flat-plane decision,
-//!   [`super::advise_decide`]); it is `within_accepted` when it is at most
+//!   [`super::decide`]); it is `within_accepted` when it is at most
 //!   the error the advice accepted on the flat plane (the target, or the
 //!   chosen worst case where nothing within the budget meets it) plus that
 //!   margin: a cheaper kernel is worth what it loses only up to the error
 //!   the user asked for.
 
-use super::advise_decide::NOISE_K;
-use super::advise_disk::first_and_frames;
-use super::scene_compare::{angular_obstacle, cosines};
-use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
-use super::scene_pass::{screen_space_disk_pass, screen_space_pass};
-use super::scene_score::{percentile99, ranking, rms_difference_sigma};
+use super::decide::NOISE_K;
 use crate::error::{Error, Result};
 use crate::filter::{angular, Image, Plane, Taps};
 use crate::kernel::angular::{simulate_factors, AngularFactors};
 use crate::kernel::disk::DiskKernelFile;
 use crate::profile::source::MC_SEED;
 use crate::profile::Profile;
+use crate::report::eval::disk::first_and_frames;
+use crate::report::eval::scene::compare::angular_obstacle;
+use crate::report::eval::scene::compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
+use crate::report::eval::scene::pass::{screen_space_disk_pass, screen_space_pass};
+use crate::report::eval::scene::score::cosines;
+use crate::report::eval::scene::score::{percentile99, ranking, rms_difference_sigma};
 use crate::scene::{Render, Scene};
 use serde::{Deserialize, Serialize};
 
@@ -205,7 +206,7 @@ pub struct SceneCandidate {
 
 /// What a configuration runs: separable taps as `advise` scored them, or
 /// a disk kernel accumulated over the frames it records (those `advise`
-/// scored it after, [`with_frames`](super::advise_disk::with_frames)), as `apply` runs it by default.
+/// scored it after, [`with_frames`](crate::report::eval::disk::with_frames)), as `apply` runs it by default.
 pub enum ScenePass {
     Separable(Vec<Taps>),
     Disk(Box<DiskKernelFile>),

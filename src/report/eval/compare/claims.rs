@@ -1,8 +1,9 @@
 //! The claims of Freude 2014 (tables 6.3, 6.4, 6.5 and fig. 5.15) checked
-//! on the rows of a kernel comparison ([`super::kernel_compare`]): in how
+//! on the rows of a kernel comparison ([`super::kernel`]): in how
 //! many cases each holds, with the measured figures behind the count.
 
-use super::kernel_compare::{find, gaussians_rms, image_rms, Comparison, Factor};
+use super::kernel::{find, gaussians_rms, image_rms, Comparison};
+use crate::filter::Which;
 use crate::report::present::number::sig;
 
 /// One of the thesis's claims, checked on the rows.
@@ -45,7 +46,7 @@ pub const RANK1: [&str; 9] = [
 pub fn claims(
     cmp: &Comparison,
     signals: &[String],
-    factors: &[Factor],
+    factors: &[Which],
     ranks: &[usize],
 ) -> Vec<Claim> {
     let mut out = Vec::new();
@@ -104,7 +105,7 @@ fn table_6_3(cmp: &Comparison) -> Option<Claim> {
 
 /// Table 6.4: the renormalised rank-1 SVD has the highest image error of
 /// the four models in most cases; the other three are comparable.
-fn table_6_4(cmp: &Comparison, signal: &str, f: Factor) -> Option<Claim> {
+fn table_6_4(cmp: &Comparison, signal: &str, f: Which) -> Option<Claim> {
     let rows = &cmp.rows;
     let four = ["svd1-renorm", "preintegrate", "guided-k1", "manual"];
     let (mut holds, mut total) = (0, 0);
@@ -151,7 +152,7 @@ fn table_6_4(cmp: &Comparison, signal: &str, f: Factor) -> Option<Claim> {
 
 /// Table 6.5: SVD rank N (renormalised) reaches the image error of N + 1
 /// Gaussians.
-fn table_6_5(cmp: &Comparison, signal: &str, f: Factor, ranks: &[usize]) -> Option<Claim> {
+fn table_6_5(cmp: &Comparison, signal: &str, f: Which, ranks: &[usize]) -> Option<Claim> {
     let rows = &cmp.rows;
     let (mut holds, mut total) = (0, 0);
     let (mut same_n, mut same_total) = (0, 0);

@@ -7,7 +7,7 @@
 //!
 //! # Definitions
 //!
-//! - Scores: those of the `all` region of [`super::scene_compare`] (the
+//! - Scores: those of the `all` region of [`crate::report::eval::scene::compare`] (the
 //!   pixels that see the sphere; relative RMS per channel over the 99th
 //!   percentile of the path-traced radiance there; mean bias; FLIP with
 //!   the path-traced image's exposure) and its noise floor, the RMS of the
@@ -17,7 +17,7 @@
 //!   error^2 plus the noise^2; each pixel's squared standard error is its
 //!   samples' variance over their count, an unbiased estimate).
 //! - The pass: what `advise --scene` runs for the chosen configuration
-//!   ([`super::advise_scene`]): its taps as scored, or its disk kernel over
+//!   ([`crate::report::eval::advise::scene`]): its taps as scored, or its disk kernel over
 //!   the frames the kernel file records (as `apply` runs it), scaled per pixel by the depth
 //!   (Freude 2014, eq. 4.11), the depth-aware lerp (Freude 2014, eq. 4.12)
 //!   completing at the kernel's reach; with the kernel file's entry and
@@ -25,25 +25,25 @@
 //!   one directional light, which they need).
 //! - The difference: no blur's RMS less the shipped pass's, per channel,
 //!   with its standard deviation from the render's noise
-//!   ([`rms_difference_sigma`](super::scene_score::rms_difference_sigma)):
+//!   ([`rms_difference_sigma`](crate::report::eval::scene::score::rms_difference_sigma)):
 //!   the noise common to both scores cancels.
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use super::advise::Advice;
-use super::advise_disk::first_and_frames;
-use super::advise_scene::ScenePass;
-use super::advise_search::scored_passes;
-use super::evaluate::Options;
-use super::scene_compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
-use super::scene_compare::{screen_space_disk_pass, screen_space_pass};
-use super::scene_score::{cosines, region_masks, RegionError, Scorer};
 use crate::error::Result;
 use crate::filter::{angular, Image, Plane};
 use crate::kernel::angular::AngularFactors;
 use crate::profile::source::MC_SEED;
 use crate::profile::Profile;
+use crate::report::eval::advise::scene::ScenePass;
+use crate::report::eval::advise::search::scored_passes;
+use crate::report::eval::advise::Advice;
+use crate::report::eval::disk::first_and_frames;
+use crate::report::eval::evaluate::Options;
+use crate::report::eval::scene::compare::{follow_constant, kernel_reach_mm, median_mm_per_pixel};
+use crate::report::eval::scene::pass::{screen_space_disk_pass, screen_space_pass};
+use crate::report::eval::scene::score::{cosines, region_masks, RegionError, Scorer};
 use crate::scene::{lit_sphere, render, RenderConfig, SampleBudget, SPHERE_RADIUS_MM};
 use serde::Serialize;
 

@@ -1,17 +1,17 @@
 //! `advise --scene` with the light-space directional method: the method
-//! ([`super::directional_scene`]'s two variants, published and scaled to
+//! ([`crate::report::eval::scene::directional`]'s two variants, published and scaled to
 //! the profile's R_d) scored on the pixels and with the peak the advice
-//! scores its kernels on ([`super::advise_scene`]), beside what the advice
+//! scores its kernels on ([`super::scene`]), beside what the advice
 //! ships and the best within its budget, and which the scene needs
-//! ([`super::directional_scene::NEEDS_RATIO`]).
+//! ([`crate::report::eval::scene::directional::NEEDS_RATIO`]).
 
-use super::advise_scene::{scored_pixels, SceneCheck};
-use super::directional_scene::{total_ratio, DirectionalConfig, NEEDS_RATIO};
-use super::scene_score::percentile99;
+use super::scene::{scored_pixels, SceneCheck};
 use crate::error::Result;
 use crate::filter::light_space::{light_space_cpu, LightSpaceInput, LightSpaceSetup};
 use crate::filter::Image;
 use crate::profile::Profile;
+use crate::report::eval::scene::directional::{total_ratio, DirectionalConfig, NEEDS_RATIO};
+use crate::report::eval::scene::score::percentile99;
 use crate::scene::{Render, Scene};
 use serde::{Deserialize, Serialize};
 

@@ -1,12 +1,10 @@
 //! advise's search: the tap layouts of each kernel model within a budget,
 //! filtered on the test images cheapest first, and the kernel file of the
-//! one chosen ([`super::advise`] says where each model and layout stops).
+//! one chosen ([`crate::report::eval::advise`] says where each model and layout stops).
 
-use super::advise_decide::{choose, Budget, Verdict, NOISE_K};
-use super::advise_noise::Reference;
-use super::advise_types::{Candidate, Config, ExtentRule, Remedy, FULL_MAX_PIXELS};
-use super::evaluate::{self, ImageErrors};
-use super::kernel_compare::ModelSpec;
+use super::decide::{choose, Budget, Verdict, NOISE_K};
+use super::noise::Reference;
+use super::types::{Candidate, Config, ExtentRule, Remedy, FULL_MAX_PIXELS};
 use crate::error::{Error, Result};
 use crate::filter::{resample_to_pixels, Taps};
 use crate::kernel::model::{assemble_with, fit_model, tap_table, Fitted, Model};
@@ -14,6 +12,8 @@ use crate::kernel::taps::{auto_extent, factor_radius_holding};
 use crate::kernel::{Factors, Kernel2D, KernelFile, Pass, TapTable};
 use crate::profile::Profile;
 use crate::progress::Progress;
+use crate::report::eval::compare::kernel::ModelSpec;
+use crate::report::eval::evaluate::{self, ImageErrors};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 
@@ -187,7 +187,7 @@ impl Search<'_> {
     }
 
     /// `spec` fitted to the truth, from the cache when it was before (or
-    /// was handed in: [`super::advise::Prepared`]).
+    /// was handed in: [`crate::report::eval::advise::Prepared`]).
     pub fn fitted(&self, spec: &ModelSpec) -> Result<Fitted> {
         let lock = || {
             self.fits
@@ -453,7 +453,7 @@ mod tests {
     use crate::filter::disk_error::view;
     use crate::filter::kernel_setup::kernel_setup;
     use crate::filter::signals::{generate, Signal};
-    use crate::filter::{cpu, Setup};
+    use crate::filter::{cpu, separable, Setup};
     use crate::kernel::preintegrate::PreMethod;
 
     /// A full-factor answer's file runs by default what was scored: its
@@ -485,7 +485,7 @@ mod tests {
         let run = |k: &KernelFile, full_factors: bool| {
             let v: Setup = view(mm);
             let (setup, _) = kernel_setup(k, full_factors, v, &image).unwrap();
-            cpu::apply_with(&image, &setup, cpu::Precision::F64).unwrap()
+            cpu::apply_with(&image, &setup, separable::Precision::F64).unwrap()
         };
         let (table, scored) = (run(&kernel, false), run(&full, true));
         for c in 0..3 {

@@ -32,37 +32,34 @@
 //!   expected RMS is the root of the sum of squares of the true error and
 //!   the noise); FLIP = the mean over the region of the per-pixel
 //!   LDR-FLIP map of the colour images, tone-mapped as in
-//!   [`super::evaluate`] with the exposure taken from the path-traced
+//!   [`crate::report::eval::evaluate`] with the exposure taken from the path-traced
 //!   image.
 //! - Flat-plane errors beside them: the same kernels on the edge and
-//!   shapes signals at the object's footprint ([`super::kernel_compare`]),
+//!   shapes signals at the object's footprint ([`crate::report::eval::compare::kernel`]),
 //!   tap table, largest relative RMS over the channels.
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
-use super::evaluate::{ImageCase, Options};
-use super::kernel_compare::{self, Comparison, Config, Factor, Fitted, MaterialInput};
-pub use super::scene_score::{
-    cosines, region_masks, Cosines, RegionError, GRAZING_VIEW, REGIONS, TERMINATOR_BAND,
-};
-use super::scene_score::{masks_of, ranking, Scorer};
+use super::pass::{scale_of, screen_space_pass, SceneRow};
+use super::score::{cosines, masks_of, ranking, Cosines, Scorer};
 use crate::error::{finite_positive, Error, Result};
 use crate::filter::signals::Signal;
-use crate::filter::{angular, cpu, taps_for, FollowSurface, Image, Plane, Which};
+use crate::filter::{angular, exact, taps_for, FollowSurface, Image, Plane, Which};
 use crate::kernel::angular::AngularFactors;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::Progress;
+use crate::report::eval::compare;
+use crate::report::eval::compare::kernel::{Comparison, Config, Fitted, MaterialInput};
+use crate::report::eval::evaluate::{ImageCase, Options};
 use crate::scene::{Render, Scene};
 use serde::{Deserialize, Serialize};
-
-pub use super::scene_pass::{scale_of, screen_space_disk_pass, screen_space_pass, SceneRow};
 
 /// What to compare.
 #[derive(Clone, Debug)]
 pub struct SceneConfig {
-    /// Kernel model families (see [`kernel_compare::FAMILIES`]).
+    /// Kernel model families (see [`compare::kernel::FAMILIES`]).
     pub families: Vec<String>,
     /// SVD ranks and Gaussian counts.
     pub ranks: Vec<usize>,
@@ -81,7 +78,7 @@ pub struct SceneConfig {
     /// the scene allows them ([`angular_obstacle`]).
     pub angular: Option<AngularFactors>,
     /// The light-space directional method's block (None: not run).
-    pub directional: Option<super::directional_scene::DirectionalConfig>,
+    pub directional: Option<super::directional::DirectionalConfig>,
 }
 
 /// Everything a scene comparison produced.
@@ -108,8 +105,7 @@ pub struct SceneComparison {
     pub images: Vec<(String, Image)>,
     /// The light-space directional method beside the screen-space passes,
     /// or why the scene allows it none.
-    pub directional:
-        Option<std::result::Result<super::directional_scene::DirectionalBlock, String>>,
+    pub directional: Option<std::result::Result<super::directional::DirectionalBlock, String>>,
 }
 
 /// The constant C of the depth-aware lerp that completes it at a depth
@@ -244,9 +240,9 @@ impl Stage<'_> {
     fn baselines(&mut self, profile: &Profile, mm_per_pixel: f64) -> Result<()> {
         let irr = self.irradiance.clone();
         self.push("no-blur", "baseline", [None, None], irr);
-        let k = cpu::reference_kernel(profile, mm_per_pixel)?;
-        cpu::check_reference_fits(self.irradiance.width, self.irradiance.height, k.size)?;
-        let exact = |img: &Image| Ok(cpu::convolve_2d(img, &k));
+        let k = exact::reference_kernel(profile, mm_per_pixel)?;
+        exact::check_reference_fits(self.irradiance.width, self.irradiance.height, k.size)?;
+        let exact = |img: &Image| Ok(exact::convolve_2d(img, &k));
         let plain = exact(&self.irradiance)?;
         self.push("exact-2d", "baseline", [None, None], plain.clone());
         if let Some(f) = self.angular {
@@ -295,10 +291,10 @@ impl Stage<'_> {
         render: &Render,
         flat: &Comparison,
         follow_c: f64,
-        cfg: &super::directional_scene::DirectionalConfig,
-    ) -> std::result::Result<super::directional_scene::DirectionalBlock, String> {
+        cfg: &super::directional::DirectionalConfig,
+    ) -> std::result::Result<super::directional::DirectionalBlock, String> {
         let nl = self.cosines.n_dot_l.as_deref().unwrap_or(&[]);
-        let inputs = super::directional_scene::SceneInputs {
+        let inputs = super::directional::SceneInputs {
             scene: self.scene,
             render,
             profile,
@@ -315,7 +311,7 @@ impl Stage<'_> {
                 .map(|f| (f.spec.label.as_str(), &f.kernel))
                 .collect(),
         };
-        let (block, images) = super::directional_scene::directional_block(&inputs, cfg, &self.rows)
+        let (block, images) = super::directional::directional_block(&inputs, cfg, &self.rows)
             .map_err(|e| e.to_string())?;
         if self.cfg.keep_images {
             self.images.extend(images);
@@ -331,7 +327,7 @@ fn flat_error(flat: &Comparison, label: &str, signal: &str, taps: usize) -> Opti
         .rows
         .iter()
         .filter(|r| r.label == label)
-        .filter_map(|r| r.image_error(signal, Factor::Taps(taps)))
+        .filter_map(|r| r.image_error(signal, Which::Taps(taps)))
         .map(|e| e.rel_rms)
         .collect();
     (three.len() == 3).then(|| three.into_iter().fold(0.0, f64::max))
@@ -350,7 +346,7 @@ fn flat_comparison(
         .into_iter()
         .map(|s| ImageCase::signal(s, cfg.signal_size, mm_per_pixel))
         .collect::<Result<Vec<_>>>()?;
-    kernel_compare::run(
+    compare::kernel::run(
         &[MaterialInput {
             name: scene.objects[0].material.name.clone(),
             profile: profile.clone(),

@@ -15,7 +15,7 @@
 //!   over `frames` rotations as `advise` scores it. Both screen-space
 //!   passes scale by depth with the lerp of `compare --scene`, and run
 //!   inside the entry and exit factors where the scene allows them.
-//! - Scores: [`super::scene_score`]'s, against the path-traced image.
+//! - Scores: [`super::score`]'s, against the path-traced image.
 //! - Cost: samples each pixel reads per frame; the work per pixel (dipole
 //!   evaluations of the light-space pass, taps read by the screen-space
 //!   ones, over all pixels of the image); and milliseconds per megapixel
@@ -27,16 +27,17 @@
 //!   the best screen-space pass's (every row of the comparison and the
 //!   rows here), else screen-space scattering.
 
-use super::advise_disk::DISK_SEED;
-use super::scene_pass::{screen_space_disk_pass, screen_space_pass, SceneRow};
-use super::scene_score::{RegionError, Scorer};
+use super::pass::{screen_space_disk_pass, screen_space_pass, SceneRow};
+use super::score::{RegionError, Scorer};
 use crate::error::{Error, Result};
 use crate::filter::light_space::{light_space_cpu, LightSpaceInput, LightSpaceSetup};
 use crate::filter::{angular, Image, Plane};
 use crate::kernel::angular::AngularFactors;
-use crate::kernel::disk::{fit_disk, RadiusPdf};
+use crate::kernel::disk::RadiusPdf;
+use crate::kernel::disk_fit::fit_disk;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
+use crate::report::eval::disk::DISK_SEED;
 use crate::scene::{Render, Scene};
 use serde::{Deserialize, Serialize};
 
@@ -103,7 +104,7 @@ pub struct DirectionalRow {
     /// CPU milliseconds per megapixel on this machine (loaded: see the
     /// module docs).
     pub ms_per_megapixel: f64,
-    /// In [`super::scene_score::REGIONS`] order.
+    /// In [`super::score::REGIONS`] order.
     pub regions: Vec<RegionError>,
 }
 
@@ -131,7 +132,7 @@ pub struct DirectionalBlock {
 }
 
 /// What the block reads from the scene comparison.
-pub(super) struct SceneInputs<'a> {
+pub(in crate::report::eval) struct SceneInputs<'a> {
     pub scene: &'a Scene,
     pub render: &'a Render,
     pub profile: &'a Profile,
@@ -232,7 +233,7 @@ impl SceneInputs<'_> {
 /// The rows and images of the light-space method and the screen-space
 /// passes beside it at each sample count, and the verdict against
 /// `screen` (the comparison's rows).
-pub(super) fn directional_block(
+pub(in crate::report::eval) fn directional_block(
     inp: &SceneInputs,
     cfg: &DirectionalConfig,
     screen: &[SceneRow],

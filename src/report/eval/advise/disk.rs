@@ -15,7 +15,7 @@
 //! the standard deviation of the error over the [`WINDOWS`] accumulations
 //! of K consecutive frames measured is the score's frame noise, added in
 //! quadrature to the bootstrap's standard deviation of the separable rows
-//! ([`super::advise_noise`]: each replicate profile's exact image against
+//! ([`super::noise`]: each replicate profile's exact image against
 //! the same accumulation), so the margin of the decision covers both.
 //! Beside it the row keeps, in the same channel, the bias (the mean of
 //! all W K rotations against the exact image, what a converged filter
@@ -33,99 +33,30 @@
 //! default of `fit --model disk`), rotations from seed [`DISK_SEED`]: both
 //! families are scored against the one exact image.
 
-use super::advise_decide::Verdict;
-use super::advise_noise::Reference;
-use super::advise_search::Search;
-use super::advise_types::{Candidate, DiskScore, DiskScores};
-use super::evaluate::{self, round_f32, ImageErrors};
+use super::decide::Verdict;
+use super::noise::Reference;
+use super::search::Search;
+use super::types::{Candidate, DiskScore, DiskScores};
 use crate::error::{Error, Result};
 use crate::filter::disk::{apply_disk, DiskSetup};
-use crate::filter::disk_error::{disk_error_with_first, truncated, view};
+use crate::filter::disk_error::{disk_error_with_first, view};
 use crate::filter::Image;
-use crate::kernel::disk::{fit_disk, Accumulation, DiskKernelFile, RadiusPdf};
+use crate::kernel::disk::{DiskKernelFile, RadiusPdf};
 use crate::numerics::std_dev;
 use crate::numerics::Bounded;
-use crate::profile::radius::DEFAULT_HOLD;
-use crate::profile::Profile;
+use crate::report::eval::disk::{
+    disk_fingerprint, disk_kernel, with_frames, DISK, DISK_SAMPLES, DISK_SEED, WINDOWS,
+};
+use crate::report::eval::evaluate::{self, round_f32, ImageErrors};
 use serde_json::json;
 use std::collections::BTreeMap;
-
-/// Samples per pixel of the disk kernels advise tries: powers of two from
-/// the fewest a disk kernel may have to 64, the most Unreal 5's Burley
-/// pass takes per pixel (more costs more than the 2 x 33 of the widest
-/// separable table).
-pub const DISK_SAMPLES: [usize; 5] = [4, 8, 16, 32, 64];
-
-/// Most frames advise accepts: a temporal filter's history is a few dozen
-/// frames, and each signal costs [`WINDOWS`] x K disk passes to measure.
-pub const MAX_FRAMES: u32 = 64;
-
-/// Windows of K frames the noise after K frames is measured over (batch
-/// means): the spread of 4 window means per pixel, averaged over the
-/// 16384 pixels of a 128-pixel signal; the bias is the mean of the 4 K
-/// frames.
-pub const WINDOWS: u32 = 4;
-
-/// The first frame's rotation seed.
-pub const DISK_SEED: u32 = 0;
-
-/// The label and model name of a disk row.
-pub const DISK: &str = "disk";
 
 /// A score on one test image: (signal, score, standard deviation).
 type Scored = (String, f64, f64);
 
-/// The disk kernel advise scores with `samples` per pixel.
-pub fn disk_kernel(profile: &Profile, samples: usize) -> Result<DiskKernelFile> {
-    let radius = (0..profile.channels.len())
-        .map(|c| crate::profile::radius_holding(profile, c, DEFAULT_HOLD))
-        .fold(0.0, f64::max);
-    fit_disk(&truncated(profile, radius), samples, RadiusPdf::Widest)
-}
-
-/// A fingerprint of a disk kernel's samples (SHA-256 of their JSON, whose
-/// numbers read back to the same bits): the advice carries the chosen
-/// row's, so the written file can be checked to be the one scored.
-pub fn disk_fingerprint(k: &DiskKernelFile) -> String {
-    use sha2::{Digest, Sha256};
-    let json = serde_json::to_vec(&k.samples).unwrap_or_default();
-    Sha256::digest(json)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
-
 /// The worst channel of `v` (the first of equals) and its value.
 fn worst(v: [f64; 3]) -> (usize, f64) {
     (0..3).fold((0, v[0]), |b, c| if v[c] > b.1 { (c, v[c]) } else { b })
-}
-
-/// `kernel` recording the frames advise scores it after, the plain mean
-/// of `frames` frames from [`DISK_SEED`] under a static camera: what
-/// `apply` then runs by default.
-pub fn with_frames(mut kernel: DiskKernelFile, frames: u32) -> DiskKernelFile {
-    kernel.accumulation = Some(Accumulation::static_mean(frames, DISK_SEED));
-    kernel
-}
-
-/// (first frame's seed, frames) that `kernel` records, as
-/// `screen_space_disk_pass` and `DiskSetup` take them.
-pub fn first_and_frames(kernel: &DiskKernelFile) -> (u32, u32) {
-    let (frames, first) = kernel.frames_to_run(None, None);
-    (first, frames)
-}
-
-/// Checks the frames to accumulate.
-pub fn check_frames(frames: u32) -> Result<()> {
-    if (1..=MAX_FRAMES).contains(&frames) {
-        return Ok(());
-    }
-    Err(Error::invalid(
-        "advise",
-        "frames",
-        frames,
-        format!("must be in 1..={MAX_FRAMES}"),
-    ))
 }
 
 /// The score of `kernel` on `r`'s test image (module doc): (score, its

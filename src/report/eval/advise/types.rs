@@ -1,14 +1,15 @@
 //! The advice's plain data, apart from the search that fills it: what to
 //! search ([`Config`], [`ViewScale`], the tap counts and signals), one
 //! scored configuration ([`Candidate`]) and what would make one pass
-//! ([`Remedy`]). The search ([`super::advise_search`]) and the answer
-//! ([`super::advise`]) both read these; this file reads neither.
+//! ([`Remedy`]). The search ([`super::search`]) and the answer
+//! ([`crate::report::eval::advise`]) both read these; this file reads neither.
 
-use super::advise_decide::{Budget, Cost, Verdict};
-use super::evaluate::Options;
+use super::decide::{Budget, Cost, Verdict};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::Scale;
+use crate::report::eval::disk::DEFAULT_FRAMES;
+use crate::report::eval::evaluate::Options;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -99,7 +100,7 @@ pub struct Config {
     /// Side of the square test signals, pixels.
     pub size: usize,
     pub taps: Vec<usize>,
-    /// Model families (see [`FAMILIES`]).
+    /// Model families (see [`ADVISED_FAMILIES`]).
     pub families: Vec<String>,
     pub options: Options,
     /// What a candidate may cost.
@@ -117,7 +118,7 @@ impl Config {
             signals: vec![Signal::Edge, Signal::Shapes, Signal::Checker],
             size: 128,
             taps: TAP_COUNTS.to_vec(),
-            families: FAMILIES.iter().map(|s| s.to_string()).collect(),
+            families: ADVISED_FAMILIES.iter().map(|s| s.to_string()).collect(),
             options: Options::default(),
             budget: Budget::default(),
             frames: DEFAULT_FRAMES,
@@ -157,7 +158,7 @@ pub struct Candidate {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disk: Option<DiskScores>,
     /// A separable row's passes as scored
-    /// ([`super::advise_search::fingerprint`]; None: a disk row).
+    /// ([`super::search::fingerprint`]; None: a disk row).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fingerprint: Option<String>,
 }
@@ -241,9 +242,11 @@ pub struct CoarserScale {
 pub const COARSER_SCALES: [f64; 3] = [1.5, 2.0, 4.0];
 
 /// The model families advise tries by default: every family of the
-/// comparison but Jimenez's fixed skin model, which is not fitted, and the
-/// importance-sampled disk (`kernel::disk`, not separable).
-pub const FAMILIES: [&str; 6] = [
+/// comparison ([`crate::report::eval::compare::kernel::FAMILIES`]) but
+/// Jimenez's fixed skin model, which is not fitted, and the
+/// importance-sampled disk (`kernel::disk`, not separable): a different
+/// set, so a different name.
+pub const ADVISED_FAMILIES: [&str; 6] = [
     "svd",
     "preintegrate",
     "guided",
@@ -252,14 +255,9 @@ pub const FAMILIES: [&str; 6] = [
     "disk",
 ];
 
-/// Frames a temporal filter accumulates by default: 8, the history over
-/// which a typical temporal anti-aliasing pass has converged to within a
-/// few percent of its limit.
-pub const DEFAULT_FRAMES: u32 = 8;
-
 /// A disk row's measures on one signal, all in the channel of its score
 /// (the largest error), relative to the exact image's peak
-/// ([`super::advise_disk`]).
+/// ([`super::disk`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DiskScore {
     /// The score's channel: r, g or b.

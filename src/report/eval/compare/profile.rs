@@ -4,7 +4,6 @@
 use crate::error::Result;
 use crate::material::Channel;
 use crate::profile::metrics::{channel_error, same_grid};
-pub use crate::profile::metrics::{l2_errors, relative};
 use crate::profile::Profile;
 
 /// Default accuracy of the Monte Carlo reference the analytic models are

@@ -9,7 +9,7 @@
 //! channel, divided by the exact image's peak) over the three channels and
 //! the signals chosen on (edge, shapes and checkers of [`CHECKER_PX`]-pixel
 //! cells), against the exact 2D convolution with the profile
-//! ([`super::evaluate`]). The checkers are there because edge and shapes
+//! ([`crate::report::eval::evaluate`]). The checkers are there because edge and shapes
 //! alone under-state the error on sharp detail: measured on skin1 at 0.2 mm
 //! per pixel, 5 guided taps chosen at 7.1% on edge and shapes gave 10.4% on
 //! a checker of 1 mm cells. One checker is not enough either: a tap table
@@ -24,7 +24,7 @@
 //!
 //! Only candidates within the [`Budget`] (passes, samples, taps) are
 //! filtered; the decision respects the Monte Carlo noise of the profile
-//! ([`super::advise_noise`], [`super::advise_decide`]). Each model's
+//! ([`super::noise`], [`super::decide`]). Each model's
 //! layouts are filtered cheapest first, each on the signals in order (the
 //! finest checker first) up to its first missed signal; the first layout
 //! that misses none is the model's answer (its costlier layouts cannot be
@@ -41,19 +41,15 @@
 //! holding 95% and 99.9% of the factor's mass; and the full factors when
 //! they cover at most [`FULL_MAX_PIXELS`] pixels. Beside them, with the
 //! family `disk`, importance-sampled disk kernels of
-//! [`super::advise_disk::DISK_SAMPLES`] samples, one pass each, scored on
+//! [`crate::report::eval::disk::DISK_SAMPLES`] samples, one pass each, scored on
 //! their bias and their noise after `Config::frames` frames
-//! ([`super::advise_disk`] says how); the budget counts a disk kernel as
+//! ([`super::disk`] says how); the budget counts a disk kernel as
 //! one pass of N taps, N samples per pixel.
 
-use super::advise_decide::{choose, Cost};
-pub use super::advise_decide::{Budget, Verdict, DEFAULT_MAX_PASSES, NOISE_K};
-use super::advise_disk::{check_frames, disk_kernel, with_frames, DISK};
-use super::advise_noise::{Reference, BOOTSTRAP_SEED};
-use super::advise_scene::{check_on_scene, SceneCandidate, SceneCheck, ScenePass};
-use super::advise_search::Search;
-use super::evaluate::{ImageCase, ImageErrors};
-use super::kernel_compare::{model_specs, ModelSpec};
+use super::decide::{choose, Budget, Cost, NOISE_K};
+use super::noise::{Reference, BOOTSTRAP_SEED};
+use super::scene::{check_on_scene, SceneCandidate, SceneCheck, ScenePass};
+use super::search::Search;
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::warnings::{scale_warnings, ScaleWarning};
@@ -64,14 +60,14 @@ use crate::kernel::taps::factor_radius_holding;
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile};
 use crate::profile::Profile;
 use crate::progress::Progress;
+use crate::report::eval::compare::kernel::{model_specs, ModelSpec};
+use crate::report::eval::disk::{check_frames, disk_kernel, with_frames, DISK};
+use crate::report::eval::evaluate::{ImageCase, ImageErrors};
 use crate::scene::{Render, Scene};
 use serde_json::json;
 use std::collections::BTreeMap;
 
-pub use super::advise_types::{
-    Candidate, CoarserScale, Config, ExtentRule, Remedy, ViewScale, CHECKER_PX, COARSER_SCALES,
-    DEFAULT_TARGET, FAMILIES, FULL_MAX_PIXELS, TAP_COUNTS,
-};
+use super::types::{Candidate, CoarserScale, Config, Remedy, CHECKER_PX, COARSER_SCALES};
 
 /// The answer.
 #[derive(Clone, Debug)]
@@ -357,7 +353,7 @@ pub fn advise(profile: &Profile, cfg: &Config, progress: &dyn Progress) -> Resul
 
 /// [`advise`], and with a path-traced scene and its render, each model's
 /// answer within the budget (and the chosen configuration) run through the
-/// screen-space pass on it ([`super::advise_scene`]).
+/// screen-space pass on it ([`super::scene`]).
 pub fn advise_on_scene(
     profile: &Profile,
     cfg: &Config,
@@ -389,7 +385,7 @@ pub fn advise_prepared(
     // A scene whose seen object is of another material is refused before
     // the search, not after it.
     if let Some((scene, render)) = scene {
-        super::advise_scene::scored_pixels(scene, render, profile)?;
+        super::scene::scored_pixels(scene, render, profile)?;
     }
     let prepared = match prepared {
         Some(p) => p,
@@ -529,7 +525,8 @@ mod tests {
     use super::*;
     use crate::kernel::model::fit_model;
     use crate::progress::NoProgress;
-    use crate::report::eval::advise_search::{fingerprint, scored_passes};
+    use crate::report::eval::advise::search::{fingerprint, scored_passes};
+    use crate::report::eval::advise::types::DEFAULT_TARGET;
 
     /// A fit time no real fit reports: a kernel carrying it was assembled
     /// from the handed fit, not from a fit made again.

@@ -3,13 +3,14 @@
 //! (model, taps and extent as the advice chose them) beside the exact
 //! result.
 
-use super::advise::Advice;
-use super::advise_disk::first_and_frames;
-use super::evaluate::{self, ImageCase, Which};
 use crate::error::Result;
 use crate::filter::disk::{apply_disk, DiskSetup};
 use crate::filter::disk_error::view;
 use crate::filter::Image;
+use crate::filter::Which;
+use crate::report::eval::advise::Advice;
+use crate::report::eval::disk::first_and_frames;
+use crate::report::eval::evaluate::{self, ImageCase};
 
 /// What a contact sheet opens with: a label naming the configuration and
 /// its image per case, in the order of the comparison's cases.

@@ -11,18 +11,19 @@
 //! The separable kernel is the pre-integration (Freude 2014, sec. 5.2,
 //! the rank-1 model `kernels` lists first) with the tap extent chosen for
 //! the count; the disk kernel is the one advise scores
-//! ([`super::advise_disk::disk_kernel`]); both against one exact image
-//! ([`super::evaluate::Exact`]).
+//! ([`crate::report::eval::disk::disk_kernel`]); both against one exact image
+//! ([`crate::report::eval::evaluate::Exact`]).
 
-use super::advise_disk::{disk_kernel, DISK_SEED};
-use super::evaluate::{self, Exact, ImageCase, Options, Which};
 use crate::error::{Error, Result};
 use crate::filter::disk::{apply_disk, DiskSetup};
 use crate::filter::disk_error::{disk_error, view};
+use crate::filter::Which;
 use crate::kernel::model::{fit_kernel_file, Model};
 use crate::kernel::preintegrate::PreMethod;
 use crate::kernel::Kernel2DSpec;
 use crate::profile::Profile;
+use crate::report::eval::disk::{disk_kernel, DISK_SEED};
+use crate::report::eval::evaluate::{self, Exact, ImageCase, Options};
 use serde::{Deserialize, Serialize};
 
 /// One kernel of the comparison, each value the largest over channels,
@@ -140,15 +141,15 @@ pub struct DiskRows {
 /// `compare`'s disk rows: for each material and test image, the separable
 /// and the disk kernel at the samples per pixel of each separable tap
 /// count (2 passes of T taps: 2 T), accumulated over `frames` with the
-/// bias over [`super::advise_disk::WINDOWS`] x `frames` rotations, as
+/// bias over [`crate::report::eval::disk::WINDOWS`] x `frames` rotations, as
 /// advise scores them.
 pub fn compare_rows(
-    inputs: &[super::kernel_compare::MaterialInput],
+    inputs: &[super::kernel::MaterialInput],
     cases: &[ImageCase],
     taps: &[usize],
     frames: u32,
 ) -> Result<Vec<DiskRows>> {
-    super::advise_disk::check_frames(frames)?;
+    crate::report::eval::disk::check_frames(frames)?;
     let samples: Vec<usize> = taps.iter().map(|&t| 2 * t).collect();
     let mut out = Vec::new();
     for m in inputs {
@@ -157,7 +158,7 @@ pub fn compare_rows(
                 case: case.clone(),
                 samples: samples.clone(),
                 frames,
-                rotations: super::advise_disk::WINDOWS * frames,
+                rotations: crate::report::eval::disk::WINDOWS * frames,
             };
             out.push(DiskRows {
                 material: m.name.clone(),

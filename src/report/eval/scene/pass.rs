@@ -1,11 +1,11 @@
 //! The screen-space pass on a path-traced scene's camera and the row it
-//! scores: shared by the scene comparison (`scene_compare`), the
+//! scores: shared by the scene comparison (`scene::compare`), the
 //! light-space directional block beside it and the scene advice, a leaf
 //! none of them imports back from.
 
-use super::scene_score::RegionError;
+use super::score::RegionError;
 use crate::error::Result;
-use crate::filter::{cpu, FollowSurface, Image, Plane, Scale, Setup};
+use crate::filter::{cpu, separable, FollowSurface, Image, Plane, Scale, Setup};
 use crate::scene::{Projection, Scene};
 use serde::{Deserialize, Serialize};
 
@@ -21,7 +21,7 @@ pub struct SceneRow {
     /// shapes signals with the same tap table; None for the baselines.
     pub flat_edge: Option<f64>,
     pub flat_shapes: Option<f64>,
-    /// In `scene_score::REGIONS` order.
+    /// In `scene::score::REGIONS` order.
     pub regions: Vec<RegionError>,
 }
 
@@ -54,7 +54,7 @@ pub fn scale_of(scene: &Scene) -> Scale {
 
 /// The screen-space pass of `passes` over `img` on the scene's camera: the
 /// scale per pixel from `depth` (Freude 2014, eq. 4.11) and, with
-/// `follow` (the constant C of `scene_compare::follow_constant`), the depth-aware lerp
+/// `follow` (the constant C of `scene::compare::follow_constant`), the depth-aware lerp
 /// (Freude 2014, eq. 4.12); on the CPU in f64.
 pub fn screen_space_pass(
     scene: &Scene,
@@ -67,7 +67,7 @@ pub fn screen_space_pass(
         passes: passes.to_vec(),
         ..view_on(scene, depth, follow)
     };
-    cpu::apply_with(img, &setup, cpu::Precision::F64)
+    cpu::apply_with(img, &setup, separable::Precision::F64)
 }
 
 /// [`screen_space_pass`] with a disk kernel: `frames` rotations from frame
