@@ -353,7 +353,7 @@ fn run_scene(
     families: Vec<String>,
     (ranks, taps): (Vec<usize>, Vec<usize>),
 ) -> anyhow::Result<()> {
-    super::scene::compare(super::scene::CompareArgs {
+    super::scene_compare::compare(super::scene_compare::CompareArgs {
         scene,
         render,
         families,

@@ -25,6 +25,7 @@ mod profile_source;
 mod profiles;
 mod progress;
 mod scene;
+mod scene_compare;
 mod signal;
 mod simulate;
 mod study;
