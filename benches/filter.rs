@@ -22,7 +22,9 @@
 //! README.md and `threads` for docs/filter.md). `SSSKIT_BENCH_REPS=N` sets
 //! the frames per case (default 9; other values do not write the record).
 
-use ssskit::filter::{cpu, sample, separable, Image, Plane, Scale, Setup, Taps};
+#[path = "../tests/common/mod.rs"]
+mod common;
+use ssskit::filter::{cpu, sample, separable, Image, Plane, Setup, Taps};
 use std::time::Instant;
 
 const W: usize = 1920;
@@ -173,15 +175,7 @@ fn write_f32(path: &std::path::Path, v: impl Iterator<Item = f64>) {
 
 /// Our cases at the current rayon pool size: name -> (wall ms, CPU ms).
 fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
-    let plain = |t: Taps, mm: f64| Setup {
-        passes: vec![t],
-        scale: Scale::MmPerPixel(mm),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
+    let plain = |t: Taps, mm: f64| common::plain_setup(vec![t], mm);
     let sep = plain(taps(true), 0.1);
     let table = plain(taps(false), 0.1);
     let per_pixel = Setup {
@@ -206,15 +200,12 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
             })
             .collect(),
     };
-    let depth_aware = Setup {
-        scale: Scale::Perspective {
-            fov_y_deg: 30.0,
-            sss_width: 0.0025,
-        },
-        depth: Some(depth),
-        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
-        ..table.clone()
-    };
+    let depth_aware = common::perspective_setup(
+        table.passes.clone(),
+        (30.0, 0.0025),
+        depth,
+        ssskit::filter::FollowSurface::InSceneUnits(300.0),
+    );
     let mut out = Vec::new();
     let kernel = [sample::PixelKernel::from_taps(&taps(true), 10.0)];
     // A renderer's frame: f32 planes in, f32 planes out, buffers reused
@@ -287,15 +278,7 @@ fn main() {
         (0..W * H).flat_map(move |i| [0, 1, 2].map(|c| im.rgb[c][i]))
     };
     write_f32(&dir.path().join("image.f32"), interleaved(&img));
-    let sep = Setup {
-        passes: vec![taps(true)],
-        scale: Scale::MmPerPixel(0.1),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
+    let sep = common::plain_setup(vec![taps(true)], 0.1);
     let result = cpu::apply(&img, &sep).expect("the separable case runs");
     write_f32(&dir.path().join("ours.f32"), interleaved(&result));
     let t = taps(true);

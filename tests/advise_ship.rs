@@ -78,17 +78,7 @@ fn signal(dir: &Path, name: &str) -> PathBuf {
 
 /// `apply --kernel K` with no flag beyond the scale, and `extra`.
 fn apply(kernel: &Path, input: &Path, out: &Path, extra: &[&str]) -> String {
-    let mut args = vec![
-        "apply",
-        "--kernel",
-        s(kernel),
-        "--input",
-        s(input),
-        "--mm-per-pixel",
-        MM,
-        "--out",
-        s(out),
-    ];
+    let mut args = common::apply_args(s(kernel), s(input), s(out), MM, &[]);
     args.extend(extra);
     ok(&args).1
 }

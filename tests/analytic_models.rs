@@ -493,7 +493,7 @@ fn total_oracles(mat: &Material, model: Model, mode: FresnelMode) -> Vec<(&'stat
         let alpha = sp / (sp + m.sigma_a);
         let s = (3.0 * (1.0 - alpha)).sqrt();
         let rd = 0.5 * alpha * (1.0 + (-4.0 / 3.0 * a * s).exp()) * (-s).exp();
-        out.push(("Jensen 2001 eq. 8", t_entry * rd, EXACT));
+        out.push(("Jensen et al. 2001, eq. 8", t_entry * rd, EXACT));
     }
     out
 }

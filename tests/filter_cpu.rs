@@ -4,20 +4,10 @@
 mod filter_support;
 use filter_support::*;
 use ssskit::filter::signals::{generate, Signal};
-use ssskit::filter::{cpu, exact, sample, taps_for, Image, Plane, Scale, Setup, Which};
+use ssskit::filter::{cpu, exact, sample, taps_for, Image, Plane, Setup, Which};
 use ssskit::kernel::Kernel2D;
 
-fn plain(passes: Vec<ssskit::filter::Taps>, mm: f64) -> Setup {
-    Setup {
-        passes,
-        scale: Scale::MmPerPixel(mm),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    }
-}
+use filter_support::plain_setup as plain;
 
 fn reference_2d() -> (Kernel2D, f64) {
     let profile = dipole_profile("skin1", 0.01, 8.0);
@@ -209,16 +199,13 @@ fn constant_stays_constant_and_black_stays_black() {
             let setups = [
                 plain(taps_for(&k, factors, Some(0.2)).unwrap(), 0.2),
                 Setup {
-                    passes: taps_for(&k, factors, None).unwrap(),
-                    scale: Scale::Perspective {
-                        fov_y_deg: 30.0,
-                        sss_width: 0.05,
-                    },
-                    depth: Some(step_depth(w, h)),
                     strength: Some(Plane::from_index(w, h, |i| (i % 7) as f64 / 3.0)),
-                    follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
-                    specular: None,
-                    jitter: false,
+                    ..perspective_setup(
+                        taps_for(&k, factors, None).unwrap(),
+                        (30.0, 0.05),
+                        step_depth(w, h),
+                        ssskit::filter::FollowSurface::InSceneUnits(300.0),
+                    )
                 },
             ];
             for setup in &setups {

@@ -315,19 +315,13 @@ fn apply_reference_averages_by_default() {
         assert!(err.contains(said), "{err}");
     }
     common::fails_with(
-        &[
-            "apply",
-            "--kernel",
+        &common::apply_args(
             "k.json",
-            "--input",
             common::p(&input),
-            "--out",
             "x.exr",
-            "--mm-per-pixel",
             "0.1",
-            "--reference-sampling",
-            "centre",
-        ],
+            &["--reference-sampling", "centre"],
+        ),
         &["--reference"],
     );
 }

@@ -1,4 +1,4 @@
-//! Reading MCML 1.2.2's output (.mco, Wang, Jacques and Zheng 1995) and
+//! Reading MCML 1.2.2's output (.mco, Wang et al. 1995) and
 //! the JSON arrays of the records it is compared with; shared by the
 //! tests and the benches that run MCML (include with
 //! `#[path = "../tests/common/mcml.rs"] mod mcml;` from a bench).
@@ -21,4 +21,13 @@ pub fn floats(v: &serde_json::Value) -> Vec<f64> {
         .iter()
         .map(|x| x.as_f64().unwrap())
         .collect()
+}
+
+/// The benches' `SSSKIT_BENCH_SCALE` (photons and runs scaled by it; 1
+/// unset or unreadable).
+pub fn bench_scale() -> f64 {
+    std::env::var("SSSKIT_BENCH_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0)
 }

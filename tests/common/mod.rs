@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 
 pub mod adding_doubling;
 pub mod backlit_meshes;
+pub mod bounded;
 pub mod golden;
 pub mod half_space;
 pub mod mcml;
@@ -62,6 +63,63 @@ pub fn run_in(dir: &Path, args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("the binary runs")
+}
+
+/// The sharded run the cluster tests split and merge: skin1, 60000
+/// photons, seed 5.
+pub const SHARDED_RUN: [&str; 7] = [
+    "simulate",
+    "--material",
+    "skin1",
+    "--photons",
+    "60000",
+    "--seed",
+    "5",
+];
+
+/// The arguments of `ssskit simulate --material skin1 --photons 20000
+/// --seed seed --out out` (a profile of seconds, noisy), then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn simulate_skin1_args<'a>(seed: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let fixed = ["simulate", "--material", "skin1", "--photons", "20000", "--seed", seed];
+    [&fixed[..], &["--out", out], extra].concat()
+}
+
+/// The arguments of `ssskit scene s.toml --out s.exr`, then `extra`: a
+/// scene rendered in the working folder.
+pub fn scene_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    [&["scene", "s.toml", "--out", "s.exr"][..], extra].concat()
+}
+
+/// The arguments of `ssskit cmd --material skin1 --profile-model pbd`
+/// (`--materials` for `compare`), then `extra`: a command on skin1's
+/// analytic profile (no Monte Carlo).
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn skin1_pbd_args<'a>(cmd: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let material = if cmd == "compare" { "--materials" } else { "--material" };
+    [&[cmd, material, "skin1", "--profile-model", "pbd"][..], extra].concat()
+}
+
+/// The arguments of `ssskit profile --material material --profile-model
+/// model --out out`, then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn profile_args<'a>(material: &'a str, model: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    [&["profile", "--material", material, "--profile-model", model, "--out", out][..], extra].concat()
+}
+
+/// The arguments of `ssskit fit --profile profile --model model --out
+/// out`, then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn fit_args<'a>(profile: &'a str, model: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    [&["fit", "--profile", profile, "--model", model, "--out", out][..], extra].concat()
+}
+
+/// The arguments of `ssskit apply --kernel k --input input --out out
+/// --mm-per-pixel mm`, then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn apply_args<'a>(k: &'a str, input: &'a str, out: &'a str, mm: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let fixed = ["apply", "--kernel", k, "--input", input, "--out", out, "--mm-per-pixel", mm];
+    [&fixed[..], extra].concat()
 }
 
 /// The one spelling of a plain filter `Setup` the tests and benches
@@ -184,6 +242,15 @@ pub fn fails_with_in(dir: &Path, args: &[&str], needles: &[&str]) {
     assert_fails(&run_in(dir, args), args, needles);
 }
 
+/// A temporary folder holding `files` (name, text).
+pub fn temp_with(files: &[(&str, &str)]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    dir
+}
+
 pub fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(p).expect("readable file")).expect("valid JSON")
 }
@@ -196,6 +263,45 @@ pub fn replace_block(text: &mut String, kind: &str, name: &str, body: &str) {
     let i = text.find(&begin).unwrap() + begin.len();
     let j = i + text[i..].find(&end).unwrap();
     text.replace_range(i..j, body);
+}
+
+/// Every `<!-- BEGIN KIND:NAME -->` block of the docs' markdown of each of
+/// `kinds`, against `fresh(kind, name, file)`: rewritten under
+/// `SSSKIT_BLESS=1` (atomically), else listed as stale with both texts.
+/// Returns how many blocks were checked and the stale ones.
+pub fn check_doc_blocks(
+    kinds: &[&str],
+    fresh: impl Fn(&str, &str, &Path) -> String,
+) -> (usize, Vec<String>) {
+    use ssskit::report::present::kernel_report::blocks_of;
+    let bless = bless();
+    let (mut checked, mut stale) = (0, Vec::new());
+    for f in doc_markdown_files() {
+        let mut text = std::fs::read_to_string(&f).unwrap();
+        let mut changed = false;
+        for kind in kinds {
+            for (name, body) in blocks_of(&text.clone(), kind) {
+                let want = fresh(kind, &name, &f);
+                checked += 1;
+                if want == body {
+                    continue;
+                }
+                if bless {
+                    replace_block(&mut text, kind, &name, &want);
+                    changed = true;
+                } else {
+                    stale.push(format!(
+                        "{}: {kind}:{name}\n--- committed\n{body}--- now\n{want}",
+                        f.display()
+                    ));
+                }
+            }
+        }
+        if changed {
+            ssskit::io::write_atomic(&f, text.as_bytes()).unwrap();
+        }
+    }
+    (checked, stale)
 }
 
 /// Checks that two profiles are the same run, bit for bit, but for the
@@ -430,6 +536,20 @@ pub mod mc {
             threads: None,
             channels: vec![ch],
             grid,
+        }
+    }
+
+    /// The kernel-factor rule at 2% relative error, capped at 10^7 photons
+    /// a channel, all channels, seed 3: the adaptive run the tests share.
+    pub fn kernel_factor_cfg() -> McConfig {
+        McConfig {
+            budget: PhotonBudget::KernelFactor {
+                rel: 0.02,
+                max_photons: 10_000_000,
+            },
+            seed: 3,
+            channels: Channel::ALL.to_vec(),
+            ..cfg(0, Channel::R, None)
         }
     }
 

@@ -10,7 +10,8 @@ use ssskit::profile::{Profile, RadialGrid};
 mod common;
 #[allow(unused_imports)] // each test file uses some of them
 pub use common::{
-    assert_fails, bin, golden, p, perspective_setup, plain_setup, run, shader, stderr,
+    apply_args, assert_fails, bin, golden, p, perspective_setup, plain_setup, run, shader,
+    skin1_pbd_args, stderr,
 };
 
 /// The dipole profile of a preset over a uniform radial grid.
