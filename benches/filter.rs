@@ -22,7 +22,9 @@
 //! README.md and `threads` for docs/filter.md). `SSSKIT_BENCH_REPS=N` sets
 //! the frames per case (default 9; other values do not write the record).
 
-use ssskit::filter::{cpu, Image, Plane, Scale, Setup, Taps};
+#[path = "../tests/common/mod.rs"]
+mod common;
+use ssskit::filter::{cpu, sample, separable, Image, Plane, Setup, Taps};
 use std::time::Instant;
 
 const W: usize = 1920;
@@ -173,15 +175,7 @@ fn write_f32(path: &std::path::Path, v: impl Iterator<Item = f64>) {
 
 /// Our cases at the current rayon pool size: name -> (wall ms, CPU ms).
 fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
-    let plain = |t: Taps, mm: f64| Setup {
-        passes: vec![t],
-        scale: Scale::MmPerPixel(mm),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
+    let plain = |t: Taps, mm: f64| common::plain_setup(vec![t], mm);
     let sep = plain(taps(true), 0.1);
     let table = plain(taps(false), 0.1);
     let per_pixel = Setup {
@@ -206,17 +200,14 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
             })
             .collect(),
     };
-    let depth_aware = Setup {
-        scale: Scale::Perspective {
-            fov_y_deg: 30.0,
-            sss_width: 0.0025,
-        },
-        depth: Some(depth),
-        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
-        ..table.clone()
-    };
+    let depth_aware = common::perspective_setup(
+        table.passes.clone(),
+        (30.0, 0.0025),
+        depth,
+        ssskit::filter::FollowSurface::InSceneUnits(300.0),
+    );
     let mut out = Vec::new();
-    let kernel = [cpu::PixelKernel::from_taps(&taps(true), 10.0)];
+    let kernel = [sample::PixelKernel::from_taps(&taps(true), 10.0)];
     // A renderer's frame: f32 planes in, f32 planes out, buffers reused
     // (what OpenCV's sepFilter2D computes on the same planes).
     let src: Vec<Vec<f32>> = (0..3)
@@ -227,7 +218,7 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
         "separable-f32-reused",
         median_ms(reps, || {
             for c in 0..3 {
-                cpu::apply_separable_f32(&src[c], &mut dst[c], (W, H), &kernel, c);
+                separable::apply_separable_f32(&src[c], &mut dst[c], (W, H), &kernel, c);
             }
         }),
     ));
@@ -236,12 +227,12 @@ fn ours(img: &Image, reps: usize) -> Vec<(&'static str, (f64, f64))> {
     out.push((
         "separable-reused",
         median_ms(reps, || {
-            cpu::apply_separable_into::<f64>(img, &kernel, &mut reused)
+            separable::apply_separable_into::<f64>(img, &kernel, &mut reused)
         }),
     ));
     // `ssskit apply` on the CPU: the f64 image filtered in place (each
     // frame blurs the last; a normalised kernel keeps it finite).
-    use cpu::Precision::{F32, F64};
+    use separable::Precision::{F32, F64};
     let mut work = img.clone();
     for (name, precision) in [("separable-f32", F32), ("separable", F64)] {
         out.push((
@@ -287,15 +278,7 @@ fn main() {
         (0..W * H).flat_map(move |i| [0, 1, 2].map(|c| im.rgb[c][i]))
     };
     write_f32(&dir.path().join("image.f32"), interleaved(&img));
-    let sep = Setup {
-        passes: vec![taps(true)],
-        scale: Scale::MmPerPixel(0.1),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
+    let sep = common::plain_setup(vec![taps(true)], 0.1);
     let result = cpu::apply(&img, &sep).expect("the separable case runs");
     write_f32(&dir.path().join("ours.f32"), interleaved(&result));
     let t = taps(true);

@@ -144,18 +144,13 @@ fn wall(args: &[&str]) -> f64 {
         })
         .collect();
     let t0 = Instant::now();
-    let o = common::bin()
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(&argv)
-        .output()
-        .expect("runs ssskit");
-    let t = t0.elapsed().as_secs_f64();
-    assert!(
-        o.status.success(),
-        "ssskit {argv:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
+    common::output_ok(
+        common::bin()
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(&argv),
+        &format!("ssskit {argv:?}"),
     );
-    t
+    t0.elapsed().as_secs_f64()
 }
 
 fn main() {

@@ -27,6 +27,9 @@
 //!
 //! `cargo bench --bench mc_angular` takes about 1 minute on 2 idle cores.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::mcml::section;
 use ssskit::material::{preset, Channel};
 use ssskit::profile::mc::{simulate_with, AngularOptions, McConfig, McOptions, PhotonBudget};
 use ssskit::progress::NoProgress;
@@ -114,17 +117,6 @@ fn layered_mci(photons: u64, out: &str) -> String {
     )
 }
 
-/// The numbers of a section of an .mco file (after its tag line up to the
-/// next empty line).
-fn section(text: &str, tag: &str) -> Vec<f64> {
-    text.lines()
-        .skip_while(|l| !l.starts_with(tag))
-        .skip(1)
-        .take_while(|l| !l.trim().is_empty())
-        .flat_map(|l| l.split_whitespace().filter_map(|v| v.parse().ok()))
-        .collect()
-}
-
 fn mcml(scale: f64, data: &mut serde_json::Value) -> Table {
     let mut t = Table::new(&[
         "exit bin (deg)",
@@ -147,7 +139,7 @@ fn mcml(scale: f64, data: &mut serde_json::Value) -> Table {
     std::fs::write(dir.join("m.mci"), layered_mci(photons, "m.mco")).unwrap();
     std::fs::write(dir.join("s.mci"), layered_mci(photons, "s.mco")).unwrap();
     let ok = run_mcml(&bin, &dir);
-    run_ssskit(
+    common::ok_in(
         &dir,
         &[
             "simulate", "--mci", "s.mci", "--mco", "s.mco", "--out", "s.json",
@@ -285,7 +277,7 @@ fn mcml_exit(scale: f64, data: &mut serde_json::Value) -> Table {
                 (ss / (n - 1.0) / n).sqrt()
             })
             .collect();
-        run_ssskit(
+        common::ok_in(
             &dir,
             &[
                 "simulate", "--mci", "s.mci", "--out", "s.json", "--seed", "1",
@@ -319,10 +311,7 @@ fn mcml_exit(scale: f64, data: &mut serde_json::Value) -> Table {
 }
 
 fn main() {
-    let scale: f64 = std::env::var("SSSKIT_BENCH_SCALE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1.0);
+    let scale = common::mcml::bench_scale();
     let machine = machine_line();
     let mut data = serde_json::json!({});
     let f = factors(scale, &mut data);
@@ -357,18 +346,4 @@ fn run_mcml(bin: &std::ffi::OsStr, dir: &Path) -> bool {
         .stdout(Stdio::null())
         .status()
         .is_ok_and(|s| s.success())
-}
-
-/// The ssskit binary with `args`, run in `dir`; it must succeed.
-fn run_ssskit(dir: &Path, args: &[&str]) {
-    let ours = Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("ssskit runs");
-    assert!(
-        ours.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ours.stderr)
-    );
 }

@@ -18,6 +18,9 @@
 //! `SSSKIT_MCML=... cargo bench --bench mc_transmission` takes about 2
 //! minutes on 2 idle cores.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::mcml::section;
 use ssskit::report::present::record::{docs_path, machine_line, Record};
 use ssskit::report::present::table::Table;
 use std::path::Path;
@@ -63,17 +66,6 @@ fn mci(case: &(&str, f64, f64, f64, f64, f64), photons: u64, runs: u64, stem: &s
     s
 }
 
-/// The numbers of a section of an .mco file (after its tag line up to the
-/// next empty line).
-fn section(text: &str, tag: &str) -> Vec<f64> {
-    text.lines()
-        .skip_while(|l| !l.starts_with(tag))
-        .skip(1)
-        .take_while(|l| !l.trim().is_empty())
-        .flat_map(|l| l.split_whitespace().filter_map(|v| v.parse().ok()))
-        .collect()
-}
-
 fn value(text: &str, tag: &str) -> f64 {
     text.lines()
         .find(|l| l.contains(tag))
@@ -114,10 +106,7 @@ fn chi2(ours: &[f64], ose: &[f64], theirs: &[f64], tse: &[f64]) -> (f64, usize) 
 }
 
 fn main() {
-    let scale: f64 = std::env::var("SSSKIT_BENCH_SCALE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1.0);
+    let scale = common::mcml::bench_scale();
     let machine = machine_line();
     let mut t = Table::new(&[
         "slab (MCML units, air above and below)",
@@ -191,17 +180,11 @@ fn compare(
         .map(|x| vec![value(x, "#Transmittance")])
         .collect();
     let (tt, tt_se) = mean_se(&totals);
-    let out = Command::new(env!("CARGO_BIN_EXE_ssskit"))
-        .args([
+    common::ok_in(
+        &dir,
+        &[
             "simulate", "--mci", "s.mci", "--out", "s.json", "--mco", "s.mco", "--seed", "1",
-        ])
-        .current_dir(&dir)
-        .output()
-        .expect("ssskit runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
     );
     let p = ssskit::profile::Profile::read(&dir.join("s.json")).unwrap();
     let tp = p

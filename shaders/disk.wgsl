@@ -4,14 +4,11 @@
 // samplers): rgba32float is not filterable on every adapter (lavapipe), so
 // the bilinear fetch is done here, positions clamped to the image. The host
 // prepends the struct DiskParams (src/filter/disk_gpu.rs, where its fields
-// are described), mul_wide (wide_mul.wgsl) and the constants IGN_X, IGN_Y,
-// IGN_WHOLE, IGN_FRACTION, SILVER_U32, JITTER_BITS and WORKGROUP_SIDE (from
-// src/filter/jitter.rs).
+// are described), what both screen-space passes share (screen_common.wgsl:
+// the image, depth and strength at bindings 1 to 3, the noise) and the
+// constants SILVER_U32 and WORKGROUP_SIDE (from src/filter/jitter.rs).
 
 @group(0) @binding(0) var<uniform> params: DiskParams;
-@group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> depth: array<f32>;
-@group(0) @binding(3) var<storage, read> strength: array<f32>;
 // Per sample: its unrotated position in kernel mm.
 @group(0) @binding(4) var<storage, read> points: array<vec2<f32>>;
 // Per sample: xyz the RGB weight.
@@ -23,10 +20,7 @@
 // in 32-bit fixed point plus `frame` steps of sqrt 2 - 1, the same bits as
 // rotation_unit in src/filter/jitter.rs.
 fn rotation_unit(x: u32, y: u32, frame: u32) -> f32 {
-    let inner = IGN_X * x + IGN_Y * y;
-    let ign = IGN_WHOLE * inner + mul_wide(IGN_FRACTION, inner).y;
-    let n = ign + frame * SILVER_U32;
-    return f32(n >> (32u - JITTER_BITS)) / f32(1u << JITTER_BITS);
+    return jitter_fraction(ign_fixed(x, y) + frame * SILVER_U32);
 }
 
 // The bilinear fetch at (px, py), clamped: colour in xyz, depth in w.

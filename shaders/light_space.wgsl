@@ -7,8 +7,8 @@
 // module docs there state the estimator. The host prepends the constants
 // (PHILOX_*, UNIFORM_BITS, WORKGROUP), the structs LsParams, LsMap and
 // LsMedium (src/filter/light_space_gpu.rs, where their fields are
-// described), mul_wide (wide_mul.wgsl) and philox4x32_10
-// (mc_philox.wgsl). Positions are relative to the scene's centre (the
+// described), mul_wide (wide_mul.wgsl), fresnel (fresnel.wgsl) and
+// philox4x32_10 (mc_philox.wgsl). Positions are relative to the scene's centre (the
 // host subtracts it in f64), which keeps their f32 rounding small.
 
 @group(0) @binding(0) var<uniform> params: LsParams;
@@ -30,23 +30,6 @@ const TAU: f32 = 6.28318530717959;
 // xi in (0, 1): the top UNIFORM_BITS bits plus one half (unit() in the twin).
 fn unit(x: u32) -> f32 {
     return (f32(x >> (32u - UNIFORM_BITS)) + 0.5) / f32(1u << UNIFORM_BITS);
-}
-
-// Unpolarised Fresnel reflectance, relative index eta = n_t / n_i
-// (fresnel_dielectric in src/profile/fresnel.rs).
-fn fresnel(cos_in: f32, eta: f32) -> f32 {
-    let ci = clamp(cos_in, 0.0, 1.0);
-    if (eta == 1.0) {
-        return 0.0;
-    }
-    let s2t = max(1.0 - ci * ci, 0.0) / (eta * eta);
-    if (s2t >= 1.0) {
-        return 1.0;
-    }
-    let ct = sqrt(1.0 - s2t);
-    let rs = (ci - eta * ct) / (ci + eta * ct);
-    let rp = (eta * ci - ct) / (eta * ci + ct);
-    return 0.5 * (rs * rs + rp * rp);
 }
 
 // The orthonormal pair completing w (Duff et al. 2017; frame() in

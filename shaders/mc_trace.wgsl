@@ -23,8 +23,8 @@
 // Tally words (see src/profile/mc/gpu/sums.rs for the layout).
 @group(0) @binding(3) var<storage, read_write> acc: array<atomic<u32>>;
 
-// mul_wide (wide_mul.wgsl) and philox4x32_10 (mc_philox.wgsl) are prepended
-// by the host.
+// mul_wide (wide_mul.wgsl), fresnel (fresnel.wgsl) and philox4x32_10
+// (mc_philox.wgsl) are prepended by the host.
 
 var<private> rng_buf: vec4<u32>;
 var<private> rng_used: u32;
@@ -167,23 +167,6 @@ fn bin_of(r: f32) -> u32 {
 }
 
 // ---------------------------------------------------------------- physics
-
-// Unpolarised Fresnel reflectance, eta = n_t / n_i; 1 under total internal
-// reflection (as src/profile/fresnel.rs).
-fn fresnel(cos_in: f32, eta: f32) -> f32 {
-    if (eta == 1.0) {
-        return 0.0;
-    }
-    let cos_i = clamp(cos_in, 0.0, 1.0);
-    let sin2_t = max(1.0 - cos_i * cos_i, 0.0) / (eta * eta);
-    if (sin2_t >= 1.0) {
-        return 1.0;
-    }
-    let cos_t = sqrt(1.0 - sin2_t);
-    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    return 0.5 * (rs * rs + rp * rp);
-}
 
 // Henyey-Greenstein cos(theta) by inversion (MCML SpinTheta).
 fn sample_hg_cos(g: f32, xi: f32) -> f32 {

@@ -4,29 +4,24 @@
 // filterable on every adapter (lavapipe), so the linear interpolation along
 // the pass axis is done here. Positions are clamped to the image (clamp-to-edge).
 // The host prepends the struct Params (src/filter/gpu.rs, where its fields
-// are described).
+// are described) and what both screen-space passes share
+// (screen_common.wgsl: the image, depth and strength at bindings 1 to 3, the
+// noise).
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> depth: array<f32>;
-@group(0) @binding(3) var<storage, read> strength: array<f32>;
 // xyz: RGB weight, w: offset in kernel mm.
 @group(0) @binding(4) var<storage, read> taps: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> dst: array<vec4<f32>>;
 // Per tap: start and width (kernel mm) of the interval the tap stands for.
 @group(0) @binding(6) var<storage, read> footprint: array<vec2<f32>>;
 
-// Interleaved gradient noise (Jimenez 2014) in 32-bit fixed point, the same
-// bits as the f64 twin (src/filter/jitter.rs, ign_fixed and jitter_unit):
-// fract(52.9829189 fract(0.06711056 x + 0.00583715 y)). The host prepends
-// mul_wide (wide_mul.wgsl) and the constants IGN_X, IGN_Y, IGN_WHOLE,
-// IGN_FRACTION, GOLDEN_U32, JITTER_BITS and WORKGROUP_SIDE (src/filter/gpu.rs,
-// shared_constants, from src/filter/jitter.rs).
+// The jitter of tap `tap` in pass `axis`: the noise (screen_common.wgsl) plus golden
+// ratio steps, the same bits as the f64 twin (src/filter/jitter.rs,
+// jitter_unit). The host prepends the constants GOLDEN_U32 and
+// WORKGROUP_SIDE (src/filter/gpu.rs, shared_constants, from
+// src/filter/jitter.rs).
 fn jitter_unit(x: u32, y: u32, tap: u32, axis: u32) -> f32 {
-    let inner = IGN_X * x + IGN_Y * y;
-    let ign = IGN_WHOLE * inner + mul_wide(IGN_FRACTION, inner).y;
-    let n = ign + (2u * tap + axis) * GOLDEN_U32;
-    return f32(n >> (32u - JITTER_BITS)) / f32(1u << JITTER_BITS);
+    return jitter_fraction(ign_fixed(x, y) + (2u * tap + axis) * GOLDEN_U32);
 }
 
 @compute @workgroup_size(WORKGROUP_SIDE, WORKGROUP_SIDE, 1)

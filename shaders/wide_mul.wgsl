@@ -1,6 +1,6 @@
 // 32 x 32 -> 64-bit unsigned products from 16-bit halves, since WGSL has no
 // 64-bit integers. Shared by the Philox generator (mc_philox.wgsl) and the
-// filter's interleaved gradient noise (sss_pass.wgsl); the host prepends it.
+// filter's interleaved gradient noise (screen_common.wgsl); the host prepends it.
 
 // (lo, hi) of the 64-bit product of two u32.
 fn mul_wide(a: u32, b: u32) -> vec2<u32> {

@@ -109,6 +109,24 @@ pub fn finite_positive(context: &str, field: &str, v: f64, unit: &str) -> Result
     ))
 }
 
+/// The header every ssskit file starts with: `schema` must be `expected`
+/// and `units` "mm"; otherwise a format error of `context`.
+pub fn check_header(context: &str, schema: &str, expected: &str, units: &str) -> Result<()> {
+    if schema != expected {
+        return Err(Error::format(
+            context,
+            format!("schema is '{schema}', expected '{expected}'"),
+        ));
+    }
+    if units != "mm" {
+        return Err(Error::format(
+            context,
+            format!("units is '{units}', expected 'mm'"),
+        ));
+    }
+    Ok(())
+}
+
 /// `v` when it is finite and >= 0; otherwise the one error of that check.
 pub fn finite_non_negative(context: &str, field: &str, v: f64) -> Result<f64> {
     if v.is_finite() && v >= 0.0 {

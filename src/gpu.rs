@@ -11,6 +11,21 @@ use wgpu::util::DeviceExt;
 /// generators, prepended to each shader that uses them.
 pub const WGSL_WIDE_MUL: &str = include_str!("../shaders/wide_mul.wgsl");
 
+/// A shader's source as its pipeline compiles it: the WGSL declarations of
+/// `consts` ([`wgsl_u32_consts`]), then `parts` in order (shared snippets,
+/// structs, the body).
+pub fn assemble_wgsl(consts: &[(&str, u32)], parts: &[&str]) -> String {
+    let consts = wgsl_u32_consts(consts);
+    std::iter::once(consts.as_str())
+        .chain(parts.iter().copied())
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// shaders/fresnel.wgsl: the Fresnel reflectance of a dielectric interface,
+/// prepended to the tracer's and the light-space pass's shaders.
+pub const WGSL_FRESNEL: &str = include_str!("../shaders/fresnel.wgsl");
+
 /// WGSL declarations `const NAME: u32 = VALUEu;` of `consts`: an integer
 /// constant of a generator is defined once, in Rust, and given to both the
 /// CPU twin and the shader.

@@ -238,27 +238,33 @@ pub fn check_light_space(
     positions: usize,
     lights: usize,
 ) -> Result<()> {
-    if side == 0 || side > MAX_LIGHT_MAP_SIDE {
-        return Err(Error::invalid(
-            context,
+    for (field, v, max, unit) in [
+        (
             "light_map_side",
             side,
+            MAX_LIGHT_MAP_SIDE,
             format!(
-                "must be in 1..={MAX_LIGHT_MAP_SIDE} texels per side ({LIGHT_MAP_TEXEL_BYTES} \
-                 bytes per texel; Dal Corso et al. 2017 use 512 to 1024)"
+                "texels per side ({LIGHT_MAP_TEXEL_BYTES} bytes per texel; Dal Corso et al. 2017 \
+                 use 512 to 1024)"
             ),
-        ));
-    }
-    if samples == 0 || samples > MAX_LIGHT_SPACE_SAMPLES {
-        return Err(Error::invalid(
-            context,
+        ),
+        (
             "samples",
             samples,
-            format!(
-                "must be in 1..={MAX_LIGHT_SPACE_SAMPLES} samples per pixel and channel (the \
-                 estimator of scattered radiosity needs at least one)"
-            ),
-        ));
+            MAX_LIGHT_SPACE_SAMPLES,
+            "samples per pixel and channel (the estimator of scattered radiosity needs at \
+             least one)"
+                .to_string(),
+        ),
+    ] {
+        if v == 0 || v > max {
+            return Err(Error::invalid(
+                context,
+                field,
+                v,
+                format!("must be in 1..={max} {unit}"),
+            ));
+        }
     }
     let work = positions as f64 * samples as f64 * 3.0 * lights as f64;
     if work > MAX_LIGHT_SPACE_WORK {

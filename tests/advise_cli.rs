@@ -101,19 +101,13 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
             let exact = d.join(format!("exact-{name}{mm}.exr"));
             common::centre_reference(&profile, &input, mm, &exact);
             let blurred = d.join(format!("blurred-{name}{mm}.exr"));
-            let mut args = vec![
-                "apply",
-                "--kernel",
+            let mut args = common::apply_args(
                 s(&kernel),
-                "--input",
                 s(&input),
-                "--mm-per-pixel",
-                mm,
-                "--backend",
-                "cpu",
-                "--out",
                 s(&blurred),
-            ];
+                mm,
+                &["--backend", "cpu"],
+            );
             if !a["taps"].is_u64() {
                 args.push("--full-factors");
             }
@@ -216,16 +210,7 @@ fn fit_records_the_tap_extent() {
     let profile = common::pbd_profile(d, "skin1");
     let extent_of = |extra: &[&str]| {
         let k = d.join("k.json");
-        let mut args = vec![
-            "fit",
-            "--profile",
-            s(&profile),
-            "--model",
-            "preintegrate",
-            "--out",
-            s(&k),
-            "--quiet",
-        ];
+        let mut args = common::fit_args(s(&profile), "preintegrate", s(&k), &["--quiet"]);
         args.extend_from_slice(extra);
         ok(&args);
         let v = read(&k);
@@ -251,17 +236,12 @@ fn fit_records_the_tap_extent() {
     let (given, _) = extent_of(&["--taps", "17", "--tap-extent", "3.5"]);
     assert_eq!(given, 3.5);
     common::fails_with(
-        &[
-            "fit",
-            "--profile",
+        &common::fit_args(
             s(&profile),
-            "--model",
             "svd",
-            "--out",
             s(&d.join("x.json")),
-            "--tap-extent",
-            "-1",
-        ],
+            &["--tap-extent", "-1"],
+        ),
         &["--tap-extent"],
     );
 }
@@ -274,37 +254,17 @@ fn apply_warns_about_the_kernel_at_the_pixel_scale() {
     let d = dir.path();
     let profile = common::pbd_profile(d, "skin1");
     let k = d.join("k.json");
-    ok(&[
-        "fit",
-        "--profile",
+    ok(&common::fit_args(
         s(&profile),
-        "--model",
         "preintegrate",
-        "--taps",
-        "9",
-        "--tap-extent",
-        "4",
-        "--out",
         s(&k),
-        "--quiet",
-    ]);
+        &["--taps", "9", "--tap-extent", "4", "--quiet"],
+    ));
     let img = d.join("edge.exr");
     ok(&["signal", "edge", "--image-size", "24x24", "--out", s(&img)]);
     let o_exr = d.join("o.exr");
     let run = |mm: &str, taps_only: bool| {
-        let mut args = vec![
-            "apply",
-            "--kernel",
-            s(&k),
-            "--input",
-            s(&img),
-            "--mm-per-pixel",
-            mm,
-            "--backend",
-            "cpu",
-            "--out",
-            s(&o_exr),
-        ];
+        let mut args = common::apply_args(s(&k), s(&img), s(&o_exr), mm, &["--backend", "cpu"]);
         if !taps_only {
             args.push("--full-factors");
         }
@@ -425,18 +385,14 @@ fn report_leads_with_what_to_ship(out: &Path, md: &str, advice: &Value) {
 /// of its passes (a separable kernel's as scored, a disk kernel's
 /// samples) is the one advice.json carries for the chosen row.
 fn recommended_is_what_was_scored(out: &Path, advice: &Value) {
-    use ssskit::report::eval::{advise_disk, advise_search};
+    use ssskit::report::eval::{advise::search, disk};
     let path = out.join("recommended.json");
     let written = if advice["disk"].is_null() {
         let k = ssskit::kernel::KernelFile::read(&path).unwrap();
         let mm = advice["mm_per_pixel"].as_f64().unwrap();
-        advise_search::fingerprint(&advise_search::scored_passes(
-            &k,
-            advice["taps"].is_null(),
-            mm,
-        ))
+        search::fingerprint(&search::scored_passes(&k, advice["taps"].is_null(), mm))
     } else {
-        advise_disk::disk_fingerprint(&ssskit::kernel::disk::DiskKernelFile::read(&path).unwrap())
+        disk::disk_fingerprint(&ssskit::kernel::disk::DiskKernelFile::read(&path).unwrap())
     };
     assert_eq!(advice["fingerprint"].as_str(), Some(written.as_str()));
 }
@@ -633,25 +589,7 @@ fn pareto_layout_reads(study_json: &std::path::Path, dir: &std::path::Path) {
 /// `advise` on the committed Monte Carlo profile of skin1 at 0.1 mm per
 /// pixel, 64-pixel signals: JSON on stdout, the table on stderr.
 fn advise_skin1(extra: &[&str]) -> (Value, String) {
-    advise_skin1_at("0.1", extra)
-}
-
-/// [`advise_skin1`] at `mm_per_pixel`.
-fn advise_skin1_at(mm_per_pixel: &str, extra: &[&str]) -> (Value, String) {
-    let profile = common::committed_profile("skin1");
-    let mut args = vec![
-        "advise",
-        "--profile",
-        s(&profile),
-        "--mm-per-pixel",
-        mm_per_pixel,
-        "--signal-size",
-        "64",
-        "--json",
-    ];
-    args.extend(extra);
-    let (out, err) = ok(&args);
-    (serde_json::from_str(&out).unwrap(), err)
+    common::advise_skin1_at("0.1", extra)
 }
 
 /// The separable families of advise's default (the disk rows have
@@ -727,7 +665,7 @@ fn advise_keeps_to_the_budget_and_says_why() {
 /// budget, misses 5% on the finest checkers and meets it at 2 mm.
 #[test]
 fn advise_names_a_coarser_scale_that_meets_the_target() {
-    let (a, err) = advise_skin1_at("1.0", &["--models", SEPARABLE]);
+    let (a, err) = common::advise_skin1_at("1.0", &["--models", SEPARABLE]);
     assert_eq!(a["meets_target"], false, "{err}");
     let c = &a["remedy"]["coarser"];
     let mm = c["mm_per_pixel"]
@@ -735,7 +673,7 @@ fn advise_names_a_coarser_scale_that_meets_the_target() {
         .unwrap_or_else(|| panic!("no scale named: {a}"));
     assert!(mm > 1.0, "a coarser scale: {mm}");
     assert!(err.contains("--mm-per-pixel"), "{err}");
-    let (b, err) = advise_skin1_at(&mm.to_string(), &["--models", SEPARABLE]);
+    let (b, err) = common::advise_skin1_at(&mm.to_string(), &["--models", SEPARABLE]);
     assert_eq!(b["meets_target"], true, "{err}");
     for key in ["label", "taps", "passes"] {
         assert_eq!(b[key], c["candidate"][key], "{key}: {b} vs {c}");
@@ -767,20 +705,18 @@ fn advise_refuses_a_percent_and_a_folder_is_no_material() {
     }
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("skin1")).unwrap();
-    let args = [
+    let args = common::skin1_pbd_args(
         "advise",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--mm-per-pixel",
-        "0.5",
-        "--signal-size",
-        "32",
-        "--models",
-        "preintegrate",
-        "--json",
-    ];
+        &[
+            "--mm-per-pixel",
+            "0.5",
+            "--signal-size",
+            "32",
+            "--models",
+            "preintegrate",
+            "--json",
+        ],
+    );
     let out = common::ok_in(dir.path(), &args);
     let a: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(a["label"], "preintegrate", "{a}");

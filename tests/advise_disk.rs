@@ -17,20 +17,7 @@ const TARGET: f64 = 0.05;
 /// `advise` on the committed skin1 profile at 0.1 mm per pixel, 64-pixel
 /// signals, JSON.
 fn advise(extra: &[&str]) -> (Value, String) {
-    let profile = common::committed_profile("skin1");
-    let mut args = vec![
-        "advise",
-        "--profile",
-        s(&profile),
-        "--mm-per-pixel",
-        "0.1",
-        "--signal-size",
-        "64",
-        "--json",
-    ];
-    args.extend(extra);
-    let (out, err) = ok(&args);
-    (serde_json::from_str(&out).unwrap(), err)
+    common::advise_skin1_at("0.1", extra)
 }
 
 /// The disk row among the answer's candidates.
@@ -124,23 +111,13 @@ fn advise_chooses_a_disk_kernel_that_holds_through_apply() {
         let exact = d.join(format!("exact-{name}.exr"));
         common::centre_reference(&profile, &input, "0.1", &exact);
         let blurred = d.join(format!("disk-{name}.exr"));
-        ok(&[
-            "apply",
-            "--kernel",
+        ok(&common::apply_args(
             s(&kernel),
-            "--input",
             s(&input),
-            "--mm-per-pixel",
-            "0.1",
-            "--frames",
-            "8",
-            "--frame-seed",
-            "1000",
-            "--backend",
-            "cpu",
-            "--out",
             s(&blurred),
-        ]);
+            "0.1",
+            &["--frames", "8", "--frame-seed", "1000", "--backend", "cpu"],
+        ));
         let e = common::diff_rel(&exact, &blurred);
         assert!(e <= TARGET, "{name}: {e} > {TARGET}: {a}");
     }

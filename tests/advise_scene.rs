@@ -7,7 +7,7 @@
 //! - the choice and every row obey the budget (2 one-dimensional passes);
 //! - the chosen kernel loses against the best within the budget on the
 //!   scene at most the error the advice accepted (module docs of
-//!   `report::eval::advise_scene`) plus its noise margin;
+//!   `report::eval::advise::scene`) plus its noise margin;
 //! - the chosen row's scene error is what `apply` (the kernel `advise`
 //!   wrote, on the scene's `--irradiance-out` with the same depth-aware
 //!   lerp) gives against the path-traced image, recomputed here
@@ -33,7 +33,7 @@ const RENDER_ERROR: &str = "0.05";
 const PROFILE_PHOTONS: &str = "200000";
 /// The f32 EXR files against the f64 scores inside `advise`: relative.
 const F32_AGREEMENT: f64 = 1e-5;
-/// advise's default `--frames` (`advise_types::DEFAULT_FRAMES`): a chosen
+/// advise's default `--frames` (`report::eval::disk::DEFAULT_FRAMES`): a chosen
 /// disk kernel is scored as the mean of that many rotations.
 const DISK_FRAMES: &str = "8";
 /// The decision's noise margin, in standard deviations (`NOISE_K`).

@@ -13,7 +13,7 @@ mod common;
 use common::{ok_both as ok, p as s, read_json as read};
 
 /// The families advise chooses from by default
-/// (`ssskit::report::eval::advise::FAMILIES`), each alone, with the budget
+/// (`ssskit::report::eval::advise::ADVISED_FAMILIES`), each alone, with the budget
 /// it needs: a sum of Gaussians has two terms at least (advise leaves the
 /// single Gaussian out), four passes.
 const FAMILIES: [(&str, &str); 6] = [
@@ -78,17 +78,7 @@ fn signal(dir: &Path, name: &str) -> PathBuf {
 
 /// `apply --kernel K` with no flag beyond the scale, and `extra`.
 fn apply(kernel: &Path, input: &Path, out: &Path, extra: &[&str]) -> String {
-    let mut args = vec![
-        "apply",
-        "--kernel",
-        s(kernel),
-        "--input",
-        s(input),
-        "--mm-per-pixel",
-        MM,
-        "--out",
-        s(out),
-    ];
+    let mut args = common::apply_args(s(kernel), s(input), s(out), MM, &[]);
     args.extend(extra);
     ok(&args).1
 }

@@ -124,16 +124,21 @@ fn plot_profile_writes_a_png() {
         assert!(o.status.success(), "{}", stderr(&o));
     }
     let png = dir.path().join("p.png");
-    let o = ssskit(&[
-        "plot",
-        "profile",
-        a.to_str().unwrap(),
-        b.to_str().unwrap(),
-        "--out",
-        png.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let img = image::open(&png).unwrap();
+    // The page the CLI draws, pixel by pixel against its golden (curves,
+    // axes, labels: a changed profile or plot fails here).
+    let golden_name = "cli-plot-profile-wholemilk.png";
+    common::golden::check_png(golden_name, |out| {
+        let o = ssskit(&[
+            "plot",
+            "profile",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    });
+    let img = image::open(common::golden::diff_dir().join(golden_name)).unwrap();
     assert!(img.width() >= 1000 && img.height() >= 1000);
     // Not blank: some pixels are drawn in a curve colour.
     let rgb = img.to_rgb8();

@@ -13,7 +13,7 @@ use ssskit::material::{preset, Channel};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
 use ssskit::progress::NoProgress;
-use ssskit::report::eval::profile_compare::{compare, Row};
+use ssskit::report::eval::compare::profile::{compare, Row};
 
 mod common;
 use common::measured;

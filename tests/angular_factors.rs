@@ -241,15 +241,7 @@ fn simulate_and_fit(dir: &std::path::Path, profile: &str, kernel: &str, extra: &
     args.extend_from_slice(extra);
     args.extend_from_slice(&["--out", p(&pj)]);
     ok(&args);
-    ok(&[
-        "fit",
-        "--profile",
-        p(&pj),
-        "--model",
-        "svd",
-        "--out",
-        p(&kj),
-    ]);
+    ok(&common::fit_args(p(&pj), "svd", p(&kj), &[]));
 }
 
 /// `simulate` with exit bins and oblique incidences, then `fit`: the kernel

@@ -35,7 +35,7 @@ fn channel(path: &Path, name: &str) -> Vec<f64> {
 
 /// The relative RMS per channel of `img` against the render's radiance
 /// over the covered pixels, over their 99th percentile: region "all" of
-/// `compare --scene` (report::eval::scene_score).
+/// `compare --scene` (report::eval::scene::score).
 fn scene_rms(img: &Path, render: &Path) -> [f64; 3] {
     let (a, _) = read_image(img, None).unwrap();
     let coverage = channel(render, "coverage");
@@ -142,15 +142,7 @@ fn chain() -> Chain {
     let prof = d.join("prof.json");
     std::fs::write(&prof, record["profiles"][0].to_string()).unwrap();
     let k = d.join("k.json");
-    ok(&[
-        "fit",
-        "--profile",
-        p(&prof),
-        "--model",
-        "preintegrate",
-        "--out",
-        p(&k),
-    ]);
+    ok(&common::fit_args(p(&prof), "preintegrate", p(&k), &[]));
     let mut kj = read_json(&k);
     assert!(kj.get("angular").is_none());
     kj["angular"] = compare["angular"].clone();
@@ -286,30 +278,18 @@ fn gpu_entry_weighted_and_missing_normals() {
     let (x, _) = read_image(&o2, None).unwrap();
     let (y, _) = read_image(&without, None).unwrap();
     assert_eq!(x.rgb, y.rgb);
-    // Normals without the light: the entry factor's input is asked for.
-    let mut args = base.to_vec();
+    // The plain image into x.exr, with the normals or a light.
     let o3 = c.path("x.exr");
-    args.extend_from_slice(&[
-        "--input",
-        p(&plain),
-        "--normals",
-        p(&normals),
-        "--out",
-        p(&o3),
-    ]);
-    fails_with(&args, &["--light-toward", "--n-dot-l", "--entry-weighted"]);
-    // A light without the normals is refused by its flag's name.
-    let mut args = base.to_vec();
-    args.extend_from_slice(&[
-        "--input",
-        p(&plain),
-        "--light-toward",
-        "0,0,1",
-        "--out",
-        p(&o3),
-    ]);
+    let plain_in = ["--input", p(&plain), "--out", p(&o3)];
+    let normals_in = ["--normals", p(&normals)];
+    // Normals without the light: the entry factor's input is asked for.
     fails_with(
-        &args,
+        &[&base[..], &plain_in, &normals_in].concat(),
+        &["--light-toward", "--n-dot-l", "--entry-weighted"],
+    );
+    // A light without the normals is refused by its flag's name.
+    fails_with(
+        &[&base[..], &plain_in, &["--light-toward", "0,0,1"]].concat(),
         &["--light-toward: the exit factor needs the normals"],
     );
     // A factor-only flag on a kernel without factors is refused.
@@ -317,16 +297,8 @@ fn gpu_entry_weighted_and_missing_normals() {
     kj.as_object_mut().unwrap().remove("angular");
     let bare_kernel = c.path("bare-k.json");
     std::fs::write(&bare_kernel, kj.to_string()).unwrap();
-    let mut args = base.to_vec();
+    let mut args = [&base[..], &plain_in, &normals_in].concat();
     args[2] = p(&bare_kernel);
-    args.extend_from_slice(&[
-        "--input",
-        p(&plain),
-        "--normals",
-        p(&normals),
-        "--out",
-        p(&o3),
-    ]);
     fails_with(
         &args,
         &["--normals: the kernel carries no angular entry and exit factors"],

@@ -54,13 +54,6 @@ fn timestamps_give_one_time_per_frame() {
 }
 
 fn plain_setup(k: &KernelFile) -> ssskit::filter::Setup {
-    ssskit::filter::Setup {
-        passes: ssskit::filter::taps_for(k, ssskit::filter::Which::stored(k), None).unwrap(),
-        scale: ssskit::filter::Scale::MmPerPixel(0.1),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    }
+    let passes = ssskit::filter::taps_for(k, ssskit::filter::Which::stored(k), None).unwrap();
+    filter_support::plain_setup(passes, 0.1)
 }

@@ -55,16 +55,7 @@ fn bash_complete(script: &Path, words: &[&str]) -> Vec<String> {
         script.display(),
         quoted.join(" ")
     );
-    let o = Command::new("bash")
-        .arg("-c")
-        .arg(&program)
-        .output()
-        .expect("bash runs");
-    assert!(
-        o.status.success(),
-        "bash: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let o = common::output_ok(Command::new("bash").arg("-c").arg(&program), "bash");
     String::from_utf8_lossy(&o.stdout)
         .split_whitespace()
         .map(String::from)
@@ -187,34 +178,18 @@ fn messages_name_the_flag_as_typed() {
     let profile = Path::new(ROOT).join("profiles/reference/skin1.json");
     let kernel = dir.path().join("k.json");
     for flag in ["--size", "--grid-size"] {
-        let args = [
-            "fit",
-            "--profile",
-            p(&profile),
-            "--model",
-            "svd",
-            flag,
-            "20",
-            "--out",
-            p(&kernel),
-        ];
+        let args = common::fit_args(p(&profile), "svd", p(&kernel), &[flag, "20"]);
         let e = assert_fails(&run(&args), &args, &[&format!("{flag}: invalid value 20")]);
         assert_eq!(e.contains("note:"), flag == "--size", "{e}");
     }
     // A CLI check, as apply's old --sss-width.
-    let args = [
-        "apply",
-        "--kernel",
+    let args = common::apply_args(
         "k.json",
-        "--input",
         "in.exr",
-        "--mm-per-pixel",
-        "0.1",
-        "--sss-width",
-        "0.001",
-        "--out",
         "o.exr",
-    ];
+        "0.1",
+        &["--sss-width", "0.001"],
+    );
     assert_fails(&run(&args), &args, &["--sss-width", "--mm-per-pixel"]);
 }
 

@@ -142,16 +142,12 @@ fn a_shard_in_the_image_merges_with_one_outside() {
     };
 
     // The image, as scripts/image builds it (from this test's binary).
-    let out = Command::new(Path::new(ROOT).join("scripts/image"))
-        .arg(TAG)
-        .env("SSSKIT_IMAGE_STORAGE", b.storage)
-        .env("SSSKIT_BIN", common::BIN)
-        .output()
-        .expect("scripts/image runs");
-    assert!(
-        out.status.success(),
-        "scripts/image failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = common::output_ok(
+        Command::new(Path::new(ROOT).join("scripts/image"))
+            .arg(TAG)
+            .env("SSSKIT_IMAGE_STORAGE", b.storage)
+            .env("SSSKIT_BIN", common::BIN),
+        "scripts/image",
     );
     check_size_record(String::from_utf8_lossy(&out.stdout).trim());
 
@@ -209,37 +205,19 @@ fn a_shard_in_the_image_merges_with_one_outside() {
     );
 
     // Shard 2 outside, with the same script and settings.
-    let out = Command::new(Path::new(ROOT).join("scripts/cluster/shard"))
-        .args(["2", &SHARDS.to_string()])
-        .envs(SETTINGS)
-        .env("PARTS", &parts)
-        .env("SSSKIT", common::BIN)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "shard 2 outside: {}",
-        String::from_utf8_lossy(&out.stderr)
+    common::output_ok(
+        Command::new(Path::new(ROOT).join("scripts/cluster/shard"))
+            .args(["2", &SHARDS.to_string()])
+            .envs(SETTINGS)
+            .env("PARTS", &parts)
+            .env("SSSKIT", common::BIN),
+        "shard 2 outside",
     );
 
     // The merge Job's command in the image, against the single run outside.
     run(&[], &merge_cmd);
-    common::ok_in(
-        d,
-        &[
-            "simulate",
-            "--material",
-            "skin1",
-            "--photons",
-            "60000",
-            "--seed",
-            "5",
-            "--max-work",
-            "1e11",
-            "--out",
-            "single.json",
-        ],
-    );
+    let single = ["--max-work", "1e11", "--out", "single.json"];
+    common::ok_in(d, &[&common::SHARDED_RUN[..], &single].concat());
     common::assert_same_run(&parts.join("skin1.json"), &d.join("single.json"));
 
     // The GPU path in the image: Mesa's software Vulkan, no GPU needed.

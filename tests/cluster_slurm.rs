@@ -182,22 +182,17 @@ fn record_scaling() {
     for n in counts {
         let dir = slurm::work_dir(&c, &format!("shards-{n}"));
         let t0 = Instant::now();
-        let out = c
-            .command(Path::new(ROOT).join("scripts/cluster/slurm-submit"))
-            .current_dir(&dir)
-            .envs([
-                ("MATERIAL", material.as_str()),
-                ("PHOTONS", &photons),
-                ("SEED", "7"),
-            ])
-            .env("SHARDS", n.to_string())
-            .env("SSSKIT", common::BIN)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let out = common::output_ok(
+            c.command(Path::new(ROOT).join("scripts/cluster/slurm-submit"))
+                .current_dir(&dir)
+                .envs([
+                    ("MATERIAL", material.as_str()),
+                    ("PHOTONS", &photons),
+                    ("SEED", "7"),
+                ])
+                .env("SHARDS", n.to_string())
+                .env("SSSKIT", common::BIN),
+            "slurm-submit",
         );
         let jobs: Vec<String> = String::from_utf8_lossy(&out.stdout)
             .split_whitespace()

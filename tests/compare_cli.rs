@@ -44,6 +44,17 @@ fn small_compare(out: &Path, threads: &str) -> Vec<Value> {
     serde_json::from_str(&text).unwrap()
 }
 
+/// Metric `key` ("rel_rms", "flip") of a row's image entry `e` with
+/// `factor`: "full" or a tap count.
+fn metric(e: &Value, factor: &str, key: &str) -> f64 {
+    let entry = if factor == "full" {
+        &e["full"]
+    } else {
+        &e["taps"][factor]
+    };
+    entry[key].as_f64().unwrap()
+}
+
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(1e-300)
 }
@@ -165,21 +176,13 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
                 let kernel = out.join("kernels").join(format!("{material}-{label}.json"));
                 for (factor, extra) in [("full", Some("--full-factors")), ("17", None)] {
                     let filtered = dir.path().join("k.exr");
-                    let mut args = vec![
-                        "apply",
-                        "--kernel",
+                    let mut args = common::apply_args(
                         p(&kernel),
-                        "--input",
                         p(&input),
-                        "--mm-per-pixel",
-                        MM,
-                        "--backend",
-                        "cpu",
-                        "--precision",
-                        "f64",
-                        "--out",
                         p(&filtered),
-                    ];
+                        MM,
+                        &["--backend", "cpu", "--precision", "f64"],
+                    );
                     args.extend(extra);
                     ok(&args);
                     let d = ok(&["diff", p(&exact), p(&filtered), "--json"]);
@@ -194,22 +197,14 @@ fn compare_equals_apply_and_diff_and_ignores_the_thread_count() {
                             })
                             .unwrap();
                         let e = &row["image"][signal];
-                        let mine = if factor == "full" {
-                            e["full"]["rel_rms"].as_f64().unwrap()
-                        } else {
-                            e["taps"][factor]["rel_rms"].as_f64().unwrap()
-                        };
+                        let mine = metric(e, factor, "rel_rms");
                         let theirs = v["rms_rel"][c].as_f64().unwrap();
                         assert!(
                             rel(mine, theirs) < 1e-9,
                             "{material} {label} {signal} {factor} {ch}: compare {mine} vs \
                              apply + diff {theirs}"
                         );
-                        let flip = if factor == "full" {
-                            e["full"]["flip"].as_f64().unwrap()
-                        } else {
-                            e["taps"][factor]["flip"].as_f64().unwrap()
-                        };
+                        let flip = metric(e, factor, "flip");
                         let oracle = flip_of(&exact, &filtered, c);
                         assert!(
                             (flip - oracle).abs() <= 1e-6,
@@ -278,24 +273,22 @@ fn compare_puts_disk_kernels_beside_separable_at_equal_samples() {
     const F32_AGREEMENT: f64 = 1e-5;
     let dir = tempfile::tempdir().unwrap();
     let run = |models: &str, taps: &str, frames: &str, out: &Path| {
-        ok(&[
+        ok(&common::skin1_pbd_args(
             "compare",
-            "--materials",
-            "skin1",
-            "--profile-model",
-            "pbd",
-            "--models",
-            models,
-            "--taps",
-            taps,
-            "--signals",
-            "edge",
-            "--frames",
-            frames,
-            "--no-plots",
-            "--out-dir",
-            p(out),
-        ])
+            &[
+                "--models",
+                models,
+                "--taps",
+                taps,
+                "--signals",
+                "edge",
+                "--frames",
+                frames,
+                "--no-plots",
+                "--out-dir",
+                p(out),
+            ],
+        ))
     };
     let out = dir.path().join("k8");
     let text = run("preintegrate,disk", "9,17", "8", &out);
@@ -366,20 +359,18 @@ fn compare_rows_reproduce_with_the_centre_sampled_reference() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let out = d.join("cmp");
-    ok(&[
+    ok(&common::skin1_pbd_args(
         "compare",
-        "--materials",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--models",
-        "preintegrate",
-        "--signals",
-        "shapes",
-        "--no-plots",
-        "--out-dir",
-        p(&out),
-    ]);
+        &[
+            "--models",
+            "preintegrate",
+            "--signals",
+            "shapes",
+            "--no-plots",
+            "--out-dir",
+            p(&out),
+        ],
+    ));
     let rows: Vec<Value> = serde_json::from_value(read_json(&out.join("compare.json"))).unwrap();
     let (profile, input) = (common::pbd_profile(d, "skin1"), d.join("shapes.exr"));
     ok(&[
@@ -421,17 +412,7 @@ fn compare_rows_reproduce_with_the_centre_sampled_reference() {
     let kernel = out.join("kernels/skin1-preintegrate.json");
     for (factor, extra) in [("full", Some("--full-factors")), ("17", None)] {
         let filtered = d.join(format!("k-{factor}.exr"));
-        let mut args = vec![
-            "apply",
-            "--kernel",
-            p(&kernel),
-            "--input",
-            p(&input),
-            "--mm-per-pixel",
-            "0.1",
-            "--out",
-            p(&filtered),
-        ];
+        let mut args = common::apply_args(p(&kernel), p(&input), p(&filtered), "0.1", &[]);
         args.extend(extra);
         ok(&args);
         let diff = |exact: &Path| -> Value {
@@ -442,11 +423,7 @@ fn compare_rows_reproduce_with_the_centre_sampled_reference() {
         for (c, ch) in ["r", "g", "b"].iter().enumerate() {
             let row = rows.iter().find(|r| r["channel"] == *ch).unwrap();
             let e = &row["image"]["shapes"];
-            let mine = if factor == "full" {
-                e["full"]["rel_rms"].as_f64().unwrap()
-            } else {
-                e["taps"][factor]["rel_rms"].as_f64().unwrap()
-            };
+            let mine = metric(e, factor, "rel_rms");
             let theirs = at_centre["rms_rel"][c].as_f64().unwrap();
             assert!(
                 rel(mine, theirs) < REPRODUCED,

@@ -18,7 +18,7 @@
 //! the method cannot map, a material without scattering, a light map of 0
 //! or too many texels, 0 samples.
 
-use ssskit::report::eval::directional_scene::NEEDS_RATIO;
+use ssskit::report::eval::scene::directional::NEEDS_RATIO;
 use std::path::Path;
 
 mod common;

@@ -10,7 +10,8 @@ use ssskit::filter::disk::{apply_disk, disk_frames, DiskSetup};
 use ssskit::filter::disk_error::view;
 use ssskit::filter::signals::{generate, Signal};
 use ssskit::filter::Image;
-use ssskit::kernel::disk::{fit_disk, RadiusPdf};
+use ssskit::kernel::disk::RadiusPdf;
+use ssskit::kernel::disk_fit::fit_disk;
 use ssskit::profile::Profile;
 use std::path::Path;
 

@@ -6,9 +6,8 @@
 
 mod common;
 
-use common::shader::{parse_glsl, validate};
+use common::shader::{parse_glsl, validate, wgsl_vectors};
 use common::{fails_with, ok, p as s, read_json};
-use naga::{Expression, Literal};
 use ssskit::filter::disk::{apply_disk, DiskSetup};
 use ssskit::filter::disk_error::view;
 use ssskit::filter::image::read_image;
@@ -26,46 +25,26 @@ fn glsl_shader(arrays: &str) -> String {
     )
 }
 
-/// The vectors of the WGSL constant `name`.
-fn wgsl_array(module: &naga::Module, name: &str) -> Vec<Vec<f32>> {
-    let (_, c) = module
-        .constants
-        .iter()
-        .find(|(_, c)| c.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("constant {name} not in the module"));
-    let e = &module.global_expressions;
-    let scalar = |h| match e[h] {
-        Expression::Literal(Literal::F32(v)) => v,
-        ref x => panic!("not an f32 literal: {x:?}"),
-    };
-    let Expression::Compose { ref components, .. } = e[c.init] else {
-        panic!("{name} is not an array constructor");
-    };
-    components
-        .iter()
-        .map(|&v| match e[v] {
-            Expression::Compose { ref components, .. } => {
-                components.iter().map(|&x| scalar(x)).collect()
-            }
-            ref x => panic!("not a vector: {x:?}"),
-        })
-        .collect()
+/// `ssskit apply` of disk kernel `k` to `img` into `out` at 0.1 mm per
+/// pixel, then `extra`.
+fn apply_args<'a>(k: &'a Path, img: &'a Path, out: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    common::apply_args(s(k), s(img), s(out), "0.1", extra)
+}
+
+/// `got` (read back from an EXR, which stores f32) equals `want` to f32
+/// rounding.
+fn assert_exr_equals(got: &ssskit::filter::Image, want: &ssskit::filter::Image) {
+    for c in 0..3 {
+        for (a, b) in got.rgb[c].iter().zip(&want.rgb[c]) {
+            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
+        }
+    }
 }
 
 /// `ssskit fit --model disk` of the committed skin1 profile with
 /// `samples` into `out`, and `extra`; its stdout.
 fn fit_disk_file(out: &Path, samples: &str, extra: &[&str]) -> String {
-    let mut args = vec![
-        "fit",
-        "--profile",
-        SKIN,
-        "--model",
-        "disk",
-        "--samples",
-        samples,
-        "--out",
-        s(out),
-    ];
+    let mut args = common::fit_args(SKIN, "disk", s(out), &["--samples", samples]);
     args.extend(extra);
     ok(&args)
 }
@@ -97,8 +76,8 @@ fn fit_writes_the_sample_table_and_shader_arrays_that_naga_accepts() {
     let module = naga::front::wgsl::parse_str(&src)
         .unwrap_or_else(|e| panic!("WGSL: {}", e.emit_to_string(&src)));
     validate(&module, "wgsl");
-    let points = wgsl_array(&module, "sss_disk_points");
-    let weights = wgsl_array(&module, "sss_disk_weights");
+    let points = wgsl_vectors(&module, "sss_disk_points");
+    let weights = wgsl_vectors(&module, "sss_disk_weights");
     assert_eq!((points.len(), weights.len()), (32, 32));
     for (i, smp) in file.samples.iter().enumerate() {
         let (x, y) = (
@@ -136,17 +115,7 @@ fn the_sample_count_is_validated() {
     let k = dir.path().join("disk.json");
     for n in ["3", "1025"] {
         fails_with(
-            &[
-                "fit",
-                "--profile",
-                SKIN,
-                "--model",
-                "disk",
-                "--samples",
-                n,
-                "--out",
-                s(&k),
-            ],
+            &common::fit_args(SKIN, "disk", s(&k), &["--samples", n]),
             &["samples", n],
         );
     }
@@ -160,64 +129,19 @@ fn apply_accumulates_frames_as_the_library_does() {
     let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
     fit_disk_file(&k, "16", &[]);
     ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
-    ok(&[
-        "apply",
-        "--kernel",
-        s(&k),
-        "--input",
-        s(&img),
-        "--out",
-        s(&out),
-        "--mm-per-pixel",
-        "0.1",
-        "--frames",
-        "4",
-        "--frame-seed",
-        "9",
-        "--backend",
-        "cpu",
-    ]);
+    let extra = ["--frames", "4", "--frame-seed", "9", "--backend", "cpu"];
+    ok(&apply_args(&k, &img, &out, &extra));
     let (input, _) = read_image(&img, None).unwrap();
     let (got, _) = read_image(&out, None).unwrap();
     let kernel = DiskKernelFile::read(&k).unwrap();
     let want = apply_disk(&input, &DiskSetup::new(&kernel, view(0.1), 9, 4)).unwrap();
-    for c in 0..3 {
-        for (a, b) in got.rgb[c].iter().zip(&want.rgb[c]) {
-            // EXR stores f32.
-            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
-        }
+    assert_exr_equals(&got, &want);
+    for (extra, needles) in [
+        (&["--frames", "0"][..], &["frames", "0"][..]),
+        (&["--jitter"], &["--jitter", "disk kernel"]),
+    ] {
+        fails_with(&apply_args(&k, &img, &out, extra), needles);
     }
-    fails_with(
-        &[
-            "apply",
-            "--kernel",
-            s(&k),
-            "--input",
-            s(&img),
-            "--out",
-            s(&out),
-            "--mm-per-pixel",
-            "0.1",
-            "--frames",
-            "0",
-        ],
-        &["frames", "0"],
-    );
-    fails_with(
-        &[
-            "apply",
-            "--kernel",
-            s(&k),
-            "--input",
-            s(&img),
-            "--out",
-            s(&out),
-            "--mm-per-pixel",
-            "0.1",
-            "--jitter",
-        ],
-        &["--jitter", "disk kernel"],
-    );
 }
 
 /// `--accumulate ema:W` weighs the frames as the library's EMA; bad
@@ -230,25 +154,10 @@ fn apply_accumulates_by_an_ema_when_asked() {
     let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
     fit_disk_file(&k, "8", &[]);
     ok(&["signal", "edge", "--size", "24x16", "--out", s(&img)]);
-    let apply = |extra: &[&str]| -> Vec<String> {
-        let mut a: Vec<String> = [
-            "apply",
-            "--kernel",
-            s(&k),
-            "--input",
-            s(&img),
-            "--out",
-            s(&out),
-            "--mm-per-pixel",
-            "0.1",
-            "--frames",
-            "4",
-        ]
-        .iter()
-        .map(|x| x.to_string())
-        .collect();
-        a.extend(extra.iter().map(|x| x.to_string()));
-        a
+    let apply = |extra: &[&'static str]| -> Vec<String> {
+        let mut a = apply_args(&k, &img, &out, &["--frames", "4"]);
+        a.extend(extra);
+        a.into_iter().map(String::from).collect()
     };
     let args = apply(&["--accumulate", "ema:0.3", "--backend", "cpu"]);
     ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
@@ -258,14 +167,13 @@ fn apply_accumulates_by_an_ema_when_asked() {
     let setup = DiskSetup::new(&kernel, view(0.1), 0, 4).accumulated_by(Accumulate::Ema(0.3));
     let want = apply_disk(&input, &setup).unwrap();
     let mean = apply_disk(&input, &DiskSetup::new(&kernel, view(0.1), 0, 4)).unwrap();
-    let mut differs = false;
-    for c in 0..3 {
-        for ((a, b), m) in got.rgb[c].iter().zip(&want.rgb[c]).zip(&mean.rgb[c]) {
-            // EXR stores f32.
-            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
-            differs |= (a - m).abs() > 1e-4;
-        }
-    }
+    assert_exr_equals(&got, &want);
+    let differs = (0..3).any(|c| {
+        got.rgb[c]
+            .iter()
+            .zip(&mean.rgb[c])
+            .any(|(a, m)| (a - m).abs() > 1e-4)
+    });
     assert!(differs, "the EMA image is the plain mean's");
     for (extra, needles) in [
         (
@@ -315,19 +223,7 @@ fn apply_runs_the_frames_the_kernel_records() {
     ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
     let apply = |kernel: &Path, out: &str, extra: &[&str]| {
         let out = d.join(out);
-        let mut args = vec![
-            "apply",
-            "--kernel",
-            s(kernel),
-            "--input",
-            s(&img),
-            "--out",
-            s(&out),
-            "--mm-per-pixel",
-            "0.1",
-            "--backend",
-            "cpu",
-        ];
+        let mut args = apply_args(kernel, &img, &out, &["--backend", "cpu"]);
         args.extend(extra);
         let (_, err) = common::ok_both(&args);
         (read_image(&out, None).unwrap().0, err)
@@ -347,12 +243,7 @@ fn apply_runs_the_frames_the_kernel_records() {
         &DiskSetup::new(&kernel, view(0.1), RECORDED_FIRST, RECORDED_FRAMES),
     )
     .unwrap();
-    for c in 0..3 {
-        for (a, b) in by_default.rgb[c].iter().zip(&want.rgb[c]) {
-            // EXR stores f32.
-            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} {b}");
-        }
-    }
+    assert_exr_equals(&by_default, &want);
     let (one, err) = apply(&rec, "1.exr", &["--frames", "1"]);
     assert!(
         err.contains(
@@ -411,19 +302,7 @@ fn apply_runs_the_frames_the_kernel_records() {
         bad["accumulation"][field] = value;
         let path = d.join(format!("bad-{field}.json"));
         std::fs::write(&path, serde_json::to_string(&bad).unwrap()).unwrap();
-        fails_with(
-            &[
-                "apply",
-                "--kernel",
-                s(&path),
-                "--input",
-                s(&img),
-                "--out",
-                s(&d.join("bad.exr")),
-                "--mm-per-pixel",
-                "0.1",
-            ],
-            &[needle, s(&path)],
-        );
+        let bad_out = d.join("bad.exr");
+        fails_with(&apply_args(&path, &img, &bad_out, &[]), &[needle, s(&path)]);
     }
 }

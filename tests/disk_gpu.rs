@@ -9,7 +9,8 @@ use ssskit::filter::disk_error::view;
 use ssskit::filter::disk_gpu::{disk_f32_tolerance, DiskGpu};
 use ssskit::filter::signals::{generate, noise, Signal};
 use ssskit::filter::{FollowSurface, Image, Plane, Scale};
-use ssskit::kernel::disk::{fit_disk, RadiusPdf};
+use ssskit::kernel::disk::RadiusPdf;
+use ssskit::kernel::disk_fit::fit_disk;
 use ssskit::profile::Profile;
 use std::path::Path;
 

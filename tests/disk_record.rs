@@ -111,7 +111,7 @@ fn pct(v: f64) -> String {
 /// samples (importance sampling: variance ~ 1 / N) and with the frames.
 #[test]
 fn separable_against_disk_at_equal_cost() {
-    use ssskit::report::eval::disk_compare::{equal_cost, EqualCost};
+    use ssskit::report::eval::compare::disk::{equal_cost, EqualCost};
     use ssskit::report::eval::evaluate::ImageCase;
     let case = ImageCase::signal(Signal::Shapes, EQUAL_COST_SIZE, MM_PER_PIXEL).unwrap();
     let cfg = EqualCost {

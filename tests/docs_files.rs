@@ -6,7 +6,6 @@
 //! `yaml` block. `SSSKIT_BLESS=1 cargo test --release --test docs_files`
 //! rewrites the blocks from the files.
 
-use ssskit::report::present::kernel_report::blocks_of;
 use std::path::Path;
 use std::process::Command;
 
@@ -35,15 +34,9 @@ fn fresh(kind: &str, path: &str) -> String {
             (fence(path, &text), text)
         }
         _ => {
-            let out = Command::new(&full)
-                .env_clear()
-                .env("PATH", "/usr/bin:/bin")
-                .output()
-                .unwrap_or_else(|e| panic!("{path}: {e}"));
-            assert!(
-                out.status.success(),
-                "{path} failed: {}",
-                String::from_utf8_lossy(&out.stderr)
+            let out = common::output_ok(
+                Command::new(&full).env_clear().env("PATH", "/usr/bin:/bin"),
+                path,
             );
             ("yaml", String::from_utf8(out.stdout).unwrap())
         }
@@ -53,31 +46,8 @@ fn fresh(kind: &str, path: &str) -> String {
 
 #[test]
 fn printed_recipes_are_the_files_the_tests_run() {
-    let bless = common::bless();
-    let mut stale = Vec::new();
-    let mut checked = 0;
-    for f in common::doc_markdown_files() {
-        let mut text = std::fs::read_to_string(&f).unwrap();
-        let mut changed = false;
-        for kind in ["file", "output"] {
-            for (name, body) in blocks_of(&text.clone(), kind) {
-                let want = fresh(kind, &name);
-                checked += 1;
-                if want == body {
-                    continue;
-                }
-                if bless {
-                    common::replace_block(&mut text, kind, &name, &want);
-                    changed = true;
-                } else {
-                    stale.push(format!("{}: {kind}:{name}", f.display()));
-                }
-            }
-        }
-        if changed {
-            std::fs::write(&f, text).unwrap();
-        }
-    }
+    let (checked, stale) =
+        common::check_doc_blocks(&["file", "output"], |kind, name, _| fresh(kind, name));
     assert!(
         checked >= 3,
         "the Slurm, shard and Kubernetes recipes are printed in the docs"

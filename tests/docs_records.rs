@@ -8,7 +8,6 @@
 //! blocks from the records (scripts/regen-docs does this); it never touches
 //! a record, which only its benchmark writes.
 
-use ssskit::report::present::kernel_report::blocks_of;
 use ssskit::report::present::record::Record;
 use std::path::Path;
 
@@ -34,31 +33,7 @@ fn fresh_block(name: &str, file: &Path) -> String {
 
 #[test]
 fn recorded_tables_match_their_records() {
-    let bless = common::bless();
-    let mut stale = Vec::new();
-    let mut checked = 0;
-    for f in common::doc_markdown_files() {
-        let mut text = std::fs::read_to_string(&f).unwrap();
-        let mut changed = false;
-        for (name, body) in blocks_of(&text.clone(), "record") {
-            let fresh = fresh_block(&name, &f);
-            checked += 1;
-            if fresh != body {
-                if bless {
-                    common::replace_block(&mut text, "record", &name, &fresh);
-                    changed = true;
-                } else {
-                    stale.push(format!(
-                        "{}: record:{name}\n--- committed\n{body}--- recorded\n{fresh}",
-                        f.display()
-                    ));
-                }
-            }
-        }
-        if changed {
-            ssskit::io::write_atomic(&f, text.as_bytes()).unwrap();
-        }
-    }
+    let (checked, stale) = common::check_doc_blocks(&["record"], |_, name, f| fresh_block(name, f));
     eprintln!("{checked} recorded blocks checked");
     // profiles/{speed,presets}, filter-cpu/{opencv,threads},
     // kernels/{fit,commands} at least.

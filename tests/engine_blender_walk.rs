@@ -15,21 +15,22 @@ use std::f64::consts::PI;
 
 const SKIN1: &str = "profiles/reference/skin1.json";
 
+/// `ssskit engine --profile SKIN1 --engine engine`, then `extra`.
+fn engine_args<'a>(engine: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    [
+        &["engine", "--profile", SKIN1, "--engine", engine][..],
+        extra,
+    ]
+    .concat()
+}
+
 /// Random Walk is the default for Cycles (no --subsurface-method here), and
 /// its values are the walk they claim.
 #[test]
 fn random_walk_values_are_the_walk_they_claim() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rw.json");
-    let text = ok(&[
-        "engine",
-        "--profile",
-        SKIN1,
-        "--engine",
-        "blender",
-        "--out",
-        p(&out),
-    ]);
+    let text = ok(&engine_args("blender", &["--out", p(&out)]));
     let first = text.lines().next().unwrap();
     assert!(first.starts_with("engine: blender, Random Walk"), "{first}");
     let j = read_json(&out);
@@ -65,15 +66,7 @@ fn random_walk_values_are_the_walk_they_claim() {
 #[test]
 fn the_default_method_elsewhere_is_christensen_burley() {
     for version in ["eevee", "2.93"] {
-        let text = ok(&[
-            "engine",
-            "--profile",
-            SKIN1,
-            "--engine",
-            "blender",
-            "--engine-version",
-            version,
-        ]);
+        let text = ok(&engine_args("blender", &["--engine-version", version]));
         let first = text.lines().next().unwrap();
         assert!(
             first.starts_with("engine: blender, Christensen-Burley"),
@@ -84,30 +77,16 @@ fn the_default_method_elsewhere_is_christensen_burley() {
 
 #[test]
 fn random_walk_is_blender_cycles_only() {
+    let walk = ["--subsurface-method", "random-walk"];
     fails_with(
-        &[
-            "engine",
-            "--profile",
-            SKIN1,
-            "--engine",
-            "unreal",
-            "--subsurface-method",
-            "random-walk",
-        ],
+        &engine_args("unreal", &walk),
         &["--subsurface-method", "blender"],
     );
     fails_with(
-        &[
-            "engine",
-            "--profile",
-            SKIN1,
-            "--engine",
+        &engine_args(
             "blender",
-            "--engine-version",
-            "eevee",
-            "--subsurface-method",
-            "random-walk",
-        ],
+            &[&["--engine-version", "eevee"][..], &walk].concat(),
+        ),
         &["--subsurface-method", "eevee"],
     );
 }

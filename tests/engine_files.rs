@@ -168,14 +168,9 @@ print(json.dumps(out))
 "#;
 
 fn read_script(path: &Path) -> Value {
-    let o = std::process::Command::new("python3")
-        .args(["-c", READ_SCRIPT, p(path)])
-        .output()
-        .expect("python3 runs");
-    assert!(
-        o.status.success(),
-        "the script does not parse: {}",
-        String::from_utf8_lossy(&o.stderr)
+    let o = common::output_ok(
+        std::process::Command::new("python3").args(["-c", READ_SCRIPT, p(path)]),
+        "python3 parsing the script",
     );
     serde_json::from_slice(&o.stdout).unwrap()
 }

@@ -158,19 +158,27 @@ fn the_colour_is_kept_unless_the_shape_is_asked_first() {
 fn cli_writes_the_fit_and_a_plot_and_refuses_unknown_engines() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("unreal.json");
-    let png = dir.path().join("unreal.png");
-    let o = run(&[
-        "engine",
-        "--profile",
-        "profiles/reference/skin1.json",
-        "--engine",
-        "unreal",
-        "--out",
-        p(&out),
-        "--plot",
-        p(&png),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // The plot, pixel by pixel against its golden: the profile and the
+    // fitted engine's curves as the user sees them.
+    let golden_name = "engine-unreal-skin1.png";
+    let mut o = None;
+    golden::check_png(golden_name, |png| {
+        o = Some(run(&[
+            "engine",
+            "--profile",
+            "profiles/reference/skin1.json",
+            "--engine",
+            "unreal",
+            "--out",
+            p(&out),
+            "--plot",
+            p(png),
+        ]));
+        let o = o.as_ref().unwrap();
+        assert!(o.status.success(), "{}", stderr(o));
+    });
+    let o = o.unwrap();
+    let png = golden::diff_dir().join(golden_name);
     let text = String::from_utf8_lossy(&o.stdout).to_string();
     assert!(text.contains("MeanFreePathDistance") && text.contains("forward Burley"));
     let v: serde_json::Value =

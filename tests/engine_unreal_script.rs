@@ -256,20 +256,11 @@ fn run_script(dir: &std::path::Path) -> Value {
             (py.to_string(), Value::from(kind))
         })
         .collect();
-    let o = std::process::Command::new("python3")
-        .args([
-            "-c",
-            RUN,
-            p(&dir.join("files/skin1-unreal.py")),
-            p(&fake),
-            &Value::Object(kinds).to_string(),
-        ])
-        .output()
-        .expect("python3 runs");
-    assert!(
-        o.status.success(),
-        "the script fails against the API: {}",
-        String::from_utf8_lossy(&o.stderr)
+    let script = dir.join("files/skin1-unreal.py");
+    let kinds = Value::Object(kinds).to_string();
+    let o = common::output_ok(
+        std::process::Command::new("python3").args(["-c", RUN, p(&script), p(&fake), &kinds]),
+        "the script against the API",
     );
     serde_json::from_slice(&o.stdout).unwrap()
 }

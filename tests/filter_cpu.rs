@@ -4,20 +4,10 @@
 mod filter_support;
 use filter_support::*;
 use ssskit::filter::signals::{generate, Signal};
-use ssskit::filter::{cpu, taps_for, Image, Plane, Scale, Setup, Which};
+use ssskit::filter::{cpu, exact, sample, taps_for, Image, Plane, Setup, Which};
 use ssskit::kernel::Kernel2D;
 
-fn plain(passes: Vec<ssskit::filter::Taps>, mm: f64) -> Setup {
-    Setup {
-        passes,
-        scale: Scale::MmPerPixel(mm),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    }
-}
+use filter_support::plain_setup as plain;
 
 fn reference_2d() -> (Kernel2D, f64) {
     let profile = dipole_profile("skin1", 0.01, 8.0);
@@ -26,7 +16,7 @@ fn reference_2d() -> (Kernel2D, f64) {
         .map(|c| ssskit::profile::radius_holding(&profile, c, 0.999))
         .fold(0.0, f64::max);
     let mm = radius / 20.0;
-    (cpu::reference_kernel(&profile, mm).unwrap(), mm)
+    (exact::reference_kernel(&profile, mm).unwrap(), mm)
 }
 
 /// Separable SSS as Jimenez's shader runs it, re-implemented from
@@ -85,10 +75,10 @@ fn jimenez_blur(img: &Image, passes: &[ssskit::filter::Taps], mm: f64) -> Image 
 #[test]
 fn preintegration_equals_exact_2d_on_the_edge() {
     let (k, mm) = reference_2d();
-    assert!(k.size > cpu::FFT_ABOVE, "the FFT path is exercised");
+    assert!(k.size > exact::FFT_ABOVE, "the FFT path is exercised");
     let kernel = preintegration_kernel(&k, 17);
     let edge = generate(Signal::Edge, 96, 24, 1).unwrap();
-    let exact = cpu::convolve_2d(&edge, &k);
+    let exact = exact::convolve_2d(&edge, &k);
     let full = cpu::apply(
         &edge,
         &plain(taps_for(&kernel, Which::Full, Some(mm)).unwrap(), mm),
@@ -118,7 +108,7 @@ fn preintegration_equals_exact_2d_on_the_edge() {
     // Not exact for irradiance that is not additively separable: the test
     // above compares things that can differ.
     let shapes = generate(Signal::Shapes, 96, 64, 1).unwrap();
-    let exact = cpu::convolve_2d(&shapes, &k);
+    let exact = exact::convolve_2d(&shapes, &k);
     let sep = cpu::apply(
         &shapes,
         &plain(taps_for(&kernel, Which::Full, Some(mm)).unwrap(), mm),
@@ -209,16 +199,13 @@ fn constant_stays_constant_and_black_stays_black() {
             let setups = [
                 plain(taps_for(&k, factors, Some(0.2)).unwrap(), 0.2),
                 Setup {
-                    passes: taps_for(&k, factors, None).unwrap(),
-                    scale: Scale::Perspective {
-                        fov_y_deg: 30.0,
-                        sss_width: 0.05,
-                    },
-                    depth: Some(step_depth(w, h)),
                     strength: Some(Plane::from_index(w, h, |i| (i % 7) as f64 / 3.0)),
-                    follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
-                    specular: None,
-                    jitter: false,
+                    ..perspective_setup(
+                        taps_for(&k, factors, None).unwrap(),
+                        (30.0, 0.05),
+                        step_depth(w, h),
+                        ssskit::filter::FollowSurface::InSceneUnits(300.0),
+                    )
                 },
             ];
             for setup in &setups {
@@ -328,7 +315,7 @@ fn cli_precision_f32_is_within_round_off_of_f64_which_is_the_library_result() {
         .passes
         .iter()
         .map(|t| {
-            let k = cpu::PixelKernel::from_taps(t, 1.0 / mm);
+            let k = sample::PixelKernel::from_taps(t, 1.0 / mm);
             let n = k.weights.len() as f64;
             let s = (0..3)
                 .map(|c| k.weights.iter().map(|w| w[c].abs()).sum::<f64>())

@@ -39,19 +39,9 @@ fn scene(unit_m: f64) -> (Image, Plane) {
 
 fn setup(unit_m: f64, depth: Plane, follow: FollowSurface) -> Setup {
     let k = gaussian_kernel(2, 17);
-    Setup {
-        passes: taps_for(&k, Which::stored(&k), None).unwrap(),
-        scale: Scale::Perspective {
-            fov_y_deg: 30.0,
-            // A kernel millimetre is a millimetre of the scene.
-            sss_width: 0.001 / unit_m,
-        },
-        depth: Some(depth),
-        strength: None,
-        follow_surface: Some(follow),
-        specular: None,
-        jitter: false,
-    }
+    let passes = taps_for(&k, Which::stored(&k), None).unwrap();
+    // A kernel millimetre is a millimetre of the scene.
+    perspective_setup(passes, (30.0, 0.001 / unit_m), depth, follow)
 }
 
 #[test]
@@ -192,17 +182,7 @@ fn apply_follow_surface_is_unit_safe() {
     assert!(max_rel(&outs[0], &outs[2]) < F32_OUTPUT);
     assert!(max_rel(&outs[0], &outs[3]) > 1e-2);
     let (input, z, x) = (d.join("in.exr"), d.join("z.exr"), d.join("x.exr"));
-    let base = [
-        "apply",
-        "--kernel",
-        p(&k),
-        "--input",
-        p(&input),
-        "--out",
-        p(&x),
-        "--mm-per-pixel",
-        "0.1",
-    ];
+    let base = apply_args(p(&k), p(&input), p(&x), "0.1", &[]);
     let with = |extra: &[&str]| -> Vec<String> {
         base.iter().chain(extra).map(|s| s.to_string()).collect()
     };

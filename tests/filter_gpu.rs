@@ -5,7 +5,7 @@
 
 mod filter_support;
 use filter_support::*;
-use ssskit::filter::{cpu, gpu, taps_for, Image, Plane, Scale, Setup, Which};
+use ssskit::filter::{cpu, gpu, screen_space, taps_for, Image, Plane, Scale, Setup, Which};
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
@@ -56,7 +56,7 @@ fn depth_with_discontinuities(w: usize, h: usize) -> Plane {
 }
 
 fn check(g: &gpu::Gpu, image: &Image, setup: &Setup, what: &str) {
-    let c = cpu::apply_screen_space(image, setup);
+    let c = screen_space::apply_screen_space(image, setup);
     let mut c = c;
     if let Some(s) = &setup.specular {
         for ch in 0..3 {
@@ -96,13 +96,8 @@ fn flat_and_depth_aware(taps: &[usize], mm: f64, jitter: bool) {
         for rank in [1, 3] {
             let k = gaussian_kernel(rank, n);
             let flat = Setup {
-                passes: taps_for(&k, Which::stored(&k), None).unwrap(),
-                scale: Scale::MmPerPixel(mm),
-                depth: None,
-                strength: None,
-                follow_surface: None,
-                specular: None,
                 jitter,
+                ..plain_setup(taps_for(&k, Which::stored(&k), None).unwrap(), mm)
             };
             check(
                 &g,
@@ -150,13 +145,11 @@ fn gpu_equals_cpu_with_strength_specular_and_full_factors() {
     let k = gaussian_kernel(3, 17);
     let strength = Plane::from_index(w, h, |i| (i % w) as f64 / w as f64 * 1.5);
     let setup = Setup {
-        passes: taps_for(&k, Which::Full, None).unwrap(),
-        scale: Scale::MmPerPixel(0.2),
         depth: Some(depth_with_discontinuities(w, h)),
         strength: Some(strength),
         follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(2.0)),
         specular: Some(noise_image(w, h, 99, 0.0)),
-        jitter: false,
+        ..plain_setup(taps_for(&k, Which::Full, None).unwrap(), 0.2)
     };
     check(&g, &image, &setup, "strength + specular + full factors");
 }
@@ -183,17 +176,7 @@ fn apply_dirac(dir: &Path, backend: &[&str]) -> (std::process::Output, PathBuf) 
         p(&input),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let mut args = vec![
-        "apply",
-        "--kernel",
-        p(&k),
-        "--input",
-        p(&input),
-        "--out",
-        p(&out),
-        "--mm-per-pixel",
-        "0.2",
-    ];
+    let mut args = apply_args(p(&k), p(&input), p(&out), "0.2", &[]);
     args.extend_from_slice(backend);
     (run(&args), out)
 }

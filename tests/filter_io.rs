@@ -26,20 +26,35 @@ fn identity_kernel(dir: &Path) -> PathBuf {
     path
 }
 
-fn apply_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
-    vec![
-        "apply",
-        "--kernel",
-        p(k),
-        "--input",
-        p(input),
-        "--out",
-        p(out),
+/// `apply` of `k` to `input` into `out` at 0.1 mm per pixel on the CPU.
+fn cpu_apply_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
+    apply_args(p(k), p(input), p(out), "0.1", &["--backend", "cpu"])
+}
+
+/// `apply` of `k` to `input` into `out` on the CPU under a perspective
+/// camera (40 degrees, 0.01 scene units a mm): a view that needs depth.
+fn perspective_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
+    let view = [
         "--backend",
         "cpu",
-        "--mm-per-pixel",
-        "0.1",
+        "--fov-y",
+        "40",
+        "--units-per-mm",
+        "0.01",
+    ];
+    [
+        &[
+            "apply",
+            "--kernel",
+            p(k),
+            "--input",
+            p(input),
+            "--out",
+            p(out),
+        ][..],
+        &view,
     ]
+    .concat()
 }
 
 /// Runs and expects a clean failure whose message contains every `needle`.
@@ -75,7 +90,7 @@ fn srgb_round_trip_of_an_unfiltered_png_is_lossless() {
     rgba16.save(&in16).unwrap();
     for (input, bits) in [(&in8, 8), (&in16, 16)] {
         let out = dir.path().join(format!("out{bits}.png"));
-        let o = run(&apply_args(&k, input, &out));
+        let o = run(&cpu_apply_args(&k, input, &out));
         assert!(o.status.success(), "{}", stderr(&o));
         let a = image::open(input).unwrap();
         let b = image::open(&out).unwrap();
@@ -93,7 +108,7 @@ fn exr_float_round_trip_keeps_values_and_alpha() {
     let input = dir.path().join("in.exr");
     write_exr(&input, &img, None).unwrap();
     let out = dir.path().join("out.exr");
-    let o = run(&apply_args(&k, &input, &out));
+    let o = run(&cpu_apply_args(&k, &input, &out));
     assert!(o.status.success(), "{}", stderr(&o));
     let (a, _) = read_image(&input, None).unwrap();
     let (b, _) = read_image(&out, None).unwrap();
@@ -123,28 +138,25 @@ fn bad_inputs_fail_clearly() {
 
     // Missing file.
     let missing = d.join("nope.exr");
-    fails_with(&apply_args(&k, &missing, &out), &["nope.exr"], &out);
+    fails_with(&cpu_apply_args(&k, &missing, &out), &["nope.exr"], &out);
     // Unreadable files.
-    let junk_exr = d.join("junk.exr");
-    std::fs::write(&junk_exr, b"not an exr").unwrap();
-    fails_with(
-        &apply_args(&k, &junk_exr, &out),
-        &["junk.exr", "unreadable OpenEXR"],
-        &out,
-    );
-    let junk_png = d.join("junk.png");
-    std::fs::write(&junk_png, b"not a png").unwrap();
-    fails_with(
-        &apply_args(&k, &junk_png, &out),
-        &["junk.png", "unreadable PNG"],
-        &out,
-    );
-    let tiff = d.join("in.tiff");
-    std::fs::write(&tiff, b"x").unwrap();
-    fails_with(&apply_args(&k, &tiff, &out), &["unknown image type"], &out);
+    let junk: [(&str, &[u8], &[&str]); 3] = [
+        (
+            "junk.exr",
+            b"not an exr",
+            &["junk.exr", "unreadable OpenEXR"],
+        ),
+        ("junk.png", b"not a png", &["junk.png", "unreadable PNG"]),
+        ("in.tiff", b"x", &["unknown image type"]),
+    ];
+    for (name, bytes, needles) in junk {
+        let f = d.join(name);
+        std::fs::write(&f, bytes).unwrap();
+        fails_with(&cpu_apply_args(&k, &f, &out), needles, &out);
+    }
     let bad_out = d.join("out.jpg");
     fails_with(
-        &apply_args(&k, &good, &bad_out),
+        &cpu_apply_args(&k, &good, &bad_out),
         &["unknown image type"],
         &bad_out,
     );
@@ -153,40 +165,26 @@ fn bad_inputs_fail_clearly() {
     let rg = d.join("rg.exr");
     write_channels(&rg, 12, 10, &["R", "G"], 0.5);
     fails_with(
-        &apply_args(&k, &rg, &out),
+        &cpu_apply_args(&k, &rg, &out),
         &["missing channel B", "R, G"],
         &out,
     );
     // Missing depth channel, named or default.
-    let mut a = apply_args(&k, &good, &out);
+    let mut a = cpu_apply_args(&k, &good, &out);
     a.extend(["--follow-surface", "300", "--depth-channel", "depth"]);
     fails_with(&a, &["missing depth channel depth"], &out);
-    let mut a = apply_args(&k, &good, &out);
+    let mut a = cpu_apply_args(&k, &good, &out);
     a.extend(["--follow-surface", "300"]);
     fails_with(&a, &["missing depth channel Z"], &out);
     let no_z = d.join("noz.exr");
     write_channels(&no_z, 12, 10, &["A"], 1.0);
-    let mut a = apply_args(&k, &good, &out);
+    let mut a = cpu_apply_args(&k, &good, &out);
     a.extend(["--follow-surface", "300", "--depth", p(&no_z)]);
     fails_with(&a, &["no channel Z or Y or R"], &out);
     // Perspective scale without depth.
     let png = d.join("good.png");
     write_image(&png, &noise_image(12, 10, 1, 0.0), PngDepth::Eight).unwrap();
-    let a = vec![
-        "apply",
-        "--kernel",
-        p(&k),
-        "--input",
-        p(&png),
-        "--out",
-        p(&out),
-        "--backend",
-        "cpu",
-        "--fov-y",
-        "40",
-        "--units-per-mm",
-        "0.01",
-    ];
+    let a = perspective_args(&k, &png, &out);
     fails_with(
         &a,
         &["--depth: invalid value none", "perspective", "depth image"],
@@ -205,7 +203,7 @@ fn bad_inputs_fail_clearly() {
     let small = d.join("small.exr");
     write_channels(&small, 10, 10, &["R", "G", "B", "Z"], 1.0);
     for flag in ["--depth", "--strength", "--specular"] {
-        let mut a = apply_args(&k, &good, &out);
+        let mut a = cpu_apply_args(&k, &good, &out);
         a.extend([flag, p(&small)]);
         if flag == "--depth" {
             a.extend(["--follow-surface", "1"]);
@@ -225,21 +223,7 @@ fn bad_inputs_fail_clearly() {
         }),
     )
     .unwrap();
-    let a = vec![
-        "apply",
-        "--kernel",
-        p(&k),
-        "--input",
-        p(&zero_z),
-        "--out",
-        p(&out),
-        "--backend",
-        "cpu",
-        "--fov-y",
-        "40",
-        "--units-per-mm",
-        "0.01",
-    ];
+    let a = perspective_args(&k, &zero_z, &out);
     fails_with(&a, &["depth", "must be > 0"], &out);
 
     // NaN and Inf: rejected with count and first position, or sanitised.
@@ -249,26 +233,24 @@ fn bad_inputs_fail_clearly() {
     let nan = d.join("nan.exr");
     write_exr(&nan, &img, None).unwrap();
     fails_with(
-        &apply_args(&k, &nan, &out),
+        &cpu_apply_args(&k, &nan, &out),
         &["2 NaN/Inf samples", "pixel (3, 2)", "--sanitize"],
         &out,
     );
     // compare has no --sanitize: it must not suggest one.
     let report = d.join("cmp");
-    let cmp = [
+    let cmp = skin1_pbd_args(
         "compare",
-        "--materials",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--models",
-        "svd",
-        "--images",
-        p(&nan),
-        "--no-plots",
-        "--out-dir",
-        p(&report),
-    ];
+        &[
+            "--models",
+            "svd",
+            "--images",
+            p(&nan),
+            "--no-plots",
+            "--out-dir",
+            p(&report),
+        ],
+    );
     let o = run(&cmp);
     assert_fails(&o, &cmp, &["2 NaN/Inf samples", "pixel (3, 2)"]);
     assert!(!stderr(&o).contains("--sanitize"), "{}", stderr(&o));
@@ -276,7 +258,7 @@ fn bad_inputs_fail_clearly() {
     let o = run(&args);
     assert_fails(&o, &args, &["2 NaN/Inf samples", "pixel (3, 2) channel G"]);
     assert!(!stderr(&o).contains("--sanitize"), "{}", stderr(&o));
-    let mut a = apply_args(&k, &nan, &out);
+    let mut a = cpu_apply_args(&k, &nan, &out);
     a.push("--sanitize");
     let o = run(&a);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -287,11 +269,11 @@ fn bad_inputs_fail_clearly() {
     std::fs::remove_file(&out).unwrap();
 
     // Bad scale values.
-    let mut a = apply_args(&k, &good, &out);
+    let mut a = cpu_apply_args(&k, &good, &out);
     a.truncate(a.len() - 2);
     a.push("--mm-per-pixel=-1");
     fails_with(&a, &["--mm-per-pixel: invalid value -1: must be"], &out);
-    let mut a = apply_args(&k, &zero_z, &out);
+    let mut a = cpu_apply_args(&k, &zero_z, &out);
     a.truncate(a.len() - 2);
     a.extend(["--fov-y", "180", "--units-per-mm", "0.01"]);
     fails_with(
@@ -299,7 +281,7 @@ fn bad_inputs_fail_clearly() {
         &["--fov-y: invalid value 180: must be in (0, 180)"],
         &out,
     );
-    let mut a = apply_args(&k, &zero_z, &out);
+    let mut a = cpu_apply_args(&k, &zero_z, &out);
     a.push("--follow-surface=-1");
     fails_with(&a, &["--follow-surface: invalid value -1: must be"], &out);
 

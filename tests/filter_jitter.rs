@@ -5,7 +5,7 @@
 
 mod filter_support;
 use filter_support::*;
-use ssskit::filter::{cpu, jitter_unit, taps_for, Image, Scale, Setup, Which};
+use ssskit::filter::{cpu, jitter_unit, taps_for, Image, Setup, Which};
 
 /// 9 taps, kernel +-2 mm at 0.02 mm per pixel: +-100 pixels, tap gaps up
 /// to 44 pixels.
@@ -15,13 +15,8 @@ fn setup(factors: Which, jitter: bool) -> Setup {
     let k = gaussian_kernel(1, 9);
     let uniform = (factors == Which::Full).then_some(MM);
     Setup {
-        passes: taps_for(&k, factors, uniform).unwrap(),
-        scale: Scale::MmPerPixel(MM),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
         jitter,
+        ..plain_setup(taps_for(&k, factors, uniform).unwrap(), MM)
     }
 }
 
@@ -186,19 +181,7 @@ fn cli_jitter_changes_the_image_and_the_reference_refuses_it() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let apply = |out: &std::path::Path, extra: &[&str]| {
-        let mut args = vec![
-            "apply",
-            "--kernel",
-            p(&k),
-            "--input",
-            p(&input),
-            "--out",
-            p(out),
-            "--mm-per-pixel",
-            "0.1",
-            "--backend",
-            "cpu",
-        ];
+        let mut args = apply_args(p(&k), p(&input), p(out), "0.1", &["--backend", "cpu"]);
         args.extend_from_slice(extra);
         let o = run(&args);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -215,13 +198,11 @@ fn cli_jitter_changes_the_image_and_the_reference_refuses_it() {
     let library = cpu::apply(
         &img,
         &Setup {
-            passes: taps_for(&kernel, Which::stored(&kernel), None).unwrap(),
-            scale: Scale::MmPerPixel(0.1),
-            depth: None,
-            strength: None,
-            follow_surface: None,
-            specular: None,
             jitter: true,
+            ..plain_setup(
+                taps_for(&kernel, Which::stored(&kernel), None).unwrap(),
+                0.1,
+            )
         },
     )
     .unwrap();

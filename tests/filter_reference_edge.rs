@@ -9,7 +9,7 @@
 //! kernel code, and compared with the reference applied to a step image
 //! (clamped borders extend it to the half-plane).
 
-use ssskit::filter::cpu::{convolve_2d, reference_kernel_sampled, PixelSampling};
+use ssskit::filter::exact::{convolve_2d, reference_kernel_sampled, PixelSampling};
 use ssskit::filter::Image;
 use ssskit::kernel::Kernel2D;
 use ssskit::material::preset;
@@ -315,19 +315,13 @@ fn apply_reference_averages_by_default() {
         assert!(err.contains(said), "{err}");
     }
     common::fails_with(
-        &[
-            "apply",
-            "--kernel",
+        &common::apply_args(
             "k.json",
-            "--input",
             common::p(&input),
-            "--out",
             "x.exr",
-            "--mm-per-pixel",
             "0.1",
-            "--reference-sampling",
-            "centre",
-        ],
+            &["--reference-sampling", "centre"],
+        ),
         &["--reference"],
     );
 }

@@ -282,17 +282,7 @@ fn simulate_fixed_seed() {
         let out = dir.path().join(format!("skin1-{threads}.json"));
         let o = common::bin()
             .env("RAYON_NUM_THREADS", threads)
-            .args([
-                "simulate",
-                "--material",
-                "skin1",
-                "--photons",
-                "20000",
-                "--seed",
-                "1",
-                "--out",
-                common::p(&out),
-            ])
+            .args(common::simulate_skin1_args("1", common::p(&out), &[]))
             .output()
             .unwrap();
         common::assert_ok(&o, &["simulate"]);

@@ -10,13 +10,12 @@
 
 mod common;
 
+use common::bounded::{capped, edited, run_with};
+
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// Address-space cap of every run: 4 GB, far above what any of these
-/// inputs needs once capped, far below what an uncapped one asks for.
-const MEMORY_LIMIT: &str = "--as=4000000000";
 const TIME_LIMIT: Duration = Duration::from_secs(60);
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -24,62 +23,11 @@ fn binary() -> String {
     std::env::var("SSSKIT_TEST_BIN").unwrap_or_else(|_| common::BIN.to_string())
 }
 
-/// `ssskit args` in `dir` under the memory cap (prlimit is in util-linux;
-/// without it the run is bounded in time only), standard input closed.
+/// `ssskit args` in `dir` under the memory cap, standard input closed.
 fn command_in(dir: &Path, limits: &[&str], args: &[&str]) -> Command {
-    let mut c = if Path::new("/usr/bin/prlimit").exists() {
-        let mut c = Command::new("/usr/bin/prlimit");
-        c.arg(MEMORY_LIMIT).args(limits).arg("--").arg(binary());
-        c
-    } else {
-        Command::new(binary())
-    };
-    c.args(args)
-        .current_dir(dir)
-        .env("RUST_BACKTRACE", "1")
-        .stdin(Stdio::null());
+    let mut c = capped(&binary(), limits, args);
+    c.current_dir(dir).stdin(Stdio::null());
     c
-}
-
-/// Waits for `child` at most `limit`; a run past it is killed and fails
-/// the test.
-fn wait_bounded(mut child: Child, what: &str, limit: Duration) -> Output {
-    let start = Instant::now();
-    loop {
-        match child.try_wait().expect("wait") {
-            Some(_) => return child.wait_with_output().expect("output"),
-            None if start.elapsed() > limit => {
-                let _ = child.kill();
-                let _ = child.wait();
-                panic!("{what} ran past {limit:?}: unbounded work");
-            }
-            None => std::thread::sleep(Duration::from_millis(10)),
-        }
-    }
-}
-
-/// Runs to the end (bounded) and checks it did not crash: no panic, no
-/// allocation failure, no death by a signal.
-fn run_with(mut c: Command, what: &str, limit: Duration) -> Output {
-    let child = c
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn ssskit");
-    let out = wait_bounded(child, what, limit);
-    let err = common::stderr(&out);
-    assert!(
-        out.status.code().is_some(),
-        "{what} was killed by a signal ({:?}): {err}",
-        out.status
-    );
-    assert!(
-        !err.contains("panicked")
-            && !err.contains("RUST_BACKTRACE")
-            && !err.contains("memory allocation"),
-        "{what} crashed: {err}"
-    );
-    out
 }
 
 fn run_in(dir: &Path, args: &[&str]) -> Output {
@@ -131,18 +79,30 @@ fn material(name: &str) -> String {
     )
 }
 
-fn kernel() -> String {
-    format!("{REPO}/kernels/marble-svd1.json")
+/// A comparison of seconds of `material`'s dipole into `out`: rank-1 SVD,
+/// no signals, no plots.
+fn quick_compare<'a>(material: &'a str, out: &'a str) -> Vec<&'a str> {
+    let models = [
+        "--models",
+        "svd",
+        "--ranks",
+        "1",
+        "--signals",
+        "none",
+        "--no-plots",
+    ];
+    let head = [
+        "compare",
+        "--materials",
+        material,
+        "--profile-model",
+        "dipole",
+    ];
+    [&head[..], &models, &["--out-dir", out]].concat()
 }
 
-/// The JSON of `path` with `edit` applied, written to `dir/name`.
-fn edited(path: &str, dir: &Path, name: &str, edit: impl Fn(&mut serde_json::Value)) -> String {
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-    edit(&mut v);
-    let p = dir.join(name);
-    std::fs::write(&p, serde_json::to_string(&v).unwrap()).unwrap();
-    p.to_string_lossy().into_owned()
+fn kernel() -> String {
+    format!("{REPO}/kernels/marble-svd1.json")
 }
 
 fn temp_entries(dir: &Path) -> Vec<String> {
@@ -183,25 +143,7 @@ fn material_names_never_leave_the_output_folder() {
                 "r",
             ],
         );
-        ok_in(
-            &work,
-            &[
-                "compare",
-                "--materials",
-                file,
-                "--profile-model",
-                "dipole",
-                "--models",
-                "svd",
-                "--ranks",
-                "1",
-                "--signals",
-                "none",
-                "--no-plots",
-                "--out-dir",
-                "cd",
-            ],
-        );
+        ok_in(&work, &quick_compare(file, "cd"));
         // Nothing beside the working folder's own tree.
         let outside: Vec<String> = tree(root.path())
             .into_iter()
@@ -452,32 +394,14 @@ fn huge_and_endless_inputs_are_refused_after_a_bounded_read() {
             &["signal", "dirac", "--image-size", "8x8", "--out", "x.png"],
         );
         for args in [
-            vec![
-                "fit",
-                "--profile",
-                "/dev/zero",
-                "--model",
-                "svd",
-                "--out",
-                "k.json",
-            ],
+            common::fit_args("/dev/zero", "svd", "k.json", &[]),
             vec!["fit", "--kernel", "/dev/zero"],
             vec!["merge", "/dev/zero", "--out", "m.json"],
             vec!["materials", "/dev/zero"],
             vec!["simulate", "--mci", "/dev/zero", "--out", "x.json"],
             vec!["plot", "profile", "/dev/zero", "--out", "p.png"],
             vec!["engine", "--profile", "/dev/zero", "--engine", "unreal"],
-            vec![
-                "apply",
-                "--kernel",
-                "/dev/zero",
-                "--input",
-                "x.png",
-                "--out",
-                "o.png",
-                "--mm-per-pixel",
-                "0.1",
-            ],
+            common::apply_args("/dev/zero", "x.png", "o.png", "0.1", &[]),
         ] {
             fails_in(dir.path(), &args, &["/dev/zero"]);
         }
@@ -543,17 +467,7 @@ fn exr_headers_declaring_too_much_are_refused_before_decoding() {
         let k = kernel();
         for args in [
             vec!["diff", name, name],
-            vec![
-                "apply",
-                "--kernel",
-                &k,
-                "--input",
-                name,
-                "--out",
-                "o.exr",
-                "--mm-per-pixel",
-                "0.1",
-            ],
+            common::apply_args(&k, name, "o.exr", "0.1", &[]),
         ] {
             fails_in(dir.path(), &args, &[name, "channel(s)"]);
         }
@@ -571,19 +485,7 @@ fn threads_are_capped_whatever_the_environment_says() {
         &["signal", "dirac", "--image-size", "64x48", "--out", "d.png"],
     );
     let k = kernel();
-    let apply = [
-        "apply",
-        "--kernel",
-        &k,
-        "--input",
-        "d.png",
-        "--out",
-        "o.png",
-        "--mm-per-pixel",
-        "0.1",
-        "--backend",
-        "cpu",
-    ];
+    let apply = common::apply_args(&k, "d.png", "o.png", "0.1", &["--backend", "cpu"]);
     let mut c = command_in(dir.path(), &[], &apply);
     c.env("RAYON_NUM_THREADS", "5000");
     let o = run_with(c, "RAYON_NUM_THREADS=5000", TIME_LIMIT);
@@ -617,19 +519,12 @@ fn radial_bins_are_capped_before_allocation() {
             "--out",
             "x.json",
         ],
-        vec![
-            "profile",
-            "--material",
+        common::profile_args(
             "skin1",
-            "--profile-model",
             "dipole",
-            "--dr",
-            "1e-6",
-            "--rmax",
-            "10",
-            "--out",
             "x.json",
-        ],
+            &["--dr", "1e-6", "--rmax", "10"],
+        ),
     ] {
         fails_in(dir.path(), &args, &["--dr", "1000000"]);
     }
@@ -708,15 +603,7 @@ fn a_degenerate_first_bin_is_refused_not_fitted() {
     let dir = tempfile::tempdir().unwrap();
     ok_in(
         dir.path(),
-        &[
-            "profile",
-            "--material",
-            "skin1",
-            "--profile-model",
-            "dipole",
-            "--out",
-            "p.json",
-        ],
+        &common::profile_args("skin1", "dipole", "p.json", &[]),
     );
     let p = dir.path().join("p.json").to_string_lossy().into_owned();
     let bad = edited(&p, dir.path(), "bad.json", |v| {
@@ -728,15 +615,7 @@ fn a_degenerate_first_bin_is_refused_not_fitted() {
     });
     fails_in(
         dir.path(),
-        &[
-            "fit",
-            "--profile",
-            &bad,
-            "--model",
-            "svd",
-            "--out",
-            "k.json",
-        ],
+        &common::fit_args(&bad, "svd", "k.json", &[]),
         &["skin1", "times the profile's tabulated reflectance"],
     );
     assert!(!dir.path().join("k.json").exists());
@@ -759,21 +638,13 @@ fn per_pixel_scales_beyond_the_image_are_refused() {
     ssskit::filter::image::write_exr(&dir.path().join("s.exr"), &img, None).unwrap();
     let k = kernel();
     for backend in ["cpu", "gpu"] {
-        let args = [
-            "apply",
-            "--kernel",
+        let args = common::apply_args(
             &k,
-            "--input",
             "d.png",
-            "--out",
             "o.exr",
-            "--mm-per-pixel",
             "0.1",
-            "--strength",
-            "s.exr",
-            "--backend",
-            backend,
-        ];
+            &["--strength", "s.exr", "--backend", backend],
+        );
         fails_in(
             dir.path(),
             &args,
@@ -857,22 +728,7 @@ fn every_catchable_signal_cleans_up() {
 fn interrupted_folder_outputs_leave_the_previous_run() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let compare = [
-        "compare",
-        "--materials",
-        "skin1",
-        "--profile-model",
-        "dipole",
-        "--models",
-        "svd",
-        "--ranks",
-        "1",
-        "--signals",
-        "none",
-        "--no-plots",
-        "--out-dir",
-        "kd",
-    ];
+    let compare = quick_compare("skin1", "kd");
     ok_in(d, &compare);
     let snapshot = |root: &Path| -> Vec<(String, Vec<u8>)> {
         tree(root)
@@ -996,19 +852,7 @@ fn nan_alpha_is_checked_on_read_and_sanitized() {
     ssskit::filter::image::write_exr(&dir.path().join("a.exr"), &img, None).unwrap();
     let k = kernel();
     let apply = |extra: &[&'static str]| {
-        let mut v = vec![
-            "apply",
-            "--kernel",
-            k.as_str(),
-            "--input",
-            "a.exr",
-            "--out",
-            "o.exr",
-            "--mm-per-pixel",
-            "0.1",
-            "--backend",
-            "cpu",
-        ];
+        let mut v = common::apply_args(k.as_str(), "a.exr", "o.exr", "0.1", &["--backend", "cpu"]);
         v.extend_from_slice(extra);
         v
     };
@@ -1030,15 +874,7 @@ fn missing_output_folders_are_found_before_the_work() {
     let dir = tempfile::tempdir().unwrap();
     ok_in(
         dir.path(),
-        &[
-            "profile",
-            "--material",
-            "skin1",
-            "--profile-model",
-            "dipole",
-            "--out",
-            "p.json",
-        ],
+        &common::profile_args("skin1", "dipole", "p.json", &[]),
     );
     ok_in(
         dir.path(),
@@ -1046,36 +882,10 @@ fn missing_output_folders_are_found_before_the_work() {
     );
     let k = kernel();
     for args in [
-        vec![
-            "fit",
-            "--profile",
-            "p.json",
-            "--model",
-            "guided",
-            "--out",
-            "no/k.json",
-        ],
-        vec![
-            "apply",
-            "--kernel",
-            &k,
-            "--input",
-            "d.png",
-            "--out",
-            "no/o.exr",
-            "--mm-per-pixel",
-            "0.1",
-        ],
+        common::fit_args("p.json", "guided", "no/k.json", &[]),
+        common::apply_args(&k, "d.png", "no/o.exr", "0.1", &[]),
         vec!["signal", "edge", "--out", "no/s.png"],
-        vec![
-            "profile",
-            "--material",
-            "skin1",
-            "--profile-model",
-            "pbd",
-            "--out",
-            "no/p.json",
-        ],
+        common::profile_args("skin1", "pbd", "no/p.json", &[]),
         vec![
             "engine",
             "--profile",
@@ -1113,15 +923,7 @@ fn pipes_kernel_names_and_the_working_folder() {
     }
     let started = Instant::now();
     for args in [
-        vec![
-            "fit",
-            "--profile",
-            "p.json",
-            "--model",
-            "svd",
-            "--out",
-            "k.json",
-        ],
+        common::fit_args("p.json", "svd", "k.json", &[]),
         vec!["materials", "p.toml"],
         vec!["diff", "p.exr", "p.png"],
         vec!["diff", "p.png", "p.exr"],
@@ -1140,24 +942,5 @@ fn pipes_kernel_names_and_the_working_folder() {
     let o = run_in(d, &["fit", "--kernel", &esc, "--emit", "hlsl"]);
     assert!(!common::stdout(&o).contains('\u{1b}'));
     common::assert_fails(&o, &["fit"], &["esc.json", "U+001B"]);
-    fails_in(
-        d,
-        &[
-            "compare",
-            "--materials",
-            "skin1",
-            "--profile-model",
-            "dipole",
-            "--models",
-            "svd",
-            "--ranks",
-            "1",
-            "--signals",
-            "none",
-            "--no-plots",
-            "--out-dir",
-            ".",
-        ],
-        &["not '.'"],
-    );
+    fails_in(d, &quick_compare("skin1", "."), &["not '.'"]);
 }

@@ -8,34 +8,15 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// Address-space cap of every run: 4 GB, far above what any of these
-/// inputs needs once capped, far below what an uncapped one asks for.
-const MEMORY_LIMIT: &str = "--as=4000000000";
-const MEMORY_BYTES: u64 = 4_000_000_000;
 const TIME_LIMIT: Duration = Duration::from_secs(20);
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
 mod common;
 
+use common::bounded::{capped, edited, run_with, MEMORY_BYTES};
+
 fn command(args: &[&str]) -> Command {
-    // prlimit is in util-linux (Debian, CI); without it the POSIX shell's
-    // `ulimit -v` (KiB) sets the same cap before exec, so no run is unbounded.
-    let mut c = if Path::new("/usr/bin/prlimit").exists() {
-        let mut c = Command::new("/usr/bin/prlimit");
-        c.args([MEMORY_LIMIT, "--", common::BIN]);
-        c
-    } else {
-        let kib = MEMORY_BYTES / 1024;
-        let mut c = Command::new("sh");
-        c.args([
-            "-c",
-            &format!("ulimit -v {kib} && exec \"$0\" \"$@\""),
-            common::BIN,
-        ]);
-        c
-    };
-    c.args(args).env("RUST_BACKTRACE", "1");
-    c
+    capped(common::BIN, &[], args)
 }
 
 /// The cap is really in effect: a run blocked reading its profile from
@@ -43,21 +24,13 @@ fn command(args: &[&str]) -> Command {
 #[test]
 fn every_run_is_under_the_memory_cap() {
     let dir = tempfile::tempdir().unwrap();
-    let mut child = command(&[
-        "fit",
-        "--profile",
-        "/dev/stdin",
-        "--model",
-        "svd",
-        "--out",
-        "k.json",
-    ])
-    .current_dir(dir.path())
-    .stdin(Stdio::piped())
-    .stdout(Stdio::null())
-    .stderr(Stdio::null())
-    .spawn()
-    .expect("spawn ssskit");
+    let mut child = command(&common::fit_args("/dev/stdin", "svd", "k.json", &[]))
+        .current_dir(dir.path())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn ssskit");
     let pid = child.id();
     let bin = std::fs::canonicalize(common::BIN).unwrap();
     let start = Instant::now();
@@ -90,31 +63,14 @@ fn spawn_in(dir: &Path, args: &[&str], stdout: Stdio, stderr: Stdio) -> Child {
 
 /// Waits for `child` at most `TIME_LIMIT`; a run past it is killed and fails
 /// the test.
-fn wait_bounded(mut child: Child, what: &str) -> Output {
-    let start = Instant::now();
-    loop {
-        match child.try_wait().expect("wait") {
-            Some(_) => return child.wait_with_output().expect("output"),
-            None if start.elapsed() > TIME_LIMIT => {
-                let _ = child.kill();
-                panic!("{what} ran past {TIME_LIMIT:?}: unbounded work");
-            }
-            None => std::thread::sleep(Duration::from_millis(10)),
-        }
-    }
+fn wait_bounded(child: Child, what: &str) -> Output {
+    common::bounded::wait_bounded(child, what, TIME_LIMIT)
 }
 
 fn run_in(dir: &Path, args: &[&str]) -> Output {
-    let child = spawn_in(dir, args, Stdio::piped(), Stdio::piped());
-    let out = wait_bounded(child, &format!("ssskit {args:?}"));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !err.contains("panicked")
-            && !err.contains("RUST_BACKTRACE")
-            && !err.contains("memory allocation"),
-        "ssskit {args:?} crashed: {err}"
-    );
-    out
+    let mut c = command(args);
+    c.current_dir(dir).stdin(Stdio::null());
+    run_with(c, &format!("ssskit {args:?}"), TIME_LIMIT)
 }
 
 fn ok_in(dir: &Path, args: &[&str]) -> String {
@@ -148,33 +104,12 @@ fn dirac(dir: &Path) -> PathBuf {
 
 /// `p.json` in `dir`: skin1's dipole profile.
 fn dipole_profile(dir: &Path) {
-    ok_in(
-        dir,
-        &[
-            "profile",
-            "--material",
-            "skin1",
-            "--profile-model",
-            "dipole",
-            "--out",
-            "p.json",
-        ],
-    );
+    ok_in(dir, &common::profile_args("skin1", "dipole", "p.json", &[]));
 }
 
 /// `apply` of kernel `k` to the dirac `d.png` at `mm` per pixel into `o.exr`.
 fn apply_dirac<'a>(k: &'a str, mm: &'a str) -> Vec<&'a str> {
-    vec![
-        "apply",
-        "--kernel",
-        k,
-        "--input",
-        "d.png",
-        "--out",
-        "o.exr",
-        "--mm-per-pixel",
-        mm,
-    ]
+    common::apply_args(k, "d.png", "o.exr", mm, &[])
 }
 
 fn temp_files(dir: &Path) -> Vec<String> {
@@ -184,16 +119,6 @@ fn temp_files(dir: &Path) -> Vec<String> {
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .filter(|n| n.starts_with(".ssskit-"))
         .collect()
-}
-
-/// The JSON of `path` with `edit` applied, written to `dir/name`.
-fn edited(path: &str, dir: &Path, name: &str, edit: impl Fn(&mut serde_json::Value)) -> String {
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-    edit(&mut v);
-    let p = dir.join(name);
-    std::fs::write(&p, serde_json::to_string(&v).unwrap()).unwrap();
-    p.to_string_lossy().into_owned()
 }
 
 // ---- 1. Caps derived from the inputs, checked before allocating ----------
@@ -458,24 +383,8 @@ fn output_format_comes_from_the_extension() {
     dipole_profile(dir.path());
     for args in [
         vec!["plot", "profile", "p.json", "--out", "x.exr"],
-        vec![
-            "profile",
-            "--material",
-            "skin1",
-            "--profile-model",
-            "dipole",
-            "--out",
-            "x.exr",
-        ],
-        vec![
-            "fit",
-            "--profile",
-            "p.json",
-            "--model",
-            "svd",
-            "--out",
-            "x.exr",
-        ],
+        common::profile_args("skin1", "dipole", "x.exr", &[]),
+        common::fit_args("p.json", "svd", "x.exr", &[]),
         vec![
             "simulate",
             "--material",
@@ -511,15 +420,7 @@ fn profiles_beyond_any_reflectance_are_refused_on_read() {
     );
     fails_in(
         dir.path(),
-        &[
-            "fit",
-            "--profile",
-            &big,
-            "--model",
-            "svd",
-            "--out",
-            "k.json",
-        ],
+        &common::fit_args(&big, "svd", "k.json", &[]),
         &["big.json", "not a reflectance"],
     );
     let zero = edited(&p, dir.path(), "zero.json", |v| {
@@ -531,15 +432,7 @@ fn profiles_beyond_any_reflectance_are_refused_on_read() {
     });
     fails_in(
         dir.path(),
-        &[
-            "fit",
-            "--profile",
-            &zero,
-            "--model",
-            "svd",
-            "--out",
-            "k.json",
-        ],
+        &common::fit_args(&zero, "svd", "k.json", &[]),
         &["zero.json", "zero"],
     );
 }
@@ -646,15 +539,7 @@ fn material_file_errors_name_line_field_and_shape() {
 #[test]
 fn profile_grid_messages_name_the_flags_given() {
     let dir = tempfile::tempdir().unwrap();
-    let base = [
-        "profile",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "dipole",
-        "--out",
-        "p.json",
-    ];
+    let base = common::profile_args("skin1", "dipole", "p.json", &[]);
     let fine = [&base[..], &["--dr", "1e-9"]].concat();
     let err = fails_in(dir.path(), &fine, &["--dr", "bins"]);
     assert!(

@@ -4,6 +4,8 @@
 //! image. The rule is per pixel, so a 1024 x 1024 image checks what holds
 //! at the 8K cap (`MAX_IMAGE_PIXELS`, 1 GiB in memory).
 
+mod common;
+
 use ssskit::filter::image::{read_image, write_exr, write_image, PngDepth};
 use ssskit::filter::Image;
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -103,27 +105,24 @@ fn reading_an_image_holds_it_once() {
 /// an f32 copy for the writer (12 bytes) would be far above.
 const FILTER_WRITE_EXTRA_BYTES_PER_PIXEL: f64 = 2.0;
 
+/// A 17-tap box of 0.1 mm steps, one pass.
+fn box_taps() -> Vec<ssskit::filter::Taps> {
+    let n = 17;
+    vec![ssskit::filter::Taps {
+        offsets_mm: (0..n).map(|i| (i as f64 - 8.0) * 0.1).collect(),
+        weights: vec![[1.0 / n as f64; 3]; n],
+    }]
+}
+
 #[test]
 fn filtering_in_place_and_writing_add_little_to_the_image() {
-    use ssskit::filter::{cpu, Scale, Setup, Taps};
+    use ssskit::filter::{cpu, separable};
     let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (w, h) = (1024, 1024);
     let dir = tempfile::tempdir().unwrap();
     let mut img = ssskit::filter::signals::noise(w, h, 7);
-    let n = 17;
-    let setup = Setup {
-        passes: vec![Taps {
-            offsets_mm: (0..n).map(|i| (i as f64 - 8.0) * 0.1).collect(),
-            weights: vec![[1.0 / n as f64; 3]; n],
-        }],
-        scale: Scale::MmPerPixel(0.1),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
-    for precision in [cpu::Precision::F32, cpu::Precision::F64] {
+    let setup = common::plain_setup(box_taps(), 0.1);
+    for precision in [separable::Precision::F32, separable::Precision::F64] {
         let (_, peak) = peak_of(|| {
             cpu::apply_in_place(&mut img, &setup, precision).unwrap();
             write_image(&dir.path().join("o.exr"), &img, PngDepth::Eight).unwrap();
@@ -149,33 +148,25 @@ const PER_PIXEL_PATH_EXTRA_BYTES_PER_PIXEL: f64 = 3.0;
 /// A 1024 x 1024 noise image, a depth ramp, and the view of the pass:
 /// 0.1 mm a pixel, the depth-aware lerp on.
 fn per_pixel_case() -> (ssskit::filter::Image, ssskit::filter::Setup) {
-    use ssskit::filter::{FollowSurface, Plane, Scale, Setup};
+    use ssskit::filter::{FollowSurface, Plane, Setup};
     let (w, h) = (1024, 1024);
     let img = ssskit::filter::signals::noise(w, h, 11);
     let depth = Plane::from_index(w, h, |i| 100.0 + (i % 977) as f64 * 0.01);
     let view = Setup {
-        passes: vec![],
-        scale: Scale::MmPerPixel(0.1),
         depth: Some(depth),
-        strength: None,
         follow_surface: Some(FollowSurface::InSceneUnits(0.5)),
-        specular: None,
-        jitter: false,
+        ..common::plain_setup(vec![], 0.1)
     };
     (img, view)
 }
 
 #[test]
 fn the_depth_aware_path_filters_in_place() {
-    use ssskit::filter::{cpu, Setup, Taps};
+    use ssskit::filter::{cpu, separable, Setup};
     let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (mut img, view) = per_pixel_case();
-    let n = 17;
     let setup = Setup {
-        passes: vec![Taps {
-            offsets_mm: (0..n).map(|i| (i as f64 - 8.0) * 0.1).collect(),
-            weights: vec![[1.0 / n as f64; 3]; n],
-        }],
+        passes: box_taps(),
         ..view
     };
     assert!(
@@ -183,7 +174,8 @@ fn the_depth_aware_path_filters_in_place() {
         "the per-pixel path, not the fixed kernels"
     );
     let before = img.rgb[0].clone();
-    let (_, peak) = peak_of(|| cpu::apply_in_place(&mut img, &setup, cpu::Precision::F64).unwrap());
+    let (_, peak) =
+        peak_of(|| cpu::apply_in_place(&mut img, &setup, separable::Precision::F64).unwrap());
     assert_ne!(img.rgb[0], before, "the image was filtered");
     let per_pixel = peak as f64 / img.len() as f64;
     eprintln!("depth-aware: filter peak {per_pixel:.2} bytes per pixel");

@@ -2,9 +2,11 @@
 //! the library: every stage returns an error or finite output, never panics,
 //! and whatever it writes reads back. Case counts are small (seconds).
 
+mod common;
+
 use proptest::prelude::*;
 use ssskit::filter::image::{read_image, write_image, PngDepth};
-use ssskit::filter::{check_kernel_fits, cpu, taps_for, Image, Scale, Setup, Which};
+use ssskit::filter::{check_kernel_fits, cpu, taps_for, Image, Which};
 use ssskit::kernel::{fit_kernel_file, Kernel2DSpec, KernelFile, Model as KernelModel, Pass};
 use ssskit::material::{Layer, Material};
 use ssskit::profile::analytic::{self, Model, Options};
@@ -80,16 +82,10 @@ fn image(w: usize, h: usize, values: &[f64]) -> Image {
 /// Applies `k` the way `ssskit apply` does; returns the image or the error.
 fn apply(k: &KernelFile, img: &Image, mm: f64) -> ssskit::Result<Image> {
     check_kernel_fits(k, Which::Full, Some(mm), img.width, img.height)?;
-    let setup = Setup {
-        passes: taps_for(k, Which::Full, Some(mm)).unwrap(),
-        scale: Scale::MmPerPixel(mm),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
-    cpu::apply(img, &setup)
+    cpu::apply(
+        img,
+        &common::plain_setup(taps_for(k, Which::Full, Some(mm)).unwrap(), mm),
+    )
 }
 
 /// How far a case got before the library refused it (or to the end).
@@ -380,18 +376,11 @@ fn a_kernel_shifted_past_the_image_reads_the_border() {
 /// by the CPU and by wgpu (lavapipe in CI) alike, before any allocation.
 #[test]
 fn both_backends_refuse_a_kernel_span_over_the_cap() {
-    let setup = Setup {
-        passes: vec![ssskit::filter::Taps {
-            offsets_mm: vec![-30.0, 0.0, 30.0],
-            weights: vec![[0.25; 3], [0.5; 3], [0.25; 3]],
-        }],
-        scale: Scale::MmPerPixel(1e-6),
-        depth: None,
-        strength: None,
-        follow_surface: None,
-        specular: None,
-        jitter: false,
-    };
+    let passes = vec![ssskit::filter::Taps {
+        offsets_mm: vec![-30.0, 0.0, 30.0],
+        weights: vec![[0.25; 3], [0.5; 3], [0.25; 3]],
+    }];
+    let setup = common::plain_setup(passes, 1e-6);
     let img = image(16, 12, &[1.0]);
     let e = cpu::apply(&img, &setup).unwrap_err().to_string();
     assert!(

@@ -16,6 +16,14 @@ use std::path::{Path, PathBuf};
 
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
+/// Fits a disk kernel of `samples` to the committed skin1 profile into
+/// `d/d.json`.
+fn disk_kernel_in(d: &Path, samples: &str) {
+    let profile = Path::new(REPO).join("profiles/reference/skin1.json");
+    let extra = ["--samples", samples, "--quiet"];
+    ok_in(d, &common::fit_args(p(&profile), "disk", "d.json", &extra));
+}
+
 fn kernel_file(name: &str) -> PathBuf {
     Path::new(REPO).join("kernels").join(name)
 }
@@ -108,22 +116,7 @@ fn kernel_contents_are_held_to_their_physics() {
 fn disk_kernel_sums_are_cross_checked() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let profile = Path::new(REPO).join("profiles/reference/skin1.json");
-    ok_in(
-        d,
-        &[
-            "fit",
-            "--profile",
-            p(&profile),
-            "--model",
-            "disk",
-            "--samples",
-            "8",
-            "--out",
-            "d.json",
-            "--quiet",
-        ],
-    );
+    disk_kernel_in(d, "8");
     let base = read_json(&d.join("d.json"));
     let k = edited(&base, d, "w15.json", |v| {
         for s in v["samples"].as_array_mut().unwrap() {
@@ -149,17 +142,7 @@ fn disk_kernel_sums_are_cross_checked() {
         v["schema"] = json!("ssskit.disk/2")
     });
     constant(&d.join("in.exr"), 8, 8, [1.0; 3]);
-    let args = [
-        "apply",
-        "--kernel",
-        p(&k),
-        "--input",
-        "in.exr",
-        "--mm-per-pixel",
-        "0.1",
-        "--out",
-        "o.exr",
-    ];
+    let args = common::apply_args(p(&k), "in.exr", "o.exr", "0.1", &[]);
     let o = run_in(d, &args);
     let e = common::assert_fails(&o, &args, &["v2.json", "ssskit.disk/2", "ssskit.disk/1"]);
     assert!(!e.contains("missing field"), "{e}");
@@ -199,17 +182,7 @@ fn budgets_and_flags_say_what_they_mean() {
     }
     let profile = Path::new(REPO).join("profiles/reference/skin1.json");
     for (flag, value) in [("--samples", "0"), ("--radii", "mean")] {
-        let args = [
-            "fit",
-            "--profile",
-            p(&profile),
-            "--model",
-            "svd",
-            flag,
-            value,
-            "--out",
-            "k.json",
-        ];
+        let args = common::fit_args(p(&profile), "svd", "k.json", &[flag, value]);
         fails_with_in(d, &args, &[flag, "disk kernels", "--model svd"]);
     }
     assert!(!d.join("k.json").exists());
@@ -323,17 +296,7 @@ fn messages_name_the_real_problem() {
     let profile = Path::new(REPO).join("profiles/reference/skin1.json");
     fails_with_in(
         d,
-        &[
-            "fit",
-            "--profile",
-            p(&profile),
-            "--model",
-            "disk",
-            "--samples",
-            "-1",
-            "--out",
-            "x.json",
-        ],
+        &common::fit_args(p(&profile), "disk", "x.json", &["--samples", "-1"]),
         &["--samples: invalid value -1", "whole number"],
     );
     // A material that scatters over kilometres: the disk fit says so and
@@ -352,28 +315,12 @@ fn messages_name_the_real_problem() {
     for m in ["far", "wide"] {
         ok_in(
             d,
-            &[
-                "profile",
-                "--material",
-                &format!("{m}.toml"),
-                "--profile-model",
-                "dipole",
-                "--out",
-                &format!("{m}.json"),
-            ],
+            &common::profile_args(&format!("{m}.toml"), "dipole", &format!("{m}.json"), &[]),
         );
     }
     fails_with_in(
         d,
-        &[
-            "fit",
-            "--profile",
-            "far.json",
-            "--model",
-            "disk",
-            "--out",
-            "x.json",
-        ],
+        &common::fit_args("far.json", "disk", "x.json", &[]),
         &[
             "samples reach",
             "a kilometre",
@@ -398,36 +345,11 @@ fn messages_name_the_real_problem() {
         "{line}"
     );
     // A disk kernel given --taps-only: the flag given is named.
-    ok_in(
-        d,
-        &[
-            "fit",
-            "--profile",
-            p(&profile),
-            "--model",
-            "disk",
-            "--samples",
-            "8",
-            "--out",
-            "d.json",
-            "--quiet",
-        ],
-    );
+    disk_kernel_in(d, "8");
     constant(&d.join("in.exr"), 8, 8, [1.0; 3]);
     fails_with_in(
         d,
-        &[
-            "apply",
-            "--kernel",
-            "d.json",
-            "--input",
-            "in.exr",
-            "--mm-per-pixel",
-            "0.1",
-            "--taps-only",
-            "--out",
-            "o.exr",
-        ],
+        &common::apply_args("d.json", "in.exr", "o.exr", "0.1", &["--taps-only"]),
         &["--taps-only applies to separable kernels"],
     );
     fails_with_in(
@@ -465,15 +387,7 @@ fn inputs_that_are_not_files_are_named() {
     let started = std::time::Instant::now();
     fails_with_in(
         d,
-        &[
-            "fit",
-            "--profile",
-            "p.json",
-            "--model",
-            "svd",
-            "--out",
-            "k.json",
-        ],
+        &common::fit_args("p.json", "svd", "k.json", &[]),
         &["p.json", "pipe that nothing writes to"],
     );
     fails_with_in(
@@ -511,15 +425,7 @@ fn inputs_that_are_not_files_are_named() {
     std::fs::create_dir(d.join("f.json")).unwrap();
     fails_with_in(
         d,
-        &[
-            "fit",
-            "--profile",
-            "f.json",
-            "--model",
-            "svd",
-            "--out",
-            "k.json",
-        ],
+        &common::fit_args("f.json", "svd", "k.json", &[]),
         &["f.json", "is a folder"],
     );
     assert!(started.elapsed() < std::time::Duration::from_secs(30));
@@ -532,41 +438,18 @@ fn inputs_that_are_not_files_are_named() {
 fn a_long_disk_pass_is_refused_before_the_work() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let profile = Path::new(REPO).join("profiles/reference/skin1.json");
-    ok_in(
-        d,
-        &[
-            "fit",
-            "--profile",
-            p(&profile),
-            "--model",
-            "disk",
-            "--samples",
-            "32",
-            "--out",
-            "d.json",
-            "--quiet",
-        ],
-    );
+    disk_kernel_in(d, "32");
     constant(&d.join("in.exr"), 512, 512, [1.0; 3]);
     let started = std::time::Instant::now();
     fails_with_in(
         d,
-        &[
-            "apply",
-            "--kernel",
+        &common::apply_args(
             "d.json",
-            "--input",
             "in.exr",
-            "--mm-per-pixel",
-            "0.1",
-            "--backend",
-            "cpu",
-            "--frames",
-            "4096",
-            "--out",
             "o.exr",
-        ],
+            "0.1",
+            &["--backend", "cpu", "--frames", "4096"],
+        ),
         &["--frames: invalid value 4096", "at most 238 frames fit"],
     );
     assert!(started.elapsed() < std::time::Duration::from_secs(20));
@@ -619,17 +502,7 @@ fn apply_prints_no_loader_noise() {
         .env_remove("NODEVICE_SELECT")
         .env_remove("XDG_RUNTIME_DIR")
         .env_remove("WAYLAND_DISPLAY")
-        .args([
-            "apply",
-            "--kernel",
-            p(&k),
-            "--input",
-            "in.exr",
-            "--mm-per-pixel",
-            "0.1",
-            "--out",
-            "o.exr",
-        ])
+        .args(common::apply_args(p(&k), "in.exr", "o.exr", "0.1", &[]))
         .output()
         .unwrap();
     let (_, e) = common::assert_ok(&o, &["apply"]);

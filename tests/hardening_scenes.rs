@@ -25,38 +25,14 @@ fn mesh(file: &str) -> String {
 
 /// A closed OBJ cube of half-side `h` about the origin.
 fn write_cube(path: &Path, h: f64) {
-    let mut obj = String::new();
-    for i in 0..8 {
-        let c = |b: usize| if i & b != 0 { h } else { -h };
-        obj += &format!("v {} {} {}\n", c(1), c(2), c(4));
-    }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
-        obj += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
-    }
-    std::fs::write(path, obj).unwrap();
+    std::fs::write(path, common::backlit_meshes::cube_obj(h)).unwrap();
 }
 
 fn render(d: &Path, objects: &str) -> std::process::Output {
     std::fs::write(d.join("s.toml"), format!("{HEAD}{objects}")).unwrap();
     run_in(
         d,
-        &[
-            "scene",
-            "s.toml",
-            "--out",
-            "s.exr",
-            "--spp",
-            "2",
-            "--profile-photons",
-            "1000",
-        ],
+        &common::scene_args(&["--spp", "2", "--profile-photons", "1000"]),
     )
 }
 

@@ -36,33 +36,13 @@ fn a_kernel_grid_that_does_not_resolve_the_profile_is_refused() {
     let d = tempfile::tempdir().unwrap();
     let prof = reference("apple");
     for (flag, value) in [("--extent", "18446744073709551616"), ("--grid-size", "1")] {
-        let args = [
-            "fit",
-            "--profile",
-            &prof,
-            "--model",
-            "svd",
-            flag,
-            value,
-            "--out",
-            "k.json",
-        ];
+        let args = common::fit_args(&prof, "svd", "k.json", &[flag, value]);
         let e = assert_fails(&run_in(d.path(), &args), &args, &[flag, "does not resolve"]);
         assert!(longest_digit_run(&e) <= MAX_DIGIT_RUN, "{e}");
         assert!(!d.path().join("k.json").exists());
     }
     // Three cells over the default extent still resolve it.
-    let args = [
-        "fit",
-        "--profile",
-        &prof,
-        "--model",
-        "svd",
-        "--grid-size",
-        "3",
-        "--out",
-        "k.json",
-    ];
+    let args = common::fit_args(&prof, "svd", "k.json", &["--grid-size", "3"]);
     assert_ok(&run_in(d.path(), &args), &args);
 }
 
@@ -104,16 +84,7 @@ fn engine_numbers_of_a_degenerate_profile_have_few_digits() {
 fn a_scene_from_one_photon_says_its_profile_is_noise() {
     let d = tempfile::tempdir().unwrap();
     std::fs::write(d.path().join("s.toml"), SPHERE).unwrap();
-    let args = [
-        "scene",
-        "s.toml",
-        "--out",
-        "s.exr",
-        "--spp",
-        "2",
-        "--profile-photons",
-        "1",
-    ];
+    let args = common::scene_args(&["--spp", "2", "--profile-photons", "1"]);
     let (out, _) = assert_ok(&run_in(d.path(), &args), &args);
     assert!(
         out.contains("warning: profile of skin1") && out.contains("no estimate of the noise"),
@@ -153,18 +124,14 @@ fn a_comparison_against_one_photon_says_its_reference_is_noise() {
 fn a_render_target_beyond_the_work_cap_is_refused_after_one_round() {
     let d = tempfile::tempdir().unwrap();
     std::fs::write(d.path().join("s.toml"), SPHERE).unwrap();
-    let args = [
-        "scene",
-        "s.toml",
-        "--out",
-        "s.exr",
+    let args = common::scene_args(&[
         "--render-error",
         "1e-9",
         "--max-spp",
         "1e12",
         "--profile-photons",
         "1000",
-    ];
+    ]);
     assert_fails(
         &run_in(d.path(), &args),
         &args,

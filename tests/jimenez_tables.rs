@@ -9,71 +9,28 @@
 mod separable_support;
 use separable_support::*;
 
-/// SeparableSSS.h, SSSS_QUALITY == 2 (SSSS_N_SAMPLES 25): float4(r, g, b,
-/// offset), as printed (centre first).
-const IRYOKU_25: [[f64; 4]; 25] = [
-    [0.530605, 0.613514, 0.739601, 0.0],
-    [0.000973794, 1.11862e-5, 9.43437e-7, -3.0],
-    [0.00333804, 7.85443e-5, 1.2945e-5, -2.52083],
-    [0.00500364, 0.00020094, 5.28848e-5, -2.08333],
-    [0.00700976, 0.00049366, 0.000151938, -1.6875],
-    [0.0094389, 0.00139119, 0.000416598, -1.33333],
-    [0.0128496, 0.00356329, 0.00132016, -1.02083],
-    [0.017924, 0.00711691, 0.00347194, -0.75],
-    [0.0263642, 0.0119715, 0.00684598, -0.520833],
-    [0.0410172, 0.0199899, 0.0118481, -0.333333],
-    [0.0493588, 0.0367726, 0.0219485, -0.1875],
-    [0.0402784, 0.0657244, 0.04631, -0.0833333],
-    [0.0211412, 0.0459286, 0.0378196, -0.0208333],
-    [0.0211412, 0.0459286, 0.0378196, 0.0208333],
-    [0.0402784, 0.0657244, 0.04631, 0.0833333],
-    [0.0493588, 0.0367726, 0.0219485, 0.1875],
-    [0.0410172, 0.0199899, 0.0118481, 0.333333],
-    [0.0263642, 0.0119715, 0.00684598, 0.520833],
-    [0.017924, 0.00711691, 0.00347194, 0.75],
-    [0.0128496, 0.00356329, 0.00132016, 1.02083],
-    [0.0094389, 0.00139119, 0.000416598, 1.33333],
-    [0.00700976, 0.00049366, 0.000151938, 1.6875],
-    [0.00500364, 0.00020094, 5.28848e-5, 2.08333],
-    [0.00333804, 7.85443e-5, 1.2945e-5, 2.52083],
-    [0.000973794, 1.11862e-5, 9.43437e-7, 3.0],
-];
-
-/// SeparableSSS.h, SSSS_QUALITY == 1 (SSSS_N_SAMPLES 17).
-const IRYOKU_17: [[f64; 4]; 17] = [
-    [0.536343, 0.624624, 0.748867, 0.0],
-    [0.00317394, 0.000134823, 3.77269e-5, -2.0],
-    [0.0100386, 0.000914679, 0.000275702, -1.53125],
-    [0.0144609, 0.00317269, 0.00106399, -1.125],
-    [0.0216301, 0.00794618, 0.00376991, -0.78125],
-    [0.0347317, 0.0151085, 0.00871983, -0.5],
-    [0.0571056, 0.0287432, 0.0172844, -0.28125],
-    [0.0582416, 0.0659959, 0.0411329, -0.125],
-    [0.0324462, 0.0656718, 0.0532821, -0.03125],
-    [0.0324462, 0.0656718, 0.0532821, 0.03125],
-    [0.0582416, 0.0659959, 0.0411329, 0.125],
-    [0.0571056, 0.0287432, 0.0172844, 0.28125],
-    [0.0347317, 0.0151085, 0.00871983, 0.5],
-    [0.0216301, 0.00794618, 0.00376991, 0.78125],
-    [0.0144609, 0.00317269, 0.00106399, 1.125],
-    [0.0100386, 0.000914679, 0.000275702, 1.53125],
-    [0.00317394, 0.000134823, 3.77269e-5, 2.0],
-];
-
-/// SeparableSSS.h, SSSS_QUALITY == 0 (SSSS_N_SAMPLES 11).
-const IRYOKU_11: [[f64; 4]; 11] = [
-    [0.560479, 0.669086, 0.784728, 0.0],
-    [0.00471691, 0.000184771, 5.07566e-5, -2.0],
-    [0.0192831, 0.00282018, 0.00084214, -1.28],
-    [0.03639, 0.0130999, 0.00643685, -0.72],
-    [0.0821904, 0.0358608, 0.0209261, -0.32],
-    [0.0771802, 0.113491, 0.0793803, -0.08],
-    [0.0771802, 0.113491, 0.0793803, 0.08],
-    [0.0821904, 0.0358608, 0.0209261, 0.32],
-    [0.03639, 0.0130999, 0.00643685, 0.72],
-    [0.0192831, 0.00282018, 0.00084214, 1.28],
-    [0.00471691, 0.000184771, 5.07565e-5, 2.0],
-];
+/// SeparableSSS.h's table of `n` samples (SSSS_QUALITY 0, 1, 2 for 11,
+/// 17, 25): float4(r, g, b, offset), as printed (centre first), from
+/// tests/golden/iryoku-separable-sss.txt.
+fn iryoku(n: usize) -> Vec<[f64; 4]> {
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/golden/iryoku-separable-sss.txt"
+    );
+    let text = std::fs::read_to_string(file).unwrap();
+    let rows: Vec<[f64; 4]> = text
+        .lines()
+        .skip_while(|l| !l.starts_with(&format!("samples {n} ")))
+        .skip(1)
+        .take_while(|l| !l.starts_with("samples"))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            v.try_into().unwrap()
+        })
+        .collect();
+    assert_eq!(rows.len(), n, "SSSS_N_SAMPLES {n}");
+    rows
+}
 
 /// SeparableSSS.h prints its weights to 6 decimals: half a unit of the
 /// last one (5e-7) plus its f32 arithmetic (3e-8 of a weight near 0.5)
@@ -137,7 +94,7 @@ fn assert_tables(
 
 #[test]
 fn fit_reproduces_the_tables_printed_in_separable_sss_h() {
-    let printed: [(usize, &[[f64; 4]]); 3] = [(11, &IRYOKU_11), (17, &IRYOKU_17), (25, &IRYOKU_25)];
+    let printed = [11, 17, 25].map(|n| (n, iryoku(n)));
     for (n, table) in printed {
         let range = if n > 20 { "3" } else { "2" };
         let taps = n.to_string();
@@ -154,7 +111,7 @@ fn fit_reproduces_the_tables_printed_in_separable_sss_h() {
             "1,0.37,0.3",
         ]);
         // Printed to 6 significant digits, computed in f32 there.
-        assert_tables(&format!("{n} taps"), &got, &sorted(table), 1e-5, 1e-4);
+        assert_tables(&format!("{n} taps"), &got, &sorted(&table), 1e-5, 1e-4);
         // iryoku's defaults are the model's defaults, and its span the
         // table's default extent.
         let default = fitted_table(&["--taps", &taps]);
@@ -169,7 +126,7 @@ fn the_table_does_not_move_with_the_kernel_grid() {
     let coarse = fitted_table(&["--taps", "17", "--grid-size", "41", "--extent", "6"]);
     let fine = fitted_table(&["--taps", "17", "--grid-size", "401", "--extent", "12"]);
     assert_tables("grid", &coarse, &fine, 0.0, 1e-15);
-    assert!((coarse[8].1[0] - IRYOKU_17[0][0]).abs() < SIX_DECIMALS);
+    assert!((coarse[8].1[0] - iryoku(17)[0][0]).abs() < SIX_DECIMALS);
 }
 
 /// Parameters other than the defaults follow calculateKernel too; the width
@@ -184,32 +141,32 @@ fn other_parameters_follow_calculate_kernel() {
             .map(|(o, w)| (o * width, w))
             .collect();
         let (taps, extent) = (n.to_string(), (range * width).to_string());
-        let got = fitted_table(&[
-            "--jimenez-width",
-            "2.5",
-            "--tap-extent",
-            &extent,
-            "--taps",
-            &taps,
-            "--jimenez-strength",
-            "0.2,0.9,1",
-            "--jimenez-falloff",
-            "0.5,0.1,0.8",
-        ]);
+        // Width 2.5 and other strength and falloff, over `span` mm.
+        let other = |span: &str| {
+            fitted_table(
+                &[
+                    &[
+                        "--jimenez-width",
+                        "2.5",
+                        "--tap-extent",
+                        span,
+                        "--taps",
+                        &taps,
+                    ][..],
+                    &[
+                        "--jimenez-strength",
+                        "0.2,0.9,1",
+                        "--jimenez-falloff",
+                        "0.5,0.1,0.8",
+                    ],
+                ]
+                .concat(),
+            )
+        };
+        let got = other(&extent);
         assert_tables(&format!("{n} taps"), &got, &want, 1e-12, 1e-12);
         // A wider span moves the taps out and samples the profile there.
-        let wide = fitted_table(&[
-            "--jimenez-width",
-            "2.5",
-            "--tap-extent",
-            "9",
-            "--taps",
-            &taps,
-            "--jimenez-strength",
-            "0.2,0.9,1",
-            "--jimenez-falloff",
-            "0.5,0.1,0.8",
-        ]);
+        let wide = other("9");
         assert!((wide[n - 1].0 - 9.0).abs() < 1e-12);
         assert!(wide[n / 2].1[0] > got[n / 2].1[0]);
     }

@@ -3,22 +3,14 @@
 //! bad flags and malformed kernel files.
 
 mod common;
-use common::{fails_with as fails, ok, read_json as read};
+use common::{fails_with as fails, ok, p, read_json as read};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 fn profile(dir: &Path, material: &str) -> PathBuf {
-    let p = dir.join(format!("{material}.json"));
-    ok(&[
-        "profile",
-        "--material",
-        material,
-        "--profile-model",
-        "dipole",
-        "--out",
-        p.to_str().unwrap(),
-    ]);
-    p
+    let out = dir.join(format!("{material}.json"));
+    ok(&common::profile_args(material, "dipole", p(&out), &[]));
+    out
 }
 
 #[test]
@@ -46,14 +38,8 @@ fn every_model_writes_a_kernel_that_reads_back() {
     ];
     for m in models {
         let out = dir.path().join("k.json");
-        let mut args = vec![
-            "fit",
-            "--profile",
-            prof.to_str().unwrap(),
-            "--grid-size",
-            "61",
-        ];
-        args.extend_from_slice(&["--out", out.to_str().unwrap(), "--taps", "11", "--model"]);
+        let mut args = vec!["fit", "--profile", p(&prof), "--grid-size", "61"];
+        args.extend_from_slice(&["--out", p(&out), "--taps", "11", "--model"]);
         args.extend_from_slice(m);
         ok(&args);
         let k = read(&out);
@@ -69,7 +55,7 @@ fn every_model_writes_a_kernel_that_reads_back() {
         }
         // Read back through the binary and export.
         for lang in ["hlsl", "glsl", "wgsl"] {
-            let text = ok(&["fit", "--kernel", out.to_str().unwrap(), "--emit", lang]);
+            let text = ok(&["fit", "--kernel", p(&out), "--emit", lang]);
             // One array per separable term, `sss_kernel_0`... (the header
             // names them `sss_kernel_p`).
             let arrays = text
@@ -91,19 +77,12 @@ fn svd_reports_spectrum_and_energy() {
     let dir = tempfile::tempdir().unwrap();
     let prof = profile(dir.path(), "marble");
     let out = dir.path().join("k.json");
-    ok(&[
-        "fit",
-        "--profile",
-        prof.to_str().unwrap(),
-        "--model",
+    ok(&common::fit_args(
+        p(&prof),
         "svd",
-        "--rank",
-        "2",
-        "--grid-size",
-        "51",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+        p(&out),
+        &["--rank", "2", "--grid-size", "51"],
+    ));
     let k = read(&out);
     let extra = &k["metrics"]["extra"];
     for c in 0..3 {
@@ -145,26 +124,19 @@ fn manual_presets_reproduce_table_a1() {
     ];
     for (name, w, near, far) in table {
         let out = dir.path().join(format!("{name}-manual.json"));
-        ok(&[
-            "fit",
-            "--profile",
-            prof.to_str().unwrap(),
-            "--model",
+        ok(&common::fit_args(
+            p(&prof),
             "manual",
-            "--preset",
-            name,
-            "--grid-size",
-            "31",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+            p(&out),
+            &["--preset", name, "--grid-size", "31"],
+        ));
         let k = read(&out);
-        let p = &k["model"]["params"];
-        assert_eq!(p["preset"], name);
-        assert_eq!(p["w"].as_f64(), Some(w));
+        let params = &k["model"]["params"];
+        assert_eq!(params["preset"], name);
+        assert_eq!(params["w"].as_f64(), Some(w));
         for c in 0..3 {
-            assert_eq!(p["sqrt_tau_near"][c].as_f64(), Some(near[c]), "{name}");
-            assert_eq!(p["sqrt_tau_far"][c].as_f64(), Some(far[c]), "{name}");
+            assert_eq!(params["sqrt_tau_near"][c].as_f64(), Some(near[c]), "{name}");
+            assert_eq!(params["sqrt_tau_far"][c].as_f64(), Some(far[c]), "{name}");
         }
         // The kernel is what the table says, not only its record: each
         // cell of the full factor holds the integral over the cell of
@@ -207,157 +179,56 @@ fn gaussian_mass(a: f64, b: f64, sd: f64) -> f64 {
 fn bad_flags_give_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let prof = profile(dir.path(), "ketchup");
-    let p = prof.to_str().unwrap();
     let out = dir.path().join("k.json");
-    let o = out.to_str().unwrap();
+    let (p, o) = (p(&prof), p(&out));
     fails(
-        &[
-            "fit",
-            "--profile",
-            p,
-            "--model",
-            "svd",
-            "--grid-size",
-            "20",
-            "--out",
-            o,
-        ],
+        &common::fit_args(p, "svd", o, &["--grid-size", "20"]),
         &["--grid-size", "20", "odd"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
-            p,
-            "--model",
-            "svd",
-            "--extent",
-            "-1",
-            "--out",
-            o,
-        ],
+        &common::fit_args(p, "svd", o, &["--extent", "-1"]),
         &["--extent"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
-            p,
-            "--model",
-            "svd",
-            "--rank",
-            "0",
-            "--grid-size",
-            "11",
-            "--out",
-            o,
-        ],
+        &common::fit_args(p, "svd", o, &["--rank", "0", "--grid-size", "11"]),
         &["--rank"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
-            p,
-            "--model",
-            "svd",
-            "--taps",
-            "4",
-            "--grid-size",
-            "11",
-            "--out",
-            o,
-        ],
+        &common::fit_args(p, "svd", o, &["--taps", "4", "--grid-size", "11"]),
         &["--taps", "odd"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
+        &common::fit_args(
             p,
-            "--model",
             "manual",
-            "--w",
-            "0.5",
-            "--near",
-            "1,2",
-            "--far",
-            "1,1,1",
-            "--out",
             o,
-        ],
+            &["--w", "0.5", "--near", "1,2", "--far", "1,1,1"],
+        ),
         &["--near", "three"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
-            p,
-            "--model",
-            "manual",
-            "--preset",
-            "cheese",
-            "--out",
-            o,
-        ],
+        &common::fit_args(p, "manual", o, &["--preset", "cheese"]),
         &["cheese", "apple"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
-            p,
-            "--model",
-            "guided",
-            "--k",
-            "-1",
-            "--grid-size",
-            "11",
-            "--out",
-            o,
-        ],
+        &common::fit_args(p, "guided", o, &["--k", "-1", "--grid-size", "11"]),
         &["--k"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
+        &common::fit_args(
             p,
-            "--model",
             "jimenez",
-            "--jimenez-strength",
-            "2,0,0",
-            "--grid-size",
-            "11",
-            "--out",
             o,
-        ],
+            &["--jimenez-strength", "2,0,0", "--grid-size", "11"],
+        ),
         &["--jimenez-strength"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
-            p,
-            "--model",
-            "svd",
-            "--emit",
-            "metal",
-            "--out",
-            o,
-        ],
+        &common::fit_args(p, "svd", o, &["--emit", "metal"]),
         &["--emit", "metal", "possible values: hlsl, glsl, wgsl"],
     );
     fails(
-        &[
-            "fit",
-            "--profile",
-            "/no/such/file.json",
-            "--model",
-            "svd",
-            "--out",
-            o,
-        ],
+        &common::fit_args("/no/such/file.json", "svd", o, &[]),
         &["/no/such/file.json"],
     );
     assert!(!out.exists(), "a failed fit left an output file");
@@ -368,17 +239,12 @@ fn malformed_kernel_files_are_rejected() {
     let dir = tempfile::tempdir().unwrap();
     let prof = profile(dir.path(), "skin1");
     let good = dir.path().join("good.json");
-    ok(&[
-        "fit",
-        "--profile",
-        prof.to_str().unwrap(),
-        "--model",
+    ok(&common::fit_args(
+        p(&prof),
         "preintegrate",
-        "--grid-size",
-        "21",
-        "--out",
-        good.to_str().unwrap(),
-    ]);
+        p(&good),
+        &["--grid-size", "21"],
+    ));
     let base = read(&good);
     type Edit = Box<dyn Fn(&mut Value)>;
     let cases: Vec<(&str, Edit, &str)> = vec![
@@ -426,21 +292,18 @@ fn malformed_kernel_files_are_rejected() {
     for (what, edit, expect) in cases {
         let mut k = base.clone();
         edit(&mut k);
-        let p = dir
+        let f = dir
             .path()
             .join(format!("bad-{}.json", what.replace(' ', "-")));
-        std::fs::write(&p, serde_json::to_string(&k).unwrap()).unwrap();
+        std::fs::write(&f, serde_json::to_string(&k).unwrap()).unwrap();
         fails(
-            &["fit", "--kernel", p.to_str().unwrap(), "--emit", "glsl"],
-            &[p.to_str().unwrap(), expect],
+            &["fit", "--kernel", p(&f), "--emit", "glsl"],
+            &[p(&f), expect],
         );
     }
-    let p = dir.path().join("garbage.json");
-    std::fs::write(&p, "{ not json").unwrap();
-    fails(
-        &["fit", "--kernel", p.to_str().unwrap()],
-        &["malformed JSON"],
-    );
+    let f = dir.path().join("garbage.json");
+    std::fs::write(&f, "{ not json").unwrap();
+    fails(&["fit", "--kernel", p(&f)], &["malformed JSON"]);
 }
 
 #[test]
@@ -448,27 +311,11 @@ fn rank1_svd_is_lowest_on_a_monte_carlo_profile_too() {
     // A noisy simulated profile with its single-scattering peak at r = 0.
     let dir = tempfile::tempdir().unwrap();
     let prof = dir.path().join("skin1-mc.json");
-    ok(&[
-        "simulate",
-        "--material",
-        "skin1",
-        "--photons",
-        "20000",
-        "--seed",
-        "7",
-        "--out",
-        prof.to_str().unwrap(),
-    ]);
+    ok(&common::simulate_skin1_args("7", p(&prof), &[]));
     let rms = |model: &[&str]| -> Vec<f64> {
         let out = dir.path().join("k.json");
-        let mut args = vec![
-            "fit",
-            "--profile",
-            prof.to_str().unwrap(),
-            "--grid-size",
-            "61",
-        ];
-        args.extend_from_slice(&["--out", out.to_str().unwrap(), "--model"]);
+        let mut args = vec!["fit", "--profile", p(&prof), "--grid-size", "61"];
+        args.extend_from_slice(&["--out", p(&out), "--model"]);
         args.extend_from_slice(model);
         ok(&args);
         read(&out)["metrics"]["kernel_rms"]

@@ -6,10 +6,9 @@
 //! carries the integration notes; SVD factors sum to positive values.
 
 mod filter_support;
-use filter_support::shader::{parse_glsl, validate};
+use filter_support::shader::{parse_glsl, validate, wgsl_vectors};
 use filter_support::*;
-use naga::{Expression, Literal};
-use ssskit::filter::{cpu, gpu, taps_for, Scale, Setup, Taps, Which};
+use ssskit::filter::{gpu, screen_space, taps_for, Taps, Which};
 use ssskit::kernel::emit::{emit, Lang};
 use ssskit::kernel::KernelFile;
 use std::path::Path;
@@ -33,31 +32,10 @@ fn glsl_shader(arrays: &str, passes: usize) -> String {
 
 /// The 4-vectors of the WGSL constant `name`.
 fn wgsl_array(module: &naga::Module, name: &str) -> Vec<[f32; 4]> {
-    let (_, c) = module
-        .constants
-        .iter()
-        .find(|(_, c)| c.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("constant {name} not in the module"));
-    let e = &module.global_expressions;
-    let scalar = |h: naga::Handle<Expression>| -> f32 {
-        match e[h] {
-            Expression::Literal(Literal::F32(v)) => v,
-            ref other => panic!("{name}: component {other:?} is not an f32 literal"),
-        }
-    };
-    match &e[c.init] {
-        Expression::Compose { components, .. } => components
-            .iter()
-            .map(|&v| match &e[v] {
-                Expression::Compose { components, .. } => {
-                    assert_eq!(components.len(), 4);
-                    std::array::from_fn(|k| scalar(components[k]))
-                }
-                other => panic!("{name}: element {other:?} is not a vec4"),
-            })
-            .collect(),
-        other => panic!("{name}: {other:?} is not an array"),
-    }
+    wgsl_vectors(module, name)
+        .into_iter()
+        .map(|v| <[f32; 4]>::try_from(v).unwrap_or_else(|v| panic!("{name}: {v:?} is not a vec4")))
+        .collect()
 }
 
 #[test]
@@ -266,20 +244,12 @@ fn emitted_wgsl_array_through_the_wgpu_pass_reproduces_the_cpu() {
     let (w, h) = (48, 40);
     let image = noise_image(w, h, 3, 0.0);
     let depth = step_depth(w, h);
-    let setup = |passes: Vec<Taps>| Setup {
-        passes,
-        scale: Scale::Perspective {
-            fov_y_deg: 40.0,
-            sss_width: 0.02,
-        },
-        depth: Some(depth.clone()),
-        strength: None,
-        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
-        specular: None,
-        jitter: false,
+    let setup = |passes: Vec<Taps>| {
+        let follow = ssskit::filter::FollowSurface::InSceneUnits(300.0);
+        perspective_setup(passes, (40.0, 0.02), depth.clone(), follow)
     };
     let from_wgsl = g.apply(&image, &setup(passes)).unwrap();
-    let cpu = cpu::apply_screen_space(
+    let cpu = screen_space::apply_screen_space(
         &image,
         &setup(taps_for(&k, Which::stored(&k), None).unwrap()),
     );

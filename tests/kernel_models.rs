@@ -12,6 +12,20 @@ use ssskit::kernel::{fit_model, Factors, Kernel2D, Kernel2DSpec, Model};
 use ssskit::material::Material;
 use ssskit::profile::Profile;
 
+/// The SVD model of `rank` terms, raw or renormalised.
+fn svd(rank: usize, renormalize: bool) -> Model {
+    Model::Svd { rank, renormalize }
+}
+
+/// Guided pre-integration with `k` and `b`, the rest its defaults.
+fn guided(k: f64, b: f64) -> Model {
+    Model::Guided(GuidedParams {
+        k,
+        b,
+        ..Default::default()
+    })
+}
+
 const MATERIALS: [&str; 5] = ["apple", "marble", "ketchup", "skin1", "wholemilk"];
 
 // Thresholds, each with the largest value measured on these cases
@@ -62,14 +76,7 @@ fn rms(k: &Kernel2D, f: &Factors) -> [f64; 3] {
 fn full_rank_svd_reconstructs_and_rms_falls_with_rank() {
     let p = dipole_preset("skin1").unwrap();
     let k = kernel(&p, 41);
-    let (full, _) = factors(
-        &k,
-        &p,
-        Model::Svd {
-            rank: 41,
-            renormalize: false,
-        },
-    );
+    let (full, _) = factors(&k, &p, svd(41, false));
     for c in 0..3 {
         let a = reconstruct(&full, k.size, c);
         let peak = k.data[c].iter().cloned().fold(0.0, f64::max);
@@ -112,40 +119,20 @@ fn rank1_svd_has_the_lowest_kernel_rms_of_the_rank1_models() {
     for name in MATERIALS {
         let p = dipole_preset(name).unwrap();
         let k = kernel(&p, 61);
-        let (svd1, _) = factors(
-            &k,
-            &p,
-            Model::Svd {
-                rank: 1,
-                renormalize: false,
-            },
-        );
+        let (svd1, _) = factors(&k, &p, svd(1, false));
         let best = rms(&k, &svd1);
         let others = [
-            Model::Svd {
-                rank: 1,
-                renormalize: true,
-            },
+            svd(1, true),
             Model::Preintegrate {
                 method: PreMethod::Abel,
             },
             Model::Preintegrate {
                 method: PreMethod::Grid,
             },
-            Model::Guided(GuidedParams {
-                k: 0.0,
-                ..Default::default()
-            }),
+            guided(0.0, 0.0),
             Model::Guided(GuidedParams::default()),
-            Model::Guided(GuidedParams {
-                k: 2.0,
-                ..Default::default()
-            }),
-            Model::Guided(GuidedParams {
-                k: 1.55,
-                b: 50.0,
-                ..Default::default()
-            }),
+            guided(2.0, 0.0),
+            guided(1.55, 50.0),
             Model::ManualPreset(name.to_string()),
             Model::ManualFit,
             Model::Gaussians { count: 1 },
@@ -469,14 +456,8 @@ fn profile_with(rd: Vec<f64>, edges: Vec<f64>) -> Profile {
 
 fn all_models() -> Vec<Model> {
     vec![
-        Model::Svd {
-            rank: 1,
-            renormalize: false,
-        },
-        Model::Svd {
-            rank: 1,
-            renormalize: true,
-        },
+        svd(1, false),
+        svd(1, true),
         Model::Preintegrate {
             method: PreMethod::Abel,
         },
@@ -526,10 +507,7 @@ fn degenerate_profiles_give_errors_or_results_never_panics() {
                 rms.iter().all(|x| x.is_finite() && *x >= 0.0),
                 "{m:?}: {rms:?}"
             );
-            if m == (Model::Svd {
-                rank: 1,
-                renormalize: false,
-            }) {
+            if m == svd(1, false) {
                 svd1 = rms;
             } else if f.passes.len() == 1 {
                 for c in 0..3 {

@@ -454,3 +454,209 @@ fn the_cycle_scanner_finds_circles_between_siblings() {
     let found = cycles(&sibling_edges(&ring, module_file));
     assert_eq!(found, [vec!["x", "y", "z"]]);
 }
+
+/// Every full path that `code` names from `crate::` (comments stripped
+/// by the caller): `use crate::a::{b, c::{d, e}}` is `crate::a::b`,
+/// `crate::a::c::d` and `crate::a::c::e`; `crate::x::f(..)` is
+/// `crate::x::f`; `self` stays the last segment (a module named whole).
+fn full_paths(code: &str) -> Vec<String> {
+    fn ident(s: &[u8], i: &mut usize) -> String {
+        let start = *i;
+        while *i < s.len() && (s[*i].is_ascii_alphanumeric() || s[*i] == b'_') {
+            *i += 1;
+        }
+        String::from_utf8_lossy(&s[start..*i]).into_owned()
+    }
+    fn skip_ws(s: &[u8], i: &mut usize) {
+        while *i < s.len() && s[*i].is_ascii_whitespace() {
+            *i += 1;
+        }
+    }
+    /// The paths of one entry starting at `i` under `prefix`.
+    fn entry(s: &[u8], i: &mut usize, prefix: &str, out: &mut Vec<String>) {
+        let mut path = prefix.to_string();
+        loop {
+            skip_ws(s, i);
+            if s.get(*i) == Some(&b'{') {
+                *i += 1;
+                loop {
+                    skip_ws(s, i);
+                    match s.get(*i) {
+                        Some(b'}') => {
+                            *i += 1;
+                            return;
+                        }
+                        Some(b',') => *i += 1,
+                        None => return,
+                        _ => entry(s, i, &path, out),
+                    }
+                }
+            }
+            let name = ident(s, i);
+            if name.is_empty() {
+                out.push(path);
+                return;
+            }
+            path = format!("{path}::{name}");
+            if s[*i..].starts_with(b"::") {
+                *i += 2;
+                continue;
+            }
+            skip_ws(s, i);
+            if s[*i..].starts_with(b"as ") {
+                *i += 3;
+                skip_ws(s, i);
+                ident(s, i);
+            }
+            out.push(path);
+            return;
+        }
+    }
+    let s = code.as_bytes();
+    let mut out = Vec::new();
+    let mut from = 0;
+    while let Some(k) = code[from..].find("crate::") {
+        let at = from + k;
+        from = at + "crate::".len();
+        let before = code[..at].chars().last();
+        if before.is_some_and(|c| c.is_alphanumeric() || c == '_' || c == '$') {
+            continue;
+        }
+        let mut i = from;
+        entry(s, &mut i, "crate", &mut out);
+    }
+    out
+}
+
+/// Modules src/report/present may use whole: itself, and the output side
+/// (errors, atomic writes, size caps before an image is allocated).
+const PRESENT_MAY_USE: [&str; 4] = [
+    "crate::report::present",
+    "crate::error",
+    "crate::io",
+    "crate::limits",
+];
+
+/// What src/report/present may name from the layers below (never from
+/// `crate::engine`: engine results reach it as eval's plain data): plain
+/// data, and the colour maps that turn a number into a pixel (showing,
+/// not measuring).
+const PRESENT_PLAIN_DATA: [&str; 18] = [
+    "crate::filter::Image",
+    "crate::filter::Which",
+    "crate::kernel::Factors",
+    "crate::kernel::Kernel2D",
+    "crate::kernel::KernelFile",
+    "crate::kernel::disk::DiskKernelFile",
+    "crate::kernel::angular::AngularFactors",
+    "crate::material::Channel",
+    "crate::numerics::Bounded",
+    "crate::profile::Profile",
+    "crate::profile::fresnel::FresnelMode",
+    "crate::profile::transmission::ThicknessTable",
+    "crate::profile::transmission::ThicknessRow",
+    // Colour maps.
+    "crate::filter::diff::false_colour",
+    "crate::filter::diff::heat",
+    "crate::filter::diff::ramp_top",
+    "crate::filter::image::linear_to_srgb",
+    // Its error type, as the caller sees it.
+    "crate::filter::diff::DiffError",
+];
+
+/// Functions present still calls that measure: each to be moved into eval
+/// (its result handed over as plain data). The list is exact, so it can
+/// only shrink: a new use fails, and so does a use gone but still listed.
+const PRESENT_NOT_YET_MOVED: [&str; 6] = [
+    // The mass fraction an N-tap extent holds, in the extent rule's text.
+    "advice_text.rs: crate::kernel::taps::hold_for_taps",
+    // The contact sheets' tiles: each kernel's image errors, its 2D
+    // kernel rebuilt from the factors, its colour shift.
+    "kernel_plots.rs: crate::filter::diff::self",
+    "kernel_plots.rs: crate::kernel::metrics::reconstruct",
+    "kernel_plots.rs: crate::report::eval::colour_shift::self",
+    // The plots' radial ranges: the radius holding a fraction of R_d.
+    "plot.rs: crate::profile::radius_holding",
+    "profile_tables.rs: crate::profile::radius_holding",
+];
+
+/// Where a path named in src/report/present breaks the rule: from
+/// `report::eval` a type or a constant only (a name that starts upper
+/// case: a results type, a table's constant), never a function or a
+/// module named whole; from the layers below only [`PRESENT_PLAIN_DATA`].
+fn present_breaks(path: &str) -> bool {
+    let inside = |m: &str| path == m || path.starts_with(&format!("{m}::"));
+    if PRESENT_MAY_USE.iter().any(|m| inside(m)) || PRESENT_PLAIN_DATA.iter().any(|m| inside(m)) {
+        return false;
+    }
+    if path.starts_with("crate::report::eval::") {
+        let last = path.rsplit("::").next().unwrap_or("");
+        return !last.starts_with(|c: char| c.is_ascii_uppercase());
+    }
+    true
+}
+
+/// Presentation computes nothing (DEVELOPERS.md, "Inside report"): the
+/// files of src/report/present name, outside themselves, only eval's
+/// results types and constants and the plain data and colour maps of
+/// [`PRESENT_PLAIN_DATA`].
+#[test]
+fn presentation_computes_nothing() {
+    let dir = Path::new(REPO).join("src/report/present");
+    let mut found = Vec::new();
+    let mut seen = 0;
+    for p in common::rust_sources(&dir) {
+        let text = std::fs::read_to_string(&p).unwrap();
+        let code: String = text
+            .split("#[cfg(test)]")
+            .next()
+            .unwrap_or("")
+            .lines()
+            .map(|l| l.split("//").next().unwrap_or(""))
+            .collect::<Vec<_>>()
+            .join("\n");
+        let file = p.file_name().unwrap().to_string_lossy().into_owned();
+        for path in full_paths(&code) {
+            seen += 1;
+            if present_breaks(&path) {
+                found.push(format!("{file}: {path}"));
+            }
+        }
+    }
+    // The scanner reads the folder's paths at all: today about 150.
+    const PATHS_AT_LEAST: usize = 100;
+    assert!(seen >= PATHS_AT_LEAST, "only {seen} crate:: paths read");
+    found.sort();
+    found.dedup();
+    let listed: Vec<String> = PRESENT_NOT_YET_MOVED
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    assert_eq!(
+        found, listed,
+        "src/report/present names something that computes (left) beyond the list of \
+         what is still to move into eval (right): compute it in report::eval and hand \
+         present the result as plain data"
+    );
+}
+
+#[test]
+fn the_path_scanner_expands_groups_and_reads_the_rule() {
+    let code = "use crate::report::eval::advise::{self, decide::{tie, Cost}, Advice};\n\
+                let x = crate::filter::diff::false_colour(a, b);\n\
+                use crate::engine::method::SubsurfaceMethod as M;\n";
+    let paths = full_paths(code);
+    assert_eq!(
+        paths,
+        [
+            "crate::report::eval::advise::self",
+            "crate::report::eval::advise::decide::tie",
+            "crate::report::eval::advise::decide::Cost",
+            "crate::report::eval::advise::Advice",
+            "crate::filter::diff::false_colour",
+            "crate::engine::method::SubsurfaceMethod",
+        ]
+    );
+    let breaks: Vec<bool> = paths.iter().map(|p| present_breaks(p)).collect();
+    assert_eq!(breaks, [true, true, false, false, false, true]);
+}

@@ -326,12 +326,11 @@ fn bad_angular_options_are_refused_naming_the_parameter() {
 /// flag.
 #[test]
 fn simulate_writes_the_angular_tables_and_mcml_arrays() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     // Albedo 0.9 half-space of index 1.5 in MCML units (cm, 1/cm), a grid
     // of 30 x 0.01 cm that loses part of R_d beyond it.
     let mci = "1.0\n1\nh.mco A\n30000\n0.01 0.01\n1 30 6\n1\n1.0\n1.5 1 9 0 1E8\n1.0\n";
-    std::fs::write(d.join("h.mci"), mci).unwrap();
+    let dir = common::temp_with(&[("h.mci", mci)]);
+    let d = dir.path();
     let out = common::ok_in(
         d,
         &[

@@ -10,19 +10,7 @@ fn simulate_writes_json_and_csv_that_read_back() {
     let dir = tempfile::tempdir().unwrap();
     let o = ssskit(
         dir.path(),
-        &[
-            "simulate",
-            "--material",
-            "skin1",
-            "--photons",
-            "20000",
-            "--seed",
-            "3",
-            "--out",
-            "s.json",
-            "--csv",
-            "s.csv",
-        ],
+        &common::simulate_skin1_args("3", "s.json", &["--csv", "s.csv"]),
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let p = Profile::read(&dir.path().join("s.json")).unwrap();
@@ -284,12 +272,11 @@ fn invalid_flags_are_reported() {
 
 #[test]
 fn mco_output_follows_mcml() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     // The van de Hulst slab in MCML units; a grid of 40 x 10 um that loses
     // some reflectance beyond it, which MCML puts in the last bin.
     let mci = "1.0\n1\nslab.mco A\n20000\n0.001 0.001\n10 40 1\n1\n1.0\n1.0 10 90 0.75 0.02\n1.0\n";
-    std::fs::write(d.join("t.mci"), mci).unwrap();
+    let dir = common::temp_with(&[("t.mci", mci)]);
+    let d = dir.path();
     let o = ssskit(
         d,
         &[

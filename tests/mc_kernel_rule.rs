@@ -6,6 +6,8 @@
 //! default 0.5% (the estimate and the rule are the same; only N differs),
 //! for marble, skin1 and ketchup, all three channels.
 
+mod common;
+
 use ssskit::kernel::kernel2d::{Kernel2D, Kernel2DSpec};
 use ssskit::kernel::preintegrate::{preintegrate, PreMethod};
 use ssskit::material::{preset, Channel};
@@ -57,16 +59,7 @@ fn kernel_factor_rule_holds_against_a_20x_longer_run() {
     let (mut d2, mut s2, mut cases) = (0.0, 0.0, 0);
     for name in ["marble", "skin1", "ketchup"] {
         let m = preset(name).unwrap();
-        let cfg = McConfig {
-            budget: PhotonBudget::KernelFactor {
-                rel: 0.02,
-                max_photons: 10_000_000,
-            },
-            seed: 3,
-            threads: None,
-            channels: Channel::ALL.to_vec(),
-            grid: None,
-        };
+        let cfg = common::mc::kernel_factor_cfg();
         let a = simulate(&m, &cfg, &NoProgress).unwrap();
         assert_eq!(a.source.params["budget"]["rule"], "kernel-factor");
         assert!(a.extra["converged"]

@@ -13,15 +13,7 @@ fn json_without_time(path: &Path) -> serde_json::Value {
     v
 }
 
-const RUN: [&str; 7] = [
-    "simulate",
-    "--material",
-    "skin1",
-    "--photons",
-    "60000",
-    "--seed",
-    "5",
-];
+const RUN: [&str; 7] = common::SHARDED_RUN;
 
 fn run_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
     let mut v: Vec<&str> = RUN.to_vec();

@@ -171,10 +171,9 @@ fn the_stopping_rule_covers_the_transmitted_light() {
 /// mcmlio.c `WriteResult`, `ScaleRdTt`).
 #[test]
 fn mco_carries_tt_r_and_tt_a() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     let mci = "1.0\n1\nt.mco A\n20000\n0.01 0.01\n1 20 6\n1\n1.0\n1.4 1 100 0.9 0.05\n1.0\n";
-    std::fs::write(d.join("t.mci"), mci).unwrap();
+    let dir = common::temp_with(&[("t.mci", mci)]);
+    let d = dir.path();
     common::ok_in(
         d,
         &[

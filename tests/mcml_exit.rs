@@ -17,6 +17,7 @@
 
 mod common;
 
+use common::mcml::floats;
 use common::{ok, p};
 
 /// Standard errors a difference may reach: 27 bins compared, so a false
@@ -40,14 +41,6 @@ fn mci(eta: f64) -> String {
     format!(
         "1.0\n1\ns0.mco A\n{PHOTONS}\n0.01 0.01\n1 50 {BINS}\n1\n1.0\n{eta} 1 100 0.9 1E8\n1.0\n"
     )
-}
-
-fn floats(v: &serde_json::Value) -> Vec<f64> {
-    v.as_array()
-        .unwrap_or_else(|| panic!("not an array: {v}"))
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect()
 }
 
 #[test]

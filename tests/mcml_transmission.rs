@@ -17,6 +17,7 @@
 
 mod common;
 
+use common::mcml::{floats, section};
 use common::{ok_in, read_json};
 
 /// Standard deviations of the chi-square distribution a statistic may
@@ -28,14 +29,6 @@ const CHI2_SIGMAS: f64 = 4.0;
 const PHOTONS: u64 = 200_000;
 /// A T_d this far off (a 10% scale) must fail the bound on Tt_r.
 const POWER_SCALE: f64 = 1.1;
-
-fn floats(v: &serde_json::Value) -> Vec<f64> {
-    v.as_array()
-        .unwrap_or_else(|| panic!("not an array: {v}"))
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect()
-}
 
 fn chi2(ours: &[f64], ose: &[f64], theirs: &[f64], tse: &[f64]) -> (f64, f64) {
     let (mut c, mut k) = (0.0, 0.0);
@@ -50,15 +43,6 @@ fn chi2(ours: &[f64], ose: &[f64], theirs: &[f64], tse: &[f64]) -> (f64, f64) {
 
 fn bound(k: f64) -> f64 {
     k + CHI2_SIGMAS * (2.0 * k).sqrt()
-}
-
-fn section(text: &str, tag: &str) -> Vec<f64> {
-    text.lines()
-        .skip_while(|l| !l.starts_with(tag))
-        .skip(1)
-        .take_while(|l| !l.trim().is_empty())
-        .flat_map(|l| l.split_whitespace().filter_map(|v| v.parse().ok()))
-        .collect()
 }
 
 #[test]

@@ -1,4 +1,4 @@
-//! The material's preview of the main job (`report::eval::preview`): the
+//! The material's preview of the main job (`report::eval::ship::preview`): the
 //! lit sphere of docs/scenes/sphere.toml path-traced by the scene
 //! renderer, what ships through the screen-space pass on its G-buffer, and
 //! no blur.
@@ -20,9 +20,9 @@ use common::skin1::{profile, root};
 use ssskit::filter::{taps_for, Image, Which};
 use ssskit::kernel::angular::{simulate_factors, AngularFactors};
 use ssskit::kernel::KernelFile;
-use ssskit::report::eval::advise_disk::{disk_kernel, with_frames};
-use ssskit::report::eval::advise_scene::ScenePass;
-use ssskit::report::eval::preview::{
+use ssskit::report::eval::advise::scene::ScenePass;
+use ssskit::report::eval::disk::{disk_kernel, with_frames};
+use ssskit::report::eval::ship::preview::{
     preview, preview_sized, Preview, PreviewImages, PreviewKernel, PreviewRow, PREVIEW_SIDE,
 };
 use ssskit::report::present::layout::{collisions, Rect};

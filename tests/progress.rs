@@ -6,8 +6,8 @@
 mod common;
 
 use common::{ok_both, read_json};
-use ssskit::material::{preset, Channel};
-use ssskit::profile::mc::{simulate, McConfig, PhotonBudget, CHUNK, FIRST_ROUND};
+use ssskit::material::preset;
+use ssskit::profile::mc::{simulate, PhotonBudget, CHUNK, FIRST_ROUND};
 use ssskit::progress::Progress;
 use std::sync::Mutex;
 
@@ -77,17 +77,10 @@ fn a_run_to_a_target_counts_the_photons_it_traced() {
 /// unit per kernel model searched and one for the disk kernels.
 #[test]
 fn advise_prints_one_line_for_its_search() {
-    let (_, err) = ok_both(&[
+    let (_, err) = ok_both(&common::skin1_pbd_args(
         "advise",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--mm-per-pixel",
-        "0.2",
-        "--signal-size",
-        "48",
-    ]);
+        &["--mm-per-pixel", "0.2", "--signal-size", "48"],
+    ));
     let lines = stage_lines(&err, "advice: kernel models searched");
     assert_eq!(lines.len(), 1, "{err}");
     let (done, of) = lines[0];
@@ -101,18 +94,16 @@ fn advise_prints_one_line_for_its_search() {
 fn the_main_job_prints_one_line_per_stage() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("k");
-    let (_, err) = ok_both(&[
+    let (_, err) = ok_both(&common::skin1_pbd_args(
         "kernels",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "pbd",
-        "--signal-size",
-        "32",
-        "--no-plots",
-        "--out-dir",
-        out.to_str().unwrap(),
-    ]);
+        &[
+            "--signal-size",
+            "32",
+            "--no-plots",
+            "--out-dir",
+            out.to_str().unwrap(),
+        ],
+    ));
     let stages = [
         "material x model",
         "advice: kernel models searched",
@@ -178,16 +169,7 @@ impl Progress for Recorder {
 #[test]
 fn a_monte_carlo_run_announces_the_work_it_will_do() {
     let m = preset("skin1").unwrap();
-    let mut cfg = McConfig {
-        budget: PhotonBudget::KernelFactor {
-            rel: 0.02,
-            max_photons: 10_000_000,
-        },
-        seed: 3,
-        threads: None,
-        channels: Channel::ALL.to_vec(),
-        grid: None,
-    };
+    let mut cfg = common::mc::kernel_factor_cfg();
     let rec = Recorder::default();
     simulate(&m, &cfg, &rec).unwrap();
     let starts = rec.starts.lock().unwrap().clone();

@@ -50,16 +50,8 @@ fn cube(o: [f64; 3], first: usize, skip: usize) -> String {
             o[2] + 10.0 * v[2]
         );
     }
-    // Vertex k + 1 at bits (x, y, z) of k; quads wound outward.
-    let quads = [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ];
-    let tris = quads
+    // Vertex k + 1 at bits (x, y, z) of k.
+    let tris = common::backlit_meshes::CUBE_QUADS
         .iter()
         .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]);
     for t in tris.skip(skip) {

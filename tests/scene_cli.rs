@@ -312,21 +312,7 @@ fn meshes_and_heightfields_render_as_their_box() {
     )
     .unwrap();
     // A cube from -2 to 2, wound counter-clockwise seen from outside.
-    let mut obj = String::new();
-    for i in 0..8 {
-        let c = |b: usize| if i & b != 0 { 2 } else { -2 };
-        obj += &format!("v {} {} {}\n", c(1), c(2), c(4));
-    }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
-        obj += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
-    }
+    let obj = common::backlit_meshes::cube_obj(2.0);
     std::fs::write(d.join("cube.obj"), obj).unwrap();
     // A constant grey image: a flat top 1 mm above the base, the solid
     // 3 mm below it: the box from y = -3 to 1.
@@ -364,11 +350,9 @@ fn meshes_and_heightfields_render_as_their_box() {
 /// and what is allowed.
 #[test]
 fn bad_scene_files_name_the_field() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     let open_obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n";
-    std::fs::write(d.join("open.obj"), open_obj).unwrap();
-    std::fs::write(d.join("h.txt"), "not an image").unwrap();
+    let dir = common::temp_with(&[("open.obj", open_obj), ("h.txt", "not an image")]);
+    let d = dir.path();
     let cases: Vec<(String, Vec<&str>)> = vec![
         (
             SPHERE.replace("unit = \"mm\"\n", ""),

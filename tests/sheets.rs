@@ -11,7 +11,7 @@ mod common;
 use common::golden;
 use common::skin1::{comparison, SHAPES, SIZE};
 use ssskit::filter::Image;
-use ssskit::report::eval::shipped::Shipped;
+use ssskit::report::eval::ship::shipped::Shipped;
 use ssskit::report::present::kernel_plots::{contact_sheet, SheetOutcome};
 use ssskit::report::present::layout::{collisions, Rect};
 use std::path::Path;

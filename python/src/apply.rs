@@ -20,10 +20,11 @@ use pyo3::types::PyDict;
 use ssskit::error::finite_positive;
 use ssskit::filter::accumulate::Accumulate;
 use ssskit::filter::angular::{around_pass, AngularView};
-use ssskit::filter::cpu::{self, Precision};
+use ssskit::filter::cpu;
 use ssskit::filter::disk::{apply_disk_in_place, DiskSetup};
 use ssskit::filter::disk_gpu::DiskGpu;
 use ssskit::filter::kernel_setup::kernel_setup;
+use ssskit::filter::separable::Precision;
 use ssskit::filter::{gpu, FollowSurface, Image, Scale, Setup};
 use ssskit::kernel::angular::AngularFactors;
 use ssskit::kernel::disk::DiskKernelFile;
@@ -91,9 +92,13 @@ fn apply<'py>(
         o.mm_per_pixel = mm_per_pixel;
     }
     let scale = scale_of(&o)?;
-    let target = Target { irradiance, out };
+    let call = Call {
+        target: Target { irradiance, out },
+        o: &o,
+        scale,
+    };
     if let Ok(disk) = kernel.cast::<PyDiskKernel>() {
-        return apply_disk(py, &disk.get().inner, target, &o, scale);
+        return apply_disk(py, &disk.get().inner, call);
     }
     let kernel = kernel.cast::<PyKernel>().map_err(|_| {
         PyTypeError::new_err("kernel: expected an ssskit.Kernel or ssskit.DiskKernel")
@@ -106,7 +111,7 @@ fn apply<'py>(
              same every frame",
         ));
     }
-    apply_separable(py, &kernel.get().inner, target, &o, scale)
+    apply_separable(py, &kernel.get().inner, call)
 }
 
 /// The scale `ssskit apply` takes from --mm-per-pixel, or --fov-y with
@@ -163,6 +168,14 @@ struct Target<'a, 'py> {
     out: Option<&'a Bound<'py, PyAny>>,
 }
 
+/// One call's array, options and scale, as each pass takes them.
+#[derive(Clone, Copy)]
+struct Call<'a, 'py> {
+    target: Target<'a, 'py>,
+    o: &'a ApplyOptions,
+    scale: Scale,
+}
+
 /// The view of `--mm-per-pixel`/`--fov-y`, `--depth`, `--strength`,
 /// `--specular`, `--follow-surface` and `--jitter`, checked against
 /// `image` (no passes yet).
@@ -204,11 +217,10 @@ struct Prepared<'f> {
 /// The irradiance as the library's image and its view (no passes yet).
 fn prepare<'f>(
     py: Python<'_>,
-    target: Target<'_, '_>,
-    o: &ApplyOptions,
-    scale: Scale,
+    call: Call<'_, '_>,
     angular: Option<&'f AngularFactors>,
 ) -> PyResult<(Prepared<'f>, Setup)> {
+    let Call { target, o, scale } = call;
     let (image, dtype) = image_sanitized(target.irradiance, "irradiance", sanitize_of(o))?;
     let mut view = view_of(o, scale, &image, py)?;
     let around = light_view(py, &o.light, angular, &image, &view.scale)?;
@@ -247,29 +259,47 @@ fn run<'py>(
 fn apply_separable<'py>(
     py: Python<'py>,
     kernel: &KernelFile,
-    target: Target<'_, 'py>,
-    o: &ApplyOptions,
-    scale: Scale,
+    call: Call<'_, 'py>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let Call { target, o, .. } = call;
     let gpu_backend = on_gpu(o.backend);
     if !gpu_backend {
-        if let Some(done) = in_planes(py, kernel, target, o, scale)? {
+        if let Some(done) = in_planes(py, kernel, call)? {
             return Ok(done);
         }
     }
-    let (p, view) = prepare(py, target, o, scale, kernel.angular.as_ref())?;
+    let (p, view) = prepare(py, call, kernel.angular.as_ref())?;
     let full = o.separable.full_factors;
     let (setup, warnings) = kernel_setup(kernel, full, view, &p.image).map_err(to_py)?;
     warn_all(py, warnings.iter().map(|w| w.to_string()))?;
     let precision = o.separable.precision;
-    run(py, p, target, |mut img| {
+    run(
+        py,
+        p,
+        target,
+        gpu_or_cpu(
+            gpu_backend,
+            |img| gpu::Gpu::new()?.apply(img, &setup),
+            |img| cpu::apply_in_place(img, &setup, precision),
+        ),
+    )
+}
+
+/// One pass: with wgpu (`gpu_pass`, a new image) where `gpu_backend`,
+/// else on the CPU in place (`cpu_pass`).
+fn gpu_or_cpu(
+    gpu_backend: bool,
+    gpu_pass: impl FnOnce(&Image) -> ssskit::Result<Image> + Send,
+    cpu_pass: impl FnOnce(&mut Image) -> ssskit::Result<()> + Send,
+) -> impl FnOnce(Image) -> ssskit::Result<Image> + Send {
+    move |mut img| {
         if gpu_backend {
-            gpu::Gpu::new()?.apply(&img, &setup)
+            gpu_pass(&img)
         } else {
-            cpu::apply_in_place(&mut img, &setup, precision)?;
+            cpu_pass(&mut img)?;
             Ok(img)
         }
-    })
+    }
 }
 
 /// The default pass without the f64 image: under a uniform scale, with no
@@ -281,10 +311,9 @@ fn apply_separable<'py>(
 fn in_planes<'py>(
     py: Python<'py>,
     kernel: &KernelFile,
-    target: Target<'_, 'py>,
-    o: &ApplyOptions,
-    scale: Scale,
+    call: Call<'_, 'py>,
 ) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let Call { target, o, scale } = call;
     let plain = matches!(scale, Scale::MmPerPixel(_))
         && o.depth.is_none()
         && o.strength.is_none()
@@ -372,10 +401,9 @@ fn in_planes<'py>(
 fn apply_disk<'py>(
     py: Python<'py>,
     k: &DiskKernelFile,
-    target: Target<'_, 'py>,
-    o: &ApplyOptions,
-    scale: Scale,
+    call: Call<'_, 'py>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let Call { target, o, .. } = call;
     let s = &o.separable;
     if s.full_factors || s.jitter || s.precision != Precision::F32 {
         return Err(PyValueError::new_err(
@@ -396,18 +424,20 @@ fn apply_disk<'py>(
             accumulate.name()
         )));
     }
-    let (p, view) = prepare(py, target, o, scale, k.angular.as_ref())?;
+    let (p, view) = prepare(py, call, k.angular.as_ref())?;
     let (frames, first) = k.frames_to_run(o.disk.frames, o.disk.frame_seed);
     let setup = DiskSetup::new(k, view, first, frames).accumulated_by(accumulate);
     setup.validate(&p.image).map_err(to_py)?;
-    run(py, p, target, |mut img| {
-        if gpu_backend {
-            DiskGpu::new()?.apply(&img, &setup)
-        } else {
-            apply_disk_in_place(&mut img, &setup)?;
-            Ok(img)
-        }
-    })
+    run(
+        py,
+        p,
+        target,
+        gpu_or_cpu(
+            gpu_backend,
+            |img| DiskGpu::new()?.apply(img, &setup),
+            |img| apply_disk_in_place(img, &setup),
+        ),
+    )
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

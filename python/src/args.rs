@@ -174,6 +174,22 @@ pub(crate) fn rgb(o: &Bound<'_, PyAny>, name: &str) -> PyResult<[f64; 3]> {
     })
 }
 
+/// A keyword's value by name: the `T` of `value` among `names`, else the
+/// one message naming the keyword and what it takes (`expected`).
+pub(crate) fn one_of<T: Copy>(
+    keyword: &str,
+    value: &str,
+    names: &[(&str, T)],
+    expected: &str,
+) -> PyResult<T> {
+    match names.iter().find(|(n, _)| *n == value) {
+        Some(&(_, t)) => Ok(t),
+        None => Err(PyValueError::new_err(format!(
+            "{keyword}: invalid value '{value}': expected {expected}"
+        ))),
+    }
+}
+
 /// A shader language by the name `--emit` takes.
 pub(crate) fn lang_of(lang: &str) -> PyResult<ssskit::kernel::emit::Lang> {
     use ssskit::kernel::emit::Lang;
@@ -218,6 +234,9 @@ pub(crate) mod kw {
         extent,
         units_per_mm,
         mm_per_pixel,
+        fov_y,
+        view_depth,
+        image_height,
         image_error,
         max_passes,
         max_samples,

@@ -98,13 +98,15 @@ pub(crate) fn interruptible<T: Send>(
     })
 }
 
-/// A JSON value of the library (parameters, metrics, sources) as plain
-/// Python data through the standard `json` module.
-pub(crate) fn json_to_py<'py>(
+/// A library object (parameters, metrics, sources) as plain Python data
+/// through the standard `json` module, by way of a JSON value (objects
+/// with their keys in order, as the CLI's JSON holds them).
+pub(crate) fn json_to_py<'py, T: serde::Serialize + ?Sized>(
     py: Python<'py>,
-    v: &serde_json::Value,
+    v: &T,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_string(v).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let err = |e: serde_json::Error| PyValueError::new_err(e.to_string());
+    let text = serde_json::to_string(&serde_json::to_value(v).map_err(err)?).map_err(err)?;
     py.import("json")?.call_method1("loads", (text,))
 }
 

@@ -2,7 +2,7 @@
 //! table as arrays, shader emission; `fit(profile, "disk", ...)` builds
 //! one and `apply` runs it over frames.
 
-use crate::args::lang_of;
+use crate::args::{lang_of, one_of};
 use crate::call::{pretty_json, save, to_py};
 use crate::material::PyMaterial;
 use numpy::{PyArray1, PyArray2};
@@ -97,14 +97,13 @@ impl PyDiskKernel {
 
 /// `--radii` as the library's density, with the CLI's names.
 pub(crate) fn radii_of(name: &str) -> PyResult<RadiusPdf> {
-    match name {
-        "widest" => Ok(RadiusPdf::Widest),
-        "mean" => Ok(RadiusPdf::Mean),
-        "per-channel" | "per_channel" => Ok(RadiusPdf::PerChannel),
-        other => Err(PyValueError::new_err(format!(
-            "radii: invalid value '{other}': expected widest, mean or per-channel"
-        ))),
-    }
+    let names = [
+        ("widest", RadiusPdf::Widest),
+        ("mean", RadiusPdf::Mean),
+        ("per-channel", RadiusPdf::PerChannel),
+        ("per_channel", RadiusPdf::PerChannel),
+    ];
+    one_of("radii", name, &names, "widest, mean or per-channel")
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -7,7 +7,8 @@ use crate::kernel::PyKernel;
 use crate::profile::PyProfile;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use ssskit::kernel::disk::{DiskKernelFile, DISK_SCHEMA};
+use ssskit::kernel::disk::DiskKernelFile;
+use ssskit::kernel::format::DISK_SCHEMA;
 use ssskit::kernel::{KernelFile, KERNEL_SCHEMA};
 use ssskit::profile::{Profile, PROFILE_SCHEMA};
 

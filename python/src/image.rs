@@ -3,7 +3,7 @@
 //! once back; image files read and written as the CLI does; `reference`
 //! (the exact 2D convolution) and `diff` (`ssskit diff`).
 
-use crate::args::kw;
+use crate::args::{kw, one_of};
 use crate::call::{file_op, interruptible, json_to_py, path_of, to_py};
 use crate::profile::profile_of;
 use numpy::ndarray::Array3;
@@ -12,7 +12,7 @@ use numpy::{
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use ssskit::filter::cpu::{self, PixelSampling};
+use ssskit::filter::exact::{self, PixelSampling};
 use ssskit::filter::image::{
     read_image as lib_read_image, write_image as lib_write_image, PngDepth,
 };
@@ -308,9 +308,9 @@ fn reference<'py>(
     Scale::MmPerPixel(mm_per_pixel).validate().map_err(to_py)?;
     let (image, dtype) = image_of(irradiance, "irradiance")?;
     let out = interruptible(py, |_| {
-        let k = cpu::reference_kernel_sampled(&profile, mm_per_pixel, sampling)?;
-        cpu::check_reference_fits(image.width, image.height, k.size)?;
-        Ok(cpu::convolve_2d(&image, &k))
+        let k = exact::reference_kernel_sampled(&profile, mm_per_pixel, sampling)?;
+        exact::check_reference_fits(image.width, image.height, k.size)?;
+        Ok(exact::convolve_2d(&image, &k))
     })?;
     array_of(py, &out, dtype, None)
 }
@@ -325,15 +325,12 @@ fn read_image<'py>(
     path: &Bound<'py, PyAny>,
     dtype: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let dtype = match dtype {
-        "float32" => Dtype::F32,
-        "float64" => Dtype::F64,
-        d => {
-            return Err(PyValueError::new_err(format!(
-                "dtype: invalid value '{d}': expected float32 or float64"
-            )))
-        }
-    };
+    let dtype = one_of(
+        "dtype",
+        dtype,
+        &[("float32", Dtype::F32), ("float64", Dtype::F64)],
+        "float32 or float64",
+    )?;
     let path = path_of(path)?;
     let (image, _) = file_op(py, || lib_read_image(&path, None))?;
     array_of(py, &image, dtype, None)
@@ -398,8 +395,7 @@ fn diff<'py>(
     let stats = py
         .detach(|| ssskit::filter::diff::compare(&a, &b))
         .map_err(to_py)?;
-    let v = serde_json::to_value(stats).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    json_to_py(py, &v)
+    json_to_py(py, &stats)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

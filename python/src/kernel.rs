@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::engine::method::SubsurfaceMethod;
 use ssskit::engine::{self, Engine, Scene};
-use ssskit::kernel::disk::fit_disk;
+use ssskit::kernel::disk_fit::fit_disk;
 use ssskit::kernel::emit::emit;
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
@@ -82,9 +82,7 @@ impl PyKernel {
     /// The fit's metrics (kernel_rms, norm1_error, asymmetry, ...).
     #[getter]
     fn metrics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = serde_json::to_value(&self.inner.metrics)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        json_to_py(py, &v)
+        json_to_py(py, &self.inner.metrics)
     }
     #[getter]
     fn material(&self) -> Option<PyMaterial> {
@@ -309,10 +307,7 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
 
 /// The separable models `fit` knows (those of `ssskit fit --model`): the
 /// comparison's families, from the library.
-const MODELS: [&str; 6] = ssskit::report::eval::kernel_compare::FAMILIES;
-
-/// `ssskit fit --model disk`'s default samples per pixel.
-const DISK_SAMPLES: usize = 32;
+const MODELS: [&str; 6] = ssskit::report::eval::compare::kernel::FAMILIES;
 
 /// Fits a kernel to a profile (`ssskit fit`).
 ///
@@ -354,7 +349,9 @@ fn fit(
                 "{name}: a separable kernel's setting; a disk kernel takes samples and radii"
             )));
         }
-        let samples = args.samples.unwrap_or(DISK_SAMPLES);
+        let samples = args
+            .samples
+            .unwrap_or(ssskit::kernel::disk::DEFAULT_SAMPLES);
         let radii = crate::disk::radii_of(args.radii.as_deref().unwrap_or("widest"))?;
         let inner = interruptible(py, |_| fit_disk(&profile, samples, radii))?;
         return Ok(Py::new(py, crate::disk::PyDiskKernel { inner })?.into_any());
@@ -410,8 +407,7 @@ fn engine_params<'py>(
     let fit = interruptible(py, |_| {
         engine::request::fit_with(e, &profile, scene, &req, &ssskit::progress::NoProgress)
     })?;
-    let v = serde_json::to_value(&fit).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    json_to_py(py, &v)
+    json_to_py(py, &fit)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

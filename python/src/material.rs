@@ -3,7 +3,7 @@
 use crate::args::{kw, real, rgb};
 use crate::call::{file_op, json_to_py, path_of, pretty_json, to_py};
 use numpy::PyArray1;
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use ssskit::material::{preset, preset_names, Channel, Layer, Material, Medium};
 
@@ -104,11 +104,7 @@ impl PyMaterial {
     /// The layers as dicts (sigma_a, sigma_s, g, eta, thickness).
     #[getter]
     fn layers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        json_to_py(
-            py,
-            &serde_json::to_value(&self.inner.layers)
-                .map_err(|e| PyValueError::new_err(e.to_string()))?,
-        )
+        json_to_py(py, &self.inner.layers)
     }
     /// The top layer's absorption coefficient (r, g, b), mm^-1.
     #[getter]

@@ -8,7 +8,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssskit::filter::accumulate::Accumulate;
-use ssskit::filter::cpu::Precision;
+use ssskit::filter::separable::Precision;
 
 /// Where the pass runs: `--backend`'s values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,6 +1,6 @@
 //! Reflectance profiles: Monte Carlo (`simulate`) and analytic (`profile`).
 
-use crate::args::kw;
+use crate::args::{kw, one_of};
 use crate::call::{file_op, interruptible, json_to_py, path_of, pretty_json, save, to_py};
 use crate::material::{material_of, PyMaterial};
 use numpy::{PyArray1, PyArray2};
@@ -79,9 +79,7 @@ impl PyProfile {
     /// Where the profile came from (kind, photons, seed, model, params).
     #[getter]
     fn source<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = serde_json::to_value(&self.inner.source)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        json_to_py(py, &v)
+        json_to_py(py, &self.inner.source)
     }
     /// Seconds the computation took.
     #[getter]
@@ -286,15 +284,12 @@ fn profile(
 ) -> PyResult<PyProfile> {
     let material = material_of(material)?;
     let model = analytic::Model::parse(model).map_err(to_py)?;
-    let fresnel = match fresnel {
-        "fit" => FresnelMode::Fit,
-        "exact" => FresnelMode::Exact,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "fresnel: invalid value '{other}': expected 'fit' or 'exact'"
-            )))
-        }
-    };
+    let fresnel = one_of(
+        "fresnel",
+        fresnel,
+        &[("fit", FresnelMode::Fit), ("exact", FresnelMode::Exact)],
+        "'fit' or 'exact'",
+    )?;
     let channels = Channel::parse_list(channels).map_err(to_py)?;
     let grid = grid_spec(dr, rmax, false)
         .grid(&material, &channels)

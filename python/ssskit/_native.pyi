@@ -296,10 +296,11 @@ def compare(
     signal_size: int = ...,
     extent: Optional[float] = None,
     pixels_per_degree: Optional[float] = None,
+    frames: int = ...,
 ) -> List[Dict[str, Any]]: ...
 def advise(
     profile: Union[Profile, _PathLike],
-    mm_per_pixel: float,
+    mm_per_pixel: Optional[float] = None,
     *,
     image_error: float = ...,
     models: Union[None, str, Sequence[str]] = None,
@@ -308,4 +309,9 @@ def advise(
     max_taps: Optional[int] = None,
     signal_size: int = ...,
     frames: int = ...,
+    fov_y: Optional[float] = None,
+    view_depth: Optional[float] = None,
+    image_height: Optional[int] = None,
+    units_per_mm: float = ...,
+    factors: bool = True,
 ) -> Tuple[Dict[str, Any], List[Dict[str, Any]], Union[Kernel, DiskKernel]]: ...

@@ -12,6 +12,10 @@ from conftest import untimed
 # Two cheap model families, ranks 1 and 2, one signal: a comparison of a
 # few seconds that still has several variants and tap tables.
 MODELS = ["svd", "preintegrate"]
+# The disk rows' case: a non-default frame count on a small signal, a
+# comparison of a few seconds.
+DISK_FRAMES = 4
+DISK_SIGNAL = 64
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +56,36 @@ def test_advise_answer_equals_the_cli(profile_file, cli):
     assert untimed(answer) == untimed(theirs)
     assert kernel.model == answer["model"] and kernel.tap_count == answer["taps"]
     assert len(candidates) > 1 and all(c["model"] in MODELS for c in candidates)
+
+
+def test_compare_disk_rows_equal_the_cli(profile_file, cli):
+    """With "disk" among the models, the rows after compare.json's are the
+    CLI's disk.json (the rows `compare` prints), at a non-default frame
+    count."""
+    out = profile_file.parent / "cmp-disk"
+    cli("compare", "--profiles", profile_file.parent, "--materials", "skin1", "--models", "preintegrate,disk",
+        "--ranks", "1", "--signals", "edge", "--taps", "9", "--frames", DISK_FRAMES, "--signal-size", DISK_SIGNAL,
+        "--no-plots", "--out-dir", out)
+    rows = ssskit.compare({"skin1": ssskit.load(profile_file)}, models="preintegrate,disk", ranks="1",
+                          signals=["edge"], taps=[9], frames=DISK_FRAMES, signal_size=DISK_SIGNAL)
+    theirs = json.loads((out / "compare.json").read_text())
+    disk = json.loads((out / "disk.json").read_text())
+    assert disk and all(d["rows"] for d in disk)
+    assert untimed(rows) == untimed(theirs) + untimed(disk)
+
+
+def test_advise_perspective_equals_the_cli(profile_file, cli):
+    """fov_y with view_depth, image_height and units_per_mm: the scale and
+    answer of `advise --fov-y --view-depth --image-height --units-per-mm`."""
+    view = ["--fov-y", 40, "--view-depth", 25, "--image-height", 720, "--units-per-mm", 0.1]
+    theirs = json.loads(cli("advise", "--profile", profile_file, *view, "--models", ",".join(MODELS), "--json"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        answer, _, _ = ssskit.advise(ssskit.load(profile_file), fov_y=40.0, view_depth=25.0, image_height=720,
+                                     units_per_mm=0.1, models=MODELS)
+    assert untimed(answer) == untimed(theirs)
+    with pytest.raises(TypeError, match="give mm_per_pixel, or fov_y with view_depth and image_height"):
+        ssskit.advise(ssskit.load(profile_file), fov_y=40.0)
 
 
 def test_bad_report_arguments(profile_file):

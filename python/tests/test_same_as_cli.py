@@ -317,3 +317,26 @@ def test_diff_equals_the_cli(mc_files, tmp_path, cli):
         ssskit.diff(bad, b)
     with pytest.raises(ValueError, match="differ in size"):
         ssskit.diff(a, b[:-1])
+
+
+def test_advise_without_factors_equals_the_cli(tmp_path, cli):
+    """factors=False on a profile that carries entry and exit factors (a
+    Monte Carlo run with exit-angle bins and oblique incidences): the
+    answer of `advise --no-factors` and, as its kernel, the file it writes,
+    which holds no factors where the default's does."""
+    cli("simulate", "--material", "skin1", "--photons", PHOTONS, "--seed", SEED, "--angle-bins", 9,
+        "--incidence", "30,60", "--out", tmp_path / "p.json")
+    flags = ["--mm-per-pixel", ADVISE_MM_PER_PIXEL, "--models", "preintegrate", "--signal-size", ADVISE_SIGNAL,
+             "--json"]
+    theirs = json.loads(cli("advise", "--profile", tmp_path / "p.json", "--no-factors", *flags,
+                            "--out", tmp_path / "without.json"))
+    cli("advise", "--profile", tmp_path / "p.json", *flags, "--out", tmp_path / "with.json")
+    theirs_file = without_timings((tmp_path / "without.json").read_text())
+    assert "angular" not in theirs_file
+    assert "angular" in json.loads((tmp_path / "with.json").read_text())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        answer, _, kernel = ssskit.advise(tmp_path / "p.json", ADVISE_MM_PER_PIXEL, models="preintegrate",
+                                          signal_size=ADVISE_SIGNAL, factors=False)
+    assert untimed(answer) == untimed(theirs)
+    assert without_timings(kernel.to_json()) == theirs_file

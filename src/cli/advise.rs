@@ -8,9 +8,10 @@ use super::args::{
 };
 use super::out::{out, outln};
 use anyhow::bail;
-use ssskit::report::eval::advise::{self, ViewScale, FAMILIES};
+use ssskit::report::eval::advise::{self, ViewScale, ADVISED_FAMILIES};
 use ssskit::report::present::advice_text;
 use ssskit::report::present::number::sig;
+use std::path::Path;
 
 /// The perspective scale's own flags (with --fov-y and --units-per-mm).
 #[derive(clap::Args)]
@@ -36,7 +37,7 @@ struct ViewArgs {
     mut_arg("units_per_mm", args::alias("--scene-units-per-mm")),
     mut_arg("image_error", args::alias("--target-error")),
     mut_arg("signal_size", args::alias("--size")),
-    mut_arg("models", args::default(FAMILIES.join(","))),
+    mut_arg("models", args::default(ADVISED_FAMILIES.join(","))),
     mut_arg("out", args::help("Output file: the chosen kernel (ssskit.kernel/1 JSON, ssskit.disk/1 for a disk kernel) [default: not written]")),
 )]
 pub struct Args {
@@ -79,7 +80,7 @@ fn directional_config(
     a: &Args,
     scene: &ssskit::scene::Scene,
     render: &ssskit::scene::Render,
-) -> anyhow::Result<Option<ssskit::report::eval::directional_scene::DirectionalConfig>> {
+) -> anyhow::Result<Option<ssskit::report::eval::scene::directional::DirectionalConfig>> {
     let samples = a.directional.samples()?;
     let Some(&most) = samples.iter().max() else {
         return Ok(None);
@@ -98,7 +99,7 @@ fn directional_config(
         }
     }
     Ok(Some(
-        ssskit::report::eval::directional_scene::DirectionalConfig {
+        ssskit::report::eval::scene::directional::DirectionalConfig {
             samples,
             map_side: map,
             seed: ssskit::profile::mc::DEFAULT_SEED,
@@ -112,27 +113,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = super::scene::scene_check(&a.scene)?;
     let scene_mm = scene
         .as_ref()
-        .map(|(s, r, _)| ssskit::report::eval::scene_compare::median_mm_per_pixel(s, r));
-    let view = match (
-        a.mm_per_pixel.mm_per_pixel.or(scene_mm),
-        a.fov_y.fov_y,
-        a.view.view_depth,
-        a.view.image_height,
-    ) {
-        (Some(m), _, _, _) => ViewScale::MmPerPixel(m),
-        (None, Some(f), Some(d), Some(h)) => ViewScale::Perspective {
-            fov_y_deg: f,
-            depth: d,
-            height: h,
-            scene_units_per_mm: units_per_mm,
-        },
-        _ => bail!("give --mm-per-pixel, or --fov-y with --view-depth and --image-height"),
-    };
+        .map(|(s, r, _)| ssskit::report::eval::scene::compare::median_mm_per_pixel(s, r));
+    let view = view_of(&a, scene_mm)?;
     let mm = view.mm_per_pixel()?;
     if let Some(m) = scene_mm {
         super::scene::agrees_with_scene(mm, m)?;
     }
-    ssskit::report::eval::advise_disk::check_frames(a.frames.frames)?;
+    ssskit::report::eval::disk::check_frames(a.frames.frames)?;
     let target = a.target.fraction()?;
     let (profile, source) = a
         .profile
@@ -171,21 +158,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )?;
     let out = a.out.out.as_ref();
     if let Some(out) = out {
-        match &advice.disk_kernel {
-            Some(k) => {
-                k.write(out)?;
-                ssskit::kernel::disk::DiskKernelFile::read(out)?;
-            }
-            None => {
-                advice.kernel.write(out)?;
-                ssskit::kernel::KernelFile::read(out)?;
-            }
-        }
+        write_kernel(&advice, out)?;
     }
     let c = advice.chosen();
     let light_space = match (&scene, &advice.scene, &directional) {
         (Some((s, r, _)), Some(check), Some(d)) => Some(
-            ssskit::report::eval::directional_advise::directional_on_advice(
+            ssskit::report::eval::advise::directional::directional_on_advice(
                 s, r, &profile, check, d,
             )?,
         ),
@@ -210,6 +188,42 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     if let Some(out) = out {
         eprintln!("kernel ({}) -> {}", c.describe(), out.display());
+    }
+    Ok(())
+}
+
+/// The view's scale: --mm-per-pixel (or the scene's median), else the
+/// perspective of --fov-y, --view-depth and --image-height.
+fn view_of(a: &Args, scene_mm: Option<f64>) -> anyhow::Result<ViewScale> {
+    let view = match (
+        a.mm_per_pixel.mm_per_pixel.or(scene_mm),
+        a.fov_y.fov_y,
+        a.view.view_depth,
+        a.view.image_height,
+    ) {
+        (Some(m), _, _, _) => ViewScale::MmPerPixel(m),
+        (None, Some(f), Some(d), Some(h)) => ViewScale::Perspective {
+            fov_y_deg: f,
+            depth: d,
+            height: h,
+            scene_units_per_mm: a.units_per_mm.units_per_mm,
+        },
+        _ => bail!("give --mm-per-pixel, or --fov-y with --view-depth and --image-height"),
+    };
+    Ok(view)
+}
+
+/// Writes the kernel the advice names to `out` and reads it back.
+fn write_kernel(advice: &advise::Advice, out: &Path) -> anyhow::Result<()> {
+    match &advice.disk_kernel {
+        Some(k) => {
+            k.write(out)?;
+            ssskit::kernel::disk::DiskKernelFile::read(out)?;
+        }
+        None => {
+            advice.kernel.write(out)?;
+            ssskit::kernel::KernelFile::read(out)?;
+        }
     }
     Ok(())
 }

@@ -9,7 +9,7 @@ use anyhow::Context;
 use ssskit::filter::angular::around_pass;
 use ssskit::filter::image::{png_depth_of, read_image, read_plane, write_image, PngDepth};
 use ssskit::filter::kernel_setup::kernel_setup;
-use ssskit::filter::{cpu, gpu, FollowSurface, Image, Plane, Scale, Setup};
+use ssskit::filter::{cpu, exact, gpu, separable, FollowSurface, Image, Plane, Scale, Setup};
 use ssskit::kernel::KernelFile;
 use ssskit::profile::Profile;
 use std::path::{Path, PathBuf};
@@ -22,11 +22,11 @@ pub enum Precision {
     F64,
 }
 
-impl From<Precision> for cpu::Precision {
-    fn from(p: Precision) -> cpu::Precision {
+impl From<Precision> for separable::Precision {
+    fn from(p: Precision) -> separable::Precision {
         match p {
-            Precision::F32 => cpu::Precision::F32,
-            Precision::F64 => cpu::Precision::F64,
+            Precision::F32 => separable::Precision::F32,
+            Precision::F64 => separable::Precision::F64,
         }
     }
 }
@@ -40,11 +40,11 @@ pub enum Sampling {
     Centre,
 }
 
-impl From<Sampling> for cpu::PixelSampling {
-    fn from(s: Sampling) -> cpu::PixelSampling {
+impl From<Sampling> for exact::PixelSampling {
+    fn from(s: Sampling) -> exact::PixelSampling {
         match s {
-            Sampling::Average => cpu::PixelSampling::Average,
-            Sampling::Centre => cpu::PixelSampling::Centre,
+            Sampling::Average => exact::PixelSampling::Average,
+            Sampling::Centre => exact::PixelSampling::Centre,
         }
     }
 }
@@ -259,15 +259,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let what = args.input.display().to_string();
     report_sanitized(&what, image.check_finite(&what, args.sanitize)?);
 
-    let scale = match (args.mm_per_pixel.mm_per_pixel, args.fov_y.fov_y) {
-        (Some(m), _) => Scale::MmPerPixel(m),
-        (None, Some(f)) => Scale::Perspective {
-            fov_y_deg: f,
-            sss_width: args.units_per_mm.units_per_mm,
-        },
-        _ => anyhow::bail!("give --mm-per-pixel or --fov-y"),
-    };
-    scale.validate()?;
+    let scale = scale_of(&args)?;
 
     let png_depth = match args.png_bits {
         Some(bits) => bits.into(),
@@ -278,13 +270,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     if let Some(reference) = &args.reference {
         let out = run_reference(&args, reference, &image, scale)?;
-        write_image(out_path, &out, png_depth)?;
-        eprintln!(
-            "exact 2D reference on the CPU: {:.3} s -> {}",
-            start.elapsed().as_secs_f64(),
-            out_path.display()
+        return written(
+            out_path,
+            &out,
+            png_depth,
+            "exact 2D reference on the CPU:",
+            start,
         );
-        return Ok(());
     }
 
     let Some(kernel_path) = &args.kernel.kernel else {
@@ -302,13 +294,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let out = around_pass(around.as_ref(), image, specular, |img| {
             disk::run(&args, kernel_path, &kernel, (frames, first), view, img)
         })?;
-        write_image(out_path, &out, png_depth)?;
-        eprintln!(
-            "disk pass, {frames} frame(s): {:.3} s -> {}",
-            start.elapsed().as_secs_f64(),
-            out_path.display()
-        );
-        return Ok(());
+        let what = format!("disk pass, {frames} frame(s):");
+        return written(out_path, &out, png_depth, &what, start);
     }
     if args.accumulate != ssskit::filter::accumulate::Accumulate::Mean {
         anyhow::bail!(
@@ -330,17 +317,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = around_pass(around.as_ref(), image, specular, |img| {
         filter(&args, img, &setup)
     })?;
-    write_image(out_path, &out, png_depth)?;
-    eprintln!(
-        "{} one-dimensional passes ({} separable term(s)) of up to {} taps, {:.3} s -> {}",
+    let taps = setup.passes.iter().map(|t| t.offsets_mm.len()).max();
+    let what = format!(
+        "{} one-dimensional passes ({} separable term(s)) of up to {} taps,",
         2 * setup.passes.len(),
         setup.passes.len(),
-        setup
-            .passes
-            .iter()
-            .map(|t| t.offsets_mm.len())
-            .max()
-            .unwrap_or(0),
+        taps.unwrap_or(0),
+    );
+    written(out_path, &out, png_depth, &what, start)
+}
+
+/// The pixel scale from --mm-per-pixel or --fov-y and --units-per-mm.
+fn scale_of(args: &Args) -> anyhow::Result<Scale> {
+    let scale = match (args.mm_per_pixel.mm_per_pixel, args.fov_y.fov_y) {
+        (Some(m), _) => Scale::MmPerPixel(m),
+        (None, Some(f)) => Scale::Perspective {
+            fov_y_deg: f,
+            sss_width: args.units_per_mm.units_per_mm,
+        },
+        _ => anyhow::bail!("give --mm-per-pixel or --fov-y"),
+    };
+    scale.validate()?;
+    Ok(scale)
+}
+
+/// Writes the result and says what made it, in how long, and where.
+fn written(
+    out_path: &Path,
+    out: &Image,
+    png_depth: PngDepth,
+    what: &str,
+    start: Instant,
+) -> anyhow::Result<()> {
+    write_image(out_path, out, png_depth)?;
+    eprintln!(
+        "{what} {:.3} s -> {}",
         start.elapsed().as_secs_f64(),
         out_path.display()
     );
@@ -438,7 +449,7 @@ fn view_of(
 /// else the CPU), saying which on stderr. The CPU filters the image in
 /// place (the peak stays near the image itself; docs/filter.md).
 fn filter(args: &Args, mut image: Image, setup: &Setup) -> anyhow::Result<Image> {
-    let precision = cpu::Precision::from(args.precision);
+    let precision = separable::Precision::from(args.precision);
     let cpu_path = if setup.is_uniform() {
         format!("fixed kernels, {precision:?}").to_lowercase()
     } else {
@@ -523,26 +534,27 @@ fn run_reference(
         anyhow::bail!("--reference runs on the CPU only (use --backend cpu or auto)");
     }
     let profile = Profile::read(reference)?;
-    let sampling = cpu::PixelSampling::from(args.reference_sampling.unwrap_or(Sampling::Average));
-    let k = cpu::reference_kernel_sampled(&profile, m, sampling)?;
-    cpu::check_reference_fits(image.width, image.height, k.size)?;
+    let sampling = exact::PixelSampling::from(args.reference_sampling.unwrap_or(Sampling::Average));
+    let k = exact::reference_kernel_sampled(&profile, m, sampling)?;
+    exact::check_reference_fits(image.width, image.height, k.size)?;
     eprintln!(
         "exact 2D kernel: {0}x{0} pixels of {m} mm ({1}; {2})",
         k.size,
-        if k.size > cpu::FFT_ABOVE {
+        if k.size > exact::FFT_ABOVE {
             "FFT"
         } else {
             "direct"
         },
         match sampling {
-            cpu::PixelSampling::Average =>
+            exact::PixelSampling::Average =>
                 "averaged over each pixel; compare, advise and kernels score against \
                  --reference-sampling centre, another discretisation, which diff then \
                  reproduces",
-            cpu::PixelSampling::Centre => "at pixel centres, as compare, advise and kernels score",
+            exact::PixelSampling::Centre =>
+                "at pixel centres, as compare, advise and kernels score",
         }
     );
-    Ok(cpu::convolve_2d(image, &k))
+    Ok(exact::convolve_2d(image, &k))
 }
 
 fn load_plane(path: Option<&Path>, sanitize: bool, what: &str) -> anyhow::Result<Option<Plane>> {

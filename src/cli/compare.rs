@@ -14,14 +14,17 @@ use super::signal::Kind as SignalArg;
 use anyhow::{bail, Context};
 use clap::ValueEnum;
 use ssskit::filter::image::read_image;
+use ssskit::filter::Which;
 use ssskit::material::Material;
+use ssskit::profile::source::{self, ProfileSource};
 use ssskit::profile::Profile;
-use ssskit::report::eval::claims;
-use ssskit::report::eval::evaluate::{self, ImageCase, Options, Which};
-use ssskit::report::eval::kernel_compare::{self, parse_ranks, Config, Factor, MaterialInput};
-use ssskit::report::eval::pipeline::{self, ProfileSource};
+use ssskit::report::eval::compare;
+use ssskit::report::eval::compare::claims;
+use ssskit::report::eval::compare::kernel::{parse_ranks, Config, MaterialInput};
+use ssskit::report::eval::evaluate::{self, ImageCase, Options};
+use ssskit::report::pipeline;
 use ssskit::report::present::kernel_report;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `--signals`: a test signal as `signal` spells it, or "none" (also "")
 /// for kernel space only (None).
@@ -74,7 +77,7 @@ pub struct Args {
     /// rotations against the exact image), its noise in one frame and
     /// after K frames, and FLIP; in report.md, disk.json and on stdout.
     #[arg(long, value_name = "N", value_parser = count::<u32>,
-          default_value_t = ssskit::report::eval::advise_types::DEFAULT_FRAMES)]
+          default_value_t = ssskit::report::eval::disk::DEFAULT_FRAMES)]
     frames: u32,
     /// Test signals, comma-separated, or none for kernel space only.
     #[arg(long, value_name = "SIGNAL,...", value_parser = signal_or_none(), value_delimiter = ',', default_value = "edge,shapes")]
@@ -209,9 +212,9 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
             let source = match (model.analytic(), a.photons.photons) {
                 (Some(pm), _) => ProfileSource::analytic(pm),
                 (None, Some(n)) => ProfileSource::photons(n, a.seed.seed),
-                (None, None) => ProfileSource::monte_carlo(pipeline::MC_MAX_PHOTONS, a.seed.seed),
+                (None, None) => ProfileSource::monte_carlo(source::MC_MAX_PHOTONS, a.seed.seed),
             };
-            let profile = pipeline::make_profile(&m, &source, &Bar::new())?.0;
+            let profile = source::make_profile(&m, &source, &Bar::new())?.0;
             Ok(MaterialInput {
                 name: m.name.clone(),
                 profile,
@@ -224,10 +227,10 @@ fn load_profiles(a: &Args) -> anyhow::Result<Vec<MaterialInput>> {
 /// `--directional-spp 0`).
 fn directional_config(
     a: &Args,
-) -> anyhow::Result<Option<ssskit::report::eval::directional_scene::DirectionalConfig>> {
+) -> anyhow::Result<Option<ssskit::report::eval::scene::directional::DirectionalConfig>> {
     let samples = a.directional.samples()?;
     Ok((!samples.is_empty()).then_some(
-        ssskit::report::eval::directional_scene::DirectionalConfig {
+        ssskit::report::eval::scene::directional::DirectionalConfig {
             samples,
             map_side: a.directional.light_map_side,
             seed: a.seed.seed,
@@ -254,7 +257,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .models
         .families()
         .into_iter()
-        .partition(|f| f == ssskit::report::eval::advise_disk::DISK);
+        .partition(|f| f == ssskit::report::eval::disk::DISK);
     let with_disk = !disks.is_empty();
     let ranks = parse_ranks(&a.ranks.join(",")).context("--ranks")?;
     let taps = distinct(&a.taps);
@@ -265,22 +268,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     positive("--pixels-per-degree", a.pixels_per_degree)?;
     let size = a.signal_size.signal_size;
     if let (Some(scene), Some(render)) = (&a.scene, &a.render) {
-        return super::scene::compare(super::scene::CompareArgs {
-            scene,
-            render,
-            families,
-            ranks,
-            taps,
-            pixels_per_degree: a.pixels_per_degree,
-            size: a.signal_size.signal_size,
-            follow_mm: a.follow_mm,
-            angular_photons: a.angular_photons,
-            transmission: a.transmission.as_deref(),
-            seed: a.seed.seed,
-            plots: !a.no_plots.no_plots,
-            out: a.out_dir.path()?,
-            directional: directional_config(&a)?,
-        });
+        return run_scene(&a, (scene, render), families, (ranks, taps));
     }
     let (cases, signals) = test_cases(&a, size, mm_per_pixel)?;
     if let Some(e) = a.extent.extent {
@@ -309,9 +297,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         extent_mm: a.extent.extent,
     };
     let t0 = std::time::Instant::now();
-    let cmp = kernel_compare::run(&inputs, &cfg, &Bar::new())?;
-    let factors: Vec<Factor> = std::iter::once(Factor::Full)
-        .chain(taps.iter().map(|&n| Factor::Taps(n)))
+    let cmp = compare::kernel::run(&inputs, &cfg, &Bar::new())?;
+    let factors: Vec<Which> = std::iter::once(Which::Full)
+        .chain(taps.iter().map(|&n| Which::Taps(n)))
         .collect();
     let command = command_line(out_dir);
     let ctx = kernel_report::ReportContext {
@@ -356,6 +344,31 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if no_plots { "" } else { ", PNG plots" }
     );
     Ok(())
+}
+
+/// `compare --scene --render`: the kernels scored on a path-traced scene.
+fn run_scene(
+    a: &Args,
+    (scene, render): (&Path, &Path),
+    families: Vec<String>,
+    (ranks, taps): (Vec<usize>, Vec<usize>),
+) -> anyhow::Result<()> {
+    super::scene_compare::compare(super::scene_compare::CompareArgs {
+        scene,
+        render,
+        families,
+        ranks,
+        taps,
+        pixels_per_degree: a.pixels_per_degree,
+        size: a.signal_size.signal_size,
+        follow_mm: a.follow_mm,
+        angular_photons: a.angular_photons,
+        transmission: a.transmission.as_deref(),
+        seed: a.seed.seed,
+        plots: !a.no_plots.no_plots,
+        out: a.out_dir.path()?,
+        directional: directional_config(a)?,
+    })
 }
 
 /// The test images: the named signals, then the given images (named by
@@ -406,7 +419,7 @@ fn disk_rows(
     frames: u32,
     dir: &std::path::Path,
 ) -> anyhow::Result<ssskit::report::present::table::Table> {
-    use ssskit::report::eval::disk_compare::compare_rows;
+    use ssskit::report::eval::compare::disk::compare_rows;
     let rows = compare_rows(inputs, cases, taps, frames)?;
     let t = ssskit::report::present::disk_table::disk_table(&rows, frames);
     ssskit::io::write_json_atomic(&dir.join("disk.json"), &serde_json::to_value(&rows)?)?;
@@ -420,7 +433,7 @@ fn disk_rows(
          against the exact image (+- its own noise floor), its noise the RMS of one frame and \
          of the mean of {frames} frames about that mean; % of the exact peak, largest \
          channel.\n\n{}",
-        ssskit::report::eval::advise_disk::WINDOWS * frames,
+        ssskit::report::eval::disk::WINDOWS * frames,
         t.markdown()
     ));
     ssskit::io::write_atomic(&report, md.as_bytes())?;

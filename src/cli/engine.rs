@@ -289,13 +289,7 @@ fn print_conditions(fit: &EngineFit) -> anyhow::Result<()> {
             outln!("  {line}")?;
         }
     }
-    for r in &fit.requirements {
-        outln!("requires: {r}")?;
-    }
-    for w in &fit.warnings {
-        outln!("warning: {w}")?;
-    }
-    Ok(())
+    super::transmission::print_notes("", &fit.requirements, &fit.warnings)
 }
 
 /// The JSON and the engine's own files into the staged folder, then the

@@ -4,8 +4,9 @@
 
 use super::out::out;
 use anyhow::{bail, Context};
-use ssskit::kernel::disk::{fit_disk, DiskKernelFile, RadiusPdf};
+use ssskit::kernel::disk::{DiskKernelFile, RadiusPdf};
 use ssskit::kernel::disk_emit::emit_disk;
+use ssskit::kernel::disk_fit::fit_disk;
 use ssskit::kernel::emit::Lang;
 use ssskit::profile::Profile;
 use std::path::Path;

@@ -7,8 +7,8 @@ use super::args::{
 };
 use super::out::out;
 use super::profile_source::command_line;
-use ssskit::report::eval::advise::FAMILIES;
-use ssskit::report::eval::pipeline::{self, Settings};
+use ssskit::report::eval::advise::ADVISED_FAMILIES;
+use ssskit::report::pipeline::{self, Settings};
 
 #[derive(clap::Args)]
 #[command(
@@ -16,7 +16,7 @@ use ssskit::report::eval::pipeline::{self, Settings};
     mut_args(args::report())
 )]
 #[command(mut_arg("image_error", args::alias("--target-error")))]
-#[command(mut_arg("models", |a| args::default(FAMILIES.join(","))(a)
+#[command(mut_arg("models", |a| args::default(ADVISED_FAMILIES.join(","))(a)
     .help("Kernel models, comma-separated, or all: what ships is chosen from these (every \
            model is compared)")))]
 #[command(mut_arg("mm_per_pixel", |a| a
@@ -55,7 +55,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = super::scene::scene_check(&a.scene)?;
     let scene_mm = scene
         .as_ref()
-        .map(|(s, r, _)| ssskit::report::eval::scene_compare::median_mm_per_pixel(s, r));
+        .map(|(s, r, _)| ssskit::report::eval::scene::compare::median_mm_per_pixel(s, r));
     let given = a.report.mm_per_pixel.mm_per_pixel;
     let mm_per_pixel = super::errors::positive(
         "--mm-per-pixel",
@@ -70,9 +70,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let target = a.target.fraction()?;
     let engine = a.engine.engine.map(ssskit::engine::Engine::from);
     if let Some(e) = engine {
-        ssskit::report::eval::engine_step::check(e)?;
+        ssskit::report::eval::ship::engine_step::check(e)?;
     }
-    ssskit::report::eval::advise_disk::check_frames(a.frames.frames)?;
+    ssskit::report::eval::disk::check_frames(a.frames.frames)?;
     let out_dir = a.report.out_dir.path()?;
     // The folder is written aside and swapped in whole at the end.
     let staged = ssskit::io::StagedDir::new(out_dir)?;

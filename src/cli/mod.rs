@@ -25,6 +25,7 @@ mod profile_source;
 mod profiles;
 mod progress;
 mod scene;
+mod scene_compare;
 mod signal;
 mod simulate;
 mod study;
@@ -270,7 +271,9 @@ mod tests {
     use super::*;
     use ssskit::engine::Engine;
     use ssskit::report::eval::evaluate::signal_name;
-    use ssskit::report::eval::{advise::FAMILIES as ADVISE, kernel_compare::FAMILIES as COMPARE};
+    use ssskit::report::eval::{
+        advise::ADVISED_FAMILIES as ADVISE, compare::kernel::FAMILIES as COMPARE,
+    };
 
     fn names<T: clap::ValueEnum>() -> Vec<String> {
         T::value_variants().iter().map(flag_value).collect()

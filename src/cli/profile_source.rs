@@ -4,8 +4,8 @@
 
 use super::args::{FactorsArg, ProfileSourceArgs};
 use super::errors::invalid;
+use ssskit::profile::source::ProfileSource;
 use ssskit::profile::Profile;
-use ssskit::report::eval::pipeline::ProfileSource;
 
 impl ProfileSourceArgs {
     /// How the profile is made from `--material`.
@@ -48,7 +48,7 @@ impl ProfileSourceArgs {
         };
         let material = ssskit::material::Material::load(name)?;
         let source = self.source()?;
-        let (profile, secs) = ssskit::report::eval::pipeline::make_profile(
+        let (profile, secs) = ssskit::profile::source::make_profile(
             &material,
             &source,
             &super::progress::Bar::new(),

@@ -12,7 +12,7 @@ use ssskit::material::{Channel, Material};
 use ssskit::profile::analytic::{self, Model};
 use ssskit::profile::mc::{self, PhotonBudget};
 use ssskit::profile::source::{make_profile_on, ProfileSource};
-use ssskit::report::eval::profile_compare as compare;
+use ssskit::report::eval::compare::profile as compare;
 use ssskit::report::present::{plot, profile_tables};
 
 pub type Args = args::Group<What>;
@@ -80,20 +80,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let budget = match (a.photons.photons, a.mc_error.mc_error) {
-        (Some(0), _) => return Err(invalid("--photons", 0, "must be > 0")),
-        (Some(n), _) => PhotonBudget::Fixed(n),
-        (None, e) => {
-            let rel = e.unwrap_or(compare::REFERENCE_MC_ERROR);
-            if !(rel.is_finite() && rel > 0.0 && rel < 1.0) {
-                return Err(invalid("--mc-error", rel, "must be in (0, 1)"));
-            }
-            PhotonBudget::TargetError {
-                rel,
-                max_photons: a.max_photons.max_photons,
-            }
-        }
-    };
+    let budget = reference_budget(&a)?;
     let out_dir = a.out_dir.path()?;
     std::fs::create_dir_all(out_dir)
         .map_err(|e| anyhow::anyhow!("--out-dir {}: {e}", out_dir.display()))?;
@@ -165,6 +152,25 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     }
     eprintln!("wrote {} and {}", md.display(), csv.display());
     Ok(())
+}
+
+/// The Monte Carlo reference's budget: --photons, or --mc-error (the
+/// comparison's own default) under --max-photons.
+fn reference_budget(a: &CompareArgs) -> anyhow::Result<PhotonBudget> {
+    Ok(match (a.photons.photons, a.mc_error.mc_error) {
+        (Some(0), _) => return Err(invalid("--photons", 0, "must be > 0")),
+        (Some(n), _) => PhotonBudget::Fixed(n),
+        (None, e) => {
+            let rel = e.unwrap_or(compare::REFERENCE_MC_ERROR);
+            if !(rel.is_finite() && rel > 0.0 && rel < 1.0) {
+                return Err(invalid("--mc-error", rel, "must be in (0, 1)"));
+            }
+            PhotonBudget::TargetError {
+                rel,
+                max_photons: a.max_photons.max_photons,
+            }
+        }
+    })
 }
 
 /// A model's profile and its time per profile: repeated until 50 ms have

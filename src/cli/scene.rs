@@ -1,10 +1,10 @@
 //! `ssskit scene`: path-traces a scene file to an EXR holding the radiance,
 //! its standard error and the G-buffer a screen-space pass gets; writes the
-//! render's record (settings, noise, the materials' profiles) beside it.
-//! Also the `compare --scene` entry: every kernel model through the
-//! screen-space pass on that G-buffer, against the path-traced image.
+//! render's record (settings, noise, the materials' profiles) beside it,
+//! and reads a render back for the commands that score kernels on it
+//! (`compare --scene`: `scene_compare.rs`; `advise --scene`).
 
-use super::args::{self, count, OutFile, SeedArg};
+use super::args::{self, count, OutFile, SeedArg, ThreadsArg};
 use super::out::outln;
 use super::progress::Bar;
 use anyhow::{bail, Context};
@@ -61,9 +61,8 @@ struct Flags {
     max_work: u64,
     #[command(flatten)]
     seed: SeedArg,
-    /// Worker threads (results are identical for any count) [default: one per core].
-    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
-    threads: Option<usize>,
+    #[command(flatten)]
+    threads: ThreadsArg,
     /// G-buffer positions per pixel side (box filter).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_GBUFFER_SIDE, value_parser = count::<usize>)]
     gbuffer_side: usize,
@@ -124,7 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let cfg = RenderConfig {
         budget,
         seed: a.seed.seed,
-        threads: a.threads,
+        threads: a.threads.threads,
         gbuffer_side: a.gbuffer_side,
         max_work: a.max_work,
     };
@@ -133,7 +132,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(n) => PhotonBudget::Fixed(n),
         None => default_budget(MC_MAX_PHOTONS),
     };
-    let profiles = material_profiles(&scene, photons, a.seed.seed, a.threads, &Bar::new())?;
+    let profiles = material_profiles(&scene, photons, a.seed.seed, a.threads.threads, &Bar::new())?;
     let rd: Vec<[f64; 3]> = profiles
         .iter()
         .map(|p| [p.total_rd[0], p.total_rd[1], p.total_rd[2]])
@@ -256,8 +255,8 @@ fn write_gbuffer(path: &Path, scene: &Scene, r: &Render) -> anyhow::Result<()> {
         ("N.Y", &view[1]),
         ("N.Z", &view[2]),
     ];
-    let cos = ssskit::report::eval::scene_score::cosines(scene, r);
-    if ssskit::report::eval::scene_compare::angular_obstacle(scene).is_none() {
+    let cos = ssskit::report::eval::scene::score::cosines(scene, r);
+    if ssskit::report::eval::scene::compare::angular_obstacle(scene).is_none() {
         if let Some(nl) = &cos.n_dot_l {
             planes.push(("NdotL", nl));
         }
@@ -416,220 +415,4 @@ fn read_render_from(
     let ((w, h), planes) = read_exr_channels(path)?;
     let r = Render::from_planes(w, h, planes, side.info, &path.display().to_string())?;
     Ok((r, side.scene, side.profiles))
-}
-
-/// What `compare --scene` passes on.
-pub(super) struct CompareArgs<'a> {
-    pub scene: &'a Path,
-    pub render: &'a Path,
-    pub families: Vec<String>,
-    pub ranks: Vec<usize>,
-    pub taps: Vec<usize>,
-    pub pixels_per_degree: f64,
-    pub size: usize,
-    pub follow_mm: Option<f64>,
-    /// Photons per channel and incidence of the angular factors (0: none).
-    pub angular_photons: u64,
-    /// Thickness table of the scene's object: the back-lit rows.
-    pub transmission: Option<&'a Path>,
-    pub seed: u64,
-    pub plots: bool,
-    pub out: &'a Path,
-    /// The light-space directional method's rows (None: not run).
-    pub directional: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
-}
-
-/// The light-space method's checks on the scene, before any work: its
-/// warnings, or (the method refused) the reason, said on stderr, and the
-/// comparison then runs without it.
-fn directional_preflight(
-    scene: &Scene,
-    r: &Render,
-    cfg: Option<ssskit::report::eval::directional_scene::DirectionalConfig>,
-) -> Option<ssskit::report::eval::directional_scene::DirectionalConfig> {
-    let d = cfg?;
-    let most = d.samples.iter().copied().max().unwrap_or(1);
-    let side = r.info.config.gbuffer_side;
-    match ssskit::filter::light_space::preflight(scene, d.map_side, side, most) {
-        Ok(warnings) => {
-            for w in warnings {
-                super::errors::warn(&format!("light-space directional method: {w}"));
-            }
-            Some(d)
-        }
-        Err(e) => {
-            super::errors::warn(&format!("no light-space directional rows: {e}"));
-            None
-        }
-    }
-}
-
-/// The entry and exit factors of the scene's material from `photons` per
-/// channel and incidence (None for 0, or when the scene's lights leave
-/// nothing for them to weigh: said on stderr).
-fn angular_factors(
-    scene: &Scene,
-    photons: u64,
-    seed: u64,
-) -> anyhow::Result<Option<ssskit::kernel::angular::AngularFactors>> {
-    if photons == 0 {
-        return Ok(None);
-    }
-    if let Some(why) = ssskit::report::eval::scene_compare::angular_obstacle(scene) {
-        super::errors::warn(&format!("{why}: no angular rows"));
-        return Ok(None);
-    }
-    let material = &scene.objects[0].material;
-    let f = ssskit::kernel::angular::simulate_factors(material, photons, seed, None, &Bar::new())
-        .with_context(|| format!("the angular factors of {}", material.name))?;
-    Ok(Some(f))
-}
-
-/// scene.json of `compare --scene`: the comparison's numbers, the
-/// light-space block (or why the scene has none) and the transmission's.
-fn scene_json(
-    scene: &std::path::Path,
-    cmp: &ssskit::report::eval::scene_compare::SceneComparison,
-    r: &ssskit::scene::Render,
-    transmission: Option<serde_json::Value>,
-) -> anyhow::Result<serde_json::Value> {
-    use ssskit::report::eval::scene_compare::dominance;
-    Ok(serde_json::json!({
-        "scene": scene.display().to_string(),
-        "dominance": dominance(cmp),
-        "mm_per_pixel": cmp.mm_per_pixel,
-        "follow_mm": cmp.follow_mm,
-        "follow_constant": cmp.follow_constant,
-        "noise": cmp.noise,
-        "angular": cmp.angular,
-        "angular_note": cmp.angular_note,
-        "spp": r.info.spp,
-        "rows": cmp.rows,
-        "directional": match &cmp.directional {
-            Some(Ok(b)) => serde_json::to_value(b)?,
-            Some(Err(why)) => serde_json::json!({ "refused": why }),
-            None => serde_json::Value::Null,
-        },
-        "transmission": transmission,
-    }))
-}
-
-/// `compare --scene`: the screen-space error of every kernel model on the
-/// scene's G-buffer against its path-traced image; writes scene.md,
-/// scene.json, record.json and the contact sheet.
-pub(super) fn compare(a: CompareArgs) -> anyhow::Result<()> {
-    use ssskit::report::eval::scene_compare::{compare_scene, dominance, SceneConfig};
-    use ssskit::report::present::record::{machine_line, Record};
-    use ssskit::report::present::scene_tables::{contact_sheet, named_tables, page};
-    let (scene, r, profiles) = scene_and_render(a.scene, a.render)?;
-    let Some(profile) = profiles.first() else {
-        bail!(
-            "--render {}: its record holds no profile",
-            a.render.display()
-        );
-    };
-    let directional = directional_preflight(&scene, &r, a.directional);
-    // The folder is written aside and swapped in whole at the end.
-    let staged = ssskit::io::StagedDir::new(a.out)
-        .with_context(|| format!("--out-dir {}", a.out.display()))?;
-    let dir = staged.path();
-    let cfg = SceneConfig {
-        families: a.families,
-        ranks: a.ranks,
-        taps: a.taps,
-        options: ssskit::report::eval::evaluate::Options {
-            round_to_f32: true,
-            pixels_per_degree: a.pixels_per_degree,
-        },
-        follow_mm: a.follow_mm,
-        signal_size: a.size,
-        keep_images: a.plots,
-        angular: angular_factors(&scene, a.angular_photons, a.seed)?,
-        directional,
-    };
-    let cmp = compare_scene(&scene, &r, profile, &cfg, &Bar::new())?;
-    let head = format!(
-        "Scene {}: {}x{} pixels, {} samples per pixel (r), {:.3} mm per pixel at the object's \
-         median depth; the lerp completes at a depth difference of {:.3} mm (C = {:.4} in the \
-         pass's convention).",
-        a.scene.display(),
-        r.width,
-        r.height,
-        r.info.spp[0],
-        cmp.mm_per_pixel,
-        cmp.follow_mm,
-        cmp.follow_constant
-    );
-    use ssskit::report::present::directional_tables as dt;
-    let back = a
-        .transmission
-        .map(|t| super::transmission::scene_block(&scene, &r, profile, t, a.pixels_per_degree))
-        .transpose()?;
-    let mut tables = named_tables(&cmp);
-    tables.extend(dt::named_table(&cmp));
-    let mut md = page(&cmp, &head) + &dt::section(&cmp);
-    if let Some((b, t)) = &back {
-        md = format!("{}\n\n{}\n\n{md}", b.headline, t.markdown());
-        tables.push(("transmission", t.clone()));
-    }
-    ssskit::io::write_atomic(&dir.join("scene.md"), md.as_bytes())?;
-    let transmission = back
-        .as_ref()
-        .map(|b| serde_json::to_value(&b.0))
-        .transpose()?;
-    let json = scene_json(a.scene, &cmp, &r, transmission)?;
-    let text = serde_json::to_string_pretty(&json)? + "\n";
-    ssskit::io::write_atomic(&dir.join("scene.json"), text.as_bytes())?;
-    let mut rec = Record::new(&super::profile_source::command_line(a.out), &machine_line());
-    for (name, t) in &tables {
-        rec.tables.insert(name.to_string(), t.into());
-    }
-    rec.data = json;
-    rec.write(&dir.join("record.json"))?;
-    if a.plots {
-        let name = a.scene.file_name().map_or_else(
-            || a.scene.display().to_string(),
-            |n| n.to_string_lossy().into(),
-        );
-        contact_sheet(&cmp, &name, &dir.join("contact-sheet.png"))?;
-        if let Some((b, _)) = &back {
-            ssskit::report::present::transmission_plots::scene_sheet(
-                b,
-                &cmp.truth,
-                &format!(
-                    "{name}: lit from behind, each way to show it above |image - path traced|"
-                ),
-                &dir.join("transmission-sheet.png"),
-            )?;
-        }
-    }
-    staged.commit()?;
-    // A transmission table asked for by flag first, then the directional
-    // verdict (the first line when no table is asked for).
-    if let Some((b, t)) = &back {
-        outln!("{}\n\n{}\n", b.headline, t.markdown())?;
-    }
-    if let Some(h) = dt::headline(&cmp) {
-        outln!("{h}\n")?;
-    }
-    let d = dominance(&cmp);
-    if let Some(h) = d.as_ref().and_then(|d| d.headline()) {
-        outln!("{h}")?;
-    }
-    outln!("{head}\n\n{}", tables[0].1.markdown())?;
-    if let Some((_, t)) = tables.iter().find(|(n, _)| *n == "directional") {
-        outln!(
-            "Light-space directional method beside the screen-space passes:\n\n{}",
-            t.markdown()
-        )?;
-    }
-    if let Some(d) = d {
-        outln!("{}", d.sentence())?;
-    }
-    eprintln!(
-        "-> {}/scene.md, scene.json, record.json{}",
-        a.out.display(),
-        if a.plots { ", contact-sheet.png" } else { "" }
-    );
-    Ok(())
 }

@@ -3,7 +3,7 @@
 
 use super::args::{
     self, count, Backend, BackendArg, ChannelsArg, CsvArg, GridArgs, MaterialArg, MaxPhotonsArg,
-    McErrorArg, OutFile, PhotonsArg, SeedArg,
+    McErrorArg, OutFile, PhotonsArg, SeedArg, ThreadsArg,
 };
 use super::out::outln;
 use super::progress::Bar;
@@ -113,9 +113,8 @@ struct Flags {
     max_photons: MaxPhotonsArg,
     #[command(flatten)]
     seed: SeedArg,
-    /// Worker threads (results are identical for any count) [default: one per core].
-    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
-    threads: Option<usize>,
+    #[command(flatten)]
+    threads: ThreadsArg,
     #[command(flatten)]
     channels: ChannelsArg,
     #[command(flatten)]
@@ -286,7 +285,7 @@ fn settings(
     let cfg = McConfig {
         budget,
         seed: args.seed.seed,
-        threads: args.threads,
+        threads: args.threads.threads,
         channels,
         grid,
     };

@@ -3,7 +3,7 @@
 //! thin-object formulas fitted to it and scored at every thickness.
 
 use super::args::{
-    self, count, ChannelsArg, MaterialArg, OutFile, PhotonsArg, ProfileFile, SeedArg,
+    self, count, ChannelsArg, MaterialArg, OutFile, PhotonsArg, ProfileFile, SeedArg, ThreadsArg,
 };
 use super::out::outln;
 use super::progress::Bar;
@@ -14,6 +14,7 @@ use ssskit::numerics::Bounded;
 use ssskit::profile::mc::{self, McConfig, McOptions, PhotonBudget};
 use ssskit::profile::transmission::{self as tr, TableOptions, ThicknessTable};
 use ssskit::profile::Profile;
+use ssskit::report::present::transmission_plots::FittedCurve;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -63,9 +64,8 @@ pub struct Args {
     slab_max_work: u64,
     #[command(flatten)]
     seed: SeedArg,
-    /// Worker threads (results are identical for any count) [default: one per core].
-    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
-    threads: Option<usize>,
+    #[command(flatten)]
+    threads: ThreadsArg,
     #[command(flatten)]
     channels: ChannelsArg,
     #[command(flatten)]
@@ -203,7 +203,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ..McOptions::default()
         },
         seed: a.seed.seed,
-        threads: a.threads,
+        threads: a.threads.threads,
         channels: channels.clone(),
     };
     let bar = Bar::new();
@@ -278,7 +278,14 @@ fn write_outputs(
         eprintln!("wrote {}", csv.display());
     }
     if let Some(png) = &a.plot {
-        ssskit::report::present::transmission_plots::render(table, fits, png)?;
+        let curves: Vec<FittedCurve> = fits
+            .iter()
+            .map(|f| FittedCurve {
+                engine: &f.engine,
+                t: &f.engine_t,
+            })
+            .collect();
+        ssskit::report::present::transmission_plots::render(table, &curves, png)?;
         eprintln!("wrote {}", png.display());
     }
     Ok(())
@@ -345,11 +352,20 @@ pub(super) fn print_fit(f: &et::TransmissionFit) -> anyhow::Result<()> {
         .map(|x| format!("{:.3}", Bounded(x)))
         .join(", ");
     outln!("  RMS of ln(engine / table): {rms}")?;
-    for r in &f.requirements {
-        outln!("  requires: {r}")?;
+    print_notes("  ", &f.requirements, &f.warnings)
+}
+
+/// A fit's requirements and warnings, one a line, indented by `indent`.
+pub(super) fn print_notes(
+    indent: &str,
+    requirements: &[String],
+    warnings: &[String],
+) -> anyhow::Result<()> {
+    for r in requirements {
+        outln!("{indent}requires: {r}")?;
     }
-    for w in &f.warnings {
-        outln!("  warning: {w}")?;
+    for w in warnings {
+        outln!("{indent}warning: {w}")?;
     }
     Ok(())
 }
@@ -392,7 +408,7 @@ pub(super) fn scene_block(
     table: &std::path::Path,
     ppd: f64,
 ) -> anyhow::Result<(
-    ssskit::report::eval::scene_transmission::TransmissionComparison,
+    ssskit::report::eval::scene::transmission::TransmissionComparison,
     ssskit::report::present::table::Table,
 )> {
     let t = ThicknessTable::read(table)
@@ -403,7 +419,7 @@ pub(super) fn scene_block(
         let reflect = engine::fit(e, profile, s)?;
         fits.extend(et::fit(e, &reflect, &t, s)?);
     }
-    let cmp = ssskit::report::eval::scene_transmission::compare_transmission(
+    let cmp = ssskit::report::eval::scene::transmission::compare_transmission(
         scene, render, &t, &fits, ppd,
     )
     .with_context(|| format!("--transmission {}", table.display()))?;

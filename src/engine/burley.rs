@@ -57,7 +57,7 @@ impl Burley {
                 } else {
                     // The bin the cut falls in: its part inside, exactly.
                     let inside = normalized_cdf(rm / d) - normalized_cdf(e[0] / d);
-                    a * k * inside / (std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0]))
+                    a * k * inside / (crate::numerics::annulus_area(e[0], e[1]))
                 }
             })
             .collect()

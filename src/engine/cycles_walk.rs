@@ -341,7 +341,7 @@ impl UnitWalk {
         let rd = mass
             .iter()
             .zip(edges.windows(2))
-            .map(|(m, e)| k * m / (std::f64::consts::PI * (e[1] * e[1] - e[0] * e[0])))
+            .map(|(m, e)| k * m / (crate::numerics::annulus_area(e[0], e[1])))
             .collect();
         (rd, k * total)
     }
@@ -436,26 +436,130 @@ mod tests {
         }
     }
 
+    /// The rest of the chain from Principled BSDF values to the walked
+    /// medium, ported from the blender/cycles repository at v5.0.0 as the
+    /// source writes it (f32, its names and `#define`s), so that ssskit's
+    /// `channel`, `ANISOTROPY_RANGE`, `MAX_BOUNCES`, `SIMILARITY_LEVEL`
+    /// and `UnitWalk::weight` are held to Cycles, not to themselves.
+    mod cycles {
+        /// kernel/types.h `BSSRDF_MAX_BOUNCES`.
+        pub const BSSRDF_MAX_BOUNCES: usize = 256;
+        /// kernel/integrator/subsurface_random_walk.h
+        /// `SUBSURFACE_RANDOM_WALK_SIMILARITY_LEVEL`.
+        pub const SIMILARITY_LEVEL: usize = 9;
+        const M_1_PI_F: f32 = std::f32::consts::FRAC_1_PI;
+
+        /// kernel/closure/bssrdf.h `bssrdf_setup`: "Clamps protecting
+        /// against bad/extreme and non physical values".
+        pub fn bssrdf_setup_anisotropy(anisotropy: f32) -> f32 {
+            anisotropy.clamp(0.0, 0.9)
+        }
+
+        /// kernel/closure/bssrdf.h `bssrdf_setup_radius`, the
+        /// `CLOSURE_BSSRDF_RANDOM_WALK_ID` branch.
+        pub fn bssrdf_setup_radius(radius: f32) -> f32 {
+            radius * (0.25 * M_1_PI_F)
+        }
+
+        /// subsurface_random_walk.h `subsurface_random_walk_remap` (sigma_t;
+        /// alpha is `super::cycles_remap`) and
+        /// `subsurface_random_walk_coefficients` for one channel whose
+        /// throughput holds the closure weight `albedo`: (sigma_t, alpha,
+        /// throughput).
+        pub fn coefficients(albedo: f32, radius: f32, g: f32) -> (f32, f32, f32) {
+            let alpha = super::cycles_remap(albedo, g);
+            let sigma_t_prime = 1.0 / radius.max(1e-16);
+            let sigma_t = sigma_t_prime / (1.0 - g);
+            // safe_divide_color(throughput, albedo)
+            let mut throughput = if albedo != 0.0 { albedo / albedo } else { 0.0 };
+            let min_alpha = 0.2f32;
+            let mut alpha = alpha;
+            if alpha < min_alpha {
+                throughput *= alpha / min_alpha;
+                alpha = min_alpha;
+            }
+            (sigma_t, alpha, throughput)
+        }
+
+        /// `subsurface_random_walk`'s throughput after `n` scatterings
+        /// in one channel (channel_pdf 1, classic sampling): each flight
+        /// that ends inside multiplies it by sigma_s T / (sigma_t T), with
+        /// sigma_s = sigma_t alpha, and the medium of flights past
+        /// SIMILARITY_LEVEL is sigma_s* = sigma_s (1 - g), sigma_t* =
+        /// sigma_t - sigma_s + sigma_s*.
+        /// The factors are f32 as in Cycles, their product is taken in f64
+        /// (Cycles' f32 throughput underflows past 1e-38 and stops the
+        /// walk at VOLUME_THROUGHPUT_EPSILON; ssskit keeps every exit).
+        pub fn scattering_weight(n: usize, sigma_t: f32, alpha: f32, g: f32) -> f64 {
+            let sigma_s = sigma_t * alpha;
+            let sigma_s_star = sigma_s * (1.0 - g);
+            let sigma_t_star = sigma_t - sigma_s + sigma_s_star;
+            (0..n)
+                .map(|bounce| {
+                    if bounce <= SIMILARITY_LEVEL {
+                        (sigma_s / sigma_t) as f64
+                    } else {
+                        (sigma_s_star / sigma_t_star) as f64
+                    }
+                })
+                .product()
+        }
+    }
+
+    /// f32 against f64 for a chain of a few operations (a division, a
+    /// product of a few factors): a few f32 roundings of 6e-8 each.
+    const CHAIN_F32_TOL: f64 = 1e-6;
+
+    /// A product of up to 255 factors, each made in f32 by up to 4
+    /// roundings of 6e-8 relative (alpha, sigma_s*, sigma_t*, the
+    /// quotient), repeated: at most 255 x 4 x 6e-8 = 6e-5 of the whole.
+    const PRODUCT_F32_TOL: f64 = 1e-4;
+
+    fn close(ours: f64, theirs: impl Into<f64>, tol: f64) -> bool {
+        let theirs = theirs.into();
+        (ours - theirs).abs() <= tol * theirs.abs()
+    }
+
     #[test]
     fn coefficients_follow_cycles_chain() {
-        // bssrdf_setup_radius: d = radius / (4 pi); remap: sigma_t = 1 /
-        // (d (1 - g)).
-        let (radius, g) = (3.0, 0.4);
-        let ch = channel(0.8, radius, g);
-        let sigma_t = 1.0 / (radius * 0.25 / std::f64::consts::PI * (1.0 - g));
-        assert!((ch.sigma_t - sigma_t).abs() < 1e-12 * sigma_t);
-        assert_eq!((ch.alpha, ch.throughput), (remap_alpha(0.8, g), 1.0));
-        // subsurface_random_walk_coefficients: below 0.2 alpha is raised
-        // to 0.2 and the throughput scaled by alpha / 0.2.
-        let low = remap_alpha(0.02, 0.0);
-        assert!(low < MIN_ALPHA, "{low}");
-        let ch = channel(0.02, radius, 0.0);
-        assert_eq!(ch.alpha, MIN_ALPHA);
-        assert!((ch.throughput - low / MIN_ALPHA).abs() < 1e-15);
-        // The source's constants (kernel/types.h BSSRDF_MAX_BOUNCES,
-        // SUBSURFACE_RANDOM_WALK_SIMILARITY_LEVEL, bssrdf_setup's clamp).
-        assert_eq!((MAX_BOUNCES, SIMILARITY_LEVEL), (256, 9));
-        assert_eq!(ANISOTROPY_RANGE, (0.0, 0.9));
+        // Node values (albedo, Subsurface Radius x Scale, anisotropy)
+        // through bssrdf_setup, bssrdf_setup_radius and
+        // subsurface_random_walk_coefficients, against ssskit's channel
+        // with the anisotropy clamped to ANISOTROPY_RANGE.
+        let mut raised = 0;
+        for g_node in [-0.5f64, 0.0, 0.4, 0.8, 0.9, 0.95] {
+            let g = g_node.clamp(ANISOTROPY_RANGE.0, ANISOTROPY_RANGE.1);
+            assert_eq!(
+                g as f32,
+                cycles::bssrdf_setup_anisotropy(g_node as f32),
+                "anisotropy {g_node}"
+            );
+            for albedo in [0.0, 0.02, 0.1, 0.5, 0.8, 1.0] {
+                for radius in [0.01, 0.5, 3.0] {
+                    let ch = channel(albedo, radius, g);
+                    let d = cycles::bssrdf_setup_radius(radius as f32);
+                    let (sigma_t, alpha, throughput) =
+                        cycles::coefficients(albedo as f32, d, g as f32);
+                    let what = format!("albedo {albedo} radius {radius} g {g}");
+                    assert!(close(ch.sigma_t, sigma_t, CHAIN_F32_TOL), "{what}: {ch:?}");
+                    assert!(close(ch.alpha, alpha, REMAP_F32_TOL), "{what}: {ch:?}");
+                    // Cycles' throughput is 0 for a black albedo; ssskit
+                    // keeps the remap's alpha / MIN_ALPHA (0 there too).
+                    assert!(
+                        (ch.throughput - throughput as f64).abs() < REMAP_F32_TOL,
+                        "{what}: {ch:?} vs {throughput}"
+                    );
+                    raised += (alpha == 0.2) as usize;
+                }
+            }
+        }
+        // Both sides of the MIN_ALPHA clamp were taken.
+        assert!(raised > 0 && raised < 6 * 6 * 3, "{raised}");
+        // The constants, as Cycles' loops use them.
+        assert_eq!(
+            (MAX_BOUNCES, SIMILARITY_LEVEL),
+            (cycles::BSSRDF_MAX_BOUNCES, cycles::SIMILARITY_LEVEL)
+        );
     }
 
     /// Monte Carlo checks hold to this many standard errors.
@@ -496,25 +600,31 @@ mod tests {
         // come after MAX_BOUNCES - 1 scatterings.
         let w = UnitWalk::run(1 << 17, 1.0, 0.0, 3, &NoProgress).unwrap();
         let longest = w.exits.iter().map(|e| e.1).max().unwrap();
-        assert_eq!(longest as usize, MAX_BOUNCES - 1);
+        assert_eq!(longest as usize, cycles::BSSRDF_MAX_BOUNCES - 1);
         assert!(w.exits.len() < w.walks);
     }
 
     #[test]
     fn the_similarity_medium_weights_scatterings_after_level_9() {
-        let (alpha, g) = (0.8, 0.5);
-        let w = UnitWalk {
-            walks: 1,
-            alpha,
-            g,
-            exits: Vec::new(),
-            first_half: 0,
-        };
-        // sigma_s* / sigma_t* = alpha (1 - g) / (1 - alpha g).
-        let star = alpha * (1.0 - g) / (1.0 - alpha * g);
-        let expect = alpha.powi(10) * star.powi(2);
-        assert!((w.weight(12, alpha) - expect).abs() < 1e-15);
-        assert!((w.weight(10, alpha) - alpha.powi(10)).abs() < 1e-15);
+        // UnitWalk::weight for every scattering count a walk can have,
+        // against the throughput Cycles' walk loop builds.
+        for (alpha, g) in [(0.8, 0.5), (0.2, 0.9), (0.99, 0.3), (0.5, 0.0)] {
+            let w = UnitWalk {
+                walks: 1,
+                alpha,
+                g,
+                exits: Vec::new(),
+                first_half: 0,
+            };
+            for n in 0..cycles::BSSRDF_MAX_BOUNCES {
+                let theirs = cycles::scattering_weight(n, 1.0, alpha as f32, g as f32);
+                let ours = w.weight(n as u16, alpha);
+                assert!(
+                    close(ours, theirs, PRODUCT_F32_TOL),
+                    "alpha {alpha} g {g} n {n}: {ours} vs Cycles' {theirs}"
+                );
+            }
+        }
     }
 
     #[test]

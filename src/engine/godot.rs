@@ -58,7 +58,9 @@
 //! distance over the screen's height, 1 / aspect of that in the scene.
 
 use super::jimenez::{self as sep, FitData, Separable};
-use super::printed::{color, number, srgb_hex, table, triple, typed, units_line, Units, TYPED_REL};
+use super::printed::{
+    check, color, number, srgb_hex, table, triple, typed, units_line, Units, TYPED_REL,
+};
 use super::priority::Priority;
 use super::{EngineFit, Scene};
 use crate::error::{Error, Result};
@@ -360,35 +362,27 @@ pub fn params(k: &Godot, scene: Scene) -> (Map<String, Value>, Units) {
 /// kernel_width_mm; the table from the quality, checked against nSamples.
 pub fn godot_from_params(p: &Map<String, Value>, scene: Scene) -> Result<Godot> {
     let depth_scale = number(p, "subsurface_scattering_depth_scale")?;
-    if depth_scale != 1.0 {
-        return Err(Error::invalid(
-            "engine",
-            "subsurface_scattering_depth_scale",
-            depth_scale,
-            "only 1 gives a width in the scene; below 1 it depends on the camera's distance",
-        ));
-    }
+    check(
+        depth_scale == 1.0,
+        "subsurface_scattering_depth_scale",
+        depth_scale,
+        "only 1 gives a width in the scene; below 1 it depends on the camera's distance",
+    )?;
     let strength = number(p, "subsurf_scatter_strength")?;
-    if !(strength > 0.0) {
-        return Err(Error::invalid(
-            "engine",
-            "subsurf_scatter_strength",
-            strength,
-            "must be > 0: at 0 Godot does not blur",
-        ));
-    }
+    check(
+        strength > 0.0,
+        "subsurf_scatter_strength",
+        strength,
+        "must be > 0: at 0 Godot does not blur",
+    )?;
     let w = width_for_strength(strength) / scene.units_per_mm;
     let stated = number(p, "kernel_width_mm")?;
-    if (w - stated).abs() > TYPED_REL * stated.abs() {
-        return Err(Error::invalid(
-            "engine",
-            "kernel_width_mm",
-            stated,
-            format!(
-                "disagrees with subsurf_scatter_strength, which gives {w} mm at these scene units"
-            ),
-        ));
-    }
+    check(
+        (w - stated).abs() <= TYPED_REL * stated.abs(),
+        "kernel_width_mm",
+        stated,
+        format!("disagrees with subsurf_scatter_strength, which gives {w} mm at these scene units"),
+    )?;
     let label = p
         .get("subsurface_scattering_quality")
         .and_then(Value::as_str)
@@ -402,14 +396,12 @@ pub fn godot_from_params(p: &Map<String, Value>, scene: Scene) -> Result<Godot> 
         ));
     };
     let stated = number(p, "nSamples")?;
-    if stated != samples as f64 {
-        return Err(Error::invalid(
-            "engine",
-            "nSamples",
-            stated,
-            format!("the quality {label} selects the {samples}-tap table"),
-        ));
-    }
+    check(
+        stated == samples as f64,
+        "nSamples",
+        stated,
+        format!("the quality {label} selects the {samples}-tap table"),
+    )?;
     let shown = triple(p, "albedo_color")?;
     for x in shown {
         super::printed::in_range("Godot's inspector", "albedo_color", x, (0.0, 1.0))?;

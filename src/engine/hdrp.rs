@@ -29,11 +29,11 @@
 
 use super::burley::Burley;
 use super::printed::{
-    color, from_srgb_hex, in_range, number, printed, srgb_hex, text, triple, typed, units_line,
-    Printed,
+    check, color, from_srgb_hex, in_range, number, printed, srgb_hex, text, triple, typed,
+    units_line, Printed,
 };
 use super::{Scene, Version};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::filter::image::{linear_to_srgb, srgb_to_linear};
 use crate::numerics::Bounded;
 use serde_json::{json, Map, Value};
@@ -157,33 +157,27 @@ fn unit_interval(name: &str, x: f64) -> Result<f64> {
 pub fn from_params(p: &Map<String, Value>, scene: Scene, _v: Version) -> Result<Burley> {
     let scattering = triple(p, "Scattering Color")?;
     let multiplier = number(p, "Multiplier")?;
-    if !(multiplier > 0.0) {
-        return Err(Error::invalid(
-            "engine",
-            "Multiplier",
-            multiplier,
-            "must be > 0 (0 blurs nothing)",
-        ));
-    }
+    check(
+        multiplier > 0.0,
+        "Multiplier",
+        multiplier,
+        "must be > 0 (0 blurs nothing)",
+    )?;
     let world_scale = number(p, "World Scale")?.max(MIN_WORLD_SCALE);
     let mask = unit_interval("Subsurface Mask", number(p, "Subsurface Mask")?)?;
-    if mask == 0.0 {
-        return Err(Error::invalid(
-            "engine",
-            "Subsurface Mask",
-            mask,
-            "0 turns the scattering off",
-        ));
-    }
+    check(
+        mask != 0.0,
+        "Subsurface Mask",
+        mask,
+        "0 turns the scattering off",
+    )?;
     let mode = text(p, "Texturing Mode")?;
-    if mode != "Post-scatter" && mode != "Pre- and post-scatter" {
-        return Err(Error::invalid(
-            "engine",
-            "Texturing Mode",
-            mode,
-            "expected Post-scatter or Pre- and post-scatter",
-        ));
-    }
+    check(
+        mode == "Post-scatter" || mode == "Pre- and post-scatter",
+        "Texturing Mode",
+        mode,
+        "expected Post-scatter or Pre- and post-scatter",
+    )?;
     let base = triple(p, "Base Color")?;
     let mut d_mm = [0.0; 3];
     let mut albedo = [0.0; 3];

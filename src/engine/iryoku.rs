@@ -31,10 +31,10 @@
 
 use super::jimenez::{self as sep, ChannelFit, FitData, Separable};
 use super::printed::units_line;
-use super::printed::{color, number, table, triple, typed, Units};
+use super::printed::{check, color, number, table, triple, typed, Units};
 use super::priority::Priority;
 use super::{EngineFit, Scene};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::kernel::jimenez::{tap_table, JimenezParams, IRYOKU_FALLOFF, IRYOKU_STRENGTH};
 use crate::kernel::taps;
 use crate::profile::Profile;
@@ -167,23 +167,14 @@ pub fn params(k: &Iryoku, scene: Scene) -> (Map<String, Value>, Units) {
 /// The kernel from iryoku's values as written.
 pub fn from_params(p: &Map<String, Value>, scene: Scene) -> Result<Separable> {
     let samples = number(p, "nSamples")?;
-    if !(samples.fract() == 0.0 && (3.0..=255.0).contains(&samples) && samples % 2.0 == 1.0) {
-        return Err(Error::invalid(
-            "engine",
-            "nSamples",
-            samples,
-            "must be an odd whole number from 3 to 255",
-        ));
-    }
+    check(
+        samples.fract() == 0.0 && (3.0..=255.0).contains(&samples) && samples % 2.0 == 1.0,
+        "nSamples",
+        samples,
+        "must be an odd whole number from 3 to 255",
+    )?;
     let width = number(p, "sssWidth")?;
-    if !(width > 0.0) {
-        return Err(Error::invalid(
-            "engine",
-            "sssWidth",
-            width,
-            "must be > 0 (scene units)",
-        ));
-    }
+    check(width > 0.0, "sssWidth", width, "must be > 0 (scene units)")?;
     Iryoku {
         samples: samples as usize,
         mm_per_unit: mm_per_unit(width, scene),

@@ -134,6 +134,20 @@ pub(crate) fn in_range(ui: &str, name: &str, x: f64, (lo, hi): (f64, f64)) -> Re
     Ok(x)
 }
 
+/// Refuses the value `x` of parameter `name` with `why` unless `ok`.
+pub(crate) fn check(
+    ok: bool,
+    name: &str,
+    x: impl std::fmt::Display,
+    why: impl Into<String>,
+) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::invalid("engine", name, x, why))
+    }
+}
+
 /// Refuses a parameter that is not the one value the fit assumes.
 pub(crate) fn require(
     params: &Map<String, Value>,

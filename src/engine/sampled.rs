@@ -29,9 +29,8 @@ use super::sampling::{
 use super::{EngineFit, Scene, Version};
 use crate::error::{Error, Result};
 use crate::filter::disk_error::{frames_error, full_reference, truncated, DiskError};
-use crate::filter::image::par_planes;
+use crate::filter::rows::par_planes;
 use crate::filter::Image;
-use crate::profile::radius::DEFAULT_HOLD;
 use serde::Serialize;
 
 /// Rotations the bias is the mean over: 4 windows of [`FRAMES`] (batch
@@ -204,7 +203,8 @@ pub fn samplers(
 
 /// Scores every pass of [`samplers`] on each of `signals` (name, image) at
 /// `mm_per_pixel`, against the exact convolution with the fit's Burley
-/// profile cut where it holds [`DEFAULT_HOLD`] of every channel.
+/// profile cut where it holds [`DEFAULT_HOLD`](crate::profile::radius::DEFAULT_HOLD) of
+/// every channel (`default_extent`).
 pub fn score(
     fit: &EngineFit,
     engine: super::Engine,
@@ -216,9 +216,7 @@ pub fn score(
     crate::filter::check_mm_per_pixel(mm_per_pixel)?;
     let passes = samplers(fit, engine, scene, v)?;
     let p = &fit.profile;
-    let radius = (0..p.channels.len())
-        .map(|c| crate::profile::radius_holding(p, c, DEFAULT_HOLD))
-        .fold(0.0, f64::max);
+    let radius = crate::profile::radius::default_extent(p, 0..p.channels.len());
     let cut = truncated(p, radius);
     let mut out = Vec::new();
     for (name, image) in signals {

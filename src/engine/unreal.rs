@@ -151,9 +151,9 @@ pub fn sampled_profile(
     ))
 }
 
-pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
-    let u = scene.units_per_mm;
-    let mut warnings = Vec::new();
+/// The WorldUnitScale that maps the profile's mm to the scene's at `u`
+/// units per mm, within the asset's range (a warning where it is not).
+fn world_unit_scale(u: f64, v: Version, warnings: &mut Vec<String>) -> f64 {
     let (lo, hi) = WORLD_UNIT_SCALE_RANGE;
     let want = u / world_units_per_profile_mm(v);
     let wus = typed(want.clamp(lo, hi));
@@ -164,9 +164,18 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
              keep the profile's width in the scene"
         ));
     }
-    let k = scene_mm_per_profile_mm(v, wus, u);
-    let (alo, ahi) = SURFACE_ALBEDO_RANGE;
-    let surface = b.albedo.map(|a| typed(a.clamp(alo, ahi)));
+    wus
+}
+
+/// MeanFreePathColor and MeanFreePathDistance for the rendered d at `k`
+/// scene mm per profile mm and the printed SurfaceAlbedo `surface`, within
+/// the asset's ranges and the profile texture's (warnings where not).
+fn mean_free_path(
+    b: &Burley,
+    k: f64,
+    surface: [f64; 3],
+    warnings: &mut Vec<String>,
+) -> ([f64; 3], f64) {
     // Invert step 3 for the mean free path in cm.
     let mfp_cm: [f64; 3] = std::array::from_fn(|c| {
         b.d_mm[c] / k * DMFP2MFP * searchlight_scale(surface[c]) / MM_PER_CM
@@ -212,6 +221,16 @@ pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
             ));
         }
     }
+    (mfp_color, distance)
+}
+
+pub fn params(b: &Burley, scene: Scene, v: Version) -> Printed {
+    let mut warnings = Vec::new();
+    let wus = world_unit_scale(scene.units_per_mm, v, &mut warnings);
+    let k = scene_mm_per_profile_mm(v, wus, scene.units_per_mm);
+    let (alo, ahi) = SURFACE_ALBEDO_RANGE;
+    let surface = b.albedo.map(|a| typed(a.clamp(alo, ahi)));
+    let (mfp_color, distance) = mean_free_path(b, k, surface, &mut warnings);
     let base = b.albedo.map(|a| typed(a.clamp(0.0, 1.0)));
     let wus_unit = format!(
         "profile asset, in [0.1, 50]: one profile mm spans {} world units, cm \

@@ -6,19 +6,12 @@
 //! specular image is added after the blur. The exact 2D reference lives in
 //! [`exact`](super::exact).
 //!
-//! The entry points of the three CPU paths are re-exported here: callers
-//! name every CPU filter as `filter::cpu::…`.
+//! Each path's own entry points live in its module (`exact`,
+//! `separable`, `screen_space`); this one runs a whole [`Setup`].
 
-pub use super::exact::{
-    check_reference_fits, convolve_2d, reference_kernel, reference_kernel_sampled,
-    reference_kernels, reference_size, PixelSampling, FFT_ABOVE,
-};
-pub use super::screen_space::{apply_screen_space, apply_screen_space_in_place};
-use super::separable::apply_separable_in;
-pub use super::separable::{
-    apply_separable, apply_separable_f32, apply_separable_in_place, apply_separable_into,
-    apply_separable_plane_in_place, PixelKernel, Precision,
-};
+use super::sample::PixelKernel;
+use super::screen_space::{apply_screen_space, apply_screen_space_in_place};
+use super::separable::{apply_separable_in, apply_separable_plane_in_place, Precision};
 use super::{Image, Setup};
 use crate::error::Result;
 
@@ -32,12 +25,13 @@ pub fn apply(image: &Image, setup: &Setup) -> Result<Image> {
 /// `precision` says); specular added after.
 pub fn apply_with(image: &Image, setup: &Setup, precision: Precision) -> Result<Image> {
     setup.validate(image)?;
-    let out = if setup.is_uniform() {
+    let mut out = if setup.is_uniform() {
         apply_separable_in(image, &fixed_kernels(image, setup), precision)
     } else {
         apply_screen_space(image, setup)
     };
-    Ok(add_specular(out, setup.specular.as_ref()))
+    out.add(setup.specular.as_ref());
+    Ok(out)
 }
 
 /// [`apply_with`] overwriting `image`, as `ssskit apply` runs it: the
@@ -53,7 +47,7 @@ pub fn apply_in_place(image: &mut Image, setup: &Setup, precision: Precision) ->
     } else {
         apply_screen_space_in_place(image, setup);
     }
-    add_specular_into(image, setup.specular.as_ref());
+    image.add(setup.specular.as_ref());
     Ok(())
 }
 
@@ -97,27 +91,12 @@ fn fixed_kernels_at(setup: &Setup, height: usize) -> Vec<PixelKernel> {
         .collect()
 }
 
-fn add_specular(mut out: Image, specular: Option<&Image>) -> Image {
-    add_specular_into(&mut out, specular);
-    out
-}
-
-fn add_specular_into(out: &mut Image, specular: Option<&Image>) {
-    if let Some(s) = specular {
-        for c in 0..3 {
-            out.rgb[c]
-                .iter_mut()
-                .zip(&s.rgb[c])
-                .for_each(|(o, v)| *o += v);
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::filter::disk_error::view;
     use crate::filter::signals::noise;
-    use crate::filter::{Scale, Taps};
+    use crate::filter::Taps;
 
     #[test]
     fn fixed_kernels_equal_the_per_pixel_algorithm() {
@@ -136,12 +115,7 @@ mod tests {
         };
         let setup = Setup {
             passes: vec![taps.clone(), taps],
-            scale: Scale::MmPerPixel(0.37),
-            depth: None,
-            strength: None,
-            follow_surface: None,
-            specular: None,
-            jitter: false,
+            ..view(0.37)
         };
         let fast = apply(&img, &setup).unwrap();
         let slow = apply_screen_space(&img, &setup);
@@ -173,12 +147,7 @@ mod tests {
         };
         let mut setup = Setup {
             passes: vec![taps.clone(), taps],
-            scale: Scale::MmPerPixel(0.21),
-            depth: None,
-            strength: None,
-            follow_surface: None,
-            specular: None,
-            jitter: false,
+            ..view(0.21)
         };
         let mut whole = img.clone();
         apply_in_place(&mut whole, &setup, Precision::F32).unwrap();

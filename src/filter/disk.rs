@@ -17,13 +17,14 @@
 //! (`exact::PixelSampling::Average`), the oracle of the tests.
 
 use super::accumulate::Accumulate;
+use super::bands::Bands;
 use super::disk_lanes::{self, Packed, Planes, Texels};
+use super::rows::{par_rows, par_span_rows};
 use super::{rotation_unit, Image, Setup};
 use crate::error::{Error, Result};
 use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::disk::MAX_FRAMES;
 use crate::progress::{NoProgress, Progress};
-use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// One sample as the pass uses it: unrotated position in mm, RGB weight.
@@ -134,9 +135,7 @@ pub fn apply_disk(image: &Image, setup: &DiskSetup) -> Result<Image> {
     setup.validate(image)?;
     let pass = Pass::new(image, setup);
     let mut out = pass.run(&Packed::new(image), setup.seed, setup.frames);
-    if let Some(s) = &setup.view.specular {
-        add_specular(&mut out, s);
-    }
+    out.add(setup.view.specular.as_ref());
     Ok(out)
 }
 
@@ -203,33 +202,9 @@ pub fn apply_disk_in_place_with(
     );
     sweep(image, setup, None, progress);
     progress.finish();
-    if let Some(s) = &setup.view.specular {
-        add_specular(image, s);
-    }
+    image.add(setup.view.specular.as_ref());
     Ok(())
 }
-
-/// The specular image added after the pass.
-fn add_specular(image: &mut Image, specular: &Image) {
-    for c in 0..3 {
-        image.rgb[c]
-            .iter_mut()
-            .zip(&specular.rgb[c])
-            .for_each(|(o, v)| *o += v);
-    }
-}
-
-/// Fewest rows per band: the rows of a band are shared between threads.
-const MIN_BAND_ROWS: usize = 32;
-
-/// Band height in reaches: the buffer holds the reach of rows still read
-/// by the next band plus a band, so a band of two reaches keeps the rows
-/// that wait to at most half of those computed.
-const BAND_PER_REACH: usize = 2;
-
-/// Rows beyond `ceil(max radius x max step)` a sample reads: one for the
-/// floor of a negative position, one for the bilinear fetch's second row.
-const REACH_MARGIN_ROWS: f64 = 2.0;
 
 /// The in-place sweep in bands of `band` rows (None: from the reach).
 fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>, progress: &dyn Progress) {
@@ -240,30 +215,24 @@ fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>, progress: &d
         .iter()
         .map(|t| t.x_mm.hypot(t.y_mm))
         .fold(0.0, f64::max);
-    let r = (radius * widest).ceil() + REACH_MARGIN_ROWS;
-    // NaN or beyond the image: every row.
-    let reach = if r < h as f64 { r as usize } else { h };
-    let band = band
-        .unwrap_or_else(|| BAND_PER_REACH.saturating_mul(reach).max(MIN_BAND_ROWS))
-        .clamp(1, h);
-    let cap = band.saturating_add(reach).min(h);
+    let bands = Bands::new(radius, widest, h, band);
+    let reach = bands.reach;
+    let cap = bands.rows(1);
     let weights = setup.accumulate.weights(setup.frames);
+    let frames = Frames {
+        first: setup.seed,
+        weights: &weights,
+    };
     let mut buf: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; cap * w]);
     // Rows `pending..a` of the output wait in `buf` from its start.
     let mut pending = 0;
-    let mut a = 0;
-    while a < h {
-        let b = (a + band).min(h);
+    bands.sweep(|a, b| {
         let pass = Pass::new(image, setup);
         let tex = Planes(&image.rgb);
-        let [r, g, bl] = &mut buf;
         let span = (a - pending) * w..(b - pending) * w;
-        r[span.clone()]
-            .par_chunks_mut(w)
-            .zip(g[span.clone()].par_chunks_mut(w))
-            .zip(bl[span].par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(j, ((r, g), bl))| pass.row(&tex, a + j, setup.seed, &weights, [r, g, bl]));
+        par_span_rows(&mut buf, span, w, |j, out| {
+            pass.row(&tex, a + j, frames, out)
+        });
         // The next band reads rows from b - reach on.
         let done = if b == h {
             h
@@ -277,8 +246,7 @@ fn sweep(image: &mut Image, setup: &DiskSetup, band: Option<usize>, progress: &d
         }
         pending = done;
         progress.advance((b - a) as u64);
-        a = b;
-    }
+    });
 }
 
 /// The diffuse result of each frame `seed + k`, k < `frames`, apart (no
@@ -291,6 +259,14 @@ pub fn disk_frames(image: &Image, setup: &DiskSetup) -> Result<Vec<Image>> {
     Ok((0..setup.frames)
         .map(|k| pass.run(&tex, setup.seed.wrapping_add(k), 1))
         .collect())
+}
+
+/// The frames a row of the pass accumulates: seeds `first..`, each with
+/// its weight.
+#[derive(Clone, Copy)]
+struct Frames<'w> {
+    first: u32,
+    weights: &'w [f64],
 }
 
 struct Pass<'a> {
@@ -334,13 +310,11 @@ impl<'a> Pass<'a> {
     fn run(&self, tex: &Packed, first: u32, frames: u32) -> Image {
         let (w, h) = (self.image.width, self.image.height);
         let weights = self.setup.accumulate.weights(frames);
-        let mut rgb: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; w * h]);
-        let [r, g, b] = &mut rgb;
-        r.par_chunks_mut(w.max(1))
-            .zip(g.par_chunks_mut(w.max(1)))
-            .zip(b.par_chunks_mut(w.max(1)))
-            .enumerate()
-            .for_each(|(y, ((r, g), b))| self.row(tex, y, first, &weights, [r, g, b]));
+        let f = Frames {
+            first,
+            weights: &weights,
+        };
+        let rgb = par_rows(w, h, |y, out| self.row(tex, y, f, out));
         Image {
             width: w,
             height: h,
@@ -351,40 +325,26 @@ impl<'a> Pass<'a> {
 
     /// Row `y` of the pass into `out`, in AVX2 where the CPU has it (the
     /// same operations, four lanes at once).
-    fn row<T: Texels>(&self, tex: &T, y: usize, first: u32, weights: &[f64], out: [&mut [f64]; 3]) {
+    fn row<T: Texels>(&self, tex: &T, y: usize, f: Frames, out: [&mut [f64]; 3]) {
         #[cfg(target_arch = "x86_64")]
         if crate::numerics::has_avx2() {
             // SAFETY: has_avx2 checked the CPU features.
-            return unsafe { self.row_avx2(tex, y, first, weights, out) };
+            return unsafe { self.row_avx2(tex, y, f, out) };
         }
-        self.row_lanes(tex, y, first, weights, out)
+        self.row_lanes(tex, y, f, out)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn row_avx2<T: Texels>(
-        &self,
-        tex: &T,
-        y: usize,
-        first: u32,
-        weights: &[f64],
-        out: [&mut [f64]; 3],
-    ) {
-        self.row_lanes(tex, y, first, weights, out)
+    unsafe fn row_avx2<T: Texels>(&self, tex: &T, y: usize, f: Frames, out: [&mut [f64]; 3]) {
+        self.row_lanes(tex, y, f, out)
     }
 
     #[inline(always)]
-    fn row_lanes<T: Texels>(
-        &self,
-        tex: &T,
-        y: usize,
-        first: u32,
-        weights: &[f64],
-        out: [&mut [f64]; 3],
-    ) {
+    fn row_lanes<T: Texels>(&self, tex: &T, y: usize, f: Frames, out: [&mut [f64]; 3]) {
         let [r, g, b] = out;
         for x in 0..self.image.width {
-            let v = self.pixel(tex, x, y, first, weights);
+            let v = self.pixel(tex, x, y, f.first, f.weights);
             (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
         }
     }
@@ -590,9 +550,13 @@ mod tests {
                 let mut a: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; w]);
                 let mut b = a.clone();
                 let [r, g, bl] = &mut a;
-                pass.row_lanes(&packed, y, 5, &[0.5, 0.5], [r, g, bl]);
+                let f = Frames {
+                    first: 5,
+                    weights: &[0.5, 0.5],
+                };
+                pass.row_lanes(&packed, y, f, [r, g, bl]);
                 let [r, g, bl] = &mut b;
-                pass.row(&planes, y, 5, &[0.5, 0.5], [r, g, bl]);
+                pass.row(&planes, y, f, [r, g, bl]);
                 for c in 0..3 {
                     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(&a[c]), bits(&b[c]), "row {y} channel {c}");

@@ -14,9 +14,10 @@ use super::disk::{disk_frames, DiskSetup};
 use super::exact::convolve_2d;
 use super::{Image, Scale, Setup};
 use crate::error::{Error, Result};
-use crate::kernel::disk::{fit_disk, RadiusPdf, MAX_FRAMES};
+use crate::kernel::disk::{RadiusPdf, MAX_FRAMES};
+use crate::kernel::disk_fit::fit_disk;
 use crate::kernel::Kernel2D;
-use crate::profile::radius::DEFAULT_HOLD;
+use crate::profile::radius::default_extent;
 use crate::profile::Profile;
 use serde::Serialize;
 
@@ -89,18 +90,9 @@ pub struct FirstAccumulation {
     pub error_sd: [f64; 3],
 }
 
-/// [`disk_error_with_first`] for any stochastic pass: `frame(k)` is the
-/// pass's diffuse image of frame k (k < `rotations`), `samples_per_pixel`
-/// its fetches per pixel and frame (an engine's own sampling, the disk
-/// kernels).
-pub fn frames_error(
-    image: &Image,
-    reference: &Image,
-    samples_per_pixel: usize,
-    rotations: u32,
-    frames: u32,
-    mut frame: impl FnMut(u32) -> Result<Image>,
-) -> Result<(DiskError, FirstAccumulation)> {
+/// Rotations make whole windows of `frames`, at least two of them, within
+/// [`MAX_FRAMES`] (the spread between windows needs two).
+fn check_rotations(rotations: u32, frames: u32) -> Result<()> {
     if frames == 0
         || rotations > MAX_FRAMES
         || !rotations.is_multiple_of(frames)
@@ -116,6 +108,22 @@ pub fn frames_error(
             ),
         ));
     }
+    Ok(())
+}
+
+/// [`disk_error_with_first`] for any stochastic pass: `frame(k)` is the
+/// pass's diffuse image of frame k (k < `rotations`), `samples_per_pixel`
+/// its fetches per pixel and frame (an engine's own sampling, the disk
+/// kernels).
+pub fn frames_error(
+    image: &Image,
+    reference: &Image,
+    samples_per_pixel: usize,
+    rotations: u32,
+    frames: u32,
+    mut frame: impl FnMut(u32) -> Result<Image>,
+) -> Result<(DiskError, FirstAccumulation)> {
+    check_rotations(rotations, frames)?;
     super::image::check_same_size("the reference", reference.width, reference.height, image)?;
     let n = image.len();
     let mut sum = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
@@ -205,7 +213,7 @@ pub fn frames_error(
 /// pass's bilinear fetches) over `rotations` frames, noise also after
 /// `frames`: what the advice weighs against a separable kernel of the same
 /// cost (samples per pixel). Both see the profile cut at the radius that
-/// holds [`DEFAULT_HOLD`] of every channel (the extent of the exact
+/// holds [`DEFAULT_HOLD`](crate::profile::radius::DEFAULT_HOLD) of every channel (the extent of the exact
 /// reference of `apply --reference`), so that the bias is the sampling's
 /// alone.
 pub fn score_disk(
@@ -218,9 +226,7 @@ pub fn score_disk(
     frames: u32,
 ) -> Result<DiskError> {
     super::check_mm_per_pixel(mm_per_pixel)?;
-    let radius = (0..profile.channels.len())
-        .map(|c| crate::profile::radius_holding(profile, c, DEFAULT_HOLD))
-        .fold(0.0, f64::max);
+    let radius = default_extent(profile, 0..profile.channels.len());
     let cut = truncated(profile, radius);
     let kernel = fit_disk(&cut, samples, radii)?;
     let reference = full_reference(&cut, signal, mm_per_pixel)?;

@@ -4,10 +4,10 @@
 //! [`super::disk::apply_disk`] (f64) within [`disk_f32_tolerance`].
 
 use super::disk::DiskSetup;
-use super::gpu::{check_binding, ign_constants, plane_or_ones, rgba};
+use super::gpu::{check_binding, ign_constants, plane_or_ones, rgba, SCREEN_COMMON_WGSL};
 use super::Image;
 use crate::error::Result;
-use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/disk.wgsl");
 
@@ -174,17 +174,21 @@ impl DiskGpu {
 /// The constants disk.wgsl shares with this file and the CPU twin
 /// ([`super::jitter`]).
 fn shared_constants() -> Vec<(&'static str, u32)> {
-    let mut c = ign_constants().to_vec();
-    c.extend([
-        ("SILVER_U32", super::jitter::SILVER_U32),
-        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
-    ]);
-    c
+    [
+        &ign_constants()[..],
+        &[
+            ("SILVER_U32", super::jitter::SILVER_U32),
+            ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+        ],
+    ]
+    .concat()
 }
 
 fn shader_source() -> String {
-    let consts = wgsl_u32_consts(&shared_constants());
-    [&consts, WGSL_WIDE_MUL, DiskParams::WGSL, SHADER].join("\n")
+    assemble_wgsl(
+        &shared_constants(),
+        &[WGSL_WIDE_MUL, SCREEN_COMMON_WGSL, DiskParams::WGSL, SHADER],
+    )
 }
 
 #[cfg(test)]

@@ -9,6 +9,7 @@
 use super::{clamp_index, Image};
 use crate::error::{Error, Result};
 use crate::kernel::{Kernel2D, Kernel2DSpec};
+use crate::profile::radius::default_extent;
 use crate::profile::Profile;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
@@ -77,9 +78,7 @@ fn reference_spec(
     sampling: PixelSampling,
 ) -> Result<Kernel2DSpec> {
     super::check_mm_per_pixel(mm_per_pixel)?;
-    let radius = (0..profile.channels.len())
-        .map(|c| crate::profile::radius_holding(profile, c, 0.999))
-        .fold(0.0, f64::max);
+    let radius = default_extent(profile, 0..profile.channels.len());
     let half = (radius / mm_per_pixel).ceil().max(1.0) as usize;
     let half = match sampling {
         PixelSampling::Centre => half,

@@ -5,9 +5,14 @@
 
 use super::{Image, Setup};
 use crate::error::{Error, Result};
-use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
+
+/// What both screen-space passes' shaders share: the image, depth and
+/// strength bindings and the interleaved gradient noise (after
+/// `WGSL_WIDE_MUL` and [`ign_constants`]).
+pub(super) const SCREEN_COMMON_WGSL: &str = include_str!("../../shaders/screen_common.wgsl");
 
 /// A device with the pass pipeline compiled.
 pub struct Gpu {
@@ -277,12 +282,14 @@ const WORKGROUP_SIDE: u32 = 8;
 /// ([`super::jitter`]), prepended to it as WGSL `const`s: the shader names
 /// them and never spells their values.
 fn shared_constants() -> Vec<(&'static str, u32)> {
-    let mut c = ign_constants().to_vec();
-    c.extend([
-        ("GOLDEN_U32", super::jitter::GOLDEN_U32),
-        ("WORKGROUP_SIDE", WORKGROUP_SIDE),
-    ]);
-    c
+    [
+        &ign_constants()[..],
+        &[
+            ("GOLDEN_U32", super::jitter::GOLDEN_U32),
+            ("WORKGROUP_SIDE", WORKGROUP_SIDE),
+        ],
+    ]
+    .concat()
 }
 
 /// The interleaved gradient noise's fixed-point constants, shared by the
@@ -338,8 +345,10 @@ pub(super) fn plane_or_ones(p: Option<&super::Plane>, n: usize) -> Vec<f32> {
 /// this file and the CPU twin (the noise constants, the workgroup size, the
 /// wide product, the uniform block).
 fn shader_source() -> String {
-    let consts = wgsl_u32_consts(&shared_constants());
-    [&consts, WGSL_WIDE_MUL, Params::WGSL, SHADER].join("\n")
+    assemble_wgsl(
+        &shared_constants(),
+        &[WGSL_WIDE_MUL, SCREEN_COMMON_WGSL, Params::WGSL, SHADER],
+    )
 }
 
 /// The bound resources of one image and setup.
@@ -393,15 +402,14 @@ mod tests {
         bad
     }
 
-    /// sss_pass.wgsl names every constant it shares with Rust and spells
-    /// none of their values, so a constant changed on one side only cannot
+    /// sss_pass.wgsl with what it shares with the disk pass (screen_common.wgsl)
+    /// names every constant it shares with Rust and spells none of their
+    /// values, so a constant changed on one side only cannot
     /// go unnoticed; the check itself catches a value written back in.
     #[test]
     fn the_shader_spells_no_shared_constant() {
-        assert_eq!(
-            spelled_shared_constants(super::SHADER),
-            Vec::<String>::new()
-        );
+        let bodies = [super::SCREEN_COMMON_WGSL, super::SHADER].join("\n");
+        assert_eq!(spelled_shared_constants(&bodies), Vec::<String>::new());
         for (from, to) in [
             ("IGN_WHOLE * inner", "52u * inner"),
             ("f32(1u << JITTER_BITS)", "16777216.0"),
@@ -410,8 +418,8 @@ mod tests {
                 "@workgroup_size(8, 8, 1)",
             ),
         ] {
-            assert!(super::SHADER.contains(from), "{from}");
-            let mutated = super::SHADER.replace(from, to);
+            assert!(bodies.contains(from), "{from}");
+            let mutated = bodies.replace(from, to);
             assert!(
                 !spelled_shared_constants(&mutated).is_empty(),
                 "{to} passed"

@@ -23,30 +23,6 @@ pub struct Plane {
     pub data: Vec<f64>,
 }
 
-/// The three colour planes of a `w` x `h` image whose pixel (x, y) is
-/// `pixel(x, y)`, computed in parallel by rows (each pixel on its own, so
-/// the result is the same at any thread count).
-pub fn par_planes(
-    w: usize,
-    h: usize,
-    pixel: impl Fn(usize, usize) -> [f64; 3] + Sync,
-) -> [Vec<f64>; 3] {
-    use rayon::prelude::*;
-    let mut out: [Vec<f64>; 3] = [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]];
-    let [r, g, b] = &mut out;
-    r.par_chunks_mut(w.max(1))
-        .zip(g.par_chunks_mut(w.max(1)))
-        .zip(b.par_chunks_mut(w.max(1)))
-        .enumerate()
-        .for_each(|(y, ((r, g), b))| {
-            for x in 0..w {
-                let v = pixel(x, y);
-                (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
-            }
-        });
-    out
-}
-
 /// What an image file held besides colour.
 #[derive(Clone, Debug, Default)]
 pub struct Extras {
@@ -71,6 +47,19 @@ impl Image {
 
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// Adds `other`'s colour pixel by pixel (a specular image after the
+    /// diffuse pass); `None` adds nothing.
+    pub fn add(&mut self, other: Option<&Image>) {
+        if let Some(o) = other {
+            for c in 0..3 {
+                self.rgb[c]
+                    .iter_mut()
+                    .zip(&o.rgb[c])
+                    .for_each(|(a, v)| *a += v);
+            }
+        }
     }
 
     /// Largest value of each channel (the "peak" relative errors refer to).

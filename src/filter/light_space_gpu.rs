@@ -8,7 +8,7 @@
 use super::light_space::{LightSpaceInput, LightSpaceSetup};
 use super::Image;
 use crate::error::{Error, Result};
-use crate::gpu::{wgsl_struct, wgsl_u32_consts, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_FRESNEL, WGSL_WIDE_MUL};
 use crate::profile::mc::gpu::{philox_wgsl_constants, PHILOX_WGSL};
 use crate::scene::{LightSource, Measure, V3};
 
@@ -292,26 +292,29 @@ impl LightSpaceGpu {
 
 /// The constants light_space.wgsl shares with this file and its twin.
 fn shared_constants() -> Vec<(&'static str, u32)> {
-    let mut c = philox_wgsl_constants().to_vec();
-    c.extend([
-        ("UNIFORM_BITS", super::jitter::JITTER_BITS),
-        ("WORKGROUP", WORKGROUP),
-    ]);
-    c
+    [
+        &philox_wgsl_constants()[..],
+        &[
+            ("UNIFORM_BITS", super::jitter::JITTER_BITS),
+            ("WORKGROUP", WORKGROUP),
+        ],
+    ]
+    .concat()
 }
 
 fn shader_source() -> String {
-    let consts = wgsl_u32_consts(&shared_constants());
-    [
-        &consts,
-        WGSL_WIDE_MUL,
-        PHILOX_WGSL,
-        LsParams::WGSL,
-        LsMap::WGSL,
-        LsMedium::WGSL,
-        SHADER,
-    ]
-    .join("\n")
+    assemble_wgsl(
+        &shared_constants(),
+        &[
+            WGSL_WIDE_MUL,
+            WGSL_FRESNEL,
+            PHILOX_WGSL,
+            LsParams::WGSL,
+            LsMap::WGSL,
+            LsMedium::WGSL,
+            SHADER,
+        ],
+    )
 }
 
 #[cfg(test)]

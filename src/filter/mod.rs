@@ -22,6 +22,7 @@ pub mod accumulate;
 pub mod angular;
 #[cfg(test)]
 pub(crate) mod band_check;
+mod bands;
 pub mod cpu;
 pub mod diff;
 pub mod disk;
@@ -36,6 +37,7 @@ pub mod jitter;
 pub mod kernel_setup;
 pub mod light_space;
 pub mod light_space_gpu;
+pub mod rows;
 pub mod sample;
 pub mod screen_space;
 pub mod separable;
@@ -608,18 +610,14 @@ mod tests {
             let s0: f64 = t.weights.iter().map(|w| w[c]).sum();
             let s1: f64 = r.weights.iter().map(|w| w[c]).sum();
             assert!((s0 - s1).abs() < 1e-12 * s0);
-            let m0: f64 = t
-                .offsets_mm
-                .iter()
-                .zip(&t.weights)
-                .map(|(x, w)| x * w[c])
-                .sum();
-            let m1: f64 = r
-                .offsets_mm
-                .iter()
-                .zip(&r.weights)
-                .map(|(x, w)| x * w[c])
-                .sum();
+            let moment = |t: &Taps| -> f64 {
+                t.offsets_mm
+                    .iter()
+                    .zip(&t.weights)
+                    .map(|(x, w)| x * w[c])
+                    .sum()
+            };
+            let (m0, m1) = (moment(&t), moment(&r));
             // The first moment moves by less than a pixel's resolution.
             assert!((m0 / s0 - m1 / s1).abs() < 0.01, "{} {}", m0 / s0, m1 / s1);
         }

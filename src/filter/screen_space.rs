@@ -21,23 +21,10 @@
 //! the same products added in the same order as [`PassCtx::pixel`] (bit for
 //! bit, tested).
 
+use super::bands::Bands;
+use super::rows::par_span_rows;
 use super::uniform_pass::{Lerp, Src, Uniform};
 use super::{Image, Setup, Taps};
-use rayon::prelude::*;
-
-/// Fewest rows per band: the rows of a band are shared between threads.
-const MIN_BAND_ROWS: usize = 32;
-
-/// Band height in vertical reaches: the window keeps the `2 reach` rows
-/// that the next band also reads and computes `band` new ones, so with a
-/// band of two reaches the copied rows are at most as many as the new ones
-/// and the window is four reaches tall.
-const BAND_PER_REACH: usize = 2;
-
-/// Rows beyond the reach `ceil(max |offset| x max step)` that a vertical
-/// sample reads: one for the floor of a negative position, one for the
-/// second pixel of the linear interpolation.
-const REACH_MARGIN_ROWS: f64 = 2.0;
 
 /// The direction of a 1D pass; the jitter of a tap differs between the two.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,15 +60,45 @@ fn sweep_with(image: &mut Image, setup: &Setup, band: Option<usize>, uniform: bo
         image.rgb.iter_mut().for_each(|p| p.fill(0.0));
         return;
     }
-    let footprints: Vec<Option<Vec<(f64, f64)>>> = setup
+    let footprints = footprints_of(setup);
+    let ctxs = contexts(setup, &footprints, w, h, uniform);
+    let bands = bands_of(setup, &ctxs, w, h, band);
+    let reach = bands.reach;
+    let mut windows: Vec<Window> = ctxs.iter().map(|_| Window::new(bands.rows(2), w)).collect();
+    bands.sweep(|a, b| {
+        // Every rank's rows first: a band's output overwrites rows that
+        // the horizontal pass of a later rank would otherwise read.
+        for (win, ctx) in windows.iter_mut().zip(&ctxs) {
+            win.advance(a.saturating_sub(reach), (b + reach).min(h), ctx, image);
+        }
+        for (k, (win, ctx)) in windows.iter().zip(&ctxs).enumerate() {
+            ctx.vertical_rows(win, image, a, b, k > 0);
+        }
+    });
+}
+
+/// Per rank, the footprints of its taps when they are jittered.
+fn footprints_of(setup: &Setup) -> Vec<Option<Vec<(f64, f64)>>> {
+    setup
         .passes
         .iter()
         .map(|t| setup.jitter.then(|| t.footprints()))
-        .collect();
-    let ctxs: Vec<PassCtx> = setup
+        .collect()
+}
+
+/// Each rank's pass over a `w` x `h` image (`uniform` false: every pixel
+/// summed apart even where the step is uniform).
+fn contexts<'a>(
+    setup: &'a Setup,
+    footprints: &'a [Option<Vec<(f64, f64)>>],
+    w: usize,
+    h: usize,
+    uniform: bool,
+) -> Vec<PassCtx<'a>> {
+    setup
         .passes
         .iter()
-        .zip(&footprints)
+        .zip(footprints)
         .map(|(taps, f)| PassCtx {
             w,
             h,
@@ -93,32 +110,12 @@ fn sweep_with(image: &mut Image, setup: &Setup, band: Option<usize>, uniform: bo
             footprints: f.as_deref(),
             uniform: Uniform::new(setup, taps, w, h).filter(|_| uniform),
         })
-        .collect();
-    let reach = reach_rows(setup, &ctxs, w, h);
-    let band = band
-        .unwrap_or_else(|| BAND_PER_REACH.saturating_mul(reach).max(MIN_BAND_ROWS))
-        .clamp(1, h);
-    let cap = band.saturating_add(2 * reach).min(h);
-    let mut windows: Vec<Window> = ctxs.iter().map(|_| Window::new(cap, w)).collect();
-    let mut a = 0;
-    while a < h {
-        let b = (a + band).min(h);
-        // Every rank's rows first: a band's output overwrites rows that
-        // the horizontal pass of a later rank would otherwise read.
-        for (win, ctx) in windows.iter_mut().zip(&ctxs) {
-            win.advance(a.saturating_sub(reach), (b + reach).min(h), ctx, image);
-        }
-        for (k, (win, ctx)) in windows.iter().zip(&ctxs).enumerate() {
-            ctx.vertical_rows(win, image, a, b, k > 0);
-        }
-        a = b;
-    }
+        .collect()
 }
 
-/// Rows above or below its own that a vertical sample can read: the
-/// largest |offset| (with jitter, anywhere in a tap's footprint) times the
-/// largest step, plus [`REACH_MARGIN_ROWS`]; at most the image height.
-fn reach_rows(setup: &Setup, ctxs: &[PassCtx], w: usize, h: usize) -> usize {
+/// The bands of the sweep: the reach is the largest |offset| (with jitter,
+/// anywhere in a tap's footprint) times the largest step.
+fn bands_of(setup: &Setup, ctxs: &[PassCtx], w: usize, h: usize, band: Option<usize>) -> Bands {
     let widest = setup.steps_iter(w, h).fold(0.0, f64::max);
     let offset = ctxs
         .iter()
@@ -127,13 +124,7 @@ fn reach_rows(setup: &Setup, ctxs: &[PassCtx], w: usize, h: usize) -> usize {
             None => c.taps.offsets_mm.iter().map(|o| o.abs()).collect(),
         })
         .fold(0.0, f64::max);
-    let reach = (offset * widest).ceil() + REACH_MARGIN_ROWS;
-    // NaN or beyond the image: every row.
-    if reach < h as f64 {
-        reach as usize
-    } else {
-        h
-    }
+    Bands::new(offset, widest, h, band)
 }
 
 /// One rank's horizontally filtered rows `first..first + rows`, each
@@ -178,23 +169,18 @@ impl Window {
             self.rows = hi - self.first;
             return;
         }
-        r[span.clone()]
-            .par_chunks_mut(w)
-            .zip(g[span.clone()].par_chunks_mut(w))
-            .zip(b[span].par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(j, ((r, g), b))| {
-                let y = start + j;
-                let row = y * w..(y + 1) * w;
-                let src = Src {
-                    planes: std::array::from_fn(|c| &image.rgb[c][row.clone()]),
-                    first: y,
-                };
-                for x in 0..w {
-                    let v = ctx.pixel(&src, Axis::Horizontal, x, y);
-                    (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
-                }
-            });
+        par_span_rows(&mut self.planes, span, w, |j, [r, g, b]| {
+            let y = start + j;
+            let row = y * w..(y + 1) * w;
+            let src = Src {
+                planes: std::array::from_fn(|c| &image.rgb[c][row.clone()]),
+                first: y,
+            };
+            for x in 0..w {
+                let v = ctx.pixel(&src, Axis::Horizontal, x, y);
+                (r[x], g[x], b[x]) = (v[0], v[1], v[2]);
+            }
+        });
         self.rows = hi - self.first;
     }
 }
@@ -223,26 +209,19 @@ impl PassCtx<'_> {
             planes: std::array::from_fn(|c| &win.planes[c][..win.rows * w]),
             first: win.first,
         };
-        let [r, g, bl] = &mut image.rgb;
-        let span = a * w..b * w;
-        r[span.clone()]
-            .par_chunks_mut(w)
-            .zip(g[span.clone()].par_chunks_mut(w))
-            .zip(bl[span].par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(j, ((r, g), bl))| {
-                if let Some(u) = &self.uniform {
-                    return u.vertical_row(self.taps, &src, a + j, [r, g, bl], add);
+        par_span_rows(&mut image.rgb, a * w..b * w, w, |j, [r, g, bl]| {
+            if let Some(u) = &self.uniform {
+                return u.vertical_row(self.taps, &src, a + j, [r, g, bl], add);
+            }
+            for x in 0..w {
+                let v = self.pixel(&src, Axis::Vertical, x, a + j);
+                if add {
+                    (r[x], g[x], bl[x]) = (r[x] + v[0], g[x] + v[1], bl[x] + v[2]);
+                } else {
+                    (r[x], g[x], bl[x]) = (v[0], v[1], v[2]);
                 }
-                for x in 0..w {
-                    let v = self.pixel(&src, Axis::Vertical, x, a + j);
-                    if add {
-                        (r[x], g[x], bl[x]) = (r[x] + v[0], g[x] + v[1], bl[x] + v[2]);
-                    } else {
-                        (r[x], g[x], bl[x]) = (v[0], v[1], v[2]);
-                    }
-                }
-            });
+            }
+        });
     }
 
     fn pixel(&self, src: &Src, axis: Axis, x: usize, y: usize) -> [f64; 3] {
@@ -302,6 +281,7 @@ impl PassCtx<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::filter::disk_error::view;
     use crate::filter::signals::noise;
     use crate::filter::{FollowSurface, Plane, Scale};
 
@@ -342,26 +322,9 @@ mod tests {
         let (w, h) = (19, 70);
         let img = noise(w, h, 99);
         let setup = busy_setup(w, h);
-        let ctxs_reach = {
-            let f: Vec<_> = setup.passes.iter().map(|t| t.footprints()).collect();
-            let ctxs: Vec<PassCtx> = setup
-                .passes
-                .iter()
-                .zip(&f)
-                .map(|(taps, f)| PassCtx {
-                    w,
-                    h,
-                    taps,
-                    setup: &setup,
-                    base: setup.scale.step_base(h),
-                    depth: None,
-                    follow: None,
-                    footprints: Some(f),
-                    uniform: None,
-                })
-                .collect();
-            reach_rows(&setup, &ctxs, w, h)
-        };
+        assert!(setup.jitter, "the reach holds the jittered footprints");
+        let f = footprints_of(&setup);
+        let ctxs_reach = bands_of(&setup, &contexts(&setup, &f, w, h, false), w, h, None).reach;
         // The window must be shorter than the image for the test to mean
         // anything: rows are dropped and filtered again never.
         assert!(4 * ctxs_reach < h, "reach {ctxs_reach}");
@@ -393,12 +356,7 @@ mod tests {
             let img = noise(w, h, 7);
             let setup = Setup {
                 passes: vec![taps.clone(), other.clone()],
-                scale: Scale::MmPerPixel(0.37),
-                depth: None,
-                strength: None,
-                follow_surface: None,
-                specular: None,
-                jitter: false,
+                ..view(0.37)
             };
             for band in [None, Some(3), Some(40)] {
                 let (mut fast, mut slow) = (img.clone(), img.clone());

@@ -7,7 +7,7 @@
 //! f32 ([`Precision`]), SIMD-friendly row and column loops, rayon over
 //! strips of rows with no cross-thread sums (deterministic).
 
-pub use super::sample::{PixelKernel, Sample};
+use super::sample::{PixelKernel, Sample};
 use super::sweep::{self, Job};
 use super::Image;
 

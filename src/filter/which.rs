@@ -10,7 +10,7 @@ use crate::kernel::KernelFile;
 /// Which factors of a kernel file a pass runs: the full-resolution factors
 /// or an N-tap table (the stored one when N is its count, else one rebuilt
 /// from the full factors); also which image-space error a table shows
-/// (`kernel_compare::Factor`). The one such choice in the crate.
+/// (`report::eval::compare::kernel`). The one such choice in the crate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Which {
     Full,

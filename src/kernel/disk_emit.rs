@@ -5,9 +5,8 @@
 //! sum them.
 
 use super::disk::DiskKernelFile;
-use super::emit::{comment, num, Lang};
+use super::emit::{comment, const_array, const_u32, num, vec_type, Lang};
 use crate::error::{Error, Result};
-use std::fmt::Write;
 
 /// The arrays `sss_disk_points` (float2, mm) and `sss_disk_weights`
 /// (float3) of `k` in `lang`, with `sss_disk_count`.
@@ -55,31 +54,10 @@ pub fn emit_disk(k: &DiskKernelFile, lang: Lang) -> Result<String> {
         &mut out,
         &format!("total_rd = {}: {}.", rgb(k.total_rd), usage.total_rd),
     );
-    let (f2, f3, decl_n) = match lang {
-        Lang::Hlsl => (
-            "float2",
-            "float3",
-            format!("static const uint sss_disk_count = {n}u;"),
-        ),
-        Lang::Glsl => ("vec2", "vec3", format!("const uint sss_disk_count = {n}u;")),
-        Lang::Wgsl => (
-            "vec2<f32>",
-            "vec3<f32>",
-            format!("const sss_disk_count: u32 = {n}u;"),
-        ),
-    };
-    let _ = writeln!(out, "{decl_n}");
+    let (f2, f3) = (vec_type(lang, 2), vec_type(lang, 3));
+    const_u32(&mut out, lang, "sss_disk_count", n);
     if let Some(a) = &k.accumulation {
-        let f = a.frames;
-        let _ = writeln!(
-            out,
-            "{}",
-            match lang {
-                Lang::Hlsl => format!("static const uint sss_disk_frames = {f}u;"),
-                Lang::Glsl => format!("const uint sss_disk_frames = {f}u;"),
-                Lang::Wgsl => format!("const sss_disk_frames: u32 = {f}u;"),
-            }
-        );
+        const_u32(&mut out, lang, "sss_disk_frames", a.frames);
     }
     let points: Vec<String> = k
         .samples
@@ -97,20 +75,8 @@ pub fn emit_disk(k: &DiskKernelFile, lang: Lang) -> Result<String> {
             format!("{f3}({}, {}, {})", num(w[0]), num(w[1]), num(w[2]))
         })
         .collect();
-    for (name, ty, items) in [
-        ("sss_disk_points", f2, points),
-        ("sss_disk_weights", f3, weights),
-    ] {
-        let body = items.join(",\n    ");
-        let _ = match lang {
-            Lang::Hlsl => writeln!(out, "static const {ty} {name}[{n}] = {{\n    {body}\n}};"),
-            Lang::Glsl => writeln!(out, "const {ty} {name}[{n}] = {ty}[{n}](\n    {body}\n);"),
-            Lang::Wgsl => writeln!(
-                out,
-                "const {name}: array<{ty}, {n}> = array<{ty}, {n}>(\n    {body}\n);"
-            ),
-        };
-    }
+    const_array(&mut out, lang, &f2, "sss_disk_points", n, &points);
+    const_array(&mut out, lang, &f3, "sss_disk_weights", n, &weights);
     if let Some(a) = &k.angular {
         super::emit::emit_angular(&mut out, a, lang)?;
     }

@@ -102,11 +102,19 @@ fn check_f32(k: &KernelFile) -> Result<()> {
 pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
     check_f32(k)?;
     let mut out = String::new();
+    header(&mut out, k);
+    tables(&mut out, k, lang);
+    extras(&mut out, k, lang)?;
+    Ok(out)
+}
+
+/// The comments that say what the tables are and how to run them.
+fn header(out: &mut String, k: &KernelFile) {
     let n = k.taps.count;
     let usage = k.usage();
     let rgb = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
     comment(
-        &mut out,
+        out,
         &format!(
             "ssskit kernel: model {} ({}), {} taps per pass, {} separable term(s) = {} \
              one-dimensional passes (sss_terms, sss_passes).",
@@ -118,33 +126,33 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
         ),
     );
     comment(
-        &mut out,
+        out,
         "Layout: one vec4 per tap, xyz = RGB weight (dimensionless), w = offset in \
          millimetres on the surface; the centre tap first (Jimenez's separable SSS layout).",
     );
-    comment(&mut out, &format!("Pixels: {}.", usage.pixels_per_mm));
-    comment(&mut out, &format!("Depth: {}.", usage.depth));
+    comment(out, &format!("Pixels: {}.", usage.pixels_per_mm));
+    comment(out, &format!("Depth: {}.", usage.depth));
     // The kernel file names its per-term tables `taps.passes`: a term p
     // here is one of them, run as two one-dimensional passes.
     comment(
-        &mut out,
+        out,
         &format!(
             "Terms (sss_kernel_p; the kernel file's taps.passes[p]): {}.",
             usage.passes
         ),
     );
     comment(
-        &mut out,
+        out,
         &format!("total_rd = {}: {}.", rgb(k.total_rd), usage.total_rd),
     );
     for (p, s) in usage.pass_weight_sums.iter().enumerate() {
         comment(
-            &mut out,
+            out,
             &format!("Term {p}: tap weight sum per channel {}.", rgb(*s)),
         );
     }
     comment(
-        &mut out,
+        out,
         &format!(
             "2D weight sum (sum over passes of the squared pass sums): {}{}.",
             rgb(usage.kernel_sum),
@@ -155,26 +163,15 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
             }
         ),
     );
-    let _ = match lang {
-        Lang::Hlsl => writeln!(
-            out,
-            "static const uint sss_taps = {n}u;\nstatic const uint sss_terms = {}u;\nstatic const uint sss_passes = {}u;",
-            k.taps.passes.len(),
-            2 * k.taps.passes.len()
-        ),
-        Lang::Glsl => writeln!(
-            out,
-            "const uint sss_taps = {n}u;\nconst uint sss_terms = {}u;\nconst uint sss_passes = {}u;",
-            k.taps.passes.len(),
-            2 * k.taps.passes.len()
-        ),
-        Lang::Wgsl => writeln!(
-            out,
-            "const sss_taps: u32 = {n}u;\nconst sss_terms: u32 = {}u;\nconst sss_passes: u32 = {}u;",
-            k.taps.passes.len(),
-            2 * k.taps.passes.len()
-        ),
-    };
+}
+
+/// The counts and each term's tap table, the centre tap first.
+fn tables(out: &mut String, k: &KernelFile, lang: Lang) {
+    let n = k.taps.count;
+    const_u32(out, lang, "sss_taps", n);
+    const_u32(out, lang, "sss_terms", k.taps.passes.len());
+    const_u32(out, lang, "sss_passes", 2 * k.taps.passes.len());
+    let ty = vec_type(lang, 4);
     for (p, pass) in k.taps.passes.iter().enumerate() {
         let centre = n / 2;
         let order = std::iter::once(centre).chain((0..n).filter(|&i| i != centre));
@@ -182,13 +179,8 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
             .map(|i| {
                 let w = pass.weights[i];
                 let o = pass.offsets_mm[i];
-                let ctor = match lang {
-                    Lang::Hlsl => "float4",
-                    Lang::Glsl => "vec4",
-                    Lang::Wgsl => "vec4<f32>",
-                };
                 format!(
-                    "{ctor}({}, {}, {}, {})",
+                    "{ty}({}, {}, {}, {})",
                     num(w[0]),
                     num(w[1]),
                     num(w[2]),
@@ -196,24 +188,47 @@ pub fn emit(k: &KernelFile, lang: Lang) -> Result<String> {
                 )
             })
             .collect();
-        let body = items.join(",\n    ");
-        let _ = match lang {
-            Lang::Hlsl => writeln!(
-                out,
-                "static const float4 sss_kernel_{p}[{n}] = {{\n    {body}\n}};"
-            ),
-            Lang::Glsl => writeln!(
-                out,
-                "const vec4 sss_kernel_{p}[{n}] = vec4[{n}](\n    {body}\n);"
-            ),
-            Lang::Wgsl => writeln!(
-                out,
-                "const sss_kernel_{p}: array<vec4<f32>, {n}> = array<vec4<f32>, {n}>(\n    {body}\n);"
-            ),
-        };
+        const_array(out, lang, &ty, &format!("sss_kernel_{p}"), n, &items);
     }
-    extras(&mut out, k, lang)?;
-    Ok(out)
+}
+
+/// The type of a vector of `dims` f32 in `lang`.
+pub(crate) fn vec_type(lang: Lang, dims: usize) -> String {
+    match lang {
+        Lang::Hlsl => format!("float{dims}"),
+        Lang::Glsl => format!("vec{dims}"),
+        Lang::Wgsl => format!("vec{dims}<f32>"),
+    }
+}
+
+/// A u32 constant `name` in `lang`, on its own line.
+pub(crate) fn const_u32(out: &mut String, lang: Lang, name: &str, v: impl std::fmt::Display) {
+    let _ = match lang {
+        Lang::Hlsl => writeln!(out, "static const uint {name} = {v}u;"),
+        Lang::Glsl => writeln!(out, "const uint {name} = {v}u;"),
+        Lang::Wgsl => writeln!(out, "const {name}: u32 = {v}u;"),
+    };
+}
+
+/// A constant array `name` of `n` values of type `ty` in `lang`, `items`
+/// in the type's constructor form, one a line.
+pub(crate) fn const_array(
+    out: &mut String,
+    lang: Lang,
+    ty: &str,
+    name: &str,
+    n: usize,
+    items: &[String],
+) {
+    let body = items.join(",\n    ");
+    let _ = match lang {
+        Lang::Hlsl => writeln!(out, "static const {ty} {name}[{n}] = {{\n    {body}\n}};"),
+        Lang::Glsl => writeln!(out, "const {ty} {name}[{n}] = {ty}[{n}](\n    {body}\n);"),
+        Lang::Wgsl => writeln!(
+            out,
+            "const {name}: array<{ty}, {n}> = array<{ty}, {n}>(\n    {body}\n);"
+        ),
+    };
 }
 
 /// What a kernel file carries beside its taps: the angular factors and the
@@ -275,24 +290,12 @@ pub(crate) fn emit_angular(
         );
     }
     for (name, table) in [("sss_entry", &a.entry), ("sss_exit", &a.exit)] {
-        let ctor = match lang {
-            Lang::Hlsl => "float3",
-            Lang::Glsl => "vec3",
-            Lang::Wgsl => "vec3<f32>",
-        };
-        let body = table
+        let ty = vec_type(lang, 3);
+        let items: Vec<String> = table
             .iter()
-            .map(|v| format!("{ctor}({}, {}, {})", num(v[0]), num(v[1]), num(v[2])))
-            .collect::<Vec<_>>()
-            .join(",\n    ");
-        let _ = match lang {
-            Lang::Hlsl => writeln!(out, "static const float3 {name}[{n}] = {{\n    {body}\n}};"),
-            Lang::Glsl => writeln!(out, "const vec3 {name}[{n}] = vec3[{n}](\n    {body}\n);"),
-            Lang::Wgsl => writeln!(
-                out,
-                "const {name}: array<vec3<f32>, {n}> = array<vec3<f32>, {n}>(\n    {body}\n);"
-            ),
-        };
+            .map(|v| format!("{ty}({}, {}, {})", num(v[0]), num(v[1]), num(v[2])))
+            .collect();
+        const_array(out, lang, &ty, name, n, &items);
         let scale = num(last as f64);
         let _ = match lang {
             Lang::Hlsl => writeln!(

@@ -6,7 +6,7 @@
 //! convolution with the same factor a_i, results summed over i. Offsets are in
 //! millimetres on the surface; weights are per RGB channel.
 
-use crate::error::{Error, Result};
+use crate::error::{check_header, Error, Result};
 use crate::material::Material;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -299,16 +299,8 @@ fn check_weights(what: &str, passes: &[Pass]) -> std::result::Result<(), String>
 
 impl KernelFile {
     pub fn validate(&self, context: &str) -> Result<()> {
+        check_header(context, &self.schema, KERNEL_SCHEMA, &self.units)?;
         let bad = |m: String| Err(Error::format(context, m));
-        if self.schema != KERNEL_SCHEMA {
-            return bad(format!(
-                "schema is '{}', expected '{KERNEL_SCHEMA}'",
-                self.schema
-            ));
-        }
-        if self.units != "mm" {
-            return bad(format!("units is '{}', expected 'mm'", self.units));
-        }
         if self.passes.is_empty() {
             return bad("kernel has no passes".into());
         }

@@ -139,7 +139,7 @@ impl Kernel2D {
 
     /// [`Self::from_profile`] of each (profile, spec), in order. Kernels of
     /// one grid (cells and size) from profiles on one radial grid (a
-    /// profile's bootstrap replicates, `report::eval::advise_noise`) are
+    /// profile's bootstrap replicates, `report::eval::advise::noise`) are
     /// integrated together, every sample placed among the nodes once
     /// (`cell_integrals`); each kernel is the one `from_profile` makes.
     pub fn from_profiles(items: &[(&Profile, Kernel2DSpec)]) -> Result<Vec<Kernel2D>> {

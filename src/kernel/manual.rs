@@ -85,8 +85,14 @@ impl ManualParams {
 
 /// The factor of one channel: cell integrals of a_m.
 fn channel_factor(k: &Kernel2D, p: &ManualParams, c: usize) -> Vec<f64> {
-    let gn = gaussian_cells(k, p.sqrt_tau_near[c].powi(2));
-    let gf = gaussian_cells(k, p.sqrt_tau_far[c].powi(2));
+    mixture(p, c, |tau| gaussian_cells(k, tau))
+}
+
+/// The two-Gaussian mixture w g_near + (1 - w) g_far of channel `c`, each
+/// Gaussian's cells from `cells(variance)`.
+fn mixture(p: &ManualParams, c: usize, cells: impl Fn(f64) -> Vec<f64>) -> Vec<f64> {
+    let gn = cells(p.sqrt_tau_near[c].powi(2));
+    let gf = cells(p.sqrt_tau_far[c].powi(2));
     gn.iter()
         .zip(&gf)
         .map(|(n, f)| p.w * n + (1.0 - p.w) * f)
@@ -107,12 +113,7 @@ fn misfit(q: &HalfQuad, a: &[f64]) -> f64 {
 
 /// Half of the factor (cells m = 0..=h) of one channel.
 fn channel_half(k: &Kernel2D, p: &ManualParams, c: usize) -> Vec<f64> {
-    let gn = gaussian_half_cells(k, p.sqrt_tau_near[c].powi(2));
-    let gf = gaussian_half_cells(k, p.sqrt_tau_far[c].powi(2));
-    gn.iter()
-        .zip(&gf)
-        .map(|(n, f)| p.w * n + (1.0 - p.w) * f)
-        .collect()
+    mixture(p, c, |tau| gaussian_half_cells(k, tau))
 }
 
 /// Finds w, tau_n, tau_f minimising the summed kernel-space squared error of

@@ -6,6 +6,7 @@ pub mod angular;
 pub mod cell_integrals;
 pub mod disk;
 pub mod disk_emit;
+pub mod disk_fit;
 pub mod emit;
 pub mod factors;
 pub mod format;

@@ -125,6 +125,39 @@ pub struct SeparableBins {
     bins: usize,
 }
 
+/// The intervals of taps at `offsets` with footprints `bounds`, the
+/// interval of each tap and its width: a symmetric table folds onto x >= 0
+/// (the centre tap's interval is its half footprint, each other tap shares
+/// the interval of its mirror).
+fn fold_intervals(offsets: &[f64], bounds: &[f64]) -> (Vec<(f64, f64)>, Vec<usize>, Vec<f64>) {
+    let n = offsets.len();
+    let scale = offsets.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let symmetric = n % 2 == 1
+        && offsets[n / 2] == 0.0
+        && (0..n / 2).all(|i| (offsets[i] + offsets[n - 1 - i]).abs() <= 1e-12 * scale);
+    if symmetric {
+        let c = n / 2;
+        let half = bounds[c + 1];
+        let mut iv = vec![(0.0, half)];
+        iv.extend((c + 1..n).map(|i| (bounds[i], bounds[i + 1])));
+        let of: Vec<usize> = (0..n).map(|i| i.abs_diff(c)).collect();
+        let sp: Vec<f64> = (0..n)
+            .map(|i| {
+                if i == c {
+                    half
+                } else {
+                    bounds[i + 1] - bounds[i]
+                }
+            })
+            .collect();
+        (iv, of, sp)
+    } else {
+        let iv: Vec<(f64, f64)> = (0..n).map(|i| (bounds[i], bounds[i + 1])).collect();
+        let sp = iv.iter().map(|(a, b)| b - a).collect();
+        (iv, (0..n).collect(), sp)
+    }
+}
+
 impl SeparableBins {
     /// The geometry of tables with `offsets` (mm, increasing) on the radial
     /// grid with `edges` (mm, increasing from 0).
@@ -143,31 +176,7 @@ impl SeparableBins {
             ));
         }
         let n = offsets.len();
-        let scale = offsets.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let symmetric = n % 2 == 1
-            && offsets[n / 2] == 0.0
-            && (0..n / 2).all(|i| (offsets[i] + offsets[n - 1 - i]).abs() <= 1e-12 * scale);
-        let (intervals, interval_of, spread) = if symmetric {
-            let c = n / 2;
-            let half = bounds[c + 1];
-            let mut iv = vec![(0.0, half)];
-            iv.extend((c + 1..n).map(|i| (bounds[i], bounds[i + 1])));
-            let of: Vec<usize> = (0..n).map(|i| i.abs_diff(c)).collect();
-            let sp: Vec<f64> = (0..n)
-                .map(|i| {
-                    if i == c {
-                        half
-                    } else {
-                        bounds[i + 1] - bounds[i]
-                    }
-                })
-                .collect();
-            (iv, of, sp)
-        } else {
-            let iv: Vec<(f64, f64)> = (0..n).map(|i| (bounds[i], bounds[i + 1])).collect();
-            let sp = iv.iter().map(|(a, b)| b - a).collect();
-            (iv, (0..n).collect(), sp)
-        };
+        let (intervals, interval_of, spread) = fold_intervals(offsets, &bounds);
         let bins = edges.len() - 1;
         let r_max = edges[bins];
         let bin_of = |r: f64| edges.partition_point(|e| *e <= r).saturating_sub(1);

@@ -15,7 +15,7 @@
 
 use super::factors::Factors;
 use super::{Kernel2D, Pass, TapTable};
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 
 pub const DEFAULT_TAPS: usize = 17;
 
@@ -145,15 +145,7 @@ pub fn tap_table_with(
 ) -> Result<TapTable> {
     check_count(count)?;
     let e = match extent_mm {
-        Some(x) if x.is_finite() && x > 0.0 => x.min(k.extent_mm()),
-        Some(x) => {
-            return Err(Error::invalid(
-                "taps",
-                "extent_mm",
-                x,
-                "must be finite and > 0 (mm)",
-            ))
-        }
+        Some(x) => finite_positive("taps", "extent_mm", x, " (mm)")?.min(k.extent_mm()),
         None => auto_extent(k, f, count),
     };
     let r = range(count);

@@ -202,6 +202,12 @@ impl Material {
         crate::io::file_stem(&self.name)
     }
 
+    /// [`Material::validate`] with the material named in the errors
+    /// ("material 'NAME'").
+    pub fn validate_named(&self) -> Result<()> {
+        self.validate(&format!("material '{}'", self.name))
+    }
+
     /// Checks every parameter; `context` names the file or preset in errors.
     pub fn validate(&self, context: &str) -> Result<()> {
         check_name(context, &self.name)?;

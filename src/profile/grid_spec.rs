@@ -4,7 +4,7 @@
 
 use super::grid::log_bin_count;
 use super::RadialGrid;
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 use crate::material::{Channel, Material};
 
 /// What to override of the material's automatic grid
@@ -25,15 +25,10 @@ impl GridSpec {
     /// "rmax"), an invalid material (whose rule would be meaningless) with
     /// its own error.
     pub fn grid(&self, material: &Material, channels: &[Channel]) -> Result<RadialGrid> {
-        material.validate(&format!("material '{}'", material.name))?;
+        material.validate_named()?;
         for (field, value) in [("dr", self.dr), ("rmax", self.r_max)] {
-            if let Some(v) = value.filter(|v| !(v.is_finite() && *v > 0.0)) {
-                return Err(Error::invalid(
-                    "radial grid",
-                    field,
-                    v,
-                    "must be finite and > 0 (mm)",
-                ));
+            if let Some(v) = value {
+                finite_positive("radial grid", field, v, " (mm)")?;
             }
         }
         let auto = RadialGrid::for_material(material, channels);

@@ -19,7 +19,7 @@ pub use interp::RadialInterp;
 pub use radius::radius_holding;
 pub use source::{make_profile, make_profile_on, ProfileSource};
 
-use crate::error::{Error, Result};
+use crate::error::{check_header, Error, Result};
 use crate::material::{Channel, Material};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -248,17 +248,16 @@ impl Profile {
 
     /// Checks structure and values; `context` names the file in errors.
     pub fn validate(&self, context: &str) -> Result<()> {
-        let bad = |msg: String| Err(Error::format(context, msg));
-        if self.schema != PROFILE_SCHEMA {
-            return bad(format!(
-                "schema is '{}', expected '{PROFILE_SCHEMA}'",
-                self.schema
-            ));
-        }
-        if self.units != "mm" {
-            return bad(format!("units is '{}', expected 'mm'", self.units));
-        }
+        check_header(context, &self.schema, PROFILE_SCHEMA, &self.units)?;
         self.material.validate(context)?;
+        self.check_grid(context)?;
+        self.check_tables(context)?;
+        self.check_totals(context)
+    }
+
+    /// Channels, bins, edges from 0 increasing and centres inside them.
+    fn check_grid(&self, context: &str) -> Result<()> {
+        let bad = |msg: String| Err(Error::format(context, msg));
         let n = self.r.len();
         let nc = self.channels.len();
         if nc == 0 {
@@ -296,6 +295,13 @@ impl Profile {
         {
             return bad("bin centres r must lie inside their bins".into());
         }
+        Ok(())
+    }
+
+    /// The reflectance tables and totals: one per channel, of the grid's
+    /// size, finite and >= 0.
+    fn check_tables(&self, context: &str) -> Result<()> {
+        let (n, nc) = (self.r.len(), self.channels.len());
         let per_channel = |name: &str, v: &Vec<f64>| -> Result<()> {
             if v.len() != nc {
                 return Err(Error::format(
@@ -346,9 +352,14 @@ impl Profile {
         if let Some(e) = &self.total_rd_stderr {
             per_channel("total_rd_stderr", e)?;
         }
-        // Energy conservation: R_d integrates to at most 1 over the plane.
-        // MAX_TOTAL leaves room for unnormalised tables; far beyond it the
-        // numbers are not a reflectance and overflow what reads them.
+        Ok(())
+    }
+
+    /// Energy conservation: R_d integrates to at most 1 over the plane.
+    /// MAX_TOTAL leaves room for unnormalised tables; far beyond it the
+    /// numbers are not a reflectance and overflow what reads them.
+    fn check_totals(&self, context: &str) -> Result<()> {
+        let bad = |msg: String| Err(Error::format(context, msg));
         for (c, ch) in self.channels.iter().enumerate() {
             let tab = self.tabulated_total(c);
             for (what, v) in [

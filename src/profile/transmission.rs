@@ -12,7 +12,7 @@
 
 use super::mc::{self, McConfig, McOptions, PhotonBudget, CONTEXT};
 use super::radius::radius_reaching;
-use crate::error::{Error, Result};
+use crate::error::{finite_positive, Error, Result};
 use crate::material::{Channel, Material};
 use crate::numerics::annulus_area;
 use crate::progress::Progress;
@@ -158,14 +158,7 @@ pub fn check_thicknesses(material: &Material, t: &[f64]) -> Result<()> {
     }
     let above = upper_thickness(material);
     for (i, &x) in t.iter().enumerate() {
-        if !(x.is_finite() && x > 0.0) {
-            return Err(Error::invalid(
-                CONTEXT,
-                "thickness",
-                x,
-                "must be finite and > 0 mm",
-            ));
-        }
+        finite_positive(CONTEXT, "thickness", x, " mm")?;
         if x > MAX_SLAB_MM {
             return Err(Error::invalid(
                 CONTEXT,
@@ -216,7 +209,7 @@ pub fn thickness_table(
     progress: &dyn Progress,
 ) -> Result<ThicknessTable> {
     let start = std::time::Instant::now();
-    material.validate(&format!("material '{}'", material.name))?;
+    material.validate_named()?;
     check_thicknesses(material, &opts.thicknesses)?;
     let cfg = McConfig {
         budget: opts.budget.clone(),

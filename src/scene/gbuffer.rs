@@ -44,9 +44,12 @@ pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, see
     let cam = &scene.camera;
     let (w, h) = (cam.width, cam.height);
     let eps = 1e-9 * (1.0 + scene.reach());
-    let env = scene.environment();
-    let lights: Vec<(V3, [f64; 3])> = scene.directional().collect();
-    let points: Vec<(V3, [f64; 3])> = scene.points().collect();
+    let light = Lighting {
+        scene,
+        env: scene.environment(),
+        lights: scene.directional().collect(),
+        points: scene.points().collect(),
+    };
     let unit = scene.unit.mm();
     let per_pixel: Vec<([f64; 3], f64, V3, f64)> = (0..w * h)
         .into_par_iter()
@@ -68,63 +71,7 @@ pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, see
                     let q = ray.at(hit.t);
                     depth += cam.depth(q) / unit;
                     normal += hit.n;
-                    let lifted = q + eps * hit.n;
-                    let mut e = [0.0; 3];
-                    for (toward, ir) in &lights {
-                        let cos = hit.n.dot(toward);
-                        if cos > 0.0
-                            && scene
-                                .nearest(
-                                    &Ray {
-                                        o: lifted,
-                                        d: *toward,
-                                    },
-                                    f64::INFINITY,
-                                )
-                                .is_none()
-                        {
-                            for c in 0..3 {
-                                e[c] += ir[c] * cos;
-                            }
-                        }
-                    }
-                    for (at, intensity) in &points {
-                        let to = at - lifted;
-                        let dist = to.norm();
-                        let cos = hit.n.dot(&to) / dist;
-                        if cos > 0.0
-                            && scene
-                                .nearest(
-                                    &Ray {
-                                        o: lifted,
-                                        d: to / dist,
-                                    },
-                                    dist,
-                                )
-                                .is_none()
-                        {
-                            for c in 0..3 {
-                                e[c] += intensity[c] * cos / (dist * dist);
-                            }
-                        }
-                    }
-                    if env.iter().any(|&v| v > 0.0) {
-                        let mut open = 0usize;
-                        for _ in 0..ENV_RAYS {
-                            let (a, b) = (uniform(&mut rng), uniform(&mut rng));
-                            let d = cosine_direction(hit.n, a, b);
-                            if scene
-                                .nearest(&Ray { o: lifted, d }, f64::INFINITY)
-                                .is_none()
-                            {
-                                open += 1;
-                            }
-                        }
-                        let f = open as f64 / ENV_RAYS as f64;
-                        for c in 0..3 {
-                            e[c] += std::f64::consts::PI * env[c] * f;
-                        }
-                    }
+                    let e = light.at(hit.n, q + eps * hit.n, &mut rng);
                     for c in 0..3 {
                         irr[c] += e[c] / std::f64::consts::PI * rd[k][c];
                     }
@@ -158,4 +105,60 @@ pub(crate) fn gbuffer(scene: &Scene, rd: &[[f64; 3]], far: f64, side: usize, see
         g.coverage.push(cov);
     }
     g
+}
+
+/// The lights a position sees, as a rasteriser lights it.
+struct Lighting<'a> {
+    scene: &'a Scene,
+    env: [f64; 3],
+    lights: Vec<(V3, [f64; 3])>,
+    points: Vec<(V3, [f64; 3])>,
+}
+
+impl Lighting<'_> {
+    /// Whether no object meets the ray from `o` along `d` before `t_max`.
+    fn open(&self, o: V3, d: V3, t_max: f64) -> bool {
+        self.scene.nearest(&Ray { o, d }, t_max).is_none()
+    }
+
+    /// The irradiance at a point of normal `n`, with `lifted` the point
+    /// moved off its surface for shadow rays: the unshadowed directional
+    /// and point lights, and the environment through the open part of the
+    /// hemisphere ([`ENV_RAYS`] rays from `rng`).
+    fn at(&self, n: V3, lifted: V3, rng: &mut Xoshiro256PlusPlus) -> [f64; 3] {
+        let mut e = [0.0; 3];
+        for (toward, ir) in &self.lights {
+            let cos = n.dot(toward);
+            if cos > 0.0 && self.open(lifted, *toward, f64::INFINITY) {
+                for c in 0..3 {
+                    e[c] += ir[c] * cos;
+                }
+            }
+        }
+        for (at, intensity) in &self.points {
+            let to = at - lifted;
+            let dist = to.norm();
+            let cos = n.dot(&to) / dist;
+            if cos > 0.0 && self.open(lifted, to / dist, dist) {
+                for c in 0..3 {
+                    e[c] += intensity[c] * cos / (dist * dist);
+                }
+            }
+        }
+        if self.env.iter().any(|&v| v > 0.0) {
+            let mut open = 0usize;
+            for _ in 0..ENV_RAYS {
+                let (a, b) = (uniform(rng), uniform(rng));
+                let d = cosine_direction(n, a, b);
+                if self.open(lifted, d, f64::INFINITY) {
+                    open += 1;
+                }
+            }
+            let f = open as f64 / ENV_RAYS as f64;
+            for (e, l) in e.iter_mut().zip(self.env) {
+                *e += std::f64::consts::PI * l * f;
+            }
+        }
+        e
+    }
 }

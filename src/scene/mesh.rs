@@ -61,6 +61,13 @@ enum Node {
     Leaf(usize),
 }
 
+/// One child of an inner node.
+#[derive(Clone, Copy, Debug)]
+enum Child {
+    Left,
+    Right,
+}
+
 /// How a mesh's triangles fail to bound a volume.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshDefect {
@@ -86,30 +93,7 @@ impl Mesh {
             .iter()
             .fold(0.0f64, |m, p| m.max(p.amax()))
             .max(f64::MIN_POSITIVE);
-        let mut edges: std::collections::HashMap<(usize, usize), i32> =
-            std::collections::HashMap::with_capacity(3 * triangles.len());
-        let mut volume = 0.0;
-        for (k, t) in triangles.iter().enumerate() {
-            let [a, b, c] = t.map(|i| positions[i]);
-            let area2 = (b - a).cross(&(c - a)).norm();
-            if !(area2 > 1e-14 * scale * scale) {
-                return Err(MeshDefect::Degenerate(k));
-            }
-            for (i, j) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                *edges.entry((i, j)).or_insert(0) += 1;
-            }
-            // Divergence theorem: sum of signed tetrahedra from the origin.
-            volume += a.dot(&b.cross(&c)) / 6.0;
-        }
-        for (&(i, j), &n) in &edges {
-            if n != 1 || edges.get(&(j, i)) != Some(&1) {
-                return Err(MeshDefect::OpenEdge(i, j));
-            }
-        }
-        if volume.abs() <= 1e-12 * scale * scale * scale {
-            return Err(MeshDefect::NoVolume);
-        }
-        let flip = volume < 0.0;
+        let flip = signed_volume(positions, triangles, scale)? < 0.0;
         let tris: Vec<[V3; 3]> = triangles
             .iter()
             .map(|t| {
@@ -125,47 +109,7 @@ impl Mesh {
             .iter()
             .map(|[a, b, c]| (b - a).cross(&(c - a)).normalize())
             .collect();
-        let pad = 1e-9 * scale;
-        let mut refs: Vec<TriRef> = tris
-            .iter()
-            .enumerate()
-            .map(|(index, t)| {
-                let min = t[0].inf(&t[1]).inf(&t[2]) - V3::repeat(pad);
-                let max = t[0].sup(&t[1]).sup(&t[2]) + V3::repeat(pad);
-                TriRef {
-                    index,
-                    min,
-                    max,
-                    node: 0,
-                }
-            })
-            .collect();
-        let bvh = Bvh::build(&mut refs);
-        let to_box = |b: &Aabb<f64, 3>| {
-            (
-                V3::new(b.min.x, b.min.y, b.min.z),
-                V3::new(b.max.x, b.max.y, b.max.z),
-            )
-        };
-        let nodes = bvh
-            .nodes
-            .iter()
-            .map(|n| match n {
-                BvhNode::Leaf { shape_index, .. } => Node::Leaf(refs[*shape_index].index),
-                BvhNode::Node {
-                    child_l_index,
-                    child_l_aabb,
-                    child_r_index,
-                    child_r_aabb,
-                    ..
-                } => Node::Inner {
-                    left: *child_l_index,
-                    left_box: to_box(child_l_aabb),
-                    right: *child_r_index,
-                    right_box: to_box(child_r_aabb),
-                },
-            })
-            .collect();
+        let nodes = hierarchy(&tris, 1e-9 * scale);
         let min = positions
             .iter()
             .fold(V3::repeat(f64::INFINITY), |m, p| m.inf(p));
@@ -195,14 +139,38 @@ impl Mesh {
     /// large mesh visits few triangles.
     pub fn any_near(&self, lo: V3, hi: V3, mut f: impl FnMut(&[V3; 3]) -> bool) -> bool {
         let meets = |b: &(V3, V3)| (0..3).all(|i| b.0[i] <= hi[i] && lo[i] <= b.1[i]);
-        if self.nodes.is_empty() || !meets(&(self.min, self.max)) {
+        if !meets(&(self.min, self.max)) {
             return false;
         }
-        let mut stack = vec![0usize];
+        self.walk(
+            |k| f(&self.tris[k]),
+            |l, r| {
+                [
+                    meets(r).then_some(Child::Right),
+                    meets(l).then_some(Child::Left),
+                ]
+            },
+        )
+    }
+
+    /// Depth first through the hierarchy from its root: `leaf(k)` at each
+    /// leaf reached (true ends the walk, which then returns true), and at
+    /// an inner node `order(left_box, right_box)` names the children to
+    /// visit, in the order to visit them.
+    fn walk(
+        &self,
+        mut leaf: impl FnMut(usize) -> bool,
+        mut order: impl FnMut(&(V3, V3), &(V3, V3)) -> [Option<Child>; 2],
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let mut stack: Vec<usize> = Vec::with_capacity(64);
+        stack.push(0);
         while let Some(i) = stack.pop() {
             match &self.nodes[i] {
                 Node::Leaf(k) => {
-                    if f(&self.tris[*k]) {
+                    if leaf(*k) {
                         return true;
                     }
                 }
@@ -212,11 +180,12 @@ impl Mesh {
                     right,
                     right_box,
                 } => {
-                    if meets(left_box) {
-                        stack.push(*left);
-                    }
-                    if meets(right_box) {
-                        stack.push(*right);
+                    // Pushed last, popped first.
+                    for c in order(left_box, right_box).iter().rev().flatten() {
+                        stack.push(match c {
+                            Child::Left => *left,
+                            Child::Right => *right,
+                        });
                     }
                 }
             }
@@ -257,51 +226,113 @@ impl Mesh {
     /// The nearest triangle crossed in (0, t_max), either side.
     pub fn intersect(&self, ray: &Ray, t_max: f64) -> Option<Hit> {
         let inv = V3::new(1.0 / ray.d.x, 1.0 / ray.d.y, 1.0 / ray.d.z);
-        let mut best = t_max;
+        let best = std::cell::Cell::new(t_max);
         let mut hit = None;
-        let mut stack: Vec<usize> = Vec::with_capacity(64);
-        if self.nodes.is_empty() {
-            return None;
-        }
-        stack.push(0);
-        while let Some(i) = stack.pop() {
-            match &self.nodes[i] {
-                Node::Leaf(k) => {
-                    if let Some(t) = triangle_hit(&self.tris[*k], ray, best) {
-                        best = t;
-                        hit = Some(*k);
-                    }
+        self.walk(
+            |k| {
+                if let Some(t) = triangle_hit(&self.tris[k], ray, best.get()) {
+                    best.set(t);
+                    hit = Some(k);
                 }
-                Node::Inner {
-                    left,
-                    left_box,
-                    right,
-                    right_box,
-                } => {
-                    let l = box_entry(left_box, ray, &inv, best);
-                    let r = box_entry(right_box, ray, &inv, best);
-                    // Nearer child last, so that it is popped first.
-                    match (l, r) {
-                        (Some(a), Some(b)) if a <= b => {
-                            stack.push(*right);
-                            stack.push(*left);
-                        }
-                        (Some(_), Some(_)) => {
-                            stack.push(*left);
-                            stack.push(*right);
-                        }
-                        (Some(_), None) => stack.push(*left),
-                        (None, Some(_)) => stack.push(*right),
-                        (None, None) => {}
-                    }
+                false
+            },
+            |l, r| {
+                let l = box_entry(l, ray, &inv, best.get());
+                let r = box_entry(r, ray, &inv, best.get());
+                // The nearer child first.
+                match (l, r) {
+                    (Some(a), Some(b)) if a <= b => [Some(Child::Left), Some(Child::Right)],
+                    (Some(_), Some(_)) => [Some(Child::Right), Some(Child::Left)],
+                    (Some(_), None) => [Some(Child::Left), None],
+                    (None, Some(_)) => [Some(Child::Right), None],
+                    (None, None) => [None, None],
                 }
-            }
-        }
+            },
+        );
+        let best = best.get();
         hit.map(|k| Hit {
             t: best,
             n: self.normals[k],
         })
     }
+}
+
+/// The signed volume of a closed mesh (negative: wound clockwise), or how
+/// it fails to be one: a triangle without area, an edge not used once in
+/// each direction, no volume.
+fn signed_volume(
+    positions: &[V3],
+    triangles: &[[usize; 3]],
+    scale: f64,
+) -> Result<f64, MeshDefect> {
+    let mut edges: std::collections::HashMap<(usize, usize), i32> =
+        std::collections::HashMap::with_capacity(3 * triangles.len());
+    let mut volume = 0.0;
+    for (k, t) in triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|i| positions[i]);
+        let area2 = (b - a).cross(&(c - a)).norm();
+        if !(area2 > 1e-14 * scale * scale) {
+            return Err(MeshDefect::Degenerate(k));
+        }
+        for (i, j) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            *edges.entry((i, j)).or_insert(0) += 1;
+        }
+        // Divergence theorem: sum of signed tetrahedra from the origin.
+        volume += a.dot(&b.cross(&c)) / 6.0;
+    }
+    for (&(i, j), &n) in &edges {
+        if n != 1 || edges.get(&(j, i)) != Some(&1) {
+            return Err(MeshDefect::OpenEdge(i, j));
+        }
+    }
+    if volume.abs() <= 1e-12 * scale * scale * scale {
+        return Err(MeshDefect::NoVolume);
+    }
+    Ok(volume)
+}
+
+/// The hierarchy of `tris` (the `bvh` crate's SAH build), flattened, each
+/// triangle's box padded by `pad`.
+fn hierarchy(tris: &[[V3; 3]], pad: f64) -> Vec<Node> {
+    let mut refs: Vec<TriRef> = tris
+        .iter()
+        .enumerate()
+        .map(|(index, t)| {
+            let min = t[0].inf(&t[1]).inf(&t[2]) - V3::repeat(pad);
+            let max = t[0].sup(&t[1]).sup(&t[2]) + V3::repeat(pad);
+            TriRef {
+                index,
+                min,
+                max,
+                node: 0,
+            }
+        })
+        .collect();
+    let bvh = Bvh::build(&mut refs);
+    let to_box = |b: &Aabb<f64, 3>| {
+        (
+            V3::new(b.min.x, b.min.y, b.min.z),
+            V3::new(b.max.x, b.max.y, b.max.z),
+        )
+    };
+    bvh.nodes
+        .iter()
+        .map(|n| match n {
+            BvhNode::Leaf { shape_index, .. } => Node::Leaf(refs[*shape_index].index),
+            BvhNode::Node {
+                child_l_index,
+                child_l_aabb,
+                child_r_index,
+                child_r_aabb,
+                ..
+            } => Node::Inner {
+                left: *child_l_index,
+                left_box: to_box(child_l_aabb),
+                right: *child_r_index,
+                right_box: to_box(child_r_aabb),
+            },
+        })
+        .collect()
 }
 
 /// Where the ray enters the box, if it meets it before `t_max` (slab test;

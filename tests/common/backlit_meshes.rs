@@ -107,3 +107,24 @@ pub fn shell() -> String {
         &f,
     )
 }
+
+/// The faces of a cube whose vertex k + 1 sits at bits (x, y, z) of k: 1-based
+/// OBJ quads wound outward (counter-clockwise seen from outside).
+#[rustfmt::skip] // three faces a line: the table reads as the cube's
+pub const CUBE_QUADS: [[usize; 4]; 6] = [
+    [1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5],
+    [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6],
+];
+
+/// A closed OBJ cube of half-side `h` about the origin, of quads.
+pub fn cube_obj(h: f64) -> String {
+    let mut obj = String::new();
+    for i in 0..8 {
+        let c = |b: usize| if i & b != 0 { h } else { -h };
+        obj += &format!("v {} {} {}\n", c(1), c(2), c(4));
+    }
+    for f in CUBE_QUADS {
+        obj += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    obj
+}

@@ -9,8 +9,10 @@ use std::process::{Command, Output};
 
 pub mod adding_doubling;
 pub mod backlit_meshes;
+pub mod bounded;
 pub mod golden;
 pub mod half_space;
+pub mod mcml;
 pub mod shader;
 pub mod skin1;
 
@@ -61,6 +63,108 @@ pub fn run_in(dir: &Path, args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("the binary runs")
+}
+
+/// The sharded run the cluster tests split and merge: skin1, 60000
+/// photons, seed 5.
+pub const SHARDED_RUN: [&str; 7] = [
+    "simulate",
+    "--material",
+    "skin1",
+    "--photons",
+    "60000",
+    "--seed",
+    "5",
+];
+
+/// The arguments of `ssskit simulate --material skin1 --photons 20000
+/// --seed seed --out out` (a profile of seconds, noisy), then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn simulate_skin1_args<'a>(seed: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let fixed = ["simulate", "--material", "skin1", "--photons", "20000", "--seed", seed];
+    [&fixed[..], &["--out", out], extra].concat()
+}
+
+/// The arguments of `ssskit scene s.toml --out s.exr`, then `extra`: a
+/// scene rendered in the working folder.
+pub fn scene_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    [&["scene", "s.toml", "--out", "s.exr"][..], extra].concat()
+}
+
+/// The arguments of `ssskit cmd --material skin1 --profile-model pbd`
+/// (`--materials` for `compare`), then `extra`: a command on skin1's
+/// analytic profile (no Monte Carlo).
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn skin1_pbd_args<'a>(cmd: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let material = if cmd == "compare" { "--materials" } else { "--material" };
+    [&[cmd, material, "skin1", "--profile-model", "pbd"][..], extra].concat()
+}
+
+/// The arguments of `ssskit profile --material material --profile-model
+/// model --out out`, then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn profile_args<'a>(material: &'a str, model: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    [&["profile", "--material", material, "--profile-model", model, "--out", out][..], extra].concat()
+}
+
+/// The arguments of `ssskit fit --profile profile --model model --out
+/// out`, then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn fit_args<'a>(profile: &'a str, model: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    [&["fit", "--profile", profile, "--model", model, "--out", out][..], extra].concat()
+}
+
+/// The arguments of `ssskit apply --kernel k --input input --out out
+/// --mm-per-pixel mm`, then `extra`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+pub fn apply_args<'a>(k: &'a str, input: &'a str, out: &'a str, mm: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let fixed = ["apply", "--kernel", k, "--input", input, "--out", out, "--mm-per-pixel", mm];
+    [&fixed[..], extra].concat()
+}
+
+/// The one spelling of a plain filter `Setup` the tests and benches
+/// share: `passes` at `mm_per_pixel`, no depth, strength, follow-surface,
+/// specular or jitter (change a field with `Setup { .., ..plain_setup() }`).
+pub fn plain_setup(passes: Vec<ssskit::filter::Taps>, mm_per_pixel: f64) -> ssskit::filter::Setup {
+    ssskit::filter::Setup {
+        passes,
+        scale: ssskit::filter::Scale::MmPerPixel(mm_per_pixel),
+        depth: None,
+        strength: None,
+        follow_surface: None,
+        specular: None,
+        jitter: false,
+    }
+}
+
+/// A depth-aware `Setup`: `passes` under a perspective camera of vertical
+/// field of view `fov_y_deg` and SSS width `sss_width` (scene units per
+/// kernel mm), `depth` per pixel and the follow-surface lerp `follow`.
+pub fn perspective_setup(
+    passes: Vec<ssskit::filter::Taps>,
+    (fov_y_deg, sss_width): (f64, f64),
+    depth: ssskit::filter::Plane,
+    follow: ssskit::filter::FollowSurface,
+) -> ssskit::filter::Setup {
+    ssskit::filter::Setup {
+        scale: ssskit::filter::Scale::Perspective {
+            fov_y_deg,
+            sss_width,
+        },
+        depth: Some(depth),
+        follow_surface: Some(follow),
+        ..plain_setup(passes, 1.0)
+    }
+}
+
+/// Runs `cmd` (any program; `what` names it in messages), which must
+/// succeed; its output.
+pub fn output_ok(cmd: &mut Command, what: &str) -> Output {
+    let o = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what} does not run: {e}"));
+    assert!(o.status.success(), "{what} failed: {}", stderr(&o));
+    o
 }
 
 pub fn stderr(o: &Output) -> String {
@@ -138,6 +242,15 @@ pub fn fails_with_in(dir: &Path, args: &[&str], needles: &[&str]) {
     assert_fails(&run_in(dir, args), args, needles);
 }
 
+/// A temporary folder holding `files` (name, text).
+pub fn temp_with(files: &[(&str, &str)]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    dir
+}
+
 pub fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(p).expect("readable file")).expect("valid JSON")
 }
@@ -150,6 +263,45 @@ pub fn replace_block(text: &mut String, kind: &str, name: &str, body: &str) {
     let i = text.find(&begin).unwrap() + begin.len();
     let j = i + text[i..].find(&end).unwrap();
     text.replace_range(i..j, body);
+}
+
+/// Every `<!-- BEGIN KIND:NAME -->` block of the docs' markdown of each of
+/// `kinds`, against `fresh(kind, name, file)`: rewritten under
+/// `SSSKIT_BLESS=1` (atomically), else listed as stale with both texts.
+/// Returns how many blocks were checked and the stale ones.
+pub fn check_doc_blocks(
+    kinds: &[&str],
+    fresh: impl Fn(&str, &str, &Path) -> String,
+) -> (usize, Vec<String>) {
+    use ssskit::report::present::kernel_report::blocks_of;
+    let bless = bless();
+    let (mut checked, mut stale) = (0, Vec::new());
+    for f in doc_markdown_files() {
+        let mut text = std::fs::read_to_string(&f).unwrap();
+        let mut changed = false;
+        for kind in kinds {
+            for (name, body) in blocks_of(&text.clone(), kind) {
+                let want = fresh(kind, &name, &f);
+                checked += 1;
+                if want == body {
+                    continue;
+                }
+                if bless {
+                    replace_block(&mut text, kind, &name, &want);
+                    changed = true;
+                } else {
+                    stale.push(format!(
+                        "{}: {kind}:{name}\n--- committed\n{body}--- now\n{want}",
+                        f.display()
+                    ));
+                }
+            }
+        }
+        if changed {
+            ssskit::io::write_atomic(&f, text.as_bytes()).unwrap();
+        }
+    }
+    (checked, stale)
 }
 
 /// Checks that two profiles are the same run, bit for bit, but for the
@@ -219,6 +371,25 @@ pub fn committed_profile(material: &str) -> std::path::PathBuf {
 }
 
 /// `ssskit diff A B --json`'s relative RMS per channel.
+/// `ssskit advise --json` on the committed skin1 profile at
+/// `mm_per_pixel`, 64-pixel signals, and `extra`: its answer and stderr.
+pub fn advise_skin1_at(mm_per_pixel: &str, extra: &[&str]) -> (serde_json::Value, String) {
+    let profile = committed_profile("skin1");
+    let mut args = vec![
+        "advise",
+        "--profile",
+        p(&profile),
+        "--mm-per-pixel",
+        mm_per_pixel,
+        "--signal-size",
+        "64",
+        "--json",
+    ];
+    args.extend(extra);
+    let (out, err) = ok_both(&args);
+    (serde_json::from_str(&out).unwrap(), err)
+}
+
 pub fn diff_channels(a: &Path, b: &Path) -> [f64; 3] {
     let (out, _) = ok_both(&["diff", p(a), p(b), "--json"]);
     let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
@@ -365,6 +536,20 @@ pub mod mc {
             threads: None,
             channels: vec![ch],
             grid,
+        }
+    }
+
+    /// The kernel-factor rule at 2% relative error, capped at 10^7 photons
+    /// a channel, all channels, seed 3: the adaptive run the tests share.
+    pub fn kernel_factor_cfg() -> McConfig {
+        McConfig {
+            budget: PhotonBudget::KernelFactor {
+                rel: 0.02,
+                max_photons: 10_000_000,
+            },
+            seed: 3,
+            channels: Channel::ALL.to_vec(),
+            ..cfg(0, Channel::R, None)
         }
     }
 
@@ -570,7 +755,7 @@ pub fn compare_scene(toml: &Path, exr: &Path, out: &Path, extra: &[&str]) -> (St
     ok_both(&args)
 }
 
-/// The percentages of a ranking (`scene_score::ranking`'s numbered lines,
+/// The percentages of a ranking (`scene::score::ranking`'s numbered lines,
 /// "  1.  21.30%  what") among `lines`, in their order, as fractions.
 pub fn ranked_fractions<'a>(lines: impl IntoIterator<Item = &'a str>) -> Vec<f64> {
     lines

@@ -3,9 +3,11 @@
 //! edge and shapes signals (the contact sheets' and the plots' tests).
 
 use ssskit::filter::signals::Signal;
+use ssskit::filter::Which;
 use ssskit::profile::Profile;
-use ssskit::report::eval::evaluate::{ImageCase, Options, Which};
-use ssskit::report::eval::kernel_compare::{self, Comparison, Config, MaterialInput};
+use ssskit::report::eval::compare;
+use ssskit::report::eval::compare::kernel::{Comparison, Config, MaterialInput};
+use ssskit::report::eval::evaluate::{ImageCase, Options};
 use std::path::PathBuf;
 
 /// Side of the test signals: small enough to fit in a second, and narrow
@@ -45,5 +47,5 @@ pub fn comparison() -> Comparison {
         name: "skin1".into(),
         profile: profile(),
     };
-    kernel_compare::run(&[input], &cfg, &ssskit::progress::NoProgress).unwrap()
+    compare::kernel::run(&[input], &cfg, &ssskit::progress::NoProgress).unwrap()
 }

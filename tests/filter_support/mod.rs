@@ -2,14 +2,17 @@
 //! profiles, images, scenes, and the binary.
 #![allow(dead_code)]
 
-use ssskit::filter::{taps_for, Image, Plane, Scale, Setup, Which};
+use ssskit::filter::{taps_for, Image, Plane, Setup, Which};
 use ssskit::kernel::{Kernel2D, KernelFile, Metrics, ModelInfo, Pass, TapTable, KERNEL_SCHEMA};
 use ssskit::material::preset;
 use ssskit::profile::{Profile, RadialGrid};
 #[path = "../common/mod.rs"]
 mod common;
 #[allow(unused_imports)] // each test file uses some of them
-pub use common::{assert_fails, bin, p, run, shader, stderr};
+pub use common::{
+    apply_args, assert_fails, bin, golden, p, perspective_setup, plain_setup, run, shader,
+    skin1_pbd_args, stderr,
+};
 
 /// The dipole profile of a preset over a uniform radial grid.
 pub fn dipole_profile(material: &str, dr: f64, r_max: f64) -> Profile {
@@ -198,18 +201,12 @@ pub fn assert_no_background_bleed(
         }
     }
     let k = gaussian_kernel(rank, taps);
-    let mut setup = Setup {
-        passes: taps_for(&k, Which::stored(&k), None).unwrap(),
-        scale: Scale::Perspective {
-            fov_y_deg: 40.0,
-            sss_width: 0.1,
-        },
-        depth: Some(step_depth(w, h)),
-        strength: None,
-        follow_surface: Some(ssskit::filter::FollowSurface::InSceneUnits(300.0)),
-        specular: None,
-        jitter: false,
-    };
+    let mut setup = perspective_setup(
+        taps_for(&k, Which::stored(&k), None).unwrap(),
+        (40.0, 0.1),
+        step_depth(w, h),
+        ssskit::filter::FollowSurface::InSceneUnits(300.0),
+    );
     let foreground_max = |img: &Image| {
         (0..h)
             .flat_map(|y| (0..w / 2).map(move |x| y * w + x))

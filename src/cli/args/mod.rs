@@ -283,6 +283,14 @@ pub struct SeedArg {
     pub seed: u64,
 }
 
+/// `--threads`: the worker threads of a Monte Carlo run.
+#[derive(clap::Args)]
+pub struct ThreadsArg {
+    /// Worker threads (results are identical for any count) [default: one per core].
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count::<usize>)]
+    pub threads: Option<usize>,
+}
+
 /// Where `kernels`, `advise` and `study` get their profile: a file, or
 /// made from a material by Monte Carlo or an analytic model.
 #[derive(clap::Args)]
@@ -458,7 +466,7 @@ impl ModelsArg {
     pub fn families(&self) -> Vec<String> {
         match self.models.iter().copied().collect::<Option<Vec<_>>>() {
             Some(models) => models.iter().map(flag_value).collect(),
-            None => ssskit::report::eval::kernel_compare::FAMILIES
+            None => ssskit::report::eval::compare::kernel::FAMILIES
                 .iter()
                 .map(|s| s.to_string())
                 .collect(),
@@ -478,7 +486,7 @@ pub struct FramesArg {
     /// makes of the kernel written, which records N and runs it by default. Its uncertainty adds
     /// the spread over 4 such accumulations to the bootstrap's. Separable kernels are the same
     /// every frame.
-    #[arg(long, value_name = "N", value_parser = count::<u32>, default_value_t = ssskit::report::eval::advise_types::DEFAULT_FRAMES)]
+    #[arg(long, value_name = "N", value_parser = count::<u32>, default_value_t = ssskit::report::eval::disk::DEFAULT_FRAMES)]
     pub frames: u32,
 }
 

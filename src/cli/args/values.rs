@@ -103,9 +103,9 @@ pub fn signal_size(s: &str) -> Result<usize, String> {
 }
 
 /// One item of a rank list, "N" or "N-M", as the library reads it
-/// (`kernel_compare::parse_ranks`); kept as text for that reader.
+/// (`compare::kernel::parse_ranks`); kept as text for that reader.
 pub fn rank_item(s: &str) -> Result<String, String> {
-    ssskit::report::eval::kernel_compare::parse_ranks(s).map_err(|e| reason(&e))?;
+    ssskit::report::eval::compare::kernel::parse_ranks(s).map_err(|e| reason(&e))?;
     Ok(s.trim().to_string())
 }
 

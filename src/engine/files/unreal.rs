@@ -80,10 +80,14 @@ fn py_rgb(field: &str, v: [f64; 3]) -> Result<String> {
     ))
 }
 
-/// The script for `fit` (Unreal's printed values), naming the asset
-/// `name`.
-pub fn script(fit: &EngineFit, name: &str) -> Result<String> {
-    let q = |s: &str| serde_json::to_string(s).map_err(|e| Error::Unsupported(e.to_string()));
+/// A Python string literal.
+fn q(s: &str) -> Result<String> {
+    serde_json::to_string(s).map_err(|e| Error::Unsupported(e.to_string()))
+}
+
+/// The SETTINGS dict's entries, one a line: the printed values under the
+/// properties' Python names.
+fn settings(fit: &EngineFit) -> Result<String> {
     let mut settings = String::new();
     for (printed, py, colour) in SETTINGS {
         let value = if colour {
@@ -93,21 +97,32 @@ pub fn script(fit: &EngineFit, name: &str) -> Result<String> {
         };
         settings += &format!("    {}: {value},\n", q(py)?);
     }
-    let implementation = match fit.params.get("Implementation") {
-        None => "None".to_string(),
-        Some(_) => {
-            let ui = text(&fit.params, "Implementation")?;
-            let entry = IMPLEMENTATIONS.iter().find(|i| i.0 == ui).ok_or_else(|| {
-                Error::invalid(
-                    "engine files",
-                    "Implementation",
-                    ui,
-                    "expected Adaptive Filtered Importance Sampling or Separable",
-                )
-            })?;
-            q(entry.1)?
-        }
-    };
+    Ok(settings)
+}
+
+/// The IMPLEMENTATION entry's Python literal (None where the version has
+/// no such setting).
+fn implementation(fit: &EngineFit) -> Result<String> {
+    if fit.params.get("Implementation").is_none() {
+        return Ok("None".to_string());
+    }
+    let ui = text(&fit.params, "Implementation")?;
+    let entry = IMPLEMENTATIONS.iter().find(|i| i.0 == ui).ok_or_else(|| {
+        Error::invalid(
+            "engine files",
+            "Implementation",
+            ui,
+            "expected Adaptive Filtered Importance Sampling or Separable",
+        )
+    })?;
+    q(entry.1)
+}
+
+/// The script for `fit` (Unreal's printed values), naming the asset
+/// `name`.
+pub fn script(fit: &EngineFit, name: &str) -> Result<String> {
+    let settings = settings(fit)?;
+    let implementation = implementation(fit)?;
     let base = py_rgb("Base Color", triple(&fit.params, "Base Color")?)?;
     let warning = super::warning_of(fit);
     let banner = warning

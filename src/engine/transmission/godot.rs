@@ -19,13 +19,13 @@
 //! So, lit from directly behind (N.L = -1, boost 0): pi L / E =
 //! exp(-(8.25 t / depth)^2) x colour x albedo, t in metres.
 
-use super::{unit, Scored, Target};
+use super::{Scored, Target};
 use crate::engine::printed::{triple, typed};
 use crate::engine::{EngineFit, Scene};
 use crate::error::Result;
 use crate::filter::image::{linear_to_srgb, srgb_to_linear};
 use crate::numerics::minimise_log;
-use serde_json::{json, Map};
+use serde_json::json;
 
 pub const SOURCE: &str = "Godot 4.6: material.cpp BaseMaterial3D::_update_shader, \
      scene_forward_clustered.glsl (directional transmittance_z), scene_forward_lights_inc.glsl \
@@ -35,22 +35,14 @@ pub const SOURCE: &str = "Godot 4.6: material.cpp BaseMaterial3D::_update_shader
 pub const DEPTH_RANGE: (f64, f64) = (0.001, 8.0);
 /// The constant of light_compute's Gaussian in the thickness.
 const SCALE: f64 = 8.25;
-
-/// pi L / E through a slab `t_mm` thick lit from directly behind (the
-/// module comment), `depth` in scene units, `colour` linear, `albedo` the
-/// material's ([`rendered_at`] with N.L = -1).
-pub fn rendered(
-    depth: f64,
-    colour: [f64; 3],
-    albedo: [f64; 3],
-    scene: Scene,
-    t_mm: f64,
-) -> [f64; 3] {
-    rendered_at(depth, colour, albedo, scene, t_mm, -1.0)
-}
+/// N.L of a light from directly behind, where the fit holds (the module
+/// comment).
+const BEHIND: f64 = -1.0;
 
 /// pi L / E for a shadow-map thickness `t_mm` and the light at `n_dot_l`
-/// (boost 0: clamp(-N.L, 0, 1)).
+/// (boost 0: clamp(-N.L, 0, 1)), `depth` in scene units, `colour` linear,
+/// `albedo` the material's; the fit's slab is lit from directly behind
+/// (`BEHIND`).
 pub fn rendered_at(
     depth: f64,
     colour: [f64; 3],
@@ -74,12 +66,8 @@ pub(crate) fn fit(
     // Godot decodes a source_color; at most 1.
     let albedo = triple(&reflect.params, "albedo_color")?
         .map(|a| crate::filter::image::srgb_to_linear(a.clamp(0.0, 1.0)));
-    let model = |depth: f64, colour: [f64; 3]| -> Vec<[f64; 3]> {
-        target
-            .thickness
-            .iter()
-            .map(|&t| rendered(depth, colour, albedo, scene, t))
-            .collect()
+    let model = |depth: f64, colour: [f64; 3]| {
+        target.rows(|t| rendered_at(depth, colour, albedo, scene, t, BEHIND))
     };
     let (lo, hi) = DEPTH_RANGE;
     let depth = typed(minimise_log(
@@ -89,54 +77,44 @@ pub(crate) fn fit(
         60,
     ));
     let (k, _) = target.amplitude(&model(depth, [1.0; 3]));
-    let mut warnings = Vec::new();
-    let wanted = k.map(|k| k.min(1.0));
-    for c in 0..3 {
-        if k[c] > 1.0 {
-            warnings.push(format!(
-                "channel {}: the table asks for a transmittance colour of {:.3}, above the \
-                 inspector's 1; capped",
-                ["r", "g", "b"][c],
-                k[c]
-            ));
-        }
-    }
+    let mut warnings = super::capped(k, |c, k| {
+        format!(
+            "channel {c}: the table asks for a transmittance colour of {k:.3}, above the \
+             inspector's 1; capped"
+        )
+    });
     // The inspector's (and the .tres's) colour is sRGB, as printed; the
     // shader gets its linear value, so the light is computed from that.
-    let srgb = wanted.map(|c| typed(linear_to_srgb(c)));
+    let srgb = k.map(|k| typed(linear_to_srgb(k.min(1.0))));
     let colour = srgb.map(srgb_to_linear);
-    let mut params = Map::new();
-    let mut units = Map::new();
-    let mut put = |name: &str, v: serde_json::Value, u: &str| {
-        params.insert(name.into(), v);
-        units.insert(name.into(), unit(u));
-    };
-    put(
-        "subsurf_scatter_transmittance_enabled",
-        json!(true),
-        "BaseMaterial3D, Subsurf Scatter > Transmittance",
-    );
-    put(
-        "subsurf_scatter_transmittance_color",
-        json!([srgb[0], srgb[1], srgb[2], 1.0]),
-        "BaseMaterial3D: the colour as the inspector shows it (sRGB, alpha 1); the shader gets \
-         its linear value",
-    );
-    put(
-        "subsurf_scatter_transmittance_color linear",
-        json!(colour.map(typed)),
-        "the same colour as the shader sees it (Color.srgb_to_linear)",
-    );
-    put(
-        "subsurf_scatter_transmittance_depth",
-        json!(depth),
-        "BaseMaterial3D: scene units (metres by default), 0.001 to 8",
-    );
-    put(
-        "subsurf_scatter_transmittance_boost",
-        json!(0.0),
-        "BaseMaterial3D: 0 (light from directly behind is at full strength for any boost)",
-    );
+    let rows = vec![
+        (
+            "subsurf_scatter_transmittance_enabled",
+            json!(true),
+            "BaseMaterial3D, Subsurf Scatter > Transmittance",
+        ),
+        (
+            "subsurf_scatter_transmittance_color",
+            json!([srgb[0], srgb[1], srgb[2], 1.0]),
+            "BaseMaterial3D: the colour as the inspector shows it (sRGB, alpha 1); the shader \
+             gets its linear value",
+        ),
+        (
+            "subsurf_scatter_transmittance_color linear",
+            json!(colour.map(typed)),
+            "the same colour as the shader sees it (Color.srgb_to_linear)",
+        ),
+        (
+            "subsurf_scatter_transmittance_depth",
+            json!(depth),
+            "BaseMaterial3D: scene units (metres by default), 0.001 to 8",
+        ),
+        (
+            "subsurf_scatter_transmittance_boost",
+            json!(0.0),
+            "BaseMaterial3D: 0 (light from directly behind is at full strength for any boost)",
+        ),
+    ];
     if !(lo..=hi).contains(&depth) {
         warnings.push(format!(
             "the fitted depth {depth} is outside the inspector's [{lo}, {hi}]"
@@ -155,12 +133,7 @@ pub(crate) fn fit(
         ),
     ];
     Ok((
-        Scored {
-            params,
-            units,
-            requirements,
-            warnings,
-        },
+        Scored::new(rows, requirements, warnings),
         model(depth, colour),
         super::Model::Godot(depth, colour, albedo, scene),
     ))

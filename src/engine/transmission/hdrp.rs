@@ -28,12 +28,11 @@
 //! (e^{-S t} + 3 e^{-S t / 3}) / (1 + w) x Base Color, t the remapped map
 //! value in HDRP's millimetres (not scaled by World Scale).
 
-use super::{unit, Scored, Target};
+use super::{Grid, Scored, Target};
 use crate::engine::printed::{number, typed};
 use crate::engine::{EngineFit, Scene};
 use crate::error::{Error, Result};
-use crate::numerics::minimise_log;
-use serde_json::{json, Map};
+use serde_json::json;
 
 pub const SOURCE: &str = "Unity 6 HDRP 17: DiffusionProfileSettings.cs UpdateCache, \
      SubsurfaceScattering.hlsl FillMaterialTransmission, DiffusionProfile.hlsl \
@@ -100,68 +99,60 @@ pub(crate) fn fit(
     let shape = b.d_mm.map(|d| 1.0 / (d * 1000.0 * ws * scene.units_per_mm));
     let base = b.albedo;
     let map_mm = target.thickness.iter().fold(0.0f64, |m, t| m.max(*t));
-    let model = |s: &Settings| -> Vec<[f64; 3]> {
-        target
-            .thickness
-            .iter()
-            .map(|&t| rendered(s, shape, base, t, map_mm))
-            .collect()
-    };
+    let model = |s: &Settings| target.rows(|t| rendered(s, shape, base, t, map_mm));
     let unit_tint = |lo: f64, span: f64| Settings {
         tint: [1.0; 3],
         remap: (lo, lo + span),
     };
-    let cost = |lo: f64, span: f64| target.amplitude(&model(&unit_tint(lo, span))).1;
     // Remap min from 0 (a scan of offsets, 0 first) and the span by
     // golden section in log space. Tint and remap min nearly trade off
     // (e^{-S min} x tint), so an offset counts only while its tint stays
     // under TINT_MAX; 0 always counts.
-    let mut best = (0.0, map_mm, f64::INFINITY);
     let top = 2.0 * map_mm;
-    for k in 0..=20 {
-        let lo = top * k as f64 / 20.0 * (k as f64 / 20.0);
-        let span = minimise_log(|s| cost(lo, s), 1e-3 * map_mm, 1e3 * map_mm, 40);
-        let (tint, c) = target.amplitude(&model(&unit_tint(lo, span)));
-        let settable = k == 0 || tint.iter().all(|t| *t <= TINT_MAX);
-        if settable && c < best.2 {
-            best = (lo, span, c);
-        }
-    }
+    let offsets: Vec<f64> = (0..=20)
+        .map(|k| top * k as f64 / 20.0 * (k as f64 / 20.0))
+        .collect();
+    let best = target.search(
+        Grid {
+            grid: &offsets,
+            range: (1e-3 * map_mm, 1e3 * map_mm),
+            iters: 40,
+            start: (0.0, map_mm),
+        },
+        |lo, span| model(&unit_tint(lo, span)),
+        |k, tint| k == 0 || tint.iter().all(|t| *t <= TINT_MAX),
+    );
     let (lo, hi) = (typed(best.0), typed(best.0 + best.1));
     let (k, _) = target.amplitude(&model(&unit_tint(lo, hi - lo)));
     let s = Settings {
         tint: k.map(typed),
         remap: (lo, hi),
     };
-    let mut params = Map::new();
-    let mut units = Map::new();
-    let mut put = |name: &str, v: serde_json::Value, u: &str| {
-        params.insert(name.into(), v);
-        units.insert(name.into(), unit(u));
-    };
-    put(
-        "Transmission Mode",
-        json!("Thin Object"),
-        "diffusion profile; .asset: profile.transmissionMode = 1 (a directional light uses the \
-         thickness map in both modes)",
-    );
-    put(
-        "Transmission Tint",
-        json!(s.tint),
-        "diffusion profile, HDR colour (linear; values above 1 need the picker's HDR mode); \
-         .asset: profile.transmissionTint",
-    );
-    put(
-        "Thickness Remap",
-        json!([lo, hi]),
-        "diffusion profile, min and max in mm; .asset: profile.thicknessRemap",
-    );
-    put(
-        "Thickness Map",
-        json!(format!("t / {} mm", typed(map_mm))),
-        "Lit material (_ThicknessMap, Transmission on): each texel the object's thickness \
-         through the surface over the thickest slab of the table, clamped to [0, 1]",
-    );
+    let rows = vec![
+        (
+            "Transmission Mode",
+            json!("Thin Object"),
+            "diffusion profile; .asset: profile.transmissionMode = 1 (a directional light uses \
+             the thickness map in both modes)",
+        ),
+        (
+            "Transmission Tint",
+            json!(s.tint),
+            "diffusion profile, HDR colour (linear; values above 1 need the picker's HDR mode); \
+             .asset: profile.transmissionTint",
+        ),
+        (
+            "Thickness Remap",
+            json!([lo, hi]),
+            "diffusion profile, min and max in mm; .asset: profile.thicknessRemap",
+        ),
+        (
+            "Thickness Map",
+            json!(format!("t / {} mm", typed(map_mm))),
+            "Lit material (_ThicknessMap, Transmission on): each texel the object's thickness \
+             through the surface over the thickest slab of the table, clamped to [0, 1]",
+        ),
+    ];
     let requirements = vec![
         "the Lit material's Material Type Subsurface Scattering with Transmission on, this \
          Diffusion Profile, and the reflection settings printed above (S is the reflection's)"
@@ -173,12 +164,7 @@ pub(crate) fn fit(
         "Directional Transmission Multiplier 1 in the Volume's shadow settings".to_string(),
     ];
     Ok((
-        Scored {
-            params,
-            units,
-            requirements,
-            warnings: Vec::new(),
-        },
+        Scored::new(rows, requirements, Vec::new()),
         model(&s),
         super::Model::Hdrp(s, shape, base, map_mm),
     ))

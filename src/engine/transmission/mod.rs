@@ -25,9 +25,11 @@ pub mod godot;
 pub mod hdrp;
 pub mod unreal;
 
+use super::printed::table;
 use super::{Engine, EngineFit, Scene};
 use crate::error::{Error, Result};
 use crate::material::Channel;
+use crate::numerics::minimise_log;
 use crate::profile::transmission::ThicknessTable;
 use serde::Serialize;
 use serde_json::{Map, Value};
@@ -208,6 +210,74 @@ pub(crate) struct Scored {
     pub warnings: Vec<String>,
 }
 
+impl Scored {
+    /// From the printed (name, value, unit) rows, as `printed::table`
+    /// takes them.
+    pub(crate) fn new(
+        rows: Vec<(&str, Value, &str)>,
+        requirements: Vec<String>,
+        warnings: Vec<String>,
+    ) -> Scored {
+        let (params, units) = table(rows);
+        Scored {
+            params,
+            units: units
+                .into_iter()
+                .map(|(k, u)| (k, Value::String(u)))
+                .collect(),
+            requirements,
+            warnings,
+        }
+    }
+}
+
+/// A warning for each channel whose wanted amplitude `k` is above 1, the
+/// most the engine's colour takes; `say(channel, k)` words it.
+pub(crate) fn capped(k: [f64; 3], say: impl Fn(&str, f64) -> String) -> Vec<String> {
+    (0..3)
+        .filter(|&c| k[c] > 1.0)
+        .map(|c| say(["r", "g", "b"][c], k[c]))
+        .collect()
+}
+
+/// The lowest cost over a grid of one setting (`grid`), the other found at
+/// each grid value by golden section in log space over `range` (`iters`
+/// steps): (grid value, searched value) for `shape(grid value, searched
+/// value)` at amplitude 1. `keep(i, amplitudes)` says whether the i-th grid
+/// value's best point may be taken (the engine's UI takes its amplitudes);
+/// `start` stands until a point is kept with a lower cost.
+pub(crate) struct Grid<'a> {
+    pub grid: &'a [f64],
+    pub range: (f64, f64),
+    pub iters: usize,
+    pub start: (f64, f64),
+}
+
+impl Target {
+    pub(crate) fn search(
+        &self,
+        g: Grid,
+        shape: impl Fn(f64, f64) -> Vec<[f64; 3]>,
+        keep: impl Fn(usize, &[f64; 3]) -> bool,
+    ) -> (f64, f64) {
+        let (mut best, mut cost) = (g.start, f64::INFINITY);
+        for (i, &x) in g.grid.iter().enumerate() {
+            let (lo, hi) = g.range;
+            let y = minimise_log(|y| self.amplitude(&shape(x, y)).1, lo, hi, g.iters);
+            let (k, c) = self.amplitude(&shape(x, y));
+            if keep(i, &k) && c < cost {
+                (best, cost) = ((x, y), c);
+            }
+        }
+        best
+    }
+
+    /// The light of `at(t)` at each row's thickness t (mm).
+    pub(crate) fn rows(&self, at: impl Fn(f64) -> [f64; 3]) -> Vec<[f64; 3]> {
+        self.thickness.iter().map(|&t| at(t)).collect()
+    }
+}
+
 fn finish(
     engine: Engine,
     source: &str,
@@ -295,9 +365,4 @@ pub fn none_for(engine: Engine) -> Option<&'static str> {
         ),
         _ => None,
     }
-}
-
-/// A unit entry of the printed table.
-pub(crate) fn unit(s: &str) -> Value {
-    Value::String(s.into())
 }

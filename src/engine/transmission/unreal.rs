@@ -38,12 +38,11 @@
 //! So pi L / E = pi x Tint x Profile(OD'(t)) x 0.5 (1 + g) / (1 - g) x
 //! Base Color.
 
-use super::{unit, Scored, Target, TINY};
+use super::{Grid, Scored, Target, TINY};
 use crate::engine::printed::{number, triple, typed};
 use crate::engine::{EngineFit, Scene};
 use crate::error::{Error, Result};
-use crate::numerics::minimise_log;
-use serde_json::{json, Map};
+use serde_json::json;
 
 pub const SOURCE: &str = "Unreal Engine 5.4 and later: BurleyNormalizedSSS.cpp \
      ComputeTransmissionProfileBurley, TransmissionThickness.ush CalculateEncodedOpticalDepth, \
@@ -171,25 +170,19 @@ pub(crate) fn fit(
         scattering_distribution: 0.0,
         tint: [1.0; 3],
     };
-    let shape = |s: &Settings| -> Vec<[f64; 3]> {
-        target
-            .thickness
-            .iter()
-            .map(|&t| rendered(s, &r, scene, t))
-            .collect()
-    };
-    let cost_of = |es: f64, ns: f64| target.amplitude(&shape(&unit_tint(es, ns))).1;
+    let shape = |s: &Settings| target.rows(|t| rendered(s, &r, scene, t));
     let ns_grid: Vec<f64> = (0..=10).map(|k| 0.01 + 0.099 * k as f64).collect();
-    let (mut best_es, mut best_ns, mut best) = (1.0, 0.08, f64::INFINITY);
-    for &ns in &ns_grid {
-        let (lo, hi) = EXTINCTION_SCALE_RANGE;
-        let es = minimise_log(|es| cost_of(es, ns), lo, hi, 40);
-        let c = cost_of(es, ns);
-        if c < best {
-            (best_es, best_ns, best) = (es, ns, c);
-        }
-    }
-    let (es, ns) = (typed(best_es), typed(best_ns));
+    let (ns, es) = target.search(
+        Grid {
+            grid: &ns_grid,
+            range: EXTINCTION_SCALE_RANGE,
+            iters: 40,
+            start: (0.08, 1.0),
+        },
+        |ns, es| shape(&unit_tint(es, ns)),
+        |_, _| true,
+    );
+    let (es, ns) = (typed(es), typed(ns));
     let (k, _) = target.amplitude(&shape(&unit_tint(es, ns)));
     // The shape was taken at tint 1 and g = 0, so k = tint x phase(g) /
     // phase(0), phase(g) / phase(0) = (1 + g) / (1 - g): the least g that
@@ -198,18 +191,13 @@ pub(crate) fn fit(
     let (glo, ghi) = SCATTERING_DISTRIBUTION_RANGE;
     let g = typed(((need - 1.0) / (need + 1.0)).clamp(glo, ghi));
     let gain = phase_forward(g) / phase_forward(0.0);
-    let mut warnings = Vec::new();
     let tint = k.map(|k| typed((k / gain).clamp(COLOUR_BIAS, 1.0)));
-    for c in 0..3 {
-        if k[c] / gain > 1.0 {
-            warnings.push(format!(
-                "channel {}: the table asks for {:.3} times the light ScatteringDistribution \
-                 {ghi} lets through; TransmissionTintColor is capped at 1",
-                ["r", "g", "b"][c],
-                k[c] / gain
-            ));
-        }
-    }
+    let warnings = super::capped(k.map(|k| k / gain), |c, k| {
+        format!(
+            "channel {c}: the table asks for {k:.3} times the light ScatteringDistribution \
+             {ghi} lets through; TransmissionTintColor is capped at 1"
+        )
+    });
     let s = Settings {
         extinction_scale: es,
         normal_scale: ns,
@@ -222,48 +210,39 @@ pub(crate) fn fit(
             "Unreal's profile lets no light through".into(),
         ));
     }
-    let mut params = Map::new();
-    let mut units = Map::new();
-    let mut put = |name: &str, v: serde_json::Value, u: &str| {
-        params.insert(name.into(), v);
-        units.insert(name.into(), unit(u));
-    };
-    put(
-        "ExtinctionScale",
-        json!(es),
-        "Subsurface Profile, Transmission: multiplies the shadow-map thickness (world units) \
-         into the profile's distance; 0.01 to 100",
-    );
-    put(
-        "NormalScale",
-        json!(ns),
-        "Subsurface Profile, Transmission: half of it moves the pixel into the surface and is \
-         added back to the optical depth; 0.01 to 1",
-    );
-    put(
-        "ScatteringDistribution",
-        json!(g),
-        "Subsurface Profile, Transmission: ApproximateHG's g, the forward peak seen from behind; \
-         0.01 to 0.99",
-    );
-    put(
-        "TransmissionTintColor",
-        json!(tint),
-        "Subsurface Profile, Transmission: linear colour multiplied into the profile; 0.009 to 1",
-    );
-    put(
-        "IOR",
-        json!(1.0),
-        "Subsurface Profile, Transmission: 1 keeps the view through the surface straight (the \
-         error is for the view along the normal, where IOR changes nothing)",
-    );
+    let rows = vec![
+        (
+            "ExtinctionScale",
+            json!(es),
+            "Subsurface Profile, Transmission: multiplies the shadow-map thickness (world units) \
+             into the profile's distance; 0.01 to 100",
+        ),
+        (
+            "NormalScale",
+            json!(ns),
+            "Subsurface Profile, Transmission: half of it moves the pixel into the surface and is \
+             added back to the optical depth; 0.01 to 1",
+        ),
+        (
+            "ScatteringDistribution",
+            json!(g),
+            "Subsurface Profile, Transmission: ApproximateHG's g, the forward peak seen from behind; \
+             0.01 to 0.99",
+        ),
+        (
+            "TransmissionTintColor",
+            json!(tint),
+            "Subsurface Profile, Transmission: linear colour multiplied into the profile; 0.009 to 1",
+        ),
+        (
+            "IOR",
+            json!(1.0),
+            "Subsurface Profile, Transmission: 1 keeps the view through the surface straight (the \
+             error is for the view along the normal, where IOR changes nothing)",
+        ),
+    ];
     Ok((
-        Scored {
-            params,
-            units,
-            requirements: requirements(scene),
-            warnings,
-        },
+        Scored::new(rows, requirements(scene), warnings),
         model,
         super::Model::Unreal(s, r, scene),
     ))

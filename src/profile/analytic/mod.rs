@@ -241,7 +241,7 @@ pub fn profile(
     options: &Options,
 ) -> Result<Profile> {
     let start = std::time::Instant::now();
-    material.validate(&format!("material '{}'", material.name))?;
+    material.validate_named()?;
     if !material.is_half_space() {
         return Err(Error::Unsupported(format!(
             "material '{}' has {} layer(s){}: analytic models describe one semi-infinite \

@@ -195,13 +195,45 @@ pub(super) fn run_grid(material: &Material, cfg: &McConfig) -> (RadialGrid, serd
 }
 
 pub(super) fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
-    match cfg.budget {
+    validate_budget(&cfg.budget)?;
+    validate_shard(cfg, opts)?;
+    if cfg.channels.is_empty() {
+        return Err(Error::invalid(CONTEXT, "channels", "''", "empty"));
+    }
+    if let Some(n) = cfg.threads {
+        crate::limits::check_threads("worker threads", n)?;
+    }
+    validate_options(opts)?;
+    if let PhotonBudget::Fixed(n) = cfg.budget {
+        // Every packet makes at least one event (it enters with weight
+        // 1 - R_sp > 0): more photons than the cap surely exceed it.
+        let mine = match opts.shard {
+            Some(s) => {
+                let (a, b) = s.chunks(n.div_ceil(CHUNK));
+                (b * CHUNK).min(n) - a * CHUNK
+            }
+            None => n,
+        };
+        if mine > opts.max_work {
+            return Err(fixed_over_cap(
+                n,
+                format!("{mine} photons per channel cost at least one event each"),
+                opts.max_work,
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The photon budget: at least one photon, a target in (0, 1).
+fn validate_budget(budget: &PhotonBudget) -> Result<()> {
+    match *budget {
         PhotonBudget::Fixed(n) if n == 0 => {
             return Err(Error::invalid(CONTEXT, "photons", n, "must be >= 1"))
         }
         PhotonBudget::TargetError { rel, max_photons }
         | PhotonBudget::KernelFactor { rel, max_photons } => {
-            let field = match cfg.budget {
+            let field = match *budget {
                 PhotonBudget::TargetError { .. } => "target_error",
                 _ => "kernel_error",
             };
@@ -224,6 +256,11 @@ pub(super) fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
         }
         _ => {}
     }
+    Ok(())
+}
+
+/// A shard K/N: of a fixed count, not angle-resolved, within the chunks.
+fn validate_shard(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     if opts.shard.is_some() && opts.angular.is_some() {
         return Err(Error::invalid(
             CONTEXT,
@@ -254,12 +291,11 @@ pub(super) fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
             ));
         }
     }
-    if cfg.channels.is_empty() {
-        return Err(Error::invalid(CONTEXT, "channels", "''", "empty"));
-    }
-    if let Some(n) = cfg.threads {
-        crate::limits::check_threads("worker threads", n)?;
-    }
+    Ok(())
+}
+
+/// The work and roulette options.
+fn validate_options(opts: &McOptions) -> Result<()> {
     if opts.max_work == 0 {
         return Err(Error::invalid(CONTEXT, "max_work", 0, "must be >= 1"));
     }
@@ -284,24 +320,6 @@ pub(super) fn validate_config(cfg: &McConfig, opts: &McOptions) -> Result<()> {
     }
     if opts.max_events == 0 {
         return Err(Error::invalid(CONTEXT, "max_events", 0, "must be >= 1"));
-    }
-    if let PhotonBudget::Fixed(n) = cfg.budget {
-        // Every packet makes at least one event (it enters with weight
-        // 1 - R_sp > 0): more photons than the cap surely exceed it.
-        let mine = match opts.shard {
-            Some(s) => {
-                let (a, b) = s.chunks(n.div_ceil(CHUNK));
-                (b * CHUNK).min(n) - a * CHUNK
-            }
-            None => n,
-        };
-        if mine > opts.max_work {
-            return Err(fixed_over_cap(
-                n,
-                format!("{mine} photons per channel cost at least one event each"),
-                opts.max_work,
-            ));
-        }
     }
     Ok(())
 }

@@ -19,9 +19,10 @@
 //! <w_i> (delta method for the ratio a_m / S). Under splitting the
 //! cross-bin terms of one packet are neglected.
 
+use crate::material::{Channel, Material};
 use crate::numerics::annulus_area;
 use crate::profile::radius::{default_extent, default_kernel_size};
-use crate::profile::Profile;
+use crate::profile::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
 
 /// Cells per side and half-width (mm) of the default kernel grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,6 +41,43 @@ pub fn kernel_geometry(p: &Profile) -> Option<KernelGeometry> {
     (extent > 0.0 && extent.is_finite()).then(|| KernelGeometry {
         extent_mm: extent,
         size: default_kernel_size(p, extent),
+    })
+}
+
+/// The default kernel grid of a run's tallies so far: a provisional
+/// profile of densities `rd` (per channel, on `grid`) with totals `total`,
+/// as `Kernel2D::from_profile` would see it.
+pub(super) fn provisional_geometry(
+    material: &Material,
+    channels: &[Channel],
+    grid: &RadialGrid,
+    rd: Vec<Vec<f64>>,
+    total: Vec<f64>,
+) -> Option<KernelGeometry> {
+    kernel_geometry(&Profile {
+        schema: PROFILE_SCHEMA.into(),
+        material: material.clone(),
+        units: "mm".into(),
+        source: Source {
+            kind: "monte-carlo".into(),
+            photons: None,
+            seed: None,
+            model: None,
+            params: serde_json::Value::Null,
+        },
+        channels: channels.to_vec(),
+        r_edges: grid.edges.clone(),
+        r: grid.centres(),
+        rd,
+        rd_stderr: None,
+        total_rd: total,
+        total_rd_stderr: None,
+        specular: vec![],
+        transmittance: None,
+        transmittance_stderr: None,
+        absorbed: None,
+        extra: serde_json::Value::Null,
+        elapsed_s: 0.0,
     })
 }
 

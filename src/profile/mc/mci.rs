@@ -144,102 +144,109 @@ pub fn parse_mci(text: &str, context: &str) -> Result<Vec<McmlRun>> {
         "number of runs",
         "each run takes at least 8 lines",
     )?;
-    let mut runs = Vec::with_capacity(n_runs);
-    for k in 0..n_runs {
-        let run_ctx = format!("{context} run {}", k + 1);
-        let (_, t) = l.next(1, "output file name")?;
-        let output_name = t[0].to_string();
-        let (no, t) = l.next(1, "number of photons")?;
-        let photons: u64 = l.num(no, t[0], "number of photons")?;
-        if photons == 0 {
-            return Err(Error::invalid(&run_ctx, "photons", 0, "must be >= 1"));
-        }
-        let (no, t) = l.next(2, "dz dr (cm)")?;
-        let _dz: f64 = l.num(no, t[0], "dz")?;
-        let dr_cm: f64 = l.num(no, t[1], "dr")?;
-        let dr_line = no;
-        let (no, t) = l.next(3, "nz nr na")?;
-        let nr: usize = l.num(no, t[1], "nr")?;
-        let angle_bins: usize = l.num(no, t[2], "na")?;
-        if angle_bins == 0 {
-            return Err(Error::invalid(&run_ctx, "na", 0, "must be >= 1"));
-        }
-        if nr > MAX_BINS {
-            return Err(Error::format(
-                context,
-                format!("line {no}: nr = {nr}: more than {MAX_BINS} radial bins"),
-            ));
-        }
-        let (no, t) = l.next(1, "number of layers")?;
-        let n_layers: usize = l.num(no, t[0], "number of layers")?;
-        if n_layers == 0 {
+    (0..n_runs).map(|k| parse_run(&mut l, context, k)).collect()
+}
+
+/// Run `k` (from 0) of an .mci file.
+fn parse_run(l: &mut Lines, context: &str, k: usize) -> Result<McmlRun> {
+    let run_ctx = format!("{context} run {}", k + 1);
+    let (_, t) = l.next(1, "output file name")?;
+    let output_name = t[0].to_string();
+    let (no, t) = l.next(1, "number of photons")?;
+    let photons: u64 = l.num(no, t[0], "number of photons")?;
+    if photons == 0 {
+        return Err(Error::invalid(&run_ctx, "photons", 0, "must be >= 1"));
+    }
+    let (no, t) = l.next(2, "dz dr (cm)")?;
+    let _dz: f64 = l.num(no, t[0], "dz")?;
+    let dr_cm: f64 = l.num(no, t[1], "dr")?;
+    let dr_line = no;
+    let (no, t) = l.next(3, "nz nr na")?;
+    let nr: usize = l.num(no, t[1], "nr")?;
+    let angle_bins: usize = l.num(no, t[2], "na")?;
+    if angle_bins == 0 {
+        return Err(Error::invalid(&run_ctx, "na", 0, "must be >= 1"));
+    }
+    if nr > MAX_BINS {
+        return Err(Error::format(
+            context,
+            format!("line {no}: nr = {nr}: more than {MAX_BINS} radial bins"),
+        ));
+    }
+    let (no, t) = l.next(1, "number of layers")?;
+    let n_layers: usize = l.num(no, t[0], "number of layers")?;
+    if n_layers == 0 {
+        return Err(Error::invalid(
+            &run_ctx,
+            "number of layers",
+            0,
+            "must be >= 1",
+        ));
+    }
+    l.check_count(no, n_layers, 1, "number of layers", "one line per layer")?;
+    let (no, t) = l.next(1, "n of the medium above")?;
+    let n_above: f64 = l.num(no, t[0], "n above")?;
+    let layers = parse_layers(l, &run_ctx, n_layers)?;
+    let (no, t) = l.next(1, "n of the medium below")?;
+    let n_below: f64 = l.num(no, t[0], "n below")?;
+    let material = Material {
+        name: Path::new(&output_name)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| format!("mci-run-{}", k + 1)),
+        eta_above: n_above,
+        eta_below: n_below,
+        layers,
+    };
+    material.validate(&run_ctx)?;
+    if !(dr_cm.is_finite() && dr_cm > 0.0) || nr == 0 {
+        return Err(Error::invalid(
+            &run_ctx,
+            "dr, nr",
+            format!("{dr_cm}, {nr}"),
+            "radial grid needs dr > 0 and nr >= 1",
+        ));
+    }
+    let grid = RadialGrid::uniform(dr_cm * 10.0, nr as f64 * dr_cm * 10.0)
+        .map_err(|e| Error::format(context, format!("run {}, line {dr_line}: {e}", k + 1)))?;
+    Ok(McmlRun {
+        material,
+        photons,
+        grid,
+        angle_bins,
+        output_name,
+        source: context.to_string(),
+    })
+}
+
+/// The `n_layers` layer lines of a run: n mua mus g d, in cm.
+fn parse_layers(l: &mut Lines, run_ctx: &str, n_layers: usize) -> Result<Vec<Layer>> {
+    let mut layers = Vec::with_capacity(n_layers);
+    for i in 0..n_layers {
+        let (no, t) = l.next(5, "layer: n mua mus g d")?;
+        let n: f64 = l.num(no, t[0], "n")?;
+        let mua: f64 = l.num(no, t[1], "mua")?;
+        let mus: f64 = l.num(no, t[2], "mus")?;
+        let g: f64 = l.num(no, t[3], "g")?;
+        let d: f64 = l.num(no, t[4], "d")?;
+        if mua == 0.0 && mus == 0.0 {
             return Err(Error::invalid(
-                &run_ctx,
-                "number of layers",
+                run_ctx,
+                format!("layer[{i}] mua, mus"),
                 0,
-                "must be >= 1",
+                "clear layers (no absorption or scattering) are not supported",
             ));
         }
-        l.check_count(no, n_layers, 1, "number of layers", "one line per layer")?;
-        let (no, t) = l.next(1, "n of the medium above")?;
-        let n_above: f64 = l.num(no, t[0], "n above")?;
-        let mut layers = Vec::with_capacity(n_layers);
-        for i in 0..n_layers {
-            let (no, t) = l.next(5, "layer: n mua mus g d")?;
-            let n: f64 = l.num(no, t[0], "n")?;
-            let mua: f64 = l.num(no, t[1], "mua")?;
-            let mus: f64 = l.num(no, t[2], "mus")?;
-            let g: f64 = l.num(no, t[3], "g")?;
-            let d: f64 = l.num(no, t[4], "d")?;
-            if mua == 0.0 && mus == 0.0 {
-                return Err(Error::invalid(
-                    &run_ctx,
-                    format!("layer[{i}] mua, mus"),
-                    0,
-                    "clear layers (no absorption or scattering) are not supported",
-                ));
-            }
-            let semi = i + 1 == n_layers && d >= SEMI_INFINITE_CM;
-            layers.push(Layer {
-                sigma_a: [mua / 10.0; 3],
-                sigma_s: [mus / 10.0; 3],
-                g: [g; 3],
-                eta: n,
-                thickness: (!semi).then_some(d * 10.0),
-            });
-        }
-        let (no, t) = l.next(1, "n of the medium below")?;
-        let n_below: f64 = l.num(no, t[0], "n below")?;
-        let material = Material {
-            name: Path::new(&output_name)
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| format!("mci-run-{}", k + 1)),
-            eta_above: n_above,
-            eta_below: n_below,
-            layers,
-        };
-        material.validate(&run_ctx)?;
-        if !(dr_cm.is_finite() && dr_cm > 0.0) || nr == 0 {
-            return Err(Error::invalid(
-                &run_ctx,
-                "dr, nr",
-                format!("{dr_cm}, {nr}"),
-                "radial grid needs dr > 0 and nr >= 1",
-            ));
-        }
-        let grid = RadialGrid::uniform(dr_cm * 10.0, nr as f64 * dr_cm * 10.0)
-            .map_err(|e| Error::format(context, format!("run {}, line {dr_line}: {e}", k + 1)))?;
-        runs.push(McmlRun {
-            material,
-            photons,
-            grid,
-            angle_bins,
-            output_name,
-            source: context.to_string(),
+        let semi = i + 1 == n_layers && d >= SEMI_INFINITE_CM;
+        layers.push(Layer {
+            sigma_a: [mua / 10.0; 3],
+            sigma_s: [mus / 10.0; 3],
+            g: [g; 3],
+            eta: n,
+            thickness: (!semi).then_some(d * 10.0),
         });
     }
-    Ok(runs)
+    Ok(layers)
 }
 
 #[cfg(test)]

@@ -99,17 +99,7 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
             p.channels.len()
         )));
     }
-    let n = p.r.len();
     let dr = uniform_dr(p)?;
-    let photons = p
-        .source
-        .photons
-        .as_ref()
-        .and_then(|v| v.first())
-        .copied()
-        .unwrap_or(0);
-    let c = p.channels[0].index();
-    let m = &p.material;
     let cm = |mm: f64| mm / 10.0;
     let angular = p.angular()?;
     let exit = angular
@@ -133,9 +123,37 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
         ones.push("Tt_a");
         twos.push("Tt_ra");
     }
+    write_categories(&mut s, &ones, &twos);
+    write_in_parm(&mut s, p, output_name, dr, na);
+    write_rat(&mut s, p);
+    let _ = writeln!(s, "Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]");
+    let beyond = p.rd_beyond_rmax()?.map_or(0.0, |b| b[0]);
+    write_radial(&mut s, p, &p.rd[0], beyond);
+    if let Some((a, x)) = exit {
+        write_rd_a(&mut s, a, x);
+    }
+    if let Some(t) = &tt {
+        let _ = writeln!(s, "Tt_r #Tt[0], [1],..Tt[nr-1]. [1/cm2]");
+        write_radial(&mut s, p, &t.td[0], t.beyond_rmax[0]);
+    }
+    let tt_a = tt_angles.filter(|_| exit.is_some());
+    if let Some(ta) = tt_a {
+        write_tt_a(&mut s, ta);
+    }
+    if let Some((a, x)) = exit {
+        write_rd_ra(&mut s, p, a, x, cm(dr));
+    }
+    if let Some(ta) = tt_a {
+        write_tt_ra(&mut s, ta, cm(dr));
+    }
+    Ok(s)
+}
+
+/// The header's list of the data categories written.
+fn write_categories(s: &mut String, ones: &[&str], twos: &[&str]) {
     let mut all = vec!["InParm", "RAT"];
-    all.extend(&ones);
-    all.extend(&twos);
+    all.extend(ones);
+    all.extend(twos);
     let only = match all.split_last() {
         Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
         None => String::new(),
@@ -152,6 +170,21 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
         s,
         "# Written by ssskit: only {only}; weight beyond the grid is in the last radial bin.\n"
     );
+}
+
+/// MCML's InParm block: the run's photons, grid and layers, in cm.
+fn write_in_parm(s: &mut String, p: &Profile, output_name: &str, dr: f64, na: usize) {
+    let n = p.r.len();
+    let photons = p
+        .source
+        .photons
+        .as_ref()
+        .and_then(|v| v.first())
+        .copied()
+        .unwrap_or(0);
+    let c = p.channels[0].index();
+    let m = &p.material;
+    let cm = |mm: f64| mm / 10.0;
     let _ = writeln!(s, "InParm \t\t\t# Input parameters. cm is used.");
     let _ = writeln!(s, "{output_name} \tA\t\t# output file name, ASCII.");
     let _ = writeln!(s, "{photons} \t\t\t# No. of photons");
@@ -175,6 +208,10 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
         );
     }
     let _ = writeln!(s, "{}\t\t\t\t\t# n for medium below\n", c_g(m.eta_below));
+}
+
+/// MCML's RAT block: specular, diffuse, absorbed, transmitted.
+fn write_rat(s: &mut String, p: &Profile) {
     let get = |v: &Option<Vec<f64>>| v.as_ref().and_then(|v| v.first()).copied().unwrap_or(0.0);
     let _ = writeln!(s, "RAT #Reflectance, absorption, transmission. ");
     let _ = writeln!(s, "{:<14} \t#Specular reflectance [-]", c_g(p.specular[0]));
@@ -185,27 +222,6 @@ pub fn mco_text(p: &Profile, output_name: &str) -> Result<String> {
         "{:<14} \t#Transmittance [-]\n",
         c_g(get(&p.transmittance))
     );
-    let _ = writeln!(s, "Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]");
-    let beyond = p.rd_beyond_rmax()?.map_or(0.0, |b| b[0]);
-    write_radial(&mut s, p, &p.rd[0], beyond);
-    if let Some((a, x)) = exit {
-        write_rd_a(&mut s, a, x);
-    }
-    if let Some(t) = &tt {
-        let _ = writeln!(s, "Tt_r #Tt[0], [1],..Tt[nr-1]. [1/cm2]");
-        write_radial(&mut s, p, &t.td[0], t.beyond_rmax[0]);
-    }
-    let tt_a = tt_angles.filter(|_| exit.is_some());
-    if let Some(ta) = tt_a {
-        write_tt_a(&mut s, ta);
-    }
-    if let Some((a, x)) = exit {
-        write_rd_ra(&mut s, p, a, x, cm(dr));
-    }
-    if let Some(ta) = tt_a {
-        write_tt_ra(&mut s, ta, cm(dr));
-    }
-    Ok(s)
 }
 
 /// A radial array in 1/cm^2, one value a line, the light beyond the grid

@@ -23,6 +23,7 @@ pub mod mci;
 pub mod mco;
 mod merge;
 mod rounds;
+mod status;
 mod streams;
 mod tally;
 pub(crate) mod tracer;
@@ -51,6 +52,7 @@ use rayon::prelude::*;
 use rounds::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
+use status::*;
 pub(crate) use streams::splitmix64;
 use streams::*;
 use tally::{BinIndex, ChunkTally, PhotonScratch};
@@ -69,7 +71,7 @@ pub fn simulate_with(
     progress: &dyn Progress,
 ) -> Result<Profile> {
     let start = std::time::Instant::now();
-    material.validate(&format!("material '{}'", material.name))?;
+    material.validate_named()?;
     validate_config(cfg, opts)?;
     let (grid, grid_rule) = run_grid(material, cfg);
     grid.check_edges()?;

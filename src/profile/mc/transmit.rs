@@ -6,12 +6,12 @@
 //! the reflected light (relative errors of the total and of the
 //! pre-integrated 1D factor, or the absolute floor).
 
-use super::consumer::{kernel_geometry, Projection};
+use super::consumer::{provisional_geometry, Projection};
 use super::tally::{convergence_of, densities, BinSums, ChunkTally, ExitSums, Moments};
 use super::{PhotonBudget, CONTEXT};
 use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
-use crate::profile::{Profile, RadialGrid, Source, PROFILE_SCHEMA};
+use crate::profile::RadialGrid;
 use serde::{Deserialize, Serialize};
 
 /// How far a channel's transmitted light is from the rule.
@@ -42,38 +42,16 @@ pub(super) fn tr_statuses(
     }
     let n = grid.len();
     let areas = grid.areas();
-    let provisional = Profile {
-        schema: PROFILE_SCHEMA.into(),
-        material: material.clone(),
-        units: "mm".into(),
-        source: Source {
-            kind: "monte-carlo".into(),
-            photons: None,
-            seed: None,
-            model: None,
-            params: serde_json::Value::Null,
-        },
-        channels: channels.to_vec(),
-        r_edges: grid.edges.clone(),
-        r: grid.centres(),
-        rd: t
-            .iter()
-            .map(|t| match t.tr_bins.sum.get(..n) {
-                Some(s) => densities(s, t.photons, &areas),
-                None => vec![0.0; n],
-            })
-            .collect(),
-        rd_stderr: None,
-        total_rd: t.iter().map(|t| t.transmittance.mean(t.photons)).collect(),
-        total_rd_stderr: None,
-        specular: vec![],
-        transmittance: None,
-        transmittance_stderr: None,
-        absorbed: None,
-        extra: serde_json::Value::Null,
-        elapsed_s: 0.0,
-    };
-    let projection = kernel_geometry(&provisional).map(|g| Projection::new(&grid.edges, &g));
+    let rd = t
+        .iter()
+        .map(|t| match t.tr_bins.sum.get(..n) {
+            Some(s) => densities(s, t.photons, &areas),
+            None => vec![0.0; n],
+        })
+        .collect();
+    let total = t.iter().map(|t| t.transmittance.mean(t.photons)).collect();
+    let projection = provisional_geometry(material, channels, grid, rd, total)
+        .map(|g| Projection::new(&grid.edges, &g));
     t.iter()
         .map(|t| {
             if t.tr_bins.sum.len() != n + 2 {
@@ -106,15 +84,22 @@ pub(super) fn tr_statuses(
 /// The error a target rule compares with its target for the transmitted
 /// light (0 for a fixed budget).
 pub(super) fn tr_rule_error(budget: &PhotonBudget, s: &TrStatus) -> f64 {
+    budget_error(budget, s.rel_total, s.rel_profile, s.rel_factor)
+}
+
+/// The error a budget's rule compares with its target, from the relative
+/// errors of the total, the profile and the 1D factor (0 for a fixed
+/// budget), for the reflected and the transmitted light alike.
+pub(super) fn budget_error(budget: &PhotonBudget, total: f64, profile: f64, factor: f64) -> f64 {
     match budget {
         PhotonBudget::Fixed(_) => 0.0,
-        PhotonBudget::TargetError { .. } => s.rel_total.max(s.rel_profile),
-        PhotonBudget::KernelFactor { .. } => s.rel_total.max(s.rel_factor),
+        PhotonBudget::TargetError { .. } => total.max(profile),
+        PhotonBudget::KernelFactor { .. } => total.max(factor),
     }
 }
 
 /// How far the transmitted light is from the absolute floor (as
-/// `rounds::floor_ratio` for the reflected light).
+/// `status::floor_ratio` for the reflected light).
 pub(super) fn tr_floor_ratio(floor: f64, s: &TrStatus, photons: u64) -> f64 {
     let shape = if s.t > 0.0 { s.t * s.rel_factor } else { 0.0 };
     let noise = s.t_stderr.max(shape) / floor;
@@ -177,22 +162,17 @@ pub(super) fn record(
         sum: t.tr_bins.sum[i],
         sum_sq: t.tr_bins.sum_sq[i],
     };
-    let td = t
-        .iter()
-        .map(|t| {
-            (0..n)
-                .map(|i| bin(t, i).mean(t.photons) / areas[i])
-                .collect()
-        })
-        .collect();
-    let td_stderr = t
-        .iter()
-        .map(|t| {
-            (0..n)
-                .map(|i| bin(t, i).stderr(t.photons) / areas[i])
-                .collect()
-        })
-        .collect();
+    // Per channel and bin, a statistic of the bin's weight per unit area.
+    let per_area = |f: fn(&Moments, u64) -> f64| -> Vec<Vec<f64>> {
+        t.iter()
+            .map(|t| {
+                (0..n)
+                    .map(|i| f(&bin(t, i), t.photons) / areas[i])
+                    .collect()
+            })
+            .collect()
+    };
+    let (td, td_stderr) = (per_area(Moments::mean), per_area(Moments::stderr));
     let angular = t.iter().all(|t| !t.tr_exit.is_empty()).then(|| angles(t));
     let st = |f: &dyn Fn(&TrStatus) -> f64| -> Vec<f64> {
         status.iter().map(|s| s.as_ref().map_or(0.0, f)).collect()

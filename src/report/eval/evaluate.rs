@@ -9,7 +9,7 @@
 //!   millimetres per pixel ([`ImageCase::signal`] builds a test signal).
 //! - [`Exact::new`]`(profile, case)`: the exact 2D convolution of the case
 //!   with the profile's ground-truth kernel at one pixel per cell
-//!   ([`cpu::reference_kernel`], [`cpu::convolve_2d`]), sampled at the pixel
+//!   ([`exact::reference_kernel`], [`exact::convolve_2d`]), sampled at the pixel
 //!   centres: the discretisation the kernels' own pixel kernels share (box
 //!   integrals of their factors), so that the error is the model's and not
 //!   the difference between sampling and averaging over a pixel (`apply
@@ -72,8 +72,7 @@
 use crate::error::{Error, Result};
 use crate::filter::image::linear_to_srgb;
 use crate::filter::signals::{generate, Signal};
-pub use crate::filter::Which;
-use crate::filter::{cpu, diff, taps_for, Image, Scale, Setup, Taps};
+use crate::filter::{cpu, diff, exact, separable, taps_for, Image, Scale, Setup, Taps, Which};
 use crate::kernel::{Kernel2D, KernelFile};
 use crate::profile::Profile;
 use rayon::prelude::*;
@@ -187,7 +186,7 @@ impl Exact {
     pub fn new(profile: &Profile, case: &ImageCase) -> Result<Exact> {
         Exact::checked(case)?;
         let t0 = Instant::now();
-        let k: Kernel2D = cpu::reference_kernel(profile, case.mm_per_pixel)?;
+        let k: Kernel2D = exact::reference_kernel(profile, case.mm_per_pixel)?;
         let mut e = Exact::with_kernel(case, &k);
         e.seconds = t0.elapsed().as_secs_f64();
         Ok(e)
@@ -224,8 +223,8 @@ impl Exact {
             match kernels.iter().position(|(mm, _)| *mm == c.mm_per_pixel) {
                 Some(i) => which.push(i),
                 None => {
-                    let k =
-                        cpu::reference_kernel(profile, c.mm_per_pixel).map_err(|e| failed(c, e))?;
+                    let k = exact::reference_kernel(profile, c.mm_per_pixel)
+                        .map_err(|e| failed(c, e))?;
                     which.push(kernels.len());
                     kernels.push((c.mm_per_pixel, k));
                 }
@@ -242,7 +241,7 @@ impl Exact {
     /// serves every case at its scale).
     pub fn with_kernel(case: &ImageCase, k: &Kernel2D) -> Exact {
         let t0 = Instant::now();
-        let image = cpu::convolve_2d(&case.image, k);
+        let image = exact::convolve_2d(&case.image, k);
         let seconds = t0.elapsed().as_secs_f64();
         let exposure = std::array::from_fn(|c| exposure_of(&image.rgb[c]));
         let max_rgb: Vec<f64> = (0..image.len())
@@ -316,7 +315,7 @@ pub fn filter(case: &ImageCase, passes: Vec<Taps>) -> Result<(Image, f64)> {
         jitter: false,
     };
     let t0 = Instant::now();
-    let out = cpu::apply_with(&case.image, &setup, cpu::Precision::F64)?;
+    let out = cpu::apply_with(&case.image, &setup, separable::Precision::F64)?;
     Ok((out, t0.elapsed().as_secs_f64()))
 }
 
@@ -501,7 +500,7 @@ mod tests {
 
     fn kernel(p: &Profile, model: Model, mm: f64) -> KernelFile {
         // The 2D kernel on the pixel grid, so resampling to pixels is exact.
-        let k = cpu::reference_kernel(p, mm).unwrap();
+        let k = exact::reference_kernel(p, mm).unwrap();
         let spec = Kernel2DSpec {
             size: Some(k.size),
             extent_mm: Some(k.extent_mm()),

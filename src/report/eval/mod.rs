@@ -1,31 +1,21 @@
-//! Evaluation and decision: how far a kernel lands from the exact
-//! convolution, model comparisons in kernel and image space, the thesis's
-//! claims checked on them, the configuration to ship, the speed/accuracy
-//! study and the one-call pipeline.
+//! Evaluation and decision, one folder per job: [`compare`] (kernel and
+//! profile models across materials, the thesis's claims checked on them,
+//! separable against disk kernels), [`scene`] (screen-space and
+//! light-space passes against a path-traced scene, transmission),
+//! [`advise`] (the configuration to ship at a pixel scale), [`study`] (the
+//! speed/accuracy trade of every knob) and [`ship`] (what the main job adds
+//! around the advice: the shipped configuration on the test images, the
+//! preview, the engine step, stage times). Shared by all:
+//! [`evaluate`] (how far a kernel lands from the exact convolution) and
+//! [`colour_shift`], and [`disk`] (the disk kernels as every job builds
+//! them). Each job hands [`super::present`] a results type of
+//! plain data.
 
 pub mod advise;
-pub mod advise_decide;
-pub mod advise_disk;
-pub mod advise_noise;
-pub mod advise_scene;
-pub mod advise_search;
-pub mod advise_types;
-pub mod claims;
 pub mod colour_shift;
-pub mod directional_advise;
-pub mod directional_scene;
-pub mod disk_compare;
-pub mod engine_step;
-pub mod engine_tables;
+pub mod compare;
+pub mod disk;
 pub mod evaluate;
-pub mod kernel_compare;
-pub mod pipeline;
-pub mod preview;
-pub mod profile_compare;
-pub mod scene_compare;
-pub mod scene_pass;
-pub mod scene_score;
-pub mod scene_transmission;
-pub mod shipped;
-pub mod stage_times;
+pub mod scene;
+pub mod ship;
 pub mod study;

@@ -6,11 +6,12 @@
 use super::number::sig;
 use crate::kernel::taps::hold_for_taps;
 use crate::numerics::Bounded;
+use crate::report::eval::advise::decide::Cost;
+use crate::report::eval::advise::scene::SceneCheck;
 use crate::report::eval::advise::{
     Advice, Candidate, ExtentRule, Remedy, COARSER_SCALES, FULL_MAX_PIXELS, NOISE_K,
 };
-use crate::report::eval::advise_decide::{tie, Cost};
-use crate::report::eval::advise_disk::{disk_text, DISK_SAMPLES};
+use crate::report::eval::disk::{DISK_SAMPLES, DISK_SEED};
 use std::cmp::Ordering;
 
 /// The rule behind the automatic extent, for the record.
@@ -121,7 +122,7 @@ fn why_not(b: &Candidate, chosen: &Candidate, meets_target: bool, target: f64) -
     if meets_target {
         return miss;
     }
-    if !tie(v, &chosen.verdict) {
+    if !v.ties(&chosen.verdict) {
         return format!("{miss}; less accurate than the chosen");
     }
     match b.cost_order(chosen) {
@@ -133,6 +134,40 @@ fn why_not(b: &Candidate, chosen: &Candidate, meets_target: bool, target: f64) -
              accurate row"
         ),
         _ => format!("{miss}; ties the chosen (within {NOISE_K} sd), {cost}"),
+    }
+}
+
+/// The scene check's lines: its sentence, then each configuration's
+/// error on the scene, the chosen and the best marked.
+fn scene_lines(s: &mut String, sc: &SceneCheck) {
+    use std::fmt::Write as _;
+    let _ = writeln!(s, "\n  {}", sc.sentence());
+    for (i, r) in sc.rows.iter().enumerate() {
+        let mark = match (i == sc.chosen, i == sc.best) {
+            (true, true) => "chosen, best",
+            (true, false) => "chosen",
+            (false, true) => "best",
+            _ => "",
+        };
+        let pct = |v: [f64; 3]| {
+            format!(
+                "{:>6.2} / {:>6.2} / {:>6.2}%",
+                100.0 * v[0],
+                100.0 * v[1],
+                100.0 * v[2]
+            )
+        };
+        let with = r
+            .rel_rms_with_factors
+            .map_or(String::new(), |v| format!("  with factors {}", pct(v)));
+        let _ = writeln!(
+            s,
+            "    {:<52} {:>2} passes {:>4} spp  {}{with}  {mark}",
+            r.configuration,
+            r.passes,
+            r.samples_per_pixel,
+            pct(r.rel_rms)
+        );
     }
 }
 
@@ -213,34 +248,7 @@ pub fn explain(a: &Advice) -> String {
         let _ = writeln!(s, "  {note}");
     }
     if let Some(sc) = &a.scene {
-        let _ = writeln!(s, "\n  {}", sc.sentence());
-        for (i, r) in sc.rows.iter().enumerate() {
-            let mark = match (i == sc.chosen, i == sc.best) {
-                (true, true) => "chosen, best",
-                (true, false) => "chosen",
-                (false, true) => "best",
-                _ => "",
-            };
-            let pct = |v: [f64; 3]| {
-                format!(
-                    "{:>6.2} / {:>6.2} / {:>6.2}%",
-                    100.0 * v[0],
-                    100.0 * v[1],
-                    100.0 * v[2]
-                )
-            };
-            let with = r
-                .rel_rms_with_factors
-                .map_or(String::new(), |v| format!("  with factors {}", pct(v)));
-            let _ = writeln!(
-                s,
-                "    {:<52} {:>2} passes {:>4} spp  {}{with}  {mark}",
-                r.configuration,
-                r.passes,
-                r.samples_per_pixel,
-                pct(r.rel_rms)
-            );
-        }
+        scene_lines(&mut s, sc);
     }
     s
 }
@@ -388,10 +396,38 @@ pub fn screen_space_note(kernel_rms: f64, mm_per_pixel: f64) -> Option<String> {
     ))
 }
 
+/// "on checker3px, channel r: one accumulation of 8 frames errs 3.474%
+/// ...": the disk row's score on its worst signal and where it comes from,
+/// every figure of the one channel the score is in.
+pub fn disk_text(c: &Candidate) -> Option<String> {
+    let d = c.disk.as_ref()?;
+    let s = d.signals.get(&c.verdict.worst_signal)?;
+    let pct = |v: f64| format!("{:.3}%", Bounded(100.0 * v));
+    Some(format!(
+        "on {}, channel {}: one accumulation of {k} frames errs {} (the first, frames {DISK_SEED} \
+         to {}, what apply --frames {k} makes; sd {} over the {} accumulations measured, in the \
+         +- with the bootstrap's); the mean of all {} rotations errs {} (the bias a converged \
+         filter shows, with that mean's own residual noise), the noise is {} in one frame and {} \
+         after {k} frames",
+        c.verdict.worst_signal,
+        s.channel,
+        pct(s.error),
+        DISK_SEED + d.frames - 1,
+        pct(s.error_sd),
+        d.rotations / d.frames,
+        d.rotations,
+        pct(s.bias),
+        pct(s.noise),
+        pct(s.noise_after),
+        k = d.frames,
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::report::eval::advise::Verdict;
+    use serde_json::json;
 
     /// A separable row of `samples` per pixel in 2 passes scoring `worst`
     /// +- `sd` on one signal, at the default 5% target.
@@ -426,7 +462,7 @@ mod tests {
         let chosen = row("disk", 32, 0.060, 0.002);
         let cheap = row("preintegrate", 10, 0.063, 0.002);
         let dear = row("svd2", 64, 0.061, 0.002);
-        assert!(tie(&cheap.verdict, &chosen.verdict) && tie(&dear.verdict, &chosen.verdict));
+        assert!(cheap.verdict.ties(&chosen.verdict) && dear.verdict.ties(&chosen.verdict));
         let t = why_not(&cheap, &chosen, false, 0.05);
         assert!(
             t.contains("costs less (10 against 32 samples per pixel)") && !t.contains("more"),
@@ -458,5 +494,33 @@ mod tests {
         assert!(small.contains("0.01% at 0.100 mm per pixel"), "{small}");
         let big = screen_space_note(0.9, 0.1).unwrap();
         assert!(big.contains("the kernel's error dominates"), "{big}");
+    }
+
+    /// The disk line's score is the row's worst case, printed as the table
+    /// prints it, and every figure beside it is of the same channel.
+    #[test]
+    fn the_disk_line_prints_the_score_of_its_row() {
+        let c: Candidate = serde_json::from_value(json!({
+            "label": "disk", "model": "disk", "params": {}, "rank": 1, "passes": 1,
+            "taps": 32, "taps_per_pass": 32, "extent_rule": null, "extent_mm": 12.0,
+            "cost": 32, "signed": false,
+            "per_signal": {"checker2px": 0.0338, "checker3px": 0.034737},
+            "per_signal_sigma": {"checker2px": 0.0, "checker3px": 0.00005},
+            "rel_rms": 0.034737, "rel_rms_sigma": 0.00005, "worst_signal": "checker3px",
+            "deciding_signal": "checker3px", "decided_at": 0.034637, "meets": true,
+            "complete": true,
+            "disk": {"frames": 8, "rotations": 32, "signals": {
+                "checker2px": {"channel": "b", "error": 0.0338, "error_sd": 0.0001,
+                               "bias": 0.02, "noise": 0.1, "noise_after": 0.035},
+                "checker3px": {"channel": "r", "error": 0.034737, "error_sd": 0.00005,
+                               "bias": 0.0144, "noise": 0.1024, "noise_after": 0.03644}}}
+        }))
+        .unwrap();
+        let t = disk_text(&c).unwrap();
+        assert!(t.starts_with("on checker3px, channel r: "), "{t}");
+        assert!(t.contains("errs 3.474% (the first, frames 0 to 7"), "{t}");
+        assert!(t.contains("sd 0.005% over the 4 accumulations"), "{t}");
+        assert!(t.contains("32 rotations errs 1.440%"), "{t}");
+        assert!(t.contains("10.240% in one frame and 3.644% after 8"), "{t}");
     }
 }

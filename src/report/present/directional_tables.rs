@@ -1,11 +1,11 @@
 //! The light-space directional block of a scene comparison as a reader
 //! sees it: its table (each method's errors by region against the
 //! path-traced image, its cost) and the page section that shows it; the
-//! numbers come from [`crate::report::eval::directional_scene`].
+//! numbers come from [`crate::report::eval::scene::directional`].
 
 use super::table::Table;
-use crate::report::eval::directional_scene::DirectionalBlock;
-use crate::report::eval::scene_compare::SceneComparison;
+use crate::report::eval::scene::compare::SceneComparison;
+use crate::report::eval::scene::directional::DirectionalBlock;
 
 fn pct(v: f64) -> String {
     if v.is_finite() {
@@ -31,7 +31,7 @@ pub fn directional_table(b: &DirectionalBlock) -> Table {
         "work/px",
         "CPU ms/MP (loaded)",
     ]);
-    let worst = |r: &crate::report::eval::scene_score::RegionError| {
+    let worst = |r: &crate::report::eval::scene::score::RegionError| {
         pct(r.rel_rms.iter().cloned().fold(f64::NAN, f64::max))
     };
     for r in &b.rows {

@@ -1,10 +1,10 @@
 //! `compare`'s disk rows as a reader sees them: per material and test
 //! image, the separable and the disk kernel at equal samples per pixel,
 //! with the disk's bias, its noise in one frame and after K frames
-//! ([`crate::report::eval::disk_compare`]).
+//! ([`crate::report::eval::compare::disk`]).
 
 use super::table::Table;
-use crate::report::eval::disk_compare::DiskRows;
+use crate::report::eval::compare::disk::DiskRows;
 
 fn pct(v: f64) -> String {
     format!("{:.2}", 100.0 * v)

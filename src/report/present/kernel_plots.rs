@@ -21,10 +21,10 @@ use crate::filter::Image;
 use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::metrics::reconstruct;
 use crate::kernel::{Factors, Kernel2D, KernelFile};
-use crate::report::eval::claims::RANK1;
 use crate::report::eval::colour_shift::{self, COLOUR_TOLERANCE_DE};
-use crate::report::eval::kernel_compare::{Comparison, Fitted};
-use crate::report::eval::shipped::Shipped;
+use crate::report::eval::compare::claims::RANK1;
+use crate::report::eval::compare::kernel::{Comparison, Fitted};
+use crate::report::eval::ship::shipped::Shipped;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -560,7 +560,8 @@ pub fn flags_markdown(flags: &[ColourFlag]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernel::disk::{fit_disk, RadiusPdf};
+    use crate::kernel::disk::RadiusPdf;
+    use crate::kernel::disk_fit::fit_disk;
 
     /// The rings of [`disk_annuli`] tile the disk from the centre outward,
     /// each sample's ring holds it, and density x ring area gives back

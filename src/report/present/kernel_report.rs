@@ -1,4 +1,4 @@
-//! The written results of a kernel comparison ([`crate::report::eval::kernel_compare`]):
+//! The written results of a kernel comparison ([`crate::report::eval::compare::kernel`]):
 //! tables raw and normalised the way Freude 2014 prints tables 6.3-6.5 (the
 //! largest per-channel error of a table is 1, the last column sums the
 //! three channels), the thesis's claims checked on the rows with the
@@ -12,20 +12,19 @@
 
 use super::number::sig;
 use super::table::Table;
-use crate::engine::method::SubsurfaceMethod;
+use crate::filter::Which;
 use crate::numerics::Bounded;
-use crate::report::eval::claims::{claims, Claim};
-use crate::report::eval::engine_tables::{EngineTables, Shape};
-use crate::report::eval::kernel_compare::{
-    gaussians_rms, grouped, image_rms, Comparison, Factor, Row,
-};
+use crate::report::eval::compare::claims::Claim;
+use crate::report::eval::compare::engine_tables::{EngineTables, Shape};
+use crate::report::eval::compare::kernel::{Comparison, Row, Rows};
 use std::fmt::Write as _;
 
 /// Per (material, label), three channel values.
 type Triples<'a> = Vec<(&'a str, &'a str, usize, [f64; 3])>;
 
 fn triples<'a>(rows: &'a [Row], value: impl Fn(&Row) -> Option<f64>) -> Triples<'a> {
-    grouped(rows)
+    Rows(rows)
+        .grouped()
         .into_iter()
         .filter_map(|(m, l, r)| {
             let v = [value(r[0])?, value(r[1])?, value(r[2])?];
@@ -58,10 +57,11 @@ pub fn error_table(rows: &[Row], value: impl Fn(&Row) -> Option<f64>) -> Table {
 
 /// Image-space table for one signal and factor: relative RMS raw and
 /// normalised, FLIP per channel and of the colour image.
-pub fn image_table(rows: &[Row], signal: &str, factor: Factor) -> Table {
+pub fn image_table(rows: &[Row], signal: &str, factor: Which) -> Table {
     let rms = triples(rows, |r| r.image_error(signal, factor).map(|e| e.rel_rms));
     let flip = triples(rows, |r| r.image_error(signal, factor).map(|e| e.flip));
-    let flip_rgb: Vec<f64> = grouped(rows)
+    let flip_rgb: Vec<f64> = Rows(rows)
+        .grouped()
         .iter()
         .filter_map(|(_, _, r)| r[0].image_error(signal, factor).map(|e| e.flip_rgb))
         .collect();
@@ -99,13 +99,7 @@ pub fn image_table(rows: &[Row], signal: &str, factor: Factor) -> Table {
 /// SSSS renderer normalises every kernel) against N Gaussians (renormalised
 /// too when available), image-space
 /// relative RMS normalised over the table.
-pub fn ranks_table(
-    rows: &[Row],
-    material: &str,
-    ranks: &[usize],
-    signal: &str,
-    f: Factor,
-) -> Table {
+pub fn ranks_table(rows: &[Row], material: &str, ranks: &[usize], signal: &str, f: Which) -> Table {
     let mut t = Table::new(&[
         "rank / count",
         "SVD R",
@@ -119,11 +113,11 @@ pub fn ranks_table(
     ]);
     let svd: Vec<Option<[f64; 3]>> = ranks
         .iter()
-        .map(|r| image_rms(rows, material, &format!("svd{r}-renorm"), signal, f))
+        .map(|r| Rows(rows).image_rms(material, &format!("svd{r}-renorm"), signal, f))
         .collect();
     let gau: Vec<Option<[f64; 3]>> = ranks
         .iter()
-        .map(|n| gaussians_rms(rows, material, *n, signal, f))
+        .map(|n| Rows(rows).gaussians_rms(material, *n, signal, f))
         .collect();
     let top = svd
         .iter()
@@ -167,14 +161,14 @@ pub fn claims_table(claims: &[Claim]) -> Table {
 
 /// Timings (outside the checked blocks): fit seconds and filter
 /// milliseconds per megapixel on the first signal.
-pub fn timing_table(rows: &[Row], signal: &str, factors: &[Factor]) -> Table {
+pub fn timing_table(rows: &[Row], signal: &str, factors: &[Which]) -> Table {
     let mut header = vec!["material".to_string(), "model".into(), "fit s".into()];
     header.extend(factors.iter().map(|f| format!("ms/MP {}", f.describe())));
     let mut t = Table {
         header,
         rows: Vec::new(),
     };
-    for (m, l, r) in grouped(rows) {
+    for (m, l, r) in Rows(rows).grouped() {
         let mut row = vec![
             m.to_string(),
             l.to_string(),
@@ -246,7 +240,7 @@ fn shape_cell(s: &Option<Shape>) -> String {
 }
 
 /// Per material, the shape errors of the engine models fitted to its
-/// profile and of the forward Burley model (`report::eval::engine_tables`).
+/// profile and of the forward Burley model (`report::eval::compare::engine_tables`).
 pub fn engine_table(t: &EngineTables) -> Table {
     let mut table = Table::new(&[
         "material",
@@ -280,12 +274,7 @@ pub fn engine_table(t: &EngineTables) -> Table {
 /// engine renders it (every version, the method fitted by default).
 pub fn burley_engine_table(t: &EngineTables) -> Table {
     let mut header = vec!["material".to_string()];
-    header.extend(t.columns.iter().map(|c| match c.method {
-        SubsurfaceMethod::RandomWalk => {
-            format!("{} {} ({})", c.engine.name(), c.version, c.method.ui_name())
-        }
-        SubsurfaceMethod::ChristensenBurley => format!("{} {}", c.engine.name(), c.version),
-    }));
+    header.extend(t.labels.iter().cloned());
     let mut table = Table::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
     for r in &t.rows {
         let mut row = vec![r.material.clone()];
@@ -295,18 +284,64 @@ pub fn burley_engine_table(t: &EngineTables) -> Table {
     table
 }
 
+/// A number a table reads off each row.
+type RowValue = fn(&Row) -> Option<f64>;
+
 /// What the report was made from, for its header.
 pub struct ReportContext<'a> {
     pub command: &'a str,
     pub signals: &'a [String],
-    pub factors: &'a [Factor],
+    pub factors: &'a [Which],
     pub ranks: &'a [usize],
     pub options: &'a crate::report::eval::evaluate::Options,
 }
 
+/// The image-space sections: each signal and factor's table (Freude 2014,
+/// table 6.4), then, with several ranks, SVD rank N against N Gaussians
+/// per material (table 6.5).
+fn image_space(cmp: &Comparison, ctx: &ReportContext) -> String {
+    let rows = &cmp.rows;
+    let mut s = String::new();
+    for signal in ctx.signals {
+        for f in ctx.factors {
+            let name = factor_block(signal, *f);
+            let _ = writeln!(
+                s,
+                "\n## Image space (table 6.4): {signal}, {}\n",
+                f.describe()
+            );
+            s += &block(&name, &image_table(rows, signal, *f).markdown());
+        }
+    }
+    if ctx.ranks.len() > 1 {
+        for m in &cmp.materials {
+            for signal in ctx.signals {
+                for f in ctx.factors {
+                    let t = ranks_table(rows, m, ctx.ranks, signal, *f);
+                    let _ = writeln!(
+                        s,
+                        "\n## SVD rank N vs N Gaussians (table 6.5): {m}, {signal}, {}\n",
+                        f.describe()
+                    );
+                    s += &block(
+                        &format!("ranks-{m}-{}", factor_block(signal, *f)),
+                        &t.markdown(),
+                    );
+                }
+            }
+        }
+    }
+    s
+}
+
 /// The markdown report; `engines` the engine tables measured on the same
 /// profiles.
-pub fn report(cmp: &Comparison, ctx: &ReportContext, engines: &EngineTables) -> String {
+pub fn report(
+    cmp: &Comparison,
+    ctx: &ReportContext,
+    engines: &EngineTables,
+    claims: &[Claim],
+) -> String {
     let rows = &cmp.rows;
     let mut s = String::new();
     let _ = writeln!(s, "# Kernel comparison\n\n`{}`\n", ctx.command);
@@ -338,53 +373,29 @@ pub fn report(cmp: &Comparison, ctx: &ReportContext, engines: &EngineTables) -> 
         cases.join(", "),
         ctx.options.pixels_per_degree
     );
-    s += "## Kernel space (table 6.3): kernel RMS\n\n";
-    s += &block(
-        "kernel-rms",
-        &error_table(rows, |r| Some(r.kernel_rms)).markdown(),
-    );
-    s += "\n## Kernel space: 1-norm error (signed)\n\n";
-    s += &block(
-        "norm1",
-        &error_table(rows, |r| Some(r.norm1_error)).markdown(),
-    );
-    s += "\n## Kernel space: asymmetry (axis vs diagonal)\n\n";
-    s += &block(
-        "asymmetry",
-        &error_table(rows, |r| Some(r.asymmetry)).markdown(),
-    );
-    for signal in ctx.signals {
-        for f in ctx.factors {
-            let name = factor_block(signal, *f);
-            let _ = writeln!(
-                s,
-                "\n## Image space (table 6.4): {signal}, {}\n",
-                f.describe()
-            );
-            s += &block(&name, &image_table(rows, signal, *f).markdown());
-        }
+    let kernel_space: [(&str, &str, RowValue); 3] = [
+        (
+            "## Kernel space (table 6.3): kernel RMS",
+            "kernel-rms",
+            |r| Some(r.kernel_rms),
+        ),
+        ("\n## Kernel space: 1-norm error (signed)", "norm1", |r| {
+            Some(r.norm1_error)
+        }),
+        (
+            "\n## Kernel space: asymmetry (axis vs diagonal)",
+            "asymmetry",
+            |r| Some(r.asymmetry),
+        ),
+    ];
+    for (title, name, err) in kernel_space {
+        s += title;
+        s += "\n\n";
+        s += &block(name, &error_table(rows, err).markdown());
     }
-    if ctx.ranks.len() > 1 {
-        for m in &cmp.materials {
-            for signal in ctx.signals {
-                for f in ctx.factors {
-                    let t = ranks_table(rows, m, ctx.ranks, signal, *f);
-                    let _ = writeln!(
-                        s,
-                        "\n## SVD rank N vs N Gaussians (table 6.5): {m}, {signal}, {}\n",
-                        f.describe()
-                    );
-                    s += &block(
-                        &format!("ranks-{m}-{}", factor_block(signal, *f)),
-                        &t.markdown(),
-                    );
-                }
-            }
-        }
-    }
-    let cl = claims(cmp, ctx.signals, ctx.factors, ctx.ranks);
+    s += &image_space(cmp, ctx);
     s += "\n## The thesis's claims, measured\n\n";
-    s += &block("claims", &claims_table(&cl).markdown());
+    s += &block("claims", &claims_table(claims).markdown());
     s += "\n## Engine parameters fitted to the profiles (`ssskit engine`)\n\n\
           Shape error (relative L2 of r R_d(r), as `profiles compare`) per channel r, g, b \
           of the Burley model fitted with each channel's colour kept (the Unreal export as \
@@ -409,10 +420,10 @@ pub fn report(cmp: &Comparison, ctx: &ReportContext, engines: &EngineTables) -> 
 }
 
 /// Block name of an image table: "image-edge-full", "image-edge-taps17".
-pub fn factor_block(signal: &str, f: Factor) -> String {
+pub fn factor_block(signal: &str, f: Which) -> String {
     match f {
-        Factor::Full => format!("image-{signal}-full"),
-        Factor::Taps(n) => format!("image-{signal}-taps{n}"),
+        Which::Full => format!("image-{signal}-full"),
+        Which::Taps(n) => format!("image-{signal}-taps{n}"),
     }
 }
 

@@ -172,6 +172,23 @@ pub(super) struct Entry<'a> {
     at: (i32, i32),
 }
 
+/// A panel's frame in `area`: its title drawn at the top, its legend laid
+/// out for the bottom, and the chart's area between them.
+pub(super) fn frame_panel<'a, 'b, 'c>(
+    area: &'a Area<'b>,
+    out: &'a Path,
+    title: &str,
+    curves: &'c [Curve],
+) -> Result<(Writer<'a, 'b>, Vec<Entry<'c>>, Area<'b>)> {
+    let (pw, ph) = area.dim_in_pixel();
+    let mut w = Writer::new(area, out);
+    let title_h = draw_title(&mut w, title, pw)?;
+    let (entries, legend_h) = legend_layout(&w, curves, pw)?;
+    let (_, rest) = area.split_vertically(title_h);
+    let (chart_area, _) = rest.split_vertically(ph.saturating_sub(title_h + legend_h));
+    Ok((w, entries, chart_area))
+}
+
 /// The legend of `curves` flowed in rows under a chart `width` pixels
 /// wide: entries left to right, a new row where the next one does not
 /// fit, an entry wider than the row wrapped onto lines of its own.
@@ -277,12 +294,7 @@ fn draw_panel(panel: &Panel, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
             ),
         ));
     }
-    let (pw, ph) = area.dim_in_pixel();
-    let mut w = Writer::new(area, out);
-    let title_h = draw_title(&mut w, &panel.title, pw)?;
-    let (entries, legend_h) = legend_layout(&w, &panel.curves, pw)?;
-    let (_, rest) = area.split_vertically(title_h);
-    let (chart_area, _) = rest.split_vertically(ph.saturating_sub(title_h + legend_h));
+    let (mut w, entries, chart_area) = frame_panel(area, out, &panel.title, &panel.curves)?;
     let y = if panel.log_y {
         // Six decades below the peak keep the tail readable without
         // letting the last noisy bins squash the plot.
@@ -387,20 +399,32 @@ where
             .filter(|&(x, y)| keep(x, y))
             .collect();
         let style = c.color.stroke_width(if c.band.is_some() { 1 } else { 2 });
-        if c.dashed {
-            chart
-                .draw_series(DashedLineSeries::new(pts, DASH, GAP, style))
-                .map_err(e)?;
-        } else {
-            // Segment by segment: plotters joins the segments of a wide
-            // polyline with miters, and a noisy Monte Carlo tail's sharp
-            // zigzags then shoot spikes far past their points (through the
-            // axis and its labels).
-            let segments = pts
-                .windows(2)
-                .map(|s| PathElement::new(vec![s[0], s[1]], style));
-            chart.draw_series(segments).map_err(e)?;
-        }
+        draw_line(chart, &pts, style, c.dashed).map_err(e)?;
+    }
+    Ok(())
+}
+
+/// A curve's line on `chart`, dashed or solid; solid segment by segment:
+/// plotters joins the segments of a wide polyline with miters, and a noisy
+/// Monte Carlo tail's sharp zigzags then shoot spikes far past their
+/// points (through the axis and its labels).
+pub(super) fn draw_line<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    pts: &[(f64, f64)],
+    style: ShapeStyle,
+    dashed: bool,
+) -> std::result::Result<(), plotters::drawing::DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB: DrawingBackend,
+    CT: plotters::coord::CoordTranslate<From = (f64, f64)>,
+{
+    if dashed {
+        chart.draw_series(DashedLineSeries::new(pts.to_vec(), DASH, GAP, style))?;
+    } else {
+        let segments = pts
+            .windows(2)
+            .map(|s| PathElement::new(vec![s[0], s[1]], style));
+        chart.draw_series(segments)?;
     }
     Ok(())
 }

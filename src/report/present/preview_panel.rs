@@ -1,4 +1,4 @@
-//! The material's preview ([`crate::report::eval::preview`]) as a
+//! The material's preview ([`crate::report::eval::ship::preview`]) as a
 //! reader sees it: one PNG of three tiles (the path trace, what ships
 //! through the screen-space pass, no blur), each above its difference from
 //! the path trace (the path trace above its own noise), and the lines of
@@ -11,7 +11,7 @@ use super::sheet::{draw_sheet_in, SheetLayout, SheetTile};
 use crate::error::Result;
 use crate::filter::diff::false_colour;
 use crate::filter::Image;
-use crate::report::eval::preview::{Preview, PreviewRow, WINDOW};
+use crate::report::eval::ship::preview::{Preview, PreviewRow, WINDOW};
 use std::path::Path;
 
 /// Each pixel of the preview becomes a MAGNIFY x MAGNIFY block (nearest
@@ -67,38 +67,36 @@ pub fn preview_panel(p: &Preview, out: &Path) -> Result<SheetLayout> {
     } else {
         ", no entry and exit factors (the profile has none)"
     };
+    let tile = |label: String, top: &Image, below: String, bottom: &Image| SheetTile {
+        label,
+        top: tone(top),
+        bottom: Some((below, heat(bottom))),
+        flag: None,
+    };
+    let mean = format!("{WINDOW}x{WINDOW}-pixel mean");
     let tiles = vec![
-        SheetTile {
-            label: format!(
+        tile(
+            format!(
                 "path traced (ssskit scene, {} samples per pixel): noise {}% of the peak",
                 p.samples_per_pixel,
                 pct3(p.noise)
             ),
-            top: tone(&im.path_traced),
-            bottom: Some((
-                format!("its noise in a {WINDOW}x{WINDOW}-pixel mean (1 standard error)"),
-                heat(&im.window_noise),
-            )),
-            flag: None,
-        },
-        SheetTile {
-            label: scored(&format!("what ships{factors}"), &p.shipped),
-            top: tone(&im.shipped),
-            bottom: Some((
-                format!("|what ships - path traced|, {WINDOW}x{WINDOW}-pixel mean"),
-                heat(&im.shipped_diff),
-            )),
-            flag: None,
-        },
-        SheetTile {
-            label: scored("no blur (the lit irradiance)", &p.no_blur),
-            top: tone(&im.no_blur),
-            bottom: Some((
-                format!("|no blur - path traced|, {WINDOW}x{WINDOW}-pixel mean"),
-                heat(&im.no_blur_diff),
-            )),
-            flag: None,
-        },
+            &im.path_traced,
+            format!("its noise in a {mean} (1 standard error)"),
+            &im.window_noise,
+        ),
+        tile(
+            scored(&format!("what ships{factors}"), &p.shipped),
+            &im.shipped,
+            format!("|what ships - path traced|, {mean}"),
+            &im.shipped_diff,
+        ),
+        tile(
+            scored("no blur (the lit irradiance)", &p.no_blur),
+            &im.no_blur,
+            format!("|no blur - path traced|, {mean}"),
+            &im.no_blur_diff,
+        ),
     ];
     let title = format!(
         "{}: a {} mm sphere lit from the right, {}x{} px ({:.2} mm per pixel); the screen-space \

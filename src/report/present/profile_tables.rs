@@ -1,5 +1,5 @@
 //! The tables, report and plots of `profiles compare`: analytic profile
-//! models against a Monte Carlo reference ([`crate::report::eval::profile_compare`]),
+//! models against a Monte Carlo reference ([`crate::report::eval::compare::profile`]),
 //! per channel, summarised by reduced-albedo class.
 
 use super::number::{num, pct, pct_abs, short, time};
@@ -7,7 +7,7 @@ use super::plot::{Curve, Panel, PALETTE};
 use super::table::Table;
 use crate::profile::radius_holding;
 use crate::profile::Profile;
-use crate::report::eval::profile_compare::Row;
+use crate::report::eval::compare::profile::Row;
 use plotters::style::RGBColor;
 
 /// The speed/accuracy table: markdown-friendly strings.

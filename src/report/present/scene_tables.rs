@@ -1,15 +1,16 @@
 //! The scene comparison as a reader sees it: its tables (summary, regions,
 //! noise, the angular factors), the markdown page that shows them and the
-//! contact sheet; the numbers come from [`super::scene_compare`].
+//! contact sheet; the numbers come from [`crate::report::eval::scene::compare`].
 
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
 use super::table::Table;
 use crate::error::Result;
+use crate::filter::Image;
 use crate::kernel::angular::AngularFactors;
-use crate::report::eval::evaluate::exposure_of;
-use crate::report::eval::scene_compare::{dominance, SceneComparison, REGIONS};
+use crate::report::eval::scene::compare::SceneComparison;
+use crate::report::eval::scene::score::REGIONS;
 
 fn pct(v: f64) -> String {
     if v.is_finite() {
@@ -159,7 +160,7 @@ pub fn page(cmp: &SceneComparison, head: &str) -> String {
         (None, Some(why)) => format!("\nNo angular rows: {why}.\n"),
         (None, None) => String::new(),
     };
-    let d = dominance(cmp);
+    let d = cmp.dominance.as_ref();
     let sentence = d
         .as_ref()
         .map_or(String::new(), |d| format!("{}\n\n", d.sentence()));
@@ -185,42 +186,55 @@ pub const SCENE_DIFF_SCALE: f64 = 0.1;
 /// model with the lerp (its image above |image - path traced|, white =
 /// [`SCENE_DIFF_SCALE`] of the peak), one exposure for all.
 pub fn contact_sheet(cmp: &SceneComparison, title: &str, out: &std::path::Path) -> Result<()> {
-    use super::kernel_plots::to_rgb8;
-    use super::sheet::{draw_sheet, SheetTile};
-    let truth = &cmp.truth;
-    let max_rgb: Vec<f64> = (0..truth.len())
-        .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
-        .collect();
-    let exposure = exposure_of(&max_rgb);
-    let peak = truth.peak().iter().cloned().fold(0.0f64, f64::max);
-    let mut tiles = vec![SheetTile {
-        label: "path traced".into(),
-        top: to_rgb8(truth, exposure),
-        bottom: None,
-        flag: None,
-    }];
-    for (label, img) in cmp.images.iter().filter(|(l, _)| {
+    let images = cmp.images.iter().filter(|(l, _)| {
         !l.contains('(')
             || l.ends_with("(depth+follow)")
             || l.ends_with("(depth+follow+angular)")
             || l.ends_with("(entry+exit)")
-    }) {
-        let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * peak));
+    });
+    let images = images.map(|(label, img)| {
+        let label = label
+            .replace(" (depth+follow+angular)", " + angular")
+            .replace(" (depth+follow)", "");
+        (label, img)
+    });
+    let title = format!("{title}: screen-space pass (depth + follow) above |pass - path traced|");
+    difference_sheet(cmp, images, &title, "pass", out)
+}
+
+/// A scene's sheet: the path-traced image, then each of `images` above its
+/// difference from it (white = [`SCENE_DIFF_SCALE`] of the peak), all at
+/// the scene's exposure; `what` names the images in the colour bar.
+pub fn difference_sheet<'a>(
+    cmp: &SceneComparison,
+    images: impl Iterator<Item = (String, &'a Image)>,
+    title: &str,
+    what: &str,
+    out: &std::path::Path,
+) -> Result<()> {
+    use super::kernel_plots::to_rgb8;
+    use super::sheet::{draw_sheet, SheetTile};
+    let truth = &cmp.truth;
+    let mut tiles = vec![SheetTile {
+        label: "path traced".into(),
+        top: to_rgb8(truth, cmp.exposure),
+        bottom: None,
+        flag: None,
+    }];
+    for (label, img) in images {
+        let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * cmp.peak));
         tiles.push(SheetTile {
-            label: label
-                .replace(" (depth+follow+angular)", " + angular")
-                .replace(" (depth+follow)", ""),
-            top: to_rgb8(img, exposure),
+            label,
+            top: to_rgb8(img, cmp.exposure),
             bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
             flag: None,
         });
     }
-    let title = format!("{title}: screen-space pass (depth + follow) above |pass - path traced|");
     let bar = super::colour_bar::ColourBar {
         white: 100.0 * SCENE_DIFF_SCALE,
         unit: "% of the path-traced peak".into(),
-        quantity: "difference tiles: |pass - path traced|, largest channel".into(),
+        quantity: format!("difference tiles: |{what} - path traced|, largest channel"),
     };
-    draw_sheet(&tiles, (truth.width, truth.height), &title, Some(&bar), out)?;
+    draw_sheet(&tiles, (truth.width, truth.height), title, Some(&bar), out)?;
     Ok(())
 }

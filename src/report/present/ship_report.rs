@@ -8,7 +8,7 @@ use super::advice_text;
 use super::figures::{self, Figure};
 use super::preview_panel::preview_markdown;
 use crate::report::eval::advise::Advice;
-use crate::report::eval::preview::Preview;
+use crate::report::eval::ship::preview::Preview;
 
 /// What the report is made of.
 pub struct ShipReport<'a> {

@@ -102,86 +102,80 @@ pub fn panels(study: &Study) -> Vec<ParetoPanel> {
             .map_or_else(|| head(e), |r| format!("rank {r}"))
     };
     let spp = "samples per pixel";
+    let config = |e: &Entry| e.config.clone();
+    let profile_models = |err: fn(&Entry) -> Option<f64>| {
+        vec![series(
+            study,
+            "profile_model",
+            "profile models",
+            err,
+            config,
+        )]
+    };
+    let photons = series(
+        study,
+        "photons",
+        "Monte Carlo",
+        |e| e.profile_or_kernel_error,
+        |e| e.config.replace(" photons", ""),
+    );
+    let disk = series(
+        study,
+        "disk",
+        "disk kernels",
+        |e| e.rel_rms,
+        |e| format!("disk {}", e.samples_per_pixel.unwrap_or(0)),
+    );
+    let models = series(study, "kernel_model", "models", |e| e.rel_rms, config);
+    let frames = crate::report::eval::disk::DEFAULT_FRAMES;
     vec![
-        ParetoPanel {
-            title: format!("{m}: Monte Carlo photons"),
-            x_label: "simulation time (s)".into(),
-            y_label: "profile rel. L2 error".into(),
-            series: vec![series(
-                study,
-                "photons",
-                "Monte Carlo",
-                |e| e.profile_or_kernel_error,
-                |e| e.config.replace(" photons", ""),
-            )],
-        },
-        ParetoPanel {
-            title: format!("{m}: taps (pre-integration)"),
-            x_label: spp.into(),
-            y_label: "image rel. RMS".into(),
-            series: vec![
+        panel(
+            format!("{m}: Monte Carlo photons"),
+            ("simulation time (s)", "profile rel. L2 error"),
+            vec![photons],
+        ),
+        panel(
+            format!("{m}: taps (pre-integration)"),
+            (spp, "image rel. RMS"),
+            vec![
                 split("taps", "auto extent", "extent chosen for the count", &head),
                 split("taps", "full extent", "full kernel extent", &head),
             ],
-        },
-        ParetoPanel {
-            title: format!("{m}: profile model, kernel error"),
-            x_label: "profile time (s)".into(),
-            y_label: "kernel RMS".into(),
-            series: vec![series(
-                study,
-                "profile_model",
-                "profile models",
-                |e| e.profile_or_kernel_error,
-                |e| e.config.clone(),
-            )],
-        },
-        ParetoPanel {
-            title: format!("{m}: profile model, image error (preintegrate, 17 taps)"),
-            x_label: "profile time (s)".into(),
-            y_label: "image rel. RMS".into(),
-            series: vec![series(
-                study,
-                "profile_model",
-                "profile models",
-                |e| e.rel_rms,
-                |e| e.config.clone(),
-            )],
-        },
-        ParetoPanel {
-            title: format!("{m}: SVD rank (renormalised)"),
-            x_label: spp.into(),
-            y_label: "image rel. RMS".into(),
-            series: vec![
+        ),
+        panel(
+            format!("{m}: profile model, kernel error"),
+            ("profile time (s)", "kernel RMS"),
+            profile_models(|e| e.profile_or_kernel_error),
+        ),
+        panel(
+            format!("{m}: profile model, image error (preintegrate, 17 taps)"),
+            ("profile time (s)", "image rel. RMS"),
+            profile_models(|e| e.rel_rms),
+        ),
+        panel(
+            format!("{m}: SVD rank (renormalised)"),
+            (spp, "image rel. RMS"),
+            vec![
                 split("rank", "full", "full factors", &rank),
                 split("rank", "17 taps", "17 taps", &rank),
             ],
-        },
-        ParetoPanel {
-            title: format!(
-                "{m}: kernel model (17 taps; disk: after {} frames)",
-                crate::report::eval::advise_types::DEFAULT_FRAMES
-            ),
-            x_label: spp.into(),
-            y_label: "image rel. RMS".into(),
-            series: vec![
-                series(
-                    study,
-                    "kernel_model",
-                    "models",
-                    |e| e.rel_rms,
-                    |e| e.config.clone(),
-                ),
-                series(
-                    study,
-                    "disk",
-                    "disk kernels",
-                    |e| e.rel_rms,
-                    |e| format!("disk {}", e.samples_per_pixel.unwrap_or(0)),
-                ),
-            ],
-        },
+        ),
+        panel(
+            format!("{m}: kernel model (17 taps; disk: after {frames} frames)"),
+            (spp, "image rel. RMS"),
+            vec![models, disk],
+        ),
     ]
+}
+
+/// A panel titled `title` with axes (x, y).
+fn panel(title: String, (x, y): (&str, &str), series: Vec<Series>) -> ParetoPanel {
+    ParetoPanel {
+        title,
+        x_label: x.into(),
+        y_label: y.into(),
+        series,
+    }
 }
 
 /// Writes study.md, study.json (read back), study.csv and pareto.png.

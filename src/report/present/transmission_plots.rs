@@ -3,13 +3,11 @@
 //! its fitted settings, and the radial spread (radii holding 50% and 90% of
 //! T) against thickness; and the table as CSV.
 
-use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
+use super::axes::{plot_err, Area, Axis, Frame, Scale, X_AREA, Y_AREA};
 use super::layout::TextBox;
 use super::plot::{
-    draw_legend, draw_title, legend_layout, render_grid, Curve, CHART_RIGHT, CHART_TOP, DASH, GAP,
-    PALETTE,
+    draw_legend, draw_line, frame_panel, render_grid, Curve, CHART_RIGHT, CHART_TOP, PALETTE,
 };
-use crate::engine::transmission::TransmissionFit;
 use crate::error::Result;
 use crate::profile::transmission::ThicknessTable;
 use plotters::prelude::*;
@@ -28,12 +26,54 @@ struct LogLog {
     curves: Vec<Curve>,
 }
 
+/// An engine's fitted T per row of the table and channel (r, g, b): what
+/// the plot draws of an engine's transmission fit.
+pub struct FittedCurve<'a> {
+    pub engine: &'a str,
+    pub t: &'a [[f64; 3]],
+}
+
+/// The radii holding 50% and 90% of T per channel and thickness.
+fn radii_panel(table: &ThicknessTable) -> LogLog {
+    let mut spread = Vec::new();
+    for (c, ch) in table.channels.iter().enumerate() {
+        let color = PALETTE[[5, 3, 1][ch.index()]];
+        for (q, dashed, pick) in [
+            (
+                "50%",
+                true,
+                (|r: &crate::profile::transmission::ThicknessRow, c| r.r50_mm[c])
+                    as fn(&_, usize) -> f64,
+            ),
+            (
+                "90%",
+                false,
+                |r: &crate::profile::transmission::ThicknessRow, c| r.r90_mm[c],
+            ),
+        ] {
+            spread.push(Curve {
+                label: format!("{} {q}", ch.name()),
+                color,
+                points: table
+                    .rows
+                    .iter()
+                    .map(|r| (r.thickness_mm, pick(r, c)))
+                    .collect(),
+                band: None,
+                dashed,
+            });
+        }
+    }
+    LogLog {
+        title: "radii holding 50% (dashed) and 90% of T (beam included, at r = 0)".into(),
+        x_label: "slab thickness (mm)".into(),
+        y_label: "radius around the beam (mm)".into(),
+        curves: spread,
+    }
+}
+
 /// Writes the table's plot: one panel of T per channel, one of the radii.
-pub fn render(
-    table: &ThicknessTable,
-    fits: &[TransmissionFit],
-    out: &Path,
-) -> Result<Vec<TextBox>> {
+pub fn render(table: &ThicknessTable, fits: &[FittedCurve], out: &Path) -> Result<Vec<TextBox>> {
     crate::io::check_extension(out, &["png"], "plot")?;
     let t = table.thicknesses();
     let mut panels = Vec::new();
@@ -77,11 +117,7 @@ pub fn render(
             curves.push(Curve {
                 label: format!("{} (fitted)", f.engine),
                 color: PALETTE[1 + k % (PALETTE.len() - 1)],
-                points: t
-                    .iter()
-                    .zip(&f.engine_t)
-                    .map(|(&x, y)| (x, y[ci]))
-                    .collect(),
+                points: t.iter().zip(f.t).map(|(&x, y)| (x, y[ci])).collect(),
                 band: None,
                 dashed: true,
             });
@@ -93,41 +129,7 @@ pub fn render(
             curves,
         });
     }
-    let mut spread = Vec::new();
-    for (c, ch) in table.channels.iter().enumerate() {
-        let color = PALETTE[[5, 3, 1][ch.index()]];
-        for (q, dashed, pick) in [
-            (
-                "50%",
-                true,
-                (|r: &crate::profile::transmission::ThicknessRow, c| r.r50_mm[c])
-                    as fn(&_, usize) -> f64,
-            ),
-            (
-                "90%",
-                false,
-                |r: &crate::profile::transmission::ThicknessRow, c| r.r90_mm[c],
-            ),
-        ] {
-            spread.push(Curve {
-                label: format!("{} {q}", ch.name()),
-                color,
-                points: table
-                    .rows
-                    .iter()
-                    .map(|r| (r.thickness_mm, pick(r, c)))
-                    .collect(),
-                band: None,
-                dashed,
-            });
-        }
-    }
-    panels.push(LogLog {
-        title: "radii holding 50% (dashed) and 90% of T (beam included, at r = 0)".into(),
-        x_label: "slab thickness (mm)".into(),
-        y_label: "radius around the beam (mm)".into(),
-        curves: spread,
-    });
+    panels.push(radii_panel(table));
     let title = format!(
         "{}: light leaving the unlit face of a slab lit from behind, per thickness",
         table.material.name
@@ -148,12 +150,7 @@ fn extent(vals: impl Iterator<Item = f64>) -> (f64, f64) {
 }
 
 fn draw(panel: &LogLog, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
-    let (pw, ph) = area.dim_in_pixel();
-    let mut w = Writer::new(area, out);
-    let title_h = draw_title(&mut w, &panel.title, pw)?;
-    let (entries, legend_h) = legend_layout(&w, &panel.curves, pw)?;
-    let (_, rest) = area.split_vertically(title_h);
-    let (chart_area, _) = rest.split_vertically(ph.saturating_sub(title_h + legend_h));
+    let (mut w, entries, chart_area) = frame_panel(area, out, &panel.title, &panel.curves)?;
     let xs = panel
         .curves
         .iter()
@@ -208,17 +205,7 @@ fn draw(panel: &LogLog, area: &Area, out: &Path) -> Result<Vec<TextBox>> {
             }
         }
         let pts: Vec<(f64, f64)> = c.points.iter().copied().filter(|&p| keep(p)).collect();
-        let style = c.color.stroke_width(2);
-        if c.dashed {
-            chart
-                .draw_series(DashedLineSeries::new(pts.clone(), DASH, GAP, style))
-                .map_err(e)?;
-        } else {
-            let segs = pts
-                .windows(2)
-                .map(|s| PathElement::new(vec![s[0], s[1]], style));
-            chart.draw_series(segs).map_err(e)?;
-        }
+        draw_line(&mut chart, &pts, c.color.stroke_width(2), c.dashed).map_err(e)?;
         if c.band.is_some() {
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.color.filled())))
@@ -267,7 +254,7 @@ pub fn csv(t: &ThicknessTable) -> String {
 /// relative RMS and bias over the seen pixels (r / g / b) and FLIP, and the
 /// relative RMS where the surface faces away from the light.
 pub fn scene_table(
-    cmp: &crate::report::eval::scene_transmission::TransmissionComparison,
+    cmp: &crate::report::eval::scene::transmission::TransmissionComparison,
 ) -> super::table::Table {
     let mut t = super::table::Table::new(&[
         "back-lit object: what the camera gets",
@@ -302,42 +289,15 @@ pub fn scene_table(
     t
 }
 
-/// The back-lit block's images: the path-traced image, then each row above
-/// its difference from it (white = `SCENE_DIFF_SCALE` of the peak).
+/// The back-lit block's images: the path-traced image of `scene`, then
+/// each row above its difference from it (white = `SCENE_DIFF_SCALE` of
+/// the peak).
 pub fn scene_sheet(
-    cmp: &crate::report::eval::scene_transmission::TransmissionComparison,
-    truth: &crate::filter::Image,
+    cmp: &crate::report::eval::scene::transmission::TransmissionComparison,
+    scene: &crate::report::eval::scene::compare::SceneComparison,
     title: &str,
     out: &Path,
 ) -> Result<()> {
-    use super::kernel_plots::to_rgb8;
-    use super::scene_tables::SCENE_DIFF_SCALE;
-    use super::sheet::{draw_sheet, SheetTile};
-    let max_rgb: Vec<f64> = (0..truth.len())
-        .map(|i| (0..3).fold(0.0f64, |m, c| m.max(truth.rgb[c][i])))
-        .collect();
-    let exposure = crate::report::eval::evaluate::exposure_of(&max_rgb);
-    let peak = truth.peak().iter().cloned().fold(0.0f64, f64::max);
-    let mut tiles = vec![SheetTile {
-        label: "path traced".into(),
-        top: to_rgb8(truth, exposure),
-        bottom: None,
-        flag: None,
-    }];
-    for (label, img) in &cmp.images {
-        let d = crate::filter::diff::false_colour(truth, img, Some(SCENE_DIFF_SCALE * peak));
-        tiles.push(SheetTile {
-            label: label.clone(),
-            top: to_rgb8(img, exposure),
-            bottom: Some(("difference".into(), to_rgb8(&d, 1.0))),
-            flag: None,
-        });
-    }
-    let bar = super::colour_bar::ColourBar {
-        white: 100.0 * SCENE_DIFF_SCALE,
-        unit: "% of the path-traced peak".into(),
-        quantity: "difference tiles: |image - path traced|, largest channel".into(),
-    };
-    draw_sheet(&tiles, (truth.width, truth.height), title, Some(&bar), out)?;
-    Ok(())
+    let images = cmp.images.iter().map(|(l, img)| (l.clone(), img));
+    super::scene_tables::difference_sheet(scene, images, title, "image", out)
 }

@@ -44,7 +44,36 @@ pub(super) fn parse_camera(ck: &Check, c: RawCamera, unit: Unit) -> Result<Camer
             "the camera needs position != look_at and an up vector not along the view",
         ));
     };
-    let size = ck.need("camera.size", c.size)?;
+    let (width, height) = camera_size(ck, c.size)?;
+    crate::limits::check_image_size(&format!("{} camera", ck.context), width, height)?;
+    let kind = ck.need("camera.type", c.kind)?;
+    let projection = projection(ck, &kind, c.fov_y, c.mm_per_pixel, width.max(height))?;
+    let measure = match c.measure.as_deref() {
+        None | Some("radiance") => Measure::Radiance,
+        Some("exitance") => Measure::Exitance,
+        Some(m) => {
+            return Err(ck.err(
+                "camera.measure",
+                format!("\"{m}\""),
+                "expected \"radiance\" or \"exitance\"",
+            ))
+        }
+    };
+    Ok(Camera {
+        projection,
+        position,
+        forward,
+        right,
+        up,
+        width,
+        height,
+        measure,
+    })
+}
+
+/// `camera.size`: [width, height], whole pixels within the image limit.
+fn camera_size(ck: &Check, size: Option<Vec<f64>>) -> Result<(usize, usize)> {
+    let size = ck.need("camera.size", size)?;
     if size.len() != 2 {
         return Err(ck.err(
             "camera.size",
@@ -66,37 +95,47 @@ pub(super) fn parse_camera(ck: &Check, c: RawCamera, unit: Unit) -> Result<Camer
         }
         Ok(v as usize)
     };
-    let (width, height) = (side(0)?, side(1)?);
-    crate::limits::check_image_size(&format!("{} camera", ck.context), width, height)?;
-    let kind = ck.need("camera.type", c.kind)?;
-    let projection = match kind.as_str() {
+    Ok((side(0)?, side(1)?))
+}
+
+/// The projection of a camera of `kind`: a perspective one takes `fov_y`
+/// (degrees), an orthographic one `mm_per_pixel` (its view, `side`
+/// pixels, within the space scenes may use), neither the other's.
+fn projection(
+    ck: &Check,
+    kind: &str,
+    fov_y: Option<f64>,
+    mm_per_pixel: Option<f64>,
+    side: usize,
+) -> Result<Projection> {
+    let refuse =
+        |field: &str, why: &str| -> Result<Projection> { Err(ck.err(field, "given", why)) };
+    Ok(match kind {
         "perspective" => {
-            if c.mm_per_pixel.is_some() {
-                return Err(ck.err(
+            if mm_per_pixel.is_some() {
+                return refuse(
                     "camera.mm_per_pixel",
-                    "given",
                     "a perspective camera takes fov_y, not mm_per_pixel",
-                ));
+                );
             }
-            let f = ck.need("camera.fov_y", c.fov_y)?;
+            let f = ck.need("camera.fov_y", fov_y)?;
             if !(f > 0.0 && f < 180.0) {
                 return Err(ck.err("camera.fov_y", f, "must be in (0, 180) degrees"));
             }
             Projection::Perspective { fov_y_deg: f }
         }
         "orthographic" => {
-            if c.fov_y.is_some() {
-                return Err(ck.err(
+            if fov_y.is_some() {
+                return refuse(
                     "camera.fov_y",
-                    "given",
                     "an orthographic camera takes mm_per_pixel, not fov_y",
-                ));
+                );
             }
             let m = ck.positive(
                 "camera.mm_per_pixel",
-                ck.need("camera.mm_per_pixel", c.mm_per_pixel)?,
+                ck.need("camera.mm_per_pixel", mm_per_pixel)?,
             )?;
-            if m * width.max(height) as f64 > 4.0 * MAX_COORDINATE_MM {
+            if m * side as f64 > 4.0 * MAX_COORDINATE_MM {
                 return Err(ck.err(
                     "camera.mm_per_pixel",
                     m,
@@ -112,26 +151,5 @@ pub(super) fn parse_camera(ck: &Check, c: RawCamera, unit: Unit) -> Result<Camer
                 "expected \"perspective\" or \"orthographic\"",
             ))
         }
-    };
-    let measure = match c.measure.as_deref() {
-        None | Some("radiance") => Measure::Radiance,
-        Some("exitance") => Measure::Exitance,
-        Some(m) => {
-            return Err(ck.err(
-                "camera.measure",
-                format!("\"{m}\""),
-                "expected \"radiance\" or \"exitance\"",
-            ))
-        }
-    };
-    Ok(Camera {
-        projection,
-        position,
-        forward,
-        right,
-        up,
-        width,
-        height,
-        measure,
     })
 }

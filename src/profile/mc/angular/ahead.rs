@@ -48,7 +48,7 @@ pub fn ahead_share(
     photons: u64,
     seed: u64,
 ) -> Result<AheadShare> {
-    material.validate(&format!("material '{}'", material.name))?;
+    material.validate_named()?;
     if !material.is_half_space() {
         return Err(Error::Unsupported(format!(
             "material '{}': the ahead share is measured on a half-space (one semi-infinite layer)",

@@ -200,7 +200,7 @@ impl McGpu {
         progress: &dyn Progress,
     ) -> Result<Profile> {
         let start = std::time::Instant::now();
-        material.validate(&format!("material '{}'", material.name))?;
+        material.validate_named()?;
         validate_config(cfg, opts)?;
         check_gpu_options(opts, dispatch)?;
         let requested_events = opts.max_events;

@@ -6,7 +6,7 @@
 
 use super::sums::*;
 use super::{Layer, Params};
-use crate::gpu::{wgsl_u32_consts, WGSL_WIDE_MUL};
+use crate::gpu::{wgsl_u32_consts, WGSL_FRESNEL, WGSL_WIDE_MUL};
 use crate::material::{Channel, Material};
 use crate::profile::mc::tracer::{HG_ISOTROPIC, ROULETTE_CHANCE};
 
@@ -58,6 +58,7 @@ pub(super) fn shader_source(body: &str) -> String {
         Params::WGSL,
         Layer::WGSL,
         WGSL_WIDE_MUL,
+        WGSL_FRESNEL,
         PHILOX,
         body,
     ]
@@ -180,7 +181,7 @@ mod tests {
     /// definition.
     #[test]
     fn the_shaders_declare_no_constant_of_the_header() {
-        let bodies = [TRACE, KAT, PHILOX, WGSL_WIDE_MUL];
+        let bodies = [TRACE, KAT, PHILOX, WGSL_WIDE_MUL, WGSL_FRESNEL];
         let names: Vec<&str> = u32_consts()
             .iter()
             .map(|c| c.0)

@@ -68,34 +68,30 @@ pub(super) fn meet_ambient<const ANGULAR: bool>(
         }
     };
     if escaping > 0.0 {
+        let radius = (p.x * p.x + p.y * p.y).sqrt();
         if top {
             scores.rd += escaping;
             if p.x > 0.0 {
                 scores.rd_ahead += escaping;
             }
-            let radius = (p.x * p.x + p.y * p.y).sqrt();
             scratch.score_reflectance(walk.bins, radius, escaping, p.scatters);
-            if ANGULAR {
-                // Snell's law gives the exit direction in the ambient
-                // medium, which MCML bins (RecordR).
-                let k = n_i / n;
-                let cos_out = (1.0 - (1.0 - cos_i * cos_i) * k * k).max(0.0).sqrt();
-                let ir = walk.bins.bin(radius).unwrap_or(walk.bins.len());
-                let ia = walk.angles.angle_bin(cos_out);
-                scratch.exit.score(walk.angles, ir, ia, escaping);
-            }
         } else {
             scores.tr += escaping;
-            let radius = (p.x * p.x + p.y * p.y).sqrt();
             scratch.score_transmittance(walk.bins, radius, escaping, p.scatters);
-            if ANGULAR {
-                // MCML's RecordT bins the transmitted direction the same way.
-                let k = n_i / n;
-                let cos_out = (1.0 - (1.0 - cos_i * cos_i) * k * k).max(0.0).sqrt();
-                let ir = walk.bins.bin(radius).unwrap_or(walk.bins.len());
-                let ia = walk.angles.angle_bin(cos_out);
-                scratch.tr_exit.score(walk.angles, ir, ia, escaping);
-            }
+        }
+        if ANGULAR {
+            // Snell's law gives the exit direction in the ambient medium,
+            // which MCML bins (RecordR; RecordT the same way).
+            let k = n_i / n;
+            let cos_out = (1.0 - (1.0 - cos_i * cos_i) * k * k).max(0.0).sqrt();
+            let ir = walk.bins.bin(radius).unwrap_or(walk.bins.len());
+            let ia = walk.angles.angle_bin(cos_out);
+            let exit = if top {
+                &mut scratch.exit
+            } else {
+                &mut scratch.tr_exit
+            };
+            exit.score(walk.angles, ir, ia, escaping);
         }
         // Leaves R w (split) or 0 (classic; split with R = 0).
         p.w -= escaping;
