@@ -26,35 +26,35 @@ fn identity_kernel(dir: &Path) -> PathBuf {
     path
 }
 
-/// `apply` of `k` to `input` into `out` at 0.1 mm per pixel on the CPU.
-fn cpu_apply_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
-    apply_args(p(k), p(input), p(out), "0.1", &["--backend", "cpu"])
+/// `apply` of `k` to `input` into `out` on the CPU, then the `view`
+/// flags (last: tests drop or replace them).
+fn cpu_apply_with<'a>(
+    k: &'a Path,
+    input: &'a Path,
+    out: &'a Path,
+    view: &[&'a str],
+) -> Vec<&'a str> {
+    let head = [
+        "apply",
+        "--kernel",
+        p(k),
+        "--input",
+        p(input),
+        "--out",
+        p(out),
+    ];
+    [&head[..], &["--backend", "cpu"], view].concat()
 }
 
-/// `apply` of `k` to `input` into `out` on the CPU under a perspective
-/// camera (40 degrees, 0.01 scene units a mm): a view that needs depth.
+/// [`cpu_apply_with`] at 0.1 mm per pixel.
+fn cpu_apply_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
+    cpu_apply_with(k, input, out, &["--mm-per-pixel", "0.1"])
+}
+
+/// [`cpu_apply_with`] under a perspective camera (40 degrees, 0.01 scene
+/// units a mm): a view that needs depth.
 fn perspective_args<'a>(k: &'a Path, input: &'a Path, out: &'a Path) -> Vec<&'a str> {
-    let view = [
-        "--backend",
-        "cpu",
-        "--fov-y",
-        "40",
-        "--units-per-mm",
-        "0.01",
-    ];
-    [
-        &[
-            "apply",
-            "--kernel",
-            p(k),
-            "--input",
-            p(input),
-            "--out",
-            p(out),
-        ][..],
-        &view,
-    ]
-    .concat()
+    cpu_apply_with(k, input, out, &["--fov-y", "40", "--units-per-mm", "0.01"])
 }
 
 /// Runs and expects a clean failure whose message contains every `needle`.

@@ -464,14 +464,14 @@ mod tests {
         /// subsurface_random_walk.h `subsurface_random_walk_remap` (sigma_t;
         /// alpha is `super::cycles_remap`) and
         /// `subsurface_random_walk_coefficients` for one channel whose
-        /// throughput holds the closure weight `albedo`: (sigma_t, alpha,
-        /// throughput).
-        pub fn coefficients(albedo: f32, radius: f32, g: f32) -> (f32, f32, f32) {
+        /// throughput holds the closure weight `weight` (the albedo at
+        /// Subsurface Weight 1): (sigma_t, alpha, throughput).
+        pub fn coefficients(albedo: f32, weight: f32, radius: f32, g: f32) -> (f32, f32, f32) {
             let alpha = super::cycles_remap(albedo, g);
             let sigma_t_prime = 1.0 / radius.max(1e-16);
             let sigma_t = sigma_t_prime / (1.0 - g);
             // safe_divide_color(throughput, albedo)
-            let mut throughput = if albedo != 0.0 { albedo / albedo } else { 0.0 };
+            let mut throughput = if albedo != 0.0 { weight / albedo } else { 0.0 };
             let min_alpha = 0.2f32;
             let mut alpha = alpha;
             if alpha < min_alpha {
@@ -539,7 +539,7 @@ mod tests {
                     let ch = channel(albedo, radius, g);
                     let d = cycles::bssrdf_setup_radius(radius as f32);
                     let (sigma_t, alpha, throughput) =
-                        cycles::coefficients(albedo as f32, d, g as f32);
+                        cycles::coefficients(albedo as f32, albedo as f32, d, g as f32);
                     let what = format!("albedo {albedo} radius {radius} g {g}");
                     assert!(close(ch.sigma_t, sigma_t, CHAIN_F32_TOL), "{what}: {ch:?}");
                     assert!(close(ch.alpha, alpha, REMAP_F32_TOL), "{what}: {ch:?}");
