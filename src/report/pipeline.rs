@@ -382,7 +382,7 @@ pub fn run(
         figures: &pieces.figures,
         comparison: &pieces.markdown,
         engine: engine_md.as_deref(),
-        stage_times: &times.markdown(),
+        stage_times: &ship_report::stage_table(&times),
     };
     write_report(&advice, &ship_report::report(&report), dir, &mut files)?;
     progress.set_total(files.len() as u64);

@@ -7,8 +7,10 @@
 use super::advice_text;
 use super::figures::{self, Figure};
 use super::preview_panel::preview_markdown;
+use super::table::Table;
 use crate::report::eval::advise::Advice;
 use crate::report::eval::ship::preview::Preview;
+use crate::report::eval::ship::stage_times::StageTimes;
 
 /// What the report is made of.
 pub struct ShipReport<'a> {
@@ -120,6 +122,22 @@ pub fn report(r: &ShipReport) -> String {
         r.stage_times
     );
     s
+}
+
+/// report.md's "Stage times" table: one row per stage and the total, wall
+/// and CPU seconds.
+pub fn stage_table(times: &StageTimes) -> String {
+    let mut t = Table::new(&["stage", "wall s", "CPU s"]);
+    let rows = times.stages().into_iter().chain([("total", times.total)]);
+    for ((name, s), cpu) in rows.zip(times.cpu_seconds()) {
+        // Milliseconds, so that the rows add up as the numbers do.
+        t.push(vec![
+            name.to_string(),
+            format!("{s:.3}"),
+            format!("{cpu:.3}"),
+        ]);
+    }
+    t.markdown()
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
 //! The main job's stage times: wall and CPU seconds per stage, as
-//! report.md's "Stage times" table shows them.
+//! report.md's "Stage times" table shows them
+//! (`present::ship_report::stage_table`).
 
 /// Wall seconds of the main job's stages, as report.md's "Stage times"
 /// shows them: the profile (made or read by the caller), the ground
@@ -47,26 +48,10 @@ impl StageTimes {
     }
 
     /// CPU seconds in the order of [`Self::stages`], then the total's.
-    fn cpu_seconds(&self) -> Vec<f64> {
+    pub fn cpu_seconds(&self) -> Vec<f64> {
         let mut v = self.cpu[..7].to_vec();
         v.extend(self.engine.map(|(_, c)| c));
         v.push(self.cpu[7]);
         v
-    }
-
-    /// The report's table: one row per stage and the total, wall and CPU
-    /// seconds.
-    pub fn markdown(&self) -> String {
-        let mut t = crate::report::present::table::Table::new(&["stage", "wall s", "CPU s"]);
-        let rows = self.stages().into_iter().chain([("total", self.total)]);
-        for ((name, s), cpu) in rows.zip(self.cpu_seconds()) {
-            // Milliseconds, so that the rows add up as the numbers do.
-            t.push(vec![
-                name.to_string(),
-                format!("{s:.3}"),
-                format!("{cpu:.3}"),
-            ]);
-        }
-        t.markdown()
     }
 }
