@@ -316,7 +316,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         !no_plots,
         &format!("{}-tap tables", taps[0]),
     )?;
-    pipeline::write_fitted_kernels(&cmp, &staged.path().join("kernels"), false)?;
+    ssskit::report::kernel_files::write_fitted_kernels(
+        &cmp,
+        &staged.path().join("kernels"),
+        false,
+    )?;
     let disk = if with_disk {
         Some(disk_rows(
             &inputs,

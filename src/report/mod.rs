@@ -6,5 +6,6 @@
 //! a module by its home (`report::eval::advise`, `report::present::table`).
 
 pub mod eval;
+pub mod kernel_files;
 pub mod pipeline;
 pub mod present;

@@ -8,9 +8,6 @@ use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::Which;
 use crate::io::{file_stem, join_inside};
-use crate::kernel::disk::DiskKernelFile;
-use crate::kernel::emit::{emit, Lang};
-use crate::kernel::KernelFile;
 use crate::numerics::Bounded;
 use crate::profile::Profile;
 use crate::progress::{Clock, Progress};
@@ -22,6 +19,9 @@ use crate::report::eval::evaluate::{ImageCase, Options};
 use crate::report::eval::ship::preview::{self, Preview, PreviewKernel};
 use crate::report::eval::ship::shipped::{shipped, Shipped};
 use crate::report::eval::ship::stage_times::StageTimes;
+use crate::report::kernel_files::{
+    write_disk_kernel, write_fitted_kernels, write_kernel, FileNames,
+};
 use crate::report::present::figures::{self, Figure};
 use crate::report::present::kernel_plots::{self, Recommended};
 use crate::report::present::kernel_report::{self, ReportContext};
@@ -166,99 +166,6 @@ pub fn write_comparison(
     Ok(files)
 }
 
-/// File names made from labels (materials, models, images) in one
-/// folder: each must be new, so that two labels that give one file name
-/// (`a/b` and `a_b`) are refused rather than one overwriting the other.
-#[derive(Default)]
-struct FileNames(std::collections::BTreeMap<String, String>);
-
-impl FileNames {
-    fn claim(&mut self, name: String, label: &str) -> Result<String> {
-        if let Some(other) = self.0.insert(name.clone(), label.to_string()) {
-            return Err(Error::Unsupported(format!(
-                "'{other}' and '{label}' give the same file name '{name}' (names become file \
-                 names with every character but letters, digits, '-', '_', '+' and '.' \
-                 replaced by '_'): rename one"
-            )));
-        }
-        Ok(name)
-    }
-}
-
-/// Every fitted kernel of the comparison as `dir/<material>-<label>.json`
-/// (read back; both names through [`file_stem`]), with its HLSL, GLSL and
-/// WGSL arrays next to it when `shaders`. `dir` is created. Returns the
-/// file names written.
-pub fn write_fitted_kernels(cmp: &Comparison, dir: &Path, shaders: bool) -> Result<Vec<String>> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| Error::format(dir, format!("cannot create the kernel folder: {e}")))?;
-    let mut names = FileNames::default();
-    let mut files = Vec::new();
-    for f in &cmp.fitted {
-        let label = format!("{} {}", f.material, f.spec.label);
-        let stem = names.claim(
-            format!("{}-{}", file_stem(&f.material), file_stem(&f.spec.label)),
-            &label,
-        )?;
-        write_kernel(&f.kernel, dir, &stem, shaders, &mut files)?;
-    }
-    Ok(files)
-}
-
-/// Writes a kernel file (read back) and, with `shaders`, its three shader
-/// arrays next to it.
-fn write_kernel(
-    kernel: &KernelFile,
-    dir: &Path,
-    stem: &str,
-    shaders: bool,
-    files: &mut Vec<String>,
-) -> Result<()> {
-    let path = join_inside(dir, &format!("{stem}.json"))?;
-    kernel.write(&path)?;
-    KernelFile::read(&path)?;
-    files.push(format!("{stem}.json"));
-    if !shaders {
-        return Ok(());
-    }
-    write_shaders(dir, stem, files, |lang| emit(kernel, lang))
-}
-
-/// A kernel's shader arrays as `stem`.hlsl, .glsl and .wgsl.
-fn write_shaders(
-    dir: &Path,
-    stem: &str,
-    files: &mut Vec<String>,
-    emit: impl Fn(Lang) -> Result<String>,
-) -> Result<()> {
-    for (lang, ext) in [
-        (Lang::Hlsl, "hlsl"),
-        (Lang::Glsl, "glsl"),
-        (Lang::Wgsl, "wgsl"),
-    ] {
-        let name = format!("{stem}.{ext}");
-        crate::io::write_atomic(&join_inside(dir, &name)?, emit(lang)?.as_bytes())?;
-        files.push(name);
-    }
-    Ok(())
-}
-
-/// A disk kernel as `stem`.json with its shader arrays.
-fn write_disk_kernel(
-    kernel: &DiskKernelFile,
-    dir: &Path,
-    stem: &str,
-    files: &mut Vec<String>,
-) -> Result<()> {
-    let path = join_inside(dir, &format!("{stem}.json"))?;
-    kernel.write(&path)?;
-    DiskKernelFile::read(&path)?;
-    files.push(format!("{stem}.json"));
-    write_shaders(dir, stem, files, |lang| {
-        crate::kernel::disk_emit::emit_disk(kernel, lang)
-    })
-}
-
 /// The output folder with its `kernels/` and the profile, read back.
 fn write_profile(profile: &Profile, dir: &Path, files: &mut Vec<String>) -> Result<()> {
     std::fs::create_dir_all(dir.join("kernels"))
@@ -337,33 +244,18 @@ pub fn run(
         ranks: &cfg.ranks,
         options: &cfg.options,
     };
-    let t = Clock::start();
-    // The preview (a path trace) and the files (mostly one thread) at once:
-    // the preview's stage ends with it, the files' runs on from there.
-    let mut written = Vec::new();
-    let ((preview, preview_clock), pieces) = rayon::join(
-        || {
-            let p = settings
-                .plots
-                .then(|| preview_of(profile, &advice, progress));
-            (p.transpose(), t.elapsed())
+    let (preview, pieces) = preview_and_files(
+        Shared {
+            profile,
+            settings,
+            dir,
+            progress,
         },
-        || write_files(&cmp, &advice, &ctx, settings, dir, &engines, &mut written),
-    );
-    let (preview, mut pieces) = (preview?, pieces?);
-    (times.preview, times.cpu[5]) = preview_clock;
-    progress.start(0, "report and files");
-    files.extend(written);
-    if let Some(Ok(p)) = &preview {
-        preview_panel::preview_panel(p, &dir.join(PREVIEW_PNG))?;
-        pieces
-            .figures
-            .insert(0, preview_panel::figure(p, PREVIEW_PNG));
-        files.push(PREVIEW_PNG.into());
-    }
-    let (wall, cpu) = t.elapsed();
-    let (wall, cpu) = (wall - times.preview, cpu - times.cpu[5]);
-    (times.files, times.cpu[6]) = (files_clock.0 + wall, files_clock.1 + cpu);
+        (&cmp, &advice, &ctx, &engines),
+        &mut times,
+        &mut files,
+        files_clock,
+    )?;
     let engine = engine_files(settings, profile, dir, progress, &mut times, &mut files)?;
     let (wall, cpu) = t0.elapsed();
     (times.total, times.cpu[7]) = (profile_seconds + wall, times.cpu[0] + cpu);
@@ -395,6 +287,59 @@ pub fn run(
         stages: times,
         engine,
     })
+}
+
+/// What the last steps of [`run`] share.
+struct Shared<'a> {
+    profile: &'a Profile,
+    settings: &'a Settings,
+    dir: &'a Path,
+    progress: &'a dyn Progress,
+}
+
+/// The preview (a path trace) and the files (mostly one thread) at once:
+/// the preview's stage ends with it, the files' runs on from there (and
+/// holds `files_clock`, the profile's file written before the comparison).
+#[allow(clippy::type_complexity)]
+fn preview_and_files(
+    sh: Shared,
+    (cmp, advice, ctx, engines): (&Comparison, &Advice, &ReportContext, &EngineTables),
+    times: &mut StageTimes,
+    files: &mut Vec<String>,
+    files_clock: (f64, f64),
+) -> Result<(Option<std::result::Result<Preview, String>>, Pieces)> {
+    let Shared {
+        profile,
+        settings,
+        dir,
+        progress,
+    } = sh;
+    let t = Clock::start();
+    let mut written = Vec::new();
+    let ((preview, preview_clock), pieces) = rayon::join(
+        || {
+            let p = settings
+                .plots
+                .then(|| preview_of(profile, advice, progress));
+            (p.transpose(), t.elapsed())
+        },
+        || write_files(cmp, advice, ctx, settings, dir, engines, &mut written),
+    );
+    let (preview, mut pieces) = (preview?, pieces?);
+    (times.preview, times.cpu[5]) = preview_clock;
+    progress.start(0, "report and files");
+    files.extend(written);
+    if let Some(Ok(p)) = &preview {
+        preview_panel::preview_panel(p, &dir.join(PREVIEW_PNG))?;
+        pieces
+            .figures
+            .insert(0, preview_panel::figure(p, PREVIEW_PNG));
+        files.push(PREVIEW_PNG.into());
+    }
+    let (wall, cpu) = t.elapsed();
+    let (wall, cpu) = (wall - times.preview, cpu - times.cpu[5]);
+    (times.files, times.cpu[6]) = (files_clock.0 + wall, files_clock.1 + cpu);
+    Ok((preview, pieces))
 }
 
 /// The advice on the comparison's own truth and fits (made once).
