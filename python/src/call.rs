@@ -105,9 +105,14 @@ pub(crate) fn json_to_py<'py, T: serde::Serialize + ?Sized>(
     py: Python<'py>,
     v: &T,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let err = |e: serde_json::Error| PyValueError::new_err(e.to_string());
-    let text = serde_json::to_string(&serde_json::to_value(v).map_err(err)?).map_err(err)?;
+    let text =
+        serde_json::to_string(&to_value(v)?).map_err(|e| PyValueError::new_err(e.to_string()))?;
     py.import("json")?.call_method1("loads", (text,))
+}
+
+/// A library object as a JSON value, a serialisation error as ValueError.
+pub(crate) fn to_value<T: serde::Serialize + ?Sized>(v: &T) -> PyResult<serde_json::Value> {
+    serde_json::to_value(v).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// Pretty JSON of a library object, as its files hold it.

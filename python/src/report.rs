@@ -2,7 +2,7 @@
 //! answer of `advise --json`, computed by the same library calls.
 
 use crate::args::{kw, one_of};
-use crate::call::{interruptible, json_to_py, to_py};
+use crate::call::{interruptible, json_to_py, to_py, to_value};
 use crate::disk::PyDiskKernel;
 use crate::kernel::PyKernel;
 use crate::profile::profile_of;
@@ -25,10 +25,6 @@ fn signal_of(name: &str) -> PyResult<Signal> {
         ("checker", Signal::Checker),
     ];
     one_of("signals", name, &names, "edge, shapes, dirac or checker")
-}
-
-fn to_value<T: serde::Serialize>(v: &T) -> PyResult<serde_json::Value> {
-    serde_json::to_value(v).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// A `models` argument: one name, names separated by commas (as
