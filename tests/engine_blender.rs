@@ -191,12 +191,8 @@ fn subsurface_scale_above_its_socket_moves_into_the_radius() {
 /// uses (`clamped_base_color`).
 #[test]
 fn params_clamp_the_base_color() {
-    use ssskit::engine::{blender, burley::Burley, Engine, Scene};
-    let b = Burley {
-        albedo: [9.9, 0.5, 0.2],
-        d_mm: [1.0, 0.5, 0.2],
-        truncate_d: None,
-    };
+    use ssskit::engine::{blender, Engine, Scene};
+    let b = burley::with_albedo([9.9, 0.5, 0.2]);
     for v in blender::VERSIONS {
         let printed = blender::params(&b, Scene::native(Engine::Blender), v);
         assert_inside_the_sockets(v.key, &printed.params);

@@ -31,6 +31,7 @@
 //!   of the subsurface scattering project settings).
 
 mod common;
+use common::commands::engine_args;
 use common::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -58,29 +59,6 @@ fn numbers(v: &Value) -> Vec<f64> {
         x => vec![x.as_f64().unwrap()],
     }
 }
-
-/// IEC 61966-2-1's sRGB encoding of a linear value (the curve Unity's
-/// Color.gamma / Color.linear and Godot's source_color undo).
-fn srgb(l: f64) -> f64 {
-    if l <= 0.0031308 {
-        12.92 * l
-    } else {
-        1.055 * l.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-fn linear(s: f64) -> f64 {
-    if s <= 0.04045 {
-        s / 12.92
-    } else {
-        ((s + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-/// An sRGB value typed to 4 significant digits (5e-4 relative) moves
-/// its linear value by at most 2.4 times that (d ln L / d ln S <= 2.4 on
-/// the sRGB curve), with margin.
-const SRGB_TYPED_REL: f64 = 1.3e-3;
 
 /// A value written as a 32-bit float (the shortest text that reads back):
 /// equal to float32's resolution, 2^-24 relative, with margin.
@@ -331,7 +309,10 @@ fn unity_asset_is_a_diffusion_profile_with_the_printed_values() {
     let stored = &f["scatteringDistance"];
     for c in 0..3 {
         // The picker shows sRGB and stores Color.linear.
-        assert!(close(stored[c].1, linear(shown[c]), FLOAT32_REL), "{c}");
+        assert!(
+            close(stored[c].1, srgb::decode(shown[c]), FLOAT32_REL),
+            "{c}"
+        );
         // UpdateKernel: 1 / S = Multiplier x scatteringDistance, mm at
         // World Scale 1 in a scene in metres: the d ssskit scored.
         let d = multiplier * stored[c].1 / one("worldScale");
@@ -572,13 +553,13 @@ fn godot_material(dir: &Path, fit: &Value) {
         // Decoded as Godot decodes a source_color, the printed colour is
         // the profile's total (the colour kept), to its 4 digits.
         assert!(
-            close(linear(shown[c]), total[c], SRGB_TYPED_REL),
+            close(srgb::decode(shown[c]), total[c], srgb::TYPED_REL),
             "channel {c}: {} decodes to {}, the profile reflects {}",
             shown[c],
-            linear(shown[c]),
+            srgb::decode(shown[c]),
             total[c]
         );
-        hex += &format!("{:02X}", (srgb(total[c]) * 255.0).round() as u8);
+        hex += &format!("{:02X}", (srgb::encode(total[c]) * 255.0).round() as u8);
     }
     assert_eq!(fit["params"]["albedo_color hex"], hex.as_str());
     assert_eq!(real(&rgba[3]), 1.0);
@@ -650,33 +631,24 @@ fn godot_parser_reads_what_godot_writes() {
 fn engines_without_a_file_are_refused_before_any_work() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("files");
+    let out_dir = ["--out-dir", p(&out)];
     fails_with(
-        &[
-            "engine",
-            "--profile",
-            SKIN,
-            "--engine",
-            "iryoku",
-            "--out-dir",
-            p(&out),
-        ],
+        &engine_args(SKIN, "iryoku", &out_dir),
         &["--engine", "iryoku", "no file to import"],
     );
+    let blender = engine_args(SKIN, "blender", &["--engine-version", "2.93"]);
     fails_with(
-        &[
-            "engine",
-            "--profile",
-            SKIN,
-            "--engine",
-            "blender",
-            "--engine-version",
-            "2.93",
-            "--out-dir",
-            p(&out),
-        ],
+        &[&blender[..], &out_dir].concat(),
         &["--engine-version", "2.93"],
     );
     assert!(!out.exists(), "a refused run made the folder");
+}
+
+/// Makes a named pipe at `path` (mkfifo(1)).
+#[cfg(unix)]
+fn mkfifo(path: &Path) {
+    let status = std::process::Command::new("mkfifo").arg(path).status();
+    assert!(status.unwrap().success(), "mkfifo {}", path.display());
 }
 
 #[cfg(unix)]
@@ -703,21 +675,13 @@ fn the_folder_is_never_a_device_a_pipe_an_input_or_theirs() {
     let skin = Path::new(SKIN);
     // A named pipe, and a character device.
     let fifo = tmp.path().join("pipe");
-    assert!(std::process::Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
+    mkfifo(&fifo);
     run_fails(args(&fifo, skin), &["not a folder"]);
     run_fails(args(Path::new("/dev/null"), skin), &["not a folder"]);
     // An earlier output folder that now holds a pipe: the swap would remove it.
     let (_keep, dir) = write("godot", &[]);
     let inner = dir.join("pipe");
-    assert!(std::process::Command::new("mkfifo")
-        .arg(&inner)
-        .status()
-        .unwrap()
-        .success());
+    mkfifo(&inner);
     run_fails(args(&dir, skin), &["named pipe"]);
     std::fs::remove_file(&inner).unwrap();
     // The input inside the folder that replaces it.
@@ -1104,26 +1068,15 @@ fn a_line_break_is_refused_where_a_format_would_change_it() {
 /// the field named, never written as infinity.
 #[test]
 fn a_value_beyond_32_bit_floats_is_refused_with_its_field() {
-    let tmp = tempfile::tempdir().unwrap();
     for (engine, field) in [
         ("unity-hdrp", "Multiplier"),
         ("godot", "subsurf_scatter_strength"),
     ] {
+        let tmp = tempfile::tempdir().unwrap();
         let out = tmp.path().join(engine);
-        fails_with(
-            &[
-                "engine",
-                "--profile",
-                SKIN,
-                "--engine",
-                engine,
-                "--units-per-mm",
-                "1e40",
-                "--out-dir",
-                p(&out),
-            ],
-            &[field, "32-bit"],
-        );
+        let out_dir = ["--out-dir", p(&out)];
+        let args = engine_args(SKIN, engine, &["--units-per-mm", "1e40"]);
+        fails_with(&[&args[..], &out_dir].concat(), &[field, "32-bit"]);
         assert!(!out.exists());
     }
 }

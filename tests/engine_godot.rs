@@ -8,6 +8,8 @@
 
 mod separable_support;
 use separable_support::*;
+#[path = "common/srgb.rs"]
+mod srgb;
 use ssskit::engine::godot::{self, step_pixels, step_scene_units, step_uv, Camera, Settings};
 use ssskit::engine::Scene;
 
@@ -137,29 +139,14 @@ fn printed_values_render_the_reported_error() {
         );
         // albedo_color is shown and typed sRGB (BaseMaterial3D's shader
         // reads it as source_color): decoded, the profile's total.
-        let albedo = rgb(&params["albedo_color"]).map(srgb_decode);
+        let albedo = rgb(&params["albedo_color"]).map(srgb::decode);
         let reference = reference(m);
         for (a, t) in albedo.iter().zip(&reference.total_rd) {
-            assert!((a - t).abs() <= SRGB_TYPED_REL * t, "{m}: {a} vs {t}");
+            assert!((a - t).abs() <= srgb::TYPED_REL * t, "{m}: {a} vs {t}");
         }
         check_reported(m, &json, &godot_table(t, mm), albedo, &reference);
     }
 }
-
-/// IEC 61966-2-1's decoding of an sRGB value: what Godot does to a
-/// `source_color` before the shader reads it.
-fn srgb_decode(s: f64) -> f64 {
-    if s <= 0.04045 {
-        s / 12.92
-    } else {
-        ((s + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-/// A value typed to 4 digits in sRGB moves its linear value by at most
-/// 2.4 times TYPED_REL (d ln L / d ln S <= 2.4 on the sRGB curve), with
-/// margin.
-const SRGB_TYPED_REL: f64 = 1.3e-3;
 
 /// ssskit's Godot kernel is Godot's table (the shader's constants) at its
 /// width, for every quality.

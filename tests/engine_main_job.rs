@@ -6,28 +6,34 @@
 //! `ssskit engine` writes for the same profile.
 
 mod common;
+use common::commands::engine_args;
 use common::*;
 use serde_json::Value;
 
 /// The quickest main job: an analytic profile, small signals, no plots.
 const MATERIAL: [&str; 4] = ["--material", "skin1", "--profile-model", "burley"];
 
+/// `ssskit cmd` on `MATERIAL`, then `extra`.
+fn on_material<'a>(cmd: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    [&[cmd][..], &MATERIAL, extra].concat()
+}
+
 #[test]
 fn kernels_writes_the_engines_files_and_says_how_to_import_them() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("k");
-    let mut args = vec!["kernels"];
-    args.extend_from_slice(&MATERIAL);
-    args.extend_from_slice(&[
-        "--signal-size",
-        "48",
-        "--no-plots",
-        "--engine",
-        "unreal",
-        "--out-dir",
-        p(&out),
-    ]);
-    let text = ok(&args);
+    let text = ok(&on_material(
+        "kernels",
+        &[
+            "--signal-size",
+            "48",
+            "--no-plots",
+            "--engine",
+            "unreal",
+            "--out-dir",
+            p(&out),
+        ],
+    ));
     for f in ["recommended.json", "skin1-unreal.json", "skin1-unreal.py"] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
@@ -45,22 +51,15 @@ fn kernels_writes_the_engines_files_and_says_how_to_import_them() {
     // The same values as `ssskit engine` on the profile the job made.
     let job: Value = read_json(&out.join("skin1-unreal.json"));
     let again = tmp.path().join("again.json");
-    ok(&[
-        "engine",
-        "--profile",
-        p(&out.join("profile.json")),
-        "--engine",
-        "unreal",
-        "--out",
-        p(&again),
-    ]);
+    let profile = out.join("profile.json");
+    ok(&engine_args(p(&profile), "unreal", &["--out", p(&again)]));
     assert_eq!(read_json(&again)["params"], job["params"]);
     // And `engine --material` makes that profile as the main job did.
     let made = tmp.path().join("made.json");
-    let mut args = vec!["engine"];
-    args.extend_from_slice(&MATERIAL);
-    args.extend_from_slice(&["--engine", "unreal", "--out", p(&made)]);
-    ok(&args);
+    ok(&on_material(
+        "engine",
+        &["--engine", "unreal", "--out", p(&made)],
+    ));
     assert_eq!(read_json(&made)["params"], job["params"]);
 }
 
@@ -68,9 +67,7 @@ fn kernels_writes_the_engines_files_and_says_how_to_import_them() {
 fn kernels_refuses_an_engine_without_files_before_any_work() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("k");
-    let mut args = vec!["kernels"];
-    args.extend_from_slice(&MATERIAL);
-    args.extend_from_slice(&["--engine", "iryoku", "--out-dir", p(&out)]);
+    let args = on_material("kernels", &["--engine", "iryoku", "--out-dir", p(&out)]);
     fails_with(&args, &["--engine", "iryoku"]);
     assert!(!out.exists());
 }

@@ -10,11 +10,16 @@ use std::process::{Command, Output};
 pub mod adding_doubling;
 pub mod backlit_meshes;
 pub mod bounded;
+pub mod budgets;
+pub mod burley;
+pub mod commands;
 pub mod golden;
 pub mod half_space;
+pub mod inputs;
 pub mod mcml;
 pub mod shader;
 pub mod skin1;
+pub mod srgb;
 
 /// Standard errors a statistical check allows: a correct estimate with
 /// normal errors lands beyond 4 sigma once in about 16,000 checks
