@@ -186,13 +186,8 @@ fn cli_writes_the_fit_and_a_plot_and_refuses_unknown_engines() {
     assert_eq!(v["engine"], "unreal");
     assert_eq!(v["error"]["shape"].as_array().unwrap().len(), 3);
     assert!(std::fs::metadata(&png).unwrap().len() > 1000);
-    let bad = run(&[
-        "engine",
-        "--profile",
-        "profiles/reference/skin1.json",
-        "--engine",
-        "cryengine",
-    ]);
+    let skin1 = "profiles/reference/skin1.json";
+    let bad = run(&["engine", "--profile", skin1, "--engine", "cryengine"]);
     assert_eq!(bad.status.code(), Some(2));
     assert!(stderr(&bad).contains("cryengine"));
     assert!(stderr(&bad).contains("unreal, unity-hdrp, blender, godot, iryoku"));

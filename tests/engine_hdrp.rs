@@ -88,11 +88,8 @@ fn printed_values_through_hdrps_chain_reproduce_the_reported_error() {
 /// A scene in centimetres: World Scale 0.01 m per unit, the same profile.
 #[test]
 fn world_scale_follows_the_scene_unit() {
-    let (fit, _) = engine_json(
-        "profiles/reference/skin1.json",
-        "unity-hdrp",
-        &["--units-per-mm", "0.1"],
-    );
+    let skin1 = "profiles/reference/skin1.json";
+    let (fit, _) = engine_json(skin1, "unity-hdrp", &["--units-per-mm", "0.1"]);
     let p = params(&fit);
     assert!(
         (num(p, "World Scale") - 0.01).abs() < 1e-15,

@@ -52,6 +52,9 @@ const BURLEY_CM_2_MM: f64 = 10.0;
 /// `SUBSURFACE_KERNEL_SIZE` (SubsurfaceProfile.h; SSSScaleX divides by it).
 const SUBSURFACE_KERNEL_SIZE: f64 = 3.0;
 
+/// skin1's committed profile, the one most cases fit.
+const SKIN1: &str = "profiles/reference/skin1.json";
+
 /// How the asset's WorldUnitScale reaches CalculateBurleyScale.
 #[derive(Clone, Copy, Debug)]
 enum Reading {
@@ -139,18 +142,23 @@ fn assert_inside_the_ui(what: &str, p: &Map<String, Value>) {
     inside("WorldUnitScale", num(p, "WorldUnitScale"), 0.1, 50.0);
 }
 
+/// `ssskit engine --engine unreal` on `m`'s committed profile with
+/// `extra`: its JSON and printout, the JSON's version checked to start
+/// with `version` and the printed values inside the UI's ranges.
+fn unreal_fit(m: &str, version: &str, extra: &[&str]) -> (Value, String) {
+    let file = format!("profiles/reference/{m}.json");
+    let (fit, text) = engine_json(&file, "unreal", extra);
+    assert!(fit["version"].as_str().unwrap().starts_with(version));
+    assert_inside_the_ui(m, params(&fit));
+    (fit, text)
+}
+
 #[test]
 fn printed_values_through_unreals_chain_reproduce_the_reported_error() {
     for m in MATERIALS {
-        let file = format!("profiles/reference/{m}.json");
-        let (fit, text) = engine_json(&file, "unreal", &[]);
+        let (fit, text) = unreal_fit(m, "Unreal Engine 5.4", &[]);
         assert!(text.contains("version: Unreal Engine 5.4"), "{text}");
-        assert!(fit["version"]
-            .as_str()
-            .unwrap()
-            .starts_with("Unreal Engine 5.4"));
         let p = params(&fit);
-        assert_inside_the_ui(m, p);
         // Unreal's world unit is the cm: one profile mm spans
         // WorldUnitScale cm in 5.4, so 0.1 (the constructor's default) is
         // the profile's own size.
@@ -163,14 +171,8 @@ fn printed_values_through_unreals_chain_reproduce_the_reported_error() {
 #[test]
 fn unreal_5_0_maps_the_profile_without_the_kernel_factor() {
     for m in ["skin1", "ketchup"] {
-        let file = format!("profiles/reference/{m}.json");
-        let (fit, text) = engine_json(&file, "unreal", &["--engine-version", "5.0"]);
-        assert!(fit["version"]
-            .as_str()
-            .unwrap()
-            .starts_with("Unreal Engine 5.0"));
+        let (fit, text) = unreal_fit(m, "Unreal Engine 5.0", &["--engine-version", "5.0"]);
         let p = params(&fit);
-        assert_inside_the_ui(m, p);
         // One profile mm spans 10 WorldUnitScale / 3 cm in 5.0: the true
         // size, 0.03, is under the ClampMin 0.1, so 0.1 is printed and the
         // mean free paths carry the rest.
@@ -270,11 +272,7 @@ fn a_profile_reflecting_more_than_one_keeps_every_colour_inside_the_label() {
     // d is fitted for the capped colour: its shape error beats the d the
     // uncapped fit of the same shape (skin1's) would give at that colour.
     let bright_profile = ssskit::profile::Profile::read(&bright).unwrap();
-    let (plain, _) = engine_json(
-        "profiles/reference/skin1.json",
-        "unreal",
-        &["--priority", "shape"],
-    );
+    let (plain, _) = engine_json(SKIN1, "unreal", &["--priority", "shape"]);
     let uncapped_d = unreal_chain(params(&plain), 0.1, false).d_mm;
     let (_, capped) = score(&chain, &bright_profile);
     let (_, naive) = score(
@@ -306,7 +304,7 @@ fn unknown_versions_are_refused_with_the_known_ones() {
         &[
             "engine",
             "--profile",
-            "profiles/reference/skin1.json",
+            SKIN1,
             "--engine",
             "unreal",
             "--engine-version",
@@ -320,12 +318,8 @@ fn unknown_versions_are_refused_with_the_known_ones() {
 /// that was written) still prints inside [0, 1].
 #[test]
 fn params_clamp_colours_the_fit_did_not_cap() {
-    use ssskit::engine::{burley::Burley, unreal, Engine, Scene};
-    let b = Burley {
-        albedo: [4.99, 0.5, 0.001],
-        d_mm: [1.0, 0.5, 0.2],
-        truncate_d: None,
-    };
+    use ssskit::engine::{unreal, Engine, Scene};
+    let b = burley::with_albedo([4.99, 0.5, 0.001]);
     let printed = unreal::params(&b, Scene::native(Engine::Unreal), unreal::VERSIONS[0]);
     assert_inside_the_ui("library", &printed.params);
     assert_eq!(rgb(&printed.params, "Base Color")[0], 1.0);
@@ -339,11 +333,7 @@ fn params_clamp_colours_the_fit_did_not_cap() {
 /// reported error is what the engine's chain renders from the values.
 #[test]
 fn world_unit_scale_under_its_clamp_is_made_up_by_the_mean_free_paths() {
-    let (fit, text) = engine_json(
-        "profiles/reference/skin1.json",
-        "unreal",
-        &["--units-per-mm", "0.001"],
-    );
+    let (fit, text) = engine_json(SKIN1, "unreal", &["--units-per-mm", "0.001"]);
     let p = params(&fit);
     assert_inside_the_ui("skin1 m", p);
     assert_eq!(num(p, "WorldUnitScale"), 0.1);
@@ -387,7 +377,7 @@ const RULED_OUT_SHAPE: f64 = 0.5;
 /// chain.
 #[test]
 fn world_unit_scale_is_read_as_the_source_scales_it() {
-    let (fit, _) = engine_json("profiles/reference/skin1.json", "unreal", &[]);
+    let (fit, _) = engine_json(SKIN1, "unreal", &[]);
     let p = params(&fit);
     let wus = num(p, "WorldUnitScale");
     // The source's reading: one profile mm is one scene mm at 0.1 units
