@@ -3,6 +3,7 @@
 
 use ssskit::profile::Profile;
 mod common;
+use common::commands::{skin1_red_args, words};
 use common::{fails_with_in as fails_with, run_in as ssskit, stderr};
 
 #[test]
@@ -76,18 +77,7 @@ fn mci_file_runs_and_bad_mci_is_reported() {
     let t = p.transmittance.as_ref().unwrap()[0];
     let te = p.transmittance_stderr.as_ref().unwrap()[0];
     assert!((t - 0.66096).abs() < common::SIGMAS * te, "T {t} +- {te}");
-    let o = ssskit(
-        dir.path(),
-        &[
-            "simulate",
-            "--mci",
-            "t.mci",
-            "--mci-run",
-            "2",
-            "--out",
-            "h.json",
-        ],
-    );
+    let o = ssskit(dir.path(), &sim("--mci t.mci --mci-run 2 --out h.json"));
     assert!(o.status.success(), "{}", stderr(&o));
     let p = Profile::read(&dir.path().join("h.json")).unwrap();
     assert!(p.material.is_half_space());
@@ -119,61 +109,28 @@ fn mci_file_runs_and_bad_mci_is_reported() {
     );
 }
 
+/// `ssskit simulate` with the flags `flags` (split at spaces).
+fn sim(flags: &str) -> Vec<&str> {
+    [&["simulate"][..], &words(flags)].concat()
+}
+
 #[test]
 fn invalid_material_files_name_file_field_and_value() {
     let dir = tempfile::tempdir().unwrap();
     let base = "unit = \"mm\"\nsigma_a = [0.032, 0.17, 0.48]\nsigma_s = [0.74, 0.88, 1.01]\ng = 0.0\neta = 1.3\n";
+    let zero = "unit = \"mm\"\nsigma_a = 0.0\nsigma_s = [0.0, 1.0, 1.0]\neta = 1.3\n";
+    #[rustfmt::skip] // one line a case: the table reads as one
     let cases: [(&str, String, &[&str]); 10] = [
-        (
-            "neg.toml",
-            base.replace("0.032", "-0.032"),
-            &["sigma_a[r]", "-0.032", ">= 0"],
-        ),
-        (
-            "nan.toml",
-            base.replace("0.17", "nan"),
-            &["sigma_a[g]", "NaN"],
-        ),
-        (
-            "inf.toml",
-            base.replace("1.01", "inf"),
-            &["sigma_s[b]", "inf"],
-        ),
-        (
-            "g.toml",
-            base.replace("g = 0.0", "g = 1.0"),
-            &["g[r]", "1", "|g| < 1"],
-        ),
-        (
-            "eta.toml",
-            base.replace("eta = 1.3", "eta = 0.0"),
-            &["eta", "0", "> 0"],
-        ),
-        (
-            "zero.toml",
-            "unit = \"mm\"\nsigma_a = 0.0\nsigma_s = [0.0, 1.0, 1.0]\neta = 1.3\n".into(),
-            &["sigma_t[r]", "zero extinction"],
-        ),
-        (
-            "thick.toml",
-            format!("{base}thickness = -1.0\n"),
-            &["thickness", "-1"],
-        ),
-        (
-            "unit.toml",
-            base.replace("\"mm\"", "\"inch\""),
-            &["unit", "inch"],
-        ),
-        (
-            "nounit.toml",
-            base.replace("unit = \"mm\"\n", ""),
-            &["unit", "missing"],
-        ),
-        (
-            "syntax.toml",
-            "unit = \"mm\"\nsigma_a = [1, 2\n".into(),
-            &["malformed material TOML"],
-        ),
+        ("neg.toml", base.replace("0.032", "-0.032"), &["sigma_a[r]", "-0.032", ">= 0"]),
+        ("nan.toml", base.replace("0.17", "nan"), &["sigma_a[g]", "NaN"]),
+        ("inf.toml", base.replace("1.01", "inf"), &["sigma_s[b]", "inf"]),
+        ("g.toml", base.replace("g = 0.0", "g = 1.0"), &["g[r]", "1", "|g| < 1"]),
+        ("eta.toml", base.replace("eta = 1.3", "eta = 0.0"), &["eta", "0", "> 0"]),
+        ("zero.toml", zero.into(), &["sigma_t[r]", "zero extinction"]),
+        ("thick.toml", format!("{base}thickness = -1.0\n"), &["thickness", "-1"]),
+        ("unit.toml", base.replace("\"mm\"", "\"inch\""), &["unit", "inch"]),
+        ("nounit.toml", base.replace("unit = \"mm\"\n", ""), &["unit", "missing"]),
+        ("syntax.toml", "unit = \"mm\"\nsigma_a = [1, 2\n".into(), &["malformed material TOML"]),
     ];
     for (file, text, needles) in cases.iter() {
         std::fs::write(dir.path().join(file), text).unwrap();
@@ -185,83 +142,43 @@ fn invalid_material_files_name_file_field_and_value() {
             &n,
         );
     }
-    fails_with(
-        dir.path(),
-        &["simulate", "--material", "unobtainium"],
-        &["unobtainium", "skin1"],
-    );
-    fails_with(
-        dir.path(),
-        &["simulate", "--material", "missing.toml"],
-        &["missing.toml"],
-    );
+    // Names that are neither a preset nor a file.
+    let unknown = ["unobtainium", "skin1"];
+    fails_with(dir.path(), &sim("--material unobtainium"), &unknown);
+    let missing = ["missing.toml"];
+    fails_with(dir.path(), &sim("--material missing.toml"), &missing);
 }
 
 #[test]
 fn invalid_flags_are_reported() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let s = |extra: &[&'static str]| {
-        let mut v = vec!["simulate", "--material", "skin1"];
-        v.extend_from_slice(extra);
-        v
-    };
-    fails_with(d, &s(&["--photons", "0"]), &["--photons", "0"]);
-    fails_with(d, &s(&["--photons", "-5"]), &["--photons"]);
-    fails_with(
-        d,
-        &s(&["--mc-error", "2"]),
-        &["--mc-error: invalid value 2", "(0, 1)"],
-    );
-    // The old spelling: accepted, noted, named as typed.
-    fails_with(
-        d,
-        &s(&["--target-error", "2"]),
-        &[
+    #[rustfmt::skip] // one line a case: the table reads as one
+    let cases: [(&str, &[&str]); 15] = [
+        ("--photons 0", &["--photons", "0"]),
+        ("--photons -5", &["--photons"]),
+        ("--mc-error 2", &["--mc-error: invalid value 2", "(0, 1)"]),
+        // The old spelling: accepted, noted, named as typed.
+        ("--target-error 2", &[
             "note: --target-error is deprecated: use --mc-error",
             "--target-error: invalid value 2",
             "(0, 1)",
-        ],
-    );
-    fails_with(d, &s(&["--mc-error", "-0.1"]), &["--mc-error", "-0.1"]);
-    fails_with(
-        d,
-        &s(&["--mc-error", "nan"]),
-        &["--mc-error", "nan", "finite"],
-    );
-    fails_with(
-        d,
-        &s(&["--photons", "10", "--mc-error", "0.1"]),
-        &["cannot be used with"],
-    );
-    fails_with(d, &s(&["--channels", "rx"]), &["--channels", "x"]);
-    fails_with(
-        d,
-        &s(&["--threads", "0", "--photons", "10"]),
-        &["--threads", "0"],
-    );
-    fails_with(d, &s(&["--dr", "-1", "--photons", "10"]), &["--dr", "-1"]);
-    fails_with(d, &s(&["--rmax", "0", "--photons", "10"]), &["--rmax", "0"]);
-    fails_with(
-        d,
-        &s(&["--dr", "1", "--rmax", "0.5", "--photons", "10"]),
-        &["rmax", "0.5"],
-    );
-    fails_with(
-        d,
-        &s(&["--boundary", "maybe"]),
-        &["--boundary", "maybe", "possible values: classic, split"],
-    );
-    fails_with(
-        d,
-        &s(&["--max-events", "0", "--photons", "10"]),
-        &["--max-events"],
-    );
-    fails_with(
-        d,
-        &s(&["--photons", "10", "--out", "no/such/dir/x.json"]),
-        &["--out", "no/such/dir"],
-    );
+        ]),
+        ("--mc-error -0.1", &["--mc-error", "-0.1"]),
+        ("--mc-error nan", &["--mc-error", "nan", "finite"]),
+        ("--photons 10 --mc-error 0.1", &["cannot be used with"]),
+        ("--channels rx", &["--channels", "x"]),
+        ("--threads 0 --photons 10", &["--threads", "0"]),
+        ("--dr -1 --photons 10", &["--dr", "-1"]),
+        ("--rmax 0 --photons 10", &["--rmax", "0"]),
+        ("--dr 1 --rmax 0.5 --photons 10", &["rmax", "0.5"]),
+        ("--boundary maybe", &["--boundary", "maybe", "possible values: classic, split"]),
+        ("--max-events 0 --photons 10", &["--max-events"]),
+        ("--photons 10 --out no/such/dir/x.json", &["--out", "no/such/dir"]),
+    ];
+    for (flags, needles) in cases {
+        fails_with(d, &sim(&format!("--material skin1 {flags}")), needles);
+    }
     fails_with(d, &["simulate"], &["--material"]);
     fails_with(
         d,
@@ -331,32 +248,13 @@ fn mco_output_follows_mcml() {
     // One wavelength, uniform bins only.
     let bad = ssskit(
         d,
-        &[
-            "simulate",
-            "--material",
-            "skin1",
-            "--photons",
-            "100",
-            "--mco",
-            "x.mco",
-        ],
+        &words("simulate --material skin1 --photons 100 --mco x.mco"),
     );
     assert_eq!(bad.status.code(), Some(2));
     assert!(stderr(&bad).contains("--mco"));
     let bad = ssskit(
         d,
-        &[
-            "simulate",
-            "--material",
-            "skin1",
-            "--channels",
-            "r",
-            "--photons",
-            "100",
-            "--log-bins",
-            "--mco",
-            "x.mco",
-        ],
+        &skin1_red_args(&words("--photons 100 --log-bins --mco x.mco")),
     );
     assert_eq!(bad.status.code(), Some(2));
     assert!(stderr(&bad).contains("uniform"), "{}", stderr(&bad));
@@ -434,22 +332,8 @@ fn a_fixed_run_stops_at_the_work_cap_with_a_warning() {
 #[test]
 fn warnings_name_the_parameter_in_the_file_and_the_flag_on_screen() {
     let dir = tempfile::tempdir().unwrap();
-    let o = ssskit(
-        dir.path(),
-        &[
-            "simulate",
-            "--material",
-            "skin1",
-            "--channels",
-            "r",
-            "--max-photons",
-            "2000",
-            "--threads",
-            "1",
-            "--out",
-            "p.json",
-        ],
-    );
+    let capped = words("--max-photons 2000 --threads 1 --out p.json");
+    let o = ssskit(dir.path(), &skin1_red_args(&capped));
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(

@@ -107,72 +107,39 @@ fn bad_merges_and_shards_are_refused() {
         ],
     );
     ok(d, &run_args(&["--out", "full.json"]));
-    fails_with(
-        d,
-        &["merge", "a1.json", "seed.json", "--out", "m.json"],
-        &["seed.json", "different seeds"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "marble.json", "--out", "m.json"],
-        &["different materials"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "photons.json", "--out", "m.json"],
-        &["different photon totals"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "grid.json", "--out", "m.json"],
-        &["different radial grids"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "roulette.json", "--out", "m.json"],
-        &["different simulation settings", "roulette"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "b1.json", "--out", "m.json"],
-        &["different numbers of shards"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "a1.json", "--out", "m.json"],
-        &["1/2 given twice", "overlap"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "--out", "m.json"],
-        &["missing shard(s) 2 (a2.json) of 2"],
-    );
+    // `merge PARTS --out m.json` must fail naming `needles`.
+    let merge_fails = |parts: &[&str], needles: &[&str]| {
+        fails_with(
+            d,
+            &[&["merge"][..], parts, &["--out", "m.json"]].concat(),
+            needles,
+        );
+    };
+    // Parts that are not the shards of one run.
+    #[rustfmt::skip] // one line a case: the table reads as one
+    let mixed: [(&[&str], &[&str]); 8] = [
+        (&["a1.json", "seed.json"], &["seed.json", "different seeds"]),
+        (&["a1.json", "marble.json"], &["different materials"]),
+        (&["a1.json", "photons.json"], &["different photon totals"]),
+        (&["a1.json", "grid.json"], &["different radial grids"]),
+        (&["a1.json", "roulette.json"], &["different simulation settings", "roulette"]),
+        (&["a1.json", "b1.json"], &["different numbers of shards"]),
+        (&["a1.json", "a1.json"], &["1/2 given twice", "overlap"]),
+        (&["a1.json"], &["missing shard(s) 2 (a2.json) of 2"]),
+    ];
+    for (parts, needles) in mixed {
+        merge_fails(parts, needles);
+    }
     // An empty part (a shard killed before an atomic write could not leave
     // one, but a copy can) and a part of an older schema are refused by name.
     std::fs::write(d.join("a2.json"), "").unwrap();
-    fails_with(
-        d,
-        &["merge", "a1.json", "a2.json", "--out", "m.json"],
-        &["a2.json"],
-    );
+    merge_fails(&["a1.json", "a2.json"], &["a2.json"]);
     let mut old: serde_json::Value = common::read_json(&d.join("a1.json"));
     old["schema"] = "ssskit.profile/0".into();
     std::fs::write(d.join("old.json"), old.to_string()).unwrap();
-    fails_with(
-        d,
-        &["merge", "old.json", "seed.json", "--out", "m.json"],
-        &["old.json", "schema"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "full.json", "--out", "m.json"],
-        &["full.json", "not a shard"],
-    );
-    fails_with(
-        d,
-        &["merge", "a1.json", "none.json", "--out", "m.json"],
-        &["none.json"],
-    );
+    merge_fails(&["old.json", "seed.json"], &["old.json", "schema"]);
+    merge_fails(&["a1.json", "full.json"], &["full.json", "not a shard"]);
+    merge_fails(&["a1.json", "none.json"], &["none.json"]);
     assert!(!d.join("m.json").exists());
     // Shards need a fixed total and a valid K/N.
     fails_with(
