@@ -191,6 +191,32 @@ fn mutate_json(base: &Value, picks: &[(usize, Value, bool)]) -> Value {
     v
 }
 
+/// `base`'s JSON with its bytes edited by `edits` when `bytes`, else with
+/// the values `picks` names replaced or removed, written to a temporary
+/// file `name` (see `write_temp`).
+fn mangled_json_file(
+    base: &Value,
+    (picks, edits, bytes): (&[(usize, Value, bool)], &[ByteEdit], bool),
+    name: &str,
+) -> (tempfile::TempDir, std::path::PathBuf) {
+    let text = if bytes {
+        apply_edits(serde_json::to_vec(base).unwrap(), edits)
+    } else {
+        serde_json::to_vec(&mutate_json(base, picks)).unwrap()
+    };
+    write_temp(&text, name)
+}
+
+/// `text` with its bytes edited by `edits` (read back as UTF-8, lossily)
+/// when `b`, else with the numbers `numbers` names replaced.
+fn mangled_text(text: &str, edits: &[ByteEdit], numbers: &[(usize, String)], b: bool) -> String {
+    if b {
+        String::from_utf8_lossy(&apply_edits(text.as_bytes().to_vec(), edits)).into_owned()
+    } else {
+        replace_numbers(text, numbers)
+    }
+}
+
 fn json_picks() -> impl Strategy<Value = Vec<(usize, Value, bool)>> {
     prop::collection::vec(
         (any::<usize>(), hostile_value(), prop::bool::weighted(0.2)),
@@ -420,11 +446,7 @@ proptest! {
     /// a material that validates.
     #[test]
     fn material_toml(edits in byte_edits(), numbers in number_picks(), bytes in any::<bool>()) {
-        let text = if bytes {
-            String::from_utf8_lossy(&apply_edits(MATERIAL.as_bytes().to_vec(), &edits)).into_owned()
-        } else {
-            replace_numbers(MATERIAL, &numbers)
-        };
+        let text = mangled_text(MATERIAL, &edits, &numbers, bytes);
         if let Ok(m) = parse_material_toml(&text, "fuzz.toml", "fuzz") {
             prop_assert!(m.validate("fuzz").is_ok());
             prop_assert!(!m.file_stem().contains('/'));
@@ -436,12 +458,7 @@ proptest! {
     /// refuses to).
     #[test]
     fn profile_json(picks in json_picks(), edits in byte_edits(), bytes in prop::bool::weighted(0.3)) {
-        let text = if bytes {
-            apply_edits(serde_json::to_vec(base_profile()).unwrap(), &edits)
-        } else {
-            serde_json::to_vec(&mutate_json(base_profile(), &picks)).unwrap()
-        };
-        let (_d, path) = write_temp(&text, "p.json");
+        let (_d, path) = mangled_json_file(base_profile(), (&picks, &edits, bytes), "p.json");
         if let Ok(p) = Profile::read(&path) {
             prop_assert!(p.validate("again").is_ok());
             let spec = ssskit::kernel::Kernel2DSpec { size: Some(31), extent_mm: None };
@@ -456,12 +473,7 @@ proptest! {
     /// whose shader arrays hold no `inf` or `NaN` (or are refused).
     #[test]
     fn kernel_json(picks in json_picks(), edits in byte_edits(), bytes in prop::bool::weighted(0.3)) {
-        let text = if bytes {
-            apply_edits(serde_json::to_vec(base_kernel()).unwrap(), &edits)
-        } else {
-            serde_json::to_vec(&mutate_json(base_kernel(), &picks)).unwrap()
-        };
-        let (_d, path) = write_temp(&text, "k.json");
+        let (_d, path) = mangled_json_file(base_kernel(), (&picks, &edits, bytes), "k.json");
         if let Ok(k) = KernelFile::read(&path) {
             prop_assert!(k.validate("again").is_ok());
             for lang in [Lang::Hlsl, Lang::Glsl, Lang::Wgsl] {
@@ -508,11 +520,7 @@ proptest! {
     /// the file, or runs whose materials validate and whose grids are grids.
     #[test]
     fn mci(edits in byte_edits(), numbers in number_picks(), bytes in any::<bool>()) {
-        let text = if bytes {
-            String::from_utf8_lossy(&apply_edits(MCI.as_bytes().to_vec(), &edits)).into_owned()
-        } else {
-            replace_numbers(MCI, &numbers)
-        };
+        let text = mangled_text(MCI, &edits, &numbers, bytes);
         match mc::mci::parse_mci(&text, "fuzz.mci") {
             Ok(runs) => {
                 for r in runs {
@@ -555,11 +563,7 @@ proptest! {
     /// scene with objects and finite bounds, in bounded time.
     #[test]
     fn scene_toml(edits in byte_edits(), numbers in number_picks(), bytes in any::<bool>()) {
-        let text = if bytes {
-            String::from_utf8_lossy(&apply_edits(SCENE.as_bytes().to_vec(), &edits)).into_owned()
-        } else {
-            replace_numbers(SCENE, &numbers)
-        };
+        let text = mangled_text(SCENE, &edits, &numbers, bytes);
         read_scene(&text, CUBE_OBJ.as_bytes())?;
     }
 

@@ -186,22 +186,21 @@ fn the_depth_aware_path_filters_in_place() {
     );
 }
 
+/// A disk sample at radius `r` mm and angle `a` (radians).
+fn polar_tap(r: f64, a: f64, weight: [f64; 3]) -> ssskit::filter::disk::DiskTap {
+    let (y_mm, x_mm) = (r * a.sin(), r * a.cos());
+    ssskit::filter::disk::DiskTap { x_mm, y_mm, weight }
+}
+
 #[test]
 fn the_disk_path_filters_in_place() {
     use ssskit::filter::accumulate::Accumulate;
-    use ssskit::filter::disk::{apply_disk_in_place, DiskSetup, DiskTap};
+    use ssskit::filter::disk::{apply_disk_in_place, DiskSetup};
     let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (mut img, view) = per_pixel_case();
     // 32 samples on a spiral of radius up to 0.8 mm: 8 pixels.
     let taps = (0..32)
-        .map(|i| {
-            let (r, a) = (0.025 * i as f64, 2.4 * i as f64);
-            DiskTap {
-                x_mm: r * a.cos(),
-                y_mm: r * a.sin(),
-                weight: [1.0 / 32.0; 3],
-            }
-        })
+        .map(|i| polar_tap(0.025 * i as f64, 2.4 * i as f64, [1.0 / 32.0; 3]))
         .collect();
     let setup = DiskSetup {
         taps,

@@ -8,6 +8,7 @@
 
 mod common;
 
+use common::commands::words;
 use common::{fails_with_in, ok_in, p, read_json, run_in};
 use serde_json::{json, Value};
 use ssskit::filter::image::write_exr;
@@ -26,6 +27,11 @@ fn disk_kernel_in(d: &Path, samples: &str) {
 
 fn kernel_file(name: &str) -> PathBuf {
     Path::new(REPO).join("kernels").join(name)
+}
+
+/// The committed skin1 pre-integrated kernel, the file the cases edit.
+fn preintegrate() -> Value {
+    read_json(&kernel_file("skin1-preintegrate.json"))
 }
 
 /// `value` edited by `edit`, written to `dir/name`.
@@ -74,7 +80,7 @@ fn refused(dir: &Path, k: &Path, needles: &[&str]) {
 fn kernel_contents_are_held_to_their_physics() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let base = read_json(&kernel_file("skin1-preintegrate.json"));
+    let base = preintegrate();
     let good = edited(&base, d, "good.json", |v| v["angular"] = angular());
     ok_in(d, &["fit", "--kernel", p(&good), "--emit", "hlsl"]);
     // An entry factor of 1e30: with total_rd 0.43, 4e29 of the light back.
@@ -213,8 +219,7 @@ fn budgets_and_flags_say_what_they_mean() {
 fn n_dot_l_and_the_light_are_checked_as_what_they_are() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let base = read_json(&kernel_file("skin1-preintegrate.json"));
-    let k = edited(&base, d, "k.json", |v| v["angular"] = angular());
+    let k = edited(&preintegrate(), d, "k.json", |v| v["angular"] = angular());
     constant(&d.join("in.exr"), 8, 8, [1.0; 3]);
     constant(&d.join("normals.exr"), 8, 8, [0.6, 0.0, 0.8]);
     let apply = |extra: &[&str]| {
@@ -273,19 +278,11 @@ fn messages_name_the_real_problem() {
     // A target of 1 is a fraction of 100%, said with its range and unit.
     fails_with_in(
         d,
-        &[
-            "advise",
-            "--material",
-            "skin1",
-            "--mm-per-pixel",
-            "0.1",
-            "--image-error",
-            "1",
-        ],
+        &words("advise --material skin1 --mm-per-pixel 0.1 --image-error 1"),
         &["--image-error", "between 0 and 1", "100%", "0.01"],
     );
     // A row of four values where [r, g, b] takes three.
-    let base = read_json(&kernel_file("skin1-preintegrate.json"));
+    let base = preintegrate();
     let k = edited(&base, d, "row4.json", |v| {
         v["taps"]["passes"][0]["weights"][0] = json!([0.1, 0.1, 0.1, 0.1]);
     });
