@@ -14,6 +14,8 @@ const REPO: &str = env!("CARGO_MANIFEST_DIR");
 mod common;
 
 use common::bounded::{capped, edited, run_with, MEMORY_BYTES};
+use common::commands::{skin1_red_args, words};
+use common::inputs::dipole_profile;
 
 fn command(args: &[&str]) -> Command {
     capped(common::BIN, &[], args)
@@ -100,11 +102,6 @@ fn dirac(dir: &Path) -> PathBuf {
         ],
     );
     p
-}
-
-/// `p.json` in `dir`: skin1's dipole profile.
-fn dipole_profile(dir: &Path) {
-    ok_in(dir, &common::profile_args("skin1", "dipole", "p.json", &[]));
 }
 
 /// `apply` of kernel `k` to the dirac `d.png` at `mm` per pixel into `o.exr`.
@@ -452,50 +449,16 @@ fn extreme_materials_give_a_readable_profile_or_an_error_before_work() {
     write("both_tiny.toml", "1e-300", "1e-300");
     write("a_tiny.toml", "1e-300", "1");
     for m in ["a_big.toml", "s_big.toml", "both_tiny.toml"] {
-        fails_in(
-            dir.path(),
-            &[
-                "simulate",
-                "--material",
-                m,
-                "--photons",
-                "1000",
-                "--out",
-                "x.json",
-            ],
-            &[m, "check the unit"],
-        );
+        let args = format!("simulate --material {m} --photons 1000 --out x.json");
+        fails_in(dir.path(), &words(&args), &[m, "check the unit"]);
     }
     // Representable but extreme: a finite profile that every reader takes.
-    ok_in(
-        dir.path(),
-        &[
-            "simulate",
-            "--material",
-            "a_tiny.toml",
-            "--photons",
-            "2000",
-            "--out",
-            "t.json",
-        ],
-    );
+    let tiny = words("simulate --material a_tiny.toml --photons 2000 --out t.json");
+    ok_in(dir.path(), &tiny);
     ok_in(dir.path(), &["plot", "profile", "t.json", "--out", "t.png"]);
-    fails_in(
-        dir.path(),
-        &[
-            "simulate",
-            "--material",
-            "skin1",
-            "--log-bins",
-            "--dr",
-            "1e-300",
-            "--photons",
-            "1000",
-            "--out",
-            "x.json",
-        ],
-        &["dr", "1e-300"],
-    );
+    let fine =
+        words("simulate --material skin1 --log-bins --dr 1e-300 --photons 1000 --out x.json");
+    fails_in(dir.path(), &fine, &["dr", "1e-300"]);
 }
 
 // ---- 4. Messages that name the problem ----------------------------------
@@ -503,18 +466,16 @@ fn extreme_materials_give_a_readable_profile_or_an_error_before_work() {
 #[test]
 fn material_file_errors_name_line_field_and_shape() {
     let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
     for (value, needle) in [
         ("[0.1, 0.2]", "invalid length 2"),
         ("[0.1, 0.2, 0.3, 0.4]", "invalid length 4"),
         ("\"0.1\"", "invalid type: string"),
     ] {
-        std::fs::write(
-            dir.path().join("m.toml"),
-            format!("unit = \"mm\"\nsigma_a = {value}\nsigma_s = 1.0\neta = 1.3\n"),
-        )
-        .unwrap();
+        let text = format!("unit = \"mm\"\nsigma_a = {value}\nsigma_s = 1.0\neta = 1.3\n");
+        std::fs::write(d.join("m.toml"), text).unwrap();
         fails_in(
-            dir.path(),
+            d,
             &["materials", "m.toml"],
             &[
                 "m.toml",
@@ -525,12 +486,12 @@ fn material_file_errors_name_line_field_and_shape() {
         );
     }
     std::fs::write(
-        dir.path().join("t.toml"),
+        d.join("t.toml"),
         "unit = \"mm\"\nsigma_a = 0.1\nsigma_s = 1.0\neta = 1.3\nthickness = \"0.2\"\n",
     )
     .unwrap();
     fails_in(
-        dir.path(),
+        d,
         &["materials", "t.toml"],
         &["t.toml", "line 5, field thickness"],
     );
@@ -665,28 +626,11 @@ fn concurrent_runs_leave_json_and_csv_of_one_run() {
     let dir = tempfile::tempdir().unwrap();
     let children: Vec<Child> = (1..=4)
         .map(|seed| {
-            spawn_in(
-                dir.path(),
-                &[
-                    "simulate",
-                    "--material",
-                    "skin1",
-                    "--channels",
-                    "r",
-                    "--photons",
-                    &(2000 * seed).to_string(),
-                    "--seed",
-                    &seed.to_string(),
-                    "--out",
-                    "o.json",
-                    "--csv",
-                    "o.csv",
-                    "--threads",
-                    "1",
-                ],
-                Stdio::null(),
-                Stdio::piped(),
-            )
+            let photons = 2000 * seed;
+            let run = format!("--photons {photons} --seed {seed} --out o.json --csv o.csv");
+            let args = skin1_red_args(&words(&run));
+            let args = [&args[..], &["--threads", "1"]].concat();
+            spawn_in(dir.path(), &args, Stdio::null(), Stdio::piped())
         })
         .collect();
     for c in children {
