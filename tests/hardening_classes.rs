@@ -11,6 +11,8 @@
 mod common;
 
 use common::bounded::{capped, edited, run_with};
+use common::commands::{engine_args, skin1_red_args, words};
+use common::inputs::dipole_profile;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -287,22 +289,8 @@ fn merge_refuses_tampered_shards() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for k in 1..=2 {
-        ok_in(
-            d,
-            &[
-                "simulate",
-                "--material",
-                "skin1",
-                "--channels",
-                "r",
-                "--photons",
-                "20000",
-                "--shard",
-                &format!("{k}/2"),
-                "--out",
-                &format!("s{k}.json"),
-            ],
-        );
+        let shard = format!("--photons 20000 --shard {k}/2 --out s{k}.json");
+        ok_in(d, &skin1_red_args(&words(&shard)));
     }
     ok_in(d, &["merge", "s1.json", "s2.json", "--out", "m.json"]);
     let s2 = d.join("s2.json").to_string_lossy().into_owned();
@@ -474,16 +462,19 @@ fn exr_headers_declaring_too_much_are_refused_before_decoding() {
     }
 }
 
+/// Writes d.png into `dir`: a 64 x 48 Dirac signal, the input the apply
+/// cases filter.
+fn dirac_png(dir: &Path) {
+    ok_in(dir, &words("signal dirac --image-size 64x48 --out d.png"));
+}
+
 /// RAYON_NUM_THREADS is capped like --threads, and a pool that cannot
 /// start (every thread's stack refused) is an error, not a panic in the
 /// first parallel loop.
 #[test]
 fn threads_are_capped_whatever_the_environment_says() {
     let dir = tempfile::tempdir().unwrap();
-    ok_in(
-        dir.path(),
-        &["signal", "dirac", "--image-size", "64x48", "--out", "d.png"],
-    );
+    dirac_png(dir.path());
     let k = kernel();
     let apply = common::apply_args(&k, "d.png", "o.png", "0.1", &["--backend", "cpu"]);
     let mut c = command_in(dir.path(), &[], &apply);
@@ -601,10 +592,7 @@ fn kernels_that_would_turn_an_image_black_are_refused() {
 #[test]
 fn a_degenerate_first_bin_is_refused_not_fitted() {
     let dir = tempfile::tempdir().unwrap();
-    ok_in(
-        dir.path(),
-        &common::profile_args("skin1", "dipole", "p.json", &[]),
-    );
+    dipole_profile(dir.path());
     let p = dir.path().join("p.json").to_string_lossy().into_owned();
     let bad = edited(&p, dir.path(), "bad.json", |v| {
         v["r_edges"][1] = 1e-300.into();
@@ -627,10 +615,7 @@ fn a_degenerate_first_bin_is_refused_not_fitted() {
 #[test]
 fn per_pixel_scales_beyond_the_image_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    ok_in(
-        dir.path(),
-        &["signal", "dirac", "--image-size", "64x48", "--out", "d.png"],
-    );
+    dirac_png(dir.path());
     let mut img = ssskit::filter::Image::new(64, 48);
     for c in 0..3 {
         img.rgb[c].iter_mut().for_each(|v| *v = 1e6);
@@ -664,14 +649,7 @@ fn per_pixel_scales_beyond_the_image_are_refused() {
 #[test]
 fn every_catchable_signal_cleans_up() {
     let dir = tempfile::tempdir().unwrap();
-    let args = [
-        "signal",
-        "shapes",
-        "--image-size",
-        "7680x4320",
-        "--out",
-        "big.exr",
-    ];
+    let args = words("signal shapes --image-size 7680x4320 --out big.exr");
     for (sig, code) in [("TERM", 143), ("QUIT", 131), ("USR1", 138)] {
         let mut caught = false;
         for _attempt in 0..5 {
@@ -741,18 +719,10 @@ fn interrupted_folder_outputs_leave_the_previous_run() {
             .collect()
     };
     let before = snapshot(&d.join("kd"));
-    let kernels = [
-        "kernels",
-        "--material",
-        "skin1",
-        "--profile-model",
-        "dipole",
-        "--no-plots",
-        "--signal-size",
-        "16",
-        "--out-dir",
-        "kd",
-    ];
+    let kernels = words(concat!(
+        "kernels --material skin1 --profile-model dipole",
+        " --no-plots --signal-size 16 --out-dir kd"
+    ));
     let mut child = command_in(d, &[], &kernels)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -871,30 +841,16 @@ fn nan_alpha_is_checked_on_read_and_sanitized() {
 /// the internal temporary name.
 #[test]
 fn missing_output_folders_are_found_before_the_work() {
-    let dir = tempfile::tempdir().unwrap();
-    ok_in(
-        dir.path(),
-        &common::profile_args("skin1", "dipole", "p.json", &[]),
-    );
-    ok_in(
-        dir.path(),
-        &["signal", "dirac", "--image-size", "64x48", "--out", "d.png"],
-    );
     let k = kernel();
+    let dir = tempfile::tempdir().unwrap();
+    dipole_profile(dir.path());
+    dirac_png(dir.path());
     for args in [
         common::fit_args("p.json", "guided", "no/k.json", &[]),
         common::apply_args(&k, "d.png", "no/o.exr", "0.1", &[]),
         vec!["signal", "edge", "--out", "no/s.png"],
         common::profile_args("skin1", "pbd", "no/p.json", &[]),
-        vec![
-            "engine",
-            "--profile",
-            "p.json",
-            "--engine",
-            "unreal",
-            "--out",
-            "no/e.json",
-        ],
+        engine_args("p.json", "unreal", &["--out", "no/e.json"]),
     ] {
         let e = fails_in(dir.path(), &args, &["no", "does not exist"]);
         assert!(
@@ -908,6 +864,18 @@ fn missing_output_folders_are_found_before_the_work() {
 
 // ---- Siblings the follow-up campaign found -------------------------------
 
+/// A temporary folder holding a named pipe (mkfifo(1)) at each of `names`.
+#[cfg(unix)]
+fn with_pipes(names: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for name in names {
+        let fifo = dir.path().join(name);
+        let status = Command::new("mkfifo").arg(&fifo).status().unwrap();
+        assert!(status.success(), "mkfifo {}", fifo.display());
+    }
+    dir
+}
+
 /// Inputs that are named pipes nobody writes to are read as empty (a clear
 /// error), not waited for; a kernel file's material is checked like a
 /// material file (its name used to reach the terminal through the shader
@@ -915,12 +883,8 @@ fn missing_output_folders_are_found_before_the_work() {
 #[cfg(unix)]
 #[test]
 fn pipes_kernel_names_and_the_working_folder() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = with_pipes(&["p.json", "p.toml", "p.exr", "p.png"]);
     let d = dir.path();
-    for name in ["p.json", "p.toml", "p.exr", "p.png"] {
-        let status = Command::new("mkfifo").arg(d.join(name)).status().unwrap();
-        assert!(status.success());
-    }
     let started = Instant::now();
     for args in [
         common::fit_args("p.json", "svd", "k.json", &[]),

@@ -9,6 +9,7 @@
 
 mod common;
 
+use common::commands::{engine_args, words};
 use common::{assert_fails, assert_ok, p, run_in};
 use std::os::unix::fs::{FileTypeExt, MetadataExt};
 use std::path::{Path, PathBuf};
@@ -26,6 +27,11 @@ const SPHERE: &str = "unit = \"mm\"\n[camera]\ntype = \"perspective\"\nposition 
 look_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 30\nsize = [16, 12]\n[[light]]\ntype = \
 \"directional\"\ntoward = [0.6, 0, 0.8]\nirradiance = 2\n[[object]]\nshape = \"sphere\"\n\
 center = [0, 0, 0]\nradius = 10\nmaterial = \"skin1\"\neta = 1.0\n";
+
+/// `SPHERE` under a light of irradiance `irradiance`.
+fn sphere_lit(irradiance: &str) -> String {
+    SPHERE.replace("irradiance = 2", &format!("irradiance = {irradiance}"))
+}
 
 fn cstr(path: &Path) -> std::ffi::CString {
     std::ffi::CString::new(p(path)).unwrap()
@@ -117,64 +123,32 @@ fn cases(d: &Path) -> Vec<(Vec<String>, &'static str, &'static [u8])> {
     let scene = p(&d.join("s.toml")).to_string();
     let exr: &[u8] = &[0x76, 0x2f, 0x31, 0x01];
     let png: &[u8] = b"\x89PNG";
-    let c = |s: &str| s.split(' ').map(str::to_string).collect::<Vec<_>>();
-    vec![
-        (
-            c("simulate --material skin1 --photons 1000 --out @"),
-            "json",
-            b"{",
-        ),
-        (
-            c(&format!(
-                "simulate --material skin1 --photons 1000 --out {}/sim.json --csv @",
-                p(d)
-            )),
-            "csv",
-            b"r_inner_mm",
-        ),
-        (
-            c(&format!("fit --profile {profile} --model svd --out @")),
-            "json",
-            b"{",
-        ),
-        (
-            c(&format!(
-                "engine --profile {profile} --engine unreal --out @"
-            )),
-            "json",
-            b"{",
-        ),
-        (
-            c(&format!(
-                "engine --profile {profile} --engine unreal --plot @"
-            )),
-            "png",
-            png,
-        ),
-        (
-            c(&format!(
-                "apply --kernel {kernel} --input {image} --mm-per-pixel 0.1 --out @"
-            )),
-            "exr",
-            exr,
-        ),
-        (
-            c(&format!(
-                "apply --kernel {kernel} --input {image} --mm-per-pixel 0.1 --out @"
-            )),
-            "png",
-            png,
-        ),
-        (c(&format!("diff {image} {image} --out @")), "png", png),
-        (
-            c(&format!(
-                "scene {scene} --out {}/r.exr --spp 2 --profile-photons 2000 --irradiance-out @",
-                p(d)
-            )),
-            "exr",
-            exr,
-        ),
-    ]
+    let dir = p(d).to_string();
+    // The command with its placeholders filled, split at spaces.
+    let c = |s: &str| {
+        let s = s
+            .replace("{profile}", &profile)
+            .replace("{kernel}", &kernel);
+        let s = s.replace("{image}", &image).replace("{scene}", &scene);
+        let s = s.replace("{dir}", &dir);
+        s.split(' ').map(str::to_string).collect::<Vec<_>>()
+    };
+    #[rustfmt::skip] // one line a case: the table reads as one
+    let table: [(&str, &str, &[u8]); 9] = [
+        ("simulate --material skin1 --photons 1000 --out @", "json", b"{"),
+        ("simulate --material skin1 --photons 1000 --out {dir}/sim.json --csv @", "csv", b"r_inner_mm"),
+        ("fit --profile {profile} --model svd --out @", "json", b"{"),
+        ("engine --profile {profile} --engine unreal --out @", "json", b"{"),
+        ("engine --profile {profile} --engine unreal --plot @", "png", png),
+        ("apply --kernel {kernel} --input {image} --mm-per-pixel 0.1 --out @", "exr", exr),
+        ("apply --kernel {kernel} --input {image} --mm-per-pixel 0.1 --out @", "png", png),
+        ("diff {image} {image} --out @", "png", png),
+        ("scene {scene} --out {dir}/r.exr --spp 2 --profile-photons 2000 --irradiance-out @", "exr", exr),
+    ];
+    table
+        .iter()
+        .map(|(cmd, ext, magic)| (c(cmd), *ext, *magic))
+        .collect()
 }
 
 fn setup() -> tempfile::TempDir {
@@ -201,6 +175,18 @@ fn with_output(args: &[String], out: &Path) -> Vec<String> {
         .collect()
 }
 
+/// `cases` with their outputs at `d/{stem}{i}.{ext}`: each command, that
+/// path and the first bytes written.
+fn cases_writing_to(d: &Path, stem: &str) -> Vec<(Vec<String>, PathBuf, &'static [u8])> {
+    let numbered = cases(d).into_iter().enumerate();
+    numbered
+        .map(|(i, (args, ext, magic))| {
+            let out = d.join(format!("{stem}{i}.{ext}"));
+            (with_output(&args, &out), out, magic)
+        })
+        .collect()
+}
+
 fn run_args(d: &Path, args: &[String]) -> Output {
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
     run_in(d, &refs)
@@ -212,12 +198,10 @@ fn run_args(d: &Path, args: &[String]) -> Output {
 fn device_nodes_at_output_paths_are_written_in_place() {
     let dir = setup();
     let d = dir.path();
-    for (i, (args, ext, _)) in cases(d).into_iter().enumerate() {
-        let node = d.join(format!("node{i}.{ext}"));
+    for (args, node, _) in cases_writing_to(d, "node") {
         if !make_device(&node, NULL_DEV) {
             return;
         }
-        let args = with_output(&args, &node);
         assert_ok(&run_args(d, &args), &[]);
         assert_device(&node, NULL_DEV, &args.join(" "));
     }
@@ -225,30 +209,14 @@ fn device_nodes_at_output_paths_are_written_in_place() {
     let full = d.join("full.json");
     assert!(make_device(&full, FULL_DEV));
     let profile = format!("{REPO}/profiles/reference/skin1.json");
-    let args = [
-        "engine",
-        "--profile",
-        &profile,
-        "--engine",
-        "unreal",
-        "--out",
-        p(&full),
-    ];
+    let args = engine_args(&profile, "unreal", &["--out", p(&full)]);
     assert_fails(&run_in(d, &args), &args, &["full.json", "No space left"]);
     assert_device(&full, FULL_DEV, "engine --out full");
     // Standard output as a file (`/dev/stdout` is such a link; this one is
     // in the test's folder, so that a broken build replaces only it): the
     // JSON arrives in the pipe.
     std::os::unix::fs::symlink("/proc/self/fd/1", d.join("stdout")).unwrap();
-    let args = [
-        "engine",
-        "--profile",
-        &profile,
-        "--engine",
-        "unreal",
-        "--out",
-        "stdout",
-    ];
+    let args = engine_args(&profile, "unreal", &["--out", "stdout"]);
     let (out, _) = assert_ok(&run_in(d, &args), &args);
     assert!(out.contains("\"engine\""), "{out}");
     assert!(std::fs::symlink_metadata(d.join("stdout"))
@@ -263,12 +231,10 @@ fn device_nodes_at_output_paths_are_written_in_place() {
 fn named_pipes_at_output_paths_are_written_in_place() {
     let dir = setup();
     let d = dir.path();
-    for (i, (args, ext, magic)) in cases(d).into_iter().enumerate() {
-        let fifo = d.join(format!("fifo{i}.{ext}"));
+    for (args, fifo, magic) in cases_writing_to(d, "fifo") {
         make_fifo(&fifo);
         let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let got = reader(&fifo, done.clone());
-        let args = with_output(&args, &fifo);
         let o = run_args(d, &args);
         done.store(true, std::sync::atomic::Ordering::SeqCst);
         let bytes = got.join().unwrap();
@@ -331,15 +297,7 @@ fn links_are_written_through_and_sockets_refused() {
     std::fs::write(&real, "old").unwrap();
     let link = d.join("link.json");
     std::os::unix::fs::symlink(&real, &link).unwrap();
-    let args = [
-        "engine",
-        "--profile",
-        &profile,
-        "--engine",
-        "unreal",
-        "--out",
-        "link.json",
-    ];
+    let args = engine_args(&profile, "unreal", &["--out", "link.json"]);
     assert_ok(&run_in(d, &args), &args);
     assert!(std::fs::symlink_metadata(&link)
         .unwrap()
@@ -349,36 +307,12 @@ fn links_are_written_through_and_sockets_refused() {
         .unwrap()
         .contains("\"engine\""));
     std::os::unix::fs::symlink(d.join("nowhere"), d.join("gone.json")).unwrap();
-    let args = [
-        "engine",
-        "--profile",
-        &profile,
-        "--engine",
-        "unreal",
-        "--out",
-        "gone.json",
-    ];
+    let args = engine_args(&profile, "unreal", &["--out", "gone.json"]);
     assert_fails(&run_in(d, &args), &args, &["gone.json", "link to nothing"]);
     let _sock = std::os::unix::net::UnixListener::bind(d.join("s.json")).unwrap();
-    let args = [
-        "engine",
-        "--profile",
-        &profile,
-        "--engine",
-        "unreal",
-        "--out",
-        "s.json",
-    ];
+    let args = engine_args(&profile, "unreal", &["--out", "s.json"]);
     assert_fails(&run_in(d, &args), &args, &["s.json", "socket"]);
-    let args = [
-        "engine",
-        "--profile",
-        &profile,
-        "--engine",
-        "unreal",
-        "--out",
-        "e.txt",
-    ];
+    let args = engine_args(&profile, "unreal", &["--out", "e.txt"]);
     assert_fails(&run_in(d, &args), &args, &["e.txt", "must end in .json"]);
 }
 
@@ -386,6 +320,18 @@ fn links_are_written_through_and_sockets_refused() {
 
 fn bytes(p: &Path) -> Vec<u8> {
     std::fs::read(p).unwrap()
+}
+
+/// Runs `args` in `d`, which must fail naming `needles` (see
+/// `assert_fails`) within seconds, before any work; the message.
+fn refused_before_the_work(d: &Path, args: &[&str], needles: &[&str]) -> String {
+    let t = std::time::Instant::now();
+    let e = assert_fails(&run_in(d, args), args, needles);
+    assert!(
+        t.elapsed().as_secs() < 5,
+        "{args:?}: refused after the work"
+    );
+    e
 }
 
 /// Each refused before any work, every file as it was.
@@ -402,71 +348,20 @@ fn outputs_never_replace_inputs_or_each_other() {
         .iter()
         .map(|n| (d.join(n), bytes(&d.join(n))))
         .collect();
-    let cases: &[(&[&str], &[&str])] = &[
-        (
-            &["diff", "a.png", "b.png", "--out", "a.png"],
-            &["--out", "A reads"],
-        ),
-        (
-            &[
-                "engine",
-                "--profile",
-                "p.json",
-                "--engine",
-                "unreal",
-                "--out",
-                "p.json",
-            ],
-            &["--out", "--profile reads"],
-        ),
-        (
-            &["scene", "o.json", "--out", "o.exr", "--spp", "2"],
-            &["the record of --out", "SCENE.toml reads"],
-        ),
-        (
-            &["scene", "s.toml", "--out", "skin1.exr", "--spp", "2"],
-            &["skin1.json", "not a render's record"],
-        ),
-        (
-            &[
-                "scene",
-                "s.toml",
-                "--out",
-                "r.exr",
-                "--irradiance-out",
-                "r.exr",
-                "--spp",
-                "2",
-            ],
-            &["--irradiance-out", "--out", "same file"],
-        ),
-        (
-            &[
-                "scene",
-                "s.toml",
-                "--out",
-                "r.exr",
-                "--irradiance-out",
-                "r.json",
-                "--spp",
-                "2",
-            ],
-            &["same file"],
-        ),
-        (
-            &["kernels", "--profile", "k/p.json", "--out-dir", "k"],
-            &["--profile", "inside --out-dir"],
-        ),
+    #[rustfmt::skip] // one line a case: the table reads as one
+    let cases: [(&str, &[&str]); 7] = [
+        ("diff a.png b.png --out a.png", &["--out", "A reads"]),
+        ("scene s.toml --out r.exr --irradiance-out r.exr --spp 2", &["--irradiance-out", "--out", "same file"]),
+        ("engine --profile p.json --engine unreal --out p.json", &["--out", "--profile reads"]),
+        ("scene o.json --out o.exr --spp 2", &["the record of --out", "SCENE.toml reads"]),
+        ("scene s.toml --out r.exr --irradiance-out r.json --spp 2", &["same file"]),
+        ("scene s.toml --out skin1.exr --spp 2", &["skin1.json", "not a render's record"]),
+        ("kernels --profile k/p.json --out-dir k", &["--profile", "inside --out-dir"]),
     ];
     std::fs::create_dir(d.join("k")).unwrap();
     std::fs::copy(&profile, d.join("k/p.json")).unwrap();
     for (args, needles) in cases {
-        let t = std::time::Instant::now();
-        assert_fails(&run_in(d, args), args, needles);
-        assert!(
-            t.elapsed().as_secs() < 5,
-            "{args:?}: refused after the work"
-        );
+        refused_before_the_work(d, &words(args), needles);
     }
     for (path, old) in before {
         assert_eq!(bytes(&path), old, "{} changed", path.display());
@@ -485,14 +380,8 @@ fn concurrent_renders_leave_one_runs_pair() {
     // and the old code (image and record committed one after the other)
     // failed by round 7 in three runs of three.
     const ROUNDS: usize = 16;
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::temp_with(&[("a.toml", SPHERE), ("b.toml", &sphere_lit("3"))]);
     let d = dir.path();
-    std::fs::write(d.join("a.toml"), SPHERE).unwrap();
-    std::fs::write(
-        d.join("b.toml"),
-        SPHERE.replace("irradiance = 2", "irradiance = 3"),
-    )
-    .unwrap();
     let render = |toml: &str, out: &str| {
         common::bin()
             .current_dir(d)
@@ -558,48 +447,20 @@ fn has_long_number(text: &str) -> bool {
 /// render of two samples states its noise and is read back.
 #[test]
 fn renders_are_readable_or_refused_before_the_work() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::temp_with(&[("s.toml", SPHERE), ("hot.toml", &sphere_lit("1e308"))]);
     let d = dir.path();
-    std::fs::write(d.join("s.toml"), SPHERE).unwrap();
-    std::fs::write(
-        d.join("hot.toml"),
-        SPHERE.replace("irradiance = 2", "irradiance = 1e308"),
-    )
-    .unwrap();
-    let cases: &[(&[&str], &[&str])] = &[
-        (
-            &["scene", "s.toml", "--out", "r.exr", "--spp", "1"],
-            &["--spp", "must be >= 2"],
-        ),
-        (
-            &["scene", "s.toml", "--out", "r.exr", "--max-spp", "1"],
-            &["--max-spp", "must be >= 2"],
-        ),
-        (
-            &["scene", "hot.toml", "--out", "r.exr", "--spp", "2"],
-            &["irradiance", "1e308", "at most 1e30"],
-        ),
+    #[rustfmt::skip] // one line a case: the table reads as one
+    let cases: [(&str, &[&str]); 3] = [
+        ("scene s.toml --out r.exr --spp 1", &["--spp", "must be >= 2"]),
+        ("scene s.toml --out r.exr --max-spp 1", &["--max-spp", "must be >= 2"]),
+        ("scene hot.toml --out r.exr --spp 2", &["irradiance", "1e308", "at most 1e30"]),
     ];
     for (args, needles) in cases {
-        let t = std::time::Instant::now();
-        let e = assert_fails(&run_in(d, args), args, needles);
+        let e = refused_before_the_work(d, &words(args), needles);
         assert!(!has_long_number(&e), "{e}");
-        assert!(
-            t.elapsed().as_secs() < 5,
-            "{args:?}: refused after the work"
-        );
         assert!(!d.join("r.exr").exists() && !d.join("r.json").exists());
     }
-    let args = [
-        "scene",
-        "s.toml",
-        "--out",
-        "r.exr",
-        "--spp",
-        "2",
-        "--profile-photons",
-        "2000",
-    ];
+    let args = words("scene s.toml --out r.exr --spp 2 --profile-photons 2000");
     assert_ok(&run_in(d, &args), &args);
     let record = common::read_json(&d.join("r.json"));
     let noise = record["info"]["noise"].as_array().unwrap();
