@@ -174,12 +174,7 @@ fn printed_values_through_each_engines_chain_give_the_reported_light() {
         let refl = v["params"].as_object().unwrap();
         let t = &v["transmission"];
         let tr = t["params"].as_object().unwrap();
-        let thickness: Vec<f64> = t["thickness_mm"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
+        let thickness: Vec<f64> = serde_json::from_value(t["thickness_mm"].clone()).unwrap();
         let map = thickness.iter().fold(0.0f64, |m, x| m.max(*x));
         if engine == "unity-hdrp" {
             // A tint an artist can set (the fit trades it against the remap).

@@ -7,6 +7,7 @@
 //! floor off).
 
 mod common;
+use common::budgets::{default_rule, kernel_factor};
 
 use ssskit::material::{preset, Channel};
 use ssskit::profile::mc::{
@@ -15,19 +16,6 @@ use ssskit::profile::mc::{
 };
 use ssskit::profile::{Profile, RadialGrid};
 use ssskit::progress::NoProgress;
-
-fn default_cfg(seed: u64) -> McConfig {
-    McConfig {
-        budget: PhotonBudget::KernelFactor {
-            rel: DEFAULT_KERNEL_ERROR,
-            max_photons: 100_000_000,
-        },
-        seed,
-        threads: None,
-        channels: Channel::ALL.to_vec(),
-        grid: None,
-    }
-}
 
 fn vec_f64(p: &Profile, key: &str) -> Vec<f64> {
     serde_json::from_value(p.extra[key].clone()).unwrap()
@@ -43,7 +31,7 @@ fn wine_and_beer_stop_at_the_floor_and_the_claim_holds() {
     let min_photons = (3.0 / floor) as u64;
     for name in ["wine", "beer"] {
         let m = preset(name).unwrap();
-        let a = simulate(&m, &default_cfg(5), &NoProgress).unwrap();
+        let a = simulate(&m, &default_rule(5), &NoProgress).unwrap();
         let budget = &a.source.params["budget"];
         assert_eq!(budget["rule"], "kernel-factor");
         assert_eq!(budget["absolute_floor"]["floor"], floor);
@@ -70,7 +58,7 @@ fn wine_and_beer_stop_at_the_floor_and_the_claim_holds() {
             grid: Some(RadialGrid {
                 edges: a.r_edges.clone(),
             }),
-            ..default_cfg(6)
+            ..default_rule(6)
         };
         let b = simulate(&m, &long, &NoProgress).unwrap();
         let b_se = b.total_rd_stderr.clone().unwrap();
@@ -94,12 +82,12 @@ fn the_floor_never_stops_a_visible_channel_early() {
     // decides, and the run is bit-identical with the floor off.
     for name in ["ketchup", "skin1"] {
         let m = preset(name).unwrap();
-        let with = simulate(&m, &default_cfg(2), &NoProgress).unwrap();
+        let with = simulate(&m, &default_rule(2), &NoProgress).unwrap();
         let off = McOptions {
             abs_floor: 0.0,
             ..McOptions::default()
         };
-        let without = simulate_with(&m, &default_cfg(2), &off, &NoProgress).unwrap();
+        let without = simulate_with(&m, &default_rule(2), &off, &NoProgress).unwrap();
         assert_eq!(with.source.photons, without.source.photons, "{name}");
         assert_eq!(with.rd, without.rd, "{name}");
         assert!(stopped_by(&with).iter().all(|s| s == "target"));
@@ -112,12 +100,9 @@ fn without_the_floor_beer_does_not_converge_cheaply() {
     // is far from met at the floor's photon minimum.
     let m = preset("beer").unwrap();
     let cfg = McConfig {
-        budget: PhotonBudget::KernelFactor {
-            rel: DEFAULT_KERNEL_ERROR,
-            max_photons: 1_500_000,
-        },
+        budget: kernel_factor(DEFAULT_KERNEL_ERROR, 1_500_000),
         channels: vec![Channel::R],
-        ..default_cfg(1)
+        ..default_rule(1)
     };
     let off = McOptions {
         abs_floor: 0.0,
@@ -138,7 +123,7 @@ fn bad_floors_are_refused() {
             abs_floor: bad,
             ..McOptions::default()
         };
-        let e = simulate_with(&m, &default_cfg(1), &o, &NoProgress)
+        let e = simulate_with(&m, &default_rule(1), &o, &NoProgress)
             .unwrap_err()
             .to_string();
         assert!(e.contains("invalid abs_floor"), "{bad}: {e}");

@@ -11,9 +11,7 @@ mod common;
 use ssskit::kernel::kernel2d::{Kernel2D, Kernel2DSpec};
 use ssskit::kernel::preintegrate::{preintegrate, PreMethod};
 use ssskit::material::{preset, Channel};
-use ssskit::profile::mc::{
-    simulate, McConfig, PhotonBudget, DEFAULT_ABS_FLOOR, DEFAULT_KERNEL_ERROR,
-};
+use ssskit::profile::mc::{simulate, McConfig, PhotonBudget, DEFAULT_ABS_FLOOR};
 use ssskit::profile::Profile;
 use ssskit::progress::NoProgress;
 
@@ -119,16 +117,7 @@ fn kernel_factor_rule_holds_against_a_20x_longer_run() {
 #[test]
 fn absolute_floor_kernel_noise_holds_for_beer() {
     let m = preset("beer").unwrap();
-    let cfg = McConfig {
-        budget: PhotonBudget::KernelFactor {
-            rel: DEFAULT_KERNEL_ERROR,
-            max_photons: 100_000_000,
-        },
-        seed: 5,
-        threads: None,
-        channels: Channel::ALL.to_vec(),
-        grid: None,
-    };
+    let cfg = common::budgets::default_rule(5);
     let a = simulate(&m, &cfg, &NoProgress).unwrap();
     let photons = a.source.photons.clone().unwrap();
     let b = simulate(&m, &longer(&a, cfg, 4, 6), &NoProgress).unwrap();

@@ -14,6 +14,7 @@ use ssskit::profile::{Profile, RadialGrid};
 use ssskit::progress::NoProgress;
 
 mod common;
+use common::budgets::target_error;
 use common::mc::{self, cfg, material, within};
 use common::EXACT;
 
@@ -398,18 +399,20 @@ fn a_matched_stack_equals_one_layer() {
          [[layer]]\nsigma_a = 1.0\nsigma_s = 9.0\ng = 0.75\neta = 1.0\nthickness = 0.15\n",
     );
     let p = simulate(&m, &cfg(200_000, Channel::R, None), &NoProgress).unwrap();
-    within(
-        p.total_rd[0],
-        0.09739,
-        p.total_rd_stderr.as_ref().unwrap()[0],
-        "R_d",
-    );
+    rd_within(&p, 0.09739);
     within(
         p.transmittance.as_ref().unwrap()[0],
         0.66096,
         p.transmittance_stderr.as_ref().unwrap()[0],
         "T",
     );
+}
+
+/// The first channel's R_d of `p` within 4 of its standard errors of
+/// `truth`.
+fn rd_within(p: &Profile, truth: f64) {
+    let se = p.total_rd_stderr.as_ref().unwrap()[0];
+    within(p.total_rd[0], truth, se, "R_d");
 }
 
 #[test]
@@ -421,12 +424,7 @@ fn a_split_half_space_equals_the_half_space() {
         "unit = \"mm\"\n[[layer]]\n{layer}thickness = 0.3\n[[layer]]\n{layer}"
     ));
     let p = simulate(&m, &cfg(200_000, Channel::B, None), &NoProgress).unwrap();
-    within(
-        p.total_rd[0],
-        0.21993,
-        p.total_rd_stderr.as_ref().unwrap()[0],
-        "R_d",
-    );
+    rd_within(&p, 0.21993);
     assert_eq!(p.transmittance.as_ref().unwrap()[0], 0.0);
     assert_balance(&p);
 }
@@ -539,10 +537,7 @@ fn albedo_one_returns_everything_without_bias() {
 fn target_error_is_met_or_reported() {
     let m = preset("skin1").unwrap();
     let c = McConfig {
-        budget: PhotonBudget::TargetError {
-            rel: TARGET_REL,
-            max_photons: 2_000_000,
-        },
+        budget: target_error(TARGET_REL, 2_000_000),
         ..cfg(1, Channel::B, None)
     };
     let p = simulate(&m, &c, &NoProgress).unwrap();
@@ -557,10 +552,7 @@ fn target_error_is_met_or_reported() {
     assert!(n < 2_000_000 && n.is_multiple_of(ssskit::profile::mc::CHUNK));
     // A cap that is too small is reported, not hidden.
     let c = McConfig {
-        budget: PhotonBudget::TargetError {
-            rel: 1e-4,
-            max_photons: 10_000,
-        },
+        budget: target_error(1e-4, 10_000),
         ..c
     };
     let p = simulate(&m, &c, &NoProgress).unwrap();
