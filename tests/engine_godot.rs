@@ -7,9 +7,8 @@
 //! worked by hand from the shader's formulas.
 
 mod separable_support;
+use separable_support::common::srgb;
 use separable_support::*;
-#[path = "common/srgb.rs"]
-mod srgb;
 use ssskit::engine::godot::{self, step_pixels, step_scene_units, step_uv, Camera, Settings};
 use ssskit::engine::Scene;
 

@@ -196,7 +196,8 @@ fn mutate_json(base: &Value, picks: &[(usize, Value, bool)]) -> Value {
 /// file `name` (see `write_temp`).
 fn mangled_json_file(
     base: &Value,
-    (picks, edits, bytes): (&[(usize, Value, bool)], &[ByteEdit], bool),
+    picks: &[(usize, Value, bool)],
+    (edits, bytes): (&[ByteEdit], bool),
     name: &str,
 ) -> (tempfile::TempDir, std::path::PathBuf) {
     let text = if bytes {
@@ -458,7 +459,7 @@ proptest! {
     /// refuses to).
     #[test]
     fn profile_json(picks in json_picks(), edits in byte_edits(), bytes in prop::bool::weighted(0.3)) {
-        let (_d, path) = mangled_json_file(base_profile(), (&picks, &edits, bytes), "p.json");
+        let (_d, path) = mangled_json_file(base_profile(), &picks, (&edits, bytes), "p.json");
         if let Ok(p) = Profile::read(&path) {
             prop_assert!(p.validate("again").is_ok());
             let spec = ssskit::kernel::Kernel2DSpec { size: Some(31), extent_mm: None };
@@ -473,7 +474,7 @@ proptest! {
     /// whose shader arrays hold no `inf` or `NaN` (or are refused).
     #[test]
     fn kernel_json(picks in json_picks(), edits in byte_edits(), bytes in prop::bool::weighted(0.3)) {
-        let (_d, path) = mangled_json_file(base_kernel(), (&picks, &edits, bytes), "k.json");
+        let (_d, path) = mangled_json_file(base_kernel(), &picks, (&edits, bytes), "k.json");
         if let Ok(k) = KernelFile::read(&path) {
             prop_assert!(k.validate("again").is_ok());
             for lang in [Lang::Hlsl, Lang::Glsl, Lang::Wgsl] {

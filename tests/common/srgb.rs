@@ -1,8 +1,7 @@
 //! IEC 61966-2-1's sRGB transfer curve, as the engines apply it to a
 //! colour typed in sRGB (Unity's Color.gamma / Color.linear, Godot's
 //! `source_color`): the oracle the engine file tests read printed colours
-//! through. Included alone (`#[path]`) where a test needs only it.
-#![allow(dead_code)]
+//! through.
 
 /// The sRGB encoding of a linear value.
 pub fn encode(l: f64) -> f64 {

@@ -12,7 +12,7 @@
 #![allow(dead_code)]
 
 #[path = "../common/mod.rs"]
-mod common;
+pub mod common;
 pub use common::{ok, p, read_json};
 
 use ssskit::profile::Profile;
