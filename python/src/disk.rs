@@ -74,9 +74,7 @@ impl PyDiskKernel {
     /// The kernel file's text, as `save` writes it (with the usage notes
     /// the library's writer adds).
     fn to_json(&self) -> PyResult<String> {
-        let mut k = self.inner.clone();
-        k.usage = Some(self.inner.usage());
-        pretty_json(&k)
+        pretty_json(&self.inner.as_written())
     }
     fn __repr__(&self) -> String {
         format!(

@@ -281,6 +281,14 @@ impl DiskKernelFile {
         }
     }
 
+    /// The file as [`write`](Self::write) writes it: with its usage notes.
+    pub fn as_written(&self) -> DiskKernelFile {
+        DiskKernelFile {
+            usage: Some(self.usage()),
+            ..self.clone()
+        }
+    }
+
     /// The frames to accumulate and the first frame's seed: `frames` and
     /// `first` where given, else the recorded [`Accumulation`]'s (what the
     /// kernel's predicted error assumes), else one frame from seed 0.
@@ -298,13 +306,9 @@ impl DiskKernelFile {
         Ok(k)
     }
 
-    /// Writes atomically, after the reader's checks.
+    /// Writes atomically, after the reader's checks (`format::write_kernel`).
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::io::check_extension(path, &["json"], "kernel")?;
-        self.validate(&format!("refusing to write {}", path.display()))?;
-        let mut k = self.clone();
-        k.usage = Some(self.usage());
-        crate::io::write_json_atomic(path, &k)
+        super::format::write_kernel(path, |c| self.validate(c), || self.as_written())
     }
 }
 

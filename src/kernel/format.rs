@@ -15,6 +15,20 @@ pub const KERNEL_SCHEMA: &str = "ssskit.kernel/1";
 /// The schema of a disk kernel file (`kernel::disk`).
 pub const DISK_SCHEMA: &str = "ssskit.disk/1";
 
+/// Writes a kernel file (either kind) to `path`, a `.json`, atomically and
+/// only after `validate`, the checks a reader makes: ssskit never writes a
+/// kernel it would refuse to read. `written` is the file as written (with
+/// its usage notes, recomputed).
+pub(super) fn write_kernel<T: Serialize>(
+    path: &Path,
+    validate: impl FnOnce(&str) -> Result<()>,
+    written: impl FnOnce() -> T,
+) -> Result<()> {
+    crate::io::check_extension(path, &["json"], "kernel")?;
+    validate(&format!("refusing to write {}", path.display()))?;
+    crate::io::write_json_atomic(path, &written())
+}
+
 /// Reads a kernel file of `schema`: a file that does not parse as one is
 /// first asked for its schema, so that another kind of file (a disk kernel
 /// given where a separable one is read, a schema of another version) is
@@ -430,14 +444,18 @@ impl KernelFile {
         Ok(k)
     }
 
-    /// Writes the file atomically, after the checks a reader makes: ssskit
-    /// never writes a kernel it would refuse to read.
+    /// Writes the file atomically, after the checks a reader makes
+    /// ([`write_kernel`]).
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::io::check_extension(path, &["json"], "kernel")?;
-        self.validate(&format!("refusing to write {}", path.display()))?;
-        let mut k = self.clone();
-        k.usage = Some(self.usage());
-        crate::io::write_json_atomic(path, &k)
+        write_kernel(path, |c| self.validate(c), || self.as_written())
+    }
+
+    /// The file as [`write`](Self::write) writes it: with its usage notes.
+    pub fn as_written(&self) -> KernelFile {
+        KernelFile {
+            usage: Some(self.usage()),
+            ..self.clone()
+        }
     }
 
     /// Per tap-table pass, per channel: the sum of its weights.
