@@ -147,14 +147,7 @@ impl Gpu {
                 self.describe()
             )));
         }
-        if frames == 0 || frames > 1000 {
-            return Err(Error::invalid(
-                "bench",
-                "frames",
-                frames,
-                "must be between 1 and 1000",
-            ));
-        }
+        crate::error::count_up_to("bench", "frames", frames as usize, 1000)?;
         let frame = self.prepare(image, setup)?;
         let count = 2 * (frames + 1);
         let queries = self.ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
