@@ -109,6 +109,16 @@ pub fn finite_positive(context: &str, field: &str, v: f64, unit: &str) -> Result
     ))
 }
 
+/// `v` when it is a count from 1 to `max`; otherwise the one error of that
+/// check, its reason "must be between 1 and `max`".
+pub fn count_up_to(context: &str, field: &str, v: usize, max: usize) -> Result<usize> {
+    if (1..=max).contains(&v) {
+        return Ok(v);
+    }
+    let reason = format!("must be between 1 and {max}");
+    Err(Error::invalid(context, field, v, reason))
+}
+
 /// The header every ssskit file starts with: `schema` must be `expected`
 /// and `units` "mm"; otherwise a format error of `context`.
 pub fn check_header(context: &str, schema: &str, expected: &str, units: &str) -> Result<()> {

@@ -4,10 +4,12 @@
 //! [`super::disk::apply_disk`] (f64) within [`disk_f32_tolerance`].
 
 use super::disk::DiskSetup;
-use super::gpu::{check_binding, ign_constants, plane_or_ones, rgba, SCREEN_COMMON_WGSL};
+use super::gpu::{
+    check_binding, ign_constants, image_from_rgba, plane_or_ones, rgba, GpuPass, SCREEN_COMMON_WGSL,
+};
 use super::Image;
 use crate::error::Result;
-use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_WIDE_MUL};
+use crate::gpu::{assemble_wgsl, wgsl_struct, WGSL_WIDE_MUL};
 
 const SHADER: &str = include_str!("../../shaders/disk.wgsl");
 
@@ -53,22 +55,16 @@ wgsl_struct! {
 /// Side of the square workgroup of disk.wgsl, in pixels.
 const WORKGROUP_SIDE: u32 = 8;
 
+/// The disk pass: disk.wgsl, every frame in one dispatch.
+pub enum Disk {}
+
 /// A device with the disk pipeline compiled.
-pub struct DiskGpu {
-    ctx: GpuContext,
-    pipeline: wgpu::ComputePipeline,
-}
+pub type DiskGpu = GpuPass<Disk>;
 
 impl DiskGpu {
+    /// Opens the adapter (see `GpuContext::open`) and compiles the pass.
     pub fn new() -> Result<DiskGpu> {
-        let ctx = GpuContext::open()?;
-        let pipeline = ctx.compute_pipeline("disk", &shader_source(), "main")?;
-        Ok(DiskGpu { ctx, pipeline })
-    }
-
-    /// "name (backend, device type, driver)".
-    pub fn describe(&self) -> String {
-        self.ctx.describe()
+        Self::open("disk", &shader_source())
     }
 
     /// Runs `setup` on `image`: the mean over its frames plus the specular
@@ -121,53 +117,27 @@ impl DiskGpu {
             _pad0: 0.0,
             _pad1: 0.0,
         };
-        let storage = wgpu::BufferUsages::STORAGE;
-        let c = &self.ctx;
-        let buffers = [
-            c.buffer(
-                "params",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
-            ),
-            c.buffer("image", bytemuck::cast_slice(&rgba(image)), storage),
-            c.buffer(
-                "depth",
-                bytemuck::cast_slice(&scalar(v.depth.as_ref())),
-                storage,
-            ),
-            c.buffer(
-                "strength",
-                bytemuck::cast_slice(&scalar(v.strength.as_ref())),
-                storage,
-            ),
-            c.buffer("points", bytemuck::cast_slice(&points), storage),
-            c.buffer("weights", bytemuck::cast_slice(&weights), storage),
-            c.buffer(
-                "output",
-                bytemuck::cast_slice(&start),
-                storage | wgpu::BufferUsages::COPY_SRC,
-            ),
-        ];
-        let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();
-        let encoder = c.dispatch(
+        let data: Vec<[f32; 4]> = self.run_once(
             "disk",
-            &self.pipeline,
-            &refs,
+            bytemuck::bytes_of(&params),
+            &[
+                ("image", bytemuck::cast_slice(&rgba(image))),
+                ("depth", bytemuck::cast_slice(&scalar(v.depth.as_ref()))),
+                (
+                    "strength",
+                    bytemuck::cast_slice(&scalar(v.strength.as_ref())),
+                ),
+                ("points", bytemuck::cast_slice(&points)),
+                ("weights", bytemuck::cast_slice(&weights)),
+            ],
+            bytemuck::cast_slice(&start),
             [
                 (w as u32).div_ceil(WORKGROUP_SIDE),
                 (h as u32).div_ceil(WORKGROUP_SIDE),
                 1,
             ],
-        );
-        let data: Vec<[f32; 4]> = c.read_back(encoder, &buffers[6], (n * 16) as u64)?;
-        let mut out = Image::new(w, h);
-        out.alpha = image.alpha.clone();
-        for (i, px) in data.iter().enumerate() {
-            for ch in 0..3 {
-                out.rgb[ch][i] = px[ch] as f64;
-            }
-        }
-        Ok(out)
+        )?;
+        Ok(image_from_rgba(&data, image))
     }
 }
 
@@ -184,6 +154,8 @@ fn shared_constants() -> Vec<(&'static str, u32)> {
     .concat()
 }
 
+/// disk.wgsl after the definitions it shares with this file and the
+/// separable pass (the noise constants, the screen-space bindings).
 fn shader_source() -> String {
     assemble_wgsl(
         &shared_constants(),

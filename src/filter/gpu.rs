@@ -6,6 +6,7 @@
 use super::{Image, Setup};
 use crate::error::{Error, Result};
 use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_WIDE_MUL};
+use std::marker::PhantomData;
 
 const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
 
@@ -14,11 +15,71 @@ const SHADER: &str = include_str!("../../shaders/sss_pass.wgsl");
 /// `WGSL_WIDE_MUL` and [`ign_constants`]).
 pub(super) const SCREEN_COMMON_WGSL: &str = include_str!("../../shaders/screen_common.wgsl");
 
-/// A device with the pass pipeline compiled.
-pub struct Gpu {
-    ctx: GpuContext,
-    pipeline: wgpu::ComputePipeline,
+/// A device with one pass's pipeline compiled: [`Gpu`] (the separable
+/// pass), [`super::disk_gpu::DiskGpu`] and
+/// [`super::light_space_gpu::LightSpaceGpu`]. `K` names the pass, whose
+/// own methods (`new`, `apply`) are written for `GpuPass<K>`.
+pub struct GpuPass<K> {
+    pub(super) ctx: GpuContext,
+    pub(super) pipeline: wgpu::ComputePipeline,
+    kind: PhantomData<K>,
 }
+
+impl<K> GpuPass<K> {
+    /// Opens the adapter (see `GpuContext::open`) and compiles `source`'s
+    /// entry point `main` as the pipeline `label`.
+    pub(super) fn open(label: &str, source: &str) -> Result<Self> {
+        let ctx = GpuContext::open()?;
+        let pipeline = ctx.compute_pipeline(label, source, "main")?;
+        Ok(GpuPass {
+            ctx,
+            pipeline,
+            kind: PhantomData,
+        })
+    }
+
+    /// True for a software rasteriser (lavapipe/llvmpipe, WARP): correct, but
+    /// slower than the CPU path, so an automatic backend choice skips it.
+    pub fn is_software(&self) -> bool {
+        self.ctx.is_software()
+    }
+
+    /// "name (backend, device type, driver)".
+    pub fn describe(&self) -> String {
+        self.ctx.describe()
+    }
+
+    /// One dispatch of `groups` workgroups over the bindings in order: the
+    /// uniform block `params`, the storage `inputs`, then the storage
+    /// output, which starts as `output` and is read back.
+    pub(super) fn run_once<T: bytemuck::Pod>(
+        &self,
+        label: &str,
+        params: &[u8],
+        inputs: &[(&str, &[u8])],
+        output: &[u8],
+        groups: [u32; 3],
+    ) -> Result<Vec<T>> {
+        let c = &self.ctx;
+        let storage = wgpu::BufferUsages::STORAGE;
+        let mut buffers = vec![c.buffer("params", params, wgpu::BufferUsages::UNIFORM)];
+        buffers.extend(
+            inputs
+                .iter()
+                .map(|(name, bytes)| c.buffer(name, bytes, storage)),
+        );
+        buffers.push(c.buffer("output", output, storage | wgpu::BufferUsages::COPY_SRC));
+        let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();
+        let encoder = c.dispatch(label, &self.pipeline, &refs, groups);
+        c.read_back(encoder, &buffers[inputs.len() + 1], output.len() as u64)
+    }
+}
+
+/// The separable pass: sss_pass.wgsl per rank, horizontal then vertical.
+pub enum Separable {}
+
+/// A device with the separable pass's pipeline compiled.
+pub type Gpu = GpuPass<Separable>;
 
 wgsl_struct! {
     /// The uniform block of one 1D pass.
@@ -51,20 +112,7 @@ wgsl_struct! {
 impl Gpu {
     /// Opens the adapter (see `GpuContext::open`) and compiles the pass.
     pub fn new() -> Result<Gpu> {
-        let ctx = GpuContext::open()?;
-        let pipeline = ctx.compute_pipeline("sss_pass", &shader_source(), "main")?;
-        Ok(Gpu { ctx, pipeline })
-    }
-
-    /// True for a software rasteriser (lavapipe/llvmpipe, WARP): correct, but
-    /// slower than the CPU path, so an automatic backend choice skips it.
-    pub fn is_software(&self) -> bool {
-        self.ctx.is_software()
-    }
-
-    /// "name (backend, device type, driver)".
-    pub fn describe(&self) -> String {
-        self.ctx.describe()
+        Self::open("sss_pass", &shader_source())
     }
 
     /// Runs `setup` on `image`.
@@ -76,14 +124,7 @@ impl Gpu {
         let data: Vec<[f32; 4]> = self
             .ctx
             .read_back(encoder, &frame.acc, (w * h * 16) as u64)?;
-        let mut out = Image::new(w, h);
-        out.alpha = image.alpha.clone();
-        for (i, px) in data.iter().enumerate() {
-            for c in 0..3 {
-                out.rgb[c][i] = px[c] as f64;
-            }
-        }
-        Ok(out)
+        Ok(image_from_rgba(&data, image))
     }
 
     /// Whether the device records GPU timestamps ([`Gpu::time_frames`]).
@@ -106,14 +147,7 @@ impl Gpu {
                 self.describe()
             )));
         }
-        if frames == 0 || frames > 1000 {
-            return Err(Error::invalid(
-                "bench",
-                "frames",
-                frames,
-                "must be between 1 and 1000",
-            ));
-        }
+        crate::error::count_up_to("bench", "frames", frames as usize, 1000)?;
         let frame = self.prepare(image, setup)?;
         let count = 2 * (frames + 1);
         let queries = self.ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -331,6 +365,19 @@ pub(super) fn rgba(img: &Image) -> Vec<[f32; 4]> {
             ]
         })
         .collect()
+}
+
+/// The colour of a read-back RGBA f32 buffer (the inverse of [`rgba`]) as
+/// an image of `like`'s size, with its alpha.
+pub(super) fn image_from_rgba(data: &[[f32; 4]], like: &Image) -> Image {
+    let mut out = Image::new(like.width, like.height);
+    out.alpha = like.alpha.clone();
+    for (i, px) in data.iter().enumerate() {
+        for c in 0..3 {
+            out.rgb[c][i] = px[c] as f64;
+        }
+    }
+    out
 }
 
 /// A per-pixel plane (depth, strength) in f32, or ones where there is none.

@@ -5,10 +5,11 @@
 //! [`super::light_space::light_space_cpu`] within
 //! [`light_space_f32_tolerance`] (tests/light_space_gpu.rs, on lavapipe).
 
+use super::gpu::GpuPass;
 use super::light_space::{LightSpaceInput, LightSpaceSetup};
 use super::Image;
 use crate::error::{Error, Result};
-use crate::gpu::{assemble_wgsl, wgsl_struct, GpuContext, WGSL_FRESNEL, WGSL_WIDE_MUL};
+use crate::gpu::{assemble_wgsl, wgsl_struct, WGSL_FRESNEL, WGSL_WIDE_MUL};
 use crate::profile::mc::gpu::{philox_wgsl_constants, PHILOX_WGSL};
 use crate::scene::{LightSource, Measure, V3};
 
@@ -111,11 +112,12 @@ wgsl_struct! {
     }
 }
 
+/// The light-space pass: light_space.wgsl, one invocation per pixel and
+/// channel.
+pub enum LightSpace {}
+
 /// A device with the light-space pipeline compiled.
-pub struct LightSpaceGpu {
-    ctx: GpuContext,
-    pipeline: wgpu::ComputePipeline,
-}
+pub type LightSpaceGpu = GpuPass<LightSpace>;
 
 /// (x, y, z, w) of a point relative to `o`, in f32.
 fn rel(p: V3, o: V3, w: f32) -> [f32; 4] {
@@ -187,15 +189,9 @@ fn upload(input: &LightSpaceInput, o: V3) -> Result<(Vec<LsMap>, Vec<[f32; 4]>)>
 }
 
 impl LightSpaceGpu {
+    /// Opens the adapter (see `GpuContext::open`) and compiles the pass.
     pub fn new() -> Result<LightSpaceGpu> {
-        let ctx = GpuContext::open()?;
-        let pipeline = ctx.compute_pipeline("light space", &shader_source(), "main")?;
-        Ok(LightSpaceGpu { ctx, pipeline })
-    }
-
-    /// "name (backend, device type, driver)".
-    pub fn describe(&self) -> String {
-        self.ctx.describe()
+        Self::open("light space", &shader_source())
     }
 
     /// The pass on the GPU: the radiance image (f32, returned in f64).
@@ -258,28 +254,19 @@ impl LightSpaceGpu {
                 )));
             }
         }
-        let storage = wgpu::BufferUsages::STORAGE;
         let zeros = vec![0.0f32; 3 * n];
-        let buffers = [
-            c.buffer(
-                "params",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
-            ),
-            c.buffer("maps", bytemuck::cast_slice(&maps), storage),
-            c.buffer("texels", bytemuck::cast_slice(&texels), storage),
-            c.buffer("surface", bytemuck::cast_slice(&surface), storage),
-            c.buffer("media", bytemuck::cast_slice(&media), storage),
-            c.buffer(
-                "output",
-                bytemuck::cast_slice(&zeros),
-                storage | wgpu::BufferUsages::COPY_SRC,
-            ),
-        ];
-        let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();
-        let groups = [(n as u32).div_ceil(WORKGROUP), 3, 1];
-        let encoder = c.dispatch("light space", &self.pipeline, &refs, groups);
-        let data: Vec<f32> = c.read_back(encoder, &buffers[5], (3 * n * 4) as u64)?;
+        let data: Vec<f32> = self.run_once(
+            "light space",
+            bytemuck::bytes_of(&params),
+            &[
+                ("maps", bytemuck::cast_slice(&maps)),
+                ("texels", bytemuck::cast_slice(&texels)),
+                ("surface", bytemuck::cast_slice(&surface)),
+                ("media", bytemuck::cast_slice(&media)),
+            ],
+            bytemuck::cast_slice(&zeros),
+            [(n as u32).div_ceil(WORKGROUP), 3, 1],
+        )?;
         let mut out = Image::new(w, h);
         for ch in 0..3 {
             for i in 0..n {
@@ -302,6 +289,8 @@ fn shared_constants() -> Vec<(&'static str, u32)> {
     .concat()
 }
 
+/// light_space.wgsl after the definitions it shares with this file and
+/// the tracer (the Philox constants, the Fresnel term, the structs).
 fn shader_source() -> String {
     assemble_wgsl(
         &shared_constants(),

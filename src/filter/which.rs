@@ -117,9 +117,7 @@ mod tests {
     /// from the fit's own factors.
     #[test]
     fn a_rebuilt_tap_table_equals_the_fitted_one() {
-        let m = crate::material::preset("skin1").unwrap();
-        let grid = crate::profile::RadialGrid::uniform(0.01, 8.0).unwrap();
-        let p = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let p = crate::kernel::reference::dipole_uniform("skin1", 0.01, 8.0);
         let spec = Kernel2DSpec {
             size: Some(41),
             extent_mm: None,

@@ -231,8 +231,7 @@ mod tests {
 
     #[test]
     fn atomic_write_replaces_and_leaves_no_temp() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("out.json");
+        let (dir, p) = crate::io::scratch("out.json");
         write_atomic(&p, b"first").unwrap();
         write_atomic(&p, b"second").unwrap();
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "second");
@@ -248,8 +247,7 @@ mod tests {
 
     #[test]
     fn failed_fill_keeps_old_file() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("k.json");
+        let (_dir, p) = crate::io::scratch("k.json");
         write_atomic(&p, b"good").unwrap();
         let r = write_atomic_with(&p, |w| {
             w.write_all(b"half")?;

@@ -205,8 +205,7 @@ mod tests {
         use std::os::unix::fs::OpenOptionsExt;
         // Far longer than a refused open takes, on any machine.
         const NO_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
-        let dir = tempfile::tempdir().unwrap();
-        let fifo = dir.path().join("out.json");
+        let (_dir, fifo) = crate::io::scratch("out.json");
         let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
         // SAFETY: a NUL-terminated path.
         assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);

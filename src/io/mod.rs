@@ -45,3 +45,12 @@ pub use signals::CLEANUP_SIGNALS;
 pub use signals::{exit, remove_temps_on_signals};
 pub use staged_dir::StagedDir;
 pub use temps::OUTPUT_MARKER;
+
+/// A temporary folder and the path `name` inside it (not made): where a
+/// unit test writes; the folder goes when the returned guard is dropped.
+#[cfg(test)]
+pub(crate) fn scratch(name: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    (dir, path)
+}

@@ -328,8 +328,7 @@ mod tests {
 
     #[test]
     fn capped_reads_refuse_what_is_over_the_cap() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("m.toml");
+        let (dir, p) = crate::io::scratch("m.toml");
         std::fs::write(&p, "x".repeat(100)).unwrap();
         assert_eq!(read_text_capped(&p, 100, "t").unwrap().len(), 100);
         let e = read_text_capped(&p, 99, "material TOML")
@@ -377,8 +376,7 @@ mod tests {
     #[cfg(unix)]
     #[test]
     fn a_pipe_without_a_writer_does_not_block() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("p.json");
+        let (_dir, p) = crate::io::scratch("p.json");
         let c = std::ffi::CString::new(p.to_str().unwrap()).unwrap();
         // SAFETY: a NUL-terminated path.
         assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);

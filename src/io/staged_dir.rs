@@ -341,8 +341,7 @@ mod tests {
 
     #[test]
     fn staged_folders_replace_only_their_own_kind() {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().join("run");
+        let (dir, out) = crate::io::scratch("run");
         let s = StagedDir::new(&out).unwrap();
         write_atomic(&s.path().join("a.txt"), b"1").unwrap();
         assert!(!out.exists(), "nothing is in place before the commit");

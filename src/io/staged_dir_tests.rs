@@ -79,6 +79,16 @@ fn with_hook<T>(hook: impl Fn(Point) + 'static, body: impl FnOnce() -> T) -> T {
 const OLD: &[(&str, &str)] = &[("a.txt", "old")];
 const NEW: &[(&str, &str)] = &[("b1.txt", "new"), ("b2.txt", "new"), ("b3.txt", "new")];
 
+/// A temporary folder (its guard and path) whose `run` holds the committed
+/// OLD run, with the NEW run staged to replace it.
+fn old_committed_new_staged() -> (tempfile::TempDir, PathBuf, StagedDir) {
+    let (dir, out) = crate::io::scratch("run");
+    run(&out, OLD).commit().unwrap();
+    let staged = run(&out, NEW);
+    let root = dir.path().to_path_buf();
+    (dir, root, staged)
+}
+
 /// The tree of a folder `run` holding `files` and the marker, alone in
 /// its parent.
 fn only(files: &[(&str, &str)]) -> Vec<(String, String)> {
@@ -109,10 +119,7 @@ fn only(files: &[(&str, &str)]) -> Vec<(String, String)> {
 #[test]
 fn a_signal_during_the_exchange_leaves_the_previous_run() {
     let _serial = long_hold();
-    let dir = tempfile::tempdir().unwrap();
-    let (root, out) = (dir.path().to_path_buf(), dir.path().join("run"));
-    run(&out, OLD).commit().unwrap();
-    let staged = run(&out, NEW);
+    let (_dir, root, staged) = old_committed_new_staged();
     let (started_tx, started_rx) = channel();
     let left = std::rc::Rc::new(std::cell::RefCell::new(None));
     let slot = left.clone();
@@ -148,10 +155,7 @@ fn a_signal_during_the_exchange_leaves_the_previous_run() {
 #[test]
 fn a_signal_between_the_renames_leaves_the_new_run() {
     let _serial = long_hold();
-    let dir = tempfile::tempdir().unwrap();
-    let (root, out) = (dir.path().to_path_buf(), dir.path().join("run"));
-    run(&out, OLD).commit().unwrap();
-    let staged = run(&out, NEW);
+    let (_dir, root, staged) = old_committed_new_staged();
     NO_EXCHANGE.with(|n| n.set(true));
     let left = std::rc::Rc::new(std::cell::RefCell::new(None));
     let slot = left.clone();
@@ -181,8 +185,7 @@ fn a_signal_between_the_renames_leaves_the_new_run() {
 /// old one and the empty folder it was moved into gone.
 #[test]
 fn the_swap_without_an_exchange_replaces_the_folder() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
+    let (dir, out) = crate::io::scratch("run");
     run(&out, OLD).commit().unwrap();
     NO_EXCHANGE.with(|n| n.set(true));
     let r = run(&out, NEW).commit();
@@ -212,8 +215,7 @@ fn the_cleanup_removes_a_folder_that_grows_meanwhile() {
 /// commit, not before; a run dropped before it (a failure) made none.
 #[test]
 fn missing_parent_folders_are_made_at_the_commit_only() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("a/b/run");
+    let (dir, out) = crate::io::scratch("a/b/run");
     let s = run(&out, NEW);
     assert!(!dir.path().join("a").exists(), "made before the work");
     drop(s);

@@ -7,7 +7,7 @@
 use super::factors::Factors;
 use super::kernel2d::multiplicity;
 use super::Kernel2D;
-use crate::error::{Error, Result};
+use crate::error::{count_up_to, Result};
 use crate::numerics::{erf, erfc, nelder_mead, nnls};
 use serde_json::json;
 
@@ -208,14 +208,7 @@ fn nnls_weights(q: &HalfQuad, g: &[Vec<f64>]) -> (Vec<f64>, f64) {
 /// Fits `count` 2D Gaussians per channel to the kernel (kernel-space least
 /// squares, the kernel_rms metric), weights >= 0.
 pub fn fit_gaussians(k: &Kernel2D, count: usize) -> Result<(Factors, serde_json::Value)> {
-    if count == 0 || count > 12 {
-        return Err(Error::invalid(
-            "gaussians",
-            "count",
-            count,
-            "must be between 1 and 12",
-        ));
-    }
+    count_up_to("gaussians", "count", count, 12)?;
     // Variances from a cell's width to the extent, in log space.
     let vmin = (0.5 * k.cell_mm).powi(2);
     let vmax = (0.7 * k.extent_mm()).powi(2);

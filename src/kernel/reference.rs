@@ -32,3 +32,11 @@ pub fn dipole_preset(name: &str) -> Result<Profile> {
     let m = Material::load(name)?;
     dipole_profile(&m, &thesis_grid(&m, 32.0)?)
 }
+
+/// The dipole profile of preset `name` on a uniform grid of `dr_mm` out to
+/// `r_max_mm`: the small profile unit tests fit their kernels to.
+#[cfg(test)]
+pub(crate) fn dipole_uniform(name: &str, dr_mm: f64, r_max_mm: f64) -> Profile {
+    let m = crate::material::preset(name).unwrap();
+    dipole_profile(&m, &RadialGrid::uniform(dr_mm, r_max_mm).unwrap()).unwrap()
+}

@@ -76,22 +76,21 @@ impl RadialGrid {
         let e = &self.edges;
         let max = crate::limits::MAX_RADIAL_BINS;
         if e.len() > max + 1 {
-            return Err(Error::invalid(
-                "radial grid",
-                "edges",
-                format!("{} values", e.len()),
-                format!("at most {max} bins"),
-            ));
+            return Err(self.edges_error(format!("at most {max} bins")));
         }
         if e.len() < 2 || e[0] != 0.0 || e.windows(2).any(|w| !(w[1] > w[0] && w[1].is_finite())) {
-            return Err(Error::invalid(
-                "radial grid",
-                "edges",
-                format!("{} values", e.len()),
+            return Err(self.edges_error(
                 "need at least 2 edges, starting at 0, finite and strictly increasing",
             ));
         }
         Ok(())
+    }
+
+    /// The error of edges that break `reason` (they are counted, not
+    /// listed: a refused grid may hold millions).
+    pub(crate) fn edges_error(&self, reason: impl Into<String>) -> Error {
+        let n = format!("{} values", self.edges.len());
+        Error::invalid("radial grid", "edges", n, reason)
     }
 
     /// `n = ceil(r_max / dr)` uniform bins of width `dr`.

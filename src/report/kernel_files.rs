@@ -58,14 +58,28 @@ pub(crate) fn write_kernel(
     shaders: bool,
     files: &mut Vec<String>,
 ) -> Result<()> {
-    let path = join_inside(dir, &format!("{stem}.json"))?;
-    kernel.write(&path)?;
-    KernelFile::read(&path)?;
-    files.push(format!("{stem}.json"));
+    write_read_back(dir, stem, files, |p| kernel.write(p), KernelFile::read)?;
     if !shaders {
         return Ok(());
     }
     write_shaders(dir, stem, files, |lang| emit(kernel, lang))
+}
+
+/// Writes `stem`.json with `write` and lists it once `read` has read it
+/// back: a file its own reader refuses is an error, never an output.
+fn write_read_back<T>(
+    dir: &Path,
+    stem: &str,
+    files: &mut Vec<String>,
+    write: impl FnOnce(&Path) -> Result<()>,
+    read: impl FnOnce(&Path) -> Result<T>,
+) -> Result<()> {
+    let name = format!("{stem}.json");
+    let path = join_inside(dir, &name)?;
+    write(&path)?;
+    read(&path)?;
+    files.push(name);
+    Ok(())
 }
 
 /// A kernel's shader arrays as `stem`.hlsl, .glsl and .wgsl.
@@ -94,10 +108,7 @@ pub(crate) fn write_disk_kernel(
     stem: &str,
     files: &mut Vec<String>,
 ) -> Result<()> {
-    let path = join_inside(dir, &format!("{stem}.json"))?;
-    kernel.write(&path)?;
-    DiskKernelFile::read(&path)?;
-    files.push(format!("{stem}.json"));
+    write_read_back(dir, stem, files, |p| kernel.write(p), DiskKernelFile::read)?;
     write_shaders(dir, stem, files, |lang| {
         crate::kernel::disk_emit::emit_disk(kernel, lang)
     })

@@ -16,6 +16,7 @@
 use super::frame::cosine_direction;
 use super::ray::{Ray, V3};
 use super::Scene;
+use crate::error::{Error, Result};
 use crate::profile::mc::tracer::uniform;
 use rand_core::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -23,6 +24,20 @@ use rayon::prelude::*;
 
 /// Cosine-distributed visibility rays per position for the environment.
 pub const ENV_RAYS: usize = 16;
+
+/// Most positions per pixel side (16 x 16 per pixel), for the render's
+/// G-buffer and the light-space method's surface points alike.
+pub const MAX_SIDE: usize = 16;
+
+/// Refuses `side` positions per pixel side outside 1..=[`MAX_SIDE`];
+/// `context` names the caller in the error.
+pub fn check_side(context: &str, side: usize) -> Result<()> {
+    if (1..=MAX_SIDE).contains(&side) {
+        return Ok(());
+    }
+    let reason = format!("must be in 1..={MAX_SIDE} (positions per pixel side)");
+    Err(Error::invalid(context, "gbuffer_side", side, reason))
+}
 
 /// The G-buffer planes, row-major, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]

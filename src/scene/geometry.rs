@@ -223,6 +223,11 @@ impl Cylinder {
 mod tests {
     use super::*;
 
+    /// The first hit of `shape` along `ray(o, d)`, as far as any scene reaches.
+    fn hit(shape: &Shape, o: [f64; 3], d: [f64; 3]) -> Option<Hit> {
+        shape.intersect(&ray(o, d), 1e9)
+    }
+
     fn ray(o: [f64; 3], d: [f64; 3]) -> Ray {
         Ray {
             o: V3::from(o),
@@ -288,39 +293,27 @@ mod tests {
             centre: V3::new(1.0, 2.0, 3.0),
             radius: 2.0,
         };
-        let h = s
-            .intersect(&ray([1.0, 2.0, -10.0], [0.0, 0.0, 1.0]), 1e9)
-            .unwrap();
+        let h = hit(&s, [1.0, 2.0, -10.0], [0.0, 0.0, 1.0]).unwrap();
         assert!((h.t - 11.0).abs() < 1e-12 && (h.n.z + 1.0).abs() < 1e-12);
-        let h = s
-            .intersect(&ray([1.0, 2.0, 3.5], [0.0, 0.0, 1.0]), 1e9)
-            .unwrap();
+        let h = hit(&s, [1.0, 2.0, 3.5], [0.0, 0.0, 1.0]).unwrap();
         assert!((h.t - 1.5).abs() < 1e-12 && (h.n.z - 1.0).abs() < 1e-12);
         assert!(s
             .intersect(&ray([1.0, 2.0, 3.5], [0.0, 0.0, 1.0]), 1.0)
             .is_none());
-        assert!(s
-            .intersect(&ray([5.0, 2.0, -10.0], [0.0, 0.0, 1.0]), 1e9)
-            .is_none());
+        assert!(hit(&s, [5.0, 2.0, -10.0], [0.0, 0.0, 1.0]).is_none());
     }
 
     #[test]
     fn cylinder_side_and_caps() {
         let c = Shape::Cylinder(Cylinder::new(V3::zeros(), V3::y(), 1.0, 2.0));
         // Side, from outside along x.
-        let h = c
-            .intersect(&ray([-5.0, 0.5, 0.0], [1.0, 0.0, 0.0]), 1e9)
-            .unwrap();
+        let h = hit(&c, [-5.0, 0.5, 0.0], [1.0, 0.0, 0.0]).unwrap();
         assert!((h.t - 4.0).abs() < 1e-12 && (h.n.x + 1.0).abs() < 1e-12);
         // Cap, from inside along the axis.
-        let h = c
-            .intersect(&ray([0.2, 0.0, 0.3], [0.0, 1.0, 0.0]), 1e9)
-            .unwrap();
+        let h = hit(&c, [0.2, 0.0, 0.3], [0.0, 1.0, 0.0]).unwrap();
         assert!((h.t - 2.0).abs() < 1e-12 && (h.n.y - 1.0).abs() < 1e-12);
         // Passing above the top cap misses.
-        assert!(c
-            .intersect(&ray([-5.0, 2.5, 0.0], [1.0, 0.0, 0.0]), 1e9)
-            .is_none());
+        assert!(hit(&c, [-5.0, 2.5, 0.0], [1.0, 0.0, 0.0]).is_none());
         let (lo, hi) = c.bounds();
         assert!((lo - V3::new(-1.0, -2.0, -1.0)).norm() < 1e-12);
         assert!((hi - V3::new(1.0, 2.0, 1.0)).norm() < 1e-12);

@@ -258,14 +258,7 @@ pub struct SurfacePoints {
 
 /// The camera's surface points at `side` x `side` positions per pixel.
 pub fn surface_points(scene: &Scene, side: usize) -> Result<SurfacePoints> {
-    if side == 0 || side > 16 {
-        return Err(Error::invalid(
-            CONTEXT,
-            "gbuffer_side",
-            side,
-            "must be in 1..=16 (positions per pixel side)",
-        ));
-    }
+    super::gbuffer::check_side(CONTEXT, side)?;
     let cam = &scene.camera;
     let (w, h) = (cam.width, cam.height);
     let per = side * side;

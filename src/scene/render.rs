@@ -274,14 +274,7 @@ fn validate(cfg: &RenderConfig, rd: Option<&[[f64; 3]]>, scene: &Scene) -> Resul
     if let Some(n) = cfg.threads {
         crate::limits::check_threads("worker threads", n)?;
     }
-    if !(1..=16).contains(&cfg.gbuffer_side) {
-        return Err(Error::invalid(
-            CONTEXT,
-            "gbuffer_side",
-            cfg.gbuffer_side,
-            "must be in 1..=16 (positions per pixel side)",
-        ));
-    }
+    super::gbuffer::check_side(CONTEXT, cfg.gbuffer_side)?;
     if cfg.max_work == 0 {
         return Err(Error::invalid(CONTEXT, "max_work", 0, "must be >= 1"));
     }

@@ -48,9 +48,9 @@ pub(super) fn build_profile(
     let mut extra = json!({
         "energy_balance": balance,
         "rd_beyond_rmax": per(&|t| t.rd_beyond / t.photons as f64),
-        "rel_error_total_rd": per_run(&|s| s.rel_total),
-        "rel_error_profile": per_run(&|s| s.rel_profile),
-        "rel_error_kernel_factor": per_run(&|s| s.rel_factor),
+        "rel_error_total_rd": per_run(&|s| s.rd.rel_total),
+        "rel_error_profile": per_run(&|s| s.rd.rel_profile),
+        "rel_error_kernel_factor": per_run(&|s| s.rd.rel_factor),
         "kernel_grid": geometry.map(|g| json!({"extent_mm": g.extent_mm, "size": g.size})),
         "r99_mm": per_run(&|s| s.r99),
         "converged": runs.iter().map(|r| r.converged).collect::<Vec<_>>(),
@@ -268,8 +268,8 @@ pub(super) fn channel_warnings(
         };
         let s = &run.status;
         let achieved = match cfg.budget {
-            PhotonBudget::KernelFactor { .. } => format!("kernel factor {:.2e}", s.rel_factor),
-            _ => format!("profile {:.2e}", s.rel_profile),
+            PhotonBudget::KernelFactor { .. } => format!("kernel factor {:.2e}", s.rd.rel_factor),
+            _ => format!("profile {:.2e}", s.rd.rel_profile),
         };
         let rel = match cfg.budget {
             PhotonBudget::TargetError { rel, .. } | PhotonBudget::KernelFactor { rel, .. } => rel,
@@ -279,7 +279,7 @@ pub(super) fn channel_warnings(
             "channel {c}: target error {rel} ({} rule) not reached within {cap}; \
              achieved total R_d {:.2e}, {achieved} with {} photons",
             cfg.budget.rule(),
-            s.rel_total,
+            s.rd.rel_total,
             t.photons
         ));
     }
@@ -308,11 +308,11 @@ fn noise_warning(t: &ChunkTally, s: &Status) -> Option<String> {
             t.photons
         ));
     }
-    (!(s.rel_total <= NOISY_REL_TOTAL)).then(|| {
+    (!(s.rd.rel_total <= NOISY_REL_TOTAL)).then(|| {
         format!(
             "total R_d has a relative standard error of {:.1}% with {} photons, above \
              {:.0}%: the profile is noise; trace more photons",
-            Bounded(100.0 * s.rel_total),
+            Bounded(100.0 * s.rd.rel_total),
             t.photons,
             Bounded(100.0 * NOISY_REL_TOTAL)
         )

@@ -5,46 +5,35 @@
 
 use super::consumer::provisional_geometry;
 use super::tally::{convergence_of, densities};
-use super::transmit::{budget_error, tr_floor_ratio, tr_rule_error, tr_statuses, TrStatus};
+use super::transmit::{tr_statuses, LightStatus};
 use super::*;
 
 /// How a channel's run ended.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Status {
-    /// Relative standard error of total R_d.
-    pub(super) rel_total: f64,
-    /// R_d-weighted mean relative error of the bins inside r99 (`convergence`).
-    pub(super) rel_profile: f64,
+    /// The reflected light: total R_d, its profile inside r99 (the
+    /// R_d-weighted mean relative error, `convergence`) and the kernel
+    /// factor (`consumer`).
+    pub(super) rd: LightStatus,
     /// Radius holding 99% of R_d.
     pub(super) r99: f64,
-    /// Relative L2 standard error of the kernel factor (`consumer`).
-    pub(super) rel_factor: f64,
-    /// Total R_d and its standard error.
-    pub(super) rd: f64,
-    pub(super) rd_stderr: f64,
     /// The transmitted light's errors (finite stacks only).
-    pub(super) tr: Option<TrStatus>,
+    pub(super) tr: Option<LightStatus>,
 }
 
-/// How far a channel is from the absolute floor of the kernel-factor rule
-/// (<= 1: reached; see `DEFAULT_ABS_FLOOR`) after `photons`; infinite for
-/// other rules or with the floor off.
+/// How far a channel's reflected light is from the absolute floor of the
+/// kernel-factor rule (`LightStatus::floor_ratio`) after `photons`;
+/// infinite for other rules or with the floor off.
 pub(super) fn floor_ratio(budget: &PhotonBudget, floor: f64, s: &Status, photons: u64) -> f64 {
     if !matches!(budget, PhotonBudget::KernelFactor { .. }) || !(floor > 0.0) {
         return f64::INFINITY;
     }
-    // Noise in the un-normalised kernel: R_d times the factor's relative
-    // error (nothing back counts as 0 here: the photon minimum covers it).
-    let shape = if s.rd > 0.0 { s.rd * s.rel_factor } else { 0.0 };
-    let noise = s.rd_stderr.max(shape) / floor;
-    // Written as an error ~ N^-1/2 so that round_len aims at it too.
-    let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
-    noise.max(minimum)
+    s.rd.floor_ratio(floor, photons)
 }
 
 /// The error a target-error rule compares with its target.
 pub(super) fn rule_error(budget: &PhotonBudget, s: &Status) -> f64 {
-    budget_error(budget, s.rel_total, s.rel_profile, s.rel_factor)
+    s.rd.rule_error(budget)
 }
 
 /// The status of every channel and the default kernel grid they imply
@@ -77,12 +66,14 @@ pub(super) fn statuses(
                 p.factor_rel_error(&t.rd_bins.sum, &t.rd_bins.sum_sq, t.photons)
             });
             Status {
-                rel_total,
-                rel_profile,
+                rd: LightStatus {
+                    rel_total,
+                    rel_profile,
+                    rel_factor,
+                    total: t.rd.mean(t.photons),
+                    stderr: t.rd.stderr(t.photons),
+                },
                 r99,
-                rel_factor,
-                rd: t.rd.mean(t.photons),
-                rd_stderr: t.rd.stderr(t.photons),
                 tr,
             }
         })
@@ -120,13 +111,13 @@ pub(super) fn channel_ratio(
         Some(t) => {
             // No light through yet is not an exact zero (the slab is
             // finite): only the floor's photon minimum may stop it.
-            let e = if t.t > 0.0 {
-                tr_rule_error(budget, t) / rel
+            let e = if t.total > 0.0 {
+                t.rule_error(budget) / rel
             } else {
                 f64::INFINITY
             };
             let f = if matches!(budget, PhotonBudget::KernelFactor { .. }) && floor > 0.0 {
-                tr_floor_ratio(floor, t, photons)
+                t.floor_ratio(floor, photons)
             } else {
                 f64::INFINITY
             };

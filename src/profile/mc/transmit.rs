@@ -14,19 +14,51 @@ use crate::material::{Channel, Material};
 use crate::profile::RadialGrid;
 use serde::{Deserialize, Serialize};
 
-/// How far a channel's transmitted light is from the rule.
+/// How far one light of a channel (the reflected or the transmitted) is
+/// from the budget's rule.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct TrStatus {
-    /// Relative standard error of total T.
+pub(super) struct LightStatus {
+    /// Relative standard error of the total (R_d or T).
     pub(super) rel_total: f64,
-    /// T-weighted mean relative error of the bins inside the radius holding
-    /// 99% of T (the `total-and-profile` rule).
+    /// Mean relative error of the bins inside the radius holding 99% of
+    /// the total, weighted by their light (the `total-and-profile` rule).
     pub(super) rel_profile: f64,
-    /// Relative L2 standard error of T_d's pre-integrated 1D factor on its
+    /// Relative L2 standard error of the pre-integrated 1D factor on its
     /// own default kernel grid (the `kernel-factor` rule).
     pub(super) rel_factor: f64,
-    pub(super) t: f64,
-    pub(super) t_stderr: f64,
+    /// The total per incident photon and its standard error.
+    pub(super) total: f64,
+    pub(super) stderr: f64,
+}
+
+impl LightStatus {
+    /// The error a budget's rule compares with its target, from the
+    /// relative errors of the total, the profile and the 1D factor (0 for
+    /// a fixed budget).
+    pub(super) fn rule_error(&self, budget: &PhotonBudget) -> f64 {
+        match budget {
+            PhotonBudget::Fixed(_) => 0.0,
+            PhotonBudget::TargetError { .. } => self.rel_total.max(self.rel_profile),
+            PhotonBudget::KernelFactor { .. } => self.rel_total.max(self.rel_factor),
+        }
+    }
+
+    /// How far this light is from the absolute floor of the kernel-factor
+    /// rule (<= 1: reached; see `DEFAULT_ABS_FLOOR`) after `photons`.
+    pub(super) fn floor_ratio(&self, floor: f64, photons: u64) -> f64 {
+        // Noise in the un-normalised kernel: the total times the factor's
+        // relative error (nothing back counts as 0 here: the photon
+        // minimum covers it).
+        let shape = if self.total > 0.0 {
+            self.total * self.rel_factor
+        } else {
+            0.0
+        };
+        let noise = self.stderr.max(shape) / floor;
+        // Written as an error ~ N^-1/2 so that round_len aims at it too.
+        let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
+        noise.max(minimum)
+    }
 }
 
 /// The transmittance status of each channel (None for a channel whose
@@ -36,7 +68,7 @@ pub(super) fn tr_statuses(
     channels: &[Channel],
     grid: &RadialGrid,
     t: &[ChunkTally],
-) -> Vec<Option<TrStatus>> {
+) -> Vec<Option<LightStatus>> {
     if t.iter().all(|t| t.tr_bins.sum.is_empty()) {
         return vec![None; t.len()];
     }
@@ -70,41 +102,15 @@ pub(super) fn tr_statuses(
                 }
                 _ => 0.0,
             };
-            Some(TrStatus {
+            Some(LightStatus {
                 rel_total,
                 rel_profile,
                 rel_factor,
-                t: total,
-                t_stderr: t.transmittance.stderr(t.photons),
+                total,
+                stderr: t.transmittance.stderr(t.photons),
             })
         })
         .collect()
-}
-
-/// The error a target rule compares with its target for the transmitted
-/// light (0 for a fixed budget).
-pub(super) fn tr_rule_error(budget: &PhotonBudget, s: &TrStatus) -> f64 {
-    budget_error(budget, s.rel_total, s.rel_profile, s.rel_factor)
-}
-
-/// The error a budget's rule compares with its target, from the relative
-/// errors of the total, the profile and the 1D factor (0 for a fixed
-/// budget), for the reflected and the transmitted light alike.
-pub(super) fn budget_error(budget: &PhotonBudget, total: f64, profile: f64, factor: f64) -> f64 {
-    match budget {
-        PhotonBudget::Fixed(_) => 0.0,
-        PhotonBudget::TargetError { .. } => total.max(profile),
-        PhotonBudget::KernelFactor { .. } => total.max(factor),
-    }
-}
-
-/// How far the transmitted light is from the absolute floor (as
-/// `status::floor_ratio` for the reflected light).
-pub(super) fn tr_floor_ratio(floor: f64, s: &TrStatus, photons: u64) -> f64 {
-    let shape = if s.t > 0.0 { s.t * s.rel_factor } else { 0.0 };
-    let noise = s.t_stderr.max(shape) / floor;
-    let minimum = (3.0 / floor / photons.max(1) as f64).sqrt();
-    noise.max(minimum)
 }
 
 /// The transmitted light of one run as a profile records it
@@ -151,7 +157,7 @@ pub struct TransmittedAngles {
 /// when no channel tallied it.
 pub(super) fn record(
     t: &[ChunkTally],
-    status: &[Option<TrStatus>],
+    status: &[Option<LightStatus>],
     areas: &[f64],
 ) -> Option<TransmittanceProfile> {
     if t.iter().any(|t| t.tr_bins.sum.len() != areas.len() + 2) {
@@ -174,7 +180,7 @@ pub(super) fn record(
     };
     let (td, td_stderr) = (per_area(Moments::mean), per_area(Moments::stderr));
     let angular = t.iter().all(|t| !t.tr_exit.is_empty()).then(|| angles(t));
-    let st = |f: &dyn Fn(&TrStatus) -> f64| -> Vec<f64> {
+    let st = |f: &dyn Fn(&LightStatus) -> f64| -> Vec<f64> {
         status.iter().map(|s| s.as_ref().map_or(0.0, f)).collect()
     };
     Some(TransmittanceProfile {

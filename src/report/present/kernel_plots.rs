@@ -502,9 +502,7 @@ mod tests {
     /// radii per channel.
     #[test]
     fn disk_rings_hold_the_weights() {
-        let m = crate::material::preset("skin1").unwrap();
-        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
-        let p = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let p = crate::kernel::reference::dipole_uniform("skin1", 0.02, 6.0);
         for radii in [RadiusPdf::Widest, RadiusPdf::PerChannel] {
             let k = fit_disk(&p, 16, radii).unwrap();
             for c in 0..3 {

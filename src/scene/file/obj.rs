@@ -162,8 +162,7 @@ mod tests {
     /// check itself.
     #[test]
     fn infinite_vertices_and_missing_face_vertices_are_refused() {
-        let dir = tempfile::tempdir().unwrap();
-        let obj = dir.path().join("inf.obj");
+        let (_dir, obj) = crate::io::scratch("inf.obj");
         std::fs::write(&obj, CUBE.replacen("v 1 1 1", "v 1 1e39 1", 1)).unwrap();
         let e = read_obj(&obj).unwrap_err().to_string();
         assert!(e.contains("vertex 6 is not finite"), "{e}");

@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::material::{Channel, Material};
 use crate::profile::mc::tally::ChunkTally;
 use crate::profile::mc::tracer::Stack;
+use crate::profile::mc::transmit::LightStatus;
 use crate::profile::mc::{
     check_fixed_work, floor_ratio, rule_error, statuses, ChannelRun, McConfig, McOptions,
     PhotonBudget, Status,
@@ -86,12 +87,14 @@ impl McGpu {
             sums: Sums::new(n_bins),
             tally: ChunkTally::new(n_bins, false),
             status: Status {
-                rel_total: f64::INFINITY,
-                rel_profile: f64::INFINITY,
+                rd: LightStatus {
+                    rel_total: f64::INFINITY,
+                    rel_profile: f64::INFINITY,
+                    rel_factor: f64::INFINITY,
+                    total: 0.0,
+                    stderr: f64::INFINITY,
+                },
                 r99: 0.0,
-                rel_factor: f64::INFINITY,
-                rd: 0.0,
-                rd_stderr: f64::INFINITY,
                 tr: None,
             },
             converged: false,

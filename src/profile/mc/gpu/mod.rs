@@ -348,10 +348,7 @@ fn check_grid(grid: &RadialGrid) -> Result<()> {
     grid.check_edges()?;
     let e = &grid.edges;
     if e.windows(2).any(|w| !((w[1] as f32) > (w[0] as f32))) {
-        return Err(Error::invalid(
-            "radial grid",
-            "edges",
-            format!("{} values", e.len()),
+        return Err(grid.edges_error(
             "the GPU tracer needs edges distinct in f32 (relative spacing above 1e-7)",
         ));
     }

@@ -258,9 +258,7 @@ mod tests {
     /// image), and is found only for its kernel and frames.
     #[test]
     fn the_kept_accumulation_is_the_one_apply_makes() {
-        let m = crate::material::preset("skin1").unwrap();
-        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
-        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let profile = crate::kernel::reference::dipole_uniform("skin1", 0.02, 6.0);
         let signal = crate::filter::signals::Signal::Shapes;
         let case = crate::report::eval::evaluate::ImageCase::signal(signal, 24, 0.5).unwrap();
         let refs = Reference::all(&profile, &[case]).unwrap();

@@ -429,9 +429,7 @@ mod tests {
     /// exactly the passes the chosen row was scored on.
     #[test]
     fn the_advice_scores_and_returns_the_fits_it_is_handed() {
-        let m = crate::material::preset("skin1").unwrap();
-        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
-        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let profile = crate::kernel::reference::dipole_uniform("skin1", 0.02, 6.0);
         let truth = Kernel2D::from_profile(&profile, &Kernel2DSpec::default()).unwrap();
         let mut cfg = Config::new(0.5, DEFAULT_TARGET);
         cfg.size = 32;
@@ -449,8 +447,7 @@ mod tests {
             .map(|i| std::array::from_fn(|c| fit.factors[0][c][i]))
             .collect();
         assert_eq!(a.kernel.passes[0].weights, handed);
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("recommended.json");
+        let (_dir, path) = crate::io::scratch("recommended.json");
         a.kernel.write(&path).unwrap();
         let back = KernelFile::read(&path).unwrap();
         let c = a.chosen();

@@ -464,9 +464,7 @@ mod tests {
     /// file it makes is a valid kernel file.
     #[test]
     fn a_full_factor_answer_ships_the_passes_scored() {
-        let m = crate::material::preset("skin1").unwrap();
-        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
-        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let profile = crate::kernel::reference::dipole_uniform("skin1", 0.02, 6.0);
         let model = Model::Preintegrate {
             method: PreMethod::Abel,
         };

@@ -5,7 +5,7 @@
 //! ([`crate::report::eval::advise`]) both read these; this file reads neither.
 
 use super::decide::{Budget, Cost, Verdict};
-use crate::error::{finite_positive, Error, Result};
+use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::Scale;
 use crate::report::eval::disk::DEFAULT_FRAMES;
@@ -72,7 +72,7 @@ impl ViewScale {
                     sss_width: scene_units_per_mm,
                 };
                 s.validate()?;
-                finite_positive("advise", "depth", depth, " (scene units)")?;
+                crate::error::finite_positive("advise", "depth", depth, " (scene units)")?;
                 if height == 0 {
                     return Err(Error::invalid("advise", "height", height, "must be > 0"));
                 }

@@ -616,9 +616,7 @@ mod tests {
     /// 5.12), the fitted ones lose energy; the run works without images.
     #[test]
     fn renormalised_gaussians_conserve_energy() {
-        let m = crate::material::preset("marble").unwrap();
-        let grid = crate::profile::RadialGrid::uniform(0.02, 6.0).unwrap();
-        let profile = crate::kernel::reference::dipole_profile(&m, &grid).unwrap();
+        let profile = crate::kernel::reference::dipole_uniform("marble", 0.02, 6.0);
         let cfg = Config {
             families: vec!["gaussians".into()],
             ranks: vec![2],
