@@ -40,13 +40,13 @@ fn small_scene(dir: &Path, name: &str) -> std::path::PathBuf {
     out
 }
 
-/// Each scene: its block of rows (from scene.json) and the first line.
-
 /// `ssskit compare --scene toml --render exr --out-dir out`.
 #[rustfmt::skip] // one line a part: the command reads as typed
 fn compare_args<'a>(toml: &'a Path, exr: &'a Path, out: &'a Path) -> [&'a str; 7] {
     ["compare", "--scene", p(toml), "--render", p(exr), "--out-dir", p(out)]
 }
+
+/// Each scene: its block of rows (from scene.json) and the first line.
 #[test]
 fn compare_scene_states_which_method_each_scene_needs() {
     use common::measured::{check, table};
