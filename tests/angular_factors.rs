@@ -308,8 +308,8 @@ fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
     let d = dir.path();
     let (toml, exr, cmp) = (d.join("s.toml"), d.join("s.exr"), d.join("cmp"));
     common::render_scene(&toml, &exr, "64", "1e5", &[]);
-    let flags = "--models preintegrate,jimenez --angular-photons 2e4 --no-plots";
-    let flags: Vec<&str> = flags.split(' ').collect();
+    let flags =
+        common::args::words("--models preintegrate,jimenez --angular-photons 2e4 --no-plots");
     common::compare_scene(&toml, &exr, &cmp, &flags);
     let j = read_json(&cmp.join("scene.json"));
     let rows = j["rows"].as_array().unwrap();

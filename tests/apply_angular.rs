@@ -122,8 +122,7 @@ fn chain() -> Chain {
     std::fs::write(&toml, &scene).unwrap();
     let (exr, irr, cmp) = (d.join("r.exr"), d.join("irr.exr"), d.join("cmp"));
     common::render_scene(&toml, &exr, "16", "1e5", &["--irradiance-out", p(&irr)]);
-    let flags = "--models preintegrate --angular-photons 2e4 --no-plots";
-    let flags: Vec<&str> = flags.split(' ').collect();
+    let flags = common::args::words("--models preintegrate --angular-photons 2e4 --no-plots");
     common::compare_scene(&toml, &exr, &cmp, &flags);
     let compare = read_json(&cmp.join("scene.json"));
     let record = read_json(&d.join("r.json"));
