@@ -24,6 +24,7 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod docs_record;
 use ssskit::filter::{cpu, sample, separable, Image, Plane, Setup, Taps};
 use std::time::Instant;
 
@@ -447,12 +448,10 @@ fn main() {
         eprintln!("SSSKIT_BENCH_REPS={reps}: record not written");
         return;
     }
-    let mut record = ssskit::report::present::record::Record::new(
+    let record = ssskit::report::present::record::Record::new(
         "cargo bench --bench filter",
         &format!("{machine}; OpenCV {version}"),
     );
-    record.tables.insert("opencv".into(), (&readme).into());
-    record.tables.insert("threads".into(), (&all_paths).into());
     let raw: serde_json::Map<String, serde_json::Value> = mine
         .iter()
         .map(|(t, cases)| {
@@ -466,7 +465,7 @@ fn main() {
             )
         })
         .collect();
-    record.data = serde_json::json!({
+    let data = serde_json::json!({
         "size": format!("{W}x{H}"),
         "taps": 17,
         "rank": 1,
@@ -474,7 +473,6 @@ fn main() {
         "ssskit_wall_cpu_ms": raw,
         "opencv": cv,
     });
-    let path = ssskit::report::present::record::docs_path("filter-cpu");
-    record.write(&path).unwrap();
-    eprintln!("wrote {}", path.display());
+    let tables = [("opencv", &readme), ("threads", &all_paths)];
+    docs_record::write(record, "filter-cpu", &tables, data);
 }

@@ -12,6 +12,7 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod docs_record;
 
 use ssskit::kernel::guided::GuidedParams;
 use ssskit::kernel::jimenez::JimenezParams;
@@ -197,14 +198,11 @@ fn main() {
         commands.push(vec![format!("`{line}`"), format!("{t:.1}")]);
     }
     println!("{}", commands.markdown());
-    let mut record = Record::new("cargo bench --bench kernels", &machine);
-    record.tables.insert("fit".into(), (&fit).into());
-    record.tables.insert("commands".into(), (&commands).into());
-    record.data = serde_json::json!({
+    let record = Record::new("cargo bench --bench kernels", &machine);
+    let data = serde_json::json!({
         "fit_seconds_201_401_801": fit_raw,
         "command_wall_seconds": raw,
     });
-    let path = ssskit::report::present::record::docs_path("kernels");
-    record.write(&path).unwrap();
-    eprintln!("wrote {}", path.display());
+    let tables = [("fit", &fit), ("commands", &commands)];
+    docs_record::write(record, "kernels", &tables, data);
 }

@@ -29,11 +29,12 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod docs_record;
 use common::mcml::section;
 use ssskit::material::{preset, Channel};
 use ssskit::profile::mc::{simulate_with, AngularOptions, McConfig, McOptions, PhotonBudget};
 use ssskit::progress::NoProgress;
-use ssskit::report::present::record::{docs_path, machine_line, Record};
+use ssskit::report::present::record::{machine_line, Record};
 use ssskit::report::present::table::Table;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -320,7 +321,7 @@ fn main() {
     eprintln!("{}", m.markdown());
     let x = mcml_exit(scale, &mut data);
     eprintln!("{}", x.markdown());
-    let mut r = Record::new(
+    let r = Record::new(
         if std::env::var_os("SSSKIT_MCML").is_some() {
             "SSSKIT_MCML=<MCML 1.2.2, gcc -O3> cargo bench --bench mc_angular"
         } else {
@@ -328,13 +329,8 @@ fn main() {
         },
         &machine,
     );
-    r.tables.insert("factors".into(), (&f).into());
-    r.tables.insert("mcml".into(), (&m).into());
-    r.tables.insert("mcml-exit".into(), (&x).into());
-    r.data = data;
-    let path = docs_path("mc-angular");
-    r.write(&path).expect("record written");
-    eprintln!("wrote {}", path.display());
+    let tables = [("factors", &f), ("mcml", &m), ("mcml-exit", &x)];
+    docs_record::write(r, "mc-angular", &tables, data);
 }
 
 /// MCML 1.2.2 on `dir`/m.mci, run in `dir`: whether it ran and succeeded.

@@ -20,8 +20,9 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod docs_record;
 use common::mcml::section;
-use ssskit::report::present::record::{docs_path, machine_line, Record};
+use ssskit::report::present::record::{machine_line, Record};
 use ssskit::report::present::table::Table;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -142,12 +143,8 @@ fn main() {
         }
     };
     eprintln!("{}", t.markdown());
-    let mut r = Record::new(command, &machine);
-    r.tables.insert("mcml".into(), (&t).into());
-    r.data = data;
-    let path = docs_path("mc-transmission");
-    r.write(&path).expect("record written");
-    eprintln!("wrote {}", path.display());
+    let r = Record::new(command, &machine);
+    docs_record::write(r, "mc-transmission", &[("mcml", &t)], data);
 }
 
 /// One slab through MCML and ssskit: the table row and the record.

@@ -9,6 +9,8 @@
 //! materials of the Monte Carlo table. A run with other settings than the
 //! defaults prints its tables but does not write the record.
 
+mod docs_record;
+
 use ssskit::material::{preset, preset_names, Channel};
 use ssskit::profile::analytic::{self, Model, Options};
 use ssskit::profile::mc::{simulate, McConfig, PhotonBudget};
@@ -168,15 +170,12 @@ fn main() {
         eprintln!("not the default settings: record not written");
         return;
     }
-    let mut record = Record::new("cargo bench --bench profiles", &machine);
-    record.tables.insert("speed".into(), (&speed).into());
-    record.tables.insert("presets".into(), (&presets).into());
-    record.data = serde_json::json!({
+    let record = Record::new("cargo bench --bench profiles", &machine);
+    let data = serde_json::json!({
         "model_seconds_per_profile": data,
         "monte_carlo": mc_data,
         "mc_target_rel_error": rel,
     });
-    let path = ssskit::report::present::record::docs_path("profiles");
-    record.write(&path).unwrap();
-    eprintln!("wrote {}", path.display());
+    let tables = [("speed", &speed), ("presets", &presets)];
+    docs_record::write(record, "profiles", &tables, data);
 }

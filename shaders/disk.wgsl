@@ -44,11 +44,11 @@ fn fetch(px: f32, py: f32) -> vec4<f32> {
 
 @compute @workgroup_size(WORKGROUP_SIDE, WORKGROUP_SIDE, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let x = gid.x;
-    let y = gid.y;
-    if (x >= params.width || y >= params.height) {
+    if (outside_image(gid, params.width, params.height)) {
         return;
     }
+    let x = gid.x;
+    let y = gid.y;
     let centre = y * params.width + x;
     let d_centre = depth[centre];
     // Freude 2014, eq. 4.11: kernel size per pixel = width * scale * strength.

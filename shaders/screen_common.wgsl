@@ -22,3 +22,9 @@ fn ign_fixed(x: u32, y: u32) -> u32 {
 fn jitter_fraction(n: u32) -> f32 {
     return f32(n >> (32u - JITTER_BITS)) / f32(1u << JITTER_BITS);
 }
+
+// Whether invocation `gid` lies outside the width x height image: the
+// dispatch rounds the image up to whole workgroups.
+fn outside_image(gid: vec3<u32>, width: u32, height: u32) -> bool {
+    return gid.x >= width || gid.y >= height;
+}

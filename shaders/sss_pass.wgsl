@@ -26,12 +26,12 @@ fn jitter_unit(x: u32, y: u32, tap: u32, axis: u32) -> f32 {
 
 @compute @workgroup_size(WORKGROUP_SIDE, WORKGROUP_SIDE, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let x = gid.x;
-    let y = gid.y;
-    if (x >= params.width || y >= params.height) {
+    let w = params.width;
+    if (outside_image(gid, w, params.height)) {
         return;
     }
-    let w = params.width;
+    let x = gid.x;
+    let y = gid.y;
     let centre = y * w + x;
     var coord = x;
     var n = params.width;

@@ -403,7 +403,7 @@ fn apply_disk<'py>(
     k: &DiskKernelFile,
     call: Call<'_, 'py>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let Call { target, o, .. } = call;
+    let o = call.o;
     let s = &o.separable;
     if s.full_factors || s.jitter || s.precision != Precision::F32 {
         return Err(PyValueError::new_err(
@@ -431,7 +431,7 @@ fn apply_disk<'py>(
     run(
         py,
         p,
-        target,
+        call.target,
         gpu_or_cpu(
             gpu_backend,
             |img| DiskGpu::new()?.apply(img, &setup),

@@ -5,8 +5,8 @@
 use crate::args::{lang_of, one_of};
 use crate::call::{pretty_json, save, to_py};
 use crate::material::PyMaterial;
+use crate::profile::rgb_rows;
 use numpy::{PyArray1, PyArray2};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use ssskit::kernel::disk::{DiskKernelFile, RadiusPdf};
 use ssskit::kernel::disk_emit::emit_disk;
@@ -45,16 +45,7 @@ impl PyDiskKernel {
     /// Per-sample weights (n, 3).
     #[getter]
     fn weights<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let w: Vec<Vec<f64>> = self
-            .inner
-            .samples
-            .iter()
-            .map(|s| s.weight.to_vec())
-            .collect();
-        if w.is_empty() {
-            return Ok(PyArray2::zeros(py, [0, 3], false));
-        }
-        PyArray2::from_vec2(py, &w).map_err(|e| PyValueError::new_err(e.to_string()))
+        rgb_rows(py, self.inner.samples.iter().map(|s| s.weight))
     }
     /// Total diffuse reflectance (r, g, b) of the profile.
     #[getter]
@@ -83,9 +74,7 @@ impl PyDiskKernel {
     /// The kernel file's text, as `save` writes it (with the usage notes
     /// the library's writer adds).
     fn to_json(&self) -> PyResult<String> {
-        let mut k = self.inner.clone();
-        k.usage = Some(self.inner.usage());
-        pretty_json(&k)
+        pretty_json(&self.inner.as_written())
     }
     fn __repr__(&self) -> String {
         format!(
@@ -95,15 +84,18 @@ impl PyDiskKernel {
     }
 }
 
+/// The densities by the names `--radii` takes (and `per_channel`, the
+/// spelling of a Python keyword).
+const RADII: [(&str, RadiusPdf); 4] = [
+    ("widest", RadiusPdf::Widest),
+    ("mean", RadiusPdf::Mean),
+    ("per-channel", RadiusPdf::PerChannel),
+    ("per_channel", RadiusPdf::PerChannel),
+];
+
 /// `--radii` as the library's density, with the CLI's names.
 pub(crate) fn radii_of(name: &str) -> PyResult<RadiusPdf> {
-    let names = [
-        ("widest", RadiusPdf::Widest),
-        ("mean", RadiusPdf::Mean),
-        ("per-channel", RadiusPdf::PerChannel),
-        ("per_channel", RadiusPdf::PerChannel),
-    ];
-    one_of("radii", name, &names, "widest, mean or per-channel")
+    one_of("radii", name, &RADII, "widest, mean or per-channel")
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -25,6 +25,11 @@ pub(crate) enum Dtype {
     F64,
 }
 
+impl Dtype {
+    /// The `dtype` keyword's values.
+    const NAMES: [(&str, Dtype); 2] = [("float32", Dtype::F32), ("float64", Dtype::F64)];
+}
+
 /// An array argument checked for what the library needs: an ndarray of
 /// `ndim` dimensions (the last of 3 or 4 samples for an image), float32 or
 /// float64, within the image caps, before anything is allocated. A
@@ -325,12 +330,7 @@ fn read_image<'py>(
     path: &Bound<'py, PyAny>,
     dtype: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let dtype = one_of(
-        "dtype",
-        dtype,
-        &[("float32", Dtype::F32), ("float64", Dtype::F64)],
-        "float32 or float64",
-    )?;
+    let dtype = one_of("dtype", dtype, &Dtype::NAMES, "float32 or float64")?;
     let path = path_of(path)?;
     let (image, _) = file_op(py, || lib_read_image(&path, None))?;
     array_of(py, &image, dtype, None)

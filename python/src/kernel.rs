@@ -1,11 +1,11 @@
 //! Kernels: `fit` for every separable model the CLI fits, the tap table
 //! and factors as arrays, shader emission, the engines' parameters.
 
-use crate::args::{kw, lang_of, rgb, Strict};
+use crate::args::{kw, lang_of, one_of, rgb, Strict};
 use crate::call::{interruptible, json_to_py, pretty_json, save, to_py};
 use crate::material::PyMaterial;
-use crate::profile::profile_of;
-use numpy::{PyArray1, PyArray2};
+use crate::profile::{profile_of, rgb_rows};
+use numpy::PyArray1;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -30,13 +30,7 @@ pub struct PyKernel {
 fn pass_dict<'py>(py: Python<'py>, p: &Pass) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("offsets_mm", PyArray1::from_slice(py, &p.offsets_mm))?;
-    let w: Vec<Vec<f64>> = p.weights.iter().map(|w| w.to_vec()).collect();
-    let w = if w.is_empty() {
-        PyArray2::zeros(py, [0, 3], false)
-    } else {
-        PyArray2::from_vec2(py, &w).map_err(|e| PyValueError::new_err(e.to_string()))?
-    };
-    d.set_item("weights", w)?;
+    d.set_item("weights", rgb_rows(py, p.weights.iter().copied())?)?;
     Ok(d)
 }
 
@@ -101,9 +95,7 @@ impl PyKernel {
     /// The kernel file's text, as `save` writes it (with the usage notes
     /// the library's writer adds).
     fn to_json(&self) -> PyResult<String> {
-        let mut k = self.inner.clone();
-        k.usage = Some(self.inner.usage());
-        pretty_json(&k)
+        pretty_json(&self.inner.as_written())
     }
     fn __repr__(&self) -> String {
         format!(
@@ -228,17 +220,13 @@ fn model_of(py: Python<'_>, name: &str, a: &ModelArgs) -> PyResult<Model> {
             rank: a.rank.unwrap_or(1),
             renormalize: a.renormalize.unwrap_or(false),
         },
-        "preintegrate" => Model::Preintegrate {
-            method: match a.method.as_deref().unwrap_or("abel") {
-                "abel" => PreMethod::Abel,
-                "grid" => PreMethod::Grid,
-                m => {
-                    return Err(bad(format!(
-                        "method: invalid value '{m}': expected abel or grid"
-                    )))
-                }
-            },
-        },
+        "preintegrate" => {
+            let method = a.method.as_deref().unwrap_or("abel");
+            let methods = [("abel", PreMethod::Abel), ("grid", PreMethod::Grid)];
+            Model::Preintegrate {
+                method: one_of("method", method, &methods, "abel or grid")?,
+            }
+        }
         "guided" => {
             let d = GuidedParams::default();
             Model::Guided(GuidedParams {

@@ -26,6 +26,19 @@ fn rows<'py>(py: Python<'py>, v: &[Vec<f64>]) -> PyResult<Bound<'py, PyArray2<f6
     PyArray2::from_vec2(py, v).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
+/// Weights of three channels, one row per sample or tap, as an (n, 3)
+/// array ((0, 3) when there are none).
+pub(crate) fn rgb_rows<'py>(
+    py: Python<'py>,
+    w: impl Iterator<Item = [f64; 3]>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let w: Vec<Vec<f64>> = w.map(|w| w.to_vec()).collect();
+    if w.is_empty() {
+        return Ok(PyArray2::zeros(py, [0, 3], false));
+    }
+    rows(py, &w)
+}
+
 #[pymethods]
 impl PyProfile {
     /// Bin centres, mm.

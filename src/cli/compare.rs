@@ -121,13 +121,7 @@ pub struct Args {
     /// The screen-space pass's follow-surface constant on the scene, in the
     /// scene's own length: the lerp reaches the centre colour at this depth
     /// difference.
-    #[arg(
-        value_parser = args::real,
-        long,
-        value_name = "MM",
-        requires = "scene",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", requires = "scene", allow_negative_numbers = true, value_parser = args::real)]
     follow_mm: Option<f64>,
     /// Photons per channel and incidence of the scene's angular-factor run (0: none).
     ///

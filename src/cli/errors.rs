@@ -17,6 +17,7 @@ use ssskit::Error;
 use std::sync::OnceLock;
 
 /// (library context, parameter, flags that set it, first match wins).
+#[rustfmt::skip] // one row a line: the table reads as a table
 const FLAGS: &[(&str, &str, &[&str])] = &[
     ("radial grid", "dr", &["--dr"]),
     ("radial grid", "rmax", &["--rmax"]),
@@ -43,11 +44,7 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("shader", "language", &["--emit"]),
     (mc::CONTEXT, "photons", &["--photons", "--max-photons"]),
     (mc::CONTEXT, "target_error", &["--mc-error"]),
-    (
-        mc::CONTEXT,
-        "kernel_error",
-        &["--kernel-error", "--mc-error"],
-    ),
+    (mc::CONTEXT, "kernel_error", &["--kernel-error", "--mc-error"]),
     (mc::CONTEXT, "max_photons", &["--max-photons"]),
     (mc::CONTEXT, "shard", &["--shard"]),
     (mc::CONTEXT, "channels", &["--channels"]),
@@ -64,11 +61,7 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("kernel scale", "fov_y_deg", &["--fov-y"]),
     ("kernel scale", "sss_width", &["--units-per-mm"]),
     ("filter setup", "follow_surface", &["--follow-surface"]),
-    (
-        "filter setup",
-        "follow_surface_scene_units",
-        &["--follow-surface-scene-units"],
-    ),
+    ("filter setup", "follow_surface_scene_units", &["--follow-surface-scene-units"]),
     ("filter setup", "depth", &["--depth"]),
     ("angular factors", "light direction", &["--light-toward"]),
     ("advise", "depth", &["--view-depth"]),
@@ -80,11 +73,7 @@ const FLAGS: &[(&str, &str, &[&str])] = &[
     ("advise", "frames", &["--frames"]),
     ("compare", "model", &["--models"]),
     ("light-space method", "samples", &["--directional-spp"]),
-    (
-        "light-space method",
-        "light_map_side",
-        &["--light-map-side"],
-    ),
+    ("light-space method", "light_map_side", &["--light-map-side"]),
     ("compare", "ranks", &["--ranks"]),
     ("evaluate", "pixels per degree", &["--pixels-per-degree"]),
     ("engine", "scene units per mm", &["--units-per-mm"]),

@@ -2,8 +2,8 @@
 //! the first run, or a chosen run, of an MCML .mci file).
 
 use super::args::{
-    self, count, Backend, BackendArg, ChannelsArg, CsvArg, GridArgs, MaterialArg, MaxPhotonsArg,
-    McErrorArg, OutFile, PhotonsArg, SeedArg, ThreadsArg,
+    self, count, Backend, BackendArg, CsvArg, GridArgs, MaterialArg, MaxPhotonsArg, McErrorArg,
+    McRunArgs, OutFile, PhotonsArg,
 };
 use super::out::outln;
 use super::progress::Bar;
@@ -112,11 +112,7 @@ struct Flags {
     #[command(flatten)]
     max_photons: MaxPhotonsArg,
     #[command(flatten)]
-    seed: SeedArg,
-    #[command(flatten)]
-    threads: ThreadsArg,
-    #[command(flatten)]
-    channels: ChannelsArg,
+    run: McRunArgs,
     #[command(flatten)]
     grid: GridArgs,
     /// Geometric bins: width --dr at the centre, growing out to --rmax.
@@ -181,13 +177,7 @@ struct Flags {
     ///
     /// One more run per angle with the normal run's photon count, for the
     /// entry factor R_d(theta_in) / R_d(0) (extra.angular.entry).
-    #[arg(
-        value_parser = args::real,
-        long,
-        value_name = "DEG,...",
-        value_delimiter = ',',
-        allow_hyphen_values = true
-    )]
+    #[arg(long, value_name = "DEG,...", value_delimiter = ',', allow_hyphen_values = true, value_parser = args::real)]
     incidence: Vec<f64>,
     /// Also write the profile seen from --view-angle [default: not written].
     ///
@@ -196,14 +186,7 @@ struct Flags {
     #[arg(long, value_name = "FILE.json")]
     view_profile: Option<PathBuf>,
     /// View angle from the normal in degrees, for --view-profile.
-    #[arg(
-        value_parser = args::real,
-        long,
-        value_name = "DEG",
-        default_value_t = 0.0,
-        allow_hyphen_values = true,
-        requires = "view_profile"
-    )]
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_hyphen_values = true, requires = "view_profile", value_parser = args::real)]
     view_angle: f64,
 }
 
@@ -265,8 +248,8 @@ fn settings(
 ) -> anyhow::Result<(McConfig, McOptions)> {
     let channels = match mci_run {
         // MCML is monochrome: the .mci coefficients fill every channel.
-        Some(_) if args.channels.is_default() => vec![Channel::R],
-        _ => args.channels.channels()?,
+        Some(_) if args.run.channels.is_default() => vec![Channel::R],
+        _ => args.run.channels.channels()?,
     };
     let budget = photon_budget(args, mci_run)?;
     let spec = GridSpec {
@@ -284,8 +267,8 @@ fn settings(
     let angular = angular_options(args, mci_run)?;
     let cfg = McConfig {
         budget,
-        seed: args.seed.seed,
-        threads: args.threads.threads,
+        seed: args.run.seed.seed,
+        threads: args.run.threads.threads,
         channels,
         grid,
     };

@@ -2,9 +2,7 @@
 //! behind, per thickness (total and radial spread), with the engines'
 //! thin-object formulas fitted to it and scored at every thickness.
 
-use super::args::{
-    self, count, ChannelsArg, MaterialArg, OutFile, PhotonsArg, ProfileFile, SeedArg, ThreadsArg,
-};
+use super::args::{self, count, MaterialArg, McRunArgs, OutFile, PhotonsArg, ProfileFile};
 use super::out::outln;
 use super::progress::Bar;
 use anyhow::Context;
@@ -63,11 +61,7 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value = args::count_text(tr::DEFAULT_TABLE_MAX_WORK), allow_hyphen_values = true, value_parser = count::<u64>)]
     slab_max_work: u64,
     #[command(flatten)]
-    seed: SeedArg,
-    #[command(flatten)]
-    threads: ThreadsArg,
-    #[command(flatten)]
-    channels: ChannelsArg,
+    run: McRunArgs,
     #[command(flatten)]
     profile: ProfileFile,
     /// Index of refraction of the slab relative to the air [default: the material's].
@@ -166,7 +160,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("--eta")?;
     let thick = thicknesses(&a, &material)?;
     let engines = engines(&a.engines)?;
-    let channels = a.channels.channels()?;
+    let channels = a.run.channels.channels()?;
     if !engines.is_empty() && channels.len() != 3 {
         anyhow::bail!("--channels: the engines' settings are RGB: keep rgb, or --engines none");
     }
@@ -202,8 +196,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             max_work: a.slab_max_work,
             ..McOptions::default()
         },
-        seed: a.seed.seed,
-        threads: a.threads.threads,
+        seed: a.run.seed.seed,
+        threads: a.run.threads.threads,
         channels: channels.clone(),
     };
     let bar = Bar::new();

@@ -3,7 +3,9 @@
 //! an engine runs it ([`DiskUsage`]), its checks, reading and writing. The
 //! fit that draws the samples from a profile is `disk_fit`.
 
-use super::format::{agrees, check_profile_total, DISK_SCHEMA, STATED_SUM_TOLERANCE};
+use super::format::{
+    agrees, check_profile_total, kernel_file_struct, DISK_SCHEMA, STATED_SUM_TOLERANCE,
+};
 use super::ModelInfo;
 use crate::error::{check_header, Error, Result};
 use crate::material::Material;
@@ -148,32 +150,26 @@ pub const WEIGHTS: &str = "result = sum over samples of weight x colour, per cha
 
 pub const DEPTH_DISK: &str = "as the separable pass: pixels_per_mm divides by the pixel's linear view depth, and with follow-surface each sample's colour is lerped toward the centre colour by t = clamp(C x sss_width x |d_centre - d_sample| / tan(fov_y / 2), 0, 1) (Freude 2014, eq. 4.12)";
 
-/// A disk kernel file (`ssskit.disk/1`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DiskKernelFile {
-    pub schema: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub material: Option<Material>,
-    #[serde(default)]
-    pub profile: serde_json::Value,
-    pub model: ModelInfo,
-    pub units: String,
-    pub total_rd: [f64; 3],
-    pub samples: Vec<DiskSample>,
-    /// Per channel: the weights' sum before they were scaled to 1 (the
-    /// stratified estimate of the kernel's integral, exactly 1 for
-    /// per-channel radii); its distance from 1 is what the normalisation
-    /// moved.
-    pub raw_weight_sum: [f64; 3],
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub usage: Option<DiskUsage>,
-    /// The profile's angular entry and exit factors, when it has them.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub angular: Option<super::angular::AngularFactors>,
-    /// What its predicted error assumes (None: no prediction was made,
-    /// `fit --model disk`, or a file written before it was recorded).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub accumulation: Option<Accumulation>,
+kernel_file_struct! {
+    /// A disk kernel file (`ssskit.disk/1`).
+    #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct DiskKernelFile {
+        pub samples: Vec<DiskSample>,
+        /// Per channel: the weights' sum before they were scaled to 1 (the
+        /// stratified estimate of the kernel's integral, exactly 1 for
+        /// per-channel radii); its distance from 1 is what the normalisation
+        /// moved.
+        pub raw_weight_sum: [f64; 3],
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub usage: Option<DiskUsage>,
+        /// The profile's angular entry and exit factors, when it has them.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub angular: Option<super::angular::AngularFactors>,
+        /// What its predicted error assumes (None: no prediction was made,
+        /// `fit --model disk`, or a file written before it was recorded).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub accumulation: Option<Accumulation>,
+    }
 }
 
 impl DiskKernelFile {
@@ -285,6 +281,14 @@ impl DiskKernelFile {
         }
     }
 
+    /// The file as [`write`](Self::write) writes it: with its usage notes.
+    pub fn as_written(&self) -> DiskKernelFile {
+        DiskKernelFile {
+            usage: Some(self.usage()),
+            ..self.clone()
+        }
+    }
+
     /// The frames to accumulate and the first frame's seed: `frames` and
     /// `first` where given, else the recorded [`Accumulation`]'s (what the
     /// kernel's predicted error assumes), else one frame from seed 0.
@@ -302,13 +306,9 @@ impl DiskKernelFile {
         Ok(k)
     }
 
-    /// Writes atomically, after the reader's checks.
+    /// Writes atomically, after the reader's checks (`format::write_kernel`).
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::io::check_extension(path, &["json"], "kernel")?;
-        self.validate(&format!("refusing to write {}", path.display()))?;
-        let mut k = self.clone();
-        k.usage = Some(self.usage());
-        crate::io::write_json_atomic(path, &k)
+        super::format::write_kernel(path, |c| self.validate(c), || self.as_written())
     }
 }
 

@@ -15,6 +15,20 @@ pub const KERNEL_SCHEMA: &str = "ssskit.kernel/1";
 /// The schema of a disk kernel file (`kernel::disk`).
 pub const DISK_SCHEMA: &str = "ssskit.disk/1";
 
+/// Writes a kernel file (either kind) to `path`, a `.json`, atomically and
+/// only after `validate`, the checks a reader makes: ssskit never writes a
+/// kernel it would refuse to read. `written` is the file as written (with
+/// its usage notes, recomputed).
+pub(super) fn write_kernel<T: Serialize>(
+    path: &Path,
+    validate: impl FnOnce(&str) -> Result<()>,
+    written: impl FnOnce() -> T,
+) -> Result<()> {
+    crate::io::check_extension(path, &["json"], "kernel")?;
+    validate(&format!("refusing to write {}", path.display()))?;
+    crate::io::write_json_atomic(path, &written())
+}
+
 /// Reads a kernel file of `schema`: a file that does not parse as one is
 /// first asked for its schema, so that another kind of file (a disk kernel
 /// given where a separable one is read, a schema of another version) is
@@ -130,33 +144,52 @@ pub const PASSES: &str = "for each pass p: H_p = horizontal 1D filter of the irr
 
 pub const TOTAL_RD: &str = "total diffuse reflectance per channel: the kernel is normalised to a 2D sum of 1 per channel (exact models), so diffuse radiance = total_rd * (sum of the filtered passes) applied to the irradiance (light arriving at the surface, without albedo). Multiply after the blur (or before: the filter is linear). An engine that multiplies by an albedo texture after the blur (post-scatter texturing) uses that texture in place of total_rd, not both";
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct KernelFile {
-    pub schema: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub material: Option<Material>,
-    /// Summary of the profile the kernel came from.
-    #[serde(default)]
-    pub profile: serde_json::Value,
-    pub model: ModelInfo,
-    pub units: String,
-    /// Total diffuse reflectance per channel: the colour factor kept apart
-    /// from the kernel, whose 2D sum is 1 per channel for an exact model.
-    pub total_rd: [f64; 3],
-    pub passes: Vec<Pass>,
-    pub taps: TapTable,
-    pub metrics: Metrics,
-    /// Integration notes; recomputed on every write.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub usage: Option<Usage>,
-    /// Entry and exit factors to apply around the blur (N.L before, N.V
-    /// after), when the profile carried the angle-resolved tables.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub angular: Option<super::angular::AngularFactors>,
-    /// The transmittance through a thickness for shaders (`fit
-    /// --transmission`), fitted to a thickness table.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub transmission: Option<super::transmission::ThicknessFit>,
+/// Declares a kernel file's struct (`KernelFile`, the disk kernel's
+/// `DiskKernelFile`) with the header fields both files open with, in the
+/// order both write them, followed by the kind's own fields. A macro, not
+/// a `#[serde(flatten)]` header struct: flatten would read through serde's
+/// buffer (parse errors without their line and column) and callers keep
+/// naming the fields directly (`k.total_rd`).
+macro_rules! kernel_file_struct {
+    ($(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
+        $(#[$meta])*
+        pub struct $name {
+            pub schema: String,
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub material: Option<Material>,
+            /// Summary of the profile the kernel came from.
+            #[serde(default)]
+            pub profile: serde_json::Value,
+            pub model: ModelInfo,
+            pub units: String,
+            /// Total diffuse reflectance per channel: the colour factor kept
+            /// apart from the kernel, whose 2D sum is 1 per channel for an
+            /// exact model.
+            pub total_rd: [f64; 3],
+            $($fields)*
+        }
+    };
+}
+pub(super) use kernel_file_struct;
+
+kernel_file_struct! {
+    #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct KernelFile {
+        pub passes: Vec<Pass>,
+        pub taps: TapTable,
+        pub metrics: Metrics,
+        /// Integration notes; recomputed on every write.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub usage: Option<Usage>,
+        /// Entry and exit factors to apply around the blur (N.L before, N.V
+        /// after), when the profile carried the angle-resolved tables.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub angular: Option<super::angular::AngularFactors>,
+        /// The transmittance through a thickness for shaders (`fit
+        /// --transmission`), fitted to a thickness table.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub transmission: Option<super::transmission::ThicknessFit>,
+    }
 }
 
 impl Pass {
@@ -411,14 +444,18 @@ impl KernelFile {
         Ok(k)
     }
 
-    /// Writes the file atomically, after the checks a reader makes: ssskit
-    /// never writes a kernel it would refuse to read.
+    /// Writes the file atomically, after the checks a reader makes
+    /// ([`write_kernel`]).
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::io::check_extension(path, &["json"], "kernel")?;
-        self.validate(&format!("refusing to write {}", path.display()))?;
-        let mut k = self.clone();
-        k.usage = Some(self.usage());
-        crate::io::write_json_atomic(path, &k)
+        write_kernel(path, |c| self.validate(c), || self.as_written())
+    }
+
+    /// The file as [`write`](Self::write) writes it: with its usage notes.
+    pub fn as_written(&self) -> KernelFile {
+        KernelFile {
+            usage: Some(self.usage()),
+            ..self.clone()
+        }
     }
 
     /// Per tap-table pass, per channel: the sum of its weights.

@@ -291,6 +291,18 @@ pub struct ThreadsArg {
     pub threads: Option<usize>,
 }
 
+/// `--seed`, `--threads` and `--channels`: a Monte Carlo run of `simulate`
+/// or `transmission`, its seed, its workers and the channels it traces.
+#[derive(clap::Args)]
+pub struct McRunArgs {
+    #[command(flatten)]
+    pub seed: SeedArg,
+    #[command(flatten)]
+    pub threads: ThreadsArg,
+    #[command(flatten)]
+    pub channels: ChannelsArg,
+}
+
 /// Where `kernels`, `advise` and `study` get their profile: a file, or
 /// made from a material by Monte Carlo or an analytic model.
 #[derive(clap::Args)]
@@ -360,13 +372,7 @@ pub struct FovYArg {
 #[derive(clap::Args)]
 pub struct UnitsPerMmArg {
     /// Scene units per millimetre (0.001: a scene in metres; Jimenez's sssWidth).
-    #[arg(
-        value_parser = real,
-        long,
-        value_name = "UNITS",
-        allow_negative_numbers = true,
-        default_value_t = ssskit::engine::Scene::default().units_per_mm
-    )]
+    #[arg(long, value_name = "UNITS", allow_negative_numbers = true, default_value_t = ssskit::engine::Scene::default().units_per_mm, value_parser = real)]
     pub units_per_mm: f64,
 }
 
@@ -393,13 +399,7 @@ pub struct ImageErrorArg {
     ///
     /// Relative RMS as `ssskit diff` reports it (per channel, divided by
     /// the exact image's peak), the largest over channels and test signals.
-    #[arg(
-        value_parser = real,
-        long,
-        value_name = "E",
-        allow_negative_numbers = true,
-        default_value_t = ssskit::report::eval::advise::DEFAULT_TARGET
-    )]
+    #[arg(long, value_name = "E", allow_negative_numbers = true, default_value_t = ssskit::report::eval::advise::DEFAULT_TARGET, value_parser = real)]
     pub image_error: f64,
 }
 
