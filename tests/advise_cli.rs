@@ -20,24 +20,10 @@ fn advise_gives_three_answers_that_hold_on_a_held_out_signal() {
     let mut answers = Vec::new();
     for mm in ["0.02", "0.2", "2"] {
         let kernel = d.join(format!("k{mm}.json"));
-        let (out, err) = ok(&[
-            "advise",
-            "--profile",
-            s(&profile),
-            "--mm-per-pixel",
-            mm,
-            "--image-error",
-            &target.to_string(),
-            "--signal-size",
-            "64",
-            "--models",
-            "svd,preintegrate,guided",
-            "--max-passes",
-            "none",
-            "--json",
-            "--out",
-            s(&kernel),
-        ]);
+        let error = target.to_string();
+        #[rustfmt::skip] // one line a part: the command reads as typed
+        let extra = ["--image-error", &error, "--signal-size", "64", "--models", "svd,preintegrate,guided", "--max-passes", "none", "--json", "--out", s(&kernel)];
+        let (out, err) = ok(&common::args::advise_profile(s(&profile), mm, &extra));
         let a: Value = serde_json::from_str(&out).unwrap();
         for key in [
             "model",
@@ -735,19 +721,12 @@ fn advise_refuses_a_percent_and_a_folder_is_no_material() {
 fn advise_and_kernels_give_the_same_answer() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("k");
-    let common = [
-        "--material",
-        "marble",
-        "--mm-per-pixel",
-        "0.5",
-        "--signal-size",
-        "32",
-    ];
+    let shared = common::args::words("--material marble --mm-per-pixel 0.5 --signal-size 32");
     let mut args = vec!["kernels", "--no-plots", "--out-dir", s(&out)];
-    args.extend(common);
+    args.extend(&shared);
     let (_, kerr) = ok(&args);
     let mut args = vec!["advise", "--json"];
-    args.extend(common);
+    args.extend(&shared);
     let (a, aerr) = ok(&args);
     let a: Value = serde_json::from_str(&a).unwrap();
     assert!(kerr.contains("profile Monte Carlo") && aerr.contains("profile Monte Carlo"));
@@ -793,14 +772,7 @@ fn advise_record_for_the_docs() {
         &["--models", SEPARABLE][..],
         &["--models", SEPARABLE, "--max-passes", "6"][..],
     ] {
-        let mut args = vec![
-            "advise",
-            "--material",
-            "skin1",
-            "--mm-per-pixel",
-            "0.1",
-            "--json",
-        ];
+        let mut args = common::args::words("advise --material skin1 --mm-per-pixel 0.1 --json");
         args.extend(extra);
         let (out, _) = ok(&args);
         let a: Value = serde_json::from_str(&out).unwrap();

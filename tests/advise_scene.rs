@@ -19,7 +19,7 @@ mod common;
 
 use common::{ok, ok_both, p, EXACT};
 use ssskit::filter::image::read_image;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Pixels per side: 24 x 24 keeps the nine renders to about a minute on 2
 /// cores while the two shadow edges and the line span many pixels.
@@ -258,14 +258,29 @@ fn advice_holds_on_a_lit_sphere_at_three_scales_for_three_materials() {
     eprintln!("{}", lines.join("\n"));
 }
 
-/// The scene at 0.3 mm per pixel of skin1 in `d` and its 4-sample render.
-fn skin1_at_0_3(d: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
-    std::fs::write(d.join("ink.toml"), INK).unwrap();
-    let toml = d.join("scene.toml");
-    std::fs::write(&toml, scene("skin1", 0.3)).unwrap();
-    let exr = d.join("render.exr");
-    ok(&["scene", p(&toml), "--out", p(&exr), "--spp", "4"]);
-    (toml, exr)
+/// The scene at 0.3 mm per pixel of skin1 (`scene.toml`) and its 4-sample
+/// render (`render.exr`) in a temporary folder.
+struct Skin1AtCoarseScale {
+    dir: tempfile::TempDir,
+    toml: PathBuf,
+    exr: PathBuf,
+}
+
+impl Skin1AtCoarseScale {
+    fn render() -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("ink.toml"), INK).unwrap();
+        let (toml, exr) = (dir.path().join("scene.toml"), dir.path().join("render.exr"));
+        std::fs::write(&toml, scene("skin1", 0.3)).unwrap();
+        ok(&["scene", p(&toml), "--out", p(&exr), "--spp", "4"]);
+        Skin1AtCoarseScale { dir, toml, exr }
+    }
+
+    /// `ssskit cmd --scene scene.toml --render render.exr`, then `extra`.
+    fn args<'a>(&'a self, cmd: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+        let fixed = [cmd, "--scene", p(&self.toml), "--render", p(&self.exr)];
+        [&fixed[..], extra].concat()
+    }
 }
 
 /// The scene check refuses what it cannot score: a profile of another
@@ -273,10 +288,9 @@ fn skin1_at_0_3(d: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
 /// kernel wider than advise's pixel bound (marble at 0.02 mm per pixel).
 #[test]
 fn scene_check_refuses_a_mismatched_material_or_scale() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let (toml, exr) = skin1_at_0_3(d);
-    let base = ["advise", "--scene", p(&toml), "--render", p(&exr)];
+    let skin1 = Skin1AtCoarseScale::render();
+    let (toml, exr) = (&skin1.toml, &skin1.exr);
+    let base = skin1.args("advise", &[]);
     let mut other_material = base.to_vec();
     other_material.extend(["--material", "skin1", "--profile-model", "pbd"]);
     common::fails_with(
@@ -287,12 +301,12 @@ fn scene_check_refuses_a_mismatched_material_or_scale() {
     other_scale.extend(["--mm-per-pixel", "0.1"]);
     common::fails_with(&other_scale, &["0.300 mm per pixel", "0.100"]);
 
-    std::fs::write(&toml, scene("marble", 0.02)).unwrap();
+    std::fs::write(toml, scene("marble", 0.02)).unwrap();
     ok(&[
         "scene",
-        p(&toml),
+        p(toml),
         "--out",
-        p(&exr),
+        p(exr),
         "--spp",
         "2",
         "--profile-photons",
@@ -312,20 +326,9 @@ const FIRST_SCREEN_LINES: usize = 40;
 /// --scene` on the same scene gives the same numbers.
 #[test]
 fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let (toml, exr) = skin1_at_0_3(d);
-    let out_dir = d.join("k");
-    let (summary, _) = ok_both(&[
-        "kernels",
-        "--scene",
-        p(&toml),
-        "--render",
-        p(&exr),
-        "--out-dir",
-        p(&out_dir),
-        "--no-plots",
-    ]);
+    let skin1 = Skin1AtCoarseScale::render();
+    let out_dir = skin1.dir.path().join("k");
+    let (summary, _) = ok_both(&skin1.args("kernels", &["--out-dir", p(&out_dir), "--no-plots"]));
     let advice: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("advice.json")).unwrap())
             .unwrap();
@@ -368,7 +371,7 @@ fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
     assert_eq!(ranked.len(), 3, "{md}");
     assert!(ranked.windows(2).all(|w| w[0] <= w[1]), "{ranked:?}");
     // The same answer from advise on the same scene.
-    let (a, _) = ok_both(&["advise", "--scene", p(&toml), "--render", p(&exr), "--json"]);
+    let (a, _) = ok_both(&skin1.args("advise", &["--json"]));
     let a: serde_json::Value = serde_json::from_str(&a).unwrap();
     assert_eq!(a["scene"]["rms_with_factors"], sc["rms_with_factors"]);
     assert_eq!(a["scene"]["rms_without_factors"], sc["rms_without_factors"]);
@@ -380,21 +383,10 @@ fn kernels_on_a_scene_records_the_error_with_and_without_factors() {
 /// none. Without the flag the same scene gets them (the test above).
 #[test]
 fn no_factors_leaves_them_out_of_the_scene_check() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let (toml, exr) = skin1_at_0_3(d);
-    let kernel = d.join("k.json");
-    let (a, _) = ok_both(&[
-        "advise",
-        "--scene",
-        p(&toml),
-        "--render",
-        p(&exr),
-        "--json",
-        "--no-factors",
-        "--out",
-        p(&kernel),
-    ]);
+    let skin1 = Skin1AtCoarseScale::render();
+    let kernel = skin1.dir.path().join("k.json");
+    let flags = ["--json", "--no-factors", "--out", p(&kernel)];
+    let (a, _) = ok_both(&skin1.args("advise", &flags));
     let a: serde_json::Value = serde_json::from_str(&a).unwrap();
     let s = &a["scene"];
     assert!(s["rms_with_factors"].is_null(), "{s}");
@@ -472,7 +464,7 @@ fn advise_scene_record_for_the_docs() {
             .map(|a| if a == p(&exr) { "shadow-skin1.exr" } else { a })
             .collect();
         let command = format!("`ssskit {}`", shown.join(" "));
-        let s = &a["scene"];
+        let (s, w) = (&a["scene"], &a["worst_case"]);
         let rows_of = s["rows"].as_array().unwrap();
         let chosen = &rows_of[s["chosen"].as_u64().unwrap() as usize];
         let best = &rows_of[s["best"].as_u64().unwrap() as usize];
@@ -482,7 +474,6 @@ fn advise_scene_record_for_the_docs() {
                 .collect::<Vec<_>>()
                 .join(" / ")
         };
-        let w = &a["worst_case"];
         rows.push(vec![
             command.clone(),
             chosen["configuration"].as_str().unwrap().to_string(),

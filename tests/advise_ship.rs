@@ -96,22 +96,9 @@ fn every_family_measures_what_the_advice_predicts() {
     let size = SIZE.to_string();
     for (family, passes) in FAMILIES {
         let kernel = d.join(format!("{family}.json"));
-        let (out, _) = ok(&[
-            "advise",
-            "--profile",
-            s(&profile),
-            "--mm-per-pixel",
-            MM,
-            "--signal-size",
-            &size,
-            "--models",
-            family,
-            "--max-passes",
-            passes,
-            "--json",
-            "--out",
-            s(&kernel),
-        ]);
+        #[rustfmt::skip] // one line a part: the command reads as typed
+        let extra = ["--signal-size", &size, "--models", family, "--max-passes", passes, "--json", "--out", s(&kernel)];
+        let (out, _) = ok(&common::args::advise_profile(s(&profile), MM, &extra));
         let a: Value = serde_json::from_str(&out).unwrap();
         let worst = a["worst_case"]["signal"].as_str().unwrap().to_string();
         let largest = |v: &Value| -> f64 {

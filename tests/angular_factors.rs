@@ -299,27 +299,14 @@ const GRAZING_LIFT: f64 = 0.05;
 /// scene with an environment light gets no angular rows and says why.
 #[test]
 fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
-    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scenes::small_sphere_eta1();
+    let dir = common::temp_with(&[("s.toml", scene.as_str())]);
     let d = dir.path();
-    let scene = std::fs::read_to_string("docs/scenes/sphere-eta1.toml")
-        .unwrap()
-        .replace("size = [192, 192]", "size = [48, 48]");
-    std::fs::write(d.join("s.toml"), &scene).unwrap();
-    let (toml, exr) = (d.join("s.toml"), d.join("s.exr"));
+    let (toml, exr, cmp) = (d.join("s.toml"), d.join("s.exr"), d.join("cmp"));
     common::render_scene(&toml, &exr, "64", "1e5", &[]);
-    let cmp = d.join("cmp");
-    common::compare_scene(
-        &toml,
-        &exr,
-        &cmp,
-        &[
-            "--models",
-            "preintegrate,jimenez",
-            "--angular-photons",
-            "2e4",
-            "--no-plots",
-        ],
-    );
+    let flags =
+        common::args::words("--models preintegrate,jimenez --angular-photons 2e4 --no-plots");
+    common::compare_scene(&toml, &exr, &cmp, &flags);
     let j = read_json(&cmp.join("scene.json"));
     let rows = j["rows"].as_array().unwrap();
     let region = |label: &str, variant: &str, name: &str| -> serde_json::Value {
@@ -410,16 +397,12 @@ fn the_factors_remove_the_lit_sides_bias_on_a_path_traced_sphere() {
         "[[light]]\ntype = \"environment\"\nradiance = 0.1\n[[object]]",
     );
     std::fs::write(d.join("e.toml"), &lit).unwrap();
-    let (toml, exr) = (d.join("e.toml"), d.join("e.exr"));
+    let (toml, exr, cmp) = (d.join("e.toml"), d.join("e.exr"), d.join("cmp-e"));
     common::render_scene(&toml, &exr, "4", "1e4", &[]);
-    let (_, err) = common::compare_scene(
-        &toml,
-        &exr,
-        &d.join("cmp-e"),
-        &["--models", "preintegrate", "--no-plots"],
-    );
+    let flags = ["--models", "preintegrate", "--no-plots"];
+    let (_, err) = common::compare_scene(&toml, &exr, &cmp, &flags);
     assert!(err.contains("one directional light and no other"), "{err}");
-    let j = read_json(&d.join("cmp-e").join("scene.json"));
+    let j = read_json(&cmp.join("scene.json"));
     assert!(j["angular"].is_null());
     assert!(j["angular_note"]
         .as_str()

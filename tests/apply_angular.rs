@@ -116,27 +116,14 @@ impl Chain {
 fn chain() -> Chain {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let scene = std::fs::read_to_string("docs/scenes/sphere-eta1.toml")
-        .unwrap()
-        .replace("size = [192, 192]", "size = [48, 48]");
+    let scene = common::scenes::small_sphere_eta1();
     assert!(scene.contains(&format!("fov_y = {FOV_Y}\n")));
     let toml = d.join("s.toml");
     std::fs::write(&toml, &scene).unwrap();
-    let (exr, irr) = (d.join("r.exr"), d.join("irr.exr"));
+    let (exr, irr, cmp) = (d.join("r.exr"), d.join("irr.exr"), d.join("cmp"));
     common::render_scene(&toml, &exr, "16", "1e5", &["--irradiance-out", p(&irr)]);
-    let cmp = d.join("cmp");
-    common::compare_scene(
-        &toml,
-        &exr,
-        &cmp,
-        &[
-            "--models",
-            "preintegrate",
-            "--angular-photons",
-            "2e4",
-            "--no-plots",
-        ],
-    );
+    let flags = common::args::words("--models preintegrate --angular-photons 2e4 --no-plots");
+    common::compare_scene(&toml, &exr, &cmp, &flags);
     let compare = read_json(&cmp.join("scene.json"));
     let record = read_json(&d.join("r.json"));
     let prof = d.join("prof.json");

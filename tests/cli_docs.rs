@@ -214,20 +214,8 @@ fn the_study_sweep_never_reuses_the_reference_photons() {
         .unwrap();
     let clash = (seed - 1).to_string();
     let out = dir.path().join("study");
-    let args = [
-        "study",
-        "--profile",
-        p(&profile),
-        "--seed",
-        &clash,
-        "--sweep-photons",
-        "1000",
-        "--signal-size",
-        "8",
-        "--no-plots",
-        "--out-dir",
-        p(&out),
-    ];
+    #[rustfmt::skip] // one line a part: the command reads as typed
+    let args = ["study", "--profile", p(&profile), "--seed", &clash, "--sweep-photons", "1000", "--signal-size", "8", "--no-plots", "--out-dir", p(&out)];
     assert_fails(
         &run(&args),
         &args,

@@ -93,46 +93,6 @@ fn container(job: &Yaml) -> (Vec<String>, Vec<(String, String)>) {
     (command, env)
 }
 
-/// How far the image's size may move from the size docs/mc.md states
-/// (record `image`) before the record must be renewed: Debian's point
-/// releases of the libraries move it by a few MiB; a change in what goes in
-/// (lavapipe's LLVM alone is over half of it) moves it far more.
-const SIZE_TOLERANCE: f64 = 0.10;
-
-/// `scripts/image` says "TAG ID SIZE MiB in N files"; the size docs/mc.md
-/// states comes from record `image`, which `SSSKIT_BLESS=1` rewrites.
-fn check_size_record(said: &str) {
-    use ssskit::report::present::record::{self, Record, RecordTable};
-    let words: Vec<&str> = said.split_whitespace().collect();
-    assert!(
-        words.len() == 7 && words[0] == TAG && words[3] == "MiB",
-        "scripts/image says what it built: {said}"
-    );
-    let (mib, files): (f64, u64) = (words[2].parse().unwrap(), words[5].parse().unwrap());
-    let path = record::docs_path("image");
-    if common::bless() {
-        let mut r = Record::new("scripts/image", &record::machine_line());
-        r.tables.insert(
-            "image".into(),
-            RecordTable {
-                header: ["image", "size MiB", "files"].map(String::from).to_vec(),
-                rows: vec![vec![
-                    "ssskit:latest".into(),
-                    format!("{mib:.0}"),
-                    files.to_string(),
-                ]],
-            },
-        );
-        r.write(&path).unwrap();
-    }
-    let r = Record::read(&path).unwrap();
-    let stated: f64 = r.tables["image"].rows[0][1].parse().unwrap();
-    assert!(
-        (mib - stated).abs() <= SIZE_TOLERANCE * stated,
-        "the image is {mib} MiB, docs/mc.md states {stated} MiB (SSSKIT_BLESS=1 cargo test --release --test cluster_image renews the record)"
-    );
-}
-
 #[test]
 fn a_shard_in_the_image_merges_with_one_outside() {
     let dir = tempfile::tempdir().unwrap();
@@ -243,4 +203,44 @@ fn a_shard_in_the_image_merges_with_one_outside() {
         g["source"]
     );
     b.ok(&["rm", &ctr]);
+}
+
+/// How far the image's size may move from the size docs/mc.md states
+/// (record `image`) before the record must be renewed: Debian's point
+/// releases of the libraries move it by a few MiB; a change in what goes in
+/// (lavapipe's LLVM alone is over half of it) moves it far more.
+const SIZE_TOLERANCE: f64 = 0.10;
+
+/// `scripts/image` says "TAG ID SIZE MiB in N files"; the size docs/mc.md
+/// states comes from record `image`, which `SSSKIT_BLESS=1` rewrites.
+fn check_size_record(said: &str) {
+    use ssskit::report::present::record::{self, Record, RecordTable};
+    let words: Vec<&str> = said.split_whitespace().collect();
+    assert!(
+        words.len() == 7 && words[0] == TAG && words[3] == "MiB",
+        "scripts/image says what it built: {said}"
+    );
+    let (mib, files): (f64, u64) = (words[2].parse().unwrap(), words[5].parse().unwrap());
+    let path = record::docs_path("image");
+    if common::bless() {
+        let mut r = Record::new("scripts/image", &record::machine_line());
+        r.tables.insert(
+            "image".into(),
+            RecordTable {
+                header: ["image", "size MiB", "files"].map(String::from).to_vec(),
+                rows: vec![vec![
+                    "ssskit:latest".into(),
+                    format!("{mib:.0}"),
+                    files.to_string(),
+                ]],
+            },
+        );
+        r.write(&path).unwrap();
+    }
+    let r = Record::read(&path).unwrap();
+    let stated: f64 = r.tables["image"].rows[0][1].parse().unwrap();
+    assert!(
+        (mib - stated).abs() <= SIZE_TOLERANCE * stated,
+        "the image is {mib} MiB, docs/mc.md states {stated} MiB (SSSKIT_BLESS=1 cargo test --release --test cluster_image renews the record)"
+    );
 }

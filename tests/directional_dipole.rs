@@ -62,14 +62,18 @@ fn radial_before(m: &Medium, mode: FresnelMode, t_entry: f64, r: f64) -> f64 {
     let tr = m.sigma_tr();
     let d_e = 2.131 * d / alpha.sqrt();
     let (a, c_phi, c_e) = (mode.boundary_a(m.eta), mode.c_phi(m.eta), mode.c_e(m.eta));
-    let s_prime = |x_w: f64, w_n: f64, x_n: f64, dist: f64| {
-        let one = 1.0 + tr * dist;
-        let r2 = dist * dist;
-        let t0 = (-tr * dist).exp() / (4.0 * PI * PI * r2 * dist);
-        let t1 = r2 / d + 3.0 * one * x_w;
-        let t2 = 3.0 * d * one * w_n;
-        let t3 = (one + 3.0 * d * (3.0 * one + (tr * dist).powi(2)) / r2 * x_w) * x_n;
-        t0 * (c_phi * t1 - c_e * (t2 - t3))
+    // S'_d(x, w_12, r) of Dal Corso 2014, eq. 3.13, read off the printed
+    // equation bracket by bracket (without its leading 1 / (4 C_phi(1/eta)),
+    // which cancels here): e^{-sigma_tr r} / (4 pi^2 r^3) times
+    // [C_phi(eta) (r^2/D + 3 (1 + sigma_tr r) x.w_12)
+    //  - C_E(eta) (3 D (1 + sigma_tr r) w_12.n_o - q x.n_o)], where
+    // q = (1 + sigma_tr r) + 3 D (3 (1 + sigma_tr r) + (sigma_tr r)^2) / r^2 x.w_12.
+    let s_prime = |x_dot_w12: f64, w12_dot_n: f64, x_dot_n: f64, r: f64| {
+        let sr = tr * r;
+        let first = r * r / d + 3.0 * (1.0 + sr) * x_dot_w12;
+        let q = (1.0 + sr) + 3.0 * d * (3.0 * (1.0 + sr) + sr * sr) / (r * r) * x_dot_w12;
+        let second = 3.0 * d * (1.0 + sr) * w12_dot_n - q * x_dot_n;
+        (-sr).exp() / (4.0 * PI * PI * (r * r) * r) * (c_phi * first - c_e * second)
     };
     let de_cos_beta = r / ((r / d_e).powi(2) + 1.0).sqrt();
     let d_r = (r * r + d * (d + 2.0 * de_cos_beta)).sqrt();

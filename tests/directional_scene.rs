@@ -40,6 +40,12 @@ fn small_scene(dir: &Path, name: &str) -> std::path::PathBuf {
     out
 }
 
+/// `ssskit compare --scene toml --render exr --out-dir out`.
+#[rustfmt::skip] // one line a part: the command reads as typed
+fn compare_args<'a>(toml: &'a Path, exr: &'a Path, out: &'a Path) -> [&'a str; 7] {
+    ["compare", "--scene", p(toml), "--render", p(exr), "--out-dir", p(out)]
+}
+
 /// Each scene: its block of rows (from scene.json) and the first line.
 #[test]
 fn compare_scene_states_which_method_each_scene_needs() {
@@ -201,29 +207,14 @@ fn refusals_come_with_the_reason() {
     let exr = dir.path().join("env.exr");
     render_scene(&env, &exr, "4", "20000", &[]);
     let out = dir.path().join("cmp");
-    let flags = [
-        "--models",
-        "preintegrate",
-        "--ranks",
-        "1",
-        "--angular-photons",
-        "0",
-    ];
+    let flags = common::args::words("--models preintegrate --ranks 1 --angular-photons 0");
     let (_, err) = compare_scene(&env, &exr, &out, &flags);
     assert!(
         err.contains("no light-space directional rows") && err.contains("environment light"),
         "{err}"
     );
     assert!(read_json(&out.join("scene.json"))["directional"].is_null());
-    let base = [
-        "compare",
-        "--scene",
-        p(&env),
-        "--render",
-        p(&exr),
-        "--out-dir",
-        p(&out),
-    ];
+    let base = compare_args(&env, &exr, &out);
     for (flag, value, needle) in [
         ("--light-map-side", "0", "--light-map-side"),
         ("--light-map-side", "5000", "1..=4096"),
@@ -247,15 +238,7 @@ fn refusals_come_with_the_reason() {
     );
     assert!(!never.exists());
     let cmp = dir.path().join("never-cmp");
-    let args = [
-        "compare",
-        "--scene",
-        p(&inside),
-        "--render",
-        p(&exr),
-        "--out-dir",
-        p(&cmp),
-    ];
+    let args = compare_args(&inside, &exr, &cmp);
     common::fails_with(&args, &["the light is inside object[0]"]);
     assert!(!cmp.exists());
 }

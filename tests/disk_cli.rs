@@ -11,8 +11,9 @@ use common::{fails_with, ok, p as s, read_json};
 use ssskit::filter::disk::{apply_disk, DiskSetup};
 use ssskit::filter::disk_error::view;
 use ssskit::filter::image::read_image;
+use ssskit::filter::Image;
 use ssskit::kernel::disk::DiskKernelFile;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 const SKIN: &str = "profiles/reference/skin1.json";
 
@@ -47,6 +48,39 @@ fn fit_disk_file(out: &Path, samples: &str, extra: &[&str]) -> String {
     let mut args = common::fit_args(SKIN, "disk", s(out), &["--samples", samples]);
     args.extend(extra);
     ok(&args)
+}
+
+/// A temporary folder holding a disk kernel of `samples` samples
+/// (`disk.json`), a `signal` test image of `size` (`e.exr`), and the path
+/// `apply` writes to (`o.exr`).
+struct DiskCase {
+    _dir: tempfile::TempDir,
+    k: PathBuf,
+    img: PathBuf,
+    out: PathBuf,
+}
+
+impl DiskCase {
+    fn new(samples: &str, signal: &str, size: &str) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
+        fit_disk_file(&k, samples, &[]);
+        ok(&["signal", signal, "--size", size, "--out", s(&img)]);
+        DiskCase {
+            _dir: dir,
+            k,
+            img,
+            out,
+        }
+    }
+
+    /// The input image, the image `apply` wrote and the kernel file.
+    fn read_back(&self) -> (Image, Image, DiskKernelFile) {
+        let (input, _) = read_image(&self.img, None).unwrap();
+        let (got, _) = read_image(&self.out, None).unwrap();
+        (input, got, DiskKernelFile::read(&self.k).unwrap())
+    }
 }
 
 #[test]
@@ -124,23 +158,18 @@ fn the_sample_count_is_validated() {
 
 #[test]
 fn apply_accumulates_frames_as_the_library_does() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
-    fit_disk_file(&k, "16", &[]);
-    ok(&["signal", "shapes", "--size", "40x32", "--out", s(&img)]);
+    let case = DiskCase::new("16", "shapes", "40x32");
+    let (k, img, out) = (&case.k, &case.img, &case.out);
     let extra = ["--frames", "4", "--frame-seed", "9", "--backend", "cpu"];
-    ok(&apply_args(&k, &img, &out, &extra));
-    let (input, _) = read_image(&img, None).unwrap();
-    let (got, _) = read_image(&out, None).unwrap();
-    let kernel = DiskKernelFile::read(&k).unwrap();
+    ok(&apply_args(k, img, out, &extra));
+    let (input, got, kernel) = case.read_back();
     let want = apply_disk(&input, &DiskSetup::new(&kernel, view(0.1), 9, 4)).unwrap();
     assert_exr_equals(&got, &want);
     for (extra, needles) in [
         (&["--frames", "0"][..], &["frames", "0"][..]),
         (&["--jitter"], &["--jitter", "disk kernel"]),
     ] {
-        fails_with(&apply_args(&k, &img, &out, extra), needles);
+        fails_with(&apply_args(k, img, out, extra), needles);
     }
 }
 
@@ -149,21 +178,15 @@ fn apply_accumulates_frames_as_the_library_does() {
 #[test]
 fn apply_accumulates_by_an_ema_when_asked() {
     use ssskit::filter::accumulate::Accumulate;
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let (k, img, out) = (d.join("disk.json"), d.join("e.exr"), d.join("o.exr"));
-    fit_disk_file(&k, "8", &[]);
-    ok(&["signal", "edge", "--size", "24x16", "--out", s(&img)]);
+    let case = DiskCase::new("8", "edge", "24x16");
     let apply = |extra: &[&'static str]| -> Vec<String> {
-        let mut a = apply_args(&k, &img, &out, &["--frames", "4"]);
+        let mut a = apply_args(&case.k, &case.img, &case.out, &["--frames", "4"]);
         a.extend(extra);
         a.into_iter().map(String::from).collect()
     };
     let args = apply(&["--accumulate", "ema:0.3", "--backend", "cpu"]);
     ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let (input, _) = read_image(&img, None).unwrap();
-    let (got, _) = read_image(&out, None).unwrap();
-    let kernel = DiskKernelFile::read(&k).unwrap();
+    let (input, got, kernel) = case.read_back();
     let setup = DiskSetup::new(&kernel, view(0.1), 0, 4).accumulated_by(Accumulate::Ema(0.3));
     let want = apply_disk(&input, &setup).unwrap();
     let mean = apply_disk(&input, &DiskSetup::new(&kernel, view(0.1), 0, 4)).unwrap();

@@ -77,13 +77,15 @@ fn preintegration_equals_exact_2d_on_the_edge() {
     let (k, mm) = reference_2d();
     assert!(k.size > exact::FFT_ABOVE, "the FFT path is exercised");
     let kernel = preintegration_kernel(&k, 17);
+    // The exact 2D convolution of an image and the separable pass of the
+    // full-resolution factor.
+    let exact_and_separable = |img: &Image| {
+        let full = taps_for(&kernel, Which::Full, Some(mm)).unwrap();
+        let separable = cpu::apply(img, &plain(full, mm)).unwrap();
+        (exact::convolve_2d(img, &k), separable)
+    };
     let edge = generate(Signal::Edge, 96, 24, 1).unwrap();
-    let exact = exact::convolve_2d(&edge, &k);
-    let full = cpu::apply(
-        &edge,
-        &plain(taps_for(&kernel, Which::Full, Some(mm)).unwrap(), mm),
-    )
-    .unwrap();
+    let (exact, full) = exact_and_separable(&edge);
     let e = max_rel(&exact, &full);
     eprintln!(
         "edge, kernel {0}x{0}: separable vs exact 2D {e:.2e}",
@@ -108,12 +110,7 @@ fn preintegration_equals_exact_2d_on_the_edge() {
     // Not exact for irradiance that is not additively separable: the test
     // above compares things that can differ.
     let shapes = generate(Signal::Shapes, 96, 64, 1).unwrap();
-    let exact = exact::convolve_2d(&shapes, &k);
-    let sep = cpu::apply(
-        &shapes,
-        &plain(taps_for(&kernel, Which::Full, Some(mm)).unwrap(), mm),
-    )
-    .unwrap();
+    let (exact, sep) = exact_and_separable(&shapes);
     assert!(max_rel(&exact, &sep) > 1e-3);
 }
 

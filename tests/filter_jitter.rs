@@ -116,14 +116,7 @@ fn jitter_keeps_the_mean() {
 #[test]
 fn jitter_removes_the_banding_of_few_taps_on_a_large_kernel() {
     let (w, h) = (320, 128);
-    let mut edge = Image::new(w, h);
-    for y in 0..h {
-        for x in w / 2..w {
-            for c in 0..3 {
-                edge.rgb[c][y * w + x] = 1.0;
-            }
-        }
-    }
+    let edge = right_half_lit(w, h);
     let reference = cpu::apply(&edge, &setup(Which::Full, false)).unwrap();
     let plain = cpu::apply(&edge, &setup(Which::Taps(9), false)).unwrap();
     let jittered = cpu::apply(&edge, &setup(Which::Taps(9), true)).unwrap();

@@ -286,17 +286,9 @@ fn apply_reference_averages_by_default() {
         (Some("average"), PixelSampling::Average),
     ] {
         let out = d.join("o.exr");
-        let mut args = vec![
-            "apply",
-            "--reference",
-            common::p(&prof),
-            "--input",
-            common::p(&input),
-            "--out",
-            common::p(&out),
-            "--mm-per-pixel",
-            "0.17",
-        ];
+        let (reference, image) = (common::p(&prof), common::p(&input));
+        #[rustfmt::skip] // one line a part: the command reads as typed
+        let mut args = vec!["apply", "--reference", reference, "--input", image, "--out", common::p(&out), "--mm-per-pixel", "0.17"];
         if let Some(s) = extra {
             args.extend(["--reference-sampling", s]);
         }

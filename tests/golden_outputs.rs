@@ -110,14 +110,9 @@ fn apply_case(name: &str, golden: &str, signal: &str, flags: &[&str], threshold:
     write_depth(&depth, 64, 48);
     let out = dir.path().join("out.exr");
     let kernel = golden_dir().join("apply/kernel.json");
+    let (kernel, input, out_path) = (common::p(&kernel), common::p(&input), common::p(&out));
     let mut args = vec![
-        "apply",
-        "--kernel",
-        common::p(&kernel),
-        "--input",
-        common::p(&input),
-        "--out",
-        common::p(&out),
+        "apply", "--kernel", kernel, "--input", input, "--out", out_path,
     ];
     for f in flags {
         args.push(if *f == "DEPTH" { common::p(&depth) } else { f });

@@ -13,6 +13,15 @@ fn profile(dir: &Path, material: &str) -> PathBuf {
     out
 }
 
+/// `name` in `dir`: a `model` kernel (with `extra`) fitted to `material`'s
+/// dipole profile.
+fn fitted(dir: &Path, material: &str, model: &str, extra: &[&str], name: &str) -> PathBuf {
+    let out = dir.join(name);
+    let prof = profile(dir, material);
+    ok(&common::fit_args(p(&prof), model, p(&out), extra));
+    out
+}
+
 #[test]
 fn every_model_writes_a_kernel_that_reads_back() {
     let dir = tempfile::tempdir().unwrap();
@@ -75,14 +84,8 @@ fn every_model_writes_a_kernel_that_reads_back() {
 #[test]
 fn svd_reports_spectrum_and_energy() {
     let dir = tempfile::tempdir().unwrap();
-    let prof = profile(dir.path(), "marble");
-    let out = dir.path().join("k.json");
-    ok(&common::fit_args(
-        p(&prof),
-        "svd",
-        p(&out),
-        &["--rank", "2", "--grid-size", "51"],
-    ));
+    let flags = ["--rank", "2", "--grid-size", "51"];
+    let out = fitted(dir.path(), "marble", "svd", &flags, "k.json");
     let k = read(&out);
     let extra = &k["metrics"]["extra"];
     for c in 0..3 {
@@ -237,14 +240,8 @@ fn bad_flags_give_clear_errors() {
 #[test]
 fn malformed_kernel_files_are_rejected() {
     let dir = tempfile::tempdir().unwrap();
-    let prof = profile(dir.path(), "skin1");
-    let good = dir.path().join("good.json");
-    ok(&common::fit_args(
-        p(&prof),
-        "preintegrate",
-        p(&good),
-        &["--grid-size", "21"],
-    ));
+    let flags = ["--grid-size", "21"];
+    let good = fitted(dir.path(), "skin1", "preintegrate", &flags, "good.json");
     let base = read(&good);
     type Edit = Box<dyn Fn(&mut Value)>;
     let cases: Vec<(&str, Edit, &str)> = vec![
@@ -318,12 +315,7 @@ fn rank1_svd_is_lowest_on_a_monte_carlo_profile_too() {
         args.extend_from_slice(&["--out", p(&out), "--model"]);
         args.extend_from_slice(model);
         ok(&args);
-        read(&out)["metrics"]["kernel_rms"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .collect()
+        common::mcml::floats(&read(&out)["metrics"]["kernel_rms"])
     };
     let svd1 = rms(&["svd"]);
     for m in [
@@ -335,14 +327,9 @@ fn rank1_svd_is_lowest_on_a_monte_carlo_profile_too() {
         &["jimenez"],
     ] {
         let e = rms(m);
-        for c in 0..3 {
-            assert!(
-                svd1[c] <= e[c] * (1.0 + 1e-9),
-                "{m:?} channel {c}: {} < svd1 {}",
-                e[c],
-                svd1[c]
-            );
-        }
+        common::fit_order::assert_svd1_lowest(&svd1, &e, |c| {
+            format!("{m:?} channel {c}: {} < svd1 {}", e[c], svd1[c])
+        });
     }
 }
 

@@ -18,6 +18,9 @@
 //! 2014, listing B.1), and eq. 7 is integrated in polar coordinates about
 //! x_o over the lit rectangle.
 
+mod common;
+
+use common::scenes;
 use ssskit::filter::light_space::{light_space_cpu, LightSpaceInput, LightSpaceSetup};
 use ssskit::numerics::gauss_legendre;
 use std::f64::consts::PI;
@@ -208,26 +211,13 @@ fn quadrature(dp: &Dipole, lit: Lit, x0: f64, edge: f64) -> f64 {
     (1.0 - fresnel(1.0, 1.0, dp.eta)) * b
 }
 
+/// A flat skin1 slab (24 x 24 x 8 mm, top face at z = 0) under `light`,
+/// seen from above by a 3 x 1 pixel orthographic camera.
 fn scene(light: &str, eta: f64) -> ssskit::scene::Scene {
-    let text = format!(
-        r#"unit = "mm"
-[camera]
-type = "orthographic"
-position = [0, 0, 50]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-mm_per_pixel = 1
-size = [3, 1]
-[[light]]
-{light}
-[[object]]
-shape = "box"
-center = [0, 0, -4]
-size = [24, 24, 8]
-material = "skin1"
-eta = {eta}
-"#
-    );
+    let camera = "type = \"orthographic\"\nposition = [0, 0, 50]\nlook_at = [0, 0, 0]\n\
+                  up = [0, 1, 0]\nmm_per_pixel = 1\nsize = [3, 1]";
+    let slab = "shape = \"box\"\ncenter = [0, 0, -4]\nsize = [24, 24, 8]";
+    let text = scenes::toml(camera, light, &scenes::object(slab, "skin1", eta));
     ssskit::scene::parse_scene_toml(&text, "flat", std::path::Path::new(".")).unwrap()
 }
 

@@ -7,6 +7,9 @@
 //! texel differs between f32 and f64 (`light_space_texel_flips`). Runs
 //! on lavapipe in CI; never skipped.
 
+mod common;
+
+use common::scenes;
 use ssskit::filter::light_space::{light_space_cpu, LightSpaceInput, LightSpaceSetup};
 use ssskit::filter::light_space_gpu::{
     light_space_f32_tolerance, light_space_texel_flips, LightSpaceGpu,
@@ -18,27 +21,14 @@ const MAP_SIDE: usize = 256;
 const SAMPLES: usize = 24;
 const SIDE: usize = 2;
 
+/// The skin1 sphere of radius 15 mm under `light`, 40 x 32 pixels.
 fn scene(light: &str, eta: f64, measure: &str) -> ssskit::scene::Scene {
-    let text = format!(
-        r#"unit = "mm"
-[camera]
-type = "perspective"
-position = [0, 0, 150]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov_y = 14
-size = [40, 32]
-measure = "{measure}"
-[[light]]
-{light}
-[[object]]
-shape = "sphere"
-center = [0, 0, 0]
-radius = 15
-material = "skin1"
-eta = {eta}
-"#
+    let camera = format!(
+        "{}\nmeasure = \"{measure}\"",
+        scenes::perspective_150(40, 32)
     );
+    let sphere = scenes::object(&scenes::sphere_at_origin(15.0), "skin1", eta);
+    let text = scenes::toml(&camera, light, &sphere);
     ssskit::scene::parse_scene_toml(&text, "gpu", std::path::Path::new(".")).unwrap()
 }
 

@@ -17,7 +17,9 @@ use ssskit::profile::analytic::Model;
 use ssskit::profile::source::{make_profile_on, ProfileSource};
 use ssskit::profile::Profile;
 use ssskit::report::eval::compare::kernel::Comparison;
+use ssskit::report::eval::compare::sheets::slice_kernels;
 use ssskit::report::eval::disk::disk_kernel;
+use ssskit::report::eval::radial::{comparison_figure, profile_figure};
 use ssskit::report::present::kernel_plots::Recommended;
 use ssskit::report::present::layout::{collisions, Rect, TextBox};
 use ssskit::report::present::pareto::{self, ParetoPanel, Point, Series};
@@ -104,23 +106,22 @@ fn passes(k: &KernelFile) -> usize {
 fn draw(kind: &str, d: &Data, out: &Path) -> Vec<TextBox> {
     match kind {
         "profile" => plot::render(
-            &plot::profile_panels(&[
+            &plot::profile_panels(&profile_figure(&[
                 ("skin1 mcml".into(), d.skin1.clone()),
                 ("marble mcml".into(), d.marble.clone()),
-            ]),
+            ])),
             2,
             "R_d(r): skin1.json, marble.json",
             out,
         ),
         "compare" => plot::render(
-            &profile_tables::comparison_panels(&d.skin1, &d.analytic),
+            &profile_tables::comparison_panels(&comparison_figure(&d.skin1, &d.analytic)),
             3,
             "skin1: analytic models vs Monte Carlo",
             out,
         ),
         "slices" => kernel_plots::kernel_slices(
-            &d.cmp,
-            "skin1",
+            &slice_kernels(&d.cmp, "skin1").unwrap(),
             Some(&Recommended::Disk {
                 label: "disk, 32 samples".into(),
                 kernel: &d.disk,

@@ -60,6 +60,17 @@ fn num(v: &Value) -> Option<String> {
     v.as_f64().map(|x| x.to_string())
 }
 
+/// `model`, then each flag followed by its value; None where a value is
+/// missing from the file.
+fn model_with(model: &str, flags: &[(&str, Option<String>)]) -> Option<Vec<String>> {
+    let mut a = vec![model.to_string()];
+    for (flag, value) in flags {
+        a.push(flag.to_string());
+        a.push(value.clone()?);
+    }
+    Some(a)
+}
+
 /// The `fit --model ...` arguments that reproduce a kernel from what its file
 /// records (the model flags of scripts/regen-kernels), and the tolerance
 /// that model's fit is held to. None for a model this test does not know.
@@ -78,32 +89,24 @@ fn model_args(kernel: &Value) -> Option<(Vec<String>, f64)> {
             vec![s("preintegrate"), s("--method"), s(params.as_str()?)],
             DETERMINISTIC,
         ),
-        "guided" => (
-            vec![
-                s("guided"),
-                s("--k"),
-                num(&params["k"])?,
-                s("--b"),
-                num(&params["b"])?,
-            ],
-            OPTIMISER,
-        ),
+        "guided" => {
+            let k = num(&params["k"]);
+            (
+                model_with("guided", &[("--k", k), ("--b", num(&params["b"]))])?,
+                OPTIMISER,
+            )
+        }
         "manual" => {
             if let Some(p) = params["preset"].as_str() {
                 (vec![s("manual"), s("--preset"), s(p)], DETERMINISTIC)
             } else if params["fitted"].as_bool() == Some(true) {
                 (vec![s("manual"), s("--fit")], OPTIMISER)
             } else {
-                let a = vec![
-                    s("manual"),
-                    s("--w"),
-                    num(&params["w"])?,
-                    s("--near"),
-                    triple(&params["sqrt_tau_near"])?,
-                    s("--far"),
-                    triple(&params["sqrt_tau_far"])?,
-                ];
-                (a, DETERMINISTIC)
+                let w = num(&params["w"]);
+                let near = triple(&params["sqrt_tau_near"]);
+                let far = triple(&params["sqrt_tau_far"]);
+                let flags = [("--w", w), ("--near", near), ("--far", far)];
+                (model_with("manual", &flags)?, DETERMINISTIC)
             }
         }
         "gaussians" => match params["preset"].as_str() {
@@ -117,18 +120,14 @@ fn model_args(kernel: &Value) -> Option<(Vec<String>, f64)> {
                 OPTIMISER,
             ),
         },
-        "jimenez" => (
-            vec![
-                s("jimenez"),
-                s("--jimenez-width"),
-                num(&params["width"])?,
-                s("--jimenez-strength"),
-                triple(&params["strength"])?,
-                s("--jimenez-falloff"),
-                triple(&params["falloff"])?,
-            ],
-            DETERMINISTIC,
-        ),
+        "jimenez" => {
+            let flags = [
+                ("--jimenez-width", num(&params["width"])),
+                ("--jimenez-strength", triple(&params["strength"])),
+                ("--jimenez-falloff", triple(&params["falloff"])),
+            ];
+            (model_with("jimenez", &flags)?, DETERMINISTIC)
+        }
         _ => return None,
     };
     Some((args, tol))

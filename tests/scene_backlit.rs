@@ -129,34 +129,28 @@ fn compare_states_what_transmission_adds_on_the_backlit_wedge() {
     )
     .unwrap();
     common::skin1_table(d, &["--photons", TABLE_PHOTONS]);
-    let (toml, exr) = (d.join("w.toml"), d.join("w.exr"));
+    let (toml, exr, cmp) = (d.join("w.toml"), d.join("w.exr"), d.join("cmp"));
     common::render_scene(&toml, &exr, "4", "1e4", &[]);
-    let (out, _) = common::compare_scene(
-        &toml,
-        &exr,
-        &d.join("cmp"),
-        &[
-            "--models",
-            "preintegrate",
-            "--no-plots",
-            "--transmission",
-            p(&d.join("t.json")),
-        ],
-    );
+    let table = d.join("t.json");
+    let flags = [
+        "--models",
+        "preintegrate",
+        "--no-plots",
+        "--transmission",
+        p(&table),
+    ];
+    let (out, _) = common::compare_scene(&toml, &exr, &cmp, &flags);
     let first = out.lines().next().unwrap();
     assert!(
         first.starts_with("Without transmission, screen-space SSS misses 100%, 100%, 100%"),
         "{out}"
     );
-    let j = read_json(&d.join("cmp").join("scene.json"));
+    let j = read_json(&cmp.join("scene.json"));
     let t = &j["transmission"];
     // The headline's measure: the relative RMS, mean of the channels.
     let mean = |r: &serde_json::Value| {
-        r["regions"][0]["rel_rms"]
-            .as_array()
-            .unwrap()
+        common::mcml::floats(&r["regions"][0]["rel_rms"])
             .iter()
-            .map(|v| v.as_f64().unwrap())
             .sum::<f64>()
             / 3.0
     };

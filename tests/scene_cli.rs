@@ -343,107 +343,48 @@ fn bad_scene_files_name_the_field() {
     let open_obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n";
     let dir = common::temp_with(&[("open.obj", open_obj), ("h.txt", "not an image")]);
     let d = dir.path();
-    let cases: Vec<(String, Vec<&str>)> = vec![
-        (
-            SPHERE.replace("unit = \"mm\"\n", ""),
-            vec!["unit", "state the scene's length unit"],
-        ),
-        (
-            SPHERE.replace("fov_y = 30", "fov_y = 180"),
-            vec!["camera.fov_y", "(0, 180)"],
-        ),
-        (
-            SPHERE.replace("fov_y = 30", "fov_y = nan"),
-            vec!["camera.fov_y"],
-        ),
-        (
-            SPHERE.replace("toward = [0.6, 0, 0.8]", "toward = [0.6, 0, 0.7]"),
-            vec!["light[0].toward", "unit vector"],
-        ),
-        (
-            SPHERE.replace("irradiance = 2", "irradiance = -1"),
-            vec!["light[0].irradiance[0]", ">= 0"],
-        ),
-        (
-            SPHERE.replace("size = [16, 12]", "size = [0, 12]"),
-            vec!["camera.size[0]"],
-        ),
-        (
-            SPHERE.replace("size = [16, 12]", "size = [100000, 100000]"),
-            vec!["camera.size[0]"],
-        ),
-        (
-            SPHERE.replace("size = [16, 12]", "size = [16]"),
-            vec!["camera.size", "[width, height]"],
-        ),
-        (
-            SPHERE.replace("look_at = [0, 0, 0]", "look_at = [0, 0, 60]"),
-            vec!["camera.up", "position != look_at"],
-        ),
-        (
-            SPHERE.replace("radius = 10", "radius = -1"),
-            vec!["object[0].radius", "> 0"],
-        ),
-        (
-            SPHERE.replace("radius = 10", "radius = 1e9"),
-            vec!["object[0].radius", "limited"],
-        ),
-        (
-            SPHERE.replace("shape = \"sphere\"", "shape = \"torus\""),
-            vec!["object[0].shape", "\"box\""],
-        ),
-        (
-            SPHERE.replace("radius = 10", "radius = 10\nsize = [1, 2, 3]"),
-            vec!["object[0].size", "a sphere has no size"],
-        ),
-        (
-            SPHERE.replace("material = \"skin1\"", "material = \"nope\""),
-            vec!["object[0].material", "nope"],
-        ),
-        (
-            SPHERE.replace("eta = 1.0", "eta = 1.3").replace(
-                "shape = \"sphere\"\ncenter = [0, 0, 0]\nradius = 10",
-                "shape = \"cylinder\"\ncenter = [0, 0, 0]\nradius = 3\nheight = 4",
-            ),
-            vec!["object[0].eta", "environment light"],
-        ),
-        (
-            SPHERE.replace("eta = 1.0", "eta = 2.5"),
-            vec!["object[0].eta", "1 < eta <= 2"],
-        ),
-        (
-            SPHERE.replace(
-                "shape = \"sphere\"\ncenter = [0, 0, 0]\nradius = 10",
-                "shape = \"mesh\"\nfile = \"open.obj\"",
-            ),
-            vec!["object[0].file", "not closed"],
-        ),
-        (
-            SPHERE.replace(
-                "shape = \"sphere\"\ncenter = [0, 0, 0]\nradius = 10",
-                "shape = \"heightfield\"\nimage = \"h.txt\"\ncenter = [0, 0, 0]\nsize = [1, 1]\n\
-                 height = 1\ndepth = 1",
-            ),
-            vec!["grey PNG"],
-        ),
-        (
-            SPHERE.replace("[[light]]", "[[lamp]]"),
-            vec!["unknown field", "lamp"],
-        ),
-        (
-            SPHERE.replace(
-                "[[light]]\ntype = \"directional\"\ntoward = [0.6, 0, 0.8]\nirradiance = 2\n",
-                "",
-            ),
-            vec!["light", "at least one"],
-        ),
+    // One bad value a row: the text replaced in SPHERE, by what, and the
+    // words the refusal must contain.
+    #[rustfmt::skip] // one case a line: the table reads as a list
+    let table: [(&str, &str, &[&str]); 20] = [
+        ("unit = \"mm\"\n", "", &["unit", "state the scene's length unit"]),
+        ("fov_y = 30", "fov_y = 180", &["camera.fov_y", "(0, 180)"]),
+        ("fov_y = 30", "fov_y = nan", &["camera.fov_y"]),
+        ("toward = [0.6, 0, 0.8]", "toward = [0.6, 0, 0.7]", &["light[0].toward", "unit vector"]),
+        ("irradiance = 2", "irradiance = -1", &["light[0].irradiance[0]", ">= 0"]),
+        ("size = [16, 12]", "size = [0, 12]", &["camera.size[0]"]),
+        ("size = [16, 12]", "size = [100000, 100000]", &["camera.size[0]"]),
+        ("size = [16, 12]", "size = [16]", &["camera.size", "[width, height]"]),
+        ("look_at = [0, 0, 0]", "look_at = [0, 0, 60]", &["camera.up", "position != look_at"]),
+        ("radius = 10", "radius = -1", &["object[0].radius", "> 0"]),
+        ("radius = 10", "radius = 1e9", &["object[0].radius", "limited"]),
+        ("shape = \"sphere\"", "shape = \"torus\"", &["object[0].shape", "\"box\""]),
+        ("radius = 10", "radius = 10\nsize = [1, 2, 3]", &["object[0].size", "a sphere has no size"]),
+        ("material = \"skin1\"", "material = \"nope\"", &["object[0].material", "nope"]),
+        // Two changes in one: the sphere made a cylinder, eta 1.0 made 1.3.
+        ("shape = \"sphere\"\ncenter = [0, 0, 0]\nradius = 10\nmaterial = \"skin1\"\neta = 1.0",
+         "shape = \"cylinder\"\ncenter = [0, 0, 0]\nradius = 3\nheight = 4\nmaterial = \"skin1\"\neta = 1.3",
+         &["object[0].eta", "environment light"]),
+        ("eta = 1.0", "eta = 2.5", &["object[0].eta", "1 < eta <= 2"]),
+        ("shape = \"sphere\"\ncenter = [0, 0, 0]\nradius = 10", "shape = \"mesh\"\nfile = \"open.obj\"",
+         &["object[0].file", "not closed"]),
+        ("shape = \"sphere\"\ncenter = [0, 0, 0]\nradius = 10",
+         "shape = \"heightfield\"\nimage = \"h.txt\"\ncenter = [0, 0, 0]\nsize = [1, 1]\nheight = 1\ndepth = 1",
+         &["grey PNG"]),
+        ("[[light]]", "[[lamp]]", &["unknown field", "lamp"]),
+        ("[[light]]\ntype = \"directional\"\ntoward = [0.6, 0, 0.8]\nirradiance = 2\n", "",
+         &["light", "at least one"]),
     ];
+    let cases: Vec<(String, &[&str])> = table
+        .iter()
+        .map(|&(from, to, needles)| (SPHERE.replace(from, to), needles))
+        .collect();
     for (text, needles) in &cases {
         let e = match parse_scene_toml(text, "bad.toml", d) {
             Ok(_) => panic!("accepted: {needles:?}\n{text}"),
             Err(e) => e.to_string(),
         };
-        for n in needles {
+        for n in *needles {
             assert!(e.contains(n), "{needles:?}: {e}");
         }
     }

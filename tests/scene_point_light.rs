@@ -7,6 +7,9 @@
 //! and the G-buffer's irradiance. And what the scene file refuses: a light
 //! inside an object, a point light with a refracting object.
 
+mod common;
+
+use common::scenes;
 use ssskit::scene::{parse_scene_toml, render, RenderConfig, SampleBudget, Scene};
 use std::path::Path;
 
@@ -35,30 +38,12 @@ fn scene(light: &str) -> Result<Scene, String> {
 /// The sphere, and with `slab` an index-matched slab below it in its
 /// shadow.
 fn scene_with(light: &str, slab: bool) -> Result<Scene, String> {
-    let slab = if slab {
-        "[[object]]\nshape = \"box\"\ncenter = [0, 0, -40]\nsize = [60, 60, 4]\nmaterial = \"skin1\"\neta = 1.0\n"
-    } else {
-        ""
-    };
-    let text = format!(
-        r#"unit = "mm"
-[camera]
-type = "perspective"
-position = [0, 0, 150]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov_y = 14
-size = [12, 12]
-[[light]]
-{light}
-[[object]]
-shape = "sphere"
-center = [0, 0, 0]
-radius = 15
-material = "skin1"
-eta = 1.0
-{slab}"#
-    );
+    let mut objects = scenes::object(&scenes::sphere_at_origin(15.0), "skin1", 1.0);
+    if slab {
+        let slab = "shape = \"box\"\ncenter = [0, 0, -40]\nsize = [60, 60, 4]";
+        objects += &scenes::object(slab, "skin1", 1.0);
+    }
+    let text = scenes::toml(&scenes::perspective_150(12, 12), light, &objects);
     parse_scene_toml(&text, "point", Path::new(".")).map_err(|e| e.to_string())
 }
 

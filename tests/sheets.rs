@@ -11,6 +11,7 @@ mod common;
 use common::golden;
 use common::skin1::{comparison, SHAPES, SIZE};
 use ssskit::filter::Image;
+use ssskit::report::eval::compare::sheets::sheet_tiles;
 use ssskit::report::eval::ship::shipped::Shipped;
 use ssskit::report::present::kernel_plots::{contact_sheet, SheetOutcome};
 use ssskit::report::present::layout::{collisions, Rect};
@@ -65,7 +66,9 @@ fn the_sheet_opens_with_what_ships_and_flags_a_wrong_colour() {
         label: label.into(),
         images: vec![green.clone(), green],
     };
-    let sheet = contact_sheet(&cmp, "skin1", SHAPES, "9-tap tables", Some(&shipped), &png).unwrap();
+    let lead = (shipped.label.as_str(), shipped.images.as_slice());
+    let tiles = sheet_tiles(&cmp, "skin1", SHAPES, Some(lead)).unwrap();
+    let sheet = contact_sheet(&tiles, "9-tap tables", &png).unwrap();
     assert_layout_reads(&sheet, &png);
     // Images in tile order: input, exact, shipped, its difference, zoom of
     // the exact, zoom of the shipped, then the models.
@@ -120,7 +123,8 @@ fn without_advice_the_best_model_leads() {
     let dir = tempfile::tempdir().unwrap();
     for ci in 0..2 {
         let png = dir.path().join(format!("sheet{ci}.png"));
-        let sheet = contact_sheet(&cmp, "skin1", ci, "9-tap tables", None, &png).unwrap();
+        let tiles = sheet_tiles(&cmp, "skin1", ci, None).unwrap();
+        let sheet = contact_sheet(&tiles, "9-tap tables", &png).unwrap();
         assert_layout_reads(&sheet, &png);
         assert!(
             sheet
@@ -141,7 +145,8 @@ fn without_advice_the_best_model_leads() {
 #[test]
 fn the_sheet_matches_its_golden_png() {
     let cmp = comparison();
+    let tiles = sheet_tiles(&cmp, "skin1", SHAPES, None).unwrap();
     golden::check_png("sheet-skin1-shapes.png", |drawn| {
-        contact_sheet(&cmp, "skin1", SHAPES, "9-tap tables", None, drawn).unwrap();
+        contact_sheet(&tiles, "9-tap tables", drawn).unwrap();
     });
 }

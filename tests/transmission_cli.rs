@@ -185,22 +185,17 @@ fn bad_input_is_refused_before_any_work() {
     ] {
         fails_with(&with(&["--thickness", t]), &["--thickness", why]);
     }
-    fails_with(
-        &with(&["--thickness", "1..2", "--steps", "1"]),
-        &["--thickness", "between 2 and 64"],
-    );
-    fails_with(
-        &with(&["--thickness", "1", "--eta", "0"]),
-        &["--eta", "eta"],
-    );
-    fails_with(
-        &with(&["--thickness", "1", "--channels", "r"]),
-        &["--channels", "RGB"],
-    );
-    fails_with(
-        &with(&["--thickness", "1", "--engines", "blender"]),
-        &["--engines", "no thickness-based transmission"],
-    );
+    // The other flags, each on a valid thickness: the flags, then the words.
+    #[rustfmt::skip] // one case a line: the table reads as a list
+    let flags: [(&[&'static str], &[&str]); 4] = [
+        (&["--thickness", "1..2", "--steps", "1"], &["--thickness", "between 2 and 64"]),
+        (&["--thickness", "1", "--eta", "0"], &["--eta", "eta"]),
+        (&["--thickness", "1", "--channels", "r"], &["--channels", "RGB"]),
+        (&["--thickness", "1", "--engines", "blender"], &["--engines", "no thickness-based transmission"]),
+    ];
+    for (extra, needles) in flags {
+        fails_with(&with(extra), needles);
+    }
     // A stack whose upper layers already make the slab.
     std::fs::write(
         d.join("two.toml"),
@@ -273,16 +268,20 @@ fn bad_input_is_refused_before_any_work() {
     );
 }
 
+/// skin1's table (`common::skin1_table` with `extra`) in a temporary
+/// folder, read back.
+fn read_skin1_table(extra: &[&str]) -> (tempfile::TempDir, ThicknessTable) {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ThicknessTable::read(&common::skin1_table(dir.path(), extra)).unwrap();
+    (dir, t)
+}
+
 /// A finite stack without --thickness gives the table of its own thickness.
 #[test]
 fn a_finite_stack_gives_its_own_thickness() {
-    let dir = tempfile::tempdir().unwrap();
+    let slab = "unit = \"mm\"\nsigma_a = 0.05\nsigma_s = 2.0\neta = 1.3\nthickness = 1.5\n";
+    let dir = common::temp_with(&[("slab.toml", slab)]);
     let d = dir.path();
-    std::fs::write(
-        d.join("slab.toml"),
-        "unit = \"mm\"\nsigma_a = 0.05\nsigma_s = 2.0\neta = 1.3\nthickness = 1.5\n",
-    )
-    .unwrap();
     ok_in(
         d,
         &[
@@ -309,10 +308,7 @@ fn a_finite_stack_gives_its_own_thickness() {
 #[test]
 fn record_skin1_table_and_engine_fits() {
     use common::measured;
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    common::skin1_table(d, &["--photons", PHOTONS, "--seed", "1"]);
-    let t = ThicknessTable::read(&d.join("t.json")).unwrap();
+    let (_dir, t) = read_skin1_table(&["--photons", PHOTONS, "--seed", "1"]);
     let rgb = |v: &[f64], f: &dyn Fn(f64) -> String| -> String {
         v.iter().map(|x| f(*x)).collect::<Vec<_>>().join(" / ")
     };
@@ -337,12 +333,7 @@ fn record_skin1_table_and_engine_fits() {
     let mut fits = Vec::new();
     for e in engines {
         let name = e["engine"].as_str().unwrap();
-        let rms: Vec<f64> = e["rms_log_error"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .collect();
+        let rms = common::mcml::floats(&e["rms_log_error"]);
         for (i, th) in e["thickness_mm"].as_array().unwrap().iter().enumerate() {
             let errs: Vec<String> = e["rel_error"][i]
                 .as_array()
@@ -431,10 +422,7 @@ fn shader_thickness_function_validates_and_states_its_error() {
     use ssskit::kernel::emit::{emit, Lang};
     use ssskit::kernel::transmission::fit_table;
     use ssskit::kernel::KernelFile;
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    common::skin1_table(d, &["--photons", PHOTONS, "--engines", "none"]);
-    let table = ThicknessTable::read(&d.join("t.json")).unwrap();
+    let (_dir, table) = read_skin1_table(&["--photons", PHOTONS, "--engines", "none"]);
     let f = fit_table(&table).unwrap();
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut k = KernelFile::read(&root.join("kernels/skin1-svd1.json")).unwrap();

@@ -191,10 +191,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         write_files(staged, e, &fit, &profile, &json, tfit.as_ref())?;
     }
     if let Some(png) = &a.plot {
-        let panels = plot::profile_panels(&[
+        let profiles = [
             ("input".to_string(), profile.clone()),
             (format!("{} fit", fit.engine), fit.profile.clone()),
-        ]);
+        ];
+        let panels = plot::profile_panels(&ssskit::report::eval::radial::profile_figure(&profiles));
         plot::render(
             &panels,
             2,

@@ -51,7 +51,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     .collect::<Vec<_>>()
                     .join(", ")
             );
-            plot::render(&plot::profile_panels(&profiles), 2, &title, out)?;
+            let figure = ssskit::report::eval::radial::profile_figure(&profiles);
+            plot::render(&plot::profile_panels(&figure), 2, &title, out)?;
             eprintln!("wrote {}", out.display());
             Ok(())
         }

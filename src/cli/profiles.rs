@@ -13,6 +13,7 @@ use ssskit::profile::analytic::{self, Model};
 use ssskit::profile::mc::{self, PhotonBudget};
 use ssskit::profile::source::{make_profile_on, ProfileSource};
 use ssskit::report::eval::compare::profile as compare;
+use ssskit::report::eval::radial::comparison_figure;
 use ssskit::report::present::{plot, profile_tables};
 
 pub type Args = args::Group<What>;
@@ -126,7 +127,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
                 .unwrap_or_else(|| "?".into())
         );
         plot::render(
-            &profile_tables::comparison_panels(&reference, &models),
+            &profile_tables::comparison_panels(&comparison_figure(&reference, &models)),
             3,
             &title,
             &png,

@@ -14,8 +14,10 @@ use crate::progress::{Clock, Progress};
 use crate::report::eval::advise::{self, Advice};
 use crate::report::eval::compare::engine_tables::{engine_tables, EngineTables};
 use crate::report::eval::compare::kernel::{Comparison, Config, MaterialInput, Row, FAMILIES};
+use crate::report::eval::compare::sheets::{rebuilt, sheet_tiles, slice_kernels};
 use crate::report::eval::compare::{self, claims};
 use crate::report::eval::evaluate::{ImageCase, Options};
+use crate::report::eval::radial::profile_figure;
 use crate::report::eval::ship::preview::{self, Preview, PreviewKernel};
 use crate::report::eval::ship::shipped::{shipped, Shipped};
 use crate::report::eval::ship::stage_times::StageTimes;
@@ -114,7 +116,9 @@ pub fn comparison_files(
                 let label = format!("{m} {s}");
                 let name = names.claim(format!("sheet_{stem}_{}.png", file_stem(s)), &label)?;
                 let path = join_inside(dir, &name)?;
-                let sheet = kernel_plots::contact_sheet(cmp, m, ci, sheet_factor, shipped, &path)?;
+                let opening = shipped.map(|sh| (sh.label.as_str(), sh.images.as_slice()));
+                let tiles = sheet_tiles(cmp, m, ci, opening)?;
+                let sheet = kernel_plots::contact_sheet(&tiles, sheet_factor, &path)?;
                 flags.extend(sheet.flags);
                 let mm = cmp
                     .exact
@@ -125,7 +129,8 @@ pub fn comparison_files(
                 files.push(name);
             }
             let name = names.claim(format!("slices_{stem}.png"), m)?;
-            kernel_plots::kernel_slices(cmp, m, recommended, &join_inside(dir, &name)?)?;
+            let kernels = slice_kernels(cmp, m)?;
+            kernel_plots::kernel_slices(&kernels, recommended, &join_inside(dir, &name)?)?;
             let disk = recommended.map(|r| matches!(r, Recommended::Disk { .. }));
             figs.push(figures::slices(&name, m, disk));
             files.push(name);
@@ -436,28 +441,33 @@ fn write_files(
     } else {
         None
     };
-    let label = advice.chosen().describe();
-    let recommended = match &advice.disk_kernel {
-        Some(kernel) => Recommended::Disk { label, kernel },
-        None => Recommended::Separable {
-            label,
-            kernel: &advice.kernel,
-        },
-    };
+    // Only the plots read the recommended kernel (a separable one rebuilt
+    // in 2D from its factors).
+    let recommended = settings.plots.then(|| {
+        let label = advice.chosen().describe();
+        match &advice.disk_kernel {
+            Some(kernel) => Recommended::Disk { label, kernel },
+            None => Recommended::Separable {
+                label,
+                kernel: rebuilt(&advice.kernel),
+            },
+        }
+    });
     let w = comparison_files(
         cmp,
         ctx,
         dir,
         settings.plots,
         &format!("{}-tap tables", settings.taps),
-        (ship.as_ref(), Some(&recommended)),
+        (ship.as_ref(), recommended.as_ref()),
         engines,
     )?;
     files.extend(w.files);
     let mut figs = w.figures;
     if settings.plots {
         let (name, profile) = (&cmp.materials[0], &cmp.profiles[0]);
-        let panels = plot::profile_panels(&[(name.clone(), profile.clone())]);
+        let profiles = [(name.clone(), profile.clone())];
+        let panels = plot::profile_panels(&profile_figure(&profiles));
         plot::render(
             &panels,
             2,

@@ -83,29 +83,18 @@ pub fn h_closed(a: f64, mu: f64) -> f64 {
 /// its nodes.
 pub fn h_iterated(a: f64) -> (Vec<(f64, f64)>, Vec<f64>) {
     let rule = graded(0.0, 1.0, 8);
-    let mut h = vec![1.0; rule.len()];
-    for _ in 0..5000 {
-        let next: Vec<f64> = rule
-            .iter()
+    let h = super::fixed_point::iterate(vec![1.0; rule.len()], 5000, 1e-14, |h| {
+        rule.iter()
             .map(|&(mu, _)| {
                 let s: f64 = rule
                     .iter()
-                    .zip(&h)
+                    .zip(h)
                     .map(|(&(m, w), hv)| w * m * hv / (mu + m))
                     .sum();
                 1.0 / ((1.0 - a).max(0.0).sqrt() + 0.5 * a * s)
             })
-            .collect();
-        let change = next
-            .iter()
-            .zip(&h)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max);
-        h = next;
-        if change < 1e-14 {
-            break;
-        }
-    }
+            .collect()
+    });
     (rule, h)
 }
 

@@ -8,15 +8,19 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 pub mod adding_doubling;
+pub mod args;
 pub mod backlit_meshes;
 pub mod bounded;
 pub mod budgets;
 pub mod burley;
 pub mod commands;
+pub mod fit_order;
+pub mod fixed_point;
 pub mod golden;
 pub mod half_space;
 pub mod inputs;
 pub mod mcml;
+pub mod scenes;
 pub mod shader;
 pub mod skin1;
 pub mod srgb;
@@ -481,19 +485,9 @@ pub mod mc {
                     .map(|((x, w), h)| w * x * h / (m + x))
                     .sum::<f64>()
         };
-        let mut h = vec![1.0; mu.len()];
-        for _ in 0..10_000 {
-            let next: Vec<f64> = mu.iter().map(|&m| 1.0 / inv_h(m, &h)).collect();
-            let change = next
-                .iter()
-                .zip(&h)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            h = next;
-            if change < 1e-15 {
-                break;
-            }
-        }
+        let h = super::fixed_point::iterate(vec![1.0; mu.len()], 10_000, 1e-15, |h| {
+            mu.iter().map(|&m| 1.0 / inv_h(m, h)).collect()
+        });
         1.0 - root / inv_h(1.0, &h)
     }
 

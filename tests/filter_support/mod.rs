@@ -177,6 +177,19 @@ pub fn max_rel(a: &Image, b: &Image) -> f64 {
     s.max_rel.iter().fold(0.0f64, |m, &v| m.max(v))
 }
 
+/// 0 on the left half, 1 on the right in every channel: a vertical edge.
+pub fn right_half_lit(w: usize, h: usize) -> Image {
+    let mut image = Image::new(w, h);
+    for plane in &mut image.rgb {
+        for (i, v) in plane.iter_mut().enumerate() {
+            if i % w >= w / 2 {
+                *v = 1.0;
+            }
+        }
+    }
+    image
+}
+
 /// Depth 1 on the left half, 4 on the right: a silhouette edge.
 pub fn step_depth(w: usize, h: usize) -> Plane {
     Plane::from_index(w, h, |i| if i % w < w / 2 { 1.0 } else { 4.0 })
@@ -192,14 +205,7 @@ pub fn assert_no_background_bleed(
     taps: usize,
 ) {
     let (w, h) = (32, 24);
-    let mut image = Image::new(w, h);
-    for y in 0..h {
-        for x in w / 2..w {
-            for c in 0..3 {
-                image.rgb[c][y * w + x] = 1.0;
-            }
-        }
-    }
+    let image = right_half_lit(w, h);
     let k = gaussian_kernel(rank, taps);
     let mut setup = perspective_setup(
         taps_for(&k, Which::stored(&k), None).unwrap(),

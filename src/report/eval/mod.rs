@@ -7,8 +7,8 @@
 //! around the advice: the shipped configuration on the test images, the
 //! preview, the engine step, stage times). Shared by all:
 //! [`evaluate`] (how far a kernel lands from the exact convolution) and
-//! [`colour_shift`], and [`disk`] (the disk kernels as every job builds
-//! them). Each job hands [`super::present`] a results type of
+//! [`colour_shift`], [`disk`] (the disk kernels as every job builds
+//! them) and [`radial`] (the radial ranges of the profile figures). Each job hands [`super::present`] a results type of
 //! plain data.
 
 pub mod advise;
@@ -16,6 +16,7 @@ pub mod colour_shift;
 pub mod compare;
 pub mod disk;
 pub mod evaluate;
+pub mod radial;
 pub mod scene;
 pub mod ship;
 pub mod study;

@@ -4,21 +4,21 @@
 //! ([`crate::report::eval::advise`] makes the choice).
 
 use super::number::sig;
-use crate::kernel::taps::hold_for_taps;
 use crate::numerics::Bounded;
 use crate::report::eval::advise::decide::Cost;
 use crate::report::eval::advise::scene::SceneCheck;
 use crate::report::eval::advise::{
-    Advice, Candidate, ExtentRule, Remedy, COARSER_SCALES, FULL_MAX_PIXELS, NOISE_K,
+    Advice, Candidate, Remedy, COARSER_SCALES, FULL_MAX_PIXELS, NOISE_K,
 };
 use crate::report::eval::disk::{DISK_SAMPLES, DISK_SEED};
 use std::cmp::Ordering;
 
-/// The rule behind the automatic extent, for the record.
-pub fn extent_rule_text(taps: usize) -> String {
+/// The rule behind the automatic extent, for the record: `hold`, the
+/// fraction of the factor's mass the extent of `taps` taps holds.
+pub fn extent_rule_text(taps: usize, hold: f64) -> String {
     format!(
         "radius holding {:.2}% of the factor's mass (1 - 0.7 N^-1.2 at N = {taps})",
-        Bounded(100.0 * hold_for_taps(taps))
+        Bounded(100.0 * hold)
     )
 }
 
@@ -218,9 +218,8 @@ pub fn explain(a: &Advice) -> String {
         },
         c.describe(),
         cost_text(c),
-        match c.taps {
-            Some(n) if Some(ExtentRule::Auto) == c.extent_rule =>
-                format!("; extent = {}", extent_rule_text(n)),
+        match (c.taps, a.auto_extent_hold) {
+            (Some(n), Some(hold)) => format!("; extent = {}", extent_rule_text(n, hold)),
             _ => String::new(),
         }
     );

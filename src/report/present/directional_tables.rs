@@ -3,17 +3,10 @@
 //! path-traced image, its cost) and the page section that shows it; the
 //! numbers come from [`crate::report::eval::scene::directional`].
 
+use super::number::{pct_cell, pct_cell_rgb};
 use super::table::Table;
 use crate::report::eval::scene::compare::SceneComparison;
 use crate::report::eval::scene::directional::DirectionalBlock;
-
-fn pct(v: f64) -> String {
-    if v.is_finite() {
-        format!("{:.2}", 100.0 * v)
-    } else {
-        "-".into()
-    }
-}
 
 /// Per method and sample count: RMS (r / g / b) and bias over all seen
 /// pixels, the worst channel's RMS by region, FLIP, the cost.
@@ -32,10 +25,9 @@ pub fn directional_table(b: &DirectionalBlock) -> Table {
         "CPU ms/MP (loaded)",
     ]);
     let worst = |r: &crate::report::eval::scene::score::RegionError| {
-        pct(r.rel_rms.iter().cloned().fold(f64::NAN, f64::max))
+        pct_cell(r.rel_rms.iter().cloned().fold(f64::NAN, f64::max))
     };
     for r in &b.rows {
-        let three = |v: [f64; 3]| format!("{} / {} / {}", pct(v[0]), pct(v[1]), pct(v[2]));
         let region = |name: &str| {
             r.regions
                 .iter()
@@ -46,8 +38,8 @@ pub fn directional_table(b: &DirectionalBlock) -> Table {
         t.push(vec![
             r.method.clone(),
             r.samples_per_pixel.to_string(),
-            all.map_or("-".into(), |a| three(a.rel_rms)),
-            all.map_or("-".into(), |a| three(a.bias)),
+            all.map_or("-".into(), |a| pct_cell_rgb(a.rel_rms)),
+            all.map_or("-".into(), |a| pct_cell_rgb(a.bias)),
             region("lit"),
             region("unlit"),
             region("terminator"),

@@ -15,27 +15,17 @@ use super::number::sig;
 use super::plot::{self, Curve, Panel, PALETTE};
 use super::sheet::{draw_sheet, SheetLayout, SheetTile};
 use crate::error::{Error, Result};
-use crate::filter::diff::{self, false_colour};
+use crate::filter::diff::false_colour;
 use crate::filter::image::linear_to_srgb;
 use crate::filter::Image;
 use crate::kernel::disk::DiskKernelFile;
-use crate::kernel::metrics::reconstruct;
-use crate::kernel::{Factors, Kernel2D, KernelFile};
-use crate::report::eval::colour_shift::{self, COLOUR_TOLERANCE_DE};
-use crate::report::eval::compare::claims::RANK1;
-use crate::report::eval::compare::kernel::{Comparison, Fitted};
-use crate::report::eval::ship::shipped::Shipped;
+use crate::report::eval::colour_shift::COLOUR_TOLERANCE_DE;
+use crate::report::eval::compare::kernel::Comparison;
+use crate::report::eval::compare::sheets::{MeasuredTile, Rebuilt, SheetTiles, SliceKernels};
 use plotters::prelude::*;
 use std::path::Path;
 
 const CH: [&str; 3] = ["red", "green", "blue"];
-
-fn factors_of(k: &KernelFile) -> Factors {
-    k.passes
-        .iter()
-        .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).collect()))
-        .collect()
-}
 
 /// Points (distance mm, density 1/mm^2).
 pub type Slice = Vec<(f64, f64)>;
@@ -70,11 +60,9 @@ fn colour(i: usize) -> RGBColor {
 
 /// The kernel a report recommends, for its plots.
 pub enum Recommended<'a> {
-    /// A separable kernel: its full factors (what its tap table samples).
-    Separable {
-        label: String,
-        kernel: &'a KernelFile,
-    },
+    /// A separable kernel: the 2D kernel of its full factors (what its
+    /// tap table samples).
+    Separable { label: String, kernel: Rebuilt },
     /// A disk kernel: its samples' weights per annulus ([`disk_annuli`]).
     Disk {
         label: String,
@@ -131,10 +119,7 @@ pub fn disk_annuli(kernel: &DiskKernelFile, c: usize) -> Slice {
 fn recommended_curve(r: &Recommended, c: usize, which: usize) -> Curve {
     let (label, points) = match r {
         Recommended::Separable { label, kernel } => {
-            let offsets = &kernel.passes[0].offsets_mm;
-            let n = offsets.len();
-            let cell = if n > 1 { offsets[1] - offsets[0] } else { 1.0 };
-            let (axis, diag) = slices(&reconstruct(&factors_of(kernel), n, c), n, cell);
+            let (axis, diag) = slices(&kernel.data[c], kernel.size, kernel.cell_mm);
             (label, if which == 0 { axis } else { diag })
         }
         Recommended::Disk { label, kernel } => (label, disk_annuli(kernel, c)),
@@ -148,26 +133,17 @@ fn recommended_curve(r: &Recommended, c: usize, which: usize) -> Curve {
     }
 }
 
-/// Axis and diagonal slices of the rank-1 models of `material` (and the
+/// Axis and diagonal slices of the rank-1 models of a material (and the
 /// highest-rank renormalised SVD) against the ground truth, log scale,
 /// with the `recommended` kernel where given. Returns the boxes of the
 /// texts drawn.
 pub fn kernel_slices(
-    cmp: &Comparison,
-    material: &str,
+    kernels: &SliceKernels,
     recommended: Option<&Recommended>,
     out: &Path,
 ) -> Result<Vec<TextBox>> {
-    let Some(mi) = cmp.materials.iter().position(|m| m == material) else {
-        return Err(Error::Unsupported(format!("no material {material}")));
-    };
-    let truth: &Kernel2D = &cmp.truths[mi];
+    let (material, truth) = (&kernels.material, kernels.truth);
     let n = truth.size;
-    let models: Vec<&Fitted> = cmp
-        .fitted
-        .iter()
-        .filter(|f| f.material == material && RANK1.contains(&f.spec.label.as_str()))
-        .collect();
     let x_max = truth.extent_mm() / 2.0;
     let mut panels = Vec::new();
     for (which, name) in [(0, "axis"), (1, "diagonal")] {
@@ -181,11 +157,10 @@ pub fn kernel_slices(
                 dashed: true,
             }];
             curves.extend(recommended.map(|r| recommended_curve(r, c, which)));
-            for (i, f) in models.iter().enumerate() {
-                let a = reconstruct(&factors_of(&f.kernel), n, c);
-                let (sa, sd) = slices(&a, n, truth.cell_mm);
+            for (i, (label, k)) in kernels.models.iter().enumerate() {
+                let (sa, sd) = slices(&k.data[c], n, truth.cell_mm);
                 curves.push(Curve {
-                    label: f.spec.label.clone(),
+                    label: label.clone(),
                     color: colour(i),
                     points: if which == 0 { sa } else { sd },
                     band: None,
@@ -308,7 +283,7 @@ pub struct ColourFlag {
     pub material: String,
     pub signal: String,
     pub model: String,
-    /// Delta E*ab at equal luminance ([`colour_shift`]).
+    /// Delta E*ab at equal luminance ([`MeasuredTile::delta_e`]).
     pub delta_e: f64,
 }
 
@@ -331,69 +306,27 @@ fn colour_flag(delta_e: f64) -> Option<String> {
     })
 }
 
-/// The contact sheet's first tile after the input: the shipped
-/// configuration's image (`shipped`), or else the model with the lowest
-/// relative RMS on this case (largest channel).
-fn lead<'a>(
-    models: &[(&'a str, &'a Image)],
-    exact: &Image,
-    shipped: Option<&'a Shipped>,
-    ci: usize,
-) -> Result<Option<(String, &'a Image)>> {
-    if let Some(s) = shipped {
-        return Ok(s.images.get(ci).map(|i| (s.label.clone(), i)));
-    }
-    let mut best: Option<(f64, usize)> = None;
-    for (i, (_, img)) in models.iter().enumerate() {
-        let e = diff::compare(exact, img)?
-            .rms_rel
-            .iter()
-            .cloned()
-            .fold(0.0, f64::max);
-        if best.is_none_or(|(b, _)| e < b) {
-            best = Some((e, i));
-        }
-    }
-    Ok(best.map(|(_, i)| (format!("lowest error here: {}", models[i].0), models[i].1)))
-}
-
-/// A contact sheet for `material` and case `ci`: the input above the
+/// A contact sheet of a material and case (`sheet`): the input above the
 /// exact convolution, the shipped configuration (or the best model) above
 /// its difference from the exact image, a zoom at [`ZOOM`] x native pixels
 /// of both on the window where the exact image changes most, then per
 /// model its filtered image (`factor` names which factors) above its
 /// difference (false colour, white = [`DIFF_SCALE`] of the exact peak).
 /// Tiles whose mean colour is off are framed in red and returned.
-pub fn contact_sheet(
-    cmp: &Comparison,
-    material: &str,
-    ci: usize,
-    factor: &str,
-    shipped: Option<&Shipped>,
-    out: &Path,
-) -> Result<SheetOutcome> {
-    let Some(mi) = cmp.materials.iter().position(|m| m == material) else {
-        return Err(Error::Unsupported(format!("no material {material}")));
-    };
-    let exact = &cmp.exact[mi][ci];
-    let models: Vec<(&str, &Image)> = cmp
-        .fitted
-        .iter()
-        .filter(|f| f.material == material)
-        .filter_map(|f| f.kept.get(ci)?.as_ref().map(|i| (f.spec.label.as_str(), i)))
-        .collect();
+pub fn contact_sheet(sheet: &SheetTiles, factor: &str, out: &Path) -> Result<SheetOutcome> {
+    let (material, exact) = (&sheet.material, sheet.exact);
     let (w, h) = (exact.image.width, exact.image.height);
     let peak = exact.image.peak().iter().cloned().fold(0.0f64, f64::max);
     let exposure = exact.exposure_rgb;
     let mut flags = Vec::new();
-    let mut tile = |label: &str, img: &Image| {
-        let delta_e = colour_shift::tile_difference(&exact.image, img, exposure);
+    let mut tile = |t: &MeasuredTile| {
+        let (label, img, delta_e) = (&t.label, t.image, t.delta_e);
         let flag = colour_flag(delta_e);
         if flag.is_some() {
             flags.push(ColourFlag {
-                material: material.into(),
+                material: material.clone(),
                 signal: exact.case.name.clone(),
-                model: label.into(),
+                model: label.clone(),
                 delta_e,
             });
         }
@@ -406,10 +339,10 @@ pub fn contact_sheet(
         }
     };
     let exact_rgb = to_rgb8(&exact.image, exposure);
-    let lead = lead(&models, &exact.image, shipped, ci)?;
-    let window = lead
+    let window = sheet
+        .lead
         .as_ref()
-        .map(|(_, img)| zoom_window(&exact.image, img, ZOOM));
+        .map(|t| zoom_window(&exact.image, t.image, ZOOM));
     let mut tiles = vec![SheetTile {
         label: "input".into(),
         top: to_rgb8(&exact.case.image, exposure),
@@ -422,21 +355,21 @@ pub fn contact_sheet(
         }),
         flag: None,
     }];
-    if let (Some((label, img)), Some(window)) = (lead, window) {
-        let rgb = to_rgb8(img, exposure);
-        tiles.push(tile(&label, img));
+    if let (Some(lead), Some(window)) = (&sheet.lead, window) {
+        let rgb = to_rgb8(lead.image, exposure);
+        tiles.push(tile(lead));
         tiles.push(SheetTile {
             label: format!("exact 2D, zoom {ZOOM}x"),
             top: zoomed(&exact_rgb, (w, h), window, ZOOM),
             bottom: Some((
-                format!("{}, zoom {ZOOM}x", short(&label)),
+                format!("{}, zoom {ZOOM}x", short(&lead.label)),
                 zoomed(&rgb, (w, h), window, ZOOM),
             )),
             flag: None,
         });
     }
-    for (label, img) in &models {
-        tiles.push(tile(label, img));
+    for t in &sheet.models {
+        tiles.push(tile(t));
     }
     let title = format!(
         "{material}, {} at {} mm/px, {factor}: result (tone mapped) above |result - exact|",

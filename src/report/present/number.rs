@@ -78,3 +78,23 @@ pub fn short(x: f64) -> String {
 pub fn sig_or_dash(v: Option<f64>) -> String {
     v.map_or("-".into(), sig)
 }
+
+/// A percentage with two decimals and no sign or "%" (the unit is in the
+/// column's name), "-" when not finite: the scene tables' cells.
+pub fn pct_cell(v: f64) -> String {
+    if v.is_finite() {
+        format!("{:.2}", 100.0 * v)
+    } else {
+        "-".into()
+    }
+}
+
+/// [`pct_cell`] per channel, "r / g / b".
+pub fn pct_cell_rgb(v: [f64; 3]) -> String {
+    format!(
+        "{} / {} / {}",
+        pct_cell(v[0]),
+        pct_cell(v[1]),
+        pct_cell(v[2])
+    )
+}

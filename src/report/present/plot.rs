@@ -5,8 +5,7 @@
 use super::axes::{plot_err, Area, Axis, Frame, Scale, Writer, X_AREA, Y_AREA};
 use super::layout::TextBox;
 use crate::error::{Error, Result};
-use crate::profile::radius_holding;
-use crate::profile::Profile;
+use crate::report::eval::radial::ProfileFigure;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -430,31 +429,13 @@ where
 }
 
 /// Freude 2014, figure 6.1 layout for one or more profiles: one row per channel,
-/// linear R_d near the origin on the left, log R_d over the whole range on
-/// the right; one colour per file.
-pub fn profile_panels(profiles: &[(String, Profile)]) -> Vec<Panel> {
-    let mut chans: Vec<crate::material::Channel> = Vec::new();
-    for (_, p) in profiles {
-        for c in &p.channels {
-            if !chans.contains(c) {
-                chans.push(*c);
-            }
-        }
-    }
-    chans.sort();
-    let r_full = profiles
-        .iter()
-        .map(|(_, p)| *p.r_edges.last().unwrap_or(&1.0))
-        .fold(0.0, f64::max);
+/// linear R_d near the origin on the left (out to the radius
+/// [`ProfileFigure::near`] gives), log R_d over the whole range on the
+/// right; one colour per file.
+pub fn profile_panels(figure: &ProfileFigure) -> Vec<Panel> {
+    let (profiles, r_full) = (figure.profiles, figure.r_full);
     let mut panels = Vec::new();
-    for ch in chans {
-        // "Near the origin": the radius holding 60% of R_d, the largest over
-        // the profiles, so that the peak and its shoulder fill the panel.
-        let r_near = profiles
-            .iter()
-            .filter_map(|(_, p)| p.channel_index(ch).map(|i| radius_holding(p, i, 0.6)))
-            .fold(0.0, f64::max)
-            .min(r_full);
+    for &(ch, r_near) in &figure.near {
         let curves: Vec<Curve> = profiles
             .iter()
             .enumerate()

@@ -5,9 +5,8 @@
 use super::number::{num, pct, pct_abs, short, time};
 use super::plot::{Curve, Panel, PALETTE};
 use super::table::Table;
-use crate::profile::radius_holding;
-use crate::profile::Profile;
 use crate::report::eval::compare::profile::Row;
+use crate::report::eval::radial::ComparisonFigure;
 use plotters::style::RGBColor;
 
 /// The speed/accuracy table: markdown-friendly strings.
@@ -331,11 +330,12 @@ pub fn csv_table(rows: &[Row]) -> Table {
 /// Log-scale panels per channel, one column each: the top row near the
 /// origin (the radius holding 90% of the reference), the bottom row out to
 /// 99.9%; the reference with a +-2 sigma band, every model overlaid.
-pub fn comparison_panels(reference: &Profile, models: &[Profile]) -> Vec<Panel> {
+pub fn comparison_panels(figure: &ComparisonFigure) -> Vec<Panel> {
+    let (reference, models) = (figure.reference, figure.models);
     let mut panels = Vec::new();
-    for (fraction, what) in [(0.9, "90%"), (0.999, "99.9%")] {
+    for (what, radii) in &figure.rows {
         for (c, &ch) in reference.channels.iter().enumerate() {
-            let x_max = radius_holding(reference, c, fraction);
+            let x_max = radii[c];
             let se = reference.rd_stderr.as_ref().map(|s| &s[c]);
             let mut curves = Vec::new();
             for (k, m) in models.iter().enumerate() {

@@ -5,24 +5,13 @@
 // Colour loops index several [_; 3] arrays by channel at once.
 #![allow(clippy::needless_range_loop)]
 
+use super::number::{pct_cell, pct_cell_rgb};
 use super::table::Table;
 use crate::error::Result;
 use crate::filter::Image;
 use crate::kernel::angular::AngularFactors;
 use crate::report::eval::scene::compare::SceneComparison;
 use crate::report::eval::scene::score::REGIONS;
-
-fn pct(v: f64) -> String {
-    if v.is_finite() {
-        format!("{:.2}", 100.0 * v)
-    } else {
-        "-".into()
-    }
-}
-
-fn rgb_pct(v: [f64; 3]) -> String {
-    format!("{} / {} / {}", pct(v[0]), pct(v[1]), pct(v[2]))
-}
 
 /// Per row: flat-plane errors beside the scene's, over all seen pixels.
 pub fn summary_table(cmp: &SceneComparison) -> Table {
@@ -38,10 +27,10 @@ pub fn summary_table(cmp: &SceneComparison) -> Table {
         let all = r.region("all");
         t.push(vec![
             r.name(),
-            r.flat_edge.map_or("-".into(), pct),
-            r.flat_shapes.map_or("-".into(), pct),
-            all.map_or("-".into(), |a| rgb_pct(a.rel_rms)),
-            all.map_or("-".into(), |a| rgb_pct(a.bias)),
+            r.flat_edge.map_or("-".into(), pct_cell),
+            r.flat_shapes.map_or("-".into(), pct_cell),
+            all.map_or("-".into(), |a| pct_cell_rgb(a.rel_rms)),
+            all.map_or("-".into(), |a| pct_cell_rgb(a.bias)),
             all.map_or("-".into(), |a| format!("{:.3}", a.flip)),
         ]);
     }
@@ -65,7 +54,7 @@ pub fn region_table(cmp: &SceneComparison) -> Table {
         for name in REGIONS {
             match r.region(name) {
                 Some(e) if e.pixels > 0 => {
-                    row.push(pct(e.rel_rms.iter().cloned().fold(0.0, f64::max)));
+                    row.push(pct_cell(e.rel_rms.iter().cloned().fold(0.0, f64::max)));
                     row.push(format!("{:.3}", e.flip));
                 }
                 _ => {
@@ -88,7 +77,7 @@ pub fn noise_table(cmp: &SceneComparison) -> Table {
                 e.region.clone(),
                 e.pixels.to_string(),
                 if e.pixels > 0 {
-                    rgb_pct(e.noise)
+                    pct_cell_rgb(e.noise)
                 } else {
                     "-".into()
                 },

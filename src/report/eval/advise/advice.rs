@@ -46,6 +46,10 @@ pub struct Advice {
     pub warnings: Vec<ScaleWarning>,
     /// Kernel radius holding 99% of the ground truth's 1D projection, mm.
     pub kernel_radius_mm: f64,
+    /// Where the chosen row's tap table has the automatic extent: the
+    /// fraction of the factor's mass that extent holds at its tap count
+    /// ([`crate::kernel::taps::hold_for_taps`]).
+    pub auto_extent_hold: Option<f64>,
     /// With a path-traced scene: each model's answer run on it, the chosen
     /// one beside the best ([`advise_on_scene`]).
     pub scene: Option<SceneCheck>,

@@ -51,14 +51,14 @@ use super::decide::choose;
 use super::noise::Reference;
 use super::scene::{check_on_scene, SceneCandidate, SceneCheck, ScenePass};
 use super::search::Search;
-use super::types::{Candidate, CoarserScale, Config, CHECKER_PX, COARSER_SCALES};
+use super::types::{Candidate, CoarserScale, Config, ExtentRule, CHECKER_PX, COARSER_SCALES};
 use crate::error::{Error, Result};
 use crate::filter::signals::Signal;
 use crate::filter::warnings::{scale_warnings, ScaleWarning};
 use crate::filter::Scale;
 use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::model::Fitted;
-use crate::kernel::taps::factor_radius_holding;
+use crate::kernel::taps::{factor_radius_holding, hold_for_taps};
 use crate::kernel::{Kernel2D, Kernel2DSpec, KernelFile};
 use crate::profile::Profile;
 use crate::progress::Progress;
@@ -361,6 +361,10 @@ pub fn advise_prepared(
         predicted: shipped.predicted,
         warnings: shipped.warnings,
         kernel_radius_mm: kernel_radius(&search.truth),
+        auto_extent_hold: match c.taps {
+            Some(n) if c.extent_rule == Some(ExtentRule::Auto) => Some(hold_for_taps(n)),
+            _ => None,
+        },
         scene,
     })
 }

@@ -34,7 +34,7 @@ use crate::filter::signals::Signal;
 use crate::filter::Taps;
 use crate::kernel::model::{assemble_with, fit_model};
 use crate::kernel::preintegrate::PreMethod;
-use crate::kernel::taps::tap_table_with;
+use crate::kernel::taps::{tap_table_with, DEFAULT_TAPS};
 use crate::kernel::{metrics, Kernel2D, Kernel2DSpec, KernelFile, Model};
 use crate::profile::analytic::Model as AnalyticModel;
 use crate::profile::source::{make_profile_on, ProfileSource};
@@ -295,7 +295,12 @@ impl<'a> Bench<'a> {
             let krms = (0..3)
                 .map(|c| metrics::kernel_rms(&self.truth.data[c], &k.data[c]))
                 .fold(0.0, f64::max);
-            let kf = crate::kernel::fit_kernel_file(&made.profile, &self.spec, &PREINTEGRATE, 17)?;
+            let kf = crate::kernel::fit_kernel_file(
+                &made.profile,
+                &self.spec,
+                &PREINTEGRATE,
+                DEFAULT_TAPS,
+            )?;
             let errs: Vec<ImageErrors> = self.eval(&kf, &[])?.into_iter().map(|e| e.full).collect();
             let scored = Separable {
                 model: "preintegrate",
@@ -343,7 +348,7 @@ impl<'a> Bench<'a> {
         Ok(entries)
     }
 
-    /// 4. SVD ranks (renormalised), full factors and 17 taps.
+    /// 4. SVD ranks (renormalised), full factors and [`DEFAULT_TAPS`] taps.
     fn ranks(&self, s: &Settings) -> Result<Vec<Entry>> {
         let mut entries = Vec::new();
         for &r in &s.ranks {
@@ -352,14 +357,18 @@ impl<'a> Bench<'a> {
                 renormalize: true,
             };
             let f = fit_model(&self.truth, self.reference, &model)?;
-            let kf = assemble_with(self.reference, &self.truth, &model, f, 17, None)?;
-            let ev = self.eval(&kf, &[17])?;
+            let kf = assemble_with(self.reference, &self.truth, &model, f, DEFAULT_TAPS, None)?;
+            let ev = self.eval(&kf, &[DEFAULT_TAPS])?;
+            let taps = format!("{DEFAULT_TAPS} taps");
             for (label, errs) in [
                 (
                     "full",
                     ev.iter().map(|e| e.full.clone()).collect::<Vec<_>>(),
                 ),
-                ("17 taps", ev.iter().map(|e| e.taps[&17].clone()).collect()),
+                (
+                    taps.as_str(),
+                    ev.iter().map(|e| e.taps[&DEFAULT_TAPS].clone()).collect(),
+                ),
             ] {
                 let ms = errs.iter().map(|e| e.ms_per_megapixel).sum::<f64>() / errs.len() as f64;
                 // The filter's wall time over the study's images, seconds
@@ -382,14 +391,14 @@ impl<'a> Bench<'a> {
         Ok(entries)
     }
 
-    /// 5. Kernel models of the comparison at 17 taps: image error against
-    ///    samples per pixel (fit time in the table only).
+    /// 5. Kernel models of the comparison at [`DEFAULT_TAPS`] taps: image
+    ///    error against samples per pixel (fit time in the table only).
     fn kernel_models(&self) -> Result<Vec<Entry>> {
         let cfg = CompareConfig {
             families: FAMILIES.iter().map(|f| f.to_string()).collect(),
             ranks: vec![1, 2, 3],
             cases: self.cases.clone(),
-            taps: vec![17],
+            taps: vec![DEFAULT_TAPS],
             options: self.options,
             keep: None,
             extent_mm: None,
@@ -401,7 +410,11 @@ impl<'a> Bench<'a> {
         let cmp = compare::kernel::run(std::slice::from_ref(&input), &cfg, &NoProgress)?;
         let mut entries = Vec::new();
         for f in &cmp.fitted {
-            let errs: Vec<ImageErrors> = f.images.iter().map(|e| e.taps[&17].clone()).collect();
+            let errs: Vec<ImageErrors> = f
+                .images
+                .iter()
+                .map(|e| e.taps[&DEFAULT_TAPS].clone())
+                .collect();
             let scored = Separable {
                 model: &f.spec.label,
                 errs: &errs,
