@@ -251,7 +251,7 @@ fn simulate_and_fit(dir: &std::path::Path, profile: &str, kernel: &str, extra: &
 fn fit_carries_the_tables_of_an_angular_profile() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let angular = common::commands::words("--angle-bins 30 --incidence 30,60,80");
+    let angular = common::args::words("--angle-bins 30 --incidence 30,60,80");
     simulate_and_fit(d, "p", "k", &angular);
     let prof = ssskit::profile::Profile::read(&d.join("p.json")).unwrap();
     let want = AngularFactors::from_profile(&prof).unwrap().unwrap();

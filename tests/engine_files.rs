@@ -31,7 +31,7 @@
 //!   of the subsurface scattering project settings).
 
 mod common;
-use common::commands::engine_args;
+use common::args::engine_args;
 use common::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -6,7 +6,7 @@
 //! `ssskit engine` writes for the same profile.
 
 mod common;
-use common::commands::engine_args;
+use common::args::engine_args;
 use common::*;
 use serde_json::Value;
 

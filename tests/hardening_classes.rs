@@ -10,8 +10,8 @@
 
 mod common;
 
+use common::args::{engine_args, skin1_red_args, words};
 use common::bounded::{capped, edited, run_with};
-use common::commands::{engine_args, skin1_red_args, words};
 use common::inputs::dipole_profile;
 
 use std::path::{Path, PathBuf};

@@ -13,8 +13,8 @@ const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
 mod common;
 
+use common::args::{skin1_red_args, words};
 use common::bounded::{capped, edited, run_with, MEMORY_BYTES};
-use common::commands::{skin1_red_args, words};
 use common::inputs::dipole_profile;
 
 fn command(args: &[&str]) -> Command {

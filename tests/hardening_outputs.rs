@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::commands::{engine_args, words};
+use common::args::{engine_args, words};
 use common::{assert_fails, assert_ok, p, run_in};
 use std::os::unix::fs::{FileTypeExt, MetadataExt};
 use std::path::{Path, PathBuf};

@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::commands::words;
+use common::args::words;
 use common::{fails_with_in, ok_in, p, read_json, run_in};
 use serde_json::{json, Value};
 use ssskit::filter::image::write_exr;

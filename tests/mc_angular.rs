@@ -331,7 +331,7 @@ fn simulate_writes_the_angular_tables_and_mcml_arrays() {
     let mci = "1.0\n1\nh.mco A\n30000\n0.01 0.01\n1 30 6\n1\n1.0\n1.5 1 9 0 1E8\n1.0\n";
     let dir = common::temp_with(&[("h.mci", mci)]);
     let d = dir.path();
-    let args = common::commands::words(concat!(
+    let args = common::args::words(concat!(
         "simulate --mci h.mci --incidence 40,70 --out h.json",
         " --mco h.mco --view-profile v.json"
     ));

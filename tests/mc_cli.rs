@@ -3,7 +3,7 @@
 
 use ssskit::profile::Profile;
 mod common;
-use common::commands::{skin1_red_args, words};
+use common::args::{skin1_red_args, words};
 use common::{fails_with_in as fails_with, run_in as ssskit, stderr};
 
 #[test]

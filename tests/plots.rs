@@ -17,7 +17,7 @@ use ssskit::profile::analytic::Model;
 use ssskit::profile::source::{make_profile_on, ProfileSource};
 use ssskit::profile::Profile;
 use ssskit::report::eval::compare::kernel::Comparison;
-use ssskit::report::eval::compare::sheets::slice_kernels;
+use ssskit::report::eval::compare::sheets::{disk_annuli, slice_kernels};
 use ssskit::report::eval::disk::disk_kernel;
 use ssskit::report::eval::radial::{comparison_figure, profile_figure};
 use ssskit::report::present::kernel_plots::Recommended;
@@ -124,7 +124,7 @@ fn draw(kind: &str, d: &Data, out: &Path) -> Vec<TextBox> {
             &slice_kernels(&d.cmp, "skin1").unwrap(),
             Some(&Recommended::Disk {
                 label: "disk, 32 samples".into(),
-                kernel: &d.disk,
+                annuli: std::array::from_fn(|c| disk_annuli(&d.disk, c)),
             }),
             out,
         ),

@@ -140,8 +140,7 @@ fn scene_writes_radiance_gbuffer_and_record() {
 
     // compare --scene on it: every model, both variants, the baselines.
     let cmp = d.join("cmp");
-    let models =
-        common::commands::words("--models svd,preintegrate --ranks 1 --angular-photons 1e4");
+    let models = common::args::words("--models svd,preintegrate --ranks 1 --angular-photons 1e4");
     let (text, _) = common::compare_scene(&toml, &exr, &cmp, &models);
     assert!(text.contains("Best kernel model on the scene"), "{text}");
     assert!(

@@ -14,7 +14,7 @@ use crate::progress::{Clock, Progress};
 use crate::report::eval::advise::{self, Advice};
 use crate::report::eval::compare::engine_tables::{engine_tables, EngineTables};
 use crate::report::eval::compare::kernel::{Comparison, Config, MaterialInput, Row, FAMILIES};
-use crate::report::eval::compare::sheets::{rebuilt, sheet_tiles, slice_kernels};
+use crate::report::eval::compare::sheets::{disk_annuli, rebuilt, sheet_tiles, slice_kernels};
 use crate::report::eval::compare::{self, claims};
 use crate::report::eval::evaluate::{ImageCase, Options};
 use crate::report::eval::radial::profile_figure;
@@ -446,7 +446,10 @@ fn write_files(
     let recommended = settings.plots.then(|| {
         let label = advice.chosen().describe();
         match &advice.disk_kernel {
-            Some(kernel) => Recommended::Disk { label, kernel },
+            Some(kernel) => Recommended::Disk {
+                label,
+                annuli: std::array::from_fn(|c| disk_annuli(kernel, c)),
+            },
             None => Recommended::Separable {
                 label,
                 kernel: rebuilt(&advice.kernel),

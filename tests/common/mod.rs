@@ -13,7 +13,6 @@ pub mod backlit_meshes;
 pub mod bounded;
 pub mod budgets;
 pub mod burley;
-pub mod commands;
 pub mod fit_order;
 pub mod fixed_point;
 pub mod golden;

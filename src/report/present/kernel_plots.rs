@@ -18,7 +18,6 @@ use crate::error::{Error, Result};
 use crate::filter::diff::false_colour;
 use crate::filter::image::linear_to_srgb;
 use crate::filter::Image;
-use crate::kernel::disk::DiskKernelFile;
 use crate::report::eval::colour_shift::COLOUR_TOLERANCE_DE;
 use crate::report::eval::compare::kernel::Comparison;
 use crate::report::eval::compare::sheets::{MeasuredTile, Rebuilt, SheetTiles, SliceKernels};
@@ -59,60 +58,18 @@ fn colour(i: usize) -> RGBColor {
 }
 
 /// The kernel a report recommends, for its plots.
-pub enum Recommended<'a> {
+pub enum Recommended {
     /// A separable kernel: the 2D kernel of its full factors (what its
     /// tap table samples).
     Separable { label: String, kernel: Rebuilt },
-    /// A disk kernel: its samples' weights per annulus ([`disk_annuli`]).
-    Disk {
-        label: String,
-        kernel: &'a DiskKernelFile,
-    },
+    /// A disk kernel: its samples' weights per annulus, per channel
+    /// (`eval::compare::sheets::disk_annuli`; one curve serves the axis and
+    /// the diagonal).
+    Disk { label: String, annuli: [Slice; 3] },
 }
 
 /// The recommended kernel's colour in the plots: a purple no model uses.
 const RECOMMENDED: RGBColor = RGBColor(130, 0, 220);
-
-/// A disk kernel's radial density of channel `c` as a step curve (mm,
-/// 1/mm^2): each sample's weight spread over the ring from halfway to the
-/// previous sample's radius to halfway to the next (the first ring from
-/// the centre, the last as wide outside as inside), weight / ring area.
-/// Samples of one radius pool their weights; those with no weight in `c`
-/// (per-channel radii) are left out. After the per-pixel rotation a disk
-/// kernel is the same in every direction, so one curve serves the axis and
-/// the diagonal.
-pub fn disk_annuli(kernel: &DiskKernelFile, c: usize) -> Slice {
-    let mut rings: Vec<(f64, f64)> = Vec::new();
-    let mut samples: Vec<(f64, f64)> = kernel
-        .samples
-        .iter()
-        .filter(|s| s.weight[c] != 0.0)
-        .map(|s| (s.radius_mm, s.weight[c]))
-        .collect();
-    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
-    for (r, w) in samples {
-        match rings.last_mut() {
-            Some(last) if last.0 == r => last.1 += w,
-            _ => rings.push((r, w)),
-        }
-    }
-    let n = rings.len();
-    let edge = |i: usize| -> f64 {
-        match i {
-            0 => 0.0,
-            i if i == n && n >= 2 => rings[n - 1].0 + 0.5 * (rings[n - 1].0 - rings[n - 2].0),
-            i if i == n => 2.0 * rings[0].0,
-            i => 0.5 * (rings[i - 1].0 + rings[i].0),
-        }
-    };
-    let mut points = Vec::with_capacity(2 * n);
-    for (i, &(_, w)) in rings.iter().enumerate() {
-        let (a, b) = (edge(i), edge(i + 1));
-        let d = w / (std::f64::consts::PI * (b * b - a * a));
-        points.extend([(a, d), (b, d)]);
-    }
-    points
-}
 
 /// The recommended kernel's slice curve of channel `c` (`which`: 0 the
 /// axis, 1 the diagonal).
@@ -122,7 +79,7 @@ fn recommended_curve(r: &Recommended, c: usize, which: usize) -> Curve {
             let (axis, diag) = slices(&kernel.data[c], kernel.size, kernel.cell_mm);
             (label, if which == 0 { axis } else { diag })
         }
-        Recommended::Disk { label, kernel } => (label, disk_annuli(kernel, c)),
+        Recommended::Disk { label, annuli } => (label, annuli[c].clone()),
     };
     Curve {
         label: format!("recommended: {label}"),
@@ -488,44 +445,4 @@ pub fn flags_markdown(flags: &[ColourFlag]) -> String {
         ));
     }
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::kernel::disk::RadiusPdf;
-    use crate::kernel::disk_fit::fit_disk;
-
-    /// The rings of [`disk_annuli`] tile the disk from the centre outward,
-    /// each sample's ring holds it, and density x ring area gives back
-    /// the weights: their sum per channel, 1, for one set of radii and for
-    /// radii per channel.
-    #[test]
-    fn disk_rings_hold_the_weights() {
-        let p = crate::kernel::reference::dipole_uniform("skin1", 0.02, 6.0);
-        for radii in [RadiusPdf::Widest, RadiusPdf::PerChannel] {
-            let k = fit_disk(&p, 16, radii).unwrap();
-            for c in 0..3 {
-                let pts = disk_annuli(&k, c);
-                assert_eq!(pts[0].0, 0.0);
-                let mut mass = 0.0;
-                for ring in pts.chunks(2) {
-                    let ((a, d), (b, d2)) = (ring[0], ring[1]);
-                    assert!(b > a && d == d2, "{radii:?} {c}: {ring:?}");
-                    mass += d * std::f64::consts::PI * (b * b - a * a);
-                }
-                for w in pts.windows(2) {
-                    assert!(w[1].0 >= w[0].0, "{radii:?} {c}: {pts:?}");
-                }
-                for s in k.samples.iter().filter(|s| s.weight[c] != 0.0) {
-                    let inside = pts
-                        .chunks(2)
-                        .any(|r| r[0].0 <= s.radius_mm && s.radius_mm <= r[1].0);
-                    assert!(inside, "{radii:?} {c}: {}", s.radius_mm);
-                }
-                let sum: f64 = k.samples.iter().map(|s| s.weight[c]).sum();
-                assert!((mass - sum).abs() < 1e-12 && (sum - 1.0).abs() < 1e-9);
-            }
-        }
-    }
 }

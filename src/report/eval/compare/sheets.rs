@@ -1,15 +1,18 @@
 //! What the comparison's figures of one material show, measured here so
 //! that `present::kernel_plots` only draws it: a contact sheet's tiles
 //! (which image leads, each tile's colour shift from the exact tile) and
-//! the kernel slices' 2D kernels rebuilt from their factors.
+//! the kernel slices' curves (separable kernels rebuilt in 2D from their
+//! factors, a disk kernel's density per ring).
 
 use super::claims::RANK1;
 use super::kernel::Comparison;
 use crate::error::{Error, Result};
 use crate::filter::diff;
 use crate::filter::Image;
+use crate::kernel::disk::DiskKernelFile;
 use crate::kernel::metrics::reconstruct;
 use crate::kernel::{Factors, Kernel2D, KernelFile};
+use crate::numerics::annulus_area;
 use crate::report::eval::colour_shift;
 use crate::report::eval::evaluate::Exact;
 
@@ -167,4 +170,85 @@ pub fn slice_kernels<'a>(cmp: &'a Comparison, material: &str) -> Result<SliceKer
         truth,
         models,
     })
+}
+
+/// A disk kernel's radial density of channel `c` as a step curve (mm,
+/// 1/mm^2): each sample's weight spread over the ring from halfway to the
+/// previous sample's radius to halfway to the next (the first ring from
+/// the centre, the last as wide outside as inside), weight / ring area.
+/// Samples of one radius pool their weights; those with no weight in `c`
+/// (per-channel radii) are left out. After the per-pixel rotation a disk
+/// kernel is the same in every direction, so one curve serves the axis and
+/// the diagonal.
+pub fn disk_annuli(kernel: &DiskKernelFile, c: usize) -> Vec<(f64, f64)> {
+    let mut rings: Vec<(f64, f64)> = Vec::new();
+    let mut samples: Vec<(f64, f64)> = kernel
+        .samples
+        .iter()
+        .filter(|s| s.weight[c] != 0.0)
+        .map(|s| (s.radius_mm, s.weight[c]))
+        .collect();
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (r, w) in samples {
+        match rings.last_mut() {
+            Some(last) if last.0 == r => last.1 += w,
+            _ => rings.push((r, w)),
+        }
+    }
+    let n = rings.len();
+    let edge = |i: usize| -> f64 {
+        match i {
+            0 => 0.0,
+            i if i == n && n >= 2 => rings[n - 1].0 + 0.5 * (rings[n - 1].0 - rings[n - 2].0),
+            i if i == n => 2.0 * rings[0].0,
+            i => 0.5 * (rings[i - 1].0 + rings[i].0),
+        }
+    };
+    let mut points = Vec::with_capacity(2 * n);
+    for (i, &(_, w)) in rings.iter().enumerate() {
+        let (a, b) = (edge(i), edge(i + 1));
+        let d = w / annulus_area(a, b);
+        points.extend([(a, d), (b, d)]);
+    }
+    points
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::disk::RadiusPdf;
+    use crate::kernel::disk_fit::fit_disk;
+
+    /// The rings of [`disk_annuli`] tile the disk from the centre outward,
+    /// each sample's ring holds it, and density x ring area gives back
+    /// the weights: their sum per channel, 1, for one set of radii and for
+    /// radii per channel.
+    #[test]
+    fn disk_rings_hold_the_weights() {
+        let p = crate::kernel::reference::dipole_uniform("skin1", 0.02, 6.0);
+        for radii in [RadiusPdf::Widest, RadiusPdf::PerChannel] {
+            let k = fit_disk(&p, 16, radii).unwrap();
+            for c in 0..3 {
+                let pts = disk_annuli(&k, c);
+                assert_eq!(pts[0].0, 0.0);
+                let mut mass = 0.0;
+                for ring in pts.chunks(2) {
+                    let ((a, d), (b, d2)) = (ring[0], ring[1]);
+                    assert!(b > a && d == d2, "{radii:?} {c}: {ring:?}");
+                    mass += d * std::f64::consts::PI * (b * b - a * a);
+                }
+                for w in pts.windows(2) {
+                    assert!(w[1].0 >= w[0].0, "{radii:?} {c}: {pts:?}");
+                }
+                for s in k.samples.iter().filter(|s| s.weight[c] != 0.0) {
+                    let inside = pts
+                        .chunks(2)
+                        .any(|r| r[0].0 <= s.radius_mm && s.radius_mm <= r[1].0);
+                    assert!(inside, "{radii:?} {c}: {}", s.radius_mm);
+                }
+                let sum: f64 = k.samples.iter().map(|s| s.weight[c]).sum();
+                assert!((mass - sum).abs() < 1e-12 && (sum - 1.0).abs() < 1e-9);
+            }
+        }
+    }
 }
