@@ -89,11 +89,7 @@ fn grid_of(kernel: &KernelFile) -> Result<(crate::kernel::Kernel2D, crate::kerne
             kernel.model.name, kernel.taps.count
         )));
     }
-    let factors: crate::kernel::Factors = kernel
-        .passes
-        .iter()
-        .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).collect()))
-        .collect();
+    let factors = kernel.factors();
     let data = std::array::from_fn(|c| crate::kernel::metrics::reconstruct(&factors, size, c));
     Ok((
         crate::kernel::Kernel2D {

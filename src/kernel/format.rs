@@ -6,6 +6,7 @@
 //! convolution with the same factor a_i, results summed over i. Offsets are in
 //! millimetres on the surface; weights are per RGB channel.
 
+use super::factors::Factors;
 use crate::error::{check_header, Error, Result};
 use crate::material::Material;
 use serde::{Deserialize, Serialize};
@@ -331,6 +332,15 @@ fn check_weights(what: &str, passes: &[Pass]) -> std::result::Result<(), String>
 }
 
 impl KernelFile {
+    /// The separable factors its passes store: per pass, per channel, the
+    /// weights of the pass (the fit's own factors on the pass's offsets).
+    pub fn factors(&self) -> Factors {
+        self.passes
+            .iter()
+            .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).collect()))
+            .collect()
+    }
+
     pub fn validate(&self, context: &str) -> Result<()> {
         check_header(context, &self.schema, KERNEL_SCHEMA, &self.units)?;
         let bad = |m: String| Err(Error::format(context, m));

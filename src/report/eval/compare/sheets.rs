@@ -119,14 +119,6 @@ pub struct Rebuilt {
     pub data: [Vec<f64>; 3],
 }
 
-/// The factors of a kernel file's passes.
-fn factors_of(k: &KernelFile) -> Factors {
-    k.passes
-        .iter()
-        .map(|p| std::array::from_fn(|c| p.weights.iter().map(|w| w[c]).collect()))
-        .collect()
-}
-
 /// `factors` rebuilt on `size` x `size` cells of `cell_mm`.
 fn rebuild(factors: &Factors, size: usize, cell_mm: f64) -> Rebuilt {
     Rebuilt {
@@ -141,7 +133,7 @@ pub fn rebuilt(kernel: &KernelFile) -> Rebuilt {
     let offsets = &kernel.passes[0].offsets_mm;
     let n = offsets.len();
     let cell = if n > 1 { offsets[1] - offsets[0] } else { 1.0 };
-    rebuild(&factors_of(kernel), n, cell)
+    rebuild(&kernel.factors(), n, cell)
 }
 
 /// What the kernel slices of one material show: its ground truth and the
@@ -161,7 +153,7 @@ pub fn slice_kernels<'a>(cmp: &'a Comparison, material: &str) -> Result<SliceKer
         .iter()
         .filter(|f| f.material == material && RANK1.contains(&f.spec.label.as_str()))
         .map(|f| {
-            let k = rebuild(&factors_of(&f.kernel), truth.size, truth.cell_mm);
+            let k = rebuild(&f.kernel.factors(), truth.size, truth.cell_mm);
             (f.spec.label.clone(), k)
         })
         .collect();
